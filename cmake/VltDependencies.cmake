@@ -1,0 +1,50 @@
+# Every dependency is a Debian 12 package. A missing one stops configuration with a message
+# that names the package to install (scripts/lib.sh installs them all).
+find_package(PkgConfig QUIET)
+
+macro(vlt_require found package what)
+  if(NOT ${found})
+    message(FATAL_ERROR "vlt: ${what} not found. Install the Debian package: apt-get install ${package}")
+  endif()
+endmacro()
+
+if(NOT PKG_CONFIG_FOUND)
+  message(FATAL_ERROR "vlt: pkg-config not found. Install the Debian package: apt-get install pkg-config")
+endif()
+
+find_package(Eigen3 3.4 QUIET NO_MODULE)
+vlt_require(Eigen3_FOUND libeigen3-dev "Eigen 3.4")
+
+pkg_check_modules(GINAC QUIET IMPORTED_TARGET ginac)
+vlt_require(GINAC_FOUND libginac-dev "GiNaC")
+
+find_package(tomlplusplus QUIET)
+vlt_require(tomlplusplus_FOUND libtomlplusplus-dev "toml++")
+
+find_package(CLI11 QUIET)
+vlt_require(CLI11_FOUND libcli11-dev "CLI11")
+
+find_package(nlohmann_json QUIET)
+vlt_require(nlohmann_json_FOUND nlohmann-json3-dev "nlohmann-json")
+
+find_path(RANDOM123_INCLUDE_DIR Random123/philox.h)
+if(NOT RANDOM123_INCLUDE_DIR)
+  set(RANDOM123_FOUND FALSE)
+else()
+  set(RANDOM123_FOUND TRUE)
+  add_library(vlt_random123 INTERFACE)
+  target_include_directories(vlt_random123 SYSTEM INTERFACE ${RANDOM123_INCLUDE_DIR})
+endif()
+vlt_require(RANDOM123_FOUND librandom123-dev "Random123")
+
+find_package(Threads REQUIRED)
+
+if(VLT_BUILD_TESTS)
+  find_package(GTest QUIET)
+  vlt_require(GTest_FOUND "libgtest-dev libgmock-dev" "GoogleTest")
+  include(GoogleTest)
+endif()
+if(VLT_BUILD_BENCH AND NOT VLT_SANITIZE)
+  find_package(benchmark QUIET)
+  vlt_require(benchmark_FOUND libbenchmark-dev "Google Benchmark")
+endif()

@@ -1,0 +1,22 @@
+// The subcommands of `vlt`, one file each (cmd_<name>.cc); main.cc wires them into CLI11.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace vlt::cli {
+
+struct GlobalOptions {
+  bool quiet = false;   // --quiet: no progress, no summary on stdout
+  bool json = false;    // --json: machine-readable result on stdout where a command prints one
+};
+
+void AddModelCommand(CLI::App& app, GlobalOptions& global);     // vlt model list|show NAME
+void AddSimulateCommand(CLI::App& app, GlobalOptions& global);  // vlt simulate ...
+void AddRunCommand(CLI::App& app, GlobalOptions& global);       // vlt run JOB.toml [-o DIR]
+void AddDemoCommand(CLI::App& app, GlobalOptions& global);      // vlt demo (also: bare `vlt`)
+void AddMapCommand(CLI::App& app, GlobalOptions& global);       // vlt map JOB.toml ...
+
+// Runs the embedded default job into ./vlt-demo/ (what bare `vlt` does). Returns exit status.
+int RunDemo(const GlobalOptions& global);
+
+}  // namespace vlt::cli

@@ -1,0 +1,108 @@
+// vlt/measurement_model.h — the complete measurement function of one point, shared by the GUM
+// engine (which linearises it) and the Monte Carlo engine (which evaluates it on samples), so
+// that both engines propagate exactly the same model.
+//
+//   y = thermal( pose( tracker_model( readings scaled by the air's refractive index, params ) ) )
+//
+// Inputs are split into the 3 readings of each point (range [m], azimuth [rad], elevation [rad];
+// independent between points, u(range) = a + b*range) and the shared inputs, common to every
+// point of a job and therefore the source of correlation between points:
+//   [ error parameters of the model | environment | station pose | part thermal ]
+// Groups that a job does not enable are absent from the shared vector.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "vlt/model_info.h"
+
+namespace vlt {
+
+// One uncertain scalar input (JCGM 100 4.1): estimate and standard uncertainty in SI units,
+// plus the probability distribution the Monte Carlo engine samples (runtime/distributions).
+struct UncertainInput {
+  std::string name;         // e.g. "tmv", "environment.temperature", "pose.rx"
+  std::string unit;         // SI unit of estimate and u: "m", "rad", "1", "degC", "Pa", ...
+  std::string group;        // "parameter", "environment", "pose", "thermal"
+  double estimate = 0.0;
+  double u = 0.0;           // standard uncertainty
+  std::string distribution = "normal";
+  double shape = 0.0;       // degrees of freedom (student_t), half-width uncertainty ratio
+                            // (curvilinear_trapezoid), ... ; 0 where the distribution has none
+};
+
+// Standard uncertainty of the readings of one point.
+struct ReadingNoise {
+  double range_a = 0.0;     // m       u(range) = range_a + range_b * range
+  double range_b = 0.0;     // m/m
+  double azimuth = 0.0;     // rad
+  double elevation = 0.0;   // rad
+};
+
+// Air at the tracker: its refractive index scales every range (the tracker compensates with the
+// estimates; the deviation of the true index from the compensated one is a range scale error).
+struct Environment {
+  enum class Equation { kEdlenBoensch, kCiddor };
+  Equation equation = Equation::kCiddor;
+  double vacuum_wavelength = 633e-9;  // m
+  UncertainInput temperature;   // degC
+  UncertainInput pressure;      // Pa
+  UncertainInput humidity;      // relative humidity, % (0..100)
+  UncertainInput co2;           // mole fraction, 1 (e.g. 450e-6)
+};
+
+// Station pose: x_part = R * x_tracker + t, R = Rz(rz) * Ry(ry) * Rx(rx).
+struct StationPose {
+  UncertainInput rx, ry, rz;    // rad
+  UncertainInput tx, ty, tz;    // m
+};
+
+// Part thermal expansion: coordinates reported at the reference temperature,
+// x_ref = x_part / (1 + cte * (temperature - reference)).
+struct PartThermal {
+  UncertainInput cte;           // 1/K
+  UncertainInput temperature;   // degC
+  double reference = 20.0;      // degC
+};
+
+struct MeasurementSetup {
+  const ModelInfo* model = nullptr;                 // a tracker model (3 readings)
+  std::vector<UncertainInput> params;               // one per model->params, same order
+  Eigen::MatrixXd param_correlation;                // empty = independent; else num_params^2
+  ReadingNoise noise;
+  std::optional<Environment> environment;
+  std::optional<StationPose> pose;
+  std::optional<PartThermal> thermal;
+};
+
+class MeasurementModel {
+ public:
+  explicit MeasurementModel(MeasurementSetup setup);
+
+  const MeasurementSetup& setup() const { return setup_; }
+  // The shared inputs in order: params, then environment, pose, thermal (enabled ones only).
+  const std::vector<UncertainInput>& shared_inputs() const { return shared_; }
+  int num_shared() const { return static_cast<int>(shared_.size()); }
+  Eigen::VectorXd shared_estimates() const;
+  // Correlation of the shared inputs (identity except the param block), S x S.
+  const Eigen::MatrixXd& shared_correlation() const { return shared_correlation_; }
+  // Standard uncertainties of the 3 readings of a point at this range.
+  Eigen::Vector3d reading_uncertainty(double range) const;
+
+  // y (part frame, at reference temperature when thermal is enabled) from the readings of one
+  // point and a value of every shared input. Exact: no linearisation anywhere.
+  void Evaluate(const double* readings, const double* shared, double* y) const;
+  // Same plus d y / d readings (3x3, column-major) and d y / d shared (3 x S, column-major).
+  void EvaluateWithJacobian(const double* readings, const double* shared, double* y,
+                            double* d_y_d_readings, double* d_y_d_shared) const;
+
+ private:
+  MeasurementSetup setup_;
+  std::vector<UncertainInput> shared_;
+  Eigen::MatrixXd shared_correlation_;
+};
+
+}  // namespace vlt

@@ -1,0 +1,75 @@
+// vlt/model_info.h — the runtime's view of one generated model.
+//
+// vlt-gen emits, for every spec in models/, a header generated/<name>.h (templated kernels) and a
+// source generated/<name>.cc that instantiates them for double and fills one ModelInfo; the
+// registry generated/registry.cc lists them all. This header is the only thing the generated code
+// and the runtime share, so it has no dependencies (no Eigen, no GiNaC).
+//
+// Conventions (docs/conventions.md):
+//  - Tracker models: readings are (range [m], azimuth [rad], elevation [rad]); outputs are the
+//    true reflector-centre coordinates (x, y, z) [m] in the tracker frame.
+//  - Custom models: no readings; every input is a "parameter"; outputs as the spec names them.
+//  - Jacobians are column-major: J[rows * k + i] = d output_i / d input_k, so the column of one
+//    input is contiguous (Eigen::Map<Eigen::Matrix<double, rows, cols>> reads it directly).
+#pragma once
+
+#include <cstddef>
+
+namespace vlt {
+
+// One named scalar: a reading, an error parameter / custom input, or an output.
+struct QuantityInfo {
+  const char* name;          // identifier used in specs, job files and reports, e.g. "tmv"
+  const char* unit;          // SI unit of the value: "m", "rad", "1" (dimensionless), "degC", ...
+  const char* quantity;      // "length", "angle", "ratio", "temperature", "dimensionless", ...
+  const char* description;   // physical meaning and sign convention, one sentence
+  double default_estimate;   // SI; 0 for a compensated tracker
+  double default_u;          // default standard uncertainty, SI
+  const char* default_distribution;  // "normal", "rectangular", ... (runtime/distributions)
+  double default_shape;      // extra shape parameter where the distribution has one, else 0
+};
+
+// Kernels instantiated for double. All pointers are to caller-owned arrays; nothing allocates.
+using ForwardFn = void (*)(const double* readings, const double* params, double* outputs);
+using ForwardJacobiansFn = void (*)(const double* readings, const double* params, double* outputs,
+                                    double* d_outputs_d_readings, double* d_outputs_d_params);
+// Same as ForwardJacobiansFn with every parameter at zero, specialised symbolically.
+using NominalJacobiansFn = void (*)(const double* readings, double* outputs,
+                                    double* d_outputs_d_readings, double* d_outputs_d_params);
+// Column k of d_outputs_d_params at general parameter values (k indexes params).
+using SensitivityFn = void (*)(int param_index, const double* readings, const double* params,
+                               double* column);
+// Structure-of-arrays batch: readings[j][i] is reading j of item i (num_readings arrays of n),
+// params[k][i] likewise, outputs[o][i] likewise.
+using ForwardBatchFn = void (*)(std::size_t n, const double* const* readings,
+                                const double* const* params, double* const* outputs);
+
+struct ModelInfo {
+  const char* name;         // "mirror", "head", "jcgm101_additive", ...
+  const char* kind;         // "tracker" or "custom"
+  const char* description;
+  const char* spec_file;    // e.g. "models/mirror.toml"
+  int num_readings;         // 3 for trackers, 0 for custom models
+  int num_params;
+  int num_outputs;
+  const QuantityInfo* readings;
+  const QuantityInfo* params;
+  const QuantityInfo* outputs;
+  ForwardFn forward;
+  ForwardJacobiansFn forward_jacobians;
+  NominalJacobiansFn nominal_jacobians;
+  SensitivityFn sensitivity;
+  ForwardBatchFn forward_batch;
+  // Operation counts of the emitted kernels after common-subexpression elimination.
+  int ops_forward;
+  int ops_forward_jacobians;
+  int ops_nominal_jacobians;
+};
+
+namespace generated {
+// Defined in generated/registry.cc: every model vlt-gen found in models/, sorted by name.
+extern const ModelInfo* const kModels[];
+extern const std::size_t kNumModels;
+}  // namespace generated
+
+}  // namespace vlt

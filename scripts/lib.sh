@@ -1,0 +1,39 @@
+# Shared by the README's two commands (scripts/demo.sh, scripts/test.sh) and .ci/run.
+# Installs the Debian 12 packages vlt needs when they are missing, then configures and builds.
+
+VLT_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+
+# Debian packages for building and running vlt (the runtime, the generator, tests, benchmarks).
+VLT_BUILD_PACKAGES=(g++ cmake make pkg-config git
+  libginac-dev libeigen3-dev libgtest-dev libgmock-dev libbenchmark-dev
+  libcli11-dev libtomlplusplus-dev nlohmann-json3-dev librandom123-dev
+  nodejs npm)
+# Extra packages for the test suite only: the headless browser that renders report.html.
+VLT_TEST_PACKAGES=(chromium)
+
+vlt_as_root() {
+  if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi
+}
+
+# vlt_install_packages PKG... : apt-get update once and install only what is missing.
+vlt_install_packages() {
+  local missing=()
+  local p
+  for p in "$@"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  if [ ${#missing[@]} -gt 0 ]; then
+    echo "vlt: installing Debian packages: ${missing[*]}" >&2
+    vlt_as_root env DEBIAN_FRONTEND=noninteractive apt-get update -qq
+    vlt_as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2
+  fi
+}
+
+# vlt_build DIR [cmake args...] : configure once (Release), build with 2 jobs.
+vlt_build() {
+  local dir=$1; shift
+  if [ ! -f "$dir/CMakeCache.txt" ]; then
+    cmake -S "$VLT_ROOT" -B "$dir" -DCMAKE_BUILD_TYPE=Release "$@" >&2
+  fi
+  cmake --build "$dir" -j2 >&2
+}
