@@ -1,0 +1,218 @@
+#include "spec.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <set>
+
+#include <toml++/toml.h>
+
+namespace vlt::gen {
+namespace {
+
+const std::set<std::string>& ReservedNames() {
+  // Names the generated code itself uses (function arguments, locals, functions it calls,
+  // C++ keywords that a metrologist might pick).
+  static const std::set<std::string> kReserved = {
+      "Scalar", "readings", "params", "out", "column", "d_out_d_readings", "d_out_d_params",
+      "param", "range", "azimuth", "elevation", "sin", "cos", "tan", "atan2", "sqrt", "exp",
+      "log", "pow", "abs", "std", "vlt", "auto", "bool", "break", "case", "char", "class",
+      "const", "default", "delete", "do", "double", "else", "enum", "extern", "float", "for",
+      "friend", "goto", "if", "inline", "int", "long", "new", "operator", "private",
+      "protected", "public", "register", "return", "short", "signed", "sizeof", "static",
+      "struct", "switch", "template", "this", "throw", "try", "typedef", "typename", "union",
+      "unsigned", "using", "virtual", "void", "volatile", "while", "and", "or", "not", "xor",
+      "Pi", "I", "Euler", "Catalan", "kNumReadings", "kNumParams", "kNumOutputs"};
+  return kReserved;
+}
+
+const std::set<std::string>& Distributions() {
+  static const std::set<std::string> kDistributions = {
+      "normal", "rectangular", "triangular", "arcsine", "student_t", "curvilinear_trapezoid"};
+  return kDistributions;
+}
+
+class Reader {
+ public:
+  explicit Reader(std::string path) : path_(std::move(path)) {}
+
+  [[noreturn]] void Fail(const std::string& key, const std::string& problem) const {
+    throw SpecError(path_ + ": " + key + ": " + problem);
+  }
+
+  void CheckKeys(const toml::table& table, const std::string& where,
+                 const std::set<std::string>& allowed) const {
+    for (auto&& [key, value] : table) {
+      (void)value;
+      const std::string k(key.str());
+      if (!allowed.count(k)) {
+        std::string list;
+        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        Fail(where + "." + k, "unknown key (allowed: " + list + ")");
+      }
+    }
+  }
+
+  std::string String(const toml::table& table, const std::string& where, const std::string& key,
+                     bool required, const std::string& fallback = "") const {
+    const toml::node* node = table.get(key);
+    if (!node) {
+      if (required) Fail(where + "." + key, "missing (a string is required)");
+      return fallback;
+    }
+    auto value = node->value<std::string>();
+    if (!node->is_string() || !value) Fail(where + "." + key, "must be a string");
+    if (value->empty()) Fail(where + "." + key, "must not be empty");
+    return *value;
+  }
+
+  double Number(const toml::table& table, const std::string& where, const std::string& key,
+                bool required, double fallback = 0.0) const {
+    const toml::node* node = table.get(key);
+    if (!node) {
+      if (required) Fail(where + "." + key, "missing (a number is required)");
+      return fallback;
+    }
+    if (!node->is_number()) Fail(where + "." + key, "must be a number");
+    const double v = *node->value<double>();
+    if (!std::isfinite(v)) Fail(where + "." + key, "must be finite");
+    return v;
+  }
+
+  QuantitySpec Quantity(const toml::table& table, const std::string& where, bool is_output,
+                        bool is_custom) const {
+    QuantitySpec q;
+    if (is_output) {
+      CheckKeys(table, where, {"name", "unit", "quantity", "description", "expression"});
+    } else if (is_custom) {
+      CheckKeys(table, where, {"name", "unit", "quantity", "description", "estimate", "u",
+                               "distribution", "shape"});
+    } else {
+      CheckKeys(table, where, {"name", "unit", "quantity", "description", "estimate", "u",
+                               "distribution", "shape"});
+    }
+    q.name = String(table, where, "name", true);
+    if (!IsValidIdentifier(q.name)) {
+      Fail(where + ".name", "'" + q.name +
+                                "' is not a valid name (lower-case letter first, then letters, "
+                                "digits, '_'; not a name the generated code uses)");
+    }
+    const std::string w = where + "(" + q.name + ")";
+    q.unit = String(table, w, "unit", true);
+    q.quantity = String(table, w, "quantity", !is_output, "");
+    q.description = String(table, w, "description", true);
+    if (q.description.find('\n') != std::string::npos) Fail(w + ".description", "must be one line");
+    if (is_output) {
+      q.expression = String(table, w, "expression", true);
+      return q;
+    }
+    q.estimate = Number(table, w, "estimate", is_custom, 0.0);
+    q.u = Number(table, w, "u", true);
+    if (q.u < 0) Fail(w + ".u", "standard uncertainty must not be negative");
+    q.distribution = String(table, w, "distribution", false, "normal");
+    if (!Distributions().count(q.distribution)) {
+      std::string list;
+      for (const auto& d : Distributions()) list += (list.empty() ? "" : ", ") + d;
+      Fail(w + ".distribution", "unknown distribution '" + q.distribution + "' (" + list + ")");
+    }
+    q.shape = Number(table, w, "shape", false, 0.0);
+    return q;
+  }
+
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+}  // namespace
+
+bool IsValidIdentifier(const std::string& name) {
+  if (name.empty() || name.size() > 64) return false;
+  if (!(name[0] >= 'a' && name[0] <= 'z') && !(name[0] >= 'A' && name[0] <= 'Z')) return false;
+  for (char c : name) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                    c == '_';
+    if (!ok) return false;
+  }
+  if (name.find("__") != std::string::npos) return false;
+  if (name.rfind("_tmp", 0) == 0) return false;
+  return !ReservedNames().count(name);
+}
+
+ModelSpec ReadSpec(const std::string& path, const std::string& spec_prefix) {
+  Reader r(path);
+  toml::table root;
+  try {
+    root = toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    throw SpecError(path + ":" + std::to_string(e.source().begin.line) + ": TOML syntax: " +
+                    std::string(e.description()));
+  }
+  ModelSpec spec;
+  spec.path = path;
+  spec.spec_file = spec_prefix + std::filesystem::path(path).filename().string();
+  r.CheckKeys(root, "", {"model", "parameter", "input", "output"});
+  const toml::table* model = root["model"].as_table();
+  if (!model) r.Fail("[model]", "missing table [model]");
+  r.CheckKeys(*model, "model", {"name", "kind", "architecture", "description"});
+  spec.name = r.String(*model, "model", "name", true);
+  if (!IsValidIdentifier(spec.name)) r.Fail("model.name", "'" + spec.name + "' is not a valid name");
+  const std::string stem = std::filesystem::path(path).stem().string();
+  if (stem != spec.name) {
+    r.Fail("model.name", "'" + spec.name + "' must equal the file name stem '" + stem + "'");
+  }
+  spec.kind = r.String(*model, "model", "kind", true);
+  spec.description = r.String(*model, "model", "description", true);
+  if (spec.kind == "tracker") {
+    spec.architecture = r.String(*model, "model", "architecture", true);
+    if (spec.architecture != "mirror" && spec.architecture != "head") {
+      r.Fail("model.architecture", "unknown architecture '" + spec.architecture +
+                                       "' (mirror, head)");
+    }
+    if (root.contains("input")) r.Fail("[[input]]", "only custom models have [[input]]");
+    if (root.contains("output")) r.Fail("[[output]]", "tracker outputs are fixed (x, y, z)");
+  } else if (spec.kind == "custom") {
+    if (model->contains("architecture")) r.Fail("model.architecture", "only for kind = \"tracker\"");
+    if (root.contains("parameter")) {
+      r.Fail("[[parameter]]", "custom models declare [[input]], not [[parameter]]");
+    }
+  } else {
+    r.Fail("model.kind", "must be \"tracker\" or \"custom\", not '" + spec.kind + "'");
+  }
+
+  const bool custom = spec.kind == "custom";
+  auto read_array = [&](const char* key, bool is_output) {
+    std::vector<QuantitySpec> out;
+    const toml::node* node = root.get(key);
+    if (!node) return out;
+    const toml::array* array = node->as_array();
+    if (!array) r.Fail(std::string("[[") + key + "]]", "must be an array of tables");
+    std::set<std::string> seen;
+    for (std::size_t i = 0; i < array->size(); ++i) {
+      const std::string where = std::string(key) + "[" + std::to_string(i) + "]";
+      const toml::table* t = (*array)[i].as_table();
+      if (!t) r.Fail(where, "must be a table");
+      QuantitySpec q = r.Quantity(*t, where, is_output, custom);
+      if (!seen.insert(q.name).second) r.Fail(where + ".name", "duplicate name '" + q.name + "'");
+      out.push_back(std::move(q));
+    }
+    return out;
+  };
+  if (custom) {
+    spec.params = read_array("input", false);
+    spec.outputs = read_array("output", true);
+    if (spec.params.empty()) r.Fail("[[input]]", "a custom model needs at least one input");
+    if (spec.outputs.empty()) r.Fail("[[output]]", "a custom model needs at least one output");
+    for (const auto& o : spec.outputs) {
+      for (const auto& p : spec.params) {
+        if (o.name == p.name) r.Fail("output(" + o.name + ").name", "same name as an input");
+      }
+    }
+  } else {
+    spec.params = read_array("parameter", false);
+  }
+  return spec;
+}
+
+}  // namespace vlt::gen
