@@ -7,26 +7,26 @@
 //   1  azimuth   [rad]   — Azimuth reading A_r, counter-clockwise from +x seen from above
 //   2  elevation [rad]   — Elevation reading E_r from the horizontal plane, positive up
 // Error parameters (active):
-//   0  a0        [rad]   estimate 0.0, u 2.42407e-06 (normal) — Azimuth encoder index error: true azimuth A = A_r + a0 + eac*cos(A_r) + eas*sin(A_r); positive a0 turns the true beam counter-clockwise
-//   1  eac       [rad]   estimate 0.0, u 2.42407e-06 (normal) — Azimuth encoder eccentricity, cosine component of the first-harmonic angle error (amplitude sqrt(eac^2+eas^2) = e/R for disk offset e, read-head radius R)
-//   2  eas       [rad]   estimate 0.0, u 2.42407e-06 (normal) — Azimuth encoder eccentricity, sine component of the first-harmonic angle error
-//   3  e0        [rad]   estimate 0.0, u 1.21203e-06 (normal) — Transit (mirror) encoder index error in mirror angle: tau = E_r/2 + e0 + eec*cos(E_r/2) + ees*sin(E_r/2); the beam elevation changes by 2*e0
-//   4  eec       [rad]   estimate 0.0, u 1.21203e-06 (normal) — Transit encoder eccentricity, cosine component of the first-harmonic mirror-angle error
-//   5  ees       [rad]   estimate 0.0, u 1.21203e-06 (normal) — Transit encoder eccentricity, sine component of the first-harmonic mirror-angle error
+//   0  a0        [rad]   estimate 0.0, u 1.69685e-06 (normal) — Azimuth encoder index error: true azimuth A = A_r + a0 + eac*cos(A_r) + eas*sin(A_r); positive a0 turns the true beam counter-clockwise
+//   1  eac       [rad]   estimate 0.0, u 1.69685e-06 (normal) — Azimuth encoder eccentricity, cosine component of the first-harmonic angle error (amplitude sqrt(eac^2+eas^2) = e/R for disk offset e, read-head radius R)
+//   2  eas       [rad]   estimate 0.0, u 1.69685e-06 (normal) — Azimuth encoder eccentricity, sine component of the first-harmonic angle error
+//   3  e0        [rad]   estimate 0.0, u 7.27221e-07 (normal) — Transit (mirror) encoder index error in mirror angle: tau = E_r/2 + e0 + eec*cos(E_r/2) + ees*sin(E_r/2); the beam elevation changes by 2*e0
+//   4  eec       [rad]   estimate 0.0, u 7.27221e-07 (normal) — Transit encoder eccentricity, cosine component of the first-harmonic mirror-angle error
+//   5  ees       [rad]   estimate 0.0, u 7.27221e-07 (normal) — Transit encoder eccentricity, sine component of the first-harmonic mirror-angle error
 //   6  thv       [m]     estimate 0.0, u 2e-06 (normal) — Axis offset: the transit axis passes through Rz(A)*(thv, 0, 0), i.e. thv along the common normal w (toward the beam at home) from the standing axis
-//   7  rhv       [rad]   estimate 0.0, u 2.42407e-06 (normal) — Axis non-perpendicularity: transit axis direction Rz(A)*Rx(rhv)*(0,1,0); positive rhv raises the +y end of the transit axis toward +z
-//   8  rmv       [rad]   estimate 0.0, u 1.21203e-06 (normal) — Mirror tilt: normal in the transit frame Ry(-tau)*(cos(rmv)*(1,0,-1)/sqrt2 + sin(rmv)*(0,1,0)); tilts the mirror normal toward the transit axis (+y at home)
+//   7  rhv       [rad]   estimate 0.0, u 1.69685e-06 (normal) — Axis non-perpendicularity: transit axis direction Rz(A)*Rx(rhv)*(0,1,0); positive rhv raises the +y end of the transit axis toward +z
+//   8  rmv       [rad]   estimate 0.0, u 7.27221e-07 (normal) — Mirror tilt: normal in the transit frame Ry(-tau)*(cos(rmv)*(1,0,-1)/sqrt2 + sin(rmv)*(0,1,0)); tilts the mirror normal toward the transit axis (+y at home)
 //   9  tmv       [m]     estimate 0.0, u 2e-06 (normal) — Mirror plane offset: mirror plane n.(X - q) = tmv; positive tmv moves the reflecting surface along its normal toward the incident and reflected beams
 //   10 tbw       [m]     estimate 0.0, u 2e-06 (normal) — Incident beam offset: the beam crosses z = 0 at base-frame x = tbw (along w at home)
 //   11 tbv       [m]     estimate 0.0, u 2e-06 (normal) — Incident beam offset: the beam crosses z = 0 at base-frame y = tbv (along the transit axis at home)
-//   12 rbh       [rad]   estimate 0.0, u 2.42407e-06 (normal) — Incident beam tilt about the base y axis: direction Ry(rbh)*Rx(rbv)*e_z, positive rbh tilts the beam toward +x
-//   13 rbv       [rad]   estimate 0.0, u 2.42407e-06 (normal) — Incident beam tilt about the base x axis: direction Ry(rbh)*Rx(rbv)*e_z, positive rbv tilts the beam toward -y
+//   12 rbh       [rad]   estimate 0.0, u 1.69685e-06 (normal) — Incident beam tilt about the base y axis: direction Ry(rbh)*Rx(rbv)*e_z, positive rbh tilts the beam toward +x
+//   13 rbv       [rad]   estimate 0.0, u 1.69685e-06 (normal) — Incident beam tilt about the base x axis: direction Ry(rbh)*Rx(rbv)*e_z, positive rbv tilts the beam toward -y
 //   14 R0        [m]     estimate 0.0, u 5e-06 (normal) — Dead-path / bird-bath offset: path counted from z = 0 along the beam is (1+mu)*range + R0; positive R0 makes the true distance longer than the reading
 //   15 mu        [1]     estimate 0.0, u 5e-07 (normal) — Range scale error: path counted from z = 0 along the beam is (1+mu)*range + R0
 //   16 srr       [m]     estimate 0.0, u 1.5e-06 (normal) — SMR vertex offset, radial: the vertex lies srr farther from the tracker than the sphere centre along the beam; positive srr makes the reported range too long
 //   17 srh       [m]     estimate 0.0, u 1.5e-06 (normal) — SMR vertex offset, lateral horizontal: vertex displaced by srh from the sphere centre along e_h = normalize(e_z x beam) (toward increasing azimuth)
 //   18 srv       [m]     estimate 0.0, u 1.5e-06 (normal) — SMR vertex offset, lateral vertical: vertex displaced by srv from the sphere centre along e_v = beam x e_h (toward increasing elevation)
-//   19 sdh       [rad]   estimate 0.0, u 2.42407e-06 (normal) — SMR dihedral angle error (all three equal, hollow cube corner): the line of sight is rotated by (2*sqrt(6)/3)*sdh toward e_v (upward)
+//   19 sdh       [rad]   estimate 0.0, u 1.45444e-06 (normal) — SMR dihedral angle error (all three equal, hollow cube corner): the line of sight is rotated by (2*sqrt(6)/3)*sdh toward e_v (upward)
 // Outputs:
 //   0  x         [m]     — True reflector-centre x coordinate in the tracker frame
 //   1  y         [m]     — True reflector-centre y coordinate in the tracker frame

@@ -61,14 +61,18 @@ std::vector<fs::path> Specs(const fs::path& dir) {
 
 int Generate(const fs::path& models, const fs::path& out, const std::string& prefix) {
   const auto specs = Specs(models);
-  fs::create_directories(out);
+  // Everything is derived before anything is written: a bad spec leaves OUT untouched.
+  std::vector<vlt::gen::GeneratedModel> generated;
   std::vector<std::string> names;
   for (const auto& path : specs) {
     const vlt::gen::ModelSpec spec = vlt::gen::ReadSpec(path.string(), prefix);
-    const vlt::gen::GeneratedModel gen = vlt::gen::GenerateModel(spec);
-    WriteIfChanged(out / (spec.name + ".h"), gen.header);
-    WriteIfChanged(out / (spec.name + ".cc"), gen.source);
+    generated.push_back(vlt::gen::GenerateModel(spec));
     names.push_back(spec.name);
+  }
+  fs::create_directories(out);
+  for (const auto& gen : generated) {
+    WriteIfChanged(out / (gen.name + ".h"), gen.header);
+    WriteIfChanged(out / (gen.name + ".cc"), gen.source);
   }
   std::sort(names.begin(), names.end());
   WriteIfChanged(out / "registry.cc", vlt::gen::GenerateRegistry(names, prefix));

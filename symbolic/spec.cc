@@ -26,6 +26,15 @@ const std::set<std::string>& ReservedNames() {
   return kReserved;
 }
 
+// Quantity kinds the runtime knows (vlt/units.h DimensionName): job files give values in units
+// of this kind.
+const std::set<std::string>& QuantityKinds() {
+  static const std::set<std::string> kKinds = {
+      "length", "angle", "ratio", "temperature", "temperature difference", "pressure",
+      "humidity", "fraction", "expansion coefficient", "dimensionless", "time"};
+  return kKinds;
+}
+
 const std::set<std::string>& Distributions() {
   static const std::set<std::string> kDistributions = {
       "normal", "rectangular", "triangular", "arcsine", "student_t", "curvilinear_trapezoid"};
@@ -100,6 +109,11 @@ class Reader {
     const std::string w = where + "(" + q.name + ")";
     q.unit = String(table, w, "unit", true);
     q.quantity = String(table, w, "quantity", !is_output, "");
+    if (!q.quantity.empty() && !QuantityKinds().count(q.quantity)) {
+      std::string list;
+      for (const auto& k : QuantityKinds()) list += (list.empty() ? "" : ", ") + k;
+      Fail(w + ".quantity", "unknown quantity kind '" + q.quantity + "' (" + list + ")");
+    }
     q.description = String(table, w, "description", true);
     if (q.description.find('\n') != std::string::npos) Fail(w + ".description", "must be one line");
     if (is_output) {

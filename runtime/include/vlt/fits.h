@@ -1,0 +1,106 @@
+// vlt/fits.h — the task quantities: distance between two points and least-squares features
+// (plane, sphere, circle, line), each with its Jacobian with respect to the point coordinates.
+//
+// One definition of every task serves both engines: the GUM engine calls with
+// options.jacobian = true and propagates G = d outputs / d point coordinates; the Monte Carlo
+// engine refits every trial with options.jacobian = false. Definitions, sign conventions and
+// parametrisations: docs/tasks.md.
+//
+// Jacobians are exact derivatives of the fitted values (implicit function theorem on the fit's
+// stationarity conditions / first-order eigenvector perturbation), never finite differences.
+// Memory and time are O(N) for N points (the Jacobian is k x 3N with k <= 9 outputs).
+//
+// Everything is SI: coordinates and lengths in m, unit vectors dimensionless ("1").
+#pragma once
+
+#include <span>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "vlt/tasks.h"
+
+namespace vlt {
+
+// One output quantity of a task.
+struct TaskOutput {
+  std::string_view name;         // e.g. "radius", "normal_z"
+  std::string_view unit;         // "m" or "1"
+  std::string_view description;  // one sentence, with the sign convention where there is one
+};
+
+// The outputs of each kind, in the order of FitResult::values (static storage):
+//   distance: distance
+//   plane:    centroid_x, centroid_y, centroid_z, normal_x, normal_y, normal_z, flatness, rms
+//   sphere:   centre_x, centre_y, centre_z, radius, rms
+//   circle:   centre_x, centre_y, centre_z, radius, normal_x, normal_y, normal_z, rms
+//   line:     point_x, point_y, point_z, direction_x, direction_y, direction_z, straightness, rms
+std::span<const TaskOutput> TaskOutputs(TaskKind kind);
+
+struct FitOptions {
+  // Compute FitResult::jacobian (GUM). Off for Monte Carlo trials.
+  bool jacobian = false;
+  // Sign of the plane/circle normal and of the line direction: chosen so that
+  // dot(normal, orientation) >= 0. When zero (default), the component of largest magnitude is
+  // made positive (ties: the first of x, y, z). A Monte Carlo engine should pass the normal /
+  // direction of the fit to the estimates, so that no trial flips sign.
+  Eigen::Vector3d orientation = Eigen::Vector3d::Zero();
+};
+
+struct FitResult {
+  TaskKind kind = TaskKind::kDistance;
+  std::span<const TaskOutput> outputs;  // = TaskOutputs(kind)
+  Eigen::VectorXd values;               // one per output, SI
+  // d values / d point coordinates, outputs.size() x 3N, column 3*i + c is coordinate c (x, y, z)
+  // of point i (the column order of the points argument). Empty unless options.jacobian.
+  Eigen::MatrixXd jacobian;
+  // false for an output whose derivative does not exist at this point set: flatness, straightness
+  // and rms of a point set that fits exactly (all residuals zero, e.g. nominal points of a plan).
+  // Its Jacobian row is then zero; the GUM engine must not report a GUM uncertainty for it
+  // (Monte Carlo can). Ties of the extreme residuals are resolved by the first point reaching
+  // the extreme (a one-sided derivative), see docs/tasks.md.
+  std::vector<bool> differentiable;
+  int iterations = 0;                   // Gauss-Newton iterations (sphere, circle), else 0
+};
+
+// Each function throws InputError "<where>: <kind> needs at least M points, got N" (distance:
+// exactly 2) or "<where>: <kind>: point i has a non-finite coordinate", and NumericalError
+// "<where>: <kind>: <reason>" when the feature is undefined for the points (coincident points,
+// collinear points for a plane or circle, coplanar points for a sphere, no preferred direction)
+// or the fit does not converge. Never NaN. `points` is 3 x N, one point per column (a
+// std::span<const Eigen::Vector3d> maps to it with Eigen::Map<const Eigen::Matrix3Xd>).
+
+// |p1 - p0| of exactly two points.
+FitResult FitDistance(const Eigen::Ref<const Eigen::Matrix3Xd>& points,
+                      const FitOptions& options = {}, std::string_view where = "task");
+
+// Total least squares plane (minimises the sum of squared orthogonal distances): through the
+// centroid, normal = eigenvector of the smallest eigenvalue of the centred scatter matrix.
+// flatness = max - min signed orthogonal residual; rms = sqrt(mean squared residual).
+FitResult FitPlane(const Eigen::Ref<const Eigen::Matrix3Xd>& points,
+                   const FitOptions& options = {}, std::string_view where = "task");
+
+// Least-squares sphere (minimises sum (|p_i - centre| - radius)^2; algebraic start, then
+// Levenberg-Marquardt). rms = sqrt(mean squared radial residual).
+FitResult FitSphere(const Eigen::Ref<const Eigen::Matrix3Xd>& points,
+                    const FitOptions& options = {}, std::string_view where = "task");
+
+// 3-D circle in two steps: the total least squares plane (as FitPlane), then the least-squares
+// circle of the points projected into that plane (minimises sum (|a_i - centre| - radius)^2 in
+// the plane). normal = the plane's normal; rms = in-plane radial residual.
+FitResult FitCircle(const Eigen::Ref<const Eigen::Matrix3Xd>& points,
+                    const FitOptions& options = {}, std::string_view where = "task");
+
+// Total least squares line: through the centroid, direction = eigenvector of the largest
+// eigenvalue of the centred scatter matrix. straightness = 2 x the largest perpendicular distance
+// of a point from the fitted line (diameter of the cylinder about the least-squares line that
+// holds every point); rms = sqrt(mean squared perpendicular distance).
+FitResult FitLine(const Eigen::Ref<const Eigen::Matrix3Xd>& points,
+                  const FitOptions& options = {}, std::string_view where = "task");
+
+// Dispatches on kind.
+FitResult FitTask(TaskKind kind, const Eigen::Ref<const Eigen::Matrix3Xd>& points,
+                  const FitOptions& options = {}, std::string_view where = "task");
+
+}  // namespace vlt

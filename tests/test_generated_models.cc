@@ -1,0 +1,344 @@
+// The kernels vlt-gen generated (generated/*.h) against independent references:
+//  - zero errors: the tracker models reduce to the ideal spherical point rho*(cE cA, cE sA, sE)
+//    on both faces (closed form);
+//  - every Jacobian column (readings and parameters, general and nominal, every Sensitivity_*
+//    function) against central finite differences of Forward (relative 1e-7) and against
+//    Eigen's forward-mode automatic differentiation run through the templated Forward
+//    (relative 1e-12), at random error states of realistic (default u) and 100x magnitude;
+//  - the double ModelInfo wrappers and forward_batch against the templates;
+//  - the custom models against their published check values (GUM H.1, JCGM 101 9.2).
+// "Relative" means relative to max(|reference column|, 1) for the tracker models (metres per
+// metre or per radian) and to |reference column| for the custom models.
+#include <array>
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <gtest/gtest.h>
+#include <unsupported/Eigen/AutoDiff>
+
+#include "generated/gum_h1_end_gauge.h"
+#include "generated/head.h"
+#include "generated/jcgm101_additive.h"
+#include "generated/mirror.h"
+#include "vlt/models.h"
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Compile-time view of one generated model (the templates of generated/<name>.h).
+#define VLT_KERNELS(NAME)                                                                   \
+  struct NAME##_kernels {                                                                   \
+    static constexpr const char* kName = #NAME;                                             \
+    static constexpr int R = vlt::gen::NAME::kNumReadings;                                  \
+    static constexpr int P = vlt::gen::NAME::kNumParams;                                    \
+    static constexpr int O = vlt::gen::NAME::kNumOutputs;                                   \
+    template <typename S>                                                                   \
+    static void Forward(const S* r, const S* p, S* o) {                                     \
+      vlt::gen::NAME::Forward(r, p, o);                                                     \
+    }                                                                                       \
+    static void ForwardJacobians(const double* r, const double* p, double* o, double* jr,   \
+                                 double* jp) {                                              \
+      vlt::gen::NAME::ForwardJacobians(r, p, o, jr, jp);                                    \
+    }                                                                                       \
+    static void NominalJacobians(const double* r, double* o, double* jr, double* jp) {      \
+      vlt::gen::NAME::NominalJacobians(r, o, jr, jp);                                       \
+    }                                                                                       \
+  };
+VLT_KERNELS(mirror)
+VLT_KERNELS(head)
+VLT_KERNELS(gum_h1_end_gauge)
+VLT_KERNELS(jcgm101_additive)
+#undef VLT_KERNELS
+
+const vlt::ModelInfo& Model(const char* name) {
+  const vlt::ModelInfo* m = vlt::FindModel(name);
+  if (!m) throw std::runtime_error(std::string("model not registered: ") + name);
+  return *m;
+}
+
+// Jacobians of Forward by forward-mode AD: columns 0..R-1 readings, R..R+P-1 parameters.
+template <typename K>
+void AutoDiffJacobians(const double* r, const double* p, double* out, double* jr, double* jp) {
+  constexpr int N = K::R + K::P;
+  using Ad = Eigen::AutoDiffScalar<Eigen::Matrix<double, N, 1>>;
+  std::array<Ad, (K::R > 0 ? K::R : 1)> ra;
+  std::array<Ad, K::P> pa;
+  std::array<Ad, K::O> oa;
+  for (int j = 0; j < K::R; ++j) ra[j] = Ad(r[j], N, j);
+  for (int k = 0; k < K::P; ++k) pa[k] = Ad(p[k], N, K::R + k);
+  K::Forward(ra.data(), pa.data(), oa.data());
+  for (int i = 0; i < K::O; ++i) {
+    out[i] = oa[i].value();
+    for (int j = 0; j < K::R; ++j) jr[K::O * j + i] = oa[i].derivatives()[j];
+    for (int k = 0; k < K::P; ++k) jp[K::O * k + i] = oa[i].derivatives()[K::R + k];
+  }
+}
+
+// Central differences of Forward with steps h_readings / h_params.
+template <typename K>
+void FiniteDifferenceJacobians(const double* r, const double* p, const double* hr,
+                               const double* hp, double* jr, double* jp) {
+  std::array<double, (K::R > 0 ? K::R : 1)> rr{};
+  std::array<double, K::P> pp{};
+  std::array<double, K::O> plus{}, minus{};
+  for (int j = 0; j < K::R; ++j) rr[j] = r[j];
+  for (int k = 0; k < K::P; ++k) pp[k] = p[k];
+  for (int j = 0; j < K::R; ++j) {
+    rr[j] = r[j] + hr[j];
+    K::Forward(rr.data(), p, plus.data());
+    rr[j] = r[j] - hr[j];
+    K::Forward(rr.data(), p, minus.data());
+    rr[j] = r[j];
+    for (int i = 0; i < K::O; ++i) jr[K::O * j + i] = (plus[i] - minus[i]) / (2 * hr[j]);
+  }
+  for (int k = 0; k < K::P; ++k) {
+    pp[k] = p[k] + hp[k];
+    K::Forward(r, pp.data(), plus.data());
+    pp[k] = p[k] - hp[k];
+    K::Forward(r, pp.data(), minus.data());
+    pp[k] = p[k];
+    for (int i = 0; i < K::O; ++i) jp[K::O * k + i] = (plus[i] - minus[i]) / (2 * hp[k]);
+  }
+}
+
+// Every column of `actual` equals `reference` to `rel` x max(|reference column|, floor).
+void ExpectColumnsNear(const double* actual, const double* reference, int rows, int cols,
+                       double rel, double floor, const std::string& what) {
+  for (int k = 0; k < cols; ++k) {
+    double norm = 0;
+    for (int i = 0; i < rows; ++i) norm = std::hypot(norm, reference[rows * k + i]);
+    const double tol = rel * std::max(norm, floor);
+    for (int i = 0; i < rows; ++i) {
+      EXPECT_NEAR(actual[rows * k + i], reference[rows * k + i], tol)
+          << what << " column " << k << " row " << i;
+    }
+  }
+}
+
+// Runs every Jacobian check at readings r and parameters p.
+template <typename K>
+void CheckJacobians(const double* r, const double* p, const double* hr, const double* hp,
+                    double floor, const std::string& where) {
+  const vlt::ModelInfo& model = Model(K::kName);
+  constexpr int O = K::O, R = K::R, P = K::P;
+  std::array<double, O> out{}, out_fwd{}, out_ad{};
+  std::array<double, O * (R > 0 ? R : 1)> jr{}, jr_ad{}, jr_fd{};
+  std::array<double, O * P> jp{}, jp_ad{}, jp_fd{};
+  K::ForwardJacobians(r, p, out.data(), jr.data(), jp.data());
+  K::Forward(r, p, out_fwd.data());
+  AutoDiffJacobians<K>(r, p, out_ad.data(), jr_ad.data(), jp_ad.data());
+  FiniteDifferenceJacobians<K>(r, p, hr, hp, jr_fd.data(), jp_fd.data());
+  for (int i = 0; i < O; ++i) {
+    EXPECT_NEAR(out[i], out_fwd[i], 1e-14 * std::max(1.0, std::abs(out_fwd[i]))) << where;
+    EXPECT_NEAR(out_ad[i], out_fwd[i], 1e-14 * std::max(1.0, std::abs(out_fwd[i]))) << where;
+  }
+  ExpectColumnsNear(jr.data(), jr_ad.data(), O, R, 1e-12, floor, where + " d/dreadings vs AD");
+  ExpectColumnsNear(jp.data(), jp_ad.data(), O, P, 1e-12, floor, where + " d/dparams vs AD");
+  ExpectColumnsNear(jr.data(), jr_fd.data(), O, R, 1e-7, floor, where + " d/dreadings vs FD");
+  ExpectColumnsNear(jp.data(), jp_fd.data(), O, P, 1e-7, floor, where + " d/dparams vs FD");
+  // Sensitivity functions (through the ModelInfo dispatch) against AD, column by column.
+  for (int k = 0; k < P; ++k) {
+    std::array<double, O> column{};
+    model.sensitivity(k, r, p, column.data());
+    ExpectColumnsNear(column.data(), jp_ad.data() + O * k, O, 1, 1e-12, floor,
+                      where + " Sensitivity_" + model.params[k].name + " vs AD");
+  }
+  // The double wrappers are the same kernels.
+  std::array<double, O> out_info{};
+  std::array<double, O * (R > 0 ? R : 1)> jr_info{};
+  std::array<double, O * P> jp_info{};
+  model.forward(r, p, out_info.data());
+  model.forward_jacobians(r, p, out_info.data(), jr_info.data(), jp_info.data());
+  for (int i = 0; i < O; ++i) EXPECT_EQ(out_info[i], out[i]) << where;
+  for (int i = 0; i < O * P; ++i) EXPECT_EQ(jp_info[i], jp[i]) << where;
+}
+
+// Nominal Jacobians (all parameters 0, substituted symbolically) against AD at p = 0.
+template <typename K>
+void CheckNominal(const double* r, double floor, const std::string& where) {
+  constexpr int O = K::O, R = K::R, P = K::P;
+  std::array<double, P> zero{};
+  std::array<double, O> out{}, out_ad{};
+  std::array<double, O * (R > 0 ? R : 1)> jr{}, jr_ad{};
+  std::array<double, O * P> jp{}, jp_ad{};
+  K::NominalJacobians(r, out.data(), jr.data(), jp.data());
+  AutoDiffJacobians<K>(r, zero.data(), out_ad.data(), jr_ad.data(), jp_ad.data());
+  for (int i = 0; i < O; ++i) EXPECT_NEAR(out[i], out_ad[i], 1e-14 * std::max(1.0, std::abs(out_ad[i])));
+  ExpectColumnsNear(jr.data(), jr_ad.data(), O, R, 1e-12, floor, where + " nominal d/dreadings");
+  ExpectColumnsNear(jp.data(), jp_ad.data(), O, P, 1e-12, floor, where + " nominal d/dparams");
+}
+
+// Random readings on either face and random error states drawn from the default u x scale.
+template <typename K>
+void TrackerJacobianSweep(std::uint64_t seed) {
+  const vlt::ModelInfo& model = Model(K::kName);
+  ASSERT_EQ(model.num_params, K::P);
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> range(0.5, 40.0), az(-kPi, kPi), el(-0.7, 1.3);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const std::array<double, 3> hr = {1e-5, 1e-5, 1e-5};
+  std::array<double, K::P> hp;
+  hp.fill(1e-5);
+  for (double scale : {1.0, 100.0}) {
+    for (int trial = 0; trial < 25; ++trial) {
+      double r[3] = {range(rng), az(rng), el(rng)};
+      if (trial % 2) {  // back face of the same direction
+        r[1] += kPi;
+        r[2] = kPi - r[2];
+      }
+      std::array<double, K::P> p;
+      for (int k = 0; k < K::P; ++k) p[k] = scale * model.params[k].default_u * normal(rng);
+      const std::string where = std::string(K::kName) + " scale " + std::to_string(scale) +
+                                " trial " + std::to_string(trial);
+      CheckJacobians<K>(r, p.data(), hr.data(), hp.data(), 1.0, where);
+      if (scale == 1.0) CheckNominal<K>(r, 1.0, where);
+    }
+  }
+}
+
+TEST(GeneratedMirror, JacobiansMatchAutoDiffAndFiniteDifferences) { TrackerJacobianSweep<mirror_kernels>(1); }
+TEST(GeneratedHead, JacobiansMatchAutoDiffAndFiniteDifferences) { TrackerJacobianSweep<head_kernels>(2); }
+
+// With every error zero both tracker models are the ideal spherical tracker, on both faces.
+void CheckIdeal(const char* name) {
+  const vlt::ModelInfo& model = Model(name);
+  std::vector<double> zero(model.num_params, 0.0);
+  for (double range : {0.5, 1.0, 2.5, 10.0, 40.0}) {
+    for (double a = -3.0; a <= 3.2; a += 0.4) {
+      for (double e = -1.4; e <= 1.45; e += 0.2) {
+        const double ideal[3] = {range * std::cos(e) * std::cos(a), range * std::cos(e) * std::sin(a),
+                                 range * std::sin(e)};
+        const double front[3] = {range, a, e};
+        const double back[3] = {range, a + kPi, kPi - e};
+        for (const double* r : {front, back}) {
+          double out[3], nominal[3], jr[9];
+          std::vector<double> jp(3 * model.num_params);
+          model.forward(r, zero.data(), out);
+          model.nominal_jacobians(r, nominal, jr, jp.data());
+          for (int i = 0; i < 3; ++i) {
+            EXPECT_NEAR(out[i], ideal[i], 1e-12) << name << " range " << range << " a " << a << " e " << e;
+            EXPECT_NEAR(nominal[i], ideal[i], 1e-12) << name;
+          }
+          // Ideal reading Jacobian: d/drange = direction; d/dA, d/dE from the closed form.
+          const double s = r == back ? -1.0 : 1.0;  // back face: dE_b = -dE, dA_b = dA
+          const double dir[3] = {std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e)};
+          const double da[3] = {-ideal[1], ideal[0], 0.0};
+          const double de[3] = {-range * std::sin(e) * std::cos(a), -range * std::sin(e) * std::sin(a),
+                                range * std::cos(e)};
+          for (int i = 0; i < 3; ++i) {
+            EXPECT_NEAR(jr[i], dir[i], 1e-12) << name;
+            EXPECT_NEAR(jr[3 + i], da[i], 1e-11) << name;
+            EXPECT_NEAR(jr[6 + i], s * de[i], 1e-11) << name;
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST(GeneratedMirror, ZeroErrorsGiveTheIdealPointOnBothFaces) { CheckIdeal("mirror"); }
+TEST(GeneratedHead, ZeroErrorsGiveTheIdealPointOnBothFaces) { CheckIdeal("head"); }
+
+TEST(GeneratedModels, ForwardBatchEqualsForward) {
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (const vlt::ModelInfo* m : vlt::AllModels()) {
+    constexpr std::size_t n = 7;
+    std::vector<std::vector<double>> r(m->num_readings, std::vector<double>(n));
+    std::vector<std::vector<double>> p(m->num_params, std::vector<double>(n));
+    std::vector<std::vector<double>> o(m->num_outputs, std::vector<double>(n));
+    for (auto& v : r) for (auto& x : v) x = 1.0 + std::abs(normal(rng));
+    for (int k = 0; k < m->num_params; ++k) {
+      for (auto& x : p[k]) x = m->params[k].default_estimate + m->params[k].default_u * normal(rng);
+    }
+    std::vector<const double*> rp, pp;
+    std::vector<double*> op;
+    for (auto& v : r) rp.push_back(v.data());
+    for (auto& v : p) pp.push_back(v.data());
+    for (auto& v : o) op.push_back(v.data());
+    m->forward_batch(n, rp.data(), pp.data(), op.data());
+    for (std::size_t i = 0; i < n; ++i) {
+      std::vector<double> ri(m->num_readings + 1), pi(m->num_params), oi(m->num_outputs);
+      for (int j = 0; j < m->num_readings; ++j) ri[j] = r[j][i];
+      for (int k = 0; k < m->num_params; ++k) pi[k] = p[k][i];
+      m->forward(ri.data(), pi.data(), oi.data());
+      for (int k = 0; k < m->num_outputs; ++k) EXPECT_EQ(o[k][i], oi[k]) << m->name;
+    }
+  }
+}
+
+TEST(GeneratedModels, RegistrySortedAndConsistent) {
+  const auto models = vlt::AllModels();
+  ASSERT_GE(models.size(), 4u);
+  for (std::size_t i = 1; i < models.size(); ++i) {
+    EXPECT_LT(std::string(models[i - 1]->name), std::string(models[i]->name));
+  }
+  for (const vlt::ModelInfo* m : models) {
+    EXPECT_EQ(std::string(m->spec_file), std::string("models/") + m->name + ".toml");
+    EXPECT_GT(m->ops_forward, 0) << m->name;
+    EXPECT_GE(m->ops_forward_jacobians, m->ops_forward) << m->name;
+  }
+  EXPECT_EQ(Model("mirror").num_params, vlt::gen::mirror::kNumParams);
+  EXPECT_EQ(vlt::FindParam(Model("mirror"), "tmv"), vlt::gen::mirror::param::tmv);
+  EXPECT_EQ(vlt::FindParam(Model("head"), "lam"), vlt::gen::head::param::lam);
+}
+
+// GUM H.1: l = l_s + d - l_s (dalpha theta + alpha_s dtheta). Check values: l = 50.000838 mm,
+// first-order u_c(l) = 32 nm (GUM H.1.6). Sensitivities at the estimates (GUM H.1.5):
+// c_ls = 1, c_d = 1, c_alpha_s = -l_s dtheta = 0, c_theta = -l_s dalpha = 0,
+// c_dalpha = -l_s theta = +5.0e-3 m K, c_dtheta = -l_s alpha_s = -5.75e-7 m/K.
+TEST(GeneratedGumH1, ReproducesTheGumEndGaugeExample) {
+  const vlt::ModelInfo& m = Model("gum_h1_end_gauge");
+  ASSERT_EQ(m.num_params, 6);
+  std::vector<double> x(6), u(6);
+  for (int k = 0; k < 6; ++k) {
+    x[k] = m.params[k].default_estimate;
+    u[k] = m.params[k].default_u;
+  }
+  double l, dl[6];
+  m.forward_jacobians(nullptr, x.data(), &l, nullptr, dl);
+  EXPECT_NEAR(l, 50.000838e-3, 0.5e-9);  // printed to the nm
+  EXPECT_NEAR(dl[0], 1.0, 1e-15);
+  EXPECT_NEAR(dl[1], 1.0, 1e-15);
+  EXPECT_EQ(dl[2], 0.0);
+  EXPECT_EQ(dl[3], 0.0);
+  EXPECT_NEAR(dl[4], 0.050000623 * 0.1, 1e-15);
+  EXPECT_NEAR(dl[5], -0.050000623 * 11.5e-6, 1e-18);
+  double u2 = 0;
+  for (int k = 0; k < 6; ++k) u2 += dl[k] * dl[k] * u[k] * u[k];
+  EXPECT_NEAR(std::sqrt(u2), 32e-9, 0.5e-9);  // GUM: 32 nm
+  // Jacobians also against AD and FD at random input values (the model is linear in each
+  // input separately, so central differences are exact up to rounding for any step).
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const std::array<double, 6> h = {10.0, 10.0, 10.0, 10.0, 10.0, 10.0};
+  for (double scale : {1.0, 100.0}) {
+    for (int t = 0; t < 10; ++t) {
+      std::array<double, 6> p;
+      for (int k = 0; k < 6; ++k) p[k] = x[k] + scale * u[k] * normal(rng);
+      CheckJacobians<gum_h1_end_gauge_kernels>(nullptr, p.data(), nullptr, h.data(), 1e-300, "gum_h1");
+    }
+  }
+}
+
+TEST(GeneratedJcgm101Additive, IsTheSumOfItsInputs) {
+  const vlt::ModelInfo& m = Model("jcgm101_additive");
+  ASSERT_EQ(m.num_params, 4);
+  ASSERT_EQ(m.num_readings, 0);
+  const double x[4] = {0.5, -1.25, 2.0, 3.5};
+  double y, dy[4];
+  m.forward_jacobians(nullptr, x, &y, nullptr, dy);
+  EXPECT_EQ(y, 4.75);
+  for (double d : dy) EXPECT_EQ(d, 1.0);
+  double u2 = 0;
+  for (int k = 0; k < 4; ++k) u2 += m.params[k].default_u * m.params[k].default_u;
+  EXPECT_DOUBLE_EQ(std::sqrt(u2), 2.0);  // JCGM 101 9.2.2: u(y) = 2
+  const std::array<double, 4> h = {0.1, 0.1, 0.1, 0.1};
+  CheckJacobians<jcgm101_additive_kernels>(nullptr, x, nullptr, h.data(), 1e-300, "jcgm101");
+}
+
+}  // namespace

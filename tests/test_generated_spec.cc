@@ -1,0 +1,190 @@
+// vlt-gen driven on temporary specs (the binary at VLT_BINARY_DIR/symbolic/vlt-gen):
+//  - a parameter removed from a spec disappears from the generated code and metadata;
+//  - bad specs are refused with exit status 2 and one line naming the file and the key;
+//  - the output does not depend on the process (two runs, byte-identical);
+//  - --summary describes a model.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kGen = VLT_BINARY_DIR "/symbolic/vlt-gen";
+const fs::path kModels = fs::path(VLT_SOURCE_DIR) / "models";
+
+std::string Read(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+void Write(const fs::path& p, const std::string& text) {
+  std::ofstream out(p, std::ios::binary);
+  out << text;
+}
+
+// A fresh temporary directory per test.
+fs::path TempDir() {
+  std::string tmpl = (fs::temp_directory_path() / "vlt-gen-test-XXXXXX").string();
+  if (!mkdtemp(tmpl.data())) throw std::runtime_error("mkdtemp failed");
+  return tmpl;
+}
+
+struct GenRun {
+  int status;
+  std::string out;
+  std::string err;
+};
+
+GenRun RunGen(const std::string& args, const fs::path& dir) {
+  const std::string cmd = kGen + " " + args + " > " + (dir / "stdout").string() + " 2> " +
+                          (dir / "stderr").string();
+  const int raw = std::system(cmd.c_str());
+  GenRun r;
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  r.out = Read(dir / "stdout");
+  r.err = Read(dir / "stderr");
+  return r;
+}
+
+// The spec text with the [[parameter]] block named `name` removed.
+std::string WithoutParameter(const std::string& spec, const std::string& name) {
+  const std::string marker = "[[parameter]]";
+  std::string out;
+  std::size_t pos = 0;
+  bool removed = false;
+  while (true) {
+    const std::size_t start = spec.find(marker, pos);
+    if (start == std::string::npos) {
+      out += spec.substr(pos);
+      break;
+    }
+    out += spec.substr(pos, start - pos);
+    std::size_t end = spec.find(marker, start + marker.size());
+    if (end == std::string::npos) end = spec.size();
+    const std::string block = spec.substr(start, end - start);
+    if (block.find("name = \"" + name + "\"") != std::string::npos) {
+      removed = true;
+    } else {
+      out += block;
+    }
+    pos = end;
+  }
+  if (!removed) throw std::runtime_error("parameter not found in spec: " + name);
+  return out;
+}
+
+TEST(VltGen, RemovedParameterDisappearsFromCodeAndMetadata) {
+  const fs::path dir = TempDir();
+  fs::create_directories(dir / "models");
+  Write(dir / "models" / "mirror.toml", WithoutParameter(Read(kModels / "mirror.toml"), "tmv"));
+  const GenRun r = RunGen("--models " + (dir / "models").string() + " --out " + (dir / "out").string(), dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string header = Read(dir / "out" / "mirror.h");
+  const std::string source = Read(dir / "out" / "mirror.cc");
+  ASSERT_FALSE(header.empty());
+  EXPECT_EQ(header.find("tmv"), std::string::npos);
+  EXPECT_EQ(source.find("tmv"), std::string::npos);
+  EXPECT_NE(header.find("kNumParams = 19;"), std::string::npos);
+  // The checked-in model (all parameters) has it, and the reduced one still has the others.
+  EXPECT_NE(Read(fs::path(VLT_SOURCE_DIR) / "generated" / "mirror.h").find("Sensitivity_tmv"),
+            std::string::npos);
+  EXPECT_NE(header.find("Sensitivity_rmv"), std::string::npos);
+  EXPECT_NE(source.find("{\"rmv\", \"rad\", \"angle\""), std::string::npos);
+  // Only the specs given are in the registry.
+  const std::string registry = Read(dir / "out" / "registry.cc");
+  EXPECT_NE(registry.find("&kModel_mirror"), std::string::npos);
+  EXPECT_EQ(registry.find("kModel_head"), std::string::npos);
+  EXPECT_NE(registry.find("kNumModels = 1;"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST(VltGen, OutputIsByteIdenticalAcrossRuns) {
+  const fs::path dir = TempDir();
+  ASSERT_EQ(RunGen("--models " + kModels.string() + " --out " + (dir / "a").string(), dir).status, 0);
+  ASSERT_EQ(RunGen("--models " + kModels.string() + " --out " + (dir / "b").string(), dir).status, 0);
+  int files = 0;
+  for (const auto& entry : fs::directory_iterator(dir / "a")) {
+    EXPECT_EQ(Read(entry.path()), Read(dir / "b" / entry.path().filename())) << entry.path();
+    ++files;
+  }
+  EXPECT_GE(files, 9);  // 4 models x 2 files + registry
+  fs::remove_all(dir);
+}
+
+struct BadSpec {
+  const char* what;
+  std::string text;
+  const char* expected_in_message;
+};
+
+TEST(VltGen, BadSpecsAreRefusedWithOneLineNamingFileAndKey) {
+  const std::string mirror = Read(kModels / "mirror.toml");
+  auto replace = [](std::string s, const std::string& from, const std::string& to) {
+    const std::size_t p = s.find(from);
+    if (p == std::string::npos) throw std::runtime_error("not found: " + from);
+    return s.replace(p, from.size(), to);
+  };
+  const BadSpec cases[] = {
+      {"unknown parameter", replace(mirror, "name = \"tmv\"", "name = \"tmx\""), "(tmx).name"},
+      {"wrong unit", replace(mirror, "name = \"tmv\"\nunit = \"m\"", "name = \"tmv\"\nunit = \"mm\""),
+       "(tmv).unit"},
+      {"missing u", replace(mirror, "u = 5e-06", "# u removed"), ".u: missing"},
+      {"negative u", replace(mirror, "u = 5e-06", "u = -5e-06"), ".u: standard uncertainty"},
+      {"unknown key", replace(mirror, "[model]\n", "[model]\ncolour = \"red\"\n"), "model.colour"},
+      {"unknown architecture", replace(mirror, "architecture = \"mirror\"", "architecture = \"scanner\""),
+       "model.architecture"},
+      {"TOML syntax", mirror + "\n[[parameter\n", "TOML syntax"},
+      {"unknown distribution", replace(mirror, "distribution = \"normal\"", "distribution = \"gauss\""),
+       ".distribution"},
+  };
+  for (const auto& c : cases) {
+    const fs::path dir = TempDir();
+    fs::create_directories(dir / "models");
+    Write(dir / "models" / "mirror.toml", c.text);
+    const GenRun r = RunGen("--models " + (dir / "models").string() + " --out " + (dir / "out").string(), dir);
+    EXPECT_EQ(r.status, 2) << c.what;
+    EXPECT_NE(r.err.find((dir / "models" / "mirror.toml").string()), std::string::npos)
+        << c.what << ": " << r.err;
+    EXPECT_NE(r.err.find(c.expected_in_message), std::string::npos) << c.what << ": " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << c.what << ": " << r.err;
+    EXPECT_FALSE(fs::exists(dir / "out" / "mirror.h")) << c.what;
+    fs::remove_all(dir);
+  }
+}
+
+TEST(VltGen, CustomOutputExpressionMustUseDeclaredInputs) {
+  const fs::path dir = TempDir();
+  fs::create_directories(dir / "models");
+  std::string spec = Read(kModels / "jcgm101_additive.toml");
+  const std::string from = "expression = \"x1 + x2 + x3 + x4\"";
+  spec.replace(spec.find(from), from.size(), "expression = \"x1 + x5\"");
+  Write(dir / "models" / "jcgm101_additive.toml", spec);
+  const GenRun r = RunGen("--models " + (dir / "models").string() + " --out " + (dir / "out").string(), dir);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("output[0](y).expression"), std::string::npos) << r.err;
+  fs::remove_all(dir);
+}
+
+TEST(VltGen, SummaryListsParametersAndOperationCounts) {
+  const fs::path dir = TempDir();
+  const GenRun r = RunGen("--summary " + (kModels / "head.toml").string(), dir);
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("model       head"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("lam"), std::string::npos);
+  EXPECT_NE(r.out.find("ForwardJacobians"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+}  // namespace
