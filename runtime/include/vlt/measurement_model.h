@@ -96,13 +96,52 @@ class MeasurementModel {
   // point and a value of every shared input. Exact: no linearisation anywhere.
   void Evaluate(const double* readings, const double* shared, double* y) const;
   // Same plus d y / d readings (3x3, column-major) and d y / d shared (3 x S, column-major).
+  // Chain rule (docs/gum.md "Measurement model"), with rho' = rho n_est / n(t, p, RH, x):
+  //   x_t = f(rho', A, E; params)                       tracker model (generated Jacobians)
+  //   x_p = R x_t + t,  R = Rz(rz) Ry(ry) Rx(rx)        station pose
+  //   y   = x_p / (1 + cte (T - T_ref))                 part thermal expansion
+  //   dy/dreadings = s R J_r diag(n_est/n, 1, 1),   s = 1 / (1 + cte (T - T_ref))
+  //   dy/dparams   = s R J_p
+  //   dy/d env_k   = s R J_r(:,0) * (-rho'/n) dn/d env_k
+  //   dy/d r_j     = s (dR/dr_j) x_t,   dy/d t = s I
+  //   dy/dcte      = -y (T - T_ref) s,  dy/dT = -y cte s
   void EvaluateWithJacobian(const double* readings, const double* shared, double* y,
                             double* d_y_d_readings, double* d_y_d_shared) const;
 
+  // Intermediate stages at a value of the shared inputs (for the GUM engine's tracker-frame
+  // results): the tracker-frame point (after the air correction, before pose and thermal), the
+  // pose rotation R (identity without pose) and the thermal scale s (1 without thermal), so that
+  // y = s (R x_t + t) and d x_t / d(readings, params, environment) = R^T (dy/d...) / s.
+  void EvaluateTracker(const double* readings, const double* shared, double* x_tracker) const;
+  Eigen::Matrix3d PoseRotation(const double* shared) const;
+  Eigen::Vector3d PoseTranslation(const double* shared) const;
+  double ThermalScale(const double* shared) const;
+
+  // Index of the first input of each group in the shared vector, -1 when the group is absent.
+  int params_offset() const { return 0; }
+  int environment_offset() const { return env_offset_; }
+  int pose_offset() const { return pose_offset_; }
+  int thermal_offset() const { return thermal_offset_; }
+  // Refractive index of the air at the estimates (n_est; 1 without environment).
+  double refractive_index_estimate() const { return n_est_; }
+
  private:
+  // n and dn/d(t, p, RH, x) at shared[env_offset_ .. +3].
+  double AirIndex(const double* env, double* gradient) const;
+
   MeasurementSetup setup_;
   std::vector<UncertainInput> shared_;
   Eigen::MatrixXd shared_correlation_;
+  int env_offset_ = -1;
+  int pose_offset_ = -1;
+  int thermal_offset_ = -1;
+  double n_est_ = 1.0;
+  // Caches at the estimates (the GUM engine evaluates every point there): dn/d(t, p, RH, x),
+  // R and its three partial derivatives. Used when the shared values equal the estimates.
+  Eigen::VectorXd estimates_;
+  double dn_est_[4] = {0, 0, 0, 0};
+  Eigen::Matrix3d rotation_est_ = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d d_rotation_est_[3];
 };
 
 }  // namespace vlt

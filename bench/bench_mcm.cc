@@ -1,0 +1,149 @@
+// The Monte Carlo engine (vlt/mcm.h RunMcm) and the ceiling of its per-trial work:
+//   mcm/run/point/M:<trials>/threads:<t>  one plan point (5 m, mid-panel), every error parameter
+//                                         of the mirror model: trials/s = model evaluations/s,
+//                                         including sampling, statistics, coverage intervals
+//                                         and the JCGM 102 coverage region
+//   mcm/run/plane36/...                   the demo job's 36 panel points + the plane fit refitted
+//                                         in every trial (items = trials; point_evals/s counter)
+//   mcm/ceiling/*                         a tight loop of the same per-trial work without the
+//                                         engine: 23 Philox4x64 Box-Muller normals + Forward<double>
+// Wall-clock time (UseRealTime): the engine runs its own threads.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <benchmark/benchmark.h>
+
+#include "bench_common.h"
+#include "bench_kernels.h"
+#include "random.h"
+#include "vlt/gum.h"
+#include "vlt/mcm.h"
+#include "vlt/tasks.h"
+
+namespace vlt::bench {
+namespace {
+
+McmSettings Settings(std::int64_t trials, int threads) {
+  McmSettings s;
+  s.seed = 20260101;
+  s.trials = trials;
+  s.num_threads = threads;
+  s.quiet = true;
+  return s;
+}
+
+void BM_McmPoint(benchmark::State& state, std::int64_t trials, int threads) {
+  const MeasurementModel model(TrackerSetup("mirror"));
+  McmJob job;
+  job.model = &model;
+  job.points.push_back({"P", ReadingsForPartPoint(model, Eigen::Vector3d(5.0, 0.25, -0.8))});
+  McmResult result;
+  for (auto _ : state) {
+    result = RunMcm(job, Settings(trials, threads));
+    benchmark::DoNotOptimize(result.outputs.data());
+  }
+  state.SetItemsProcessed(state.iterations() * trials);
+  state.counters["u_x_um"] = result.outputs.at(0).u * 1e6;  // GUM: 10.5 um
+}
+
+void BM_McmPlane36(benchmark::State& state, std::int64_t trials, int threads) {
+  const MeasurementModel model(TrackerSetup("mirror"));
+  McmJob job;
+  job.model = &model;
+  // The demo job's 9 x 4 grid, 0.5 m pitch.
+  TaskSpec plane;
+  plane.name = "panel_plane";
+  plane.kind = TaskKind::kPlane;
+  std::vector<int> indices;
+  for (int ix = 0; ix < 9; ++ix) {
+    for (int iy = 0; iy < 4; ++iy) {
+      const Eigen::Vector3d part(3.0 + 0.5 * ix, -0.75 + 0.5 * iy, -0.8);
+      std::string name = "P";
+      name += std::to_string(ix);
+      name += std::to_string(iy);
+      indices.push_back(static_cast<int>(job.points.size()));
+      job.points.push_back({name, ReadingsForPartPoint(model, part)});
+      plane.points.push_back(name);
+    }
+  }
+  job.fit_tasks.push_back(plane);
+  job.fit_task_points.push_back(indices);
+  for (auto _ : state) {
+    const McmResult result = RunMcm(job, Settings(trials, threads));
+    benchmark::DoNotOptimize(result.outputs.data());
+  }
+  state.SetItemsProcessed(state.iterations() * trials);
+  state.counters["point_evals/s"] = benchmark::Counter(
+      static_cast<double>(state.iterations() * trials * 36), benchmark::Counter::kIsRate);
+}
+
+// 23 standard normals per trial from the engine's generator (Philox4x64-10 + Box-Muller, one
+// counter per 4 trials and input), scaled to the inputs, then Forward<double>.
+template <bool kForward, bool kNormals>
+void BM_McmCeiling(benchmark::State& state) {
+  using K = MirrorKernels;
+  constexpr int kInputs = 3 + K::kParams;
+  const MeasurementModel model(TrackerSetup("mirror"));
+  const Eigen::Vector3d estimate = ReadingsForPartPoint(model, Eigen::Vector3d(5.0, 0.25, -0.8));
+  const Eigen::Matrix<double, kInputs, 1> u = InputUncertainties<kInputs>(model, estimate(0));
+  const mcm_internal::KeyedStream rng(20260101);
+  constexpr std::uint64_t kGroups = 1024;  // 4096 trials per benchmark iteration
+  std::uint64_t group = 0;
+  double sum = 0.0;
+  for (auto _ : state) {
+    for (std::uint64_t g = 0; g < kGroups; ++g, ++group) {
+      double z[kInputs][4];
+      if constexpr (kNormals) {
+        for (int k = 0; k < kInputs; ++k) rng.Normals(group, static_cast<std::uint64_t>(k), z[k]);
+      } else {
+        for (int k = 0; k < kInputs; ++k) {
+          for (int t = 0; t < 4; ++t) z[k][t] = 1e-3 * static_cast<double>((group + k + t) & 7);
+        }
+      }
+      for (int t = 0; t < 4; ++t) {
+        double x[kInputs];
+        for (int k = 0; k < kInputs; ++k) x[k] = (k < 3 ? estimate(k) : 0.0) + u(k) * z[k][t];
+        if constexpr (kForward) {
+          double y[3];
+          K::Forward<double>(x, x + 3, y);
+          sum += y[0] + y[1] + y[2];
+        } else {
+          for (int k = 0; k < kInputs; ++k) sum += x[k];
+        }
+      }
+    }
+    benchmark::DoNotOptimize(sum);
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * kGroups * 4));
+}
+
+const bool kRegistered = [] {
+  using benchmark::RegisterBenchmark;
+  for (int threads : {1, 2}) {
+    std::string t = "/threads:";
+    t += std::to_string(threads);
+    RegisterBenchmark(("mcm/run/point/M:10000" + t).c_str(), BM_McmPoint, 10000, threads)
+        ->UseRealTime()
+        ->Unit(benchmark::kMillisecond);
+    RegisterBenchmark(("mcm/run/point/M:1000000" + t).c_str(), BM_McmPoint, 1000000,
+                      threads)
+        ->UseRealTime()
+        ->Iterations(1)
+        ->Unit(benchmark::kMillisecond);
+  }
+  for (int threads : {1, 2}) {
+    std::string name = "mcm/run/plane36/M:10000/threads:";
+    name += std::to_string(threads);
+    RegisterBenchmark(name.c_str(), BM_McmPlane36, 10000, threads)
+        ->UseRealTime()
+        ->Unit(benchmark::kMillisecond);
+  }
+  RegisterBenchmark("mcm/ceiling/normals_and_forward", BM_McmCeiling<true, true>);
+  RegisterBenchmark("mcm/ceiling/normals_only", BM_McmCeiling<false, true>);
+  RegisterBenchmark("mcm/ceiling/forward_only", BM_McmCeiling<true, false>);
+  return true;
+}();
+
+}  // namespace
+}  // namespace vlt::bench

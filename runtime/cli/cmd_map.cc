@@ -1,0 +1,81 @@
+// `vlt map JOB.toml --plane z=0 --extent xmin,xmax,ymin,ymax --step 0.25m [-o DIR]`
+// `vlt map JOB.toml --box xmin,xmax,ymin,ymax,zmin,zmax --step 0.5m`
+// The GUM expanded uncertainty |U| = sqrt(Ux^2 + Uy^2 + Uz^2) over a grid of part-frame points
+// (MapResult in vlt/results.h), written as map.csv and map.html. Without --plane/--box the job's
+// [map] section is used.
+#include <cstdio>
+
+#include "results_internal.h"
+#include "run_job.h"
+#include "vlt/error.h"
+
+namespace vlt::cli {
+
+void AddMapCommand(CLI::App& app, GlobalOptions& global) {
+  auto* command = app.add_subcommand("map", "Map the GUM expanded uncertainty of the job's tracker over a plane or "
+                                            "a box of part-frame points (map.csv, map.html)");
+  struct MapOptions {
+    std::string job, plane, extent, box, step = "0.25 m", output_dir;
+    int threads = -1;
+  };
+  auto o = std::make_shared<MapOptions>();
+  command->add_option("job", o->job, "Job file (TOML): tracker, environment, station, part")->required();
+  command->add_option("--plane", o->plane, "Plane of the grid: x=<v>, y=<v> or z=<v> (e.g. z=0, z=1.2m)");
+  command->add_option("--extent", o->extent,
+                      "Ranges of the plane's two free axes: amin,amax,bmin,bmax (e.g. 0,4,-1,1 or 0m,4m,-1m,1m)");
+  command->add_option("--box", o->box, "A 3-D grid: xmin,xmax,ymin,ymax,zmin,zmax");
+  command->add_option("--step", o->step, "Grid spacing (default 0.25 m; e.g. 0.1m, 250mm)");
+  command->add_option("-o,--output", o->output_dir,
+                      "Output directory (default: [output] directory of the job, else ./vlt-out/<job name>)");
+  command->add_option("--threads", o->threads, "Threads (0 = all hardware threads)")->check(CLI::Range(0, 1024));
+  command->footer("Map value: |U| = sqrt(Ux^2 + Uy^2 + Uz^2), U_i = k u_i (part frame, k from the job's coverage\n"
+                  "probability). Nodes within 1 mm of the tracker's vertical axis are skipped and reported.");
+  command->callback([o, &global] {
+    Job job = LoadJob(o->job);
+    MapSettings settings;
+    if (!o->plane.empty() || !o->box.empty()) {
+      if (!o->plane.empty() && !o->box.empty()) throw InputError("command line: --plane and --box exclude each other");
+      if (!o->plane.empty()) {
+        if (o->extent.empty()) throw InputError("command line: --extent: required with --plane");
+        settings = ParseMapPlane(o->plane, o->extent, o->step, "command line");
+      } else {
+        if (!o->extent.empty()) throw InputError("command line: --extent goes with --plane, not with --box");
+        settings = ParseMapBox(o->box, o->step, "command line");
+      }
+    } else if (job.map) {
+      settings = *job.map;
+    } else {
+      throw InputError("command line: give --plane and --extent, or --box (the job has no [map] section)");
+    }
+    MeasurementModel model(job.setup);
+    int threads = o->threads >= 0 ? o->threads : job.monte_carlo.threads;
+    MapResult map = ComputeMap(model, settings, job.monte_carlo.coverage_probability, threads);
+    RunCliOptions ro;
+    ro.output_dir = o->output_dir;
+    std::filesystem::path dir =
+        OutputDirectory(job, ro, std::filesystem::path("vlt-out") / vlt::internal::SafeFileName(job.name));
+    std::vector<std::pair<std::string, std::string>> files = {
+        {"map.csv", MapCsv(map)}, {"map.html", MapHtml(map, job.name + ": " + settings.description)}};
+    WriteFilesAtomically(dir, files);
+    if (global.quiet) return;
+    double lo = 1e300, hi = 0.0;
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < map.nodes.size(); ++i) {
+      if (!map.computed[i]) continue;
+      lo = std::min(lo, map.U_norm[i]);
+      hi = std::max(hi, map.U_norm[i]);
+      ++n;
+    }
+    std::printf("Map of job '%s' (model %s): %s\n", job.name.c_str(), job.setup.model->name, settings.description.c_str());
+    std::printf("|U| = sqrt(Ux^2+Uy^2+Uz^2), k = %.3f (p = %g): %.1f .. %.1f um over %zu nodes\n", map.k,
+                map.coverage_probability, n ? lo * 1e6 : 0.0, hi * 1e6, n);
+    if (!map.skipped.empty()) {
+      std::printf("Skipped %zu node(s):\n", map.skipped.size());
+      for (std::size_t i = 0; i < map.skipped.size() && i < 10; ++i) std::printf("  %s\n", map.skipped[i].c_str());
+      if (map.skipped.size() > 10) std::printf("  ... (all in map.csv)\n");
+    }
+    std::printf("Wrote %s/: map.csv, map.html\n", dir.string().c_str());
+  });
+}
+
+}  // namespace vlt::cli

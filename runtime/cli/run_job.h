@@ -1,0 +1,38 @@
+// run_job.h — what `vlt run`, `vlt demo` and `vlt map` share (runtime/cli/cmd_run.cc).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "commands.h"
+#include "vlt/job.h"
+#include "vlt/results.h"
+
+namespace vlt::cli {
+
+struct RunCliOptions {
+  std::string output_dir;                  // -o; "" = the default
+  bool no_mcm = false;
+  std::int64_t trials = -1;                // -1: from the job
+  bool adaptive = false;
+  std::int64_t seed = -1;
+  int threads = -1;
+};
+
+// Adds -o, --no-mcm, --trials, --adaptive, --seed, --threads to a subcommand.
+void AddRunOptions(CLI::App& command, RunCliOptions& options);
+
+// Where the outputs of `job` go: -o, else [output] directory (relative to the job file), else
+// `fallback` (e.g. ./vlt-out/<job name>).
+std::filesystem::path OutputDirectory(const Job& job, const RunCliOptions& options,
+                                      const std::filesystem::path& fallback);
+
+// Runs the job, writes every output file (all or none), prints the summary / JSON. Returns 0.
+int RunAndWrite(const Job& job, const RunCliOptions& options, const GlobalOptions& global,
+                const std::filesystem::path& fallback_dir);
+
+}  // namespace vlt::cli

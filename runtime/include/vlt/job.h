@@ -1,0 +1,121 @@
+// vlt/job.h — a job file (TOML, docs/job-file.md) read into what the engines need.
+//
+// A job says which tracker and how uncertain its error parameters are (MeasurementSetup), where
+// it measures (offline: nominal points of a plan; online: the tracker's readings from a CSV), what
+// is derived from the points (tasks: distances and fitted features), how the Monte Carlo method
+// runs, and optionally a map of the expanded uncertainty over a plane or a box.
+//
+// Every value is converted to SI on reading (vlt/units.h). Every problem is an InputError with one
+// line "<file>: <key or line>: <problem>"; unknown keys are errors.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "vlt/inverse.h"
+#include "vlt/measurement_model.h"
+#include "vlt/tasks.h"
+
+namespace vlt {
+
+enum class JobMode {
+  kPlan,      // offline: nominal points, readings computed from them ([plan])
+  kReadings,  // online: the tracker's readings ([readings])
+};
+
+// Face (front / back) and FaceName: vlt/inverse.h.
+
+struct JobPoint {
+  std::string name;
+  Face face = Face::kFront;
+  // kPlan: nominal coordinates in the part frame at the reference temperature [m].
+  Eigen::Vector3d nominal = Eigen::Vector3d::Zero();
+  // kReadings: the tracker's readings as measured (range [m], azimuth [rad], elevation [rad]);
+  // back-face readings are the raw ones (elevation in (pi/2, 3pi/2)).
+  Eigen::Vector3d readings = Eigen::Vector3d::Zero();
+  std::string where;  // where it was defined, for messages: "job.toml: plan.point[2]", "r.csv: line 7"
+};
+
+// JCGM 101 7.2 / 7.9: fixed number of trials or the adaptive procedure.
+struct MonteCarloSettings {
+  bool enabled = true;
+  std::int64_t trials = 200000;       // fixed M (ignored when adaptive)
+  bool adaptive = false;              // JCGM 101 7.9.4
+  int n_dig = 2;                      // significant digits of the numerical tolerance (7.9.2)
+  std::uint64_t seed = 20090101;      // Philox key: same seed, same result for any thread count
+  double coverage_probability = 0.95;
+  int threads = 0;                    // 0: all hardware threads
+};
+
+// A grid for `vlt map` / [map]: a plane (two axes vary, one fixed) or a box (all three vary).
+struct MapSettings {
+  enum class Kind { kPlane, kBox };
+  Kind kind = Kind::kPlane;
+  int fixed_axis = 2;                 // kPlane: 0 = x, 1 = y, 2 = z
+  double level = 0.0;                 // kPlane: value of the fixed coordinate [m]
+  Eigen::Vector3d min = Eigen::Vector3d::Zero();  // [m], the fixed axis has min = max = level
+  Eigen::Vector3d max = Eigen::Vector3d::Zero();
+  double step = 0.25;                 // grid spacing [m]
+  std::string frame = "part";         // coordinates of the grid: "part" (like plan points)
+  std::string description;            // e.g. "plane z = 0 m, x 0..4 m, y -1..1 m, step 0.25 m"
+
+  // Number of grid nodes along each axis (1 along the fixed axis of a plane).
+  Eigen::Vector3i counts() const;
+  // Grid node coordinates in row-major order (x fastest, then y, then z).
+  std::vector<Eigen::Vector3d> Nodes() const;
+};
+
+// Parses the command-line / job-file spellings: plane "z=0" or "z = 1.5 m"; extent
+// "xmin,xmax,ymin,ymax" (the two free axes of the plane, in axis order); box
+// "xmin,xmax,ymin,ymax,zmin,zmax"; step "0.25m". Numbers without a unit are metres.
+MapSettings ParseMapPlane(std::string_view plane, std::string_view extent, std::string_view step,
+                          std::string_view where);
+MapSettings ParseMapBox(std::string_view box, std::string_view step, std::string_view where);
+
+struct OutputSettings {
+  std::string directory;              // [output] directory (relative to the job file); "" = default
+  double ellipsoid_scale = 0.0;       // report: ellipsoid exaggeration; 0 = automatic
+};
+
+struct Job {
+  std::string file;                   // the job file as named in messages
+  std::filesystem::path base_dir;     // relative paths in the job are relative to this
+  std::string name;                   // [job] name (default: the file's stem)
+  std::string description;
+  MeasurementSetup setup;
+  JobMode mode = JobMode::kPlan;
+  std::vector<JobPoint> points;
+  std::vector<TaskSpec> tasks;
+  std::vector<std::vector<int>> task_points;  // resolved indices into points, per task
+  MonteCarloSettings monte_carlo;
+  std::optional<MapSettings> map;
+  OutputSettings output;
+
+  std::vector<std::string> point_names() const;
+};
+
+// Reads and checks the job file at `path` (relative paths inside resolve against its directory).
+Job LoadJob(const std::string& path);
+
+// Same from text: `file` names it in messages, `base_dir` resolves relative CSV paths.
+Job ParseJob(std::string_view text, const std::string& file, const std::filesystem::path& base_dir);
+
+// The embedded default job run by `vlt demo` and bare `vlt` (runtime/src/default_job.cc).
+std::string_view DefaultJobToml();
+inline constexpr const char* kDefaultJobName = "vlt-demo.toml";
+
+// Horizontal distance [m] below which a point is "on the tracker's vertical axis": its azimuth is
+// undefined, so no readings can be planned for it.
+inline constexpr double kVerticalAxisTolerance = 1e-6;
+
+// A nominal part-frame point expressed in the tracker frame at the job's estimates (inverse of the
+// station pose and part thermal expansion of vlt/measurement_model.h).
+Eigen::Vector3d PartToTrackerNominal(const MeasurementSetup& setup, const Eigen::Vector3d& part);
+
+}  // namespace vlt

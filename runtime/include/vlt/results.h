@@ -1,0 +1,134 @@
+// vlt/results.h — a job run through the GUM engine, the Monte Carlo engine and the validation
+// into one Results struct, and the files written from it (docs/results.md):
+//   points.csv, budget.csv, tasks.csv, results.json, report.html (+ map.csv, map.html for maps).
+//
+// Output files are built in memory first, written to temporary names in the output directory and
+// renamed only when all of them were written: on any error no output file of the run remains.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "vlt/gum.h"
+#include "vlt/job.h"
+#include "vlt/mcm.h"
+#include "vlt/measurement_model.h"
+#include "vlt/validation.h"
+
+namespace vlt {
+
+// Command-line overrides of the job's [monte_carlo] settings.
+struct RunOptions {
+  bool monte_carlo = true;                 // false: --no-mcm
+  std::optional<std::int64_t> trials;      // --trials (0 = adaptive)
+  std::optional<std::uint64_t> seed;       // --seed
+  std::optional<int> threads;              // --threads
+  bool compute_map = true;                 // compute the job's [map] when it has one
+  bool progress = false;                   // MCM progress bar on a terminal
+};
+
+struct PointResult {
+  JobPoint input;                          // name, face, nominal (plan), readings as given
+  PointUncertainty gum;
+  bool has_mcm = false;
+  McmPointResult mcm;                      // JCGM 102: mean, covariance, region factor
+  std::array<McmOutputResult, 3> mcm_axes; // JCGM 101 per coordinate x, y, z
+  std::array<ScalarValidation, 3> axis_validation;  // JCGM 101 8 per coordinate
+  PointValidation region_validation;       // coverage ellipsoids (vlt/validation.h)
+  bool validated = false;                  // all of the above validated
+};
+
+struct TaskResult {
+  TaskSpec spec;
+  std::vector<int> point_indices;
+  TaskUncertainty gum;
+  bool has_mcm = false;
+  std::vector<McmOutputResult> mcm;        // one per gum.quantities
+  std::vector<ScalarValidation> validation;
+  bool validated = false;
+};
+
+// Expanded uncertainty over a grid (`vlt map`, [map]). At every node the GUM expanded uncertainty
+// per axis U = k u (part frame, k = NormalCoverageFactor(p)) and the map value
+//   U_norm = sqrt(U_x^2 + U_y^2 + U_z^2) = k sqrt(trace U_y),
+// the radius of the sphere through the tips of the per-axis expanded uncertainties.
+// Nodes within kMapAxisClearance of the tracker's vertical axis or of the gimbal point (tracker
+// frame) are skipped and counted, never NaN.
+inline constexpr double kMapAxisClearance = 1e-3;  // m
+struct MapResult {
+  MapSettings settings;
+  double coverage_probability = 0.95;
+  double k = 0.0;
+  std::vector<Eigen::Vector3d> nodes;      // every grid node (part frame, m), x fastest
+  std::vector<char> computed;              // 0 = skipped
+  std::vector<Eigen::Vector3d> U;          // per axis, m (zero where skipped)
+  std::vector<double> U_norm;              // m (zero where skipped)
+  std::vector<std::string> skipped;        // "x,y,z: reason" for each skipped node
+  std::string quantity = "U_norm = sqrt(U_x^2 + U_y^2 + U_z^2), U_i = k u_i, part frame";
+};
+
+struct Results {
+  std::string vlt_version;
+  std::string job_file;
+  std::string job_name;
+  std::string job_description;
+  JobMode mode = JobMode::kPlan;
+  std::string model_name;
+  MeasurementSetup setup;
+  std::vector<UncertainInput> shared_inputs;  // MeasurementModel::shared_inputs()
+  double coverage_probability = 0.95;
+  double k_axis = 0.0;                        // NormalCoverageFactor(p)
+  double k_region = 0.0;                      // ChiSquareCoverageFactor(p, 3)
+  int n_dig = 2;
+  std::vector<PointResult> points;
+  std::vector<TaskResult> tasks;
+  bool has_mcm = false;
+  McmResult mcm;                              // run information (outputs/points moved into results)
+  std::optional<MapResult> map;
+  double gum_seconds = 0.0;
+  double mcm_seconds = 0.0;
+  double ellipsoid_scale = 0.0;               // report: exaggeration of the ellipsoids
+  int validated_points = 0;
+  int validated_tasks = 0;
+};
+
+// Runs the whole job. Throws InputError / NumericalError (nothing is written here).
+Results RunJob(const Job& job, const RunOptions& options = {});
+
+// The map of `settings` for a job's model (nodes in the part frame).
+MapResult ComputeMap(const MeasurementModel& model, const MapSettings& settings,
+                     double coverage_probability, int threads);
+
+// The readings of every point of a job (plan: computed from the nominal points).
+std::vector<PointReadings> JobReadings(const Job& job, const MeasurementModel& model);
+
+// File contents (docs/results.md).
+std::string PointsCsv(const Results& results);
+std::string BudgetCsv(const Results& results);
+std::string TasksCsv(const Results& results);
+std::string MapCsv(const MapResult& map);
+std::string ResultsJson(const Results& results, int indent = 1);
+std::string ReportHtml(const Results& results);
+std::string MapHtml(const MapResult& map, const std::string& title);
+
+// The files of a `vlt run`: points.csv, budget.csv, tasks.csv, results.json, report.html and,
+// with a map, map.csv and map.html.
+std::vector<std::pair<std::string, std::string>> ResultFiles(const Results& results);
+
+// Writes all `files` (name, content) into `dir` (created if missing) or none: each goes to a
+// temporary name first; only when all were written are they renamed. On failure the temporary
+// files (and `dir` if this call created it and it is empty) are removed and InputError is thrown.
+void WriteFilesAtomically(const std::filesystem::path& dir,
+                          const std::vector<std::pair<std::string, std::string>>& files);
+
+// A short human summary of the results (units in the headers) for the terminal.
+std::string SummaryText(const Results& results);
+
+}  // namespace vlt

@@ -1,0 +1,69 @@
+// vlt/validation.h — validation of the GUM uncertainty framework by the Monte Carlo method
+// (JCGM 101 §8), and its extension to the coverage region of a measured point (docs/monte-carlo.md
+// "Validation").
+#pragma once
+
+#include <string>
+
+#include <Eigen/Core>
+
+#include "vlt/mcm.h"
+
+namespace vlt {
+
+// JCGM 101 8.2 for one scalar output. GUM interval y +- U_p (U_p = k u(y)) against the MCM
+// probabilistically symmetric interval [y_low, y_high]:
+//   d_low = |y - U_p - y_low|, d_high = |y + U_p - y_high|,
+// delta = numerical tolerance of the GUM u(y) with n_dig significant digits (7.9.2).
+// validated <=> d_low <= delta and d_high <= delta.
+struct ScalarValidation {
+  std::string name;
+  std::string unit;
+  double gum_y = 0.0;
+  double gum_u = 0.0;
+  double gum_expanded = 0.0;   // U_p
+  double mcm_low = 0.0;
+  double mcm_high = 0.0;
+  double d_low = 0.0;
+  double d_high = 0.0;
+  double delta = 0.0;
+  bool validated = false;
+  std::string verdict;         // "validated" / "not validated"
+};
+
+ScalarValidation ValidateScalar(const std::string& name, const std::string& unit, double gum_y,
+                                double gum_u, double gum_expanded,
+                                const CoverageInterval& mcm_symmetric, int significant_digits);
+
+// Multivariate comparison for one point (JCGM 102 coverage regions, criterion defined by vlt):
+// GUM region  E_g = {eta : (eta - y_g)^T U_g^-1 (eta - y_g) <= k_g^2}, k_g = sqrt(chi2_3(p));
+// MCM region  E_m = {eta : (eta - y_m)^T U_m^-1 (eta - y_m) <= k_m^2}, k_m from McmPointResult.
+// In every unit direction v the two regions project onto intervals; their endpoint differences
+//   d(v) = max(|v.(y_g - y_m) - (k_g s_g(v) - k_m s_m(v))|, |v.(y_g - y_m) + (k_g s_g(v) - k_m s_m(v))|)
+// with s(v) = sqrt(v^T U v) are JCGM 101's d_low, d_high for the scalar v.Y (max over v = the
+// Hausdorff distance of the two ellipsoids). The point is validated when d(v) <= delta(s_g(v))
+// for every direction (delta of 7.9.2 with n_dig digits), checked on a dense set of directions
+// (1000 spread on the sphere + the coordinate axes + the eigenvectors of U_g). Also reported:
+// the relative Frobenius difference |U_m - U_g|_F / |U_g|_F and the ratio k_m / k_g.
+struct PointValidation {
+  std::string name;
+  double gum_coverage_factor = 0.0;    // sqrt(chi2_3(p))
+  double mcm_coverage_factor = 0.0;    // 0 when the MCM region does not exist
+  double coverage_factor_ratio = 0.0;  // k_m / k_g
+  double covariance_difference = 0.0;  // relative Frobenius difference
+  double worst_ratio = 0.0;            // max over v of d(v) / delta(s_g(v))
+  Eigen::Vector3d worst_direction = Eigen::Vector3d::UnitX();
+  double worst_distance = 0.0;         // d(v) in the worst direction, m
+  double worst_delta = 0.0;            // delta(s_g(v)) there, m
+  bool validated = false;
+  std::string verdict;
+};
+
+// gum_coverage_factor: k_g = sqrt(chi2_3(p)) of the GUM region (vlt/gum.h
+// ChiSquareCoverageFactor(p, 3), PointUncertainty::ellipsoid.k). Throws NumericalError when the
+// GUM covariance is not positive definite (no region to compare).
+PointValidation ValidatePoint(const std::string& name, const Eigen::Vector3d& gum_y,
+                              const Eigen::Matrix3d& gum_covariance, double gum_coverage_factor,
+                              const McmPointResult& mcm, int significant_digits);
+
+}  // namespace vlt

@@ -1,0 +1,122 @@
+#include "csv.h"
+
+#include <fstream>
+#include <sstream>
+
+#include "vlt/error.h"
+
+namespace vlt {
+namespace {
+
+std::string Trim(std::string_view s) {
+  std::size_t b = 0, e = s.size();
+  while (b < e && (s[b] == ' ' || s[b] == '\t')) ++b;
+  while (e > b && (s[e - 1] == ' ' || s[e - 1] == '\t' || s[e - 1] == '\r')) --e;
+  return std::string(s.substr(b, e - b));
+}
+
+// Splits one physical line into fields. Quoted fields may not span lines (plan and readings
+// files never need that, and it keeps line numbers exact).
+std::vector<std::string> SplitLine(std::string_view line, const std::string& where) {
+  std::vector<std::string> fields;
+  std::size_t i = 0;
+  while (true) {
+    while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
+    std::string field;
+    if (i < line.size() && line[i] == '"') {
+      ++i;
+      bool closed = false;
+      while (i < line.size()) {
+        if (line[i] == '"') {
+          if (i + 1 < line.size() && line[i + 1] == '"') {
+            field += '"';
+            i += 2;
+            continue;
+          }
+          closed = true;
+          ++i;
+          break;
+        }
+        field += line[i++];
+      }
+      if (!closed) throw InputError(where + ": unterminated quoted field");
+      while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
+      if (i < line.size() && line[i] != ',') {
+        throw InputError(where + ": unexpected text after a quoted field");
+      }
+    } else {
+      std::size_t start = i;
+      while (i < line.size() && line[i] != ',') ++i;
+      field = Trim(line.substr(start, i - start));
+    }
+    fields.push_back(std::move(field));
+    if (i >= line.size()) break;
+    ++i;  // the comma
+  }
+  return fields;
+}
+
+}  // namespace
+
+int CsvTable::Column(std::string_view name) const {
+  for (std::size_t k = 0; k < header.size(); ++k) {
+    if (header[k] == name) return static_cast<int>(k);
+  }
+  return -1;
+}
+
+std::string CsvTable::Where(const CsvRow& row) const {
+  return file + ": line " + std::to_string(row.line);
+}
+
+CsvTable ParseCsv(std::string_view text, const std::string& file) {
+  CsvTable table;
+  table.file = file;
+  int line_number = 0;
+  std::size_t pos = 0;
+  // Skip a UTF-8 byte order mark (spreadsheets write one).
+  if (text.substr(0, 3) == "\xEF\xBB\xBF") pos = 3;
+  while (pos <= text.size()) {
+    std::size_t end = text.find('\n', pos);
+    if (end == std::string_view::npos) end = text.size();
+    std::string_view line = text.substr(pos, end - pos);
+    ++line_number;
+    pos = end + 1;
+    std::string trimmed = Trim(line);
+    if (trimmed.empty() || trimmed[0] == '#') {
+      if (end == text.size()) break;
+      continue;
+    }
+    std::string where = file + ": line " + std::to_string(line_number);
+    std::vector<std::string> fields = SplitLine(line, where);
+    if (table.header.empty()) {
+      for (const std::string& name : fields) {
+        if (name.empty()) throw InputError(where + ": empty column name in the header");
+        for (const std::string& other : table.header) {
+          if (other == name) throw InputError(where + ": column '" + name + "' appears twice");
+        }
+        table.header.push_back(name);
+      }
+      table.header_line = line_number;
+    } else {
+      if (fields.size() != table.header.size()) {
+        throw InputError(where + ": " + std::to_string(fields.size()) + " fields, the header has " +
+                         std::to_string(table.header.size()));
+      }
+      table.rows.push_back(CsvRow{line_number, std::move(fields)});
+    }
+    if (end == text.size()) break;
+  }
+  if (table.header.empty()) throw InputError(file + ": empty CSV file (no header line)");
+  return table;
+}
+
+CsvTable ReadCsvFile(const std::string& path, const std::string& label) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(label + ": cannot read CSV file '" + path + "'");
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  return ParseCsv(buffer.str(), label);
+}
+
+}  // namespace vlt

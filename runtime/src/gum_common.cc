@@ -1,0 +1,159 @@
+// GUM engine: coverage factors (computed, JCGM 100 G.1.3, JCGM 102 6.5.2.3), sensitivity
+// units, the factor of the shared-input covariance and the deterministic chunked thread pool.
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "gum_internal.h"
+#include "vlt/error.h"
+#include "vlt/gum.h"
+
+namespace vlt {
+namespace {
+
+// Bisection of a monotonically increasing cdf on [lo, hi] to full double precision.
+template <typename Cdf>
+double InvertIncreasing(Cdf cdf, double p, double lo, double hi) {
+  for (int i = 0; i < 2000 && hi - lo > 4 * std::numeric_limits<double>::epsilon() * hi; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (cdf(mid) < p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// Chi-square cdf with m (integer) degrees of freedom: regularized lower incomplete gamma
+// P(m/2, x/2) by the exact recurrence P(a + 1, z) = P(a, z) - z^a e^-z / Gamma(a + 1), from
+// P(1/2, z) = erf(sqrt z) and P(1, z) = 1 - e^-z (Abramowitz & Stegun 6.5.13, 26.4.4-5).
+double ChiSquareCdf(double x, int m) {
+  if (x <= 0.0) return 0.0;
+  const double z = 0.5 * x;
+  double a = (m % 2 == 1) ? 0.5 : 1.0;
+  double p = (m % 2 == 1) ? std::erf(std::sqrt(z)) : -std::expm1(-z);
+  while (a < 0.5 * m - 0.25) {
+    p -= std::exp(a * std::log(z) - z - std::lgamma(a + 1.0));
+    a += 1.0;
+  }
+  return p;
+}
+
+}  // namespace
+
+double NormalCoverageFactor(double p) {
+  if (!(p > 0.0 && p < 1.0)) {
+    throw std::invalid_argument("coverage probability must be in (0, 1)");
+  }
+  // P(|Z| <= k) = erf(k / sqrt 2) = p.
+  return InvertIncreasing([](double k) { return std::erf(k / std::sqrt(2.0)); }, p, 0.0, 40.0);
+}
+
+double ChiSquareCoverageFactor(double p, int m) {
+  if (!(p > 0.0 && p < 1.0) || m < 1) {
+    throw std::invalid_argument("coverage probability must be in (0, 1), dimension >= 1");
+  }
+  const double q = InvertIncreasing([m](double x) { return ChiSquareCdf(x, m); }, p, 0.0,
+                                    1000.0 + 100.0 * m);
+  return std::sqrt(q);
+}
+
+std::string SensitivityUnit(const std::string& output_unit, const std::string& input_unit) {
+  const std::string out = output_unit.empty() ? "1" : output_unit;
+  std::string in = input_unit.empty() ? "1" : input_unit;
+  // A temperature enters a sensitivity as a difference: d y / d t per kelvin.
+  if (in == "degC" || in == "K") in = "K";
+  if (in == "1") return out;
+  if (in.rfind("1/", 0) == 0) {  // d y / d (1/K) = y * K
+    const std::string inverse = in.substr(2);
+    return out == "1" ? inverse : out + "*" + inverse;
+  }
+  return out + "/" + in;
+}
+
+namespace gum_internal {
+
+SharedFactor MakeSharedFactor(const MeasurementModel& model) {
+  SharedFactor f;
+  f.num_params = model.setup().model->num_params;
+  f.num_shared = model.num_shared();
+  f.u.resize(f.num_shared);
+  for (int k = 0; k < f.num_shared; ++k) f.u(k) = model.shared_inputs()[k].u;
+  const int p = f.num_params;
+  const Eigen::MatrixXd r = model.shared_correlation().topLeftCorner(p, p);
+  f.diagonal = r.isIdentity(0.0);
+  if (!f.diagonal) {
+    // R = P^T L D L^T P (pivoted LDLT) -> L_p = P^T L sqrt(D).
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(r);
+    const Eigen::VectorXd d = ldlt.vectorD();
+    if (ldlt.info() != Eigen::Success || d.minCoeff() < -1e-12) {
+      throw InputError("parameter correlation matrix is not positive semi-definite");
+    }
+    const Eigen::MatrixXd l = ldlt.matrixL();
+    Eigen::MatrixXd lp = ldlt.transpositionsP().transpose() *
+                         (l * d.cwiseMax(0.0).cwiseSqrt().asDiagonal());
+    f.param_factor = f.u.head(p).asDiagonal() * lp;
+  }
+  return f;
+}
+
+void SharedFactor::Apply(const double* j, double* a, int rows) const {
+  Eigen::Map<const Eigen::MatrixXd> jm(j, rows, num_shared);
+  Eigen::Map<Eigen::MatrixXd> am(a, rows, num_shared);
+  if (diagonal) {
+    am = jm * u.asDiagonal();
+    return;
+  }
+  am.leftCols(num_params).noalias() = jm.leftCols(num_params) * param_factor;
+  const int rest = num_shared - num_params;
+  am.rightCols(rest) = jm.rightCols(rest) * u.tail(rest).asDiagonal();
+}
+
+void ParallelChunks(std::size_t n, std::size_t chunk, int threads,
+                    const std::function<void(std::size_t, std::size_t, std::size_t)>& body) {
+  const std::size_t num_chunks = (n + chunk - 1) / chunk;
+  std::size_t workers = threads > 0 ? static_cast<std::size_t>(threads)
+                                    : std::max(1u, std::thread::hardware_concurrency());
+  workers = std::min(workers, num_chunks);
+  if (workers <= 1) {
+    for (std::size_t c = 0; c < num_chunks; ++c) body(c, c * chunk, std::min(n, (c + 1) * chunk));
+    return;
+  }
+  std::vector<std::exception_ptr> errors(workers);
+  std::vector<std::size_t> failed_chunk(workers, num_chunks);
+  std::vector<std::thread> pool;
+  pool.reserve(workers);
+  for (std::size_t t = 0; t < workers; ++t) {
+    pool.emplace_back([&, t] {
+      // Each thread takes chunks t, t + workers, ... in increasing order and stops at its first
+      // failure, so the lowest failing chunk over all threads is the globally first one.
+      for (std::size_t c = t; c < num_chunks; c += workers) {
+        try {
+          body(c, c * chunk, std::min(n, (c + 1) * chunk));
+        } catch (...) {
+          errors[t] = std::current_exception();
+          failed_chunk[t] = c;
+          return;
+        }
+      }
+    });
+  }
+  for (std::thread& thread : pool) thread.join();
+  std::size_t first = workers;
+  for (std::size_t t = 0; t < workers; ++t) {
+    if (errors[t] && (first == workers || failed_chunk[t] < failed_chunk[first])) first = t;
+  }
+  if (first < workers) std::rethrow_exception(errors[first]);
+}
+
+std::string PointLabel(const std::string& name, std::size_t index) {
+  if (!name.empty()) return "point '" + name + "': ";
+  return "point #" + std::to_string(index + 1) + ": ";
+}
+
+}  // namespace gum_internal
+}  // namespace vlt

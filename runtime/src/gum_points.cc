@@ -1,0 +1,312 @@
+// GUM engine, per point (vlt/gum.h, docs/gum.md): U_y = J_r U_r J_r^T + (J_s F)(J_s F)^T
+// (JCGM 100 5.1.2 / 5.2.2 in matrix form, JCGM 102 6.2.1.3), expanded uncertainty (JCGM 100
+// 6.2.1), coverage ellipsoid (JCGM 102 6.5.2.3), line-of-sight split, budget (JCGM 100 8).
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "gum_internal.h"
+#include "vlt/error.h"
+#include "vlt/gum.h"
+#include "vlt/inverse.h"
+
+namespace vlt {
+namespace {
+
+using gum_internal::PointLabel;
+using gum_internal::SharedFactor;
+
+constexpr std::size_t kChunk = 1024;
+const char* const kReadingNames[3] = {"range", "azimuth", "elevation"};
+const char* const kReadingUnits[3] = {"m", "rad", "rad"};
+
+void CheckReadings(const Eigen::Vector3d& r, const std::string& name, std::size_t index) {
+  if (!r.allFinite()) {
+    throw NumericalError(PointLabel(name, index) + "readings are not finite");
+  }
+  if (!(r(0) > 0.0)) {
+    throw NumericalError(PointLabel(name, index) + "range reading " + std::to_string(r(0)) +
+                         " m: the range must be positive (zero range is singular)");
+  }
+}
+
+// Radial, horizontal and vertical unit vectors (columns) at tracker-frame point x.
+Eigen::Matrix3d LineOfSight(const Eigen::Vector3d& x, const std::string& name,
+                            std::size_t index) {
+  const double horizontal = std::hypot(x(0), x(1));
+  if (horizontal < gum_internal::kStandingAxisTolerance) {
+    throw NumericalError(PointLabel(name, index) +
+                         "on the standing (vertical) axis of the tracker: the azimuth and the "
+                         "transverse directions are undefined");
+  }
+  const double a = std::atan2(x(1), x(0));
+  const double e = std::atan2(x(2), horizontal);
+  Eigen::Matrix3d d;
+  d.col(0) << std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e);
+  d.col(1) << -std::sin(a), std::cos(a), 0.0;
+  d.col(2) << -std::sin(e) * std::cos(a), -std::sin(e) * std::sin(a), std::cos(e);
+  return d;
+}
+
+LineOfSightSplit Split(const Eigen::Matrix3d& directions, const Eigen::Matrix3d& cov) {
+  LineOfSightSplit s;
+  s.directions = directions;
+  const Eigen::Vector3d var = (directions.transpose() * cov * directions).diagonal();
+  s.u_radial = std::sqrt(std::max(0.0, var(0)));
+  s.u_horizontal = std::sqrt(std::max(0.0, var(1)));
+  s.u_vertical = std::sqrt(std::max(0.0, var(2)));
+  return s;
+}
+
+CoverageEllipsoid Ellipsoid(const Eigen::Matrix3d& cov, double k3) {
+  CoverageEllipsoid e;
+  e.k = k3;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+  // Eigen sorts ascending; report descending.
+  for (int j = 0; j < 3; ++j) {
+    e.semi_axes(j) = k3 * std::sqrt(std::max(0.0, eig.eigenvalues()(2 - j)));
+    e.directions.col(j) = eig.eigenvectors().col(2 - j);
+  }
+  return e;
+}
+
+std::string CorrelationHandling(const SharedFactor& f) {
+  if (f.diagonal) {
+    return "all inputs uncorrelated: each row is (c u)^2, the shares of each axis sum to 100 %";
+  }
+  return "error parameters correlated (parameter correlation matrix): each row is (c u)^2 of one "
+         "input; the cross terms 2 sum_{i<j} c_i c_j u_i u_j r_ij are the row 'correlations' "
+         "(may be negative); the shares of each axis, that row included, sum to 100 %";
+}
+
+// Per-thread scratch space, allocated once per chunk, not per point.
+struct Scratch {
+  explicit Scratch(int num_shared) : js(3 * num_shared), a(3 * num_shared) {}
+  std::vector<double> js, a;
+};
+
+void PropagateOne(const MeasurementModel& model, const SharedFactor& factor,
+                  const Eigen::VectorXd& x, const Eigen::Matrix3d& rotation,
+                  const Eigen::Vector3d& translation, double scale,
+                  int num_instrument, const PointReadings& point, std::size_t index, double k,
+                  double k3, const std::vector<BudgetRow>* templates_or_null, Scratch& scratch,
+                  PointUncertainty& out) {
+  const int num_shared = model.num_shared();
+  CheckReadings(point.readings, point.name, index);
+  out.name = point.name;
+  out.readings = point.readings;
+  Eigen::Matrix3d jr;
+  model.EvaluateWithJacobian(point.readings.data(), x.data(), out.part.data(), jr.data(),
+                             scratch.js.data());
+  // x_t = R^T (y / s - t) at the estimates (saves a second model evaluation).
+  out.tracker = rotation.transpose() * (out.part / scale - translation);
+  const Eigen::Matrix3d los = LineOfSight(out.tracker, point.name, index);
+
+  const Eigen::Vector3d ur = model.reading_uncertainty(point.readings(0));
+  const Eigen::Matrix3d jr_u = jr * ur.asDiagonal();
+  factor.Apply(scratch.js.data(), scratch.a.data(), 3);
+  Eigen::Map<const Eigen::MatrixXd> a(scratch.a.data(), 3, num_shared);
+  // Instrument part (readings, parameters, environment) and station/part part (pose, thermal):
+  // the factor is block diagonal by group, so the column blocks of J F are independent.
+  Eigen::Matrix3d cov_instrument = jr_u * jr_u.transpose();
+  cov_instrument.noalias() += a.leftCols(num_instrument) * a.leftCols(num_instrument).transpose();
+  out.cov_part = cov_instrument;
+  const int rest = num_shared - num_instrument;
+  out.cov_part.noalias() += a.rightCols(rest) * a.rightCols(rest).transpose();
+  // y = s (R x_t + t) at the estimates: d x_t = R^T d y / s for the instrument inputs.
+  out.cov_tracker = rotation.transpose() * cov_instrument * rotation / (scale * scale);
+
+  if (!out.part.allFinite() || !out.tracker.allFinite() || !out.cov_part.allFinite() ||
+      !out.cov_tracker.allFinite()) {
+    throw NumericalError(PointLabel(point.name, index) + "the model gives a non-finite result");
+  }
+  out.u_part = out.cov_part.diagonal().cwiseMax(0.0).cwiseSqrt();
+  out.u_tracker = out.cov_tracker.diagonal().cwiseMax(0.0).cwiseSqrt();
+  out.k = k;
+  out.U_part = k * out.u_part;
+  out.los_tracker = Split(los, out.cov_tracker);
+  out.los_part = Split(rotation * los, out.cov_part);
+  out.ellipsoid = Ellipsoid(out.cov_part, k3);
+  out.correlation_handling = CorrelationHandling(factor);
+  if (templates_or_null == nullptr) return;
+  const std::vector<BudgetRow>& templates = *templates_or_null;
+
+  // Budget (JCGM 100 8 step 5-6): c_i, c_i u_i per axis, share of u^2(y_axis).
+  const Eigen::Vector3d var = out.cov_part.diagonal();
+  const double trace = var.sum();
+  auto share = [&](const Eigen::Vector3d& v) {
+    Eigen::Vector3d s;
+    for (int i = 0; i < 3; ++i) s(i) = var(i) > 0.0 ? v(i) / var(i) : 0.0;
+    return s;
+  };
+  out.budget.clear();
+  out.budget.reserve(3 + num_shared + 1);
+  Eigen::Vector3d sum_of_squares = Eigen::Vector3d::Zero();
+  // Rows start from the per-input templates (names, units, estimates, u: built once per call).
+  auto add = [&](const BudgetRow& row_template, double estimate, double u,
+                 const Eigen::Vector3d& c) {
+    BudgetRow& row = out.budget.emplace_back(row_template);
+    row.estimate = estimate;
+    row.u = u;
+    row.sensitivity = c.array() + 0.0;  // + 0.0: no "-0" in reports
+    row.contribution = (row.sensitivity * u).array() + 0.0;
+    row.variance = row.contribution.cwiseAbs2();
+    sum_of_squares += row.variance;
+    row.share = share(row.variance);
+    row.share_total = trace > 0.0 ? row.variance.sum() / trace : 0.0;
+  };
+  for (int j = 0; j < 3; ++j) add(templates[j], point.readings(j), ur(j), jr.col(j));
+  Eigen::Map<const Eigen::MatrixXd> js(scratch.js.data(), 3, num_shared);
+  for (int s = 0; s < num_shared; ++s) {
+    add(templates[3 + s], templates[3 + s].estimate, templates[3 + s].u, js.col(s));
+  }
+  if (!factor.diagonal) {
+    BudgetRow row;
+    row.input = "correlations";
+    row.group = "correlation";
+    row.variance = var - sum_of_squares;
+    for (int i = 0; i < 3; ++i) {
+      row.contribution(i) = std::copysign(std::sqrt(std::abs(row.variance(i))), row.variance(i));
+    }
+    row.share = share(row.variance);
+    row.share_total = trace > 0.0 ? row.variance.sum() / trace : 0.0;
+    out.budget.push_back(std::move(row));
+  }
+  std::stable_sort(out.budget.begin(), out.budget.end(),
+                   [](const BudgetRow& l, const BudgetRow& r) {
+                     return l.share_total > r.share_total;
+                   });
+}
+
+// One row per input with everything that does not depend on the point.
+std::vector<BudgetRow> BudgetTemplates(const MeasurementModel& model) {
+  std::vector<BudgetRow> rows;
+  for (int j = 0; j < 3; ++j) {
+    BudgetRow row;
+    row.input = kReadingNames[j];
+    row.group = "reading";
+    row.input_unit = kReadingUnits[j];
+    row.sensitivity_unit = SensitivityUnit("m", row.input_unit);
+    rows.push_back(row);
+  }
+  for (const UncertainInput& in : model.shared_inputs()) {
+    BudgetRow row;
+    row.input = in.name;
+    row.group = in.group;
+    row.input_unit = in.unit;
+    row.estimate = in.estimate;
+    row.u = in.u;
+    row.sensitivity_unit = SensitivityUnit("m", in.unit);
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// Shared inputs of the instrument (parameters, environment) come first in the shared vector.
+int NumInstrument(const MeasurementModel& model) {
+  if (model.pose_offset() >= 0) return model.pose_offset();
+  if (model.thermal_offset() >= 0) return model.thermal_offset();
+  return model.num_shared();
+}
+
+}  // namespace
+
+std::vector<PointUncertainty> PropagatePoints(const MeasurementModel& model,
+                                              std::span<const PointReadings> points,
+                                              const GumOptions& options) {
+  const double k = NormalCoverageFactor(options.coverage_probability);
+  const double k3 = ChiSquareCoverageFactor(options.coverage_probability, 3);
+  const SharedFactor factor = gum_internal::MakeSharedFactor(model);
+  const Eigen::VectorXd x = model.shared_estimates();
+  const Eigen::Matrix3d rotation = model.PoseRotation(x.data());
+  const Eigen::Vector3d translation = model.PoseTranslation(x.data());
+  const double scale = model.ThermalScale(x.data());
+  const int num_instrument = NumInstrument(model);
+  const std::vector<BudgetRow> templates = BudgetTemplates(model);
+  const std::vector<BudgetRow>* budget_templates = options.budgets ? &templates : nullptr;
+  std::vector<PointUncertainty> results(points.size());
+  gum_internal::ParallelChunks(
+      points.size(), kChunk, options.threads, [&](std::size_t, std::size_t begin, std::size_t end) {
+        Scratch scratch(model.num_shared());
+        for (std::size_t i = begin; i < end; ++i) {
+          PropagateOne(model, factor, x, rotation, translation, scale, num_instrument, points[i], i, k, k3,
+                       budget_templates, scratch, results[i]);
+        }
+      });
+  return results;
+}
+
+std::vector<Eigen::Vector3d> ExpandedUncertaintyField(const MeasurementModel& model,
+                                                      std::span<const Eigen::Vector3d> readings,
+                                                      double coverage_probability, int threads) {
+  const double k = NormalCoverageFactor(coverage_probability);
+  const SharedFactor factor = gum_internal::MakeSharedFactor(model);
+  const Eigen::VectorXd x = model.shared_estimates();
+  const int num_shared = model.num_shared();
+  std::vector<Eigen::Vector3d> field(readings.size());
+  gum_internal::ParallelChunks(
+      readings.size(), kChunk, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
+        Scratch scratch(num_shared);
+        for (std::size_t i = begin; i < end; ++i) {
+          const Eigen::Vector3d& r = readings[i];
+          CheckReadings(r, "", i);
+          Eigen::Vector3d y;
+          Eigen::Matrix3d jr;
+          model.EvaluateWithJacobian(r.data(), x.data(), y.data(), jr.data(), scratch.js.data());
+          const Eigen::Vector3d ur = model.reading_uncertainty(r(0));
+          // Only the diagonal of J U J^T: sum of squares of the rows of [J_r U_r^1/2, J_s F].
+          Eigen::Vector3d var = (jr * ur.asDiagonal()).rowwise().squaredNorm();
+          if (factor.diagonal) {
+            for (int s = 0; s < num_shared; ++s) {
+              const double us = factor.u(s);
+              const double* c = scratch.js.data() + 3 * s;
+              var(0) += (c[0] * us) * (c[0] * us);
+              var(1) += (c[1] * us) * (c[1] * us);
+              var(2) += (c[2] * us) * (c[2] * us);
+            }
+          } else {
+            factor.Apply(scratch.js.data(), scratch.a.data(), 3);
+            var += Eigen::Map<const Eigen::MatrixXd>(scratch.a.data(), 3, num_shared)
+                       .rowwise()
+                       .squaredNorm();
+          }
+          field[i] = k * var.cwiseSqrt();
+          if (!field[i].allFinite() || !y.allFinite()) {
+            throw NumericalError(PointLabel("", i) + "the model gives a non-finite result");
+          }
+        }
+      });
+  return field;
+}
+
+Eigen::Vector3d ReadingsForPartPoint(const MeasurementModel& model, const Eigen::Vector3d& part,
+                                     bool back_face, const std::string& name) {
+  const Eigen::VectorXd x = model.shared_estimates();
+  // Undo thermal (y = s x_p) and the pose (x_p = R x_t + t) at the estimates.
+  const Eigen::Vector3d x_p = part / model.ThermalScale(x.data());
+  const Eigen::Vector3d x_t =
+      model.PoseRotation(x.data()).transpose() * (x_p - model.PoseTranslation(x.data()));
+  const double horizontal = std::hypot(x_t(0), x_t(1));
+  if (!x_t.allFinite() || horizontal < gum_internal::kStandingAxisTolerance) {
+    throw NumericalError(PointLabel(name, 0) +
+                         "on the standing (vertical) axis of the tracker: no readings can be "
+                         "planned (azimuth undefined)");
+  }
+  // Newton inverse of the tracker model with the error parameters at their estimates
+  // (vlt/inverse.h); the air at its estimates gives mu_env = 0, so the range reading equals the
+  // model's range.
+  std::array<double, 3> readings;
+  try {
+    readings = InverseReadings(*model.setup().model, x.data(), {x_t(0), x_t(1), x_t(2)},
+                               back_face ? Face::kBack : Face::kFront);
+  } catch (const NumericalError& e) {
+    throw NumericalError(PointLabel(name, 0) + e.what());
+  }
+  return {readings[0], readings[1], readings[2]};
+}
+
+}  // namespace vlt

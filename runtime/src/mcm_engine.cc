@@ -1,0 +1,536 @@
+// mcm_engine.cc — the Monte Carlo driver: batches (JCGM 101 7.9.4), chunks, threads, summary
+// statistics (7.6), coverage intervals (7.7), JCGM 102 point covariance and coverage region.
+//
+// Determinism: trials are numbered 0, 1, 2, ...; every draw depends only on (seed, trial, input)
+// (random.h). A batch is split into chunks of kChunk trials; each chunk sums its own deviations
+// sequentially, and the chunk sums are added in chunk order, the batch sums in batch order. The
+// values are stored at their trial's position. Nothing depends on which thread ran which chunk,
+// so the result is bit-identical for any number of threads.
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <exception>
+#include <functional>
+#include <limits>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+
+#include "mcm_engine.h"
+#include "progress.h"
+#include "vlt/error.h"
+
+namespace vlt::mcm_internal {
+
+int ResolveThreads(int requested) {
+  if (requested > 0) return requested;
+  const unsigned hardware = std::thread::hardware_concurrency();
+  return hardware == 0 ? 1 : static_cast<int>(hardware);
+}
+
+namespace {
+
+// A fixed set of worker threads; ParallelFor hands out items through an atomic counter. The
+// calling thread is worker 0.
+class ThreadPool {
+ public:
+  explicit ThreadPool(int threads) {
+    for (int w = 1; w < threads; ++w) workers_.emplace_back([this, w] { WorkerLoop(w); });
+  }
+  ~ThreadPool() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    start_.notify_all();
+    for (std::thread& t : workers_) t.join();
+  }
+  int size() const { return static_cast<int>(workers_.size()) + 1; }
+
+  void ParallelFor(int count, const std::function<void(int, int)>& fn) {
+    if (workers_.empty() || count <= 1) {
+      for (int i = 0; i < count; ++i) fn(i, 0);
+      return;
+    }
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      job_ = &fn;
+      count_ = count;
+      next_ = 0;
+      pending_ = static_cast<int>(workers_.size());
+      error_ = nullptr;
+      ++generation_;
+    }
+    start_.notify_all();
+    RunItems(0);
+    std::unique_lock<std::mutex> lock(mutex_);
+    done_.wait(lock, [this] { return pending_ == 0; });
+    job_ = nullptr;
+    if (error_) std::rethrow_exception(error_);
+  }
+
+ private:
+  void WorkerLoop(int worker) {
+    std::uint64_t seen = 0;
+    for (;;) {
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        start_.wait(lock, [&] { return stop_ || generation_ != seen; });
+        if (stop_) return;
+        seen = generation_;
+      }
+      RunItems(worker);
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (--pending_ == 0) done_.notify_one();
+    }
+  }
+
+  void RunItems(int worker) {
+    for (;;) {
+      const int item = next_.fetch_add(1);
+      if (item >= count_) return;
+      try {
+        (*job_)(item, worker);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (!error_) error_ = std::current_exception();
+        next_ = count_;  // stop handing out work
+      }
+    }
+  }
+
+  std::vector<std::thread> workers_;
+  std::mutex mutex_;
+  std::condition_variable start_, done_;
+  const std::function<void(int, int)>* job_ = nullptr;
+  int count_ = 0;
+  std::atomic<int> next_{0};
+  int pending_ = 0;
+  std::uint64_t generation_ = 0;
+  bool stop_ = false;
+  std::exception_ptr error_;
+};
+
+// Per-batch values of the four statistics of 7.9.4 for one output.
+struct BatchStats {
+  std::vector<double> mean, u, low, high;            // per batch
+  std::vector<double> shortest_low, shortest_high;   // only when values are not all kept
+};
+
+// Standard deviation of the average of h batch values: sqrt(sum (v - vbar)^2 / (h (h - 1))).
+double StdOfAverage(const std::vector<double>& v) {
+  const std::size_t h = v.size();
+  if (h < 2) return 0.0;
+  double mean = 0.0;
+  for (double x : v) mean += x;
+  mean /= static_cast<double>(h);
+  double ss = 0.0;
+  for (double x : v) ss += (x - mean) * (x - mean);
+  return std::sqrt(ss / (static_cast<double>(h) * static_cast<double>(h - 1)));
+}
+
+double Average(const std::vector<double>& v) {
+  double s = 0.0;
+  for (double x : v) s += x;
+  return v.empty() ? 0.0 : s / static_cast<double>(v.size());
+}
+
+// Layout of the partial sums of one chunk / batch / run: per output sum d and sum d^2, then per
+// point the 3 cross sums (xy, xz, yz) of the deviations d = y - y(estimates).
+struct SumLayout {
+  int outputs;
+  int points;
+  int stride() const { return 2 * outputs + 3 * points; }
+  int sum(int o) const { return 2 * o; }
+  int sum2(int o) const { return 2 * o + 1; }
+  int cross(int p, int k) const { return 2 * outputs + 3 * p + k; }
+};
+
+// Mean and covariance of point p (3 outputs from `first`) from the sums of n trials.
+void PointMoments(const std::vector<double>& sums, const SumLayout& layout, int p, int first,
+                  const std::vector<double>& y0, std::int64_t n, Eigen::Vector3d* mean,
+                  Eigen::Matrix3d* cov) {
+  const double dn = static_cast<double>(n);
+  Eigen::Vector3d s1;
+  for (int a = 0; a < 3; ++a) s1(a) = sums[layout.sum(first + a)];
+  for (int a = 0; a < 3; ++a) (*mean)(a) = y0[first + a] + s1(a) / dn;
+  static constexpr int kCross[3][3] = {{-1, 0, 1}, {0, -1, 2}, {1, 2, -1}};
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) {
+      const double sab = a == b ? sums[layout.sum2(first + a)] : sums[layout.cross(p, kCross[a][b])];
+      (*cov)(a, b) = (sab - s1(a) * s1(b) / dn) / (dn - 1.0);
+    }
+  }
+}
+
+// k_p of JCGM 102 7.7.3 from the deviations (float, relative to y0) of n trials of one point:
+// the q-th smallest |L^-1 (y_r - mean)|. Returns false when the covariance is not positive
+// definite.
+bool RegionFactor(const float* x, const float* y, const float* z, std::int64_t n,
+                  const Eigen::Vector3d& mean_minus_y0, const Eigen::Matrix3d& cov, double p,
+                  double* k) {
+  Eigen::LLT<Eigen::Matrix3d> llt(cov);
+  if (llt.info() != Eigen::Success || !(cov.diagonal().minCoeff() > 0.0)) return false;
+  const Eigen::Matrix3d l_inv = Eigen::Matrix3d(llt.matrixL()).inverse();
+  if (!l_inv.allFinite()) return false;
+  std::vector<double> d(static_cast<std::size_t>(n));
+  for (std::int64_t r = 0; r < n; ++r) {
+    const Eigen::Vector3d dev(static_cast<double>(x[r]) - mean_minus_y0(0),
+                              static_cast<double>(y[r]) - mean_minus_y0(1),
+                              static_cast<double>(z[r]) - mean_minus_y0(2));
+    d[r] = (l_inv * dev).norm();
+  }
+  const std::int64_t q = CoverageCount(n, p);
+  std::nth_element(d.begin(), d.begin() + (q - 1), d.end());
+  *k = d[q - 1];
+  return true;
+}
+
+std::string FormatStatus(double value, const char* what) {
+  char text[96];
+  std::snprintf(text, sizeof text, "%s %.3g", what, value);
+  return text;
+}
+
+}  // namespace
+
+McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
+                    const McmSettings& settings) {
+  const double p = settings.coverage_probability;
+  if (!(p > 0.0 && p < 1.0)) {
+    throw InputError("Monte Carlo: coverage probability must be in (0, 1), got " +
+                     std::to_string(p));
+  }
+  if (settings.significant_digits != 1 && settings.significant_digits != 2) {
+    throw InputError("Monte Carlo: n_dig (significant digits of the numerical tolerance) must be "
+                     "1 or 2, got " + std::to_string(settings.significant_digits));
+  }
+  if (settings.trials < 0) {
+    throw InputError("Monte Carlo: number of trials must be >= 0 (0 = adaptive), got " +
+                     std::to_string(settings.trials));
+  }
+  const int n_out = kernel.num_outputs();
+  const int n_points = static_cast<int>(spec.point_names.size());
+  const SumLayout layout{n_out, n_points};
+  const int stride = layout.stride();
+  const bool adaptive = settings.trials == 0;
+
+  // 7.9.4 a): M = max(J, 10^4), J the smallest integer >= 100 / (1 - p).
+  const auto j_min = static_cast<std::int64_t>(std::ceil(100.0 / (1.0 - p) - 1e-9));
+  std::int64_t batch_size = std::max<std::int64_t>(j_min, 10000);
+  if (!adaptive) {
+    CoverageCount(settings.trials, p);
+    batch_size = std::min(batch_size, settings.trials);
+  } else if (settings.max_trials < 2 * batch_size) {
+    throw InputError("Monte Carlo: max_trials " + std::to_string(settings.max_trials) +
+                     " is below two batches of " + std::to_string(batch_size) + " trials");
+  }
+
+  const std::vector<double> y0 = kernel.AtEstimates();
+  for (int o = 0; o < n_out; ++o) {
+    if (!std::isfinite(y0[o])) {
+      throw NumericalError("Monte Carlo: output '" + spec.names[o] +
+                           "' is not finite at the input estimates");
+    }
+  }
+
+  const int threads = ResolveThreads(settings.num_threads);
+  ThreadPool pool(threads);
+  std::vector<Scratch> scratch(threads);
+  std::vector<std::vector<double>> buffers(threads);
+  for (int w = 0; w < threads; ++w) {
+    kernel.InitScratch(scratch[w]);
+    buffers[w].assign(static_cast<std::size_t>(n_out) * kSubBatch, 0.0);
+  }
+  const KeyedStream rng(settings.seed);
+
+  // Storage of every value: series[o][trial], float deviations from y0.
+  const std::size_t bytes_per_trial = static_cast<std::size_t>(n_out) * sizeof(float);
+  bool keep_all = true;
+  if (!adaptive && static_cast<std::size_t>(settings.trials) * bytes_per_trial >
+                       settings.memory_budget_bytes) {
+    keep_all = false;
+  }
+  std::vector<std::vector<float>> series(keep_all ? n_out : 0);
+  if (keep_all && !adaptive) {
+    for (auto& s : series) s.reserve(static_cast<std::size_t>(settings.trials));
+  }
+
+  std::vector<double> total(stride, 0.0);
+  std::vector<BatchStats> stats(n_out);
+  std::vector<std::vector<double>> batch_k(n_points);   // only when values are not all kept
+  std::vector<std::vector<float>> sort_space(threads);
+
+  ProgressBar progress("Monte Carlo", settings.quiet);
+  const auto t_start = std::chrono::steady_clock::now();
+  std::int64_t done = 0;
+  std::int64_t batches = 0;
+  bool converged = !adaptive;
+
+  // Batch statistics that need every value of a batch (shortest interval, k_p), for the
+  // averaged-endpoint method when not every value is kept.
+  auto batch_extras = [&](std::vector<float>& vals, std::int64_t bh,
+                          const std::vector<double>& batch_sums) {
+    for (int pt = 0; pt < n_points; ++pt) {
+      const int first = spec.point_first_output[pt];
+      Eigen::Vector3d mean;
+      Eigen::Matrix3d cov;
+      PointMoments(batch_sums, layout, pt, first, y0, bh, &mean, &cov);
+      Eigen::Vector3d offset;
+      for (int a = 0; a < 3; ++a) offset(a) = mean(a) - y0[first + a];
+      double k = 0.0;
+      const float* base = vals.data();
+      if (RegionFactor(base + (first + 0) * bh, base + (first + 1) * bh, base + (first + 2) * bh,
+                       bh, offset, cov, p, &k)) {
+        batch_k[pt].push_back(k);
+      }
+    }
+    pool.ParallelFor(n_out, [&](int o, int w) {
+      std::vector<float>& v = sort_space[w];
+      v.assign(vals.begin() + o * bh, vals.begin() + (o + 1) * bh);
+      CoverageInterval sym, shortest;
+      CoverageIntervals(v, y0[o], p, &sym, &shortest);
+      stats[o].shortest_low.push_back(shortest.low);
+      stats[o].shortest_high.push_back(shortest.high);
+    });
+  };
+
+  for (;;) {
+    const std::int64_t first = done;
+    const std::int64_t bh = adaptive ? batch_size : std::min(batch_size, settings.trials - done);
+    const int n_chunks = static_cast<int>((bh + kChunk - 1) / kChunk);
+    std::vector<double> partial(static_cast<std::size_t>(n_chunks) * stride, 0.0);
+    std::vector<float> vals(static_cast<std::size_t>(n_out) * bh);
+
+    pool.ParallelFor(n_chunks, [&](int c, int w) {
+      double* part = partial.data() + static_cast<std::size_t>(c) * stride;
+      double* out = buffers[w].data();
+      const std::int64_t c0 = static_cast<std::int64_t>(c) * kChunk;
+      const std::int64_t c1 = std::min<std::int64_t>(bh, c0 + kChunk);
+      for (std::int64_t s = c0; s < c1; s += kSubBatch) {
+        const int n = static_cast<int>(std::min<std::int64_t>(kSubBatch, c1 - s));
+        kernel.Run(rng, first + s, n, scratch[w], out);
+        for (int o = 0; o < n_out; ++o) {
+          const double* row = out + static_cast<std::size_t>(o) * kSubBatch;
+          float* dst = vals.data() + static_cast<std::size_t>(o) * bh + s;
+          double s1 = 0.0, s2 = 0.0;
+          for (int i = 0; i < n; ++i) {
+            if (!std::isfinite(row[i])) {
+              throw NumericalError("Monte Carlo trial " + std::to_string(first + s + i) +
+                                   ": output '" + spec.names[o] +
+                                   "' is not finite (a drawn input reached a singular point)");
+            }
+            const double d = row[i] - y0[o];
+            s1 += d;
+            s2 += d * d;
+            dst[i] = static_cast<float>(d);
+          }
+          part[layout.sum(o)] += s1;
+          part[layout.sum2(o)] += s2;
+        }
+        for (int pt = 0; pt < n_points; ++pt) {
+          const int f = spec.point_first_output[pt];
+          const double* x = out + static_cast<std::size_t>(f) * kSubBatch;
+          const double* y = x + kSubBatch;
+          const double* z = y + kSubBatch;
+          double sxy = 0.0, sxz = 0.0, syz = 0.0;
+          for (int i = 0; i < n; ++i) {
+            const double dx = x[i] - y0[f], dy = y[i] - y0[f + 1], dz = z[i] - y0[f + 2];
+            sxy += dx * dy;
+            sxz += dx * dz;
+            syz += dy * dz;
+          }
+          part[layout.cross(pt, 0)] += sxy;
+          part[layout.cross(pt, 1)] += sxz;
+          part[layout.cross(pt, 2)] += syz;
+        }
+      }
+    });
+
+    // Chunk sums in chunk order, then into the run total in batch order.
+    std::vector<double> batch_sums(stride, 0.0);
+    for (int c = 0; c < n_chunks; ++c) {
+      for (int k = 0; k < stride; ++k) batch_sums[k] += partial[static_cast<std::size_t>(c) * stride + k];
+    }
+    for (int k = 0; k < stride; ++k) total[k] += batch_sums[k];
+    done += bh;
+    ++batches;
+
+    if (keep_all && static_cast<std::size_t>(done) * bytes_per_trial > settings.memory_budget_bytes) {
+      // Adaptive run outgrew the budget: switch to averaged batch endpoints, computing the batch
+      // extras of the batches kept so far, then drop the stored values.
+      keep_all = false;
+      const std::int64_t kept = done - bh;
+      for (std::int64_t b0 = 0; b0 < kept; b0 += batch_size) {
+        std::vector<float> old(static_cast<std::size_t>(n_out) * batch_size);
+        std::vector<double> old_sums(stride, 0.0);
+        for (int o = 0; o < n_out; ++o) {
+          std::copy(series[o].begin() + b0, series[o].begin() + b0 + batch_size,
+                    old.begin() + static_cast<std::size_t>(o) * batch_size);
+          for (std::int64_t i = 0; i < batch_size; ++i) {
+            const double d = old[static_cast<std::size_t>(o) * batch_size + i];
+            old_sums[layout.sum(o)] += d;
+            old_sums[layout.sum2(o)] += d * d;
+          }
+        }
+        for (int pt = 0; pt < n_points; ++pt) {
+          const int f = spec.point_first_output[pt];
+          for (std::int64_t i = 0; i < batch_size; ++i) {
+            const double dx = old[f * batch_size + i], dy = old[(f + 1) * batch_size + i],
+                         dz = old[(f + 2) * batch_size + i];
+            old_sums[layout.cross(pt, 0)] += dx * dy;
+            old_sums[layout.cross(pt, 1)] += dx * dz;
+            old_sums[layout.cross(pt, 2)] += dy * dz;
+          }
+        }
+        batch_extras(old, batch_size, old_sums);
+      }
+      series.clear();
+      series.shrink_to_fit();
+    }
+    if (keep_all) {
+      for (int o = 0; o < n_out; ++o) {
+        series[o].insert(series[o].end(), vals.begin() + static_cast<std::size_t>(o) * bh,
+                         vals.begin() + static_cast<std::size_t>(o + 1) * bh);
+      }
+    } else if (bh == batch_size) {
+      batch_extras(vals, bh, batch_sums);
+    }
+
+    // 7.9.4 c), d): the batch's estimate, standard uncertainty and symmetric interval. Only full
+    // batches count: the short last batch of a fixed-M run would weigh as much as a full one.
+    const double dbh = static_cast<double>(bh);
+    if (bh == batch_size) pool.ParallelFor(n_out, [&](int o, int w) {
+      const double s1 = batch_sums[layout.sum(o)], s2 = batch_sums[layout.sum2(o)];
+      stats[o].mean.push_back(y0[o] + s1 / dbh);
+      stats[o].u.push_back(bh > 1 ? std::sqrt(std::max(0.0, (s2 - s1 * s1 / dbh) / (dbh - 1.0))) : 0.0);
+      std::vector<float>& v = sort_space[w];
+      v.assign(vals.begin() + static_cast<std::size_t>(o) * bh,
+               vals.begin() + static_cast<std::size_t>(o + 1) * bh);
+      const std::int64_t q = CoverageCount(bh, p);
+      const std::int64_t r = (bh - q) % 2 == 0 ? (bh - q) / 2 : (bh - q + 1) / 2;
+      std::nth_element(v.begin(), v.begin() + (r - 1), v.end());
+      stats[o].low.push_back(y0[o] + static_cast<double>(v[r - 1]));
+      std::nth_element(v.begin() + r, v.begin() + (r + q - 1), v.end());
+      stats[o].high.push_back(y0[o] + static_cast<double>(v[r + q - 1]));
+    });
+
+    const double dn = static_cast<double>(done);
+    auto run_u = [&](int o) {
+      const double s1 = total[layout.sum(o)], s2 = total[layout.sum2(o)];
+      return done > 1 ? std::sqrt(std::max(0.0, (s2 - s1 * s1 / dn) / (dn - 1.0))) : 0.0;
+    };
+    std::string status;
+    if (adaptive) {
+      // 7.9.4 e)-i): stop when 2 s <= delta for the mean, u, y_low and y_high of every output,
+      // delta from u(y) of all h M values.
+      double worst = 0.0;
+      if (batches >= 2) {
+        for (int o = 0; o < n_out; ++o) {
+          const double delta = NumericalTolerance(run_u(o), settings.significant_digits);
+          const double s = std::max({StdOfAverage(stats[o].mean), StdOfAverage(stats[o].u),
+                                     StdOfAverage(stats[o].low), StdOfAverage(stats[o].high)});
+          const double ratio = delta > 0.0 ? 2.0 * s / delta : (s > 0.0 ? 1e300 : 0.0);
+          worst = std::max(worst, ratio);
+        }
+        if (worst <= 1.0) converged = true;
+        status = FormatStatus(worst, "worst 2s/delta (stops at <= 1):");
+      }
+      progress.Update(done, 0, status);
+      if (converged || done + batch_size > settings.max_trials) break;
+    } else {
+      double worst = 0.0;
+      int worst_output = 0;
+      for (int o = 0; o < n_out; ++o) {
+        const double se = run_u(o) / std::sqrt(dn);
+        if (se > worst) worst = se, worst_output = o;
+      }
+      progress.Update(done, settings.trials,
+                      FormatStatus(worst, "largest std. error of a mean:") + " " +
+                          spec.units[worst_output] + " (" + spec.names[worst_output] + ")");
+      if (done >= settings.trials) break;
+    }
+  }
+  progress.Finish();
+
+  McmResult result;
+  result.seed = settings.seed;
+  result.coverage_probability = p;
+  result.trials = done;
+  result.adaptive = adaptive;
+  result.converged = converged;
+  result.batch_size = batch_size;
+  result.batches = batches;
+  result.threads = threads;
+  result.interval_method = keep_all ? "order statistics of all M values"
+                                    : "average of the batch endpoints (memory budget exceeded)";
+  const double dn = static_cast<double>(done);
+  result.outputs.resize(n_out);
+  for (int o = 0; o < n_out; ++o) {
+    McmOutputResult& r = result.outputs[o];
+    r.name = spec.names[o];
+    r.unit = spec.units[o];
+    r.value_at_estimates = y0[o];
+    const double s1 = total[layout.sum(o)], s2 = total[layout.sum2(o)];
+    r.mean = y0[o] + s1 / dn;
+    r.u = std::sqrt(std::max(0.0, (s2 - s1 * s1 / dn) / (dn - 1.0)));
+    r.accuracy = {StdOfAverage(stats[o].mean), StdOfAverage(stats[o].u),
+                  StdOfAverage(stats[o].low), StdOfAverage(stats[o].high),
+                  NumericalTolerance(r.u, settings.significant_digits)};
+  }
+
+  result.points.resize(n_points);
+  for (int pt = 0; pt < n_points; ++pt) {
+    McmPointResult& r = result.points[pt];
+    const int f = spec.point_first_output[pt];
+    r.name = spec.point_names[pt];
+    PointMoments(total, layout, pt, f, y0, done, &r.mean, &r.covariance);
+    for (int a = 0; a < 3; ++a) r.mean(a) = result.outputs[f + a].mean;
+    const Eigen::Vector3d sd = r.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+    r.correlation = Eigen::Matrix3d::Identity();
+    for (int a = 0; a < 3; ++a) {
+      for (int b = 0; b < 3; ++b) {
+        if (a != b && sd(a) > 0.0 && sd(b) > 0.0) {
+          r.correlation(a, b) = r.covariance(a, b) / (sd(a) * sd(b));
+        }
+      }
+    }
+    if (keep_all) {
+      Eigen::Vector3d offset;
+      for (int a = 0; a < 3; ++a) offset(a) = r.mean(a) - y0[f + a];
+      double k = 0.0;
+      r.has_region = RegionFactor(series[f].data(), series[f + 1].data(), series[f + 2].data(),
+                                  done, offset, r.covariance, p, &k);
+      r.coverage_factor = r.has_region ? k : 0.0;
+    } else {
+      r.has_region = !batch_k[pt].empty();
+      r.coverage_factor = Average(batch_k[pt]);
+    }
+  }
+
+  if (keep_all) {
+    // 7.7 from all M values (reorders the stored series: done last).
+    pool.ParallelFor(n_out, [&](int o, int) {
+      CoverageIntervals(series[o], y0[o], p, &result.outputs[o].symmetric,
+                        &result.outputs[o].shortest);
+    });
+  } else {
+    for (int o = 0; o < n_out; ++o) {
+      result.outputs[o].symmetric = {Average(stats[o].low), Average(stats[o].high)};
+      result.outputs[o].shortest = {Average(stats[o].shortest_low),
+                                    Average(stats[o].shortest_high)};
+    }
+  }
+  result.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  return result;
+}
+
+}  // namespace vlt::mcm_internal

@@ -1,0 +1,127 @@
+// mcm_engine.h — internals of the Monte Carlo engine shared by the job and custom-model entry
+// points (vlt/mcm.h): input sampling (independent + Gaussian copula), the trial kernel
+// interface, the batch/chunk/thread driver and the coverage-interval routines on stored values.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "random.h"
+#include "vlt/distributions.h"
+#include "vlt/mcm.h"
+#include "vlt/measurement_model.h"
+#include "vlt/model_info.h"
+
+namespace vlt::mcm_internal {
+
+// Trials are evaluated in sub-batches of kSubBatch (structure-of-arrays buffers of this length)
+// inside chunks of kChunk trials. Chunks are the unit of work of the threads and of the partial
+// sums; their size never depends on the number of threads.
+inline constexpr int kSubBatch = 256;
+inline constexpr int kChunk = 4096;
+
+// Draws a vector of inputs for a range of trials: independent inputs by their own exact
+// transforms, inputs with a non-zero correlation by a Gaussian copula (JCGM 101 6.4.8 for the
+// normal case; other marginals through Phi and their inverse CDF). Input k uses random stream
+// first_stream + k.
+class InputSampler {
+ public:
+  // `correlation`: empty (independent) or size x size. `where` names the matrix in messages.
+  InputSampler(std::vector<Distribution> inputs, std::vector<std::string> names,
+               const Eigen::MatrixXd& correlation, std::uint64_t first_stream,
+               std::string_view where);
+
+  int size() const { return static_cast<int>(inputs_.size()); }
+  const std::vector<Distribution>& inputs() const { return inputs_; }
+  // Doubles of scratch Draw needs for n trials.
+  std::size_t scratch_size(int n) const { return copula_.size() * static_cast<std::size_t>(n); }
+
+  // out[k * stride + i] = input k in trial first + i, i < n.
+  void Draw(const KeyedStream& rng, std::int64_t first, int n, double* out, int stride,
+            double* scratch) const;
+
+ private:
+  std::vector<Distribution> inputs_;
+  std::vector<int> independent_;   // input indices drawn on their own
+  std::vector<int> copula_;        // input indices drawn through the Gaussian copula
+  Eigen::MatrixXd cholesky_;       // lower factor of the copula's correlation matrix
+  std::uint64_t first_stream_;
+};
+
+// Normals for trials [first, first + n) of one stream: out[i] = z(trial first + i).
+void DrawNormals(const KeyedStream& rng, std::uint64_t stream, std::int64_t first, int n,
+                 double* out);
+
+// The measurement function of every point of one trial (vlt/measurement_model.h
+// MeasurementModel::Evaluate, the same arithmetic, bit for bit — tests/test_mcm.cc checks it):
+// what depends on the shared inputs only — the air's range scale n_est / n (the costly Ciddor /
+// Edlen evaluation), the pose R, t and the thermal scale s — is computed once per trial by
+// Prepare, not once per point.
+class TrialModel {
+ public:
+  struct State {
+    double range_scale = 1.0;   // n_est / n(t, p, RH, x); 1 without environment
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+    Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+    double thermal_scale = 1.0;
+  };
+
+  explicit TrialModel(const MeasurementModel& model);
+  void Prepare(const double* shared, State* state) const;
+  // y (3) of one point from its readings (3), the shared inputs and their prepared state.
+  void Evaluate(const double* readings, const double* shared, const State& state,
+                double* y) const;
+
+ private:
+  const MeasurementModel& model_;
+  ForwardFn forward_;
+  bool environment_, pose_, thermal_;
+};
+
+// Per-thread scratch owned by the driver, sized by the kernel.
+struct Scratch {
+  std::vector<double> doubles;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> task_outputs;
+  std::vector<TrialModel::State> trial_states;   // job kernel: one per trial of a sub-batch
+};
+
+class TrialKernel {
+ public:
+  virtual ~TrialKernel() = default;
+  virtual int num_outputs() const = 0;
+  virtual void InitScratch(Scratch& scratch) const = 0;
+  // The outputs at the input estimates (reference for the stored deviations).
+  virtual std::vector<double> AtEstimates() const = 0;
+  // outputs[o * kSubBatch + i] for trial first + i, i < n <= kSubBatch.
+  virtual void Run(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch,
+                   double* outputs) const = 0;
+};
+
+struct OutputSpec {
+  std::vector<std::string> names;
+  std::vector<std::string> units;
+  // Points (JCGM 102): name and index of the output holding x (y, z follow).
+  std::vector<std::string> point_names;
+  std::vector<int> point_first_output;
+};
+
+McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
+                    const McmSettings& settings);
+
+// Both coverage intervals (JCGM 101 7.7) of the values `reference + values[i]`, reordering
+// `values` (partial sorts of the two tails only: O(M) + O((M - q) log(M - q))).
+template <typename T>
+void CoverageIntervals(std::vector<T>& values, double reference, double p,
+                       CoverageInterval* symmetric, CoverageInterval* shortest);
+
+// Number of threads for a setting (0 = hardware concurrency, at least 1).
+int ResolveThreads(int requested);
+
+}  // namespace vlt::mcm_internal

@@ -1,0 +1,114 @@
+// mcm_intervals.cc — coverage intervals from order statistics (JCGM 101 7.7) and the numerical
+// tolerance (7.9.2).
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "mcm_engine.h"
+#include "vlt/error.h"
+#include "vlt/mcm.h"
+
+namespace vlt {
+
+std::int64_t CoverageCount(std::int64_t m, double p) {
+  if (!(p > 0.0 && p < 1.0)) {
+    throw InputError("coverage probability must be in (0, 1), got " + std::to_string(p));
+  }
+  // 7.7.1: q = pM if pM is an integer, else the integer part of pM + 1/2. A few ulp of slack so
+  // that a decimal p (0.95 is not a binary fraction) with pM "integer" gives that integer.
+  const double pm = p * static_cast<double>(m);
+  const double slack = 8.0 * std::numeric_limits<double>::epsilon() * pm;
+  const double nearest = std::round(pm);
+  const std::int64_t q = std::abs(pm - nearest) <= slack
+                             ? static_cast<std::int64_t>(nearest)
+                             : static_cast<std::int64_t>(std::floor(pm + 0.5));
+  if (m - q < 1) {
+    throw InputError("Monte Carlo: " + std::to_string(m) + " trials are too few for coverage "
+                     "probability " + std::to_string(p) + " (need M - pM >= 1)");
+  }
+  return q;
+}
+
+namespace {
+// r of the probabilistically symmetric interval (1-based): (M - q)/2 or (M - q + 1)/2.
+std::int64_t SymmetricR(std::int64_t m, std::int64_t q) {
+  return (m - q) % 2 == 0 ? (m - q) / 2 : (m - q + 1) / 2;
+}
+}  // namespace
+
+CoverageInterval SymmetricCoverageInterval(std::span<const double> sorted, double p) {
+  const auto m = static_cast<std::int64_t>(sorted.size());
+  const std::int64_t q = CoverageCount(m, p);
+  const std::int64_t r = SymmetricR(m, q);
+  return {sorted[r - 1], sorted[r + q - 1]};
+}
+
+CoverageInterval ShortestCoverageInterval(std::span<const double> sorted, double p) {
+  const auto m = static_cast<std::int64_t>(sorted.size());
+  const std::int64_t q = CoverageCount(m, p);
+  std::int64_t best = 1;
+  for (std::int64_t r = 2; r <= m - q; ++r) {
+    if (sorted[r + q - 1] - sorted[r - 1] < sorted[best + q - 1] - sorted[best - 1]) best = r;
+  }
+  return {sorted[best - 1], sorted[best + q - 1]};
+}
+
+double NumericalTolerance(double u, int significant_digits) {
+  if (!(u > 0.0) || !std::isfinite(u)) return 0.0;
+  // u = c x 10^l, c an integer of n_dig digits after rounding (7.9.2); delta = 10^l / 2.
+  int l = static_cast<int>(std::floor(std::log10(u))) - significant_digits + 1;
+  const double lower = std::pow(10.0, significant_digits - 1);
+  const double upper = std::pow(10.0, significant_digits);
+  for (int guard = 0; guard < 4; ++guard) {
+    const double c = std::round(u / std::pow(10.0, l));
+    if (c >= upper) {
+      ++l;
+    } else if (c < lower) {
+      --l;
+    } else {
+      break;
+    }
+  }
+  return 0.5 * std::pow(10.0, l);
+}
+
+namespace mcm_internal {
+
+template <typename T>
+void CoverageIntervals(std::vector<T>& values, double reference, double p,
+                       CoverageInterval* symmetric, CoverageInterval* shortest) {
+  const auto m = static_cast<std::int64_t>(values.size());
+  const std::int64_t q = CoverageCount(m, p);
+  const std::int64_t r = SymmetricR(m, q);
+  auto y = [&](std::int64_t k) { return reference + static_cast<double>(values[k - 1]); };
+  const std::int64_t tail = m - q;  // the shortest interval's r ranges over 1..M-q
+  if (2 * tail >= m) {
+    std::sort(values.begin(), values.end());
+  } else {
+    // Lower tail y_(1..M-q) and upper tail y_(q+1..M) in order; the middle is only partitioned.
+    std::nth_element(values.begin(), values.begin() + (tail - 1), values.end());
+    std::sort(values.begin(), values.begin() + tail);
+    std::nth_element(values.begin() + tail, values.begin() + q, values.end());
+    std::sort(values.begin() + q, values.end());
+  }
+  // r <= M - q and r + q >= q + 1: both endpoints are in the sorted tails.
+  *symmetric = {y(r), y(r + q)};
+  std::int64_t best = 1;
+  // Compare widths in the stored type's precision converted to double (exact for float).
+  for (std::int64_t k = 2; k <= tail; ++k) {
+    if (static_cast<double>(values[k + q - 1]) - static_cast<double>(values[k - 1]) <
+        static_cast<double>(values[best + q - 1]) - static_cast<double>(values[best - 1])) {
+      best = k;
+    }
+  }
+  *shortest = {y(best), y(best + q)};
+}
+
+template void CoverageIntervals<float>(std::vector<float>&, double, double, CoverageInterval*,
+                                       CoverageInterval*);
+template void CoverageIntervals<double>(std::vector<double>&, double, double, CoverageInterval*,
+                                        CoverageInterval*);
+
+}  // namespace mcm_internal
+}  // namespace vlt

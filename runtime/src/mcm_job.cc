@@ -1,0 +1,249 @@
+// mcm_job.cc — Monte Carlo over a laser tracker job (vlt/mcm.h RunMcm): shared inputs drawn
+// once per trial (common to every point), readings per point, each point through the exact
+// measurement model, then each task from the drawn points.
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "mcm_engine.h"
+#include "vlt/error.h"
+#include "vlt/fits.h"
+#include "vlt/mcm.h"
+
+namespace vlt {
+namespace {
+
+using mcm_internal::InputSampler;
+using mcm_internal::kSubBatch;
+using mcm_internal::KeyedStream;
+using mcm_internal::Scratch;
+
+std::vector<Distribution> SharedDistributions(const MeasurementModel& model) {
+  std::vector<Distribution> out;
+  for (const UncertainInput& input : model.shared_inputs()) {
+    out.push_back(Distribution::FromInput(input, "Monte Carlo input"));
+  }
+  return out;
+}
+
+std::vector<std::string> SharedNames(const MeasurementModel& model) {
+  std::vector<std::string> out;
+  for (const UncertainInput& input : model.shared_inputs()) out.push_back(input.name);
+  return out;
+}
+
+class JobKernel final : public mcm_internal::TrialKernel {
+ public:
+  explicit JobKernel(const McmJob& job)
+      : model_(*job.model),
+        job_(job),
+        shared_(SharedDistributions(model_), SharedNames(model_), model_.shared_correlation(), 0,
+                "measurement setup: correlation of the shared inputs"),
+        num_shared_(model_.num_shared()),
+        trial_model_(model_) {
+    n_out_ = 3 * static_cast<int>(job.points.size());
+    for (const McmPoint& point : job.points) {
+      const Eigen::Vector3d u = model_.reading_uncertainty(point.readings(0));
+      if (!(u.minCoeff() >= 0.0) || !u.allFinite()) {
+        throw InputError("Monte Carlo: point '" + point.name +
+                         "': reading uncertainty must be finite and >= 0");
+      }
+      reading_u_.push_back(u);
+    }
+    for (const McmTask& task : job.tasks) {
+      if (task.output_names.size() != task.output_units.size() || !task.evaluate) {
+        throw InputError("Monte Carlo: task '" + task.name + "' is incomplete");
+      }
+      for (int index : task.points) {
+        if (index < 0 || index >= static_cast<int>(job.points.size())) {
+          throw InputError("Monte Carlo: task '" + task.name + "' refers to point index " +
+                           std::to_string(index) + " (job has " +
+                           std::to_string(job.points.size()) + " points)");
+        }
+      }
+      task_first_output_.push_back(n_out_);
+      n_out_ += static_cast<int>(task.output_names.size());
+      max_task_points_ = std::max(max_task_points_, task.points.size());
+      max_task_outputs_ = std::max(max_task_outputs_, task.output_names.size());
+    }
+  }
+
+  int num_outputs() const override { return n_out_; }
+
+  void InitScratch(Scratch& scratch) const override {
+    const std::size_t s = static_cast<std::size_t>(num_shared_);
+    // shared SoA | shared AoS | copula scratch | readings SoA (3)
+    scratch.doubles.assign(2 * s * kSubBatch + shared_.scratch_size(kSubBatch) +
+                               3 * static_cast<std::size_t>(kSubBatch),
+                           0.0);
+    scratch.trial_states.assign(kSubBatch, mcm_internal::TrialModel::State{});
+    scratch.points.assign(std::max<std::size_t>(max_task_points_, 1), Eigen::Vector3d::Zero());
+    scratch.task_outputs.assign(std::max<std::size_t>(max_task_outputs_, 1), 0.0);
+  }
+
+  std::vector<double> AtEstimates() const override {
+    const Eigen::VectorXd shared = model_.shared_estimates();
+    std::vector<double> out(n_out_);
+    for (std::size_t p = 0; p < job_.points.size(); ++p) {
+      model_.Evaluate(job_.points[p].readings.data(), shared.data(), &out[3 * p]);
+    }
+    std::vector<Eigen::Vector3d> points;
+    for (std::size_t t = 0; t < job_.tasks.size(); ++t) {
+      const McmTask& task = job_.tasks[t];
+      points.clear();
+      for (int index : task.points) {
+        points.emplace_back(out[3 * index], out[3 * index + 1], out[3 * index + 2]);
+      }
+      task.evaluate(points, std::span<double>(out.data() + task_first_output_[t],
+                                              task.output_names.size()));
+    }
+    return out;
+  }
+
+  void Run(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch,
+           double* outputs) const override {
+    const int s_count = num_shared_;
+    double* shared_soa = scratch.doubles.data();
+    double* shared_aos = shared_soa + static_cast<std::size_t>(s_count) * kSubBatch;
+    double* copula = shared_aos + static_cast<std::size_t>(s_count) * kSubBatch;
+    double* readings = copula + shared_.scratch_size(kSubBatch);
+    mcm_internal::TrialModel::State* states = scratch.trial_states.data();
+
+    // Shared inputs: drawn once per trial, common to every point.
+    shared_.Draw(rng, first, n, shared_soa, kSubBatch, copula);
+    for (int i = 0; i < n; ++i) {
+      double* aos = shared_aos + static_cast<std::size_t>(i) * s_count;
+      for (int k = 0; k < s_count; ++k) aos[k] = shared_soa[static_cast<std::size_t>(k) * kSubBatch + i];
+      // Air index, pose and thermal scale depend on the shared inputs only: once per trial,
+      // not once per point.
+      trial_model_.Prepare(aos, &states[i]);
+    }
+
+    const std::uint64_t first_reading_stream = static_cast<std::uint64_t>(s_count);
+    for (std::size_t p = 0; p < job_.points.size(); ++p) {
+      const Eigen::Vector3d& estimate = job_.points[p].readings;
+      const Eigen::Vector3d& u = reading_u_[p];
+      for (int j = 0; j < 3; ++j) {
+        double* row = readings + j * kSubBatch;
+        mcm_internal::DrawNormals(rng, first_reading_stream + 3 * p + j, first, n, row);
+        for (int i = 0; i < n; ++i) row[i] = estimate(j) + u(j) * row[i];
+      }
+      double* out_x = outputs + 3 * p * kSubBatch;
+      for (int i = 0; i < n; ++i) {
+        const double r[3] = {readings[i], readings[kSubBatch + i], readings[2 * kSubBatch + i]};
+        double y[3];
+        trial_model_.Evaluate(r, shared_aos + static_cast<std::size_t>(i) * s_count, states[i], y);
+        out_x[i] = y[0];
+        out_x[kSubBatch + i] = y[1];
+        out_x[2 * kSubBatch + i] = y[2];
+      }
+    }
+
+    // Tasks from the drawn points of this trial (the fit is part of the propagated model).
+    for (std::size_t t = 0; t < job_.tasks.size(); ++t) {
+      const McmTask& task = job_.tasks[t];
+      const std::size_t np = task.points.size(), no = task.output_names.size();
+      for (int i = 0; i < n; ++i) {
+        for (std::size_t k = 0; k < np; ++k) {
+          const double* x = outputs + 3 * static_cast<std::size_t>(task.points[k]) * kSubBatch + i;
+          scratch.points[k] = Eigen::Vector3d(x[0], x[kSubBatch], x[2 * kSubBatch]);
+        }
+        task.evaluate(std::span<const Eigen::Vector3d>(scratch.points.data(), np),
+                      std::span<double>(scratch.task_outputs.data(), no));
+        for (std::size_t k = 0; k < no; ++k) {
+          outputs[(task_first_output_[t] + k) * kSubBatch + i] = scratch.task_outputs[k];
+        }
+      }
+    }
+  }
+
+ private:
+  const MeasurementModel& model_;
+  const McmJob& job_;
+  InputSampler shared_;
+  int num_shared_;
+  mcm_internal::TrialModel trial_model_;
+  int n_out_ = 0;
+  std::vector<Eigen::Vector3d> reading_u_;
+  std::vector<int> task_first_output_;
+  std::size_t max_task_points_ = 0;
+  std::size_t max_task_outputs_ = 0;
+};
+
+// The fit tasks as McmTasks calling FitTask; normals / directions oriented like the fit at the
+// estimates (vlt/fits.h FitOptions::orientation).
+std::vector<McmTask> FitTasks(const McmJob& job) {
+  if (job.fit_task_points.size() != job.fit_tasks.size()) {
+    throw InputError("Monte Carlo: fit_task_points must have one list per fit task");
+  }
+  std::vector<McmTask> out;
+  const Eigen::VectorXd shared = job.model->shared_estimates();
+  for (std::size_t t = 0; t < job.fit_tasks.size(); ++t) {
+    const TaskSpec& spec = job.fit_tasks[t];
+    McmTask task;
+    task.name = spec.name;
+    task.points = job.fit_task_points[t];
+    Eigen::Matrix3Xd estimates(3, task.points.size());
+    for (std::size_t k = 0; k < task.points.size(); ++k) {
+      const int index = task.points[k];
+      if (index < 0 || index >= static_cast<int>(job.points.size())) {
+        throw InputError("Monte Carlo: task '" + spec.name + "' refers to point index " +
+                         std::to_string(index));
+      }
+      job.model->Evaluate(job.points[index].readings.data(), shared.data(),
+                          estimates.col(static_cast<Eigen::Index>(k)).data());
+    }
+    const std::string where = "task '" + spec.name + "'";
+    const FitResult nominal = FitTask(spec.kind, estimates, FitOptions{}, where);
+    FitOptions options;
+    int orientation_index = -1;
+    if (spec.kind == TaskKind::kPlane || spec.kind == TaskKind::kLine) orientation_index = 3;
+    if (spec.kind == TaskKind::kCircle) orientation_index = 4;
+    if (orientation_index >= 0) options.orientation = nominal.values.segment<3>(orientation_index);
+    for (const TaskOutput& output : TaskOutputs(spec.kind)) {
+      task.output_names.push_back(spec.name + "." + std::string(output.name));
+      task.output_units.emplace_back(output.unit);
+    }
+    const TaskKind kind = spec.kind;
+    task.evaluate = [kind, options, where](std::span<const Eigen::Vector3d> points,
+                                           std::span<double> values) {
+      const Eigen::Map<const Eigen::Matrix3Xd> matrix(points.data()->data(), 3,
+                                                      static_cast<Eigen::Index>(points.size()));
+      const FitResult fit = FitTask(kind, matrix, options, where);
+      for (std::size_t k = 0; k < values.size(); ++k) values[k] = fit.values(static_cast<Eigen::Index>(k));
+    };
+    out.push_back(std::move(task));
+  }
+  return out;
+}
+
+}  // namespace
+
+McmResult RunMcm(const McmJob& job_in, const McmSettings& settings) {
+  if (job_in.model == nullptr) throw InputError("Monte Carlo: job has no measurement model");
+  if (job_in.points.empty()) throw InputError("Monte Carlo: job has no points");
+  McmJob job;
+  job.model = job_in.model;
+  job.points = job_in.points;
+  job.tasks = FitTasks(job_in);
+  job.tasks.insert(job.tasks.end(), job_in.tasks.begin(), job_in.tasks.end());
+  const JobKernel kernel(job);
+  mcm_internal::OutputSpec spec;
+  static constexpr const char* kAxes[] = {"x", "y", "z"};
+  for (std::size_t p = 0; p < job.points.size(); ++p) {
+    spec.point_names.push_back(job.points[p].name);
+    spec.point_first_output.push_back(static_cast<int>(spec.names.size()));
+    for (const char* axis : kAxes) {
+      spec.names.push_back(job.points[p].name + "." + axis);
+      spec.units.push_back("m");
+    }
+  }
+  for (const McmTask& task : job.tasks) {
+    spec.names.insert(spec.names.end(), task.output_names.begin(), task.output_names.end());
+    spec.units.insert(spec.units.end(), task.output_units.begin(), task.output_units.end());
+  }
+  return mcm_internal::RunEngine(kernel, spec, settings);
+}
+
+}  // namespace vlt

@@ -1,0 +1,160 @@
+// mcm_sampling.cc — drawing the inputs of the Monte Carlo engine (JCGM 101 6.4, 6.4.8, C).
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <Eigen/Cholesky>
+
+#include "mcm_engine.h"
+#include "vlt/error.h"
+
+namespace vlt::mcm_internal {
+
+void DrawNormals(const KeyedStream& rng, std::uint64_t stream, std::int64_t first, int n,
+                 double* out) {
+  // Groups of 4 trials share one Philox call (random.h); trials outside [first, first + n) of
+  // the edge groups are computed and discarded. Up to KeyedStream::kBulkGroups groups at once.
+  constexpr int kBulk = KeyedStream::kBulkGroups;
+  const std::int64_t last = first + n;
+  const std::int64_t group_end = (last + 3) >> 2;
+  double z[4 * kBulk];
+  for (std::int64_t g = first >> 2; g < group_end; g += kBulk) {
+    const int groups = static_cast<int>(std::min<std::int64_t>(kBulk, group_end - g));
+    rng.NormalsBulk(static_cast<std::uint64_t>(g), groups, stream, z);
+    const std::int64_t t0 = std::max(first, 4 * g);
+    const std::int64_t t1 = std::min(last, 4 * (g + groups));
+    std::copy(z + (t0 - 4 * g), z + (t1 - 4 * g), out + (t0 - first));
+  }
+}
+
+namespace {
+
+void DrawUniformInputs(const KeyedStream& rng, const Distribution& dist, std::uint64_t stream,
+                       std::int64_t first, int n, double* out) {
+  const std::int64_t last = first + n;
+  const bool two = dist.kind() == DistributionKind::kCurvilinearTrapezoid;
+  double u1[4], u2[4] = {0.5, 0.5, 0.5, 0.5};
+  for (std::int64_t g = first >> 2; 4 * g < last; ++g) {
+    rng.Uniforms(static_cast<std::uint64_t>(g), stream, 0, u1);
+    if (two) rng.Uniforms(static_cast<std::uint64_t>(g), stream, 1, u2);
+    for (int j = 0; j < 4; ++j) {
+      const std::int64_t trial = 4 * g + j;
+      if (trial >= first && trial < last) out[trial - first] = dist.SampleTwoUniforms(u1[j], u2[j]);
+    }
+  }
+}
+
+void DrawStudentT(const KeyedStream& rng, const Distribution& dist, std::uint64_t stream,
+                  std::int64_t first, int n, double* out) {
+  double u[4];
+  for (int i = 0; i < n; ++i) {
+    const std::uint64_t trial = static_cast<std::uint64_t>(first + i);
+    for (std::uint64_t attempt = 0;; ++attempt) {
+      rng.TrialUniforms(trial, stream, attempt, u);
+      if (dist.SampleBailey(u[0], u[1], &out[i])) break;
+      if (dist.SampleBailey(u[2], u[3], &out[i])) break;
+    }
+  }
+}
+
+}  // namespace
+
+InputSampler::InputSampler(std::vector<Distribution> inputs, std::vector<std::string> names,
+                           const Eigen::MatrixXd& correlation, std::uint64_t first_stream,
+                           std::string_view where)
+    : inputs_(std::move(inputs)), first_stream_(first_stream) {
+  const int n = size();
+  const std::string at(where);
+  if (correlation.size() != 0) {
+    if (correlation.rows() != n || correlation.cols() != n) {
+      throw InputError(at + ": correlation matrix is " + std::to_string(correlation.rows()) + "x" +
+                       std::to_string(correlation.cols()) + ", expected " + std::to_string(n) +
+                       "x" + std::to_string(n));
+    }
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < n; ++j) {
+        const double r = correlation(i, j);
+        const bool ok = std::isfinite(r) && (i == j ? r == 1.0 : std::abs(r) <= 1.0) &&
+                        r == correlation(j, i);
+        if (!ok) {
+          throw InputError(at + ": correlation matrix entry ('" + names[i] + "', '" + names[j] +
+                           "') must be symmetric, in [-1, 1], and 1 on the diagonal");
+        }
+      }
+    }
+  }
+  // Inputs with a non-zero correlation to another input go through the copula.
+  for (int i = 0; i < n; ++i) {
+    bool correlated = false;
+    if (correlation.size() != 0) {
+      for (int j = 0; j < n && !correlated; ++j) correlated = j != i && correlation(i, j) != 0.0;
+    }
+    (correlated ? copula_ : independent_).push_back(i);
+  }
+  if (!copula_.empty()) {
+    const int m = static_cast<int>(copula_.size());
+    Eigen::MatrixXd r(m, m);
+    for (int a = 0; a < m; ++a) {
+      for (int b = 0; b < m; ++b) r(a, b) = correlation(copula_[a], copula_[b]);
+    }
+    Eigen::LLT<Eigen::MatrixXd> llt(r);
+    if (llt.info() != Eigen::Success) {
+      std::string list;
+      for (int a = 0; a < m; ++a) list += (a ? ", '" : "'") + names[copula_[a]] + "'";
+      throw InputError(at + ": the correlation matrix of " + list +
+                       " is not positive definite (the Monte Carlo method draws correlated "
+                       "inputs through its Cholesky factor)");
+    }
+    cholesky_ = llt.matrixL();
+  }
+}
+
+void InputSampler::Draw(const KeyedStream& rng, std::int64_t first, int n, double* out,
+                        int stride, double* scratch) const {
+  for (int k : independent_) {
+    const Distribution& dist = inputs_[k];
+    double* row = out + static_cast<std::ptrdiff_t>(k) * stride;
+    const std::uint64_t stream = first_stream_ + static_cast<std::uint64_t>(k);
+    if (dist.u() == 0.0) {
+      std::fill(row, row + n, dist.estimate());
+      continue;
+    }
+    switch (dist.kind()) {
+      case DistributionKind::kNormal: {
+        DrawNormals(rng, stream, first, n, row);
+        const double mu = dist.estimate(), u = dist.u();
+        for (int i = 0; i < n; ++i) row[i] = mu + u * row[i];
+        break;
+      }
+      case DistributionKind::kStudentT: DrawStudentT(rng, dist, stream, first, n, row); break;
+      default: DrawUniformInputs(rng, dist, stream, first, n, row); break;
+    }
+  }
+  if (copula_.empty()) return;
+  // Gaussian copula: independent standard normals z, correlated normals L z, then each marginal
+  // through its inverse CDF at Phi(L z) (exact for normal marginals: mu + u (L z)).
+  const int m = static_cast<int>(copula_.size());
+  for (int a = 0; a < m; ++a) {
+    DrawNormals(rng, first_stream_ + static_cast<std::uint64_t>(copula_[a]), first, n,
+                scratch + static_cast<std::ptrdiff_t>(a) * n);
+  }
+  constexpr double kPmin = std::numeric_limits<double>::min();
+  const double kPmax = std::nextafter(1.0, 0.0);
+  for (int i = 0; i < n; ++i) {
+    for (int a = 0; a < m; ++a) {
+      double zc = 0.0;
+      for (int b = 0; b <= a; ++b) zc += cholesky_(a, b) * scratch[static_cast<std::ptrdiff_t>(b) * n + i];
+      const Distribution& dist = inputs_[copula_[a]];
+      double value;
+      if (dist.kind() == DistributionKind::kNormal || dist.u() == 0.0) {
+        value = dist.estimate() + dist.u() * zc;
+      } else {
+        value = dist.Quantile(std::clamp(StandardNormalCdf(zc), kPmin, kPmax));
+      }
+      out[static_cast<std::ptrdiff_t>(copula_[a]) * stride + i] = value;
+    }
+  }
+}
+
+}  // namespace vlt::mcm_internal

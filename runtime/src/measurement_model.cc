@@ -1,0 +1,344 @@
+// The complete measurement function of one point (vlt/measurement_model.h, docs/gum.md):
+//   y = thermal( pose( tracker_model( (rho n_est / n, A, E), params ) ) )
+// evaluated exactly, and its Jacobian by the chain rule from the generated Jacobians of the
+// tracker model and the analytic derivatives of the air, pose and thermal stages.
+#include "vlt/measurement_model.h"
+
+#include <cmath>
+#include <string>
+#include <utility>
+
+#include <Eigen/Dense>
+
+#include "vlt/error.h"
+#include "vlt/refractive_index.h"
+
+namespace vlt {
+namespace {
+
+void Fill(UncertainInput& input, const char* name, const char* unit, const char* group) {
+  if (input.name.empty()) input.name = name;
+  if (input.unit.empty()) input.unit = unit;
+  input.group = group;
+}
+
+void CheckInput(const UncertainInput& input) {
+  if (!std::isfinite(input.estimate) || !std::isfinite(input.u) || input.u < 0.0) {
+    throw InputError("measurement setup: input '" + input.name +
+                     "' needs a finite estimate and a finite, non-negative standard uncertainty");
+  }
+}
+
+// Elementary rotations and their derivatives with respect to the angle.
+Eigen::Matrix3d Rx(double a) {
+  const double c = std::cos(a), s = std::sin(a);
+  Eigen::Matrix3d r;
+  r << 1, 0, 0, 0, c, -s, 0, s, c;
+  return r;
+}
+Eigen::Matrix3d Ry(double a) {
+  const double c = std::cos(a), s = std::sin(a);
+  Eigen::Matrix3d r;
+  r << c, 0, s, 0, 1, 0, -s, 0, c;
+  return r;
+}
+Eigen::Matrix3d Rz(double a) {
+  const double c = std::cos(a), s = std::sin(a);
+  Eigen::Matrix3d r;
+  r << c, -s, 0, s, c, 0, 0, 0, 1;
+  return r;
+}
+Eigen::Matrix3d dRx(double a) {
+  const double c = std::cos(a), s = std::sin(a);
+  Eigen::Matrix3d r;
+  r << 0, 0, 0, 0, -s, -c, 0, c, -s;
+  return r;
+}
+Eigen::Matrix3d dRy(double a) {
+  const double c = std::cos(a), s = std::sin(a);
+  Eigen::Matrix3d r;
+  r << -s, 0, c, 0, 0, 0, -c, 0, -s;
+  return r;
+}
+Eigen::Matrix3d dRz(double a) {
+  const double c = std::cos(a), s = std::sin(a);
+  Eigen::Matrix3d r;
+  r << -s, -c, 0, c, -s, 0, 0, 0, 0;
+  return r;
+}
+
+
+}  // namespace
+
+MeasurementModel::MeasurementModel(MeasurementSetup setup) : setup_(std::move(setup)) {
+  const ModelInfo* model = setup_.model;
+  if (model == nullptr) throw InputError("measurement setup: no tracker model");
+  if (model->num_readings != 3 || model->num_outputs != 3) {
+    throw InputError(std::string("measurement setup: model '") + model->name +
+                     "' is not a tracker model (3 readings -> 3 coordinates)");
+  }
+  if (model->forward == nullptr || model->forward_jacobians == nullptr) {
+    throw InputError(std::string("measurement setup: model '") + model->name +
+                     "' has no forward kernels");
+  }
+  const int num_params = model->num_params;
+  if (static_cast<int>(setup_.params.size()) != num_params) {
+    throw InputError(std::string("measurement setup: model '") + model->name + "' has " +
+                     std::to_string(num_params) + " parameters, " +
+                     std::to_string(setup_.params.size()) + " given");
+  }
+  for (int k = 0; k < num_params; ++k) {
+    Fill(setup_.params[k], model->params[k].name, model->params[k].unit, "parameter");
+    CheckInput(setup_.params[k]);
+    shared_.push_back(setup_.params[k]);
+  }
+  if (setup_.environment) {
+    Environment& env = *setup_.environment;
+    Fill(env.temperature, "environment.temperature", "degC", "environment");
+    Fill(env.pressure, "environment.pressure", "Pa", "environment");
+    Fill(env.humidity, "environment.humidity", "%", "environment");
+    Fill(env.co2, "environment.co2", "1", "environment");
+    env_offset_ = static_cast<int>(shared_.size());
+    for (const UncertainInput* in : {&env.temperature, &env.pressure, &env.humidity, &env.co2}) {
+      CheckInput(*in);
+      shared_.push_back(*in);
+    }
+    if (!(env.vacuum_wavelength > 0.0) || !std::isfinite(env.vacuum_wavelength)) {
+      throw InputError("measurement setup: environment vacuum wavelength must be positive");
+    }
+  }
+  if (setup_.pose) {
+    StationPose& pose = *setup_.pose;
+    Fill(pose.rx, "pose.rx", "rad", "pose");
+    Fill(pose.ry, "pose.ry", "rad", "pose");
+    Fill(pose.rz, "pose.rz", "rad", "pose");
+    Fill(pose.tx, "pose.tx", "m", "pose");
+    Fill(pose.ty, "pose.ty", "m", "pose");
+    Fill(pose.tz, "pose.tz", "m", "pose");
+    pose_offset_ = static_cast<int>(shared_.size());
+    for (const UncertainInput* in : {&pose.rx, &pose.ry, &pose.rz, &pose.tx, &pose.ty, &pose.tz}) {
+      CheckInput(*in);
+      shared_.push_back(*in);
+    }
+  }
+  if (setup_.thermal) {
+    PartThermal& thermal = *setup_.thermal;
+    Fill(thermal.cte, "thermal.cte", "1/K", "thermal");
+    Fill(thermal.temperature, "thermal.temperature", "degC", "thermal");
+    thermal_offset_ = static_cast<int>(shared_.size());
+    CheckInput(thermal.cte);
+    CheckInput(thermal.temperature);
+    shared_.push_back(thermal.cte);
+    shared_.push_back(thermal.temperature);
+  }
+
+  const int num_shared = static_cast<int>(shared_.size());
+  shared_correlation_ = Eigen::MatrixXd::Identity(num_shared, num_shared);
+  const Eigen::MatrixXd& r = setup_.param_correlation;
+  if (r.size() != 0) {
+    if (r.rows() != num_params || r.cols() != num_params) {
+      throw InputError("measurement setup: the parameter correlation matrix must be " +
+                       std::to_string(num_params) + " x " + std::to_string(num_params));
+    }
+    for (int i = 0; i < num_params; ++i) {
+      if (std::abs(r(i, i) - 1.0) > 1e-12) {
+        throw InputError("measurement setup: parameter correlation matrix: diagonal entry of '" +
+                         shared_[i].name + "' is not 1");
+      }
+      for (int j = 0; j < num_params; ++j) {
+        if (!std::isfinite(r(i, j)) || std::abs(r(i, j)) > 1.0 ||
+            std::abs(r(i, j) - r(j, i)) > 1e-12) {
+          throw InputError("measurement setup: parameter correlation matrix: entry ('" +
+                           shared_[i].name + "', '" + shared_[j].name +
+                           "') must be in [-1, 1] and symmetric");
+        }
+      }
+    }
+    shared_correlation_.topLeftCorner(num_params, num_params) = r;
+  }
+
+  estimates_ = shared_estimates();
+  if (env_offset_ >= 0) n_est_ = AirIndex(estimates_.data() + env_offset_, dn_est_);
+  if (pose_offset_ >= 0) {
+    const double* r = estimates_.data() + pose_offset_;
+    rotation_est_ = PoseRotation(estimates_.data());
+    d_rotation_est_[0] = Rz(r[2]) * Ry(r[1]) * dRx(r[0]);
+    d_rotation_est_[1] = Rz(r[2]) * dRy(r[1]) * Rx(r[0]);
+    d_rotation_est_[2] = dRz(r[2]) * Ry(r[1]) * Rx(r[0]);
+  }
+}
+
+Eigen::VectorXd MeasurementModel::shared_estimates() const {
+  Eigen::VectorXd x(num_shared());
+  for (int k = 0; k < num_shared(); ++k) x(k) = shared_[k].estimate;
+  return x;
+}
+
+Eigen::Vector3d MeasurementModel::reading_uncertainty(double range) const {
+  const ReadingNoise& noise = setup_.noise;
+  return {noise.range_a + noise.range_b * std::abs(range), noise.azimuth, noise.elevation};
+}
+
+namespace {
+AirConditions Air(const Environment& e, const double* env) {
+  AirConditions air;
+  air.vacuum_wavelength = e.vacuum_wavelength;
+  air.temperature = env[0];
+  air.pressure = env[1];
+  air.humidity = env[2];
+  air.co2 = env[3];
+  return air;
+}
+AirEquation Equation(const Environment& e) {
+  return e.equation == Environment::Equation::kCiddor ? AirEquation::kCiddor
+                                                      : AirEquation::kEdlenBoensch;
+}
+}  // namespace
+
+double MeasurementModel::AirIndex(const double* env, double* gradient) const {
+  const Environment& e = *setup_.environment;
+  const RefractiveIndex n = AirRefractiveIndex(Equation(e), Air(e, env), "environment");
+  gradient[0] = n.dn_dtemperature;
+  gradient[1] = n.dn_dpressure;
+  gradient[2] = n.dn_dhumidity;
+  gradient[3] = n.dn_dco2;
+  return n.n;
+}
+
+Eigen::Matrix3d MeasurementModel::PoseRotation(const double* shared) const {
+  if (pose_offset_ < 0) return Eigen::Matrix3d::Identity();
+  const double* r = shared + pose_offset_;
+  return Rz(r[2]) * Ry(r[1]) * Rx(r[0]);
+}
+
+Eigen::Vector3d MeasurementModel::PoseTranslation(const double* shared) const {
+  if (pose_offset_ < 0) return Eigen::Vector3d::Zero();
+  const double* t = shared + pose_offset_ + 3;
+  return {t[0], t[1], t[2]};
+}
+
+double MeasurementModel::ThermalScale(const double* shared) const {
+  if (thermal_offset_ < 0) return 1.0;
+  const double cte = shared[thermal_offset_];
+  const double dt = shared[thermal_offset_ + 1] - setup_.thermal->reference;
+  return 1.0 / (1.0 + cte * dt);
+}
+
+void MeasurementModel::EvaluateTracker(const double* readings, const double* shared,
+                                       double* x_tracker) const {
+  double corrected[3] = {readings[0], readings[1], readings[2]};
+  if (env_offset_ >= 0) {
+    // The tracker converted optical path to range with n_est; the true geometric range is
+    // optical path / n = rho n_est / n (range scale error mu_env = n_est / n - 1).
+    const Environment& e = *setup_.environment;
+    corrected[0] *= n_est_ / AirRefractiveIndexValue(Equation(e), Air(e, shared + env_offset_),
+                                                     "environment");
+  }
+  setup_.model->forward(corrected, shared, x_tracker);
+}
+
+void MeasurementModel::Evaluate(const double* readings, const double* shared, double* y) const {
+  Eigen::Vector3d x_t;
+  EvaluateTracker(readings, shared, x_t.data());
+  Eigen::Vector3d x = x_t;
+  if (pose_offset_ >= 0) x = PoseRotation(shared) * x_t + PoseTranslation(shared);
+  if (thermal_offset_ >= 0) x *= ThermalScale(shared);
+  y[0] = x(0);
+  y[1] = x(1);
+  y[2] = x(2);
+}
+
+void MeasurementModel::EvaluateWithJacobian(const double* readings, const double* shared,
+                                            double* y, double* d_y_d_readings,
+                                            double* d_y_d_shared) const {
+  const ModelInfo& model = *setup_.model;
+  const int num_params = model.num_params;
+  const int num_shared = this->num_shared();
+
+  // Stage 1: air. rho' = rho * n_est / n.
+  double corrected[3] = {readings[0], readings[1], readings[2]};
+  double air_scale = 1.0;
+  double n = 1.0;
+  double dn[4] = {0, 0, 0, 0};
+  if (env_offset_ >= 0) {
+    const double* env = shared + env_offset_;
+    const double* est = estimates_.data() + env_offset_;
+    if (env[0] == est[0] && env[1] == est[1] && env[2] == est[2] && env[3] == est[3]) {
+      n = n_est_;  // at the estimates: cached (the AD evaluation of n is the costly part)
+      for (int k = 0; k < 4; ++k) dn[k] = dn_est_[k];
+    } else {
+      n = AirIndex(env, dn);
+    }
+    air_scale = n_est_ / n;
+    corrected[0] *= air_scale;
+  }
+
+  // Stage 2: tracker model, generated Jacobians. d_y_d_shared's first 3*P entries receive
+  // d x_t / d params directly (they are transformed in place below).
+  Eigen::Vector3d x_t;
+  Eigen::Matrix3d j_r;
+  bool all_zero = model.nominal_jacobians != nullptr;
+  for (int k = 0; k < num_params && all_zero; ++k) all_zero = shared[k] == 0.0;
+  if (all_zero) {
+    model.nominal_jacobians(corrected, x_t.data(), j_r.data(), d_y_d_shared);
+  } else {
+    model.forward_jacobians(corrected, shared, x_t.data(), j_r.data(), d_y_d_shared);
+  }
+
+  // Stages 3 and 4: pose and thermal, as one linear map M = s R applied to the tracker-frame
+  // columns.
+  bool pose_at_estimates = pose_offset_ >= 0;
+  for (int k = 0; k < 3 && pose_at_estimates; ++k) {
+    pose_at_estimates = shared[pose_offset_ + k] == estimates_(pose_offset_ + k);
+  }
+  const Eigen::Matrix3d rotation = pose_at_estimates ? rotation_est_ : PoseRotation(shared);
+  const double s = ThermalScale(shared);
+  const bool linear_map = pose_offset_ >= 0 || thermal_offset_ >= 0;
+  const Eigen::Matrix3d m = s * rotation;
+  Eigen::Map<Eigen::Vector3d> out(y);
+  const Eigen::Vector3d x_p = rotation * x_t + PoseTranslation(shared);
+  out = s * x_p;
+
+  // d y / d readings = M J_r diag(n_est / n, 1, 1).
+  Eigen::Map<Eigen::Matrix3d> jy_r(d_y_d_readings);
+  jy_r = linear_map ? Eigen::Matrix3d(m * j_r) : j_r;
+  jy_r.col(0) *= air_scale;
+
+  // d y / d params = M J_p (in place, column by column).
+  if (linear_map) {
+    for (int k = 0; k < num_params; ++k) {
+      Eigen::Map<Eigen::Vector3d> col(d_y_d_shared + 3 * k);
+      col = m * Eigen::Vector3d(col);
+    }
+  }
+  Eigen::Map<Eigen::Matrix<double, 3, Eigen::Dynamic>> jy_s(d_y_d_shared, 3, num_shared);
+  if (env_offset_ >= 0) {
+    // d rho' / d env_k = -rho n_est / n^2 dn/dk = -(rho' / n) dn/dk.
+    const Eigen::Vector3d along_range = (linear_map ? Eigen::Vector3d(m * j_r.col(0))
+                                                    : Eigen::Vector3d(j_r.col(0)));
+    for (int k = 0; k < 4; ++k) {
+      jy_s.col(env_offset_ + k) = along_range * (-corrected[0] / n * dn[k]);
+    }
+  }
+  if (pose_offset_ >= 0) {
+    if (pose_at_estimates) {
+      for (int k = 0; k < 3; ++k) jy_s.col(pose_offset_ + k) = s * (d_rotation_est_[k] * x_t);
+    } else {
+      const double* r = shared + pose_offset_;
+      const Eigen::Matrix3d rx = Rx(r[0]), ry = Ry(r[1]), rz = Rz(r[2]);
+      jy_s.col(pose_offset_ + 0) = s * (rz * ry * dRx(r[0]) * x_t);
+      jy_s.col(pose_offset_ + 1) = s * (rz * dRy(r[1]) * rx * x_t);
+      jy_s.col(pose_offset_ + 2) = s * (dRz(r[2]) * ry * rx * x_t);
+    }
+    jy_s.block<3, 3>(0, pose_offset_ + 3) = s * Eigen::Matrix3d::Identity();
+  }
+  if (thermal_offset_ >= 0) {
+    // y = x_p / (1 + cte dT): dy/dcte = -x_p dT s^2 = -y dT s, dy/dT = -y cte s.
+    const double cte = shared[thermal_offset_];
+    const double dt = shared[thermal_offset_ + 1] - setup_.thermal->reference;
+    jy_s.col(thermal_offset_ + 0) = -out * (dt * s);
+    jy_s.col(thermal_offset_ + 1) = -out * (cte * s);
+  }
+}
+
+}  // namespace vlt

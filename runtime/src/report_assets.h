@@ -1,0 +1,12 @@
+// report_assets.h — files compiled into the library for report.html (runtime/src/report_plotly.cc).
+#pragma once
+
+#include <string_view>
+
+namespace vlt::report {
+
+std::string_view PlotlyJs();        // plotly.min.js, the exact bytes of the pinned npm package
+std::string_view PlotlyVersion();   // e.g. "v4.1.2"
+std::string_view ReportTemplate();  // runtime/report/report.html.in
+
+}  // namespace vlt::report

@@ -1,0 +1,217 @@
+// RunJob: a job through the GUM engine (vlt/gum.h), the Monte Carlo engine (vlt/mcm.h) and the
+// validation of JCGM 101 8 (vlt/validation.h) into one Results struct.
+#include "vlt/results.h"
+
+#include <chrono>
+#include <cmath>
+
+#include "results_internal.h"
+#include "vlt/error.h"
+
+namespace vlt {
+namespace {
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+}  // namespace
+
+std::vector<PointReadings> JobReadings(const Job& job, const MeasurementModel& model) {
+  std::vector<PointReadings> readings;
+  readings.reserve(job.points.size());
+  for (const JobPoint& p : job.points) {
+    PointReadings r;
+    r.name = p.name;
+    if (job.mode == JobMode::kPlan) {
+      // Offline: the readings that measure the nominal point with every input at its estimate.
+      try {
+        r.readings = ReadingsForPartPoint(model, p.nominal, p.face == Face::kBack, p.name);
+      } catch (const NumericalError& e) {
+        throw NumericalError(p.where + ": " + e.what());
+      }
+    } else {
+      r.readings = p.readings;
+    }
+    readings.push_back(std::move(r));
+  }
+  return readings;
+}
+
+MapResult ComputeMap(const MeasurementModel& model, const MapSettings& settings,
+                     double coverage_probability, int threads) {
+  MapResult map;
+  map.settings = settings;
+  map.coverage_probability = coverage_probability;
+  map.k = NormalCoverageFactor(coverage_probability);
+  map.nodes = settings.Nodes();
+  const std::size_t n = map.nodes.size();
+  map.computed.assign(n, 0);
+  map.U.assign(n, Eigen::Vector3d::Zero());
+  map.U_norm.assign(n, 0.0);
+  std::vector<Eigen::Vector3d> readings;
+  std::vector<std::size_t> index;
+  readings.reserve(n);
+  index.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d& node = map.nodes[i];
+    Eigen::Vector3d t = PartToTrackerNominal(model.setup(), node);
+    std::string reason;
+    if (t.norm() < kMapAxisClearance) {
+      reason = "at the tracker's gimbal point";
+    } else if (std::hypot(t.x(), t.y()) < kMapAxisClearance) {
+      reason = "on the tracker's vertical axis (azimuth undefined)";
+    } else {
+      try {
+        readings.push_back(ReadingsForPartPoint(model, node, false, "map node"));
+        index.push_back(i);
+        continue;
+      } catch (const NumericalError& e) {
+        reason = e.what();
+      }
+    }
+    map.skipped.push_back(internal::FormatNode(node) + ": " + reason);
+  }
+  std::vector<Eigen::Vector3d> field = ExpandedUncertaintyField(model, readings, coverage_probability, threads);
+  for (std::size_t j = 0; j < index.size(); ++j) {
+    std::size_t i = index[j];
+    map.computed[i] = 1;
+    map.U[i] = field[j];
+    map.U_norm[i] = field[j].norm();
+    if (!std::isfinite(map.U_norm[i])) {
+      throw NumericalError("map node " + internal::FormatNode(map.nodes[i]) + ": non-finite uncertainty");
+    }
+  }
+  return map;
+}
+
+Results RunJob(const Job& job, const RunOptions& options) {
+  Results results;
+  results.vlt_version = VLT_VERSION;
+  results.job_file = job.file;
+  results.job_name = job.name;
+  results.job_description = job.description;
+  results.mode = job.mode;
+  results.model_name = job.setup.model ? job.setup.model->name : "";
+  results.setup = job.setup;
+  results.coverage_probability = job.monte_carlo.coverage_probability;
+  results.n_dig = job.monte_carlo.n_dig;
+  results.ellipsoid_scale = job.output.ellipsoid_scale;
+  const int threads = options.threads.value_or(job.monte_carlo.threads);
+
+  MeasurementModel model(job.setup);
+  results.shared_inputs = model.shared_inputs();
+  results.k_axis = NormalCoverageFactor(results.coverage_probability);
+  results.k_region = ChiSquareCoverageFactor(results.coverage_probability, 3);
+
+  // GUM (JCGM 100 5.1.2 / JCGM 102 6.2.1.3): every point, then every task.
+  auto gum_start = std::chrono::steady_clock::now();
+  std::vector<PointReadings> readings = JobReadings(job, model);
+  GumOptions gum_options;
+  gum_options.coverage_probability = results.coverage_probability;
+  gum_options.budgets = true;
+  gum_options.threads = threads;
+  std::vector<PointUncertainty> gum_points = PropagatePoints(model, readings, gum_options);
+  results.points.resize(job.points.size());
+  for (std::size_t i = 0; i < job.points.size(); ++i) {
+    results.points[i].input = job.points[i];
+    results.points[i].gum = std::move(gum_points[i]);
+  }
+  results.tasks.resize(job.tasks.size());
+  for (std::size_t t = 0; t < job.tasks.size(); ++t) {
+    results.tasks[t].spec = job.tasks[t];
+    results.tasks[t].point_indices = job.task_points[t];
+    try {
+      results.tasks[t].gum = PropagateTask(model, readings, job.tasks[t], gum_options);
+    } catch (const NumericalError& e) {
+      throw NumericalError(job.file + ": task[" + std::to_string(t) + "]: " + e.what());
+    }
+  }
+  results.gum_seconds = Seconds(gum_start);
+
+  // Monte Carlo (JCGM 101 / 102) on the same model, and the validation of JCGM 101 8.
+  if (options.monte_carlo && job.monte_carlo.enabled) {
+    McmJob mcm_job;
+    mcm_job.model = &model;
+    for (const PointReadings& r : readings) mcm_job.points.push_back(McmPoint{r.name, r.readings});
+    for (const TaskResult& task : results.tasks) {
+      mcm_job.tasks.push_back(internal::MakeMcmTask(task.spec, task.point_indices, task.gum));
+    }
+    McmSettings settings;
+    settings.seed = options.seed.value_or(job.monte_carlo.seed);
+    settings.trials = options.trials.value_or(job.monte_carlo.adaptive ? 0 : job.monte_carlo.trials);
+    settings.coverage_probability = results.coverage_probability;
+    settings.significant_digits = job.monte_carlo.n_dig;
+    settings.num_threads = threads;
+    settings.quiet = !options.progress;
+    auto mcm_start = std::chrono::steady_clock::now();
+    McmResult mcm = RunMcm(mcm_job, settings);
+    results.mcm_seconds = Seconds(mcm_start);
+    results.has_mcm = true;
+
+    const std::size_t np = results.points.size();
+    if (mcm.points.size() != np || mcm.outputs.size() < 3 * np) {
+      throw std::logic_error("Monte Carlo result does not match the job's points");
+    }
+    for (std::size_t i = 0; i < np; ++i) {
+      PointResult& pr = results.points[i];
+      pr.has_mcm = true;
+      pr.mcm = mcm.points[i];
+      bool ok = true;
+      for (int a = 0; a < 3; ++a) {
+        pr.mcm_axes[a] = mcm.outputs[3 * i + a];
+        pr.axis_validation[a] = ValidateScalar(pr.mcm_axes[a].name, "m", pr.gum.part[a], pr.gum.u_part[a],
+                                               pr.gum.U_part[a], pr.mcm_axes[a].symmetric, results.n_dig);
+        ok = ok && pr.axis_validation[a].validated;
+      }
+      try {
+        pr.region_validation = ValidatePoint(pr.gum.name, pr.gum.part, pr.gum.cov_part, pr.gum.ellipsoid.k,
+                                             pr.mcm, results.n_dig);
+        ok = ok && pr.region_validation.validated;
+      } catch (const NumericalError& e) {
+        pr.region_validation = PointValidation{};
+        pr.region_validation.name = pr.gum.name;
+        pr.region_validation.verdict = std::string("no coverage region: ") + e.what();
+      }
+      pr.validated = ok;
+      results.validated_points += ok ? 1 : 0;
+    }
+    // Task outputs follow the points, task by task, TaskOutputs(kind) each (MakeMcmTask); they
+    // are matched to the GUM quantities by name.
+    std::size_t offset = 3 * np;
+    for (std::size_t t = 0; t < results.tasks.size(); ++t) {
+      TaskResult& task = results.tasks[t];
+      const McmTask& mt = mcm_job.tasks[t];
+      if (offset + mt.output_names.size() > mcm.outputs.size()) {
+        throw std::logic_error("Monte Carlo result has too few task outputs");
+      }
+      task.has_mcm = true;
+      bool ok = true;
+      for (std::size_t q = 0; q < task.gum.quantities.size(); ++q) {
+        const std::string wanted = task.spec.name + "." + task.gum.quantities[q];
+        std::size_t j = 0;
+        while (j < mt.output_names.size() && mt.output_names[j] != wanted) ++j;
+        if (j == mt.output_names.size()) {
+          throw std::logic_error("Monte Carlo task output '" + wanted + "' missing");
+        }
+        task.mcm.push_back(mcm.outputs[offset + j]);
+        task.validation.push_back(ValidateScalar(wanted, task.gum.units[q], task.gum.value[q], task.gum.u[q],
+                                                 task.gum.U[q], task.mcm.back().symmetric, results.n_dig));
+        ok = ok && task.validation.back().validated;
+      }
+      offset += mt.output_names.size();
+      task.validated = ok;
+      results.validated_tasks += ok ? 1 : 0;
+    }
+    mcm.outputs.clear();
+    mcm.points.clear();
+    results.mcm = std::move(mcm);
+  }
+
+  if (job.map && options.compute_map) {
+    results.map = ComputeMap(model, *job.map, results.coverage_probability, threads);
+  }
+  return results;
+}
+
+}  // namespace vlt

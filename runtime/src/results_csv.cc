@@ -1,0 +1,172 @@
+// points.csv, budget.csv, tasks.csv, map.csv (docs/results.md). Units are in the column names:
+// coordinates in mm, uncertainties in um, angles in deg; budget estimates/u in each input's SI unit
+// (column `unit`). Numbers are printed with the shortest representation that reads back exactly.
+#include <cmath>
+#include <sstream>
+
+#include "results_internal.h"
+
+namespace vlt {
+namespace {
+
+using internal::Num;
+
+constexpr double kMm = 1e3;   // m -> mm
+constexpr double kUm = 1e6;   // m -> um
+constexpr double kDeg = 180.0 / 3.14159265358979323846;
+
+std::string Csv(const std::string& field) {
+  if (field.find_first_of(",\"\n\r") == std::string::npos) return field;
+  std::string out = "\"";
+  for (char c : field) {
+    if (c == '"') out += '"';
+    out += c;
+  }
+  return out + "\"";
+}
+
+class Row {
+ public:
+  Row& operator<<(const std::string& s) { return Add(Csv(s)); }
+  Row& operator<<(const char* s) { return Add(Csv(s)); }
+  Row& operator<<(double v) { return Add(Num(v)); }
+  Row& operator<<(int v) { return Add(std::to_string(v)); }
+  Row& Empty() { return Add(""); }
+  std::string str() const { return line_ + "\n"; }
+
+ private:
+  Row& Add(const std::string& s) {
+    if (!first_) line_ += ',';
+    line_ += s;
+    first_ = false;
+    return *this;
+  }
+  std::string line_;
+  bool first_ = true;
+};
+
+std::string Verdict(const PointResult& p) {
+  if (!p.has_mcm) return "not run";
+  return p.validated ? "validated" : "not validated";
+}
+
+bool IsLength(const std::string& unit) { return unit == "m"; }
+
+}  // namespace
+
+std::string PointsCsv(const Results& r) {
+  std::ostringstream out;
+  out << "name,face,range_m,azimuth_deg,elevation_deg,nominal_x_mm,nominal_y_mm,nominal_z_mm,"
+         "x_mm,y_mm,z_mm,u_x_um,u_y_um,u_z_um,k,U_x_um,U_y_um,U_z_um,U_norm_um,"
+         "ellipsoid_k,ellipsoid_a1_um,ellipsoid_a2_um,ellipsoid_a3_um,"
+         "u_radial_um,u_horizontal_um,u_vertical_um,"
+         "mcm_x_mm,mcm_y_mm,mcm_z_mm,mcm_u_x_um,mcm_u_y_um,mcm_u_z_um,"
+         "mcm_low_x_mm,mcm_high_x_mm,mcm_low_y_mm,mcm_high_y_mm,mcm_low_z_mm,mcm_high_z_mm,"
+         "mcm_ellipsoid_k,d_max_um,delta_um,region_worst_ratio,gum_vs_mcm\n";
+  for (const PointResult& p : r.points) {
+    const PointUncertainty& g = p.gum;
+    Row row;
+    row << p.input.name << std::string(FaceName(p.input.face)) << g.readings[0] << g.readings[1] * kDeg
+        << g.readings[2] * kDeg;
+    if (r.mode == JobMode::kPlan) {
+      row << p.input.nominal.x() * kMm << p.input.nominal.y() * kMm << p.input.nominal.z() * kMm;
+    } else {
+      row.Empty().Empty().Empty();
+    }
+    row << g.part.x() * kMm << g.part.y() * kMm << g.part.z() * kMm;
+    for (int a = 0; a < 3; ++a) row << g.u_part[a] * kUm;
+    row << g.k;
+    for (int a = 0; a < 3; ++a) row << g.U_part[a] * kUm;
+    row << g.U_part.norm() * kUm << g.ellipsoid.k;
+    for (int a = 0; a < 3; ++a) row << g.ellipsoid.semi_axes[a] * kUm;
+    row << g.los_part.u_radial * kUm << g.los_part.u_horizontal * kUm << g.los_part.u_vertical * kUm;
+    if (p.has_mcm) {
+      for (int a = 0; a < 3; ++a) row << p.mcm_axes[a].mean * kMm;
+      for (int a = 0; a < 3; ++a) row << p.mcm_axes[a].u * kUm;
+      for (int a = 0; a < 3; ++a) row << p.mcm_axes[a].symmetric.low * kMm << p.mcm_axes[a].symmetric.high * kMm;
+      double d_max = 0.0, delta = 0.0;
+      for (int a = 0; a < 3; ++a) {
+        d_max = std::max({d_max, p.axis_validation[a].d_low, p.axis_validation[a].d_high});
+        delta = a == 0 ? p.axis_validation[a].delta : std::min(delta, p.axis_validation[a].delta);
+      }
+      row << p.mcm.coverage_factor << d_max * kUm << delta * kUm << p.region_validation.worst_ratio;
+    } else {
+      for (int k = 0; k < 16; ++k) row.Empty();
+    }
+    row << Verdict(p);
+    out << row.str();
+  }
+  return out.str();
+}
+
+std::string BudgetCsv(const Results& r) {
+  std::ostringstream out;
+  out << "point,rank,input,group,unit,estimate,u,sensitivity_x,sensitivity_y,sensitivity_z,"
+         "sensitivity_unit,contribution_x_um,contribution_y_um,contribution_z_um,"
+         "share_x,share_y,share_z,share_total\n";
+  for (const PointResult& p : r.points) {
+    int rank = 0;
+    for (const BudgetRow& b : p.gum.budget) {
+      Row row;
+      row << p.input.name << ++rank << b.input << b.group << b.input_unit << b.estimate << b.u;
+      for (int a = 0; a < 3; ++a) row << b.sensitivity[a];
+      row << b.sensitivity_unit;
+      for (int a = 0; a < 3; ++a) row << b.contribution[a] * kUm;
+      for (int a = 0; a < 3; ++a) row << b.share[a];
+      row << b.share_total;
+      out << row.str();
+    }
+  }
+  return out.str();
+}
+
+std::string TasksCsv(const Results& r) {
+  std::ostringstream out;
+  out << "task,kind,quantity,value_unit,value,u_unit,u,k,U,mcm_mean,mcm_u,mcm_low,mcm_high,"
+         "d_low,d_high,delta,gum_vs_mcm\n";
+  for (const TaskResult& t : r.tasks) {
+    for (std::size_t q = 0; q < t.gum.quantities.size(); ++q) {
+      const bool length = IsLength(t.gum.units[q]);
+      const double vs = length ? kMm : 1.0;   // value scale
+      const double us = length ? kUm : 1.0;   // uncertainty scale
+      const Eigen::Index i = static_cast<Eigen::Index>(q);
+      Row row;
+      row << t.spec.name << std::string(TaskKindName(t.spec.kind)) << t.gum.quantities[q]
+          << (length ? "mm" : t.gum.units[q]) << t.gum.value[i] * vs << (length ? "um" : t.gum.units[q])
+          << t.gum.u[i] * us << t.gum.k << t.gum.U[i] * us;
+      if (t.has_mcm && q < t.mcm.size()) {
+        const McmOutputResult& m = t.mcm[q];
+        const ScalarValidation& v = t.validation[q];
+        row << m.mean * vs << m.u * us << m.symmetric.low * vs << m.symmetric.high * vs << v.d_low * us
+            << v.d_high * us << v.delta * us << v.verdict;
+      } else {
+        row.Empty().Empty().Empty().Empty().Empty().Empty().Empty() << "not run";
+      }
+      out << row.str();
+    }
+  }
+  return out.str();
+}
+
+std::string MapCsv(const MapResult& map) {
+  std::ostringstream out;
+  out << "x_m,y_m,z_m,U_x_um,U_y_um,U_z_um,U_norm_um,status\n";
+  std::size_t skipped = 0;
+  for (std::size_t i = 0; i < map.nodes.size(); ++i) {
+    Row row;
+    row << map.nodes[i].x() << map.nodes[i].y() << map.nodes[i].z();
+    if (map.computed[i]) {
+      row << map.U[i].x() * kUm << map.U[i].y() * kUm << map.U[i].z() * kUm << map.U_norm[i] * kUm << "ok";
+    } else {
+      std::string reason = skipped < map.skipped.size() ? map.skipped[skipped] : "skipped";
+      ++skipped;
+      std::size_t colon = reason.find("m: ");
+      if (colon != std::string::npos) reason = reason.substr(colon + 3);
+      row.Empty().Empty().Empty().Empty() << "skipped: " + reason;
+    }
+    out << row.str();
+  }
+  return out.str();
+}
+
+}  // namespace vlt

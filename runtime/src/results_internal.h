@@ -1,0 +1,33 @@
+// results_internal.h — shared by results*.cc and report_html.cc.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "vlt/mcm.h"
+#include "vlt/results.h"
+
+namespace vlt::internal {
+
+// "(x, y, z) m" with 6 significant digits, for messages about grid nodes.
+std::string FormatNode(const Eigen::Vector3d& node);
+
+// The Monte Carlo version of a task: refits the drawn points every trial with the same function
+// (vlt/fits.h) the GUM engine linearises. Outputs: "<task>.<output>" for every TaskOutputs(kind).
+McmTask MakeMcmTask(const TaskSpec& spec, const std::vector<int>& point_indices, const TaskUncertainty& gum);
+
+// Number formatting for CSV/JSON/HTML: shortest round-trip representation ("%.17g" trimmed).
+std::string Num(double v);
+// Fixed number of significant digits.
+std::string Sig(double v, int digits);
+
+// results.json text; for_html: compact, "</" escaped, plus the report's own settings.
+std::string ResultsJsonText(const Results& results, int indent, bool for_html);
+
+std::string HtmlEscape(const std::string& text);
+// Safe directory name from a job name ([A-Za-z0-9._-], others -> '_').
+std::string SafeFileName(const std::string& name);
+
+}  // namespace vlt::internal

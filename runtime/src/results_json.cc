@@ -1,0 +1,316 @@
+// results.json: everything of a run in one document, SI units throughout (schema in
+// docs/results.md; "schema": "vlt-results/1"). Also embedded in report.html.
+#include <nlohmann/json.hpp>
+
+#include "results_internal.h"
+#include "vlt/units.h"
+
+namespace vlt {
+namespace {
+
+using json = nlohmann::ordered_json;
+
+json Vec(const Eigen::VectorXd& v) {
+  json a = json::array();
+  for (Eigen::Index i = 0; i < v.size(); ++i) a.push_back(v[i]);
+  return a;
+}
+
+json Mat(const Eigen::MatrixXd& m) {
+  json a = json::array();
+  for (Eigen::Index i = 0; i < m.rows(); ++i) {
+    json row = json::array();
+    for (Eigen::Index j = 0; j < m.cols(); ++j) row.push_back(m(i, j));
+    a.push_back(row);
+  }
+  return a;
+}
+
+// Columns of a 3x3 direction matrix as a list of unit vectors.
+json Columns(const Eigen::Matrix3d& m) {
+  json a = json::array();
+  for (int j = 0; j < 3; ++j) a.push_back(Vec(m.col(j)));
+  return a;
+}
+
+json Input(const UncertainInput& in) {
+  return json{{"name", in.name},         {"group", in.group},   {"unit", in.unit},
+              {"estimate", in.estimate}, {"u", in.u},           {"distribution", in.distribution},
+              {"shape", in.shape}};
+}
+
+json Los(const LineOfSightSplit& s) {
+  return json{{"u_radial", s.u_radial}, {"u_horizontal", s.u_horizontal}, {"u_vertical", s.u_vertical},
+              {"directions", Columns(s.directions)}};
+}
+
+json McmOut(const McmOutputResult& m) {
+  return json{{"name", m.name},
+              {"unit", m.unit},
+              {"value_at_estimates", m.value_at_estimates},
+              {"mean", m.mean},
+              {"u", m.u},
+              {"symmetric_interval", {m.symmetric.low, m.symmetric.high}},
+              {"shortest_interval", {m.shortest.low, m.shortest.high}},
+              {"numerical_accuracy",
+               {{"s_mean", m.accuracy.s_mean},
+                {"s_u", m.accuracy.s_u},
+                {"s_low", m.accuracy.s_low},
+                {"s_high", m.accuracy.s_high},
+                {"delta", m.accuracy.delta}}}};
+}
+
+json Scalar(const ScalarValidation& v) {
+  return json{{"name", v.name},       {"unit", v.unit},     {"gum_y", v.gum_y},
+              {"gum_u", v.gum_u},     {"gum_U", v.gum_expanded}, {"mcm_low", v.mcm_low},
+              {"mcm_high", v.mcm_high}, {"d_low", v.d_low}, {"d_high", v.d_high},
+              {"delta", v.delta},     {"validated", v.validated}, {"verdict", v.verdict}};
+}
+
+json Budget(const BudgetRow& b) {
+  return json{{"input", b.input},
+              {"group", b.group},
+              {"unit", b.input_unit},
+              {"estimate", b.estimate},
+              {"u", b.u},
+              {"sensitivity", Vec(b.sensitivity)},
+              {"sensitivity_unit", b.sensitivity_unit},
+              {"contribution", Vec(b.contribution)},
+              {"variance", Vec(b.variance)},
+              {"share", Vec(b.share)},
+              {"share_total", b.share_total}};
+}
+
+json Point(const Results& r, const PointResult& p) {
+  const PointUncertainty& g = p.gum;
+  json j;
+  j["name"] = p.input.name;
+  j["face"] = std::string(FaceName(p.input.face));
+  j["readings"] = {{"range", g.readings[0]}, {"azimuth", g.readings[1]}, {"elevation", g.readings[2]}};
+  j["nominal"] = r.mode == JobMode::kPlan ? Vec(p.input.nominal) : json(nullptr);
+  json gum;
+  gum["estimate"] = Vec(g.part);
+  gum["covariance"] = Mat(g.cov_part);
+  gum["u"] = Vec(g.u_part);
+  gum["k"] = g.k;
+  gum["U"] = Vec(g.U_part);
+  gum["U_norm"] = g.U_part.norm();
+  gum["ellipsoid"] = {{"k", g.ellipsoid.k},
+                      {"semi_axes", Vec(g.ellipsoid.semi_axes)},
+                      {"directions", Columns(g.ellipsoid.directions)}};
+  gum["line_of_sight"] = Los(g.los_part);
+  gum["tracker_frame"] = {{"estimate", Vec(g.tracker)},
+                          {"covariance", Mat(g.cov_tracker)},
+                          {"u", Vec(g.u_tracker)},
+                          {"line_of_sight", Los(g.los_tracker)}};
+  gum["correlation_handling"] = g.correlation_handling;
+  j["gum"] = gum;
+  json budget = json::array();
+  for (const BudgetRow& b : g.budget) budget.push_back(Budget(b));
+  j["budget"] = budget;
+  if (p.has_mcm) {
+    json axes = json::array();
+    for (int a = 0; a < 3; ++a) axes.push_back(McmOut(p.mcm_axes[a]));
+    j["mcm"] = {{"mean", Vec(p.mcm.mean)},
+                {"covariance", Mat(p.mcm.covariance)},
+                {"correlation", Mat(p.mcm.correlation)},
+                {"has_region", p.mcm.has_region},
+                {"coverage_factor", p.mcm.coverage_factor},
+                {"axes", axes}};
+    json av = json::array();
+    for (int a = 0; a < 3; ++a) av.push_back(Scalar(p.axis_validation[a]));
+    const PointValidation& v = p.region_validation;
+    j["validation"] = {{"axes", av},
+                       {"region",
+                        {{"gum_coverage_factor", v.gum_coverage_factor},
+                         {"mcm_coverage_factor", v.mcm_coverage_factor},
+                         {"coverage_factor_ratio", v.coverage_factor_ratio},
+                         {"covariance_difference", v.covariance_difference},
+                         {"worst_ratio", v.worst_ratio},
+                         {"worst_direction", Vec(v.worst_direction)},
+                         {"worst_distance", v.worst_distance},
+                         {"worst_delta", v.worst_delta},
+                         {"validated", v.validated},
+                         {"verdict", v.verdict}}},
+                       {"validated", p.validated},
+                       {"verdict", p.validated ? "validated" : "not validated"}};
+  } else {
+    j["mcm"] = nullptr;
+    j["validation"] = nullptr;
+  }
+  return j;
+}
+
+json Task(const TaskResult& t) {
+  json j;
+  j["name"] = t.spec.name;
+  j["kind"] = std::string(TaskKindName(t.spec.kind));
+  j["points"] = t.spec.points;
+  j["quantities"] = t.gum.quantities;
+  j["units"] = t.gum.units;
+  j["gum"] = {{"value", Vec(t.gum.value)}, {"covariance", Mat(t.gum.covariance)}, {"u", Vec(t.gum.u)},
+              {"k", t.gum.k},              {"U", Vec(t.gum.U)}};
+  json groups = json::array();
+  for (const TaskGroupContribution& g : t.gum.budget) {
+    groups.push_back({{"group", g.group}, {"variance", Vec(g.variance)}, {"share", Vec(g.share)}});
+  }
+  j["budget_by_group"] = groups;
+  json inputs = json::array();
+  for (std::size_t s = 0; s < t.gum.shared_input_names.size(); ++s) {
+    if (static_cast<Eigen::Index>(s) >= t.gum.shared_input_variance.cols()) break;
+    inputs.push_back({{"input", t.gum.shared_input_names[s]},
+                      {"variance", Vec(t.gum.shared_input_variance.col(static_cast<Eigen::Index>(s)))}});
+  }
+  if (t.gum.shared_input_variance.cols() == static_cast<Eigen::Index>(t.gum.shared_input_names.size()) + 1) {
+    inputs.push_back({{"input", "correlations"},
+                      {"variance", Vec(t.gum.shared_input_variance.col(t.gum.shared_input_variance.cols() - 1))}});
+  }
+  j["budget_by_shared_input"] = inputs;
+  if (t.has_mcm) {
+    json m = json::array(), v = json::array();
+    for (const McmOutputResult& o : t.mcm) m.push_back(McmOut(o));
+    for (const ScalarValidation& s : t.validation) v.push_back(Scalar(s));
+    j["mcm"] = m;
+    j["validation"] = {{"quantities", v}, {"validated", t.validated},
+                       {"verdict", t.validated ? "validated" : "not validated"}};
+  } else {
+    j["mcm"] = nullptr;
+    j["validation"] = nullptr;
+  }
+  return j;
+}
+
+json Map(const MapResult& m) {
+  json j;
+  j["kind"] = m.settings.kind == MapSettings::Kind::kPlane ? "plane" : "box";
+  j["description"] = m.settings.description;
+  j["quantity"] = m.quantity;
+  j["fixed_axis"] = m.settings.kind == MapSettings::Kind::kPlane ? json(std::string(1, "xyz"[m.settings.fixed_axis]))
+                                                                 : json(nullptr);
+  j["min"] = Vec(m.settings.min);
+  j["max"] = Vec(m.settings.max);
+  j["step"] = m.settings.step;
+  Eigen::Vector3i c = m.settings.counts();
+  j["counts"] = {c[0], c[1], c[2]};
+  j["coverage_probability"] = m.coverage_probability;
+  j["k"] = m.k;
+  // Row-major grid (x fastest): null where a node was skipped.
+  json un = json::array(), ux = json::array(), uy = json::array(), uz = json::array();
+  for (std::size_t i = 0; i < m.nodes.size(); ++i) {
+    if (m.computed[i]) {
+      un.push_back(m.U_norm[i]);
+      ux.push_back(m.U[i].x());
+      uy.push_back(m.U[i].y());
+      uz.push_back(m.U[i].z());
+    } else {
+      un.push_back(nullptr);
+      ux.push_back(nullptr);
+      uy.push_back(nullptr);
+      uz.push_back(nullptr);
+    }
+  }
+  j["U_norm"] = un;
+  j["U_x"] = ux;
+  j["U_y"] = uy;
+  j["U_z"] = uz;
+  j["skipped"] = m.skipped;
+  return j;
+}
+
+}  // namespace
+
+std::string internal::ResultsJsonText(const Results& r, int indent, bool for_html) {
+  json j;
+  j["schema"] = "vlt-results/1";
+  j["vlt_version"] = r.vlt_version;
+  j["units"] = {{"length", "m"},          {"angle", "rad"},          {"temperature", "degC"},
+                {"pressure", "Pa"},       {"humidity", "%"},         {"ratio", "1"},
+                {"expansion_coefficient", "1/K"}, {"time", "s"}};
+  const MeasurementSetup& s = r.setup;
+  j["job"] = {{"name", r.job_name},
+              {"description", r.job_description},
+              {"file", r.job_file},
+              {"mode", r.mode == JobMode::kPlan ? "plan" : "readings"},
+              {"model", r.model_name},
+              {"coverage_probability", r.coverage_probability},
+              {"k_axis", r.k_axis},
+              {"k_region", r.k_region},
+              {"n_dig", r.n_dig},
+              {"points", r.points.size()},
+              {"tasks", r.tasks.size()}};
+  json shared = json::array();
+  for (const UncertainInput& in : r.shared_inputs) shared.push_back(Input(in));
+  j["inputs"] = {{"noise",
+                  {{"range_a", s.noise.range_a},
+                   {"range_b", s.noise.range_b},
+                   {"azimuth", s.noise.azimuth},
+                   {"elevation", s.noise.elevation}}},
+                 {"shared", shared},
+                 {"parameter_correlation", s.param_correlation.size() ? Mat(s.param_correlation) : json(nullptr)},
+                 {"environment_equation",
+                  s.environment ? json(s.environment->equation == Environment::Equation::kCiddor ? "ciddor" : "edlen")
+                                : json(nullptr)},
+                 {"vacuum_wavelength", s.environment ? json(s.environment->vacuum_wavelength) : json(nullptr)},
+                 {"part_reference_temperature", s.thermal ? json(s.thermal->reference) : json(nullptr)}};
+  if (r.has_mcm) {
+    j["monte_carlo"] = {{"enabled", true},
+                        {"seed", r.mcm.seed},
+                        {"trials", r.mcm.trials},
+                        {"adaptive", r.mcm.adaptive},
+                        {"converged", r.mcm.converged},
+                        {"batch_size", r.mcm.batch_size},
+                        {"batches", r.mcm.batches},
+                        {"threads", r.mcm.threads},
+                        {"seconds", r.mcm.seconds},
+                        {"interval_method", r.mcm.interval_method},
+                        {"n_dig", r.n_dig}};
+  } else {
+    j["monte_carlo"] = {{"enabled", false}};
+  }
+  json points = json::array();
+  for (const PointResult& p : r.points) points.push_back(Point(r, p));
+  j["points"] = points;
+  json tasks = json::array();
+  for (const TaskResult& t : r.tasks) tasks.push_back(Task(t));
+  j["tasks"] = tasks;
+  j["map"] = r.map ? Map(*r.map) : json(nullptr);
+  double max_u = 0.0, max_U_norm = 0.0, max_axis = 0.0;
+  std::string worst;
+  for (const PointResult& p : r.points) {
+    max_u = std::max(max_u, p.gum.u_part.maxCoeff());
+    max_axis = std::max(max_axis, p.gum.U_part.maxCoeff());
+    if (p.gum.U_part.norm() >= max_U_norm) {
+      max_U_norm = p.gum.U_part.norm();
+      worst = p.input.name;
+    }
+  }
+  j["summary"] = {{"max_u_axis", max_u},
+                  {"max_U_axis", max_axis},
+                  {"max_U_norm", max_U_norm},
+                  {"worst_point", worst},
+                  {"validated_points", r.has_mcm ? json(r.validated_points) : json(nullptr)},
+                  {"validated_tasks", r.has_mcm ? json(r.validated_tasks) : json(nullptr)},
+                  {"gum_seconds", r.gum_seconds},
+                  {"mcm_seconds", r.mcm_seconds}};
+  if (for_html) j["report"] = {{"ellipsoid_scale", r.ellipsoid_scale}};
+  std::string text = j.dump(indent, ' ', false, json::error_handler_t::replace);
+  if (for_html) {
+    // Inside <script> the sequence "</" could close the element: "<\/" is the same JSON string.
+    std::string safe;
+    safe.reserve(text.size());
+    for (std::size_t i = 0; i < text.size(); ++i) {
+      if (text[i] == '<' && i + 1 < text.size() && text[i + 1] == '/') {
+        safe += "<\\/";
+        ++i;
+      } else {
+        safe += text[i];
+      }
+    }
+    return safe;
+  }
+  return text + "\n";
+}
+
+std::string ResultsJson(const Results& r, int indent) { return internal::ResultsJsonText(r, indent, false); }
+
+}  // namespace vlt

@@ -1,0 +1,183 @@
+// Writing the result files all-or-nothing, and the terminal summary.
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <system_error>
+
+#include "results_internal.h"
+#include "vlt/error.h"
+
+namespace vlt {
+
+std::vector<std::pair<std::string, std::string>> ResultFiles(const Results& results) {
+  // Everything is rendered in memory first: a failure here leaves the disk untouched.
+  std::vector<std::pair<std::string, std::string>> files;
+  files.emplace_back("points.csv", PointsCsv(results));
+  files.emplace_back("budget.csv", BudgetCsv(results));
+  files.emplace_back("tasks.csv", TasksCsv(results));
+  files.emplace_back("results.json", ResultsJson(results));
+  files.emplace_back("report.html", ReportHtml(results));
+  if (results.map) {
+    files.emplace_back("map.csv", MapCsv(*results.map));
+    files.emplace_back("map.html", MapHtml(*results.map, results.job_name + ": " + results.map->settings.description));
+  }
+  return files;
+}
+
+void WriteFilesAtomically(const std::filesystem::path& dir,
+                          const std::vector<std::pair<std::string, std::string>>& files) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  bool created = false;
+  if (!fs::exists(dir, ec)) {
+    created = fs::create_directories(dir, ec);
+    if (ec) throw InputError(dir.string() + ": cannot create the output directory: " + ec.message());
+  } else if (!fs::is_directory(dir, ec)) {
+    throw InputError(dir.string() + ": output path exists and is not a directory");
+  }
+  const std::string suffix = ".vlt-tmp-" + std::to_string(::getpid());
+  std::vector<fs::path> temps;
+  auto cleanup = [&](std::size_t renamed_count) {
+    std::error_code ignore;
+    for (const fs::path& t : temps) fs::remove(t, ignore);
+    for (std::size_t i = 0; i < renamed_count; ++i) fs::remove(dir / files[i].first, ignore);
+    if (created && fs::is_empty(dir, ignore)) fs::remove(dir, ignore);
+  };
+  for (const auto& [name, content] : files) {
+    fs::path temp = dir / ("." + name + suffix);
+    temps.push_back(temp);
+    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
+    out.write(content.data(), static_cast<std::streamsize>(content.size()));
+    out.close();
+    if (!out) {
+      cleanup(0);
+      throw InputError((dir / name).string() + ": cannot write the output file");
+    }
+  }
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    fs::rename(temps[i], dir / files[i].first, ec);
+    if (ec) {
+      cleanup(i);
+      throw InputError((dir / files[i].first).string() + ": cannot rename the output file: " + ec.message());
+    }
+  }
+}
+
+std::string SummaryText(const Results& r) {
+  std::ostringstream out;
+  char line[512];
+  out << "vlt " << r.vlt_version << " — job '" << r.job_name << "' (" << r.job_file << "), model " << r.model_name
+      << ", " << (r.mode == JobMode::kPlan ? "offline plan" : "online readings") << ", " << r.points.size()
+      << " points, " << r.tasks.size() << " tasks\n";
+  std::snprintf(line, sizeof line,
+                "Coverage probability %.4g: U = k u per axis with k = %.3f; |U| = sqrt(Ux^2+Uy^2+Uz^2); "
+                "coverage ellipsoid k = %.3f\n\n",
+                r.coverage_probability, r.k_axis, r.k_region);
+  out << line;
+  std::snprintf(line, sizeof line, "%-14s %9s %10s %10s %10s %8s %8s %8s %8s %8s  %s\n", "point", "range[m]",
+                "x[mm]", "y[mm]", "z[mm]", "Ux[um]", "Uy[um]", "Uz[um]", "|U|[um]", "a1[um]", "GUM vs MCM");
+  out << line;
+  const std::size_t max_rows = 40;
+  for (std::size_t i = 0; i < r.points.size(); ++i) {
+    if (i == max_rows) {
+      out << "... " << (r.points.size() - max_rows) << " more points in points.csv\n";
+      break;
+    }
+    const PointResult& p = r.points[i];
+    const PointUncertainty& g = p.gum;
+    std::string name = p.input.name.size() > 14 ? p.input.name.substr(0, 13) + "~" : p.input.name;
+    std::snprintf(line, sizeof line, "%-14s %9.3f %10.3f %10.3f %10.3f %8.1f %8.1f %8.1f %8.1f %8.1f  %s\n",
+                  name.c_str(), g.readings[0], g.part.x() * 1e3, g.part.y() * 1e3, g.part.z() * 1e3,
+                  g.U_part.x() * 1e6, g.U_part.y() * 1e6, g.U_part.z() * 1e6, g.U_part.norm() * 1e6,
+                  g.ellipsoid.semi_axes[0] * 1e6,
+                  !p.has_mcm ? "not run" : p.validated ? "validated" : "NOT validated");
+    out << line;
+  }
+  if (!r.tasks.empty()) {
+    out << "\n";
+    std::snprintf(line, sizeof line, "%-18s %-9s %-13s %16s %11s %24s  %s\n", "task", "kind", "quantity", "value",
+                  "U (GUM)", "MCM interval - value", "GUM vs MCM");
+    out << line;
+    for (const TaskResult& t : r.tasks) {
+      for (std::size_t q = 0; q < t.gum.quantities.size(); ++q) {
+        const std::string& quantity = t.gum.quantities[q];
+        // The headline quantities only; every component is in tasks.csv.
+        bool headline = quantity == "distance" || quantity == "radius" || quantity == "flatness" ||
+                        quantity == "straightness" || quantity == "normal_x" || quantity == "normal_y" ||
+                        quantity.rfind("centre_", 0) == 0;
+        if (!headline) continue;
+        const Eigen::Index i = static_cast<Eigen::Index>(q);
+        bool length = t.gum.units[q] == "m";
+        double vs = length ? 1e3 : 1.0, us = length ? 1e6 : 1.0;
+        char value_text[64];
+        if (length) std::snprintf(value_text, sizeof value_text, "%.4f mm", t.gum.value[i] * vs);
+        else std::snprintf(value_text, sizeof value_text, "%.6g", std::abs(t.gum.value[i]) < 1e-12 ? 0.0 : t.gum.value[i]);
+        std::string value = value_text;
+        std::string big_u = internal::Sig(t.gum.U[i] * us, 3) + (length ? " um" : "");
+        std::string interval = "-", verdict = "not run";
+        if (t.has_mcm && q < t.validation.size()) {
+          char buffer[96];
+          std::snprintf(buffer, sizeof buffer, "[%.3g, %.3g]%s", (t.mcm[q].symmetric.low - t.gum.value[i]) * us,
+                        (t.mcm[q].symmetric.high - t.gum.value[i]) * us, length ? " um" : "");
+          interval = buffer;
+          verdict = t.validation[q].validated ? "validated" : "NOT validated";
+          if (!t.validation[q].validated && t.gum.u[i] == 0.0 && t.mcm[q].u > 0.0) {
+            verdict += " (no first-order sensitivity: GUM u = 0)";
+          }
+        }
+        std::snprintf(line, sizeof line, "%-18s %-9s %-13s %16s %11s %24s  %s\n", t.spec.name.c_str(),
+                      std::string(TaskKindName(t.spec.kind)).c_str(), quantity.c_str(), value.c_str(), big_u.c_str(),
+                      interval.c_str(), verdict.c_str());
+        out << line;
+      }
+    }
+  }
+  out << "\n";
+  if (r.has_mcm) {
+    // Task results are counted per quantity: one output the GUM cannot linearise (e.g. the
+    // flatness of nominal points) must not hide that the others are validated.
+    std::size_t quantities = 0, validated = 0;
+    std::string failed;
+    int listed = 0;
+    for (const TaskResult& t : r.tasks) {
+      for (const ScalarValidation& v : t.validation) {
+        ++quantities;
+        if (v.validated) {
+          ++validated;
+        } else if (listed++ < 6) {
+          failed += (failed.empty() ? "" : ", ") + v.name;
+        } else if (listed == 7) {
+          failed += ", ...";
+        }
+      }
+    }
+    std::snprintf(line, sizeof line,
+                  "Monte Carlo: %lld trials%s, seed %llu, %d thread(s), %.1f s. GUM validated by MCM (JCGM 101 8): "
+                  "%d/%zu points, %zu/%zu task quantities.\n",
+                  static_cast<long long>(r.mcm.trials), r.mcm.adaptive ? (r.mcm.converged ? " (adaptive, converged)" : " (adaptive, NOT converged)") : "",
+                  static_cast<unsigned long long>(r.mcm.seed), r.mcm.threads, r.mcm.seconds, r.validated_points,
+                  r.points.size(), validated, quantities);
+    out << line;
+    if (!failed.empty()) out << "Not validated: " << failed << " (tasks.csv, report.html).\n";
+  } else {
+    out << "Monte Carlo: not run (GUM only).\n";
+  }
+  if (r.map) {
+    double max_u = 0, min_u = 1e300;
+    for (std::size_t i = 0; i < r.map->nodes.size(); ++i) {
+      if (!r.map->computed[i]) continue;
+      max_u = std::max(max_u, r.map->U_norm[i]);
+      min_u = std::min(min_u, r.map->U_norm[i]);
+    }
+    std::snprintf(line, sizeof line, "Map: %s: |U| %.1f .. %.1f um over %zu nodes (%zu skipped near the vertical axis).\n",
+                  r.map->settings.description.c_str(), min_u * 1e6, max_u * 1e6, r.map->nodes.size(),
+                  r.map->skipped.size());
+    out << line;
+  }
+  return out.str();
+}
+
+}  // namespace vlt

@@ -1,0 +1,80 @@
+// Task descriptions (vlt/tasks.h): names, minimum point counts, point-name resolution.
+#include "vlt/tasks.h"
+
+#include <string>
+#include <unordered_map>
+
+#include "vlt/error.h"
+
+namespace vlt {
+namespace {
+
+struct KindName {
+  TaskKind kind;
+  std::string_view name;
+  int minimum_points;
+};
+
+constexpr KindName kKinds[] = {
+    {TaskKind::kDistance, "distance", 2}, {TaskKind::kPlane, "plane", 3},
+    {TaskKind::kSphere, "sphere", 4},     {TaskKind::kCircle, "circle", 3},
+    {TaskKind::kLine, "line", 2},
+};
+
+}  // namespace
+
+std::string_view TaskKindName(TaskKind kind) {
+  for (const KindName& k : kKinds) {
+    if (k.kind == kind) return k.name;
+  }
+  return "unknown";
+}
+
+TaskKind ParseTaskKind(std::string_view text, std::string_view where) {
+  for (const KindName& k : kKinds) {
+    if (k.name == text) return k.kind;
+  }
+  throw InputError(std::string(where) + ": unknown task kind '" + std::string(text) +
+                   "' (expected distance, plane, sphere, circle or line)");
+}
+
+int MinimumPoints(TaskKind kind) {
+  for (const KindName& k : kKinds) {
+    if (k.kind == kind) return k.minimum_points;
+  }
+  return 0;
+}
+
+std::vector<int> ResolveTaskPoints(const TaskSpec& spec, std::span<const std::string> point_names,
+                                   std::string_view where) {
+  const std::string prefix = std::string(where) + ": task '" + spec.name + "'";
+  const int count = static_cast<int>(spec.points.size());
+  if (spec.kind == TaskKind::kDistance && count != 2) {
+    throw InputError(prefix + ": distance needs exactly 2 points, " + std::to_string(count) +
+                     " given");
+  }
+  if (count < MinimumPoints(spec.kind)) {
+    throw InputError(prefix + ": " + std::string(TaskKindName(spec.kind)) + " needs at least " +
+                     std::to_string(MinimumPoints(spec.kind)) + " points, " +
+                     std::to_string(count) + " given");
+  }
+  // Hash lookup: tasks over 10^5 points must not cost N^2.
+  std::unordered_map<std::string_view, int> index_of;
+  index_of.reserve(point_names.size());
+  for (int i = 0; i < static_cast<int>(point_names.size()); ++i) {
+    index_of.emplace(point_names[i], i);  // first occurrence wins
+  }
+  std::vector<int> indices;
+  indices.reserve(spec.points.size());
+  std::vector<char> used(point_names.size(), 0);
+  for (const std::string& name : spec.points) {
+    const auto it = index_of.find(name);
+    if (it == index_of.end()) throw InputError(prefix + ": point '" + name + "' not measured");
+    if (used[it->second]) throw InputError(prefix + ": point '" + name + "' listed twice");
+    used[it->second] = 1;
+    indices.push_back(it->second);
+  }
+  return indices;
+}
+
+}  // namespace vlt

@@ -1,0 +1,111 @@
+// validation.cc — GUM validated by Monte Carlo (JCGM 101 §8; multivariate criterion of
+// vlt/validation.h).
+#include "vlt/validation.h"
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numbers>
+#include <vector>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+
+#include "vlt/error.h"
+
+namespace vlt {
+namespace {
+
+std::string Verdict(bool validated, double worst, double delta, const std::string& unit) {
+  char text[160];
+  std::snprintf(text, sizeof text, "%s (largest endpoint difference %.3g %s, tolerance %.3g %s)",
+                validated ? "validated" : "not validated", worst, unit.c_str(), delta,
+                unit.c_str());
+  return text;
+}
+
+// Directions spread evenly on the unit sphere (Fibonacci lattice).
+std::vector<Eigen::Vector3d> SphereDirections(int n) {
+  std::vector<Eigen::Vector3d> out;
+  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
+  for (int i = 0; i < n; ++i) {
+    const double z = 1.0 - (2.0 * i + 1.0) / n;
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    out.emplace_back(r * std::cos(golden * i), r * std::sin(golden * i), z);
+  }
+  return out;
+}
+
+}  // namespace
+
+ScalarValidation ValidateScalar(const std::string& name, const std::string& unit, double gum_y,
+                                double gum_u, double gum_expanded,
+                                const CoverageInterval& mcm_symmetric, int significant_digits) {
+  ScalarValidation v;
+  v.name = name;
+  v.unit = unit;
+  v.gum_y = gum_y;
+  v.gum_u = gum_u;
+  v.gum_expanded = gum_expanded;
+  v.mcm_low = mcm_symmetric.low;
+  v.mcm_high = mcm_symmetric.high;
+  // JCGM 101 8.2 b), c).
+  v.d_low = std::abs(gum_y - gum_expanded - mcm_symmetric.low);
+  v.d_high = std::abs(gum_y + gum_expanded - mcm_symmetric.high);
+  v.delta = NumericalTolerance(gum_u, significant_digits);
+  v.validated = v.d_low <= v.delta && v.d_high <= v.delta;
+  v.verdict = Verdict(v.validated, std::max(v.d_low, v.d_high), v.delta, unit);
+  return v;
+}
+
+PointValidation ValidatePoint(const std::string& name, const Eigen::Vector3d& gum_y,
+                              const Eigen::Matrix3d& gum_covariance, double gum_coverage_factor,
+                              const McmPointResult& mcm, int significant_digits) {
+  PointValidation v;
+  v.name = name;
+  v.gum_coverage_factor = gum_coverage_factor;
+  v.mcm_coverage_factor = mcm.has_region ? mcm.coverage_factor : 0.0;
+  v.coverage_factor_ratio = v.mcm_coverage_factor / gum_coverage_factor;
+  const double norm_g = gum_covariance.norm();
+  if (Eigen::LLT<Eigen::Matrix3d>(gum_covariance).info() != Eigen::Success || !(norm_g > 0.0)) {
+    throw NumericalError("validation of point '" + name +
+                         "': the GUM covariance is not positive definite (no coverage region)");
+  }
+  v.covariance_difference = (mcm.covariance - gum_covariance).norm() / norm_g;
+  if (!mcm.has_region) {
+    v.validated = false;
+    v.verdict = "not validated (the Monte Carlo covariance is singular: no coverage region)";
+    v.worst_ratio = 0.0;
+    return v;
+  }
+
+  std::vector<Eigen::Vector3d> directions = SphereDirections(1000);
+  for (int a = 0; a < 3; ++a) directions.push_back(Eigen::Vector3d::Unit(a));
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(gum_covariance);
+  for (int a = 0; a < 3; ++a) directions.push_back(eigen.eigenvectors().col(a).normalized());
+
+  const Eigen::Vector3d shift = gum_y - mcm.mean;
+  v.worst_ratio = -1.0;
+  for (const Eigen::Vector3d& d : directions) {
+    const double s_g = std::sqrt(std::max(0.0, d.dot(gum_covariance * d)));
+    const double s_m = std::sqrt(std::max(0.0, d.dot(mcm.covariance * d)));
+    // Endpoints of the projections of both regions on d: JCGM 101 8.2 d_low, d_high for d.Y.
+    const double c = d.dot(shift);
+    const double h = gum_coverage_factor * s_g - mcm.coverage_factor * s_m;
+    const double distance = std::max(std::abs(c - h), std::abs(c + h));
+    const double delta = NumericalTolerance(s_g, significant_digits);
+    const double ratio = delta > 0.0 ? distance / delta
+                                     : (distance > 0.0 ? std::numeric_limits<double>::max() : 0.0);
+    if (ratio > v.worst_ratio) {
+      v.worst_ratio = ratio;
+      v.worst_direction = d;
+      v.worst_distance = distance;
+      v.worst_delta = delta;
+    }
+  }
+  v.validated = v.worst_ratio <= 1.0;
+  v.verdict = Verdict(v.validated, v.worst_distance, v.worst_delta, "m");
+  return v;
+}
+
+}  // namespace vlt

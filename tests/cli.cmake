@@ -1,0 +1,129 @@
+# Tests that drive the `vlt` command line (docs/cli.md): bad input -> one line, exit 2, no output
+# files; the demo, the examples, `vlt map`; the report rendered in headless Chromium.
+# Helper scripts: tests/cli/*.cmake; job files: tests/cli/jobs/.
+if(NOT TARGET vlt)
+  return()
+endif()
+
+set(_cli ${CMAKE_CURRENT_SOURCE_DIR}/cli)
+set(_jobs ${_cli}/jobs)
+set(_out ${CMAKE_BINARY_DIR}/cli-tests)
+
+# vlt_cli_error(NAME JOB REGEX [extra args...]): `vlt run JOB -o DIR --no-mcm` must fail.
+function(vlt_cli_error name job regex)
+  add_test(NAME cli_error_${name}
+    COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+            "-DARGS=run;${_jobs}/${job};-o;${_out}/error_${name};${ARGN}"
+            -DOUT=${_out}/error_${name} "-DEXPECT=${regex}"
+            -P ${_cli}/expect_error.cmake)
+endfunction()
+
+# One test per class of bad input; each checks the one-line message names the file and the key
+# or line, and that nothing was written.
+vlt_cli_error(toml_syntax syntax_error.toml "syntax_error\\.toml: line 10, column [0-9]+: TOML syntax error")
+vlt_cli_error(unknown_key unknown_key.toml "unknown_key\\.toml: tracker\\.noise\\.azimth: unknown key")
+vlt_cli_error(missing_key missing_key.toml "missing_key\\.toml: tracker\\.model: required key is missing")
+vlt_cli_error(unknown_parameter unknown_parameter.toml
+              "unknown_parameter\\.toml: tracker\\.parameters\\.tmx: unknown parameter 'tmx' of model 'mirror'")
+vlt_cli_error(unknown_model unknown_model.toml "unknown_model\\.toml: tracker\\.model: unknown model 'laser9000'")
+vlt_cli_error(wrong_unit wrong_unit.toml
+              "wrong_unit\\.toml: tracker\\.noise\\.elevation: '5 um' is a length, expected an angle")
+vlt_cli_error(negative_uncertainty negative_u.toml "negative_u\\.toml: tracker\\.parameters\\.tmv\\.u: negative uncertainty")
+vlt_cli_error(nonfinite_uncertainty nonfinite_u.toml "nonfinite_u\\.toml: tracker\\.parameters\\.rmv\\.u: not a finite number")
+vlt_cli_error(correlation_not_psd correlation_not_psd.toml
+              "correlation_not_psd\\.toml: tracker\\.correlations\\.encoders\\.matrix: correlation matrix is not positive semi-definite")
+vlt_cli_error(point_on_vertical_axis on_vertical_axis.toml
+              "on_vertical_axis\\.toml: plan\\.point\\[4\\]: point 'Z' lies on the tracker's vertical axis")
+vlt_cli_error(csv_row bad_csv_row.toml "bad_readings\\.csv: line 4: elevation: 'oops' does not start with a number")
+vlt_cli_error(csv_missing missing_csv.toml "missing_csv\\.toml: readings\\.csv: cannot read '.*no_such_file\\.csv'")
+vlt_cli_error(map_step_unit bad_map_step.toml "bad_map_step\\.toml: map: step: '0\\.25 rad' is an angle, expected a length")
+# An error found while computing (a plane through collinear points) also leaves nothing behind,
+# with Monte Carlo on.
+vlt_cli_error(collinear_plane collinear_plane.toml "collinear_plane\\.toml: task\\[0\\]: .*collinear")
+vlt_cli_error(trials_too_few good.toml "--trials: at least 2000 trials" --trials 100)
+vlt_cli_error(missing_job_file no_such_job.toml "no_such_job\\.toml: cannot read the job file")
+# A bad job must not touch an existing output directory.
+add_test(NAME cli_error_keeps_existing_directory
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> -DPREEXISTING=ON
+          "-DARGS=run;${_jobs}/unknown_key.toml;-o;${_out}/error_existing"
+          -DOUT=${_out}/error_existing "-DEXPECT=unknown key" -P ${_cli}/expect_error.cmake)
+# vlt map with a plane but no extent.
+add_test(NAME cli_error_map_without_extent
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=map;${_jobs}/good.toml;--plane;z=0;-o;${_out}/error_map"
+          -DOUT=${_out}/error_map "-DEXPECT=--extent: required with --plane" -P ${_cli}/expect_error.cmake)
+
+set(_all_files "points.csv;budget.csv;tasks.csv;results.json;report.html")
+
+# A good job, GUM only and with a small Monte Carlo run; --json prints results.json.
+add_test(NAME cli_run_good_no_mcm
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=run;${_jobs}/good.toml;-o;${_out}/good_no_mcm;--no-mcm"
+          -DOUT=${_out}/good_no_mcm "-DFILES=${_all_files}"
+          "-DEXPECT_STDOUT=Ux\\[um\\].*Monte Carlo: not run" -P ${_cli}/expect_outputs.cmake)
+add_test(NAME cli_run_good_json
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=run;${_jobs}/good.toml;-o;${_out}/good_json;--trials;4000;--json"
+          -DOUT=${_out}/good_json "-DFILES=${_all_files}"
+          "-DEXPECT_STDOUT=^{\n \"schema\": \"vlt-results/1\"" -P ${_cli}/expect_outputs.cmake)
+
+# The demo (the README's first command) with fewer trials, then its report in Chromium.
+add_test(NAME cli_demo
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=demo;--trials;20000;-o;${_out}/demo"
+          -DOUT=${_out}/demo "-DFILES=${_all_files};map.csv;map.html"
+          "-DEXPECT_STDOUT=GUM validated by MCM \\(JCGM 101 8\\): [0-9]+/50 points" -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_demo PROPERTIES FIXTURES_SETUP vlt_demo_outputs)
+add_test(NAME report_browser_demo
+  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/demo/report.html -DPROFILE=${_out}/chromium-profile-report
+          -DMIN_PLOTS=4 -P ${_cli}/report_browser.cmake)
+add_test(NAME report_browser_map
+  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/demo/map.html -DPROFILE=${_out}/chromium-profile-map
+          -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
+set_tests_properties(report_browser_demo report_browser_map PROPERTIES
+  FIXTURES_REQUIRED vlt_demo_outputs TIMEOUT 300)
+
+# vlt map through the tracker's vertical axis: the node at the origin is skipped and reported.
+add_test(NAME cli_map_plane
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=map;${_jobs}/good.toml;--plane;z=0;--extent;-2,2,-2,2;--step;0.5m;-o;${_out}/map"
+          -DOUT=${_out}/map "-DFILES=map.csv;map.html"
+          "-DEXPECT_STDOUT=over 80 nodes.*Skipped 1 node.*\\(0, 0, 0\\) m: at the tracker" -P ${_cli}/expect_outputs.cmake)
+
+# Every example runs (small Monte Carlo).
+file(GLOB _examples CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/examples/*.toml)
+foreach(example ${_examples})
+  get_filename_component(ex ${example} NAME_WE)
+  add_test(NAME cli_example_${ex}
+    COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+            "-DARGS=run;${example};--trials;4000;-o;${_out}/example_${ex}"
+            -DOUT=${_out}/example_${ex} "-DFILES=${_all_files}" -P ${_cli}/expect_outputs.cmake)
+endforeach()
+
+# --help on every command, --version.
+foreach(cmd run demo map)
+  add_test(NAME cli_help_${cmd} COMMAND vlt ${cmd} --help)
+  set_tests_properties(cli_help_${cmd} PROPERTIES PASS_REGULAR_EXPRESSION "Usage:.*${cmd}")
+endforeach()
+add_test(NAME cli_version COMMAND vlt --version)
+set_tests_properties(cli_version PROPERTIES PASS_REGULAR_EXPRESSION "^vlt [0-9]+\\.[0-9]+\\.[0-9]+")
+add_test(NAME cli_demo_show_job COMMAND vlt demo --show-job)
+set_tests_properties(cli_demo_show_job PROPERTIES PASS_REGULAR_EXPRESSION "model = \"mirror\"")
+
+# The report without Monte Carlo (no verdicts, null MCM fields) and a box map (slice selector)
+# must draw as well.
+set_tests_properties(cli_run_good_no_mcm PROPERTIES FIXTURES_SETUP vlt_good_no_mcm)
+add_test(NAME report_browser_no_mcm
+  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/good_no_mcm/report.html -DPROFILE=${_out}/chromium-profile-no-mcm
+          -DMIN_PLOTS=3 -P ${_cli}/report_browser.cmake)
+add_test(NAME cli_map_box
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=map;${_jobs}/good.toml;--box;-1,1,-1,1,-1,1;--step;0.5;-o;${_out}/map_box"
+          -DOUT=${_out}/map_box "-DFILES=map.csv;map.html"
+          "-DEXPECT_STDOUT=over 120 nodes.*Skipped 5 node" -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_map_box PROPERTIES FIXTURES_SETUP vlt_map_box)
+add_test(NAME report_browser_map_box
+  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/map_box/map.html -DPROFILE=${_out}/chromium-profile-map-box
+          -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
+set_tests_properties(report_browser_no_mcm PROPERTIES FIXTURES_REQUIRED vlt_good_no_mcm TIMEOUT 300)
+set_tests_properties(report_browser_map_box PROPERTIES FIXTURES_REQUIRED vlt_map_box TIMEOUT 300)

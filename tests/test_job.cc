@@ -1,0 +1,387 @@
+// test_job.cc — the job file parser (runtime/src/job*.cc, docs/job-file.md): units in every kind
+// of key against their definitions, defaults from the model metadata, correlation matrices,
+// readings CSVs (units, zenith angles, faces), map grids, CSV parsing, and every class of bad
+// input with its one-line message. (The same classes through the `vlt` binary, with the check
+// that no output file is written: tests/cli.cmake.)
+#include "vlt/job.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "csv.h"
+#include "vlt/error.h"
+#include "vlt/models.h"
+
+namespace vlt {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kArcsec = kPi / (180.0 * 3600.0);
+
+const std::string kTracker = R"(
+[tracker]
+model = "mirror"
+[tracker.noise]
+range = "5 um + 0.5 um/m"
+azimuth = "0.5 arcsec"
+elevation = "0.5 arcsec"
+)";
+const std::string kPlan = R"(
+[plan]
+unit = "mm"
+point = [ {name = "A", x = 3000, y = 0, z = 0}, {name = "B", x = 4000, y = 1000, z = 0},
+          {name = "C", x = 3000, y = 1000, z = 500} ]
+)";
+
+Job Parse(const std::string& text) { return ParseJob(text, "job.toml", std::filesystem::temp_directory_path()); }
+
+// The InputError message of parsing `text`, or "" when it parses.
+std::string ErrorOf(const std::string& text, const std::filesystem::path& base = std::filesystem::temp_directory_path()) {
+  try {
+    ParseJob(text, "job.toml", base);
+  } catch (const InputError& e) {
+    std::string message = e.what();
+    EXPECT_EQ(message.find('\n'), std::string::npos) << "message must be one line: " << message;
+    return message;
+  }
+  return "";
+}
+
+const UncertainInput& Param(const Job& job, const char* name) {
+  int k = FindParam(*job.setup.model, name);
+  EXPECT_GE(k, 0) << name;
+  return job.setup.params.at(static_cast<std::size_t>(k));
+}
+
+TEST(Job, MinimalJobAndModelDefaults) {
+  Job job = Parse(kTracker + kPlan);
+  ASSERT_NE(job.setup.model, nullptr);
+  EXPECT_STREQ(job.setup.model->name, "mirror");
+  EXPECT_EQ(job.name, "job");  // the file's stem
+  EXPECT_EQ(job.mode, JobMode::kPlan);
+  ASSERT_EQ(job.points.size(), 3u);
+  // Bare numbers are in plan.unit (mm).
+  EXPECT_DOUBLE_EQ(job.points[1].nominal.x(), 4.0);
+  EXPECT_DOUBLE_EQ(job.points[2].nominal.z(), 0.5);
+  // Omitted parameters: estimate, u, distribution from the model's metadata.
+  ASSERT_EQ(job.setup.params.size(), static_cast<std::size_t>(job.setup.model->num_params));
+  for (int k = 0; k < job.setup.model->num_params; ++k) {
+    const QuantityInfo& q = job.setup.model->params[k];
+    EXPECT_EQ(job.setup.params[k].name, q.name);
+    EXPECT_DOUBLE_EQ(job.setup.params[k].u, q.default_u) << q.name;
+    EXPECT_DOUBLE_EQ(job.setup.params[k].estimate, q.default_estimate) << q.name;
+  }
+  EXPECT_EQ(job.setup.param_correlation.size(), 0);
+  EXPECT_FALSE(job.setup.environment.has_value());
+  EXPECT_FALSE(job.setup.pose.has_value());
+  EXPECT_FALSE(job.setup.thermal.has_value());
+  // Monte Carlo defaults (docs/job-file.md).
+  EXPECT_TRUE(job.monte_carlo.enabled);
+  EXPECT_EQ(job.monte_carlo.trials, 200000);
+  EXPECT_DOUBLE_EQ(job.monte_carlo.coverage_probability, 0.95);
+  EXPECT_EQ(job.monte_carlo.n_dig, 2);
+}
+
+TEST(Job, UnitsInEveryKindOfKey) {
+  Job job = Parse(R"(
+[job]
+name = "units"
+[tracker]
+model = "mirror"
+[tracker.noise]
+range = "5 um + 0.5 um/m"
+azimuth = "2 urad"
+elevation = "0.001 deg"
+[tracker.parameters]
+tmv = { estimate = "1 um", u = "0.002 mm" }
+rmv = { u = "0.8 arcsec", distribution = "rectangular" }
+mu = { u = "0.5 ppm" }
+sdh = { u = 0 }
+thv = "3 um"
+[environment]
+equation = "edlen"
+wavelength = "0.6328 um"
+temperature = { estimate = "293.65 K", u = "200 mK" }
+pressure = { estimate = "1013.25 hPa", u = "0.3 mbar" }
+humidity = { estimate = "45 %", u = "5 %" }
+co2 = { estimate = "450 ppm", u = "0.003 %" }
+[station]
+rz = { estimate = "20 deg", u = "5 urad" }
+tx = { estimate = "-2.5 m", u = "15 um" }
+[part]
+cte = { estimate = "23 ppm/K", u = "1 um/m/K" }
+temperature = { estimate = "22.3 degC", u = "0.2 K" }
+reference = "20 degC"
+)" + kPlan);
+  const double um = 1e-6;
+  EXPECT_NEAR(job.setup.noise.range_a, 5 * um, 1e-18);
+  EXPECT_NEAR(job.setup.noise.range_b, 0.5e-6, 1e-18);
+  EXPECT_NEAR(job.setup.noise.azimuth, 2e-6, 1e-18);
+  EXPECT_NEAR(job.setup.noise.elevation, 0.001 * kPi / 180, 1e-18);
+  EXPECT_NEAR(Param(job, "tmv").estimate, 1 * um, 1e-18);
+  EXPECT_NEAR(Param(job, "tmv").u, 2 * um, 1e-18);
+  EXPECT_NEAR(Param(job, "rmv").u, 0.8 * kArcsec, 1e-18);
+  EXPECT_EQ(Param(job, "rmv").distribution, "rectangular");
+  EXPECT_NEAR(Param(job, "mu").u, 0.5e-6, 1e-18);
+  EXPECT_EQ(Param(job, "sdh").u, 0.0);            // u = 0 switches a parameter off
+  EXPECT_NEAR(Param(job, "thv").estimate, 3 * um, 1e-18);  // a bare quantity is the estimate
+  EXPECT_EQ(Param(job, "thv").u, job.setup.model->params[FindParam(*job.setup.model, "thv")].default_u);
+  ASSERT_TRUE(job.setup.environment.has_value());
+  const Environment& env = *job.setup.environment;
+  EXPECT_EQ(env.equation, Environment::Equation::kEdlenBoensch);
+  EXPECT_NEAR(env.vacuum_wavelength, 632.8e-9, 1e-18);
+  EXPECT_NEAR(env.temperature.estimate, 20.5, 1e-12);   // 293.65 K = 20.5 degC
+  EXPECT_NEAR(env.temperature.u, 0.2, 1e-15);
+  EXPECT_NEAR(env.pressure.estimate, 101325.0, 1e-9);
+  EXPECT_NEAR(env.pressure.u, 30.0, 1e-12);
+  EXPECT_NEAR(env.humidity.estimate, 45.0, 1e-12);
+  EXPECT_NEAR(env.co2.estimate, 450e-6, 1e-18);
+  EXPECT_NEAR(env.co2.u, 30e-6, 1e-18);
+  ASSERT_TRUE(job.setup.pose.has_value());
+  EXPECT_NEAR(job.setup.pose->rz.estimate, 20 * kPi / 180, 1e-15);
+  EXPECT_NEAR(job.setup.pose->rz.u, 5e-6, 1e-18);
+  EXPECT_NEAR(job.setup.pose->tx.estimate, -2.5, 1e-15);
+  EXPECT_EQ(job.setup.pose->rx.u, 0.0);   // omitted pose inputs: 0 +- 0
+  ASSERT_TRUE(job.setup.thermal.has_value());
+  EXPECT_NEAR(job.setup.thermal->cte.estimate, 23e-6, 1e-18);
+  EXPECT_NEAR(job.setup.thermal->cte.u, 1e-6, 1e-18);
+  EXPECT_NEAR(job.setup.thermal->temperature.estimate, 22.3, 1e-12);
+  EXPECT_EQ(job.name, "units");
+}
+
+TEST(Job, RangeNoiseSpellings) {
+  std::string text = kTracker;
+  text.replace(text.find("range = \"5 um + 0.5 um/m\""), 25, "range_a = \"0.004 mm\"\nrange_b = \"2 ppm\"");
+  Job job = Parse(text + kPlan);
+  EXPECT_NEAR(job.setup.noise.range_a, 4e-6, 1e-18);
+  EXPECT_NEAR(job.setup.noise.range_b, 2e-6, 1e-18);
+  std::string text2 = kTracker;
+  text2.replace(text2.find("\"5 um + 0.5 um/m\""), 17, "\"0.3 um/m + 1e+0 um\"");  // either order
+  Job job2 = Parse(text2 + kPlan);
+  EXPECT_NEAR(job2.setup.noise.range_a, 1e-6, 1e-18);
+  EXPECT_NEAR(job2.setup.noise.range_b, 0.3e-6, 1e-18);
+}
+
+TEST(Job, CorrelationMatrixPlacedAtTheParameters) {
+  Job job = Parse(kTracker + R"(
+[tracker.correlations.encoder]
+parameters = ["eas", "a0"]
+matrix = [[1, 0.4], [0.4, 1]]
+)" + kPlan);
+  const int n = job.setup.model->num_params;
+  ASSERT_EQ(job.setup.param_correlation.rows(), n);
+  int a0 = FindParam(*job.setup.model, "a0"), eas = FindParam(*job.setup.model, "eas");
+  int tmv = FindParam(*job.setup.model, "tmv");
+  EXPECT_DOUBLE_EQ(job.setup.param_correlation(a0, eas), 0.4);
+  EXPECT_DOUBLE_EQ(job.setup.param_correlation(eas, a0), 0.4);
+  EXPECT_DOUBLE_EQ(job.setup.param_correlation(a0, a0), 1.0);
+  EXPECT_DOUBLE_EQ(job.setup.param_correlation(a0, tmv), 0.0);
+}
+
+TEST(Job, TasksResolveToPointIndices) {
+  Job job = Parse(kTracker + kPlan + R"(
+[[task]]
+kind = "distance"
+name = "AB"
+points = ["B", "A"]
+[[task]]
+kind = "plane"
+name = "ABC"
+points = ["A", "B", "C"]
+)");
+  ASSERT_EQ(job.tasks.size(), 2u);
+  EXPECT_EQ(job.tasks[0].kind, TaskKind::kDistance);
+  EXPECT_EQ(job.task_points[0], (std::vector<int>{1, 0}));
+  EXPECT_EQ(job.tasks[1].kind, TaskKind::kPlane);
+}
+
+class JobFiles : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() /
+           ("vlt_test_job_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::filesystem::remove_all(dir_);
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  void Write(const std::string& name, const std::string& text) { std::ofstream(dir_ / name) << text; }
+  std::filesystem::path dir_;
+};
+
+TEST_F(JobFiles, ReadingsCsvWithUnitsZenithAndFaces) {
+  // One point in both faces. Front: range 4000 mm, Hz 30 deg, zenith 80 deg (elevation +10 deg).
+  // Back face of the same point: Hz 210 deg, zenith 280 deg (elevation 180 - 10 = 170 deg).
+  Write("r.csv", "# exported\nPoint,D,Hz,V,Face\nP_F1,4000,30,80,1\nP_F2,4000,210,280,2\n");
+  Write("job.toml", kTracker + R"(
+[readings]
+csv = "r.csv"
+vertical_angle = "zenith"
+columns = { name = "Point", range = "D", azimuth = "Hz", elevation = "V", face = "Face" }
+units = { range = "mm", azimuth = "deg", elevation = "deg" }
+)");
+  Job job = LoadJob((dir_ / "job.toml").string());
+  EXPECT_EQ(job.mode, JobMode::kReadings);
+  ASSERT_EQ(job.points.size(), 2u);
+  const double deg = kPi / 180;
+  EXPECT_NEAR(job.points[0].readings[0], 4.0, 1e-15);
+  EXPECT_NEAR(job.points[0].readings[1], 30 * deg, 1e-15);
+  EXPECT_NEAR(job.points[0].readings[2], 10 * deg, 1e-14);
+  EXPECT_EQ(job.points[0].face, Face::kFront);
+  EXPECT_NEAR(job.points[1].readings[1], 210 * deg, 1e-14);
+  EXPECT_NEAR(job.points[1].readings[2], 170 * deg, 1e-14);
+  EXPECT_EQ(job.points[1].face, Face::kBack);
+  // The ideal point of both faces is the same (docs/conventions.md: A + pi, pi - E).
+  auto ideal = [](const Eigen::Vector3d& r) {
+    return Eigen::Vector3d(r[0] * std::cos(r[2]) * std::cos(r[1]), r[0] * std::cos(r[2]) * std::sin(r[1]),
+                           r[0] * std::sin(r[2]));
+  };
+  EXPECT_LT((ideal(job.points[0].readings) - ideal(job.points[1].readings)).norm(), 1e-12);
+}
+
+TEST_F(JobFiles, ReadingsFaceColumnMustAgree) {
+  Write("r.csv", "name,range,azimuth,elevation,face\nP,4,0.5,0.2,back\n");
+  Write("job.toml", kTracker + "[readings]\ncsv = \"r.csv\"\n");
+  try {
+    LoadJob((dir_ / "job.toml").string());
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("r.csv: line 2: face column says back but the vertical angle is a front-face reading"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST_F(JobFiles, PlanCsvRelativeToTheJobFile) {
+  Write("plan.csv", "name,x,y,z,face\nA,3000,0,0,front\nB,4000,1000,\"12 mm\",back\n");
+  Write("job.toml", kTracker + "[plan]\nunit = \"mm\"\ncsv = \"plan.csv\"\n");
+  Job job = LoadJob((dir_ / "job.toml").string());
+  ASSERT_EQ(job.points.size(), 2u);
+  EXPECT_DOUBLE_EQ(job.points[1].nominal.y(), 1.0);
+  EXPECT_DOUBLE_EQ(job.points[1].nominal.z(), 0.012);  // a field with its own unit
+  EXPECT_EQ(job.points[1].face, Face::kBack);
+}
+
+TEST_F(JobFiles, UnreadableCsvRowNamesFileAndLine) {
+  Write("plan.csv", "name,x,y,z\nA,3000,0,0\n\nB,4000,1000\n");
+  Write("job.toml", kTracker + "[plan]\ncsv = \"plan.csv\"\n");
+  try {
+    LoadJob((dir_ / "job.toml").string());
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("plan.csv: line 4: 3 fields, the header has 4"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Job, BadInputClasses) {
+  struct Case {
+    std::string text, expected;
+  };
+  const std::string good = kTracker + kPlan;
+  auto with = [&](const std::string& from, const std::string& to) {
+    std::string t = good;
+    std::size_t at = t.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    return t.replace(at, from.size(), to);
+  };
+  const Case cases[] = {
+      {with("azimuth = \"0.5 arcsec\"", "azimuth = \"0.5 arcsec"), "job.toml: line 6, column 22: TOML syntax error"},
+      {with("azimuth = \"0.5 arcsec\"", "azimuth = \"0.5 arcsec\"\nazimth = 1"),
+       "job.toml: tracker.noise.azimth: unknown key"},
+      {good + "[monte_carlo]\ntrails = 1000\n", "job.toml: monte_carlo.trails: unknown key"},
+      {good + "[extra]\n", "job.toml: extra: unknown key"},
+      {with("model = \"mirror\"\n", ""), "job.toml: tracker.model: required key is missing"},
+      {with("elevation = \"0.5 arcsec\"\n", ""), "job.toml: tracker.noise.elevation: required key is missing"},
+      {kTracker, "job.toml: plan: required key is missing"},
+      {with("model = \"mirror\"", "model = \"mirror\"\n[tracker.parameters]\nfoo = { u = 1 }"),
+       "job.toml: tracker.parameters.foo: unknown parameter 'foo' of model 'mirror'"},
+      {with("\"mirror\"", "\"laser9000\""), "job.toml: tracker.model: unknown model 'laser9000'"},
+      {with("\"mirror\"", "\"jcgm101_additive\""), "is not a tracker model"},
+      {with("azimuth = \"0.5 arcsec\"", "azimuth = \"0.5 mm\""),
+       "job.toml: tracker.noise.azimuth: '0.5 mm' is a length, expected an angle"},
+      {with("model = \"mirror\"", "model = \"mirror\"\n[tracker.parameters]\ntmv = { u = \"1 arcsec\" }"),
+       "job.toml: tracker.parameters.tmv.u: '1 arcsec' is an angle, expected a length"},
+      {with("model = \"mirror\"", "model = \"mirror\"\n[tracker.parameters]\ntmv = { u = \"-1 um\" }"),
+       "job.toml: tracker.parameters.tmv.u: negative uncertainty"},
+      {with("model = \"mirror\"", "model = \"mirror\"\n[tracker.parameters]\ntmv = { u = nan }"),
+       "job.toml: tracker.parameters.tmv.u: not a finite number"},
+      {with("azimuth = \"0.5 arcsec\"", "azimuth = \"-0.5 arcsec\""), "job.toml: tracker.noise.azimuth: negative uncertainty"},
+      {with("model = \"mirror\"", "model = \"mirror\"\n[tracker.parameters]\ntmv = { u = 1e-6, distribution = \"lorentz\" }"),
+       "unknown distribution 'lorentz'"},
+      {good + "[tracker.correlations.c]\nparameters = [\"a0\", \"eac\", \"eas\"]\n"
+              "matrix = [[1, 0.9, 0.9], [0.9, 1, -0.9], [0.9, -0.9, 1]]\n",
+       "job.toml: tracker.correlations.c.matrix: correlation matrix is not positive semi-definite"},
+      {good + "[tracker.correlations.c]\nparameters = [\"a0\", \"eac\"]\nmatrix = [[1, 0.5], [0.4, 1]]\n",
+       "job.toml: tracker.correlations.c.matrix: not symmetric"},
+      {with("{name = \"C\", x = 3000, y = 1000, z = 500}", "{name = \"C\", x = 0, y = 0, z = 500}"),
+       "job.toml: plan.point[2]: point 'C' lies on the tracker's vertical axis"},
+      {with("{name = \"C\", x = 3000", "{name = \"A\", x = 3000"), "job.toml: plan.point[2]: point name 'A' used twice"},
+      {good + "[[task]]\nkind = \"plane\"\nname = \"p\"\npoints = [\"A\", \"B\"]\n", "plane needs at least 3 points"},
+      {good + "[[task]]\nkind = \"distance\"\nname = \"d\"\npoints = [\"A\", \"X\"]\n", "point 'X' not measured"},
+      {good + "[[task]]\nkind = \"cone\"\nname = \"d\"\npoints = [\"A\", \"B\"]\n", "unknown task kind 'cone'"},
+      {good + "[monte_carlo]\ntrials = 100\n", "job.toml: monte_carlo.trials: at least 2000 trials"},
+      {good + "[monte_carlo]\ncoverage_probability = 1.5\n", "monte_carlo.coverage_probability: must be between 0 and 1"},
+      {good + "[environment]\ntemperature = \"20 degC\"\npressure = \"1013 hPa\"\n",
+       "job.toml: environment.humidity: required key is missing"},
+      {good + "[environment]\ntemperature = \"-300 degC\"\npressure = \"1013 hPa\"\nhumidity = \"50 %\"\n",
+       "below absolute zero"},
+      {good + "[map]\nplane = \"w=0\"\nextent = \"0,1,0,1\"\n", "job.toml: map: plane: expected x=<value>"},
+      {good + "[map]\nplane = \"z=0\"\nextent = \"0,1,0\"\n", "job.toml: map: extent: expected 4 comma-separated values"},
+      {good + "[readings]\ncsv = \"x.csv\"\n", "give either [plan] (offline) or [readings] (online), not both"},
+  };
+  for (const Case& c : cases) {
+    std::string message = ErrorOf(c.text);
+    EXPECT_NE(message.find(c.expected), std::string::npos)
+        << "expected '" << c.expected << "' in the message, got '" << message << "'";
+  }
+}
+
+TEST(Job, MapGrid) {
+  MapSettings plane = ParseMapPlane("z = -0.8 m", "2.5 m, 7.5, -2m, 2 m", "0.1 m", "cli");
+  EXPECT_EQ(plane.fixed_axis, 2);
+  EXPECT_DOUBLE_EQ(plane.level, -0.8);
+  EXPECT_EQ(plane.counts(), Eigen::Vector3i(51, 41, 1));  // (7.5-2.5)/0.1+1, (2+2)/0.1+1
+  std::vector<Eigen::Vector3d> nodes = plane.Nodes();
+  ASSERT_EQ(nodes.size(), 51u * 41u);
+  EXPECT_NEAR(nodes[1].x(), 2.6, 1e-12);        // x fastest
+  EXPECT_NEAR(nodes[51].y(), -1.9, 1e-12);
+  EXPECT_DOUBLE_EQ(nodes.back().z(), -0.8);
+  MapSettings side = ParseMapPlane("y=1", "0,4,-1,1", "500 mm", "cli");  // free axes x and z
+  EXPECT_EQ(side.counts(), Eigen::Vector3i(9, 1, 5));
+  MapSettings box = ParseMapBox("0,1,0,1,0,1", "0.5m", "cli");
+  EXPECT_EQ(box.counts(), Eigen::Vector3i(3, 3, 3));
+  EXPECT_THROW(ParseMapBox("0,1,0,1,0,1", "0 m", "cli"), InputError);
+  EXPECT_THROW(ParseMapBox("0,100,0,100,0,100", "0.01 m", "cli"), InputError);  // > 1e6 nodes
+}
+
+TEST(Csv, QuotesCommentsAndLineNumbers) {
+  CsvTable t = ParseCsv("\xEF\xBB\xBF# comment\n\nname , x\r\n\"a,b\", 1\n\"say \"\"hi\"\"\",2\n", "f.csv");
+  ASSERT_EQ(t.header.size(), 2u);
+  EXPECT_EQ(t.header[0], "name");
+  EXPECT_EQ(t.header_line, 3);
+  ASSERT_EQ(t.rows.size(), 2u);
+  EXPECT_EQ(t.rows[0].fields[0], "a,b");
+  EXPECT_EQ(t.rows[0].line, 4);
+  EXPECT_EQ(t.rows[1].fields[0], "say \"hi\"");
+  EXPECT_EQ(t.Where(t.rows[1]), "f.csv: line 5");
+  EXPECT_THROW(ParseCsv("a,b\n\"x,1\n", "f.csv"), InputError);
+  EXPECT_THROW(ParseCsv("a,a\n", "f.csv"), InputError);
+  EXPECT_THROW(ParseCsv("# only\n", "f.csv"), InputError);
+}
+
+TEST(Job, DefaultJobParses) {
+  Job job = ParseJob(DefaultJobToml(), kDefaultJobName, ".");
+  EXPECT_EQ(job.name, "vlt-demo");
+  EXPECT_EQ(job.mode, JobMode::kPlan);
+  EXPECT_GE(job.points.size(), 36u);
+  EXPECT_EQ(job.tasks.size(), 4u);
+  EXPECT_TRUE(job.map.has_value());
+}
+
+}  // namespace
+}  // namespace vlt

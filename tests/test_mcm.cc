@@ -1,0 +1,458 @@
+// The Monte Carlo engine (vlt/mcm.h): JCGM 101 §9.2 against exact references, reproducibility
+// (seed, threads), the adaptive procedure (7.9.4), coverage intervals (7.7) on hand-made samples,
+// the memory-budget fallback, and a tracker job with fitted tasks.
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <numbers>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "mcm_engine.h"
+#include "test_mcm_helpers.h"
+#include "vlt/distributions.h"
+#include "vlt/error.h"
+#include "vlt/mcm.h"
+#include "vlt/models.h"
+
+namespace vlt {
+namespace {
+
+using test::Input;
+
+const ModelInfo& Additive() {
+  const ModelInfo* m = FindModel("jcgm101_additive");
+  EXPECT_NE(m, nullptr);
+  return *m;
+}
+
+McmSettings Fixed(std::int64_t trials, std::uint64_t seed = 1, int threads = 0) {
+  McmSettings s;
+  s.trials = trials;
+  s.seed = seed;
+  s.num_threads = threads;
+  s.quiet = true;
+  return s;
+}
+
+// Root of an increasing function by bisection.
+template <typename F>
+double Solve(F f, double target, double lo, double hi) {
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (f(mid) < target ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// JCGM 101 9.2.2: Xi ~ N(0, 1): y = 0, u = 2, interval +-2 * 1.959964 = +-3.92.
+TEST(Jcgm101Additive, AllNormal) {
+  const std::vector<UncertainInput> in = {Input("x1", 0, 1), Input("x2", 0, 1), Input("x3", 0, 1),
+                                          Input("x4", 0, 1)};
+  const McmResult r = RunMcmCustom(Additive(), in, {}, Fixed(1'000'000));
+  ASSERT_EQ(r.outputs.size(), 1u);
+  const McmOutputResult& y = r.outputs[0];
+  // Standard errors with M = 10^6: mean 0.002, u 0.0014, 97.5 % endpoint 0.005.
+  EXPECT_NEAR(y.mean, 0.0, 0.01);
+  EXPECT_NEAR(y.u, 2.0, 0.007);
+  EXPECT_NEAR(y.symmetric.high, 2 * 1.959963984540054, 0.025);
+  EXPECT_NEAR(y.symmetric.low, -2 * 1.959963984540054, 0.025);
+  EXPECT_NEAR(y.shortest.high - y.shortest.low, 4 * 1.959963984540054, 0.05);
+  EXPECT_EQ(r.trials, 1'000'000);
+}
+
+// JCGM 101 9.2.3: Xi rectangular with standard deviation 1: u = 2, MCM interval +-3.88.
+// Exact reference: Y = 2 sqrt(3) S - 4 sqrt(3), S ~ Irwin-Hall(4), whose CDF is
+// F(s) = (1/24) sum_k (-1)^k C(4, k) (s - k)^4 over k <= s.
+TEST(Jcgm101Additive, AllRectangular) {
+  std::vector<UncertainInput> in;
+  for (const char* n : {"x1", "x2", "x3", "x4"}) in.push_back(Input(n, 0, 1, "rectangular"));
+  const McmResult r = RunMcmCustom(Additive(), in, {}, Fixed(1'000'000));
+  const McmOutputResult& y = r.outputs[0];
+  auto irwin_hall = [](double s) {
+    const double c[] = {1, 4, 6, 4, 1};
+    double f = 0.0;
+    for (int k = 0; k <= 4 && k <= s; ++k) f += (k % 2 ? -1 : 1) * c[k] * std::pow(s - k, 4);
+    return f / 24.0;
+  };
+  const double exact = 2 * std::sqrt(3.0) * Solve(irwin_hall, 0.975, 0.0, 4.0) - 4 * std::sqrt(3.0);
+  EXPECT_NEAR(exact, 3.88, 0.005);   // JCGM 101 Table 3
+  EXPECT_NEAR(y.u, 2.0, 0.007);
+  EXPECT_NEAR(y.symmetric.high, exact, 0.02);
+  EXPECT_NEAR(y.symmetric.low, -exact, 0.02);
+  // The GUM's +-3.92 is outside the Monte Carlo interval's error.
+  EXPECT_LT(y.symmetric.high, 3.92 - 0.015);
+}
+
+// JCGM 101 9.2.4: X1..X3 ~ N(0,1), X4 rectangular with standard deviation 10: u = 10.15,
+// MCM interval +-17.0. Exact reference: the convolution of N(0, 3) with R(-a, a), a = 10 sqrt 3:
+// F(y) = (s / 2a) [G((y + a)/s) - G((y - a)/s)], G(z) = z Phi(z) + phi(z), s = sqrt 3.
+TEST(Jcgm101Additive, MixedRectangularDominant) {
+  const std::vector<UncertainInput> in = {Input("x1", 0, 1), Input("x2", 0, 1), Input("x3", 0, 1),
+                                          Input("x4", 0, 10, "rectangular")};
+  const McmResult r = RunMcmCustom(Additive(), in, {}, Fixed(1'000'000));
+  const McmOutputResult& y = r.outputs[0];
+  const double s = std::sqrt(3.0), a = 10 * std::sqrt(3.0);
+  auto g = [](double z) {
+    return z * StandardNormalCdf(z) + std::exp(-0.5 * z * z) / std::sqrt(2 * std::numbers::pi);
+  };
+  auto cdf = [&](double v) { return s / (2 * a) * (g((v + a) / s) - g((v - a) / s)); };
+  const double exact = Solve(cdf, 0.975, 0.0, 40.0);
+  EXPECT_NEAR(exact, 17.0, 0.05);    // JCGM 101 Table 4
+  EXPECT_NEAR(y.u, std::sqrt(103.0), 0.03);
+  EXPECT_NEAR(y.u, 10.15, 0.03);
+  EXPECT_NEAR(y.symmetric.high, exact, 0.05);
+  EXPECT_NEAR(y.symmetric.low, -exact, 0.05);
+}
+
+// GUM H.1 end gauge, l = l_s + d - l_s (dalpha theta + alpha_s dtheta), inputs as in the model's
+// defaults (GUM H.1.3). The model is bilinear in independent inputs, so its exact variance is
+// known: Var l = s_ls^2 + (mu_ls^2 + s_ls^2) Var W + s_d^2 with W = dalpha theta + alpha_s dtheta,
+// Var(XY) = s_x^2 s_y^2 + mu_x^2 s_y^2 + mu_y^2 s_x^2. GUM H.1.7: 34 nm with the second-order
+// terms (32 nm first order); Monte Carlo must find the exact 33.9 nm.
+TEST(GumH1EndGauge, MonteCarloFindsTheExactSecondOrderVariance) {
+  const ModelInfo* model = FindModel("gum_h1_end_gauge");
+  ASSERT_NE(model, nullptr);
+  std::vector<UncertainInput> in;
+  for (int k = 0; k < model->num_params; ++k) {
+    const QuantityInfo& q = model->params[k];
+    in.push_back(Input(q.name, q.default_estimate, q.default_u, q.default_distribution,
+                       q.default_shape));
+  }
+  auto var_product = [](double mx, double sx, double my, double sy) {
+    return sx * sx * sy * sy + mx * mx * sy * sy + my * my * sx * sx;
+  };
+  auto at = [&](const char* name) { return in[FindParam(*model, name)]; };
+  const double var_w =
+      var_product(at("dalpha").estimate, at("dalpha").u, at("theta").estimate, at("theta").u) +
+      var_product(at("alpha_s").estimate, at("alpha_s").u, at("dtheta").estimate, at("dtheta").u);
+  const double mu_ls = at("l_s").estimate, s_ls = at("l_s").u, s_d = at("d").u;
+  const double mean_w = at("dalpha").estimate * at("theta").estimate +
+                        at("alpha_s").estimate * at("dtheta").estimate;
+  const double exact_u = std::sqrt(s_ls * s_ls * (1 - mean_w) * (1 - mean_w) +
+                                   (mu_ls * mu_ls + s_ls * s_ls) * var_w + s_d * s_d);
+  EXPECT_NEAR(exact_u, 34e-9, 0.5e-9);
+  const McmResult r = RunMcmCustom(*model, in, {}, Fixed(1'000'000, 17));
+  EXPECT_NEAR(r.outputs[0].u, exact_u, 0.3e-9);    // standard error ~0.03 nm
+  EXPECT_NEAR(r.outputs[0].mean - 0.05, 838e-9, 0.2e-9);   // GUM H.1.5: 50.000 838 mm
+}
+
+// Every double of a result, for bitwise comparison.
+std::vector<double> Flatten(const McmResult& r) {
+  std::vector<double> v;
+  for (const McmOutputResult& o : r.outputs) {
+    v.insert(v.end(), {o.mean, o.u, o.symmetric.low, o.symmetric.high, o.shortest.low,
+                       o.shortest.high, o.accuracy.s_mean, o.accuracy.s_u, o.accuracy.s_low,
+                       o.accuracy.s_high, o.value_at_estimates});
+  }
+  for (const McmPointResult& p : r.points) {
+    v.insert(v.end(), p.mean.data(), p.mean.data() + 3);
+    v.insert(v.end(), p.covariance.data(), p.covariance.data() + 9);
+    v.insert(v.end(), p.correlation.data(), p.correlation.data() + 9);
+    v.push_back(p.coverage_factor);
+  }
+  return v;
+}
+
+bool BitIdentical(const McmResult& a, const McmResult& b) {
+  const std::vector<double> x = Flatten(a), y = Flatten(b);
+  return x.size() == y.size() && std::memcmp(x.data(), y.data(), x.size() * sizeof(double)) == 0;
+}
+
+TEST(McmReproducibility, CustomModelSameForOneAndTwoThreadsDifferentSeedsDiffer) {
+  // Every kind of draw: normal (Box-Muller), Student t (Bailey), curvilinear trapezoid (two
+  // uniforms), and a Gaussian copula over a t and an arcsine input. M is not a multiple of the
+  // batch, the chunk or 4.
+  const std::vector<UncertainInput> in = {
+      Input("x1", 1, 1), Input("x2", 0, 2, "student_t", 5.0),
+      Input("x3", 0, 1, "curvilinear_trapezoid", 0.4), Input("x4", 3, 1, "arcsine")};
+  Eigen::Matrix4d corr = Eigen::Matrix4d::Identity();
+  corr(1, 3) = corr(3, 1) = 0.5;
+  const McmResult one = RunMcmCustom(Additive(), in, corr, Fixed(25'003, 7, 1));
+  const McmResult two = RunMcmCustom(Additive(), in, corr, Fixed(25'003, 7, 2));
+  const McmResult other = RunMcmCustom(Additive(), in, corr, Fixed(25'003, 8, 2));
+  EXPECT_EQ(one.threads, 1);
+  EXPECT_EQ(two.threads, 2);
+  EXPECT_TRUE(BitIdentical(one, two));
+  EXPECT_FALSE(BitIdentical(one, other));
+  EXPECT_NE(one.outputs[0].mean, other.outputs[0].mean);
+  // Variance of the sum with the correlated pair: 1 + 4 + 1 + 1 + 2 * 0.5' * 2 * 1, where the
+  // copula's Pearson correlation of (t, arcsine) is a little below 0.5: u between 2.6 and 3.0.
+  EXPECT_GT(one.outputs[0].u, 2.6);
+  EXPECT_LT(one.outputs[0].u, 3.0);
+}
+
+McmJob MirrorJob(const MeasurementModel& model) {
+  McmJob job;
+  job.model = &model;
+  job.points = test::SomePoints();
+  TaskSpec plane;
+  plane.name = "plane";
+  plane.kind = TaskKind::kPlane;
+  TaskSpec distance;
+  distance.name = "d13";
+  distance.kind = TaskKind::kDistance;
+  job.fit_tasks = {plane, distance};
+  job.fit_task_points = {{0, 1, 2, 3}, {0, 2}};
+  return job;
+}
+
+TEST(McmReproducibility, TrackerJobSameForOneAndTwoThreads) {
+  const MeasurementModel model(test::MirrorSetup());
+  const McmJob job = MirrorJob(model);
+  const McmResult one = RunMcm(job, Fixed(20'001, 3, 1));
+  const McmResult two = RunMcm(job, Fixed(20'001, 3, 2));
+  const McmResult other = RunMcm(job, Fixed(20'001, 4, 2));
+  EXPECT_TRUE(BitIdentical(one, two));
+  EXPECT_FALSE(BitIdentical(one, other));
+}
+
+TEST(McmJob, OutputsPointsAndFittedTasks) {
+  const MeasurementModel model(test::MirrorSetup());
+  const McmJob job = MirrorJob(model);
+  const McmResult r = RunMcm(job, Fixed(20'000, 11));
+  // 4 points x 3 coordinates, plane (8 outputs), distance (1).
+  ASSERT_EQ(r.outputs.size(), 12u + 8u + 1u);
+  EXPECT_EQ(r.outputs[0].name, "P1.x");
+  EXPECT_EQ(r.outputs[11].name, "P4.z");
+  EXPECT_EQ(r.outputs[12].name, "plane.centroid_x");
+  EXPECT_EQ(r.outputs[18].name, "plane.flatness");
+  EXPECT_EQ(r.outputs[20].name, "d13.distance");
+  EXPECT_EQ(r.outputs[20].unit, "m");
+  ASSERT_EQ(r.points.size(), 4u);
+  // Point estimates at the input estimates vs the MeasurementModel directly.
+  const Eigen::VectorXd shared = model.shared_estimates();
+  Eigen::Vector3d p1, p3;
+  model.Evaluate(job.points[0].readings.data(), shared.data(), p1.data());
+  model.Evaluate(job.points[2].readings.data(), shared.data(), p3.data());
+  EXPECT_EQ(r.outputs[0].value_at_estimates, p1(0));
+  EXPECT_DOUBLE_EQ(r.outputs[20].value_at_estimates, (p3 - p1).norm());
+  for (int o = 0; o < 12; ++o) {
+    // Coordinates: u of a few to tens of micrometres, mean within 5 standard errors.
+    EXPECT_GT(r.outputs[o].u, 1e-6) << r.outputs[o].name;
+    EXPECT_LT(r.outputs[o].u, 2e-4) << r.outputs[o].name;
+    EXPECT_NEAR(r.outputs[o].mean, r.outputs[o].value_at_estimates,
+                5 * r.outputs[o].u / std::sqrt(20'000.0)) << r.outputs[o].name;
+    EXPECT_LE(r.outputs[o].symmetric.low, r.outputs[o].mean);
+    EXPECT_GE(r.outputs[o].symmetric.high, r.outputs[o].mean);
+  }
+  // Per point: covariance diagonal = u^2 of the coordinates; correlation in [-1, 1]; k_p near
+  // the chi-square value 2.7955 for a nearly normal point.
+  for (int p = 0; p < 4; ++p) {
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_NEAR(r.points[p].covariance(a, a), std::pow(r.outputs[3 * p + a].u, 2),
+                  1e-9 * r.points[p].covariance(a, a));
+    }
+    EXPECT_LE(r.points[p].correlation.cwiseAbs().maxCoeff(), 1.0);
+    EXPECT_TRUE(r.points[p].has_region);
+    EXPECT_NEAR(r.points[p].coverage_factor, 2.7955, 0.05);
+  }
+  // The plane's flatness from 4 non-coplanar points is positive.
+  EXPECT_GT(r.outputs[18].mean, 0.0);
+}
+
+TEST(McmAdaptive, StopsWhenEveryStatisticIsWithinTolerance) {
+  const std::vector<UncertainInput> in = {Input("x1", 0, 1), Input("x2", 0, 1), Input("x3", 0, 1),
+                                          Input("x4", 0, 1)};
+  McmSettings s = Fixed(0, 5);
+  s.significant_digits = 2;
+  const McmResult r = RunMcmCustom(Additive(), in, {}, s);
+  EXPECT_TRUE(r.adaptive);
+  EXPECT_TRUE(r.converged);
+  EXPECT_EQ(r.batch_size, 10'000);                    // max(ceil(100/0.05), 10^4)
+  EXPECT_GE(r.batches, 2);
+  EXPECT_EQ(r.trials, r.batches * r.batch_size);
+  const McmOutputResult& y = r.outputs[0];
+  EXPECT_EQ(y.accuracy.delta, 0.05);                  // u = 2.0 -> c = 20, l = -1
+  for (double s_stat : {y.accuracy.s_mean, y.accuracy.s_u, y.accuracy.s_low, y.accuracy.s_high}) {
+    EXPECT_GT(s_stat, 0.0);
+    EXPECT_LE(2 * s_stat, y.accuracy.delta);
+  }
+  // The 97.5 % endpoint from 10^4 values has a standard deviation ~0.053: at least
+  // (2 * 0.053 / 0.05)^2 ~ 4.5 batches are needed.
+  EXPECT_GE(r.batches, 4);
+  EXPECT_NEAR(y.u, 2.0, 0.05);
+  EXPECT_NEAR(y.symmetric.high, 3.92, 0.1);
+}
+
+TEST(McmAdaptive, ReportsNotConvergedAtMaxTrials) {
+  const std::vector<UncertainInput> in = {Input("x1", 0, 1), Input("x2", 0, 1), Input("x3", 0, 1),
+                                          Input("x4", 0, 1)};
+  McmSettings s = Fixed(0, 5);
+  s.max_trials = 20'000;
+  const McmResult r = RunMcmCustom(Additive(), in, {}, s);
+  EXPECT_FALSE(r.converged);
+  EXPECT_EQ(r.trials, 20'000);
+  EXPECT_EQ(r.batches, 2);
+}
+
+TEST(McmMemory, OverBudgetAveragesBatchEndpoints) {
+  const std::vector<UncertainInput> in = {Input("x1", 0, 1), Input("x2", 0, 1), Input("x3", 0, 1),
+                                          Input("x4", 0, 1)};
+  McmSettings s = Fixed(400'000, 9);
+  const McmResult all = RunMcmCustom(Additive(), in, {}, s);
+  s.memory_budget_bytes = 1000;
+  const McmResult batched = RunMcmCustom(Additive(), in, {}, s);
+  EXPECT_EQ(all.interval_method, "order statistics of all M values");
+  EXPECT_NE(batched.interval_method.find("average of the batch endpoints"), std::string::npos);
+  // Same trials: identical mean and u; endpoints differ by the batch-quantile bias and noise
+  // (~0.003 here), well inside the Monte Carlo error of either.
+  EXPECT_EQ(all.outputs[0].mean, batched.outputs[0].mean);
+  EXPECT_EQ(all.outputs[0].u, batched.outputs[0].u);
+  EXPECT_NEAR(batched.outputs[0].symmetric.high, all.outputs[0].symmetric.high, 0.01);
+  EXPECT_NEAR(batched.outputs[0].shortest.low, all.outputs[0].shortest.low, 0.01);
+  EXPECT_NEAR(batched.outputs[0].symmetric.high, 3.92, 0.03);
+}
+
+TEST(McmMemory, AdaptiveRunSwitchesWhenItOutgrowsTheBudget) {
+  const MeasurementModel model(test::MirrorSetup(false));
+  McmJob job;
+  job.model = &model;
+  job.points = {test::SomePoints()[0]};
+  McmSettings s = Fixed(0, 2);
+  s.significant_digits = 1;
+  s.memory_budget_bytes = 3 * 4 * 15'000;   // room for 1.5 batches of 3 outputs
+  const McmResult r = RunMcm(job, s);
+  EXPECT_NE(r.interval_method.find("average"), std::string::npos);
+  EXPECT_TRUE(r.converged);
+  EXPECT_TRUE(r.points[0].has_region);
+  EXPECT_NEAR(r.points[0].coverage_factor, 2.7955, 0.1);
+}
+
+TEST(CoverageIntervalRoutines, HandMadeSamples) {
+  EXPECT_EQ(CoverageCount(10'000, 0.95), 9500);
+  EXPECT_EQ(CoverageCount(10'001, 0.95), 9501);   // 9500.95 -> integer part of 9501.45
+  EXPECT_EQ(CoverageCount(100, 0.955), 96);       // 95.5 -> integer part of 96.0
+  EXPECT_THROW(CoverageCount(10, 0.95), InputError);   // q = 10 = M
+
+  // M = 20, p = 0.9: q = 18, r = 1: [y(1), y(19)]; shortest r in {1, 2}.
+  std::vector<double> y = {-10};
+  for (int k = 1; k <= 19; ++k) y.push_back(k);
+  CoverageInterval sym = SymmetricCoverageInterval(y, 0.9);
+  CoverageInterval shortest = ShortestCoverageInterval(y, 0.9);
+  EXPECT_EQ(sym.low, -10);
+  EXPECT_EQ(sym.high, 18);
+  EXPECT_EQ(shortest.low, 1);
+  EXPECT_EQ(shortest.high, 19);
+
+  // M = 11, p = 0.5: q = 6 (5.5 + 0.5), M - q = 5 odd -> r = 3: [y(3), y(9)].
+  y = {0, 1, 1.5, 3, 3.5, 4, 4.2, 4.3, 6, 8, 9};
+  sym = SymmetricCoverageInterval(y, 0.5);
+  shortest = ShortestCoverageInterval(y, 0.5);
+  EXPECT_EQ(sym.low, 1.5);
+  EXPECT_EQ(sym.high, 6);
+  EXPECT_EQ(shortest.low, 1);     // widths 4.2, 3.3, 4.5, 5, 5.5 -> r = 2
+  EXPECT_EQ(shortest.high, 4.3);
+
+  // The engine's partial-sort routine (float and double) agrees with the sorted-span routines.
+  std::mt19937_64 gen(4);
+  std::lognormal_distribution<double> skewed(0.0, 0.7);
+  for (int m : {15, 40, 1001, 10'007}) {
+    for (double p : {0.3, 0.5, 0.9, 0.95, 0.99}) {
+      if (p == 0.99 && m < 200) continue;   // M - pM < 1
+      std::vector<double> v(m);
+      for (double& x : v) x = skewed(gen);
+      std::vector<double> sorted = v;
+      std::sort(sorted.begin(), sorted.end());
+      std::vector<double> work = v;
+      CoverageInterval s1, s2;
+      mcm_internal::CoverageIntervals(work, 100.0, p, &s1, &s2);
+      EXPECT_EQ(s1.low, 100.0 + SymmetricCoverageInterval(sorted, p).low) << m << " " << p;
+      EXPECT_EQ(s1.high, 100.0 + SymmetricCoverageInterval(sorted, p).high);
+      EXPECT_EQ(s2.low, 100.0 + ShortestCoverageInterval(sorted, p).low) << m << " " << p;
+      EXPECT_EQ(s2.high, 100.0 + ShortestCoverageInterval(sorted, p).high);
+      std::vector<float> f(v.begin(), v.end());
+      std::vector<double> fs(f.begin(), f.end());
+      std::sort(fs.begin(), fs.end());
+      mcm_internal::CoverageIntervals(f, 0.0, p, &s1, &s2);
+      EXPECT_EQ(s2.low, ShortestCoverageInterval(fs, p).low);
+      EXPECT_EQ(s1.high, SymmetricCoverageInterval(fs, p).high);
+    }
+  }
+}
+
+TEST(NumericalToleranceRule, Jcgm101Clause792) {
+  EXPECT_DOUBLE_EQ(NumericalTolerance(2.0, 2), 0.05);      // 20 x 10^-1
+  EXPECT_DOUBLE_EQ(NumericalTolerance(2.0, 1), 0.5);       // 2 x 10^0
+  EXPECT_DOUBLE_EQ(NumericalTolerance(0.00035, 2), 5e-6);  // 35 x 10^-5 (7.9.2 example)
+  EXPECT_DOUBLE_EQ(NumericalTolerance(0.0999, 2), 0.005);  // rounds to 0.10 = 10 x 10^-2
+  EXPECT_DOUBLE_EQ(NumericalTolerance(1.0, 2), 0.05);
+  EXPECT_DOUBLE_EQ(NumericalTolerance(36e-9, 2), 0.5e-9);
+  EXPECT_EQ(NumericalTolerance(0.0, 2), 0.0);
+}
+
+double LogOfInput(double x) { return std::log(x); }
+void LogModel(const double*, const double* p, double* y) { y[0] = LogOfInput(p[0]); }
+
+TEST(McmErrors, NonFiniteTrialAndBadSettings) {
+  static const QuantityInfo kIn[] = {{"x", "1", "dimensionless", "x", 0.1, 1, "normal", 0}};
+  static const QuantityInfo kOut[] = {{"y", "1", "dimensionless", "log x", 0, 0, "normal", 0}};
+  const ModelInfo log_model = test::CustomModel("log", 1, 1, kIn, kOut, &LogModel);
+  const std::vector<UncertainInput> in = {Input("x", 0.1, 1.0)};
+  EXPECT_THROW(RunMcmCustom(log_model, in, {}, Fixed(10'000)), NumericalError);
+  McmSettings s = Fixed(10'000);
+  s.coverage_probability = 1.0;
+  EXPECT_THROW(RunMcmCustom(Additive(), {}, {}, s), InputError);   // wrong input count first
+  const std::vector<UncertainInput> four = {Input("x1", 0, 1), Input("x2", 0, 1),
+                                            Input("x3", 0, 1), Input("x4", 0, 1)};
+  EXPECT_THROW(RunMcmCustom(Additive(), four, {}, s), InputError);
+  s = Fixed(10);
+  EXPECT_THROW(RunMcmCustom(Additive(), four, {}, s), InputError);   // M too small for p
+  s = Fixed(1000);
+  s.significant_digits = 3;
+  EXPECT_THROW(RunMcmCustom(Additive(), four, {}, s), InputError);
+  EXPECT_THROW(RunMcmCustom(*FindModel("mirror"), four, {}, Fixed(1000)), InputError);
+}
+
+
+TEST(McmTrialModel, SameAsMeasurementModelBitForBit) {
+  // The job kernel's per-trial evaluation (air index, pose and thermal prepared once per trial,
+  // mcm_engine.h TrialModel) against MeasurementModel::Evaluate, with every stage enabled and
+  // the shared inputs drawn around their estimates.
+  MeasurementSetup setup = test::MirrorSetup(true);
+  Environment env;
+  env.equation = Environment::Equation::kCiddor;
+  auto input = [](double estimate, double u) {
+    UncertainInput in;
+    in.estimate = estimate;
+    in.u = u;
+    return in;
+  };
+  env.temperature = input(20.5, 0.2);
+  env.pressure = input(101325.0, 30.0);
+  env.humidity = input(45.0, 5.0);
+  env.co2 = input(450e-6, 30e-6);
+  setup.environment = env;
+  PartThermal thermal;
+  thermal.cte = input(11.5e-6, 1e-6);
+  thermal.temperature = input(21.0, 0.2);
+  setup.thermal = thermal;
+  for (bool edlen : {false, true}) {
+    if (edlen) setup.environment->equation = Environment::Equation::kEdlenBoensch;
+    const MeasurementModel model(setup);
+    const mcm_internal::TrialModel trial(model);
+    std::mt19937_64 gen(11);
+    std::normal_distribution<double> normal;
+    for (int t = 0; t < 200; ++t) {
+      std::vector<double> shared(static_cast<std::size_t>(model.num_shared()));
+      for (int k = 0; k < model.num_shared(); ++k) {
+        const UncertainInput& in = model.shared_inputs()[k];
+        shared[k] = in.estimate + 3.0 * in.u * normal(gen);
+      }
+      mcm_internal::TrialModel::State state;
+      trial.Prepare(shared.data(), &state);
+      for (int p = 0; p < 3; ++p) {
+        const double readings[3] = {2.0 + 2.5 * p + 1e-4 * normal(gen), -1.0 + 0.9 * p,
+                                    -0.3 + 0.2 * p};
+        double expected[3], got[3];
+        model.Evaluate(readings, shared.data(), expected);
+        trial.Evaluate(readings, shared.data(), state, got);
+        for (int a = 0; a < 3; ++a) ASSERT_EQ(got[a], expected[a]) << "trial " << t << " axis " << a;
+      }
+    }
+  }
+}
+}  // namespace
+}  // namespace vlt

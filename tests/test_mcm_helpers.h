@@ -1,0 +1,106 @@
+// Shared by the Monte Carlo tests: a mirror-tracker measurement setup and a small job.
+#pragma once
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "vlt/mcm.h"
+#include "vlt/measurement_model.h"
+#include "vlt/models.h"
+
+namespace vlt::test {
+
+inline constexpr double kArcsec = 4.84813681109536e-6;
+
+// The mirror tracker with every error parameter at its generated default (estimate 0, default u,
+// normal), reading noise 5 um + 0.5 um/m, 1 arcsec, and a station pose.
+inline MeasurementSetup MirrorSetup(bool pose = true) {
+  MeasurementSetup setup;
+  setup.model = FindModel("mirror");
+  EXPECT_NE(setup.model, nullptr);
+  for (int k = 0; k < setup.model->num_params; ++k) {
+    const QuantityInfo& q = setup.model->params[k];
+    UncertainInput in;
+    in.name = q.name;
+    in.unit = q.unit;
+    in.group = "parameter";
+    in.estimate = q.default_estimate;
+    in.u = q.default_u;
+    in.distribution = q.default_distribution;
+    in.shape = q.default_shape;
+    setup.params.push_back(in);
+  }
+  setup.noise.range_a = 5e-6;
+  setup.noise.range_b = 0.5e-6;
+  setup.noise.azimuth = kArcsec;
+  setup.noise.elevation = kArcsec;
+  if (pose) {
+    StationPose p;
+    auto input = [](const char* name, const char* unit, double estimate, double u) {
+      UncertainInput in;
+      in.name = name;
+      in.unit = unit;
+      in.group = "pose";
+      in.estimate = estimate;
+      in.u = u;
+      return in;
+    };
+    p.rx = input("pose.rx", "rad", 0.001, 2 * kArcsec);
+    p.ry = input("pose.ry", "rad", -0.002, 2 * kArcsec);
+    p.rz = input("pose.rz", "rad", 0.3, 2 * kArcsec);
+    p.tx = input("pose.tx", "m", 1.0, 10e-6);
+    p.ty = input("pose.ty", "m", -2.0, 10e-6);
+    p.tz = input("pose.tz", "m", 0.5, 10e-6);
+    setup.pose = p;
+  }
+  return setup;
+}
+
+// Readings of a few points 3 m .. 8 m away.
+inline std::vector<McmPoint> SomePoints() {
+  return {{"P1", {3.0, 0.2, 0.1}},
+          {"P2", {5.0, 0.6, -0.2}},
+          {"P3", {8.0, -0.4, 0.3}},
+          {"P4", {4.0, 1.2, 0.05}}};
+}
+
+}  // namespace vlt::test
+
+namespace vlt::test {
+
+// A custom ModelInfo around a plain function (forward only: exercises the engine's per-trial
+// path; forward_batch stays null).
+inline ModelInfo CustomModel(const char* name, int num_params, int num_outputs,
+                             const QuantityInfo* params, const QuantityInfo* outputs,
+                             ForwardFn forward) {
+  ModelInfo m{};
+  m.name = name;
+  m.kind = "custom";
+  m.description = name;
+  m.spec_file = "";
+  m.num_readings = 0;
+  m.num_params = num_params;
+  m.num_outputs = num_outputs;
+  m.params = params;
+  m.outputs = outputs;
+  m.forward = forward;
+  return m;
+}
+
+inline UncertainInput Input(const char* name, double estimate, double u,
+                            const char* distribution = "normal", double shape = 0.0) {
+  UncertainInput in;
+  in.name = name;
+  in.unit = "1";
+  in.group = "parameter";
+  in.estimate = estimate;
+  in.u = u;
+  in.distribution = distribution;
+  in.shape = shape;
+  return in;
+}
+
+}  // namespace vlt::test

@@ -1,0 +1,260 @@
+// test_results.cc — Results and the files written from them (docs/results.md): the results.json
+// schema keys, CSV headers and units against the GUM values, the map (skipped nodes, never NaN),
+// the report page's ingredients, and all-or-nothing writing.
+#include "vlt/results.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "vlt/error.h"
+
+namespace vlt {
+namespace {
+
+const char* kJob = R"(
+[job]
+name = "results-test"
+[tracker]
+model = "mirror"
+[tracker.noise]
+range = "5 um + 0.5 um/m"
+azimuth = "0.5 arcsec"
+elevation = "0.5 arcsec"
+[environment]
+temperature = { estimate = "20 degC", u = "0.2 K" }
+pressure = { estimate = "1013.25 hPa", u = "0.5 hPa" }
+humidity = { estimate = "50 %", u = "5 %" }
+[station]
+rz = { estimate = "10 deg", u = "5 urad" }
+tx = { estimate = "-1 m", u = "10 um" }
+[part]
+cte = { estimate = "11.5 ppm/K", u = "1 ppm/K" }
+temperature = { estimate = "21 degC", u = "0.2 K" }
+[plan]
+point = [ {name = "A", x = 2, y = 0.5, z = 0}, {name = "B", x = 3, y = 1.5, z = 0.1},
+          {name = "C", x = 2.5, y = 1.0, z = 0.6}, {name = "D", x = 4, y = -1, z = -0.3} ]
+[[task]]
+kind = "distance"
+name = "AB"
+points = ["A", "B"]
+[[task]]
+kind = "plane"
+name = "ABCD"
+points = ["A", "B", "C", "D"]
+[monte_carlo]
+trials = 4000
+seed = 3
+n_dig = 1
+[map]
+plane = "z = 0"
+extent = "-1.5, 1.5, -1, 1"
+step = "0.5 m"
+)";
+
+const Results& SharedResults() {
+  static const Results results = [] {
+    Job job = ParseJob(kJob, "results.toml", ".");
+    RunOptions options;
+    options.threads = 2;
+    return RunJob(job, options);
+  }();
+  return results;
+}
+
+std::vector<std::string> SplitLine(const std::string& line) {
+  std::vector<std::string> out;
+  std::stringstream ss(line);
+  std::string f;
+  while (std::getline(ss, f, ',')) out.push_back(f);
+  if (!line.empty() && line.back() == ',') out.push_back("");
+  return out;
+}
+
+TEST(Results, JsonSchemaKeys) {
+  const Results& r = SharedResults();
+  nlohmann::json j = nlohmann::json::parse(ResultsJson(r));
+  EXPECT_EQ(j["schema"], "vlt-results/1");
+  for (const char* key : {"schema", "vlt_version", "units", "job", "inputs", "monte_carlo", "points", "tasks", "map",
+                          "summary"}) {
+    EXPECT_TRUE(j.contains(key)) << key;
+  }
+  for (const char* key : {"name", "description", "file", "mode", "model", "coverage_probability", "k_axis", "k_region",
+                          "n_dig", "points", "tasks"}) {
+    EXPECT_TRUE(j["job"].contains(key)) << "job." << key;
+  }
+  EXPECT_EQ(j["job"]["mode"], "plan");
+  for (const char* key : {"noise", "shared", "parameter_correlation", "environment_equation", "vacuum_wavelength",
+                          "part_reference_temperature"}) {
+    EXPECT_TRUE(j["inputs"].contains(key)) << "inputs." << key;
+  }
+  // 20 mirror parameters + 4 environment + 6 pose + 2 thermal shared inputs.
+  EXPECT_EQ(j["inputs"]["shared"].size(), 32u);
+  for (const char* key : {"enabled", "seed", "trials", "adaptive", "converged", "batch_size", "batches", "threads",
+                          "seconds", "interval_method", "n_dig"}) {
+    EXPECT_TRUE(j["monte_carlo"].contains(key)) << "monte_carlo." << key;
+  }
+  EXPECT_EQ(j["monte_carlo"]["trials"], 4000);
+  ASSERT_EQ(j["points"].size(), 4u);
+  const auto& p = j["points"][0];
+  for (const char* key : {"name", "face", "readings", "nominal", "gum", "budget", "mcm", "validation"}) {
+    EXPECT_TRUE(p.contains(key)) << "points[]." << key;
+  }
+  for (const char* key : {"estimate", "covariance", "u", "k", "U", "U_norm", "ellipsoid", "line_of_sight",
+                          "tracker_frame", "correlation_handling"}) {
+    EXPECT_TRUE(p["gum"].contains(key)) << "points[].gum." << key;
+  }
+  for (const char* key : {"input", "group", "unit", "estimate", "u", "sensitivity", "sensitivity_unit", "contribution",
+                          "variance", "share", "share_total"}) {
+    EXPECT_TRUE(p["budget"][0].contains(key)) << "points[].budget[]." << key;
+  }
+  for (const char* key : {"mean", "covariance", "correlation", "has_region", "coverage_factor", "axes"}) {
+    EXPECT_TRUE(p["mcm"].contains(key)) << "points[].mcm." << key;
+  }
+  for (const char* key : {"axes", "region", "validated", "verdict"}) {
+    EXPECT_TRUE(p["validation"].contains(key)) << "points[].validation." << key;
+  }
+  ASSERT_EQ(j["tasks"].size(), 2u);
+  for (const char* key : {"name", "kind", "points", "quantities", "units", "gum", "budget_by_group",
+                          "budget_by_shared_input", "mcm", "validation"}) {
+    EXPECT_TRUE(j["tasks"][0].contains(key)) << "tasks[]." << key;
+  }
+  for (const char* key : {"kind", "description", "quantity", "fixed_axis", "min", "max", "step", "counts",
+                          "coverage_probability", "k", "U_norm", "U_x", "U_y", "U_z", "skipped"}) {
+    EXPECT_TRUE(j["map"].contains(key)) << "map." << key;
+  }
+  // The JSON holds exactly the GUM numbers (SI).
+  EXPECT_DOUBLE_EQ(p["gum"]["U"][1].get<double>(), r.points[0].gum.U_part[1]);
+  EXPECT_DOUBLE_EQ(j["tasks"][0]["gum"]["U"][0].get<double>(), r.tasks[0].gum.U[0]);
+}
+
+TEST(Results, CsvHeadersUnitsAndValues) {
+  const Results& r = SharedResults();
+  std::stringstream points(PointsCsv(r));
+  std::string header, row;
+  std::getline(points, header);
+  std::vector<std::string> columns = SplitLine(header);
+  EXPECT_EQ(columns[0], "name");
+  auto column = [&](const std::string& name) {
+    auto it = std::find(columns.begin(), columns.end(), name);
+    EXPECT_NE(it, columns.end()) << name;
+    return static_cast<std::size_t>(it - columns.begin());
+  };
+  std::getline(points, row);
+  std::vector<std::string> fields = SplitLine(row);
+  ASSERT_EQ(fields.size(), columns.size());
+  // mm and um as the header says.
+  EXPECT_NEAR(std::stod(fields[column("x_mm")]), r.points[0].gum.part.x() * 1e3, 1e-9);
+  EXPECT_NEAR(std::stod(fields[column("U_y_um")]), r.points[0].gum.U_part.y() * 1e6, 1e-9);
+  EXPECT_NEAR(std::stod(fields[column("azimuth_deg")]), r.points[0].gum.readings[1] * 180 / M_PI, 1e-9);
+  EXPECT_EQ(fields.back(), r.points[0].validated ? "validated" : "not validated");
+  // budget.csv: one row per input (3 readings + 32 shared + correlation rows, if any) per point.
+  std::stringstream budget(BudgetCsv(r));
+  std::getline(budget, header);
+  std::size_t n_columns = SplitLine(header).size();
+  int rows = 0;
+  while (std::getline(budget, row)) {
+    EXPECT_EQ(SplitLine(row).size(), n_columns) << row;
+    ++rows;
+  }
+  std::size_t expected_rows = 0;
+  for (const PointResult& p : r.points) expected_rows += p.gum.budget.size();
+  EXPECT_EQ(static_cast<std::size_t>(rows), expected_rows);
+  EXPECT_GE(r.points[0].gum.budget.size(), 35u);
+  // tasks.csv: the distance in mm, its U in um.
+  std::stringstream tasks(TasksCsv(r));
+  std::getline(tasks, header);
+  std::getline(tasks, row);
+  fields = SplitLine(row);
+  EXPECT_EQ(fields[0], "AB");
+  EXPECT_EQ(fields[3], "mm");
+  EXPECT_NEAR(std::stod(fields[4]), r.tasks[0].gum.value[0] * 1e3, 1e-9);
+  EXPECT_EQ(fields[5], "um");
+  EXPECT_NEAR(std::stod(fields[8]), r.tasks[0].gum.U[0] * 1e6, 1e-9);
+  // The distance of the nominal points, independently.
+  EXPECT_NEAR(r.tasks[0].gum.value[0], std::sqrt(1.0 + 1.0 + 0.01), 1e-9);
+}
+
+TEST(Results, MapSkipsTheVerticalAxisAndHasNoNaN) {
+  const Results& r = SharedResults();
+  ASSERT_TRUE(r.map.has_value());
+  const MapResult& m = *r.map;
+  EXPECT_EQ(m.nodes.size(), 7u * 5u);
+  // Station: tracker at part (-1, 0, 0), so the part node (-1, 0, 0) is at the gimbal point.
+  ASSERT_EQ(m.skipped.size(), 1u);
+  EXPECT_NE(m.skipped[0].find("(-1, 0, 0) m"), std::string::npos) << m.skipped[0];
+  for (std::size_t i = 0; i < m.nodes.size(); ++i) {
+    EXPECT_TRUE(std::isfinite(m.U_norm[i]));
+    if (m.computed[i]) {
+      EXPECT_GT(m.U_norm[i], 0.0);
+      EXPECT_NEAR(m.U_norm[i], m.U[i].norm(), 1e-18);
+    }
+  }
+  std::string csv = MapCsv(m);
+  EXPECT_EQ(csv.find("nan"), std::string::npos);
+  EXPECT_NE(csv.find("skipped: at the tracker's gimbal point"), std::string::npos);
+  // A map node where a plan point lies has the same per-axis U as that point (same GUM).
+  Job job = ParseJob(kJob, "results.toml", ".");
+  MeasurementModel model(job.setup);
+  MapSettings at_a = ParseMapPlane("z=0", "2,2,0.5,0.5", "1 m", "test");
+  MapResult one = ComputeMap(model, at_a, 0.95, 1);
+  ASSERT_EQ(one.nodes.size(), 1u);
+  EXPECT_LT((one.U[0] - r.points[0].gum.U_part).norm(), 1e-12);
+}
+
+TEST(Results, ReportIsSelfContained) {
+  const Results& r = SharedResults();
+  std::string html = ReportHtml(r);
+  EXPECT_NE(html.find("<script id=\"vlt-data\" type=\"application/json\">"), std::string::npos);
+  EXPECT_NE(html.find("plotly.js v"), std::string::npos);  // the library itself, inline
+  EXPECT_EQ(html.find("<script src="), std::string::npos);  // nothing loaded from elsewhere
+  EXPECT_EQ(html.find("@VLT_"), std::string::npos);          // every placeholder filled
+  EXPECT_NE(html.find("id=\"vlt-status\""), std::string::npos);
+}
+
+class Writing : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() /
+           ("vlt_test_results_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    std::filesystem::remove_all(dir_);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::filesystem::path dir_;
+};
+
+TEST_F(Writing, AllFilesOrNone) {
+  std::vector<std::pair<std::string, std::string>> files = {{"a.csv", "1\n"}, {"b.json", "{}\n"}, {"c.html", "x"}};
+  WriteFilesAtomically(dir_ / "out", files);
+  EXPECT_TRUE(std::filesystem::exists(dir_ / "out" / "c.html"));
+  int entries = 0;
+  for (auto& e : std::filesystem::directory_iterator(dir_ / "out")) {
+    (void)e;
+    ++entries;
+  }
+  EXPECT_EQ(entries, 3);  // no temporary file left
+
+  // The last rename cannot succeed (a directory holds that name): nothing of this run remains,
+  // the directory created for it is removed again.
+  std::filesystem::create_directories(dir_ / "blocked" / "c.html" / "inside");
+  EXPECT_THROW(WriteFilesAtomically(dir_ / "blocked", files), InputError);
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "blocked" / "a.csv"));
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "blocked" / "b.json"));
+  entries = 0;
+  for (auto& e : std::filesystem::directory_iterator(dir_ / "blocked")) {
+    (void)e;
+    ++entries;
+  }
+  EXPECT_EQ(entries, 1);  // only the blocking directory
+
+  // An output path that is a file.
+  std::ofstream(dir_ / "file") << "x";
+  EXPECT_THROW(WriteFilesAtomically(dir_ / "file", files), InputError);
+}
+
+}  // namespace
+}  // namespace vlt

@@ -1,0 +1,194 @@
+// Validation of GUM by Monte Carlo (vlt/validation.h, JCGM 101 §8): the three JCGM 101 §9.2
+// cases (validated, validated, not validated), a strongly non-linear model that must fail, the
+// multivariate point criterion on constructed regions with a closed-form answer, and a tracker
+// job whose linearised (GUM) point covariance the Monte Carlo method must validate.
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "test_mcm_helpers.h"
+#include "vlt/distributions.h"
+#include "vlt/error.h"
+#include "vlt/mcm.h"
+#include "vlt/models.h"
+#include "vlt/validation.h"
+
+namespace vlt {
+namespace {
+
+using test::Input;
+
+constexpr double kK95 = 1.959963984540054;   // Phi^-1(0.975)
+
+McmSettings Fixed(std::int64_t trials, std::uint64_t seed = 1) {
+  McmSettings s;
+  s.trials = trials;
+  s.seed = seed;
+  s.quiet = true;
+  return s;
+}
+
+// sqrt of the 0.95 quantile of chi-square with 3 degrees of freedom, from its CDF
+// P(x) = erf(sqrt(x/2)) - sqrt(2x/pi) exp(-x/2).
+double ChiSquare3Factor(double p) {
+  double lo = 0.0, hi = 50.0;
+  for (int i = 0; i < 200; ++i) {
+    const double x = 0.5 * (lo + hi);
+    const double cdf = std::erf(std::sqrt(x / 2)) - std::sqrt(2 * x / std::numbers::pi) * std::exp(-x / 2);
+    (cdf < p ? lo : hi) = x;
+  }
+  return std::sqrt(0.5 * (lo + hi));
+}
+
+// JCGM 101 9.2: GUM y = 0, u = sqrt(sum u_i^2) (sensitivities 1), U = 1.96 u.
+ScalarValidation ValidateAdditive(const std::vector<UncertainInput>& in) {
+  double u2 = 0.0;
+  for (const UncertainInput& x : in) u2 += x.u * x.u;
+  const McmResult r = RunMcmCustom(*FindModel("jcgm101_additive"), in, {}, Fixed(1'000'000));
+  return ValidateScalar("y", "1", 0.0, std::sqrt(u2), kK95 * std::sqrt(u2), r.outputs[0].symmetric,
+                        2);
+}
+
+TEST(ValidateScalar, Jcgm101AdditiveNormalIsValidated) {
+  const ScalarValidation v = ValidateAdditive(
+      {Input("x1", 0, 1), Input("x2", 0, 1), Input("x3", 0, 1), Input("x4", 0, 1)});
+  EXPECT_EQ(v.delta, 0.05);
+  EXPECT_LT(v.d_low, 0.03);
+  EXPECT_TRUE(v.validated) << v.verdict;
+  EXPECT_EQ(v.verdict.rfind("validated", 0), 0u) << v.verdict;
+}
+
+TEST(ValidateScalar, Jcgm101AdditiveRectangularIsValidated) {
+  // JCGM 101 9.2.3: d_low = d_high ~ 0.04 < delta = 0.05.
+  std::vector<UncertainInput> in;
+  for (const char* n : {"x1", "x2", "x3", "x4"}) in.push_back(Input(n, 0, 1, "rectangular"));
+  const ScalarValidation v = ValidateAdditive(in);
+  EXPECT_NEAR(v.d_low, 0.04, 0.02);
+  EXPECT_NEAR(v.d_high, 0.04, 0.02);
+  EXPECT_TRUE(v.validated) << v.verdict;
+}
+
+TEST(ValidateScalar, Jcgm101AdditiveMixedIsNotValidated) {
+  // JCGM 101 9.2.4: GUM +-19.89 against MCM +-17.0: d ~ 2.9 > delta = 0.5 (u = 10.15).
+  const ScalarValidation v = ValidateAdditive(
+      {Input("x1", 0, 1), Input("x2", 0, 1), Input("x3", 0, 1), Input("x4", 0, 10, "rectangular")});
+  EXPECT_EQ(v.delta, 0.5);
+  EXPECT_NEAR(v.gum_expanded, 19.89, 0.01);
+  EXPECT_NEAR(v.d_high, 19.89 - 17.0, 0.1);
+  EXPECT_FALSE(v.validated);
+  EXPECT_EQ(v.verdict.rfind("not validated", 0), 0u) << v.verdict;
+}
+
+void Square(const double*, const double* p, double* y) { y[0] = p[0] * p[0]; }
+
+TEST(ValidateScalar, SquareOfNormalIsNotValidated) {
+  static const QuantityInfo kIn[] = {{"x", "1", "dimensionless", "x", 0, 1, "normal", 0}};
+  static const QuantityInfo kOut[] = {{"y", "1", "dimensionless", "x^2", 0, 0, "normal", 0}};
+  const ModelInfo square = test::CustomModel("square", 1, 1, kIn, kOut, &Square);
+  // X ~ N(0, 1): GUM sensitivity 2x = 0 -> u = 0, interval [0, 0]; Y ~ chi2_1 in fact
+  // (95 % symmetric interval [0.00098, 5.02]).
+  McmResult r = RunMcmCustom(square, std::vector<UncertainInput>{Input("x", 0, 1)}, {},
+                             Fixed(200'000));
+  EXPECT_NEAR(r.outputs[0].mean, 1.0, 0.02);
+  EXPECT_NEAR(r.outputs[0].u, std::sqrt(2.0), 0.03);
+  EXPECT_NEAR(r.outputs[0].symmetric.high, 5.024, 0.1);
+  ScalarValidation v = ValidateScalar("y", "1", 0.0, 0.0, 0.0, r.outputs[0].symmetric, 2);
+  EXPECT_FALSE(v.validated);
+  EXPECT_EQ(v.verdict.rfind("not validated", 0), 0u) << v.verdict;
+  // X ~ N(1, 1): GUM y = 1, u = 2, y +- 3.92; the Monte Carlo interval is [0.0..., 7.9...].
+  r = RunMcmCustom(square, std::vector<UncertainInput>{Input("x", 1, 1)}, {}, Fixed(200'000));
+  v = ValidateScalar("y", "1", 1.0, 2.0, kK95 * 2.0, r.outputs[0].symmetric, 2);
+  EXPECT_FALSE(v.validated);
+  EXPECT_GT(v.d_low, 2.0);
+  EXPECT_GT(v.d_high, 2.0);
+}
+
+McmPointResult Region(const Eigen::Vector3d& mean, const Eigen::Matrix3d& cov, double k) {
+  McmPointResult r;
+  r.mean = mean;
+  r.covariance = cov;
+  r.has_region = true;
+  r.coverage_factor = k;
+  return r;
+}
+
+TEST(ValidatePoint, ClosedFormRegions) {
+  const double k = ChiSquare3Factor(0.95);
+  // chi2_3(0.95) = 7.814727903 (published tables: 7.815); k = 2.7955 (often quoted as 2.796).
+  EXPECT_NEAR(k * k, 7.814727903, 1e-8);
+  const Eigen::Vector3d y(1.0, 2.0, 3.0);
+  const double s = 20e-6;   // u = 20 um -> delta (2 digits) = 0.5 um
+  const Eigen::Matrix3d cov = s * s * Eigen::Matrix3d::Identity();
+  // Identical regions.
+  PointValidation v = ValidatePoint("P", y, cov, k, Region(y, cov, k), 2);
+  EXPECT_TRUE(v.validated) << v.verdict;
+  EXPECT_NEAR(v.worst_distance, 0.0, 1e-15);
+  EXPECT_EQ(v.covariance_difference, 0.0);
+  EXPECT_EQ(v.coverage_factor_ratio, 1.0);
+  // MCM covariance 1.1 x larger in every direction: d = k s (sqrt(1.1) - 1) = 2.7 um > 0.5 um.
+  v = ValidatePoint("P", y, cov, k, Region(y, 1.1 * cov, k), 2);
+  EXPECT_FALSE(v.validated);
+  EXPECT_NEAR(v.worst_distance, k * s * (std::sqrt(1.1) - 1.0), 1e-12);
+  EXPECT_NEAR(v.worst_delta, 0.5e-6, 1e-18);
+  EXPECT_NEAR(v.covariance_difference, 0.1, 1e-12);
+  // Centre shifted by 0.3 um along (1, 1, 0)/sqrt 2: validated, d = 0.3 um in that direction.
+  const Eigen::Vector3d shift = 0.3e-6 * Eigen::Vector3d(1, 1, 0).normalized();
+  v = ValidatePoint("P", y, cov, k, Region(y + shift, cov, k), 2);
+  EXPECT_TRUE(v.validated) << v.verdict;
+  EXPECT_NEAR(v.worst_distance, 0.3e-6, 0.3e-6 * 1e-3);   // direction grid within 0.1 %
+  // Shifted by 0.7 um: not validated.
+  v = ValidatePoint("P", y, cov, k, Region(y + shift * (7.0 / 3.0), cov, k), 2);
+  EXPECT_FALSE(v.validated);
+  // A thin ellipsoid, only its short axis differs: found through the eigenvector directions.
+  Eigen::Matrix3d thin = cov;
+  thin(2, 2) = 1e-12;        // u_z = 1 um -> delta = 0.05 um
+  Eigen::Matrix3d thin_m = thin;
+  thin_m(2, 2) = 1.1e-12;    // d = k (sqrt(1.1) - 1) 1 um = 0.136 um > 0.05 um
+  v = ValidatePoint("P", y, thin, k, Region(y, thin_m, k), 2);
+  EXPECT_FALSE(v.validated);
+  EXPECT_NEAR(std::abs(v.worst_direction.z()), 1.0, 1e-9);
+  // Singular GUM covariance: no region to compare.
+  EXPECT_THROW(ValidatePoint("P", y, Eigen::Matrix3d::Zero(), k, Region(y, cov, k), 2),
+               NumericalError);
+}
+
+TEST(ValidatePoint, TrackerJobLinearisedCovarianceIsValidated) {
+  const MeasurementModel model(test::MirrorSetup());
+  McmJob job;
+  job.model = &model;
+  job.points = test::SomePoints();
+  const McmResult r = RunMcm(job, Fixed(200'000, 21));
+  const double k = ChiSquare3Factor(0.95);
+  const Eigen::VectorXd shared = model.shared_estimates();
+  const int s_count = model.num_shared();
+  Eigen::VectorXd u_shared(s_count);
+  for (int i = 0; i < s_count; ++i) u_shared(i) = model.shared_inputs()[i].u;
+  for (std::size_t p = 0; p < job.points.size(); ++p) {
+    // GUM (JCGM 100 5.1.2 / JCGM 102 6.2.1.3): U_y = J_r U_r J_r^T + J_s U_s J_s^T.
+    Eigen::Vector3d y;
+    Eigen::Matrix3d j_r;
+    Eigen::Matrix<double, 3, Eigen::Dynamic> j_s(3, s_count);
+    model.EvaluateWithJacobian(job.points[p].readings.data(), shared.data(), y.data(), j_r.data(),
+                               j_s.data());
+    const Eigen::Vector3d u_r = model.reading_uncertainty(job.points[p].readings(0));
+    const Eigen::Matrix3d cov = j_r * u_r.cwiseAbs2().asDiagonal() * j_r.transpose() +
+                                j_s * u_shared.cwiseAbs2().asDiagonal() * j_s.transpose();
+    const PointValidation v = ValidatePoint(job.points[p].name, y, cov, k, r.points[p], 1);
+    EXPECT_TRUE(v.validated) << job.points[p].name << ": " << v.verdict;
+    // M = 2e5: covariance entries within ~1 % (relative standard error sqrt(2/M) = 0.3 %).
+    EXPECT_LT(v.covariance_difference, 0.015) << job.points[p].name;
+    EXPECT_NEAR(v.coverage_factor_ratio, 1.0, 0.01) << job.points[p].name;
+    // And each coordinate by JCGM 101 §8.
+    for (int a = 0; a < 3; ++a) {
+      const double u = std::sqrt(cov(a, a));
+      const ScalarValidation sv = ValidateScalar(r.outputs[3 * p + a].name, "m", y(a), u, kK95 * u,
+                                                 r.outputs[3 * p + a].symmetric, 1);
+      EXPECT_TRUE(sv.validated) << sv.name << ": " << sv.verdict;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace vlt
