@@ -6,8 +6,13 @@ VLT_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 # Debian packages for building and running vlt (the runtime, the generator, tests, benchmarks).
 VLT_BUILD_PACKAGES=(g++ cmake make pkg-config git
   libginac-dev libeigen3-dev libgtest-dev libgmock-dev libbenchmark-dev
-  libcli11-dev libtomlplusplus-dev nlohmann-json3-dev librandom123-dev
-  nodejs npm)
+  libcli11-dev libtomlplusplus-dev nlohmann-json3-dev librandom123-dev)
+# plotly.js for report.html comes from the npm registry (`npm ci` at configure time). Debian's
+# nodejs + npm are installed only when no `npm` is on the PATH: a machine may already have a
+# Node.js from elsewhere, and Debian's npm package conflicts with it.
+if ! command -v npm >/dev/null 2>&1; then
+  VLT_BUILD_PACKAGES+=(nodejs npm)
+fi
 # Extra packages for the test suite only: the headless browser that renders report.html.
 VLT_TEST_PACKAGES=(chromium)
 

@@ -70,7 +70,7 @@ add_test(NAME cli_run_good_json
 # The demo (the README's first command) with fewer trials, then its report in Chromium.
 add_test(NAME cli_demo
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
-          "-DARGS=demo;--trials;20000;-o;${_out}/demo"
+          "-DARGS=demo;--trials;4000;-o;${_out}/demo"
           -DOUT=${_out}/demo "-DFILES=${_all_files};map.csv;map.html"
           "-DEXPECT_STDOUT=GUM validated by MCM \\(JCGM 101 8\\): [0-9]+/50 points" -P ${_cli}/expect_outputs.cmake)
 set_tests_properties(cli_demo PROPERTIES FIXTURES_SETUP vlt_demo_outputs)

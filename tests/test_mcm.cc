@@ -373,6 +373,40 @@ TEST(CoverageIntervalRoutines, HandMadeSamples) {
   }
 }
 
+TEST(CoverageIntervalRoutines, LargeRunsThroughTheTailPassMatchFullSort) {
+  // M >= 20000 takes the one-pass tail extraction (mcm_intervals.cc SortedTails): against a full
+  // sort, with many ties (values rounded to 1/64), a skewed distribution, and runs whose strided
+  // sample sees only zeros, the smallest value (useless thresholds: the counts check must send
+  // the large-tail cases back to selection in place, the small-tail ones stay exact).
+  std::mt19937_64 gen(8);
+  std::lognormal_distribution<double> skewed(0.0, 0.9);
+  for (int m : {20'000, 100'003, 250'000}) {
+    for (int variant = 0; variant < 3; ++variant) {
+      std::vector<float> v(static_cast<std::size_t>(m));
+      for (float& x : v) x = static_cast<float>(skewed(gen));
+      if (variant == 1) {
+        for (float& x : v) x = std::round(x * 64.0f) / 64.0f;
+      } else if (variant == 2) {
+        const int step = m / 4096;
+        for (int i = 0; i < 4096; ++i) v[static_cast<std::size_t>(i * step + step / 2)] = 0.0f;
+      }
+      std::vector<double> sorted(v.begin(), v.end());
+      std::sort(sorted.begin(), sorted.end());
+      for (double p : {0.9, 0.95, 0.99}) {
+        std::vector<float> work = v;
+        CoverageInterval sym, shortest;
+        mcm_internal::CoverageIntervals(work, 0.0, p, &sym, &shortest);
+        const CoverageInterval sym_ref = SymmetricCoverageInterval(sorted, p);
+        const CoverageInterval short_ref = ShortestCoverageInterval(sorted, p);
+        EXPECT_EQ(sym.low, sym_ref.low) << m << " " << variant << " " << p;
+        EXPECT_EQ(sym.high, sym_ref.high) << m << " " << variant << " " << p;
+        EXPECT_EQ(shortest.low, short_ref.low) << m << " " << variant << " " << p;
+        EXPECT_EQ(shortest.high, short_ref.high) << m << " " << variant << " " << p;
+      }
+    }
+  }
+}
+
 TEST(NumericalToleranceRule, Jcgm101Clause792) {
   EXPECT_DOUBLE_EQ(NumericalTolerance(2.0, 2), 0.05);      // 20 x 10^-1
   EXPECT_DOUBLE_EQ(NumericalTolerance(2.0, 1), 0.5);       // 2 x 10^0
