@@ -227,6 +227,51 @@ TEST(Fits, JacobiansMatchFiniteDifferences) {
                         1e-6);
 }
 
+// The fitted geometry is a smooth function of the points: the central difference
+// fit(p + h e) - fit(p - h e) scales linearly with h from 1e-5 down to 1e-9 m for every
+// coordinate e. (The rms row, last, is left out: its curvature ~1/rms = 1e4 /m makes the
+// h = 1e-5 reference itself off by ~1e-2 relative; it is a closed form of the geometry.) An iteration that stops short of the stationary point by a path-dependent
+// ~1e-11 m would show as a slope error ~1e-11 / 2h, i.e. 5e-3 at h = 1e-9 (the bound below
+// allows 1e-6 relative to the row plus 64 ulps of the values over 2h).
+void ExpectContinuous(TaskKind kind, const Matrix3Xd& points, const FitOptions& options) {
+  const double steps[] = {1e-5, 1e-6, 1e-7, 1e-8, 1e-9};
+  const Eigen::VectorXd base = FitTask(kind, points, options).values;
+  const double ulp = std::numeric_limits<double>::epsilon() * (1.0 + base.cwiseAbs().maxCoeff());
+  for (long j = 0; j < points.cols(); ++j) {
+    for (int c = 0; c < 3; ++c) {
+      Eigen::VectorXd reference;
+      for (double h : steps) {
+        Matrix3Xd plus = points, minus = points;
+        plus(c, j) += h;
+        minus(c, j) -= h;
+        const Eigen::VectorXd slope =
+            (FitTask(kind, plus, options).values - FitTask(kind, minus, options).values) /
+            (2.0 * h);
+        if (reference.size() == 0) {
+          reference = slope;
+          continue;
+        }
+        for (long row = 0; row + 1 < slope.size(); ++row) {
+          EXPECT_LE(std::abs(slope(row) - reference(row)),
+                    1e-6 * reference.cwiseAbs().maxCoeff() + 64.0 * ulp / (2.0 * h))
+              << TaskOutputs(kind)[row].name << " of " << static_cast<int>(kind) << ", point "
+              << j << " coordinate " << c << ", h = " << h;
+        }
+      }
+    }
+  }
+}
+
+TEST(Fits, FittedValuesAreContinuous) {
+  ExpectContinuous(TaskKind::kSphere,
+                   Noisy(SpherePoints(Vector3d(1, -2, 0.5), 0.25, 24, 2.0), 1e-4, 2), {});
+  const Vector3d n = Vector3d(0.1, 0.7, -0.5).normalized();
+  const Matrix3Xd circle = Noisy(CirclePoints(Vector3d(0.5, 0.5, 3), n, 0.8, 16, 4.0), 1e-4, 3);
+  FitOptions options;
+  options.orientation = FitCircle(circle).values.segment<3>(4);  // no sign flip between fits
+  ExpectContinuous(TaskKind::kCircle, circle, options);
+}
+
 TEST(Fits, ExactPlaneStillDifferentiatesCentroidAndNormal) {
   // Nominal points of a plan lie exactly on the feature: flatness and rms have no derivative
   // (flagged, zero rows), centroid and normal do.

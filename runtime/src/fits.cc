@@ -16,6 +16,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <string>
 
 #include <Eigen/Dense>
@@ -313,31 +314,56 @@ HypersphereFit<D> FitHypersphere(long n, const Get& get, TaskKind kind, std::str
       break;
     }
   }
-  // Near the minimum the cost cannot resolve steps below ~sqrt(eps) (its changes drop under its
-  // rounding), so finish with undamped Gauss-Newton steps, which keep shrinking (linear
-  // convergence at rate ~ residual / radius) until they reach rounding level.
-  double last_step = INFINITY;
-  for (int polish = 0; converged && polish < 20; ++polish, ++iterations) {
-    Hessian jtj = Hessian::Zero();
-    Theta jte = Theta::Zero();
-    for (long i = 0; i < n; ++i) {
-      const RadialResidual<D> r = Radial<D>(q(i), c, radius);
-      Theta row;
-      row.template head<D>() = -r.u;
-      row(D) = -1.0;
-      jtj.noalias() += row * row.transpose();
-      jte += row * r.e;
-    }
-    const Theta step = -jtj.ldlt().solve(jte);
-    const double size = step.norm();
-    if (!(size < last_step)) break;  // no longer shrinking: at rounding level
-    c += step.template head<D>();
-    radius += step(D);
-    last_step = size;
-    if (size <= 1e-16 * (1.0 + c.norm() + std::abs(radius))) break;
-  }
   if (!converged || !std::isfinite(radius) || !c.allFinite()) {
     Fail(where, kind, "least-squares fit did not converge");
+  }
+  // Near the minimum the cost cannot resolve steps below ~sqrt(eps) (its changes drop under its
+  // rounding), so where LM stops depends on its path, to ~1e-8 relative. Finish with Newton
+  // steps on the stationarity condition g = 0 with the FULL Hessian of F = 1/2 sum e^2
+  //   g = -(sum e u; sum e),  H_cc = sum u u^T + e (I - u u^T)/rho,  H_cR = sum u,  H_RR = N,
+  // which converge quadratically from there. Stop on the gradient, not on the step size: once
+  // |g| is at the rounding level of its terms (each e_i carries rounding ~eps (rho_i + R), the
+  // sum adds ~sqrt(N) eps sum |e_i|), the step computed there is still applied and the loop
+  // ends, so the estimate is the stationary point to rounding whatever path LM took and the
+  // fitted values are a smooth function of the points, as the Jacobian assumes.
+  constexpr double kEps = std::numeric_limits<double>::epsilon();
+  constexpr int kMaxNewton = 12;
+  bool stationary = false;
+  for (int newton = 0; newton < kMaxNewton; ++newton) {
+    ++iterations;
+    Hessian h = Hessian::Zero();
+    Theta g = Theta::Zero();
+    double terms = 0.0, residuals = 0.0;
+    for (long i = 0; i < n; ++i) {
+      const RadialResidual<D> r = Radial<D>(q(i), c, radius);
+      if (!(r.rho > 0.0)) Fail(where, kind, "a point lies at the fitted centre");
+      const Eigen::Matrix<double, D, D> uu = r.u * r.u.transpose();
+      h.template topLeftCorner<D, D>() +=
+          uu + r.e * (Eigen::Matrix<double, D, D>::Identity() - uu) / r.rho;
+      h.template topRightCorner<D, 1>() += r.u;
+      g.template head<D>() -= r.e * r.u;
+      g(D) -= r.e;
+      terms += r.rho + std::abs(radius);
+      residuals += std::abs(r.e);
+    }
+    h.template bottomLeftCorner<1, D>() = h.template topRightCorner<D, 1>().transpose();
+    h(D, D) = static_cast<double>(n);
+    const double tolerance = 16.0 * kEps * (terms + std::sqrt(static_cast<double>(n)) * residuals);
+    const bool at_rounding = g.template lpNorm<Eigen::Infinity>() <= tolerance;
+    const Eigen::LDLT<Hessian> ldlt(h);
+    const Theta step = -ldlt.solve(g);
+    if (ldlt.info() != Eigen::Success || !step.allFinite()) break;
+    c += step.template head<D>();
+    radius += step(D);
+    if (at_rounding) {
+      stationary = true;
+      break;
+    }
+  }
+  if (!stationary || !std::isfinite(radius) || !c.allFinite()) {
+    Fail(where, kind,
+         "least-squares fit did not converge (gradient not at rounding level after " +
+             std::to_string(kMaxNewton) + " Newton steps)");
   }
 
   HypersphereFit<D> fit;

@@ -58,38 +58,14 @@ class InputSampler {
 void DrawNormals(const KeyedStream& rng, std::uint64_t stream, std::int64_t first, int n,
                  double* out);
 
-// The measurement function of every point of one trial (vlt/measurement_model.h
-// MeasurementModel::Evaluate, the same arithmetic, bit for bit — tests/test_mcm.cc checks it):
-// what depends on the shared inputs only — the air's range scale n_est / n (the costly Ciddor /
-// Edlen evaluation), the pose R, t and the thermal scale s — is computed once per trial by
-// Prepare, not once per point.
-class TrialModel {
- public:
-  struct State {
-    double range_scale = 1.0;   // n_est / n(t, p, RH, x); 1 without environment
-    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
-    Eigen::Vector3d translation = Eigen::Vector3d::Zero();
-    double thermal_scale = 1.0;
-  };
-
-  explicit TrialModel(const MeasurementModel& model);
-  void Prepare(const double* shared, State* state) const;
-  // y (3) of one point from its readings (3), the shared inputs and their prepared state.
-  void Evaluate(const double* readings, const double* shared, const State& state,
-                double* y) const;
-
- private:
-  const MeasurementModel& model_;
-  ForwardFn forward_;
-  bool environment_, pose_, thermal_;
-};
-
 // Per-thread scratch owned by the driver, sized by the kernel.
 struct Scratch {
   std::vector<double> doubles;
   std::vector<Eigen::Vector3d> points;
   std::vector<double> task_outputs;
-  std::vector<TrialModel::State> trial_states;   // job kernel: one per trial of a sub-batch
+  // Job kernel: the shared inputs of each trial of a sub-batch prepared once
+  // (MeasurementModel::PrepareShared), then used for every point.
+  std::vector<MeasurementModel::PreparedShared> trial_states;
 };
 
 class TrialKernel {

@@ -40,8 +40,7 @@ class JobKernel final : public mcm_internal::TrialKernel {
         job_(job),
         shared_(SharedDistributions(model_), SharedNames(model_), model_.shared_correlation(), 0,
                 "measurement setup: correlation of the shared inputs"),
-        num_shared_(model_.num_shared()),
-        trial_model_(model_) {
+        num_shared_(model_.num_shared()) {
     n_out_ = 3 * static_cast<int>(job.points.size());
     for (const McmPoint& point : job.points) {
       const Eigen::Vector3d u = model_.reading_uncertainty(point.readings(0));
@@ -77,7 +76,7 @@ class JobKernel final : public mcm_internal::TrialKernel {
     scratch.doubles.assign(2 * s * kSubBatch + shared_.scratch_size(kSubBatch) +
                                3 * static_cast<std::size_t>(kSubBatch),
                            0.0);
-    scratch.trial_states.assign(kSubBatch, mcm_internal::TrialModel::State{});
+    scratch.trial_states.assign(kSubBatch, MeasurementModel::PreparedShared{});
     scratch.points.assign(std::max<std::size_t>(max_task_points_, 1), Eigen::Vector3d::Zero());
     scratch.task_outputs.assign(std::max<std::size_t>(max_task_outputs_, 1), 0.0);
   }
@@ -108,7 +107,7 @@ class JobKernel final : public mcm_internal::TrialKernel {
     double* shared_aos = shared_soa + static_cast<std::size_t>(s_count) * kSubBatch;
     double* copula = shared_aos + static_cast<std::size_t>(s_count) * kSubBatch;
     double* readings = copula + shared_.scratch_size(kSubBatch);
-    mcm_internal::TrialModel::State* states = scratch.trial_states.data();
+    MeasurementModel::PreparedShared* states = scratch.trial_states.data();
 
     // Shared inputs: drawn once per trial, common to every point.
     shared_.Draw(rng, first, n, shared_soa, kSubBatch, copula);
@@ -116,8 +115,8 @@ class JobKernel final : public mcm_internal::TrialKernel {
       double* aos = shared_aos + static_cast<std::size_t>(i) * s_count;
       for (int k = 0; k < s_count; ++k) aos[k] = shared_soa[static_cast<std::size_t>(k) * kSubBatch + i];
       // Air index, pose and thermal scale depend on the shared inputs only: once per trial,
-      // not once per point.
-      trial_model_.Prepare(aos, &states[i]);
+      // not once per point (states[i] refers to aos, which stays put until the sub-batch ends).
+      states[i] = model_.PrepareShared(aos);
     }
 
     const std::uint64_t first_reading_stream = static_cast<std::uint64_t>(s_count);
@@ -133,7 +132,7 @@ class JobKernel final : public mcm_internal::TrialKernel {
       for (int i = 0; i < n; ++i) {
         const double r[3] = {readings[i], readings[kSubBatch + i], readings[2 * kSubBatch + i]};
         double y[3];
-        trial_model_.Evaluate(r, shared_aos + static_cast<std::size_t>(i) * s_count, states[i], y);
+        model_.EvaluatePrepared(states[i], r, y);
         out_x[i] = y[0];
         out_x[kSubBatch + i] = y[1];
         out_x[2 * kSubBatch + i] = y[2];
@@ -163,7 +162,6 @@ class JobKernel final : public mcm_internal::TrialKernel {
   const McmJob& job_;
   InputSampler shared_;
   int num_shared_;
-  mcm_internal::TrialModel trial_model_;
   int n_out_ = 0;
   std::vector<Eigen::Vector3d> reading_u_;
   std::vector<int> task_first_output_;

@@ -224,28 +224,54 @@ double MeasurementModel::ThermalScale(const double* shared) const {
   return 1.0 / (1.0 + cte * dt);
 }
 
-void MeasurementModel::EvaluateTracker(const double* readings, const double* shared,
-                                       double* x_tracker) const {
+double MeasurementModel::RangeScale(const double* shared) const {
+  if (env_offset_ < 0) return 1.0;
+  // The tracker converted optical path to range with n_est; the true geometric range is
+  // optical path / n = rho n_est / n (range scale error mu_env = n_est / n - 1).
+  const Environment& e = *setup_.environment;
+  return n_est_ / AirRefractiveIndexValue(Equation(e), Air(e, shared + env_offset_),
+                                          "environment");
+}
+
+void MeasurementModel::TrackerPoint(double range_scale, const double* readings,
+                                    const double* shared, double* x_tracker) const {
   double corrected[3] = {readings[0], readings[1], readings[2]};
-  if (env_offset_ >= 0) {
-    // The tracker converted optical path to range with n_est; the true geometric range is
-    // optical path / n = rho n_est / n (range scale error mu_env = n_est / n - 1).
-    const Environment& e = *setup_.environment;
-    corrected[0] *= n_est_ / AirRefractiveIndexValue(Equation(e), Air(e, shared + env_offset_),
-                                                     "environment");
-  }
+  if (env_offset_ >= 0) corrected[0] *= range_scale;
   setup_.model->forward(corrected, shared, x_tracker);
 }
 
-void MeasurementModel::Evaluate(const double* readings, const double* shared, double* y) const {
+void MeasurementModel::EvaluateTracker(const double* readings, const double* shared,
+                                       double* x_tracker) const {
+  TrackerPoint(RangeScale(shared), readings, shared, x_tracker);
+}
+
+MeasurementModel::PreparedShared MeasurementModel::PrepareShared(const double* shared) const {
+  PreparedShared prepared;
+  prepared.shared = shared;
+  prepared.range_scale = RangeScale(shared);
+  if (pose_offset_ >= 0) {
+    prepared.rotation = PoseRotation(shared);
+    prepared.translation = PoseTranslation(shared);
+  }
+  prepared.thermal_scale = ThermalScale(shared);
+  return prepared;
+}
+
+// The one implementation of the composition y = s (R x_t + t) (Evaluate goes through here).
+void MeasurementModel::EvaluatePrepared(const PreparedShared& prepared, const double* readings,
+                                        double* y) const {
   Eigen::Vector3d x_t;
-  EvaluateTracker(readings, shared, x_t.data());
+  TrackerPoint(prepared.range_scale, readings, prepared.shared, x_t.data());
   Eigen::Vector3d x = x_t;
-  if (pose_offset_ >= 0) x = PoseRotation(shared) * x_t + PoseTranslation(shared);
-  if (thermal_offset_ >= 0) x *= ThermalScale(shared);
+  if (pose_offset_ >= 0) x = prepared.rotation * x_t + prepared.translation;
+  if (thermal_offset_ >= 0) x *= prepared.thermal_scale;
   y[0] = x(0);
   y[1] = x(1);
   y[2] = x(2);
+}
+
+void MeasurementModel::Evaluate(const double* readings, const double* shared, double* y) const {
+  EvaluatePrepared(PrepareShared(shared), readings, y);
 }
 
 void MeasurementModel::EvaluateWithJacobian(const double* readings, const double* shared,

@@ -61,7 +61,7 @@ struct FitResult {
   // (Monte Carlo can). Ties of the extreme residuals are resolved by the first point reaching
   // the extreme (a one-sided derivative), see docs/tasks.md.
   std::vector<bool> differentiable;
-  int iterations = 0;                   // Gauss-Newton iterations (sphere, circle), else 0
+  int iterations = 0;                   // Levenberg-Marquardt + Newton iterations (sphere, circle), else 0
 };
 
 // Each function throws InputError "<where>: <kind> needs at least M points, got N" (distance:

@@ -94,7 +94,25 @@ class MeasurementModel {
 
   // y (part frame, at reference temperature when thermal is enabled) from the readings of one
   // point and a value of every shared input. Exact: no linearisation anywhere.
+  // Same as EvaluatePrepared(PrepareShared(shared), readings, y): one implementation.
   void Evaluate(const double* readings, const double* shared, double* y) const;
+
+  // The stages that depend on the shared inputs only, computed once for a value of the shared
+  // vector and reused for every point evaluated at it (the Monte Carlo engine: once per trial,
+  // not once per point): the air's range scale n_est / n (Ciddor / Edlen, the costly part), the
+  // pose R, t and the thermal scale s. Refers to the shared vector it was prepared from (the
+  // tracker model reads its error parameters there), which must outlive it.
+  struct PreparedShared {
+    const double* shared = nullptr;   // the shared vector (params | environment | pose | thermal)
+    double range_scale = 1.0;         // n_est / n(t, p, RH, x); 1 without environment
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();   // R; identity without pose
+    Eigen::Vector3d translation = Eigen::Vector3d::Zero();    // t [m]; zero without pose
+    double thermal_scale = 1.0;       // s = 1 / (1 + cte (T - T_ref)); 1 without thermal
+  };
+  PreparedShared PrepareShared(const double* shared) const;
+  // y of one point at the prepared shared inputs, bit for bit Evaluate(readings, shared, y):
+  //   rho' = rho (n_est / n),  x_t = f(rho', A, E; params),  y = s (R x_t + t).
+  void EvaluatePrepared(const PreparedShared& prepared, const double* readings, double* y) const;
   // Same plus d y / d readings (3x3, column-major) and d y / d shared (3 x S, column-major).
   // Chain rule (docs/gum.md "Measurement model"), with rho' = rho n_est / n(t, p, RH, x):
   //   x_t = f(rho', A, E; params)                       tracker model (generated Jacobians)
@@ -128,6 +146,11 @@ class MeasurementModel {
  private:
   // n and dn/d(t, p, RH, x) at shared[env_offset_ .. +3].
   double AirIndex(const double* env, double* gradient) const;
+  // n_est / n at the shared inputs (1 without environment).
+  double RangeScale(const double* shared) const;
+  // x_t = f(rho range_scale, A, E; params): the air correction and the tracker model.
+  void TrackerPoint(double range_scale, const double* readings, const double* shared,
+                    double* x_tracker) const;
 
   MeasurementSetup setup_;
   std::vector<UncertainInput> shared_;
