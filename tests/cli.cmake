@@ -90,6 +90,13 @@ add_test(NAME cli_map_plane
           -DOUT=${_out}/map "-DFILES=map.csv;map.html"
           "-DEXPECT_STDOUT=over 80 nodes.*Skipped 1 node.*\\(0, 0, 0\\) m: at the tracker" -P ${_cli}/expect_outputs.cmake)
 
+# vlt --json map prints the map object of results.json: the node at the tracker is null, the
+# others are numbers in metres (tens of micrometres here).
+add_test(NAME cli_map_json
+  COMMAND vlt --json map ${_jobs}/good.toml --plane z=0 --extent -1,1,-1,1 --step 1m -o ${_out}/map_json)
+set_tests_properties(cli_map_json PROPERTIES PASS_REGULAR_EXPRESSION
+  "\"U_norm\": \\[[\n ]*[0-9.]+e-05,[\n ]*[0-9.]+e-05,[\n ]*[0-9.]+e-05,[\n ]*[0-9.]+e-05,[\n ]*null,")
+
 # Every example runs (small Monte Carlo).
 file(GLOB _examples CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/examples/*.toml)
 foreach(example ${_examples})

@@ -1,8 +1,8 @@
 // `vlt map JOB.toml --plane z=0 --extent xmin,xmax,ymin,ymax --step 0.25m [-o DIR]`
 // `vlt map JOB.toml --box xmin,xmax,ymin,ymax,zmin,zmax --step 0.5m`
 // The GUM expanded uncertainty |U| = sqrt(Ux^2 + Uy^2 + Uz^2) over a grid of part-frame points
-// (MapResult in vlt/results.h), written as map.csv and map.html. Without --plane/--box the job's
-// [map] section is used.
+// (MapResult in vlt/results.h), written as map.csv and map.html (and printed as JSON with --json).
+// Without --plane/--box the job's [map] section is used.
 #include <cstdio>
 
 #include "results_internal.h"
@@ -57,6 +57,10 @@ void AddMapCommand(CLI::App& app, GlobalOptions& global) {
     std::vector<std::pair<std::string, std::string>> files = {
         {"map.csv", MapCsv(map)}, {"map.html", MapHtml(map, job.name + ": " + settings.description)}};
     WriteFilesAtomically(dir, files);
+    if (global.json) {  // the same object as "map" in results.json (docs/results.md)
+      std::printf("%s\n", MapJson(map).c_str());
+      return;
+    }
     if (global.quiet) return;
     double lo = 1e300, hi = 0.0;
     std::size_t n = 0;

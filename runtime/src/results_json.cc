@@ -313,4 +313,6 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
 
 std::string ResultsJson(const Results& r, int indent) { return internal::ResultsJsonText(r, indent, false); }
 
+std::string MapJson(const MapResult& map, int indent) { return Map(map).dump(indent); }
+
 }  // namespace vlt

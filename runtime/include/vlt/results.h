@@ -117,6 +117,8 @@ std::string MapCsv(const MapResult& map);
 std::string ResultsJson(const Results& results, int indent = 1);
 std::string ReportHtml(const Results& results);
 std::string MapHtml(const MapResult& map, const std::string& title);
+// The map alone as JSON: the "map" object of results.json (docs/results.md), for `vlt map --json`.
+std::string MapJson(const MapResult& map, int indent = 1);
 
 // The files of a `vlt run`: points.csv, budget.csv, tasks.csv, results.json, report.html and,
 // with a map, map.csv and map.html.
