@@ -264,7 +264,7 @@ void MeasurementModel::EvaluatePrepared(const PreparedShared& prepared, const do
   TrackerPoint(prepared.range_scale, readings, prepared.shared, x_t.data());
   Eigen::Vector3d x = x_t;
   if (pose_offset_ >= 0) x = prepared.rotation * x_t + prepared.translation;
-  if (thermal_offset_ >= 0) x /= (1.0 / prepared.thermal_scale);  // MUTATION
+  if (thermal_offset_ >= 0) x *= prepared.thermal_scale;
   y[0] = x(0);
   y[1] = x(1);
   y[2] = x(2);
