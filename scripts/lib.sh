@@ -34,11 +34,11 @@ vlt_install_packages() {
   fi
 }
 
-# vlt_build DIR [cmake args...] : configure once (Release), build with 2 jobs.
+# vlt_build DIR [cmake args...] : configure (Release), build with 2 jobs. Configuring on every run
+# is cheap (npm ci reruns only when package-lock.json changes) and recovers from a configure that
+# failed earlier (no network, say), which leaves CMakeCache.txt but no Makefile behind.
 vlt_build() {
   local dir=$1; shift
-  if [ ! -f "$dir/CMakeCache.txt" ]; then
-    cmake -S "$VLT_ROOT" -B "$dir" -DCMAKE_BUILD_TYPE=Release "$@" >&2
-  fi
+  cmake -S "$VLT_ROOT" -B "$dir" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
   cmake --build "$dir" -j2 >&2
 }
