@@ -129,7 +129,7 @@ const bool kRegistered = [] {
     RegisterBenchmark(("mcm/run/point/M:1000000" + t).c_str(), BM_McmPoint, 1000000,
                       threads)
         ->UseRealTime()
-        ->Iterations(1)
+        ->Iterations(3)
         ->Unit(benchmark::kMillisecond);
   }
   for (int threads : {1, 2}) {

@@ -206,6 +206,22 @@ std::vector<BudgetRow> BudgetTemplates(const MeasurementModel& model) {
   return rows;
 }
 
+// var + sum_s (c_s u_s)^2 per axis for the 3 x S column-major sensitivities c (diagonal shared
+// covariance), the additions in the order s = 0, 1, ... In its own non-inlined function so that
+// the three sums stay in registers (inlined into the field's loop, GCC 12 kept them in a stack
+// slot: a store-to-load forward per addition, a third of the field's time).
+[[gnu::noinline]] Eigen::Vector3d AddSharedVariances(const Eigen::Vector3d& var, const double* u,
+                                                     const double* c, int num_shared) {
+  double v0 = var(0), v1 = var(1), v2 = var(2);
+  for (int s = 0; s < num_shared; ++s, c += 3) {
+    const double us = u[s];
+    v0 += (c[0] * us) * (c[0] * us);
+    v1 += (c[1] * us) * (c[1] * us);
+    v2 += (c[2] * us) * (c[2] * us);
+  }
+  return {v0, v1, v2};
+}
+
 // Shared inputs of the instrument (parameters, environment) come first in the shared vector.
 int NumInstrument(const MeasurementModel& model) {
   if (model.pose_offset() >= 0) return model.pose_offset();
@@ -259,20 +275,18 @@ std::vector<Eigen::Vector3d> ExpandedUncertaintyField(const MeasurementModel& mo
           model.EvaluateWithJacobian(r.data(), x.data(), y.data(), jr.data(), scratch.js.data());
           const Eigen::Vector3d ur = model.reading_uncertainty(r(0));
           // Only the diagonal of J U J^T: sum of squares of the rows of [J_r U_r^1/2, J_s F].
-          Eigen::Vector3d var = (jr * ur.asDiagonal()).rowwise().squaredNorm();
+          const Eigen::Vector3d var_readings = (jr * ur.asDiagonal()).rowwise().squaredNorm();
+          Eigen::Vector3d var;
           if (factor.diagonal) {
-            for (int s = 0; s < num_shared; ++s) {
-              const double us = factor.u(s);
-              const double* c = scratch.js.data() + 3 * s;
-              var(0) += (c[0] * us) * (c[0] * us);
-              var(1) += (c[1] * us) * (c[1] * us);
-              var(2) += (c[2] * us) * (c[2] * us);
-            }
+            // Accumulated in three scalars, in the same order as var(i) += ... (bit-identical):
+            // with an Eigen::Vector3d accumulator GCC keeps the sums in memory and every
+            // addition waits for a store-to-load forward (docs/performance.md 6.1).
+            var = AddSharedVariances(var_readings, factor.u.data(), scratch.js.data(), num_shared);
           } else {
             factor.Apply(scratch.js.data(), scratch.a.data(), 3);
-            var += Eigen::Map<const Eigen::MatrixXd>(scratch.a.data(), 3, num_shared)
-                       .rowwise()
-                       .squaredNorm();
+            var = var_readings + Eigen::Map<const Eigen::MatrixXd>(scratch.a.data(), 3, num_shared)
+                                     .rowwise()
+                                     .squaredNorm();
           }
           field[i] = k * var.cwiseSqrt();
           if (!field[i].allFinite() || !y.allFinite()) {
