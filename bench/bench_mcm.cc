@@ -16,7 +16,7 @@
 
 #include "bench_common.h"
 #include "bench_kernels.h"
-#include "random.h"
+#include "mcm/random.h"
 #include "vlt/gum.h"
 #include "vlt/mcm.h"
 #include "vlt/tasks.h"

@@ -10,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-#include "mcm_engine.h"
+#include "mcm/engine.h"
 #include "vlt/distributions.h"
 #include "vlt/error.h"
 

@@ -15,7 +15,7 @@
 
 #include <gtest/gtest.h>
 
-#include "mcm_engine.h"
+#include "mcm/engine.h"
 #include "test_mcm_helpers.h"
 #include "vlt/distributions.h"
 #include "vlt/error.h"

@@ -1,4 +1,4 @@
-// test_results_demo.cc — the numbers of the demo job (`vlt demo`, runtime/src/default_job.cc).
+// test_results_demo.cc — the numbers of the demo job (`vlt demo`, runtime/src/job/default_job.cc).
 //
 // 1. Independent closed-form bounds. With independent inputs the variance of a point along a unit
 //    direction d is sum_i (c_i . d)^2 u_i^2. For the ideal mirror tracker at the job's estimates,

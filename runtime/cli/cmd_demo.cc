@@ -1,4 +1,4 @@
-// `vlt demo` (and bare `vlt`): the embedded default job (runtime/src/default_job.cc) into
+// `vlt demo` (and bare `vlt`): the embedded default job (runtime/src/job/default_job.cc) into
 // ./vlt-demo/ — the README's first command.
 #include <cstdio>
 #include <filesystem>

@@ -5,7 +5,7 @@
 // Without --plane/--box the job's [map] section is used.
 #include <cstdio>
 
-#include "results_internal.h"
+#include "results/internal.h"
 #include "run_job.h"
 #include "vlt/error.h"
 

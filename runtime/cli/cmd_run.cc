@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <iostream>
 
-#include "results_internal.h"
+#include "results/internal.h"
 #include "run_job.h"
 #include "vlt/error.h"
 

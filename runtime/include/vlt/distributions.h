@@ -2,7 +2,7 @@
 // 6.4), each parameterised by the estimate (its expectation) and the standard uncertainty (its
 // standard deviation), plus one shape parameter where the family has one. This is the ONE place
 // a distribution is added: name, parser, sampling, CDF and quantile live in
-// runtime/src/distributions.cc. docs/monte-carlo.md lists the parametrisations.
+// runtime/src/mcm/distributions.cc. docs/monte-carlo.md lists the parametrisations.
 //
 //   kind                    names accepted                     shape                  clause
 //   normal                  "normal", "gaussian"               none (0)               6.4.7
@@ -76,7 +76,7 @@ class Distribution {
 
   // Exact transforms of uniforms on (0, 1) to one draw, as the Monte Carlo engine uses them where
   // the input is independent of the others (normal draws come from Box-Muller pairs in the
-  // engine, runtime/src/random.h):
+  // engine, runtime/src/mcm/random.h):
   //  - rectangular, triangular, arcsine, normal: Quantile(u1) (inverse CDF; u2 unused);
   //  - curvilinear trapezoid: JCGM 101 6.4.3.4, u1 -> lower limit a_s = mu - w - d + 2 d u1,
   //    upper limit b_s = 2 mu - a_s, draw a_s + (b_s - a_s) u2;

@@ -106,7 +106,7 @@ Job LoadJob(const std::string& path);
 // Same from text: `file` names it in messages, `base_dir` resolves relative CSV paths.
 Job ParseJob(std::string_view text, const std::string& file, const std::filesystem::path& base_dir);
 
-// The embedded default job run by `vlt demo` and bare `vlt` (runtime/src/default_job.cc).
+// The embedded default job run by `vlt demo` and bare `vlt` (runtime/src/job/default_job.cc).
 std::string_view DefaultJobToml();
 inline constexpr const char* kDefaultJobName = "vlt-demo.toml";
 

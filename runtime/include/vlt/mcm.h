@@ -15,7 +15,7 @@
 //    JCGM 101 §9 examples), outputs in the model's order.
 //
 // Reproducibility: every draw depends only on (seed, trial, input) (Philox4x64 counter-based
-// generator, runtime/src/random.h); trials are processed in chunks of fixed size and partial sums
+// generator, runtime/src/mcm/random.h); trials are processed in chunks of fixed size and partial sums
 // are merged in chunk order, so results are bit-identical for any number of threads.
 #pragma once
 

@@ -11,7 +11,7 @@
 
 #include <Eigen/Dense>
 
-#include "gum_internal.h"
+#include "gum/internal.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
 

@@ -9,7 +9,7 @@
 
 #include <Eigen/Dense>
 
-#include "gum_internal.h"
+#include "gum/internal.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
 #include "vlt/inverse.h"

@@ -8,7 +8,7 @@
 
 #include <Eigen/Dense>
 
-#include "gum_internal.h"
+#include "gum/internal.h"
 #include "vlt/error.h"
 #include "vlt/fits.h"
 #include "vlt/gum.h"

@@ -1,4 +1,4 @@
-#include "csv.h"
+#include "job/csv.h"
 
 #include <fstream>
 #include <sstream>

@@ -1,4 +1,4 @@
-// csv.h — reading the small CSV files a job refers to (plan points, tracker readings), keeping
+// job/csv.h — reading the small CSV files a job refers to (plan points, tracker readings), keeping
 // the line number of every row so that an error names "<file>: line N: <problem>".
 //
 // Dialect (RFC 4180 subset): comma-separated; the first non-blank, non-comment line is the header;

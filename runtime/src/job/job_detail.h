@@ -1,4 +1,5 @@
-// job_detail.h — reading TOML tables strictly (internal to job*.cc).
+// job/job_detail.h — internal to runtime/src/job/: reading TOML tables strictly (section.cc) and one
+// reader per group of job-file sections, called in order by ParseJob (job.cc).
 #pragma once
 
 #include <cstdint>
@@ -8,6 +9,7 @@
 
 #include <toml++/toml.h>
 
+#include "vlt/job.h"
 #include "vlt/units.h"
 
 namespace vlt::job_detail {
@@ -49,5 +51,28 @@ double AsNumber(const toml::node& node, const std::string& where);
 double AsQuantity(const toml::node& node, Dimension dimension, const std::string& where);
 // QuantityInfo::quantity ("length", "angle", ...) -> Dimension.
 Dimension DimensionOfQuantity(std::string_view quantity, const std::string& where);
+
+// Uncertain inputs (section.cc).
+void CheckUncertainty(double u, const std::string& where);  // finite and >= 0
+// Canonical distribution name; rejects a shape parameter the distribution does not have.
+void CheckDistribution(UncertainInput& input, const std::string& where_distribution,
+                       const std::string& where_shape);
+// An uncertain input: either a table {estimate, u, distribution, shape} (omitted keys keep the
+// defaults in `input`) or a bare quantity (the estimate; u keeps its default).
+void ReadUncertain(Section& parent, std::string_view key, Dimension value_dim, Dimension u_dim,
+                   UncertainInput& input);
+UncertainInput MakeInput(std::string name, std::string group, Dimension dim, double estimate, double u);
+
+// The readers of the job file's sections, one file per group.
+void ReadTracker(Section& top, Job& job);      // instrument.cc: [tracker]
+void ReadEnvironment(Section& top, Job& job);  // instrument.cc: [environment]
+void ReadStation(Section& top, Job& job);      // instrument.cc: [station]
+void ReadPart(Section& top, Job& job);         // instrument.cc: [part]
+void ReadPlan(Section& plan, Job& job);        // points.cc: [plan]
+void ReadReadings(Section& readings, Job& job);  // points.cc: [readings]
+void ReadTasks(Section& top, Job& job);        // tasks.cc: [[task]]
+void ReadMonteCarlo(Section& top, Job& job);   // settings.cc: [monte_carlo]
+void ReadMap(Section& top, Job& job);          // settings.cc: [map]
+void ReadOutput(Section& top, Job& job);       // settings.cc: [output]
 
 }  // namespace vlt::job_detail

@@ -1,4 +1,4 @@
-// units.cc — conversion of "<number> <unit>" strings to vlt's internal SI representation.
+// job/units.cc — conversion of "<number> <unit>" strings to vlt's internal SI representation.
 //
 // Every factor is an exact definition (SI Brochure, 9th ed., tables 4 and 8; the conventional
 // millimetre of mercury 133.322387415 Pa; the inch 0.0254 m, 1959 agreement) so that the

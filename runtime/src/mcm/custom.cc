@@ -1,10 +1,10 @@
-// mcm_custom.cc — Monte Carlo for a custom model Y = f(X) (vlt/mcm.h RunMcmCustom), the
+// mcm/custom.cc — Monte Carlo for a custom model Y = f(X) (vlt/mcm.h RunMcmCustom), the
 // JCGM 101 §9 examples and anything else without readings.
 #include <string>
 #include <string_view>
 #include <vector>
 
-#include "mcm_engine.h"
+#include "mcm/engine.h"
 #include "vlt/error.h"
 #include "vlt/mcm.h"
 

@@ -1,4 +1,4 @@
-// distributions.cc — the probability distributions of vlt/distributions.h (JCGM 101 6.4).
+// mcm/distributions.cc — the probability distributions of vlt/distributions.h (JCGM 101 6.4).
 // Adding a distribution: a DistributionKind, its names in kNames, and a case in every switch.
 #include "vlt/distributions.h"
 

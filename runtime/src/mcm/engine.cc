@@ -1,4 +1,4 @@
-// mcm_engine.cc — the Monte Carlo driver: batches (JCGM 101 7.9.4), chunks, threads, summary
+// mcm/engine.cc — the Monte Carlo driver: batches (JCGM 101 7.9.4), chunks, threads, summary
 // statistics (7.6), coverage intervals (7.7), JCGM 102 point covariance and coverage region.
 //
 // Determinism: trials are numbered 0, 1, 2, ...; every draw depends only on (seed, trial, input)
@@ -23,8 +23,8 @@
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 
-#include "mcm_engine.h"
-#include "progress.h"
+#include "mcm/engine.h"
+#include "mcm/progress.h"
 #include "vlt/error.h"
 
 namespace vlt::mcm_internal {

@@ -1,4 +1,4 @@
-// mcm_engine.h — internals of the Monte Carlo engine shared by the job and custom-model entry
+// mcm/engine.h — internals of the Monte Carlo engine shared by the job and custom-model entry
 // points (vlt/mcm.h): input sampling (independent + Gaussian copula), the trial kernel
 // interface, the batch/chunk/thread driver and the coverage-interval routines on stored values.
 #pragma once
@@ -12,7 +12,7 @@
 
 #include <Eigen/Core>
 
-#include "random.h"
+#include "mcm/random.h"
 #include "vlt/distributions.h"
 #include "vlt/mcm.h"
 #include "vlt/measurement_model.h"

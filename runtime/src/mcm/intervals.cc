@@ -1,11 +1,11 @@
-// mcm_intervals.cc — coverage intervals from order statistics (JCGM 101 7.7) and the numerical
+// mcm/intervals.cc — coverage intervals from order statistics (JCGM 101 7.7) and the numerical
 // tolerance (7.9.2).
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 
-#include "mcm_engine.h"
+#include "mcm/engine.h"
 #include "vlt/error.h"
 #include "vlt/mcm.h"
 

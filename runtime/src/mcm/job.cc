@@ -1,4 +1,4 @@
-// mcm_job.cc — Monte Carlo over a laser tracker job (vlt/mcm.h RunMcm): shared inputs drawn
+// mcm/job.cc — Monte Carlo over a laser tracker job (vlt/mcm.h RunMcm): shared inputs drawn
 // once per trial (common to every point), readings per point, each point through the exact
 // measurement model, then each task from the drawn points.
 #include <algorithm>
@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "mcm_engine.h"
+#include "mcm/engine.h"
 #include "vlt/error.h"
 #include "vlt/fits.h"
 #include "vlt/mcm.h"

@@ -1,5 +1,5 @@
-// progress.cc — see progress.h.
-#include "progress.h"
+// mcm/progress.cc — see progress.h.
+#include "mcm/progress.h"
 
 #include <cstdio>
 #include <utility>

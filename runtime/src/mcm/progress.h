@@ -1,4 +1,4 @@
-// progress.h — a one-line progress bar on stderr for long computations (internal).
+// mcm/progress.h — a one-line progress bar on stderr for long computations (internal).
 //
 // Shown only when the computation has lasted more than ~1 s, stderr is a terminal (isatty) and
 // the caller did not ask for quiet; redrawn at most 5 times a second with '\r'; Finish() ends

@@ -1,4 +1,4 @@
-// random.h — keyed counter-based random numbers for the Monte Carlo engine (internal).
+// mcm/random.h — keyed counter-based random numbers for the Monte Carlo engine (internal).
 //
 // Philox4x64-10 (Random123; Salmon et al., SC'11) with key = (seed, 0). One call maps a 256-bit
 // counter to four 64-bit words. The counter is

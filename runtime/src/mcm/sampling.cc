@@ -1,4 +1,4 @@
-// mcm_sampling.cc — drawing the inputs of the Monte Carlo engine (JCGM 101 6.4, 6.4.8, C).
+// mcm/sampling.cc — drawing the inputs of the Monte Carlo engine (JCGM 101 6.4, 6.4.8, C).
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -6,7 +6,7 @@
 
 #include <Eigen/Cholesky>
 
-#include "mcm_engine.h"
+#include "mcm/engine.h"
 #include "vlt/error.h"
 
 namespace vlt::mcm_internal {

@@ -1,4 +1,4 @@
-// validation.cc — GUM validated by Monte Carlo (JCGM 101 §8; multivariate criterion of
+// mcm/validation.cc — GUM validated by Monte Carlo (JCGM 101 §8; multivariate criterion of
 // vlt/validation.h).
 #include "vlt/validation.h"
 

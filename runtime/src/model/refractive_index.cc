@@ -1,4 +1,4 @@
-// refractive_index.cc — phase refractive index of moist air (Edlén/Bönsch-Potulski 1998,
+// model/refractive_index.cc — phase refractive index of moist air (Edlén/Bönsch-Potulski 1998,
 // Ciddor 1996) with exact partial derivatives by forward-mode automatic differentiation.
 //
 // Both equations are written once, templated on the scalar type: double for the value-only path

@@ -1,4 +1,4 @@
-// report_assets.h — files compiled into the library for report.html (runtime/src/report_plotly.cc).
+// report/assets.h — files compiled into the library for report.html (runtime/src/report/plotly.cc).
 #pragma once
 
 #include <string_view>
@@ -7,6 +7,6 @@ namespace vlt::report {
 
 std::string_view PlotlyJs();        // plotly.min.js, the exact bytes of the pinned npm package
 std::string_view PlotlyVersion();   // e.g. "v4.1.2"
-std::string_view ReportTemplate();  // runtime/report/report.html.in
+std::string_view ReportTemplate();  // runtime/src/report/report.html.in
 
 }  // namespace vlt::report

@@ -1,12 +1,12 @@
-// report.html and map.html: the template runtime/report/report.html.in (compiled in,
-// report_plotly.cc) filled with the results as JSON and plotly.js inline, so the page is one
+// report.html and map.html: the template runtime/src/report/report.html.in (compiled in,
+// report/plotly.cc) filled with the results as JSON and plotly.js inline, so the page is one
 // self-contained file that opens offline.
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
 
-#include "report_assets.h"
-#include "results_internal.h"
+#include "report/assets.h"
+#include "results/internal.h"
 
 namespace vlt {
 

@@ -1,8 +1,8 @@
 // The assets of report.html compiled into the library (cmake/VltPlotly.cmake, runtime/CMakeLists.txt):
 // plotly.js (npm plotly.js-dist-min, version pinned in package-lock.json) and the page template
-// runtime/report/report.html.in. .incbin copies the files' bytes into .rodata at compile time, so
+// runtime/src/report/report.html.in. .incbin copies the files' bytes into .rodata at compile time, so
 // the `vlt` binary writes a self-contained, offline report without any file at run time.
-#include "report_assets.h"
+#include "report/assets.h"
 
 #ifndef VLT_PLOTLY_JS_FILE
 #error "VLT_PLOTLY_JS_FILE must name plotly.min.js (set by runtime/CMakeLists.txt)"

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "results_internal.h"
+#include "results/internal.h"
 
 namespace vlt {
 namespace {

@@ -1,4 +1,4 @@
-// results_internal.h — shared by results*.cc and report_html.cc.
+// results/internal.h — shared by results/*.cc and report/html.cc.
 #pragma once
 
 #include <string>

@@ -2,7 +2,7 @@
 // docs/results.md; "schema": "vlt-results/1"). Also embedded in report.html.
 #include <nlohmann/json.hpp>
 
-#include "results_internal.h"
+#include "results/internal.h"
 #include "vlt/units.h"
 
 namespace vlt {

@@ -5,7 +5,7 @@
 #include <chrono>
 #include <cmath>
 
-#include "results_internal.h"
+#include "results/internal.h"
 #include "vlt/error.h"
 
 namespace vlt {

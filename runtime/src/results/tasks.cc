@@ -2,7 +2,7 @@
 // definition the GUM engine linearises, so the fitting algorithm is itself propagated.
 #include <cstdio>
 
-#include "results_internal.h"
+#include "results/internal.h"
 #include "vlt/fits.h"
 
 namespace vlt::internal {

@@ -7,7 +7,7 @@
 #include <sstream>
 #include <system_error>
 
-#include "results_internal.h"
+#include "results/internal.h"
 #include "vlt/error.h"
 
 namespace vlt {

@@ -1,4 +1,4 @@
-// fits.cc — distance and least-squares features with exact Jacobians w.r.t. the points.
+// tasks/fits.cc — distance and least-squares features with exact Jacobians w.r.t. the points.
 //
 // Derivatives (docs/tasks.md, "Jacobians"):
 //  - Centroid-based fits (plane, line, and the plane of a circle): the centred scatter matrix

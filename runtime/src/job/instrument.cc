@@ -1,0 +1,292 @@
+// job/instrument.cc — the instrument sections of a job file: [tracker] (model, error parameters,
+// correlations, range noise), [environment] (air), [station] (pose), [part] (thermal expansion).
+// Keys and units: docs/job-file.md.
+#include <cctype>
+#include <cmath>
+
+#include <Eigen/Eigenvalues>
+
+#include <toml++/toml.h>
+
+#include "job/job_detail.h"
+#include "vlt/error.h"
+#include "vlt/job.h"
+#include "vlt/models.h"
+#include "vlt/units.h"
+
+namespace vlt::job_detail {
+
+namespace {
+
+// "5 um + 0.5 um/m" -> (a, b). Either term may be absent; a '+' inside an exponent is not a split.
+void ParseRangeNoise(const std::string& text, const std::string& where, double& a, double& b) {
+  std::vector<std::string> terms;
+  std::string current;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    char c = text[i];
+    bool exponent_sign = i > 0 && (text[i - 1] == 'e' || text[i - 1] == 'E') && i >= 2 &&
+                         std::isdigit(static_cast<unsigned char>(text[i - 2]));
+    if (c == '+' && !exponent_sign && !current.empty() &&
+        current.find_first_not_of(" \t") != std::string::npos) {
+      terms.push_back(current);
+      current.clear();
+    } else {
+      current += c;
+    }
+  }
+  terms.push_back(current);
+  if (terms.size() > 2) throw InputError(where + ": expected '<length> + <ratio>', e.g. \"5 um + 0.5 um/m\"");
+  bool have_a = false, have_b = false;
+  a = b = 0.0;
+  for (const std::string& term : terms) {
+    bool is_length = true;
+    double v = 0.0;
+    try {
+      v = ParseQuantity(term, Dimension::kLength, where);
+    } catch (const InputError&) {
+      is_length = false;
+    }
+    if (!is_length) {
+      try {
+        v = ParseQuantity(term, Dimension::kRatio, where);
+      } catch (const InputError&) {
+        throw InputError(where + ": '" + term + "' is neither a length nor a ratio; expected '<length> + <ratio>', e.g. \"5 um + 0.5 um/m\"");
+      }
+    }
+    bool& have = is_length ? have_a : have_b;
+    if (have) throw InputError(where + ": two " + std::string(is_length ? "length" : "ratio") + " terms; expected '<length> + <ratio>'");
+    have = true;
+    (is_length ? a : b) = v;
+  }
+  CheckUncertainty(a, where);
+  CheckUncertainty(b, where);
+}
+
+}  // namespace
+
+void ReadTracker(Section& top, Job& job) {
+  Section tracker = top.Sub("tracker", true);
+  tracker.set_hint("model, parameters, correlations, noise");
+  std::string model_name = AsString(tracker.Require("model"), tracker.Where("model"));
+  const ModelInfo* model = FindModel(model_name);
+  if (!model) {
+    std::string list;
+    for (const ModelInfo* m : AllModels()) {
+      if (std::string_view(m->kind) == "tracker") list += (list.empty() ? "" : ", ") + std::string(m->name);
+    }
+    throw InputError(tracker.Where("model") + ": unknown model '" + model_name +
+                     "' (tracker models: " + (list.empty() ? "none built" : list) + ")");
+  }
+  if (std::string_view(model->kind) != "tracker" || model->num_readings != 3) {
+    throw InputError(tracker.Where("model") + ": model '" + model_name +
+                     "' is not a tracker model (it has no range/azimuth/elevation readings)");
+  }
+  MeasurementSetup& setup = job.setup;
+  setup.model = model;
+  setup.params.clear();
+  std::vector<Dimension> dims;
+  for (int k = 0; k < model->num_params; ++k) {
+    const QuantityInfo& q = model->params[k];
+    Dimension dim = job_detail::DimensionOfQuantity(q.quantity, tracker.Where("model"));
+    dims.push_back(dim);
+    UncertainInput input = MakeInput(q.name, "parameter", dim, q.default_estimate, q.default_u);
+    input.unit = q.unit;
+    input.distribution = q.default_distribution ? q.default_distribution : "normal";
+    input.shape = q.default_shape;
+    setup.params.push_back(input);
+  }
+
+  // [tracker.parameters.<name>]: override the model's defaults.
+  Section params = tracker.Sub("parameters", false);
+  if (params.exists()) {
+    for (auto&& [key, node] : params.table()) {
+      (void)node;
+      std::string name(key.str());
+      int k = FindParam(*model, name);
+      if (k < 0) {
+        std::string list;
+        for (int j = 0; j < model->num_params; ++j) list += (j ? ", " : "") + std::string(model->params[j].name);
+        throw InputError(params.Where(name) + ": unknown parameter '" + name + "' of model '" +
+                         model_name + "' (parameters: " + list + ")");
+      }
+      Dimension u_dim = dims[k] == Dimension::kTemperature ? Dimension::kTemperatureDifference : dims[k];
+      ReadUncertain(params, name, dims[k], u_dim, setup.params[k]);
+    }
+    params.Finish();
+  }
+
+  // [tracker.correlations.<name>]: parameters = [...], matrix = [[...], ...]
+  setup.param_correlation.resize(0, 0);
+  Section corr = tracker.Sub("correlations", false);
+  if (corr.exists()) {
+    const int n = model->num_params;
+    Eigen::MatrixXd full = Eigen::MatrixXd::Identity(n, n);
+    std::vector<std::string> owner(n);
+    for (auto&& [key, node] : corr.table()) {
+      (void)node;
+      std::string group_name(key.str());
+      Section g = corr.Sub(group_name, true);
+      g.set_hint("parameters, matrix");
+      const toml::node& names_node = g.Require("parameters");
+      if (!names_node.is_array()) throw InputError(g.Where("parameters") + ": expected an array of parameter names");
+      std::vector<int> idx;
+      for (const toml::node& e : *names_node.as_array()) {
+        std::string pname = AsString(e, g.Where("parameters"));
+        int k = FindParam(*model, pname);
+        if (k < 0) throw InputError(g.Where("parameters") + ": unknown parameter '" + pname + "' of model '" + model_name + "'");
+        if (!owner[k].empty()) {
+          throw InputError(g.Where("parameters") + ": parameter '" + pname + "' already appears in correlation matrix '" + owner[k] + "'");
+        }
+        owner[k] = group_name;
+        idx.push_back(k);
+      }
+      const int m = static_cast<int>(idx.size());
+      const toml::node& mat_node = g.Require("matrix");
+      std::string wm = g.Where("matrix");
+      if (!mat_node.is_array() || static_cast<int>(mat_node.as_array()->size()) != m) {
+        throw InputError(wm + ": expected " + std::to_string(m) + " rows of " + std::to_string(m) + " numbers");
+      }
+      Eigen::MatrixXd c(m, m);
+      for (int i = 0; i < m; ++i) {
+        const toml::node& row = *mat_node.as_array()->get(i);
+        if (!row.is_array() || static_cast<int>(row.as_array()->size()) != m) {
+          throw InputError(wm + ": row " + std::to_string(i + 1) + ": expected " + std::to_string(m) + " numbers");
+        }
+        for (int j = 0; j < m; ++j) c(i, j) = AsNumber(*row.as_array()->get(j), wm);
+      }
+      for (int i = 0; i < m; ++i) {
+        if (std::abs(c(i, i) - 1.0) > 1e-12) throw InputError(wm + ": diagonal element " + std::to_string(i + 1) + " is not 1");
+        for (int j = 0; j < m; ++j) {
+          if (std::abs(c(i, j) - c(j, i)) > 1e-12) throw InputError(wm + ": not symmetric");
+          if (std::abs(c(i, j)) > 1.0) throw InputError(wm + ": correlation coefficient outside [-1, 1]");
+        }
+      }
+      // A correlation matrix must be positive semi-definite (JCGM 101 6.4.8.1), else no joint
+      // distribution has it and the GUM variance can come out negative.
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(c);
+      if (eig.eigenvalues().minCoeff() < -1e-10) {
+        throw InputError(wm + ": correlation matrix is not positive semi-definite (smallest eigenvalue " +
+                         std::to_string(eig.eigenvalues().minCoeff()) + ")");
+      }
+      for (int i = 0; i < m; ++i)
+        for (int j = 0; j < m; ++j) full(idx[i], idx[j]) = c(i, j);
+      g.Finish();
+    }
+    corr.Finish();
+    setup.param_correlation = full;
+  }
+
+  // [tracker.noise]: reading noise of every point.
+  Section noise = tracker.Sub("noise", true);
+  noise.set_hint("range, range_a, range_b, azimuth, elevation");
+  const toml::node* range = noise.Get("range");
+  const toml::node* range_a = noise.Get("range_a");
+  const toml::node* range_b = noise.Get("range_b");
+  if (range && (range_a || range_b)) {
+    throw InputError(noise.Where("range") + ": give either range or range_a/range_b, not both");
+  }
+  if (range) {
+    if (range->is_string()) {
+      ParseRangeNoise(*range->value<std::string>(), noise.Where("range"), setup.noise.range_a, setup.noise.range_b);
+    } else {
+      setup.noise.range_a = AsQuantity(*range, Dimension::kLength, noise.Where("range"));
+      setup.noise.range_b = 0.0;
+      CheckUncertainty(setup.noise.range_a, noise.Where("range"));
+    }
+  } else if (range_a || range_b) {
+    if (range_a) setup.noise.range_a = AsQuantity(*range_a, Dimension::kLength, noise.Where("range_a"));
+    if (range_b) setup.noise.range_b = AsQuantity(*range_b, Dimension::kRatio, noise.Where("range_b"));
+    CheckUncertainty(setup.noise.range_a, noise.Where("range_a"));
+    CheckUncertainty(setup.noise.range_b, noise.Where("range_b"));
+  } else {
+    throw InputError(noise.Where("range") + ": required key is missing (e.g. range = \"5 um + 0.5 um/m\")");
+  }
+  setup.noise.azimuth = AsQuantity(noise.Require("azimuth"), Dimension::kAngle, noise.Where("azimuth"));
+  CheckUncertainty(setup.noise.azimuth, noise.Where("azimuth"));
+  setup.noise.elevation = AsQuantity(noise.Require("elevation"), Dimension::kAngle, noise.Where("elevation"));
+  CheckUncertainty(setup.noise.elevation, noise.Where("elevation"));
+  noise.Finish();
+  tracker.Finish();
+}
+
+void ReadEnvironment(Section& top, Job& job) {
+  Section s = top.Sub("environment", false);
+  if (!s.exists()) return;
+  s.set_hint("equation, wavelength, temperature, pressure, humidity, co2");
+  Environment env;
+  if (const toml::node* n = s.Get("equation")) {
+    std::string eq = AsString(*n, s.Where("equation"));
+    if (eq == "ciddor") {
+      env.equation = Environment::Equation::kCiddor;
+    } else if (eq == "edlen" || eq == "edlen_boensch") {
+      env.equation = Environment::Equation::kEdlenBoensch;
+    } else {
+      throw InputError(s.Where("equation") + ": unknown equation '" + eq + "' (expected ciddor or edlen)");
+    }
+  }
+  if (const toml::node* n = s.Get("wavelength")) {
+    env.vacuum_wavelength = AsQuantity(*n, Dimension::kLength, s.Where("wavelength"));
+    if (!(env.vacuum_wavelength >= 300e-9 && env.vacuum_wavelength <= 1700e-9)) {
+      throw InputError(s.Where("wavelength") + ": vacuum wavelength outside 300 nm .. 1700 nm");
+    }
+  }
+  env.temperature = MakeInput("environment.temperature", "environment", Dimension::kTemperature, 20.0, 0.0);
+  env.pressure = MakeInput("environment.pressure", "environment", Dimension::kPressure, 101325.0, 0.0);
+  env.humidity = MakeInput("environment.humidity", "environment", Dimension::kHumidity, 50.0, 0.0);
+  env.co2 = MakeInput("environment.co2", "environment", Dimension::kFraction, 450e-6, 0.0);
+  if (!s.Get("temperature")) throw InputError(s.Where("temperature") + ": required key is missing");
+  if (!s.Get("pressure")) throw InputError(s.Where("pressure") + ": required key is missing");
+  if (!s.Get("humidity")) throw InputError(s.Where("humidity") + ": required key is missing");
+  ReadUncertain(s, "temperature", Dimension::kTemperature, Dimension::kTemperatureDifference, env.temperature);
+  ReadUncertain(s, "pressure", Dimension::kPressure, Dimension::kPressure, env.pressure);
+  ReadUncertain(s, "humidity", Dimension::kHumidity, Dimension::kHumidity, env.humidity);
+  ReadUncertain(s, "co2", Dimension::kFraction, Dimension::kFraction, env.co2);
+  if (env.pressure.estimate <= 0.0) throw InputError(s.Where("pressure") + ": pressure must be positive");
+  if (env.humidity.estimate < 0.0 || env.humidity.estimate > 100.0) {
+    throw InputError(s.Where("humidity") + ": relative humidity outside 0 .. 100 %");
+  }
+  s.Finish();
+  job.setup.environment = env;
+}
+
+void ReadStation(Section& top, Job& job) {
+  Section s = top.Sub("station", false);
+  if (!s.exists()) return;
+  s.set_hint("rx, ry, rz, tx, ty, tz");
+  StationPose pose;
+  pose.rx = MakeInput("pose.rx", "pose", Dimension::kAngle, 0, 0);
+  pose.ry = MakeInput("pose.ry", "pose", Dimension::kAngle, 0, 0);
+  pose.rz = MakeInput("pose.rz", "pose", Dimension::kAngle, 0, 0);
+  pose.tx = MakeInput("pose.tx", "pose", Dimension::kLength, 0, 0);
+  pose.ty = MakeInput("pose.ty", "pose", Dimension::kLength, 0, 0);
+  pose.tz = MakeInput("pose.tz", "pose", Dimension::kLength, 0, 0);
+  ReadUncertain(s, "rx", Dimension::kAngle, Dimension::kAngle, pose.rx);
+  ReadUncertain(s, "ry", Dimension::kAngle, Dimension::kAngle, pose.ry);
+  ReadUncertain(s, "rz", Dimension::kAngle, Dimension::kAngle, pose.rz);
+  ReadUncertain(s, "tx", Dimension::kLength, Dimension::kLength, pose.tx);
+  ReadUncertain(s, "ty", Dimension::kLength, Dimension::kLength, pose.ty);
+  ReadUncertain(s, "tz", Dimension::kLength, Dimension::kLength, pose.tz);
+  s.Finish();
+  job.setup.pose = pose;
+}
+
+void ReadPart(Section& top, Job& job) {
+  Section s = top.Sub("part", false);
+  if (!s.exists()) return;
+  s.set_hint("cte, temperature, reference");
+  PartThermal thermal;
+  thermal.cte = MakeInput("thermal.cte", "thermal", Dimension::kPerKelvin, 0, 0);
+  thermal.temperature = MakeInput("thermal.temperature", "thermal", Dimension::kTemperature, 20, 0);
+  if (!s.Get("cte")) throw InputError(s.Where("cte") + ": required key is missing");
+  if (!s.Get("temperature")) throw InputError(s.Where("temperature") + ": required key is missing");
+  ReadUncertain(s, "cte", Dimension::kPerKelvin, Dimension::kPerKelvin, thermal.cte);
+  ReadUncertain(s, "temperature", Dimension::kTemperature, Dimension::kTemperatureDifference, thermal.temperature);
+  if (const toml::node* n = s.Get("reference")) {
+    thermal.reference = AsQuantity(*n, Dimension::kTemperature, s.Where("reference"));
+  }
+  s.Finish();
+  job.setup.thermal = thermal;
+}
+
+
+}  // namespace vlt::job_detail

@@ -1,0 +1,207 @@
+// job/points.cc — the points of a job file: [plan] (nominal part coordinates, inline or CSV: offline)
+// and [readings] (range, azimuth, elevation/zenith, face from a CSV: online). Keys: docs/job-file.md.
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+
+#include "job/csv.h"
+#include <toml++/toml.h>
+
+#include "job/job_detail.h"
+#include "vlt/error.h"
+#include "vlt/job.h"
+#include "vlt/units.h"
+
+namespace vlt::job_detail {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+Face ParseFaceField(std::string text, const std::string& where) {
+  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (text == "front" || text == "1" || text == "f" || text == "fs") return Face::kFront;
+  if (text == "back" || text == "2" || text == "b" || text == "bs") return Face::kBack;
+  throw InputError(where + ": face '" + text + "' (expected front or back, or 1 or 2)");
+}
+
+// A coordinate of a plan point: a number in the plan's unit or a string with its own unit.
+double PlanCoordinate(const toml::node& node, double unit_scale, const std::string& where) {
+  if (node.is_number()) return AsNumber(node, where) * unit_scale;
+  return AsQuantity(node, Dimension::kLength, where);
+}
+
+double CsvQuantity(const std::string& field, Dimension dim, double unit_scale, double unit_offset,
+                   const std::string& where) {
+  if (field.empty()) throw InputError(where + ": empty field");
+  char* end = nullptr;
+  double v = std::strtod(field.c_str(), &end);
+  if (end && *end == '\0') {
+    if (!std::isfinite(v)) throw InputError(where + ": '" + field + "' is not a finite number");
+    return v * unit_scale + unit_offset;
+  }
+  return ParseQuantity(field, dim, where);  // a field with its own unit
+}
+
+// Scale of `unit` for `dim` (value_SI = value * scale), with a job-file message for a bad unit.
+double UnitScale(const std::string& unit, Dimension dim, const std::string& where) {
+  double one = ParseQuantity("1 " + unit, dim, where);
+  double zero = ParseQuantity("0 " + unit, dim, where);
+  return one - zero;
+}
+
+}  // namespace
+
+void ReadPlan(Section& s, Job& job) {
+  s.set_hint("unit, csv, point");
+  std::string unit = "m";
+  if (const toml::node* n = s.Get("unit")) unit = AsString(*n, s.Where("unit"));
+  double scale = UnitScale(unit, Dimension::kLength, s.Where("unit"));
+
+  if (const toml::node* n = s.Get("csv")) {
+    std::string rel = AsString(*n, s.Where("csv"));
+    std::filesystem::path path = job.base_dir / rel;
+    if (!std::filesystem::is_regular_file(path)) {
+      throw InputError(s.Where("csv") + ": cannot read '" + path.string() + "'");
+    }
+    CsvTable table = ReadCsvFile(path.string(), path.string());
+    rel = path.string();
+    for (const char* col : {"name", "x", "y", "z"}) {
+      if (table.Column(col) < 0) {
+        throw InputError(rel + ": line " + std::to_string(table.header_line) + ": missing column '" + col +
+                         "' (plan CSV columns: name, x, y, z [, face])");
+      }
+    }
+    for (const std::string& col : table.header) {
+      if (col != "name" && col != "x" && col != "y" && col != "z" && col != "face") {
+        throw InputError(rel + ": line " + std::to_string(table.header_line) + ": unknown column '" + col +
+                         "' (plan CSV columns: name, x, y, z [, face])");
+      }
+    }
+    int cn = table.Column("name"), cx = table.Column("x"), cy = table.Column("y"), cz = table.Column("z"),
+        cf = table.Column("face");
+    for (const CsvRow& row : table.rows) {
+      JobPoint p;
+      p.where = table.Where(row);
+      p.name = row.fields[cn];
+      if (p.name.empty()) throw InputError(p.where + ": empty point name");
+      p.nominal = {CsvQuantity(row.fields[cx], Dimension::kLength, scale, 0, p.where + ": x"),
+                   CsvQuantity(row.fields[cy], Dimension::kLength, scale, 0, p.where + ": y"),
+                   CsvQuantity(row.fields[cz], Dimension::kLength, scale, 0, p.where + ": z")};
+      if (cf >= 0 && !row.fields[cf].empty()) p.face = ParseFaceField(row.fields[cf], p.where);
+      job.points.push_back(std::move(p));
+    }
+  }
+  if (const toml::node* n = s.Get("point")) {
+    if (!n->is_array()) throw InputError(s.Where("point") + ": expected [[plan.point]] tables");
+    int index = 0;
+    for (const toml::node& e : *n->as_array()) {
+      std::string path = s.path() + ".point[" + std::to_string(index++) + "]";
+      if (!e.is_table()) throw InputError(job.file + ": " + path + ": expected a table");
+      Section pt(*e.as_table(), job.file, path);
+      pt.set_hint("name, x, y, z, face");
+      JobPoint p;
+      p.where = job.file + ": " + path;
+      p.name = AsString(pt.Require("name"), pt.Where("name"));
+      if (p.name.empty()) throw InputError(pt.Where("name") + ": empty point name");
+      p.nominal = {PlanCoordinate(pt.Require("x"), scale, pt.Where("x")),
+                   PlanCoordinate(pt.Require("y"), scale, pt.Where("y")),
+                   PlanCoordinate(pt.Require("z"), scale, pt.Where("z"))};
+      if (const toml::node* f = pt.Get("face")) p.face = ParseFaceField(AsString(*f, pt.Where("face")), pt.Where("face"));
+      pt.Finish();
+      job.points.push_back(std::move(p));
+    }
+  }
+  s.Finish();
+  if (job.points.empty()) throw InputError(s.WhereSelf() + ": the plan has no points (give csv or [[plan.point]])");
+
+  // A planned point must have a defined azimuth: not on the tracker's vertical axis.
+  for (const JobPoint& p : job.points) {
+    Eigen::Vector3d t = PartToTrackerNominal(job.setup, p.nominal);
+    if (std::hypot(t.x(), t.y()) < kVerticalAxisTolerance) {
+      throw InputError(p.where + ": point '" + p.name +
+                       "' lies on the tracker's vertical axis (azimuth undefined; move the point or the station)");
+    }
+  }
+}
+
+void ReadReadings(Section& s, Job& job) {
+  s.set_hint("csv, columns, units, vertical_angle");
+  std::string rel = AsString(s.Require("csv"), s.Where("csv"));
+  std::string names[5] = {"name", "range", "azimuth", "elevation", "face"};
+  const char* keys[5] = {"name", "range", "azimuth", "elevation", "face"};
+  Section cols = s.Sub("columns", false);
+  if (cols.exists()) {
+    cols.set_hint("name, range, azimuth, elevation, face");
+    for (int k = 0; k < 5; ++k) {
+      if (const toml::node* n = cols.Get(keys[k])) names[k] = AsString(*n, cols.Where(keys[k]));
+    }
+    cols.Finish();
+  }
+  std::string units[3] = {"m", "rad", "rad"};
+  Dimension dims[3] = {Dimension::kLength, Dimension::kAngle, Dimension::kAngle};
+  Section us = s.Sub("units", false);
+  double scales[3];
+  if (us.exists()) {
+    us.set_hint("range, azimuth, elevation");
+    for (int k = 0; k < 3; ++k) {
+      if (const toml::node* n = us.Get(keys[k + 1])) units[k] = AsString(*n, us.Where(keys[k + 1]));
+    }
+    us.Finish();
+  }
+  for (int k = 0; k < 3; ++k) scales[k] = UnitScale(units[k], dims[k], s.Where(std::string("units.") + keys[k + 1]));
+  bool zenith = false;
+  if (const toml::node* n = s.Get("vertical_angle")) {
+    std::string v = AsString(*n, s.Where("vertical_angle"));
+    if (v == "zenith") zenith = true;
+    else if (v != "elevation") throw InputError(s.Where("vertical_angle") + ": expected \"elevation\" or \"zenith\"");
+  }
+  s.Finish();
+
+  std::filesystem::path path = job.base_dir / rel;
+  if (!std::filesystem::is_regular_file(path)) {
+    throw InputError(s.Where("csv") + ": cannot read '" + path.string() + "'");
+  }
+  CsvTable table = ReadCsvFile(path.string(), path.string());
+  rel = path.string();
+  int col[5];
+  for (int k = 0; k < 5; ++k) {
+    col[k] = table.Column(names[k]);
+    if (col[k] < 0 && k < 4) {
+      throw InputError(rel + ": line " + std::to_string(table.header_line) + ": missing column '" + names[k] +
+                       "' (declared by readings.columns." + keys[k] + ")");
+    }
+  }
+  for (const CsvRow& row : table.rows) {
+    JobPoint p;
+    p.where = table.Where(row);
+    p.name = row.fields[col[0]];
+    if (p.name.empty()) throw InputError(p.where + ": empty point name");
+    double r[3];
+    for (int k = 0; k < 3; ++k) {
+      r[k] = CsvQuantity(row.fields[col[k + 1]], dims[k], scales[k], 0, p.where + ": " + names[k + 1]);
+    }
+    if (!(r[0] > 0.0)) throw InputError(p.where + ": range must be positive");
+    double elevation = zenith ? kPi / 2 - r[2] : r[2];
+    // Normalise the elevation into [-pi/2, 3pi/2): front face up to pi/2, back face beyond.
+    elevation = std::fmod(elevation + kPi / 2, 2 * kPi);
+    if (elevation < 0) elevation += 2 * kPi;
+    elevation -= kPi / 2;
+    Face face = elevation <= kPi / 2 + 1e-12 ? Face::kFront : Face::kBack;
+    if (col[4] >= 0 && !row.fields[col[4]].empty()) {
+      Face declared = ParseFaceField(row.fields[col[4]], p.where);
+      if (declared != face) {
+        throw InputError(p.where + ": face column says " + std::string(FaceName(declared)) +
+                         " but the vertical angle is a " + std::string(FaceName(face)) + "-face reading");
+      }
+    }
+    p.face = face;
+    p.readings = {r[0], r[1], elevation};
+    job.points.push_back(std::move(p));
+  }
+  if (job.points.empty()) throw InputError(rel + ": no readings (only a header)");
+}
+
+
+}  // namespace vlt::job_detail

@@ -1,0 +1,114 @@
+// job/settings.cc — the run settings of a job file: [monte_carlo], [map], [output].
+// Keys: docs/job-file.md.
+#include <sstream>
+
+#include <toml++/toml.h>
+
+#include "job/job_detail.h"
+#include "vlt/error.h"
+#include "vlt/job.h"
+#include "vlt/units.h"
+
+namespace vlt::job_detail {
+
+void ReadMonteCarlo(Section& top, Job& job) {
+  Section s = top.Sub("monte_carlo", false);
+  if (!s.exists()) return;
+  s.set_hint("enabled, trials, adaptive, n_dig, seed, coverage_probability, threads");
+  MonteCarloSettings& mc = job.monte_carlo;
+  if (const toml::node* n = s.Get("enabled")) mc.enabled = AsBool(*n, s.Where("enabled"));
+  if (const toml::node* n = s.Get("adaptive")) mc.adaptive = AsBool(*n, s.Where("adaptive"));
+  if (const toml::node* n = s.Get("coverage_probability")) {
+    mc.coverage_probability = AsQuantity(*n, Dimension::kRatio, s.Where("coverage_probability"));
+    if (!(mc.coverage_probability > 0.0 && mc.coverage_probability < 1.0)) {
+      throw InputError(s.Where("coverage_probability") + ": must be between 0 and 1 (e.g. 0.95 or \"95 %\")");
+    }
+  }
+  if (const toml::node* n = s.Get("trials")) {
+    mc.trials = AsInteger(*n, s.Where("trials"));
+    // JCGM 101 7.2.2: M should be large compared with 1/(1-p); at least 100/(1-p).
+    double minimum = std::ceil(100.0 / (1.0 - mc.coverage_probability));
+    if (mc.trials < minimum) {
+      throw InputError(s.Where("trials") + ": at least " + std::to_string(static_cast<long long>(minimum)) +
+                       " trials for coverage probability " + std::to_string(mc.coverage_probability) +
+                       " (JCGM 101 7.2.2: M >= 100/(1-p))");
+    }
+    if (mc.trials > 1000000000LL) throw InputError(s.Where("trials") + ": more than 1e9 trials");
+  }
+  if (const toml::node* n = s.Get("n_dig")) {
+    std::int64_t v = AsInteger(*n, s.Where("n_dig"));
+    if (v != 1 && v != 2) throw InputError(s.Where("n_dig") + ": must be 1 or 2 (JCGM 101 7.9.2)");
+    mc.n_dig = static_cast<int>(v);
+  }
+  if (const toml::node* n = s.Get("seed")) {
+    std::int64_t v = AsInteger(*n, s.Where("seed"));
+    if (v < 0) throw InputError(s.Where("seed") + ": must be a non-negative integer");
+    mc.seed = static_cast<std::uint64_t>(v);
+  }
+  if (const toml::node* n = s.Get("threads")) {
+    std::int64_t v = AsInteger(*n, s.Where("threads"));
+    if (v < 0 || v > 1024) throw InputError(s.Where("threads") + ": must be 0 (all) .. 1024");
+    mc.threads = static_cast<int>(v);
+  }
+  s.Finish();
+}
+
+namespace {
+
+std::string ExtentString(const toml::node& node, const std::string& where) {
+  if (node.is_string()) return *node.value<std::string>();
+  if (!node.is_array()) throw InputError(where + ": expected \"a,b,c,d\" or an array of quantities");
+  std::string out;
+  for (const toml::node& e : *node.as_array()) {
+    if (!out.empty()) out += ",";
+    if (e.is_string()) out += *e.value<std::string>();
+    else {
+      std::ostringstream os;
+      os.precision(17);
+      os << AsNumber(e, where);
+      out += os.str();
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+void ReadMap(Section& top, Job& job) {
+  Section s = top.Sub("map", false);
+  if (!s.exists()) return;
+  s.set_hint("plane, extent, box, step");
+  const toml::node* plane = s.Get("plane");
+  const toml::node* extent = s.Get("extent");
+  const toml::node* box = s.Get("box");
+  const toml::node* step = s.Get("step");
+  std::string step_text = "0.25 m";
+  if (step) step_text = step->is_string() ? *step->value<std::string>() : ExtentString(*step, s.Where("step"));
+  if (plane && box) throw InputError(s.Where("box") + ": give either plane + extent or box, not both");
+  if (plane) {
+    if (!extent) throw InputError(s.Where("extent") + ": required key is missing (with plane)");
+    job.map = ParseMapPlane(AsString(*plane, s.Where("plane")), ExtentString(*extent, s.Where("extent")),
+                            step_text, s.WhereSelf());
+  } else if (box) {
+    if (extent) throw InputError(s.Where("extent") + ": extent goes with plane, not with box");
+    job.map = ParseMapBox(ExtentString(*box, s.Where("box")), step_text, s.WhereSelf());
+  } else {
+    throw InputError(s.Where("plane") + ": required key is missing (plane + extent, or box)");
+  }
+  s.Finish();
+}
+
+void ReadOutput(Section& top, Job& job) {
+  Section s = top.Sub("output", false);
+  if (!s.exists()) return;
+  s.set_hint("directory, ellipsoid_scale");
+  if (const toml::node* n = s.Get("directory")) job.output.directory = AsString(*n, s.Where("directory"));
+  if (const toml::node* n = s.Get("ellipsoid_scale")) {
+    job.output.ellipsoid_scale = AsNumber(*n, s.Where("ellipsoid_scale"));
+    if (!(job.output.ellipsoid_scale > 0)) throw InputError(s.Where("ellipsoid_scale") + ": must be positive");
+  }
+  s.Finish();
+}
+
+
+}  // namespace vlt::job_detail
