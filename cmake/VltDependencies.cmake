@@ -37,6 +37,10 @@ else()
 endif()
 vlt_require(RANDOM123_FOUND librandom123-dev "Random123")
 
+# Ceres Solver: the nonlinear least squares of calibration (runtime/src/calibration/) and networks.
+find_package(Ceres 2.1 QUIET)
+vlt_require(Ceres_FOUND libceres-dev "Ceres Solver")
+
 find_package(Threads REQUIRED)
 
 if(VLT_BUILD_TESTS)
