@@ -41,6 +41,9 @@ double NormalCoverageFactor(double p);
 // k with k^2 = chi^2_m(p), the p-quantile of the chi-square distribution with m degrees of
 // freedom (JCGM 102 6.5.2.3; k = 2.448 for m = 2, 2.796 for m = 3 at p = 0.95).
 double ChiSquareCoverageFactor(double p, int m);
+// P(chi^2_m <= x): the chi-square distribution function with m degrees of freedom (regularized
+// lower incomplete gamma P(m/2, x/2)); 0 for x <= 0.
+double ChiSquareCdf(double x, int m);
 
 // Unit of a sensitivity coefficient d output / d input from the two units: "m" and "rad" ->
 // "m/rad"; "m" and "m" -> "m/m"; "m" and "1" -> "m"; temperatures ("degC") enter as differences

@@ -83,6 +83,15 @@ struct OutputSettings {
   double ellipsoid_scale = 0.0;       // report: ellipsoid exaggeration; 0 = automatic
 };
 
+// Where the tracker's error parameters came from when a calibration file gave them
+// ([tracker] calibration = "<file>", docs/calibration.md).
+struct CalibrationSource {
+  std::string file;          // as resolved against the job file's directory
+  std::string sha256;        // of the file's bytes
+  std::string instrument;    // [calibration] instrument of the file
+  std::string created;       // [calibration] created of the file (ISO 8601 UTC)
+};
+
 struct Job {
   std::string file;                   // the job file as named in messages
   std::filesystem::path base_dir;     // relative paths in the job are relative to this
@@ -91,6 +100,8 @@ struct Job {
   MeasurementSetup setup;
   JobMode mode = JobMode::kPlan;
   std::vector<JobPoint> points;
+  std::string readings_file;          // kReadings: the CSV as resolved (provenance)
+  std::optional<CalibrationSource> calibration;  // parameters from a calibration file
   std::vector<TaskSpec> tasks;
   std::vector<std::vector<int>> task_points;  // resolved indices into points, per task
   MonteCarloSettings monte_carlo;

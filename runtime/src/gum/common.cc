@@ -28,6 +28,8 @@ double InvertIncreasing(Cdf cdf, double p, double lo, double hi) {
   return 0.5 * (lo + hi);
 }
 
+}  // namespace
+
 // Chi-square cdf with m (integer) degrees of freedom: regularized lower incomplete gamma
 // P(m/2, x/2) by the exact recurrence P(a + 1, z) = P(a, z) - z^a e^-z / Gamma(a + 1), from
 // P(1/2, z) = erf(sqrt z) and P(1, z) = 1 - e^-z (Abramowitz & Stegun 6.5.13, 26.4.4-5).
@@ -42,8 +44,6 @@ double ChiSquareCdf(double x, int m) {
   }
   return p;
 }
-
-}  // namespace
 
 double NormalCoverageFactor(double p) {
   if (!(p > 0.0 && p < 1.0)) {

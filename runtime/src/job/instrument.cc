@@ -11,15 +11,14 @@
 #include "job/job_detail.h"
 #include "vlt/error.h"
 #include "vlt/job.h"
+#include "vlt/calibration.h"
 #include "vlt/models.h"
 #include "vlt/units.h"
 
 namespace vlt::job_detail {
 
-namespace {
-
 // "5 um + 0.5 um/m" -> (a, b). Either term may be absent; a '+' inside an exponent is not a split.
-void ParseRangeNoise(const std::string& text, const std::string& where, double& a, double& b) {
+void ParseLengthPlusRatio(const std::string& text, const std::string& where, double& a, double& b) {
   std::vector<std::string> terms;
   std::string current;
   for (std::size_t i = 0; i < text.size(); ++i) {
@@ -62,11 +61,9 @@ void ParseRangeNoise(const std::string& text, const std::string& where, double& 
   CheckUncertainty(b, where);
 }
 
-}  // namespace
-
 void ReadTracker(Section& top, Job& job) {
   Section tracker = top.Sub("tracker", true);
-  tracker.set_hint("model, parameters, correlations, noise");
+  tracker.set_hint("model, calibration, parameters, correlations, noise");
   std::string model_name = AsString(tracker.Require("model"), tracker.Where("model"));
   const ModelInfo* model = FindModel(model_name);
   if (!model) {
@@ -96,6 +93,38 @@ void ReadTracker(Section& top, Job& job) {
     setup.params.push_back(input);
   }
 
+  // [tracker] calibration = "<file>": estimates, u and correlation from `vlt calibrate`.
+  std::vector<bool> calibrated(model->num_params, false);
+  if (const toml::node* n = tracker.Get("calibration")) {
+    const std::string where = tracker.Where("calibration");
+    const std::filesystem::path path = job.base_dir / AsString(*n, where);
+    if (!std::filesystem::is_regular_file(path)) throw InputError(where + ": cannot read '" + path.string() + "'");
+    LoadedCalibration c = LoadCalibrationFile(path.string());
+    if (c.model != model->name) {
+      throw InputError(where + ": the calibration file is for model '" + c.model + "', the tracker is model '" +
+                       model_name + "'");
+    }
+    std::vector<int> index;
+    for (const std::string& name : c.names) {
+      const int k = FindParam(*model, name);
+      if (k < 0) throw InputError(where + ": parameter '" + name + "' of the calibration file is not a parameter of model '" + model_name + "'");
+      if (calibrated[k]) throw InputError(where + ": parameter '" + name + "' appears twice in the calibration file");
+      calibrated[k] = true;
+      index.push_back(k);
+    }
+    Eigen::MatrixXd full = Eigen::MatrixXd::Identity(model->num_params, model->num_params);
+    for (std::size_t i = 0; i < index.size(); ++i) {
+      UncertainInput& input = setup.params[index[i]];
+      input.estimate = c.estimates[i];
+      input.u = c.u[i];
+      input.distribution = "normal";  // the calibration's covariance: multivariate normal
+      input.shape = 0.0;
+      for (std::size_t j = 0; j < index.size(); ++j) full(index[i], index[j]) = c.correlation(i, j);
+    }
+    setup.param_correlation = full;
+    job.calibration = CalibrationSource{path.string(), Sha256File(path.string()), c.instrument, c.created};
+  }
+
   // [tracker.parameters.<name>]: override the model's defaults.
   Section params = tracker.Sub("parameters", false);
   if (params.exists()) {
@@ -109,6 +138,10 @@ void ReadTracker(Section& top, Job& job) {
         throw InputError(params.Where(name) + ": unknown parameter '" + name + "' of model '" +
                          model_name + "' (parameters: " + list + ")");
       }
+      if (calibrated[k]) {
+        throw InputError(params.Where(name) + ": parameter '" + name +
+                         "' is given by the calibration file (tracker.calibration); remove one of the two");
+      }
       Dimension u_dim = dims[k] == Dimension::kTemperature ? Dimension::kTemperatureDifference : dims[k];
       ReadUncertain(params, name, dims[k], u_dim, setup.params[k]);
     }
@@ -116,8 +149,11 @@ void ReadTracker(Section& top, Job& job) {
   }
 
   // [tracker.correlations.<name>]: parameters = [...], matrix = [[...], ...]
-  setup.param_correlation.resize(0, 0);
+  if (!job.calibration) setup.param_correlation.resize(0, 0);
   Section corr = tracker.Sub("correlations", false);
+  if (corr.exists() && job.calibration) {
+    throw InputError(corr.WhereSelf() + ": the calibration file (tracker.calibration) gives the parameters' correlation");
+  }
   if (corr.exists()) {
     const int n = model->num_params;
     Eigen::MatrixXd full = Eigen::MatrixXd::Identity(n, n);
@@ -187,7 +223,7 @@ void ReadTracker(Section& top, Job& job) {
   }
   if (range) {
     if (range->is_string()) {
-      ParseRangeNoise(*range->value<std::string>(), noise.Where("range"), setup.noise.range_a, setup.noise.range_b);
+      ParseLengthPlusRatio(*range->value<std::string>(), noise.Where("range"), setup.noise.range_a, setup.noise.range_b);
     } else {
       setup.noise.range_a = AsQuantity(*range, Dimension::kLength, noise.Where("range"));
       setup.noise.range_b = 0.0;

@@ -45,15 +45,7 @@ Eigen::Vector3d PartToTrackerNominal(const MeasurementSetup& setup, const Eigen:
 }
 
 Job ParseJob(std::string_view text, const std::string& file, const std::filesystem::path& base_dir) {
-  toml::table root;
-  try {
-    root = toml::parse(text, file);
-  } catch (const toml::parse_error& e) {
-    std::string desc(e.description());
-    std::replace(desc.begin(), desc.end(), '\n', ' ');
-    throw InputError(file + ": line " + std::to_string(e.source().begin.line) + ", column " +
-                     std::to_string(e.source().begin.column) + ": TOML syntax error: " + desc);
-  }
+  toml::table root = ParseToml(text, file);
   Job job;
   job.file = file;
   job.base_dir = base_dir;
@@ -103,13 +95,8 @@ Job ParseJob(std::string_view text, const std::string& file, const std::filesyst
 }
 
 Job LoadJob(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot read the job file");
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  std::filesystem::path base = std::filesystem::path(path).parent_path();
-  if (base.empty()) base = ".";
-  return ParseJob(buffer.str(), path, base);
+  const std::string text = ReadTextFile(path, "the job file");
+  return ParseJob(text, path, BaseDirectory(path));
 }
 
 }  // namespace vlt

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
 #include <set>
 #include <string>
 #include <string_view>
@@ -51,6 +52,15 @@ double AsNumber(const toml::node& node, const std::string& where);
 double AsQuantity(const toml::node& node, Dimension dimension, const std::string& where);
 // QuantityInfo::quantity ("length", "angle", ...) -> Dimension.
 Dimension DimensionOfQuantity(std::string_view quantity, const std::string& where);
+
+// A TOML document; InputError "<file>: line L, column C: TOML syntax error: ..." (section.cc).
+toml::table ParseToml(std::string_view text, const std::string& file);
+// The bytes of a file; InputError "<path>: cannot read <what>".
+std::string ReadTextFile(const std::string& path, const std::string& what);
+// The directory relative paths inside the file at `path` resolve against ("." for a bare name).
+std::filesystem::path BaseDirectory(const std::string& path);
+// "5 um + 0.5 um/m" -> (a [m], b [m/m]); either term may be absent (instrument.cc).
+void ParseLengthPlusRatio(const std::string& text, const std::string& where, double& a, double& b);
 
 // Uncertain inputs (section.cc).
 void CheckUncertainty(double u, const std::string& where);  // finite and >= 0

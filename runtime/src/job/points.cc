@@ -165,6 +165,7 @@ void ReadReadings(Section& s, Job& job) {
   }
   CsvTable table = ReadCsvFile(path.string(), path.string());
   rel = path.string();
+  job.readings_file = rel;
   int col[5];
   for (int k = 0; k < 5; ++k) {
     col[k] = table.Column(names[k]);

@@ -1,6 +1,9 @@
 // job/section.cc — reading TOML tables strictly (job/job_detail.h): the Section that rejects unknown
 // keys, typed getters with unit strings, and the uncertain-input table shared by every section.
+#include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <sstream>
 
 #include <toml++/toml.h>
 
@@ -146,6 +149,30 @@ UncertainInput MakeInput(std::string name, std::string group, Dimension dim, dou
   return input;
 }
 
+
+toml::table ParseToml(std::string_view text, const std::string& file) {
+  try {
+    return toml::parse(text, file);
+  } catch (const toml::parse_error& e) {
+    std::string desc(e.description());
+    std::replace(desc.begin(), desc.end(), '\n', ' ');
+    throw InputError(file + ": line " + std::to_string(e.source().begin.line) + ", column " +
+                     std::to_string(e.source().begin.column) + ": TOML syntax error: " + desc);
+  }
+}
+
+std::string ReadTextFile(const std::string& path, const std::string& what) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot read " + what);
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+std::filesystem::path BaseDirectory(const std::string& path) {
+  std::filesystem::path base = std::filesystem::path(path).parent_path();
+  return base.empty() ? std::filesystem::path(".") : base;
+}
 
 }  // namespace job_detail
 }  // namespace vlt

@@ -1,0 +1,321 @@
+// vlt/calibration.h — identifying a tracker's error parameters from measured test data, and the
+// calibration file that carries the result into jobs (docs/calibration.md).
+//
+// The data: readings (range, azimuth, elevation, face) of targets, calibrated reference lengths
+// (scale bars measured in several positions) and reference distances (e.g. a reference
+// interferometer along the line of sight: the ranging test of ASME B89.4.19). The unknowns: the
+// active error parameters of the tracker model and the nuisance unknowns — the coordinates of
+// every target in the tracker frame and the length of every bar.
+//
+// The method (docs/calibration.md, "Identification"):
+//  1. Weighted least squares: each reading is an observation of its target through the
+//     generated tracker model, x_target = f(readings; params); its residual is expressed in the
+//     readings and whitened by the reading noise, e = S^-1/2 J_r^-1 (f(m; params) - x_target)
+//     (J_r = d f / d readings at the prior estimates, S = diag(u_range^2, u_az^2, u_el^2)).
+//     Bars: (|x_a - x_b| - L_bar) / u_position per position and (L_bar - L_cal) / u_cal once.
+//     Reference distances: (|x_a - x_b| - D) / u_D.
+//  2. Identifiability: the parameters are scaled by their prior uncertainties, z = (p - p0) / u0,
+//     the nuisance unknowns are eliminated (projection onto the orthogonal complement of their
+//     Jacobian), and the singular value decomposition of what remains, J~ = U diag(s) V^T, says
+//     how well the data alone determine each combination v_i of parameters: u(v_i^T z) = 1 / s_i
+//     in units of the prior. A combination with 1 / s_i > hold_ratio * (its prior u) is NOT
+//     determined by the data: it is held at its prior (estimate and uncertainty) instead of being
+//     fitted to noise, and reported by name.
+//  3. The determined combinations are estimated from the data alone (Ceres Solver,
+//     Levenberg-Marquardt with the target coordinates eliminated by the Schur complement).
+//  4. Covariance: (J^T J)^-1 at the solution for the determined combinations and the nuisance
+//     unknowns (reading noise and reference standards both enter J), plus the propagation of the
+//     held combinations' prior covariance through the estimator (their uncertainty is not lost).
+//     Residuals: chi-square, Birge ratio, redundancy numbers and normalised residuals
+//     w = e / sqrt(redundancy) (Baarda's data snooping) with outliers flagged.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "vlt/inverse.h"
+#include "vlt/measurement_model.h"
+#include "vlt/model_info.h"
+
+namespace vlt {
+
+// One reading of a target: what the tracker showed (raw readings; back face: elevation beyond
+// pi/2, as in docs/conventions.md). A target is usually read several times: both faces, repeats.
+struct TargetReading {
+  std::string target;
+  Face face = Face::kFront;
+  Eigen::Vector3d readings = Eigen::Vector3d::Zero();  // range [m], azimuth [rad], elevation [rad]
+  std::string where;                                    // "<file>: line N" for messages
+};
+
+// A calibrated reference length (scale bar) measured in several positions; each position names
+// the targets (nests) at its two ends. Its calibrated length enters once, so its calibration
+// uncertainty is common to all positions (as it physically is).
+struct ReferenceBar {
+  std::string name;
+  double length = 0.0;        // calibrated length L_cal [m]
+  double u = 0.0;             // standard uncertainty of L_cal [m]
+  double u_position = 0.0;    // reproducibility of the length between positions (nest seating,
+                              // sag, temperature) [m]; > 0
+  std::vector<std::pair<std::string, std::string>> positions;  // (end a, end b) targets
+  std::string where;
+};
+
+// A reference distance between two targets, e.g. a reference interferometer's displacement in a
+// ranging test. Independent between entries (document correlated references as a bar instead).
+struct ReferenceDistance {
+  std::string from, to;
+  double length = 0.0;        // [m]
+  double u = 0.0;             // [m], > 0
+  std::string where;
+};
+
+struct CalibrationData {
+  const ModelInfo* model = nullptr;       // a tracker model
+  // Prior of every model parameter (model order): estimate and standard uncertainty (spec
+  // defaults or the job's [tracker.parameters]). u = 0: held exactly at its estimate.
+  std::vector<UncertainInput> priors;
+  Eigen::MatrixXd prior_correlation;      // empty = independent, else num_params^2
+  std::vector<bool> fit;                  // per parameter: may the data determine it (default all)
+  ReadingNoise noise;                     // of every reading
+  std::vector<TargetReading> readings;
+  std::vector<ReferenceBar> bars;
+  std::vector<ReferenceDistance> distances;
+  std::string where;                      // the file, for messages
+};
+
+struct CalibrationOptions {
+  // A combination of parameters is held at its prior when the data alone determine it with a
+  // standard uncertainty larger than hold_ratio times its prior standard uncertainty.
+  double hold_ratio = 1.0;
+  // |w| above this flags an observation as an outlier (Baarda: 3.29 = two-sided alpha 0.001).
+  double outlier_limit = 3.29;
+  double coverage_probability = 0.95;     // k for the expanded uncertainties printed
+  int max_iterations = 100;
+};
+
+enum class ParameterStatus {
+  kIdentified,      // determined by the data (alone)
+  kPartly,          // lies partly in a held combination: its u mixes data and prior
+  kHeld,            // not determined by the data: held at its prior
+  kFixed,           // prior u = 0, or excluded from the fit by the user: prior kept
+};
+const char* ParameterStatusName(ParameterStatus status);  // "identified", "partly", "held", "fixed"
+
+struct CalibratedParameter {
+  std::string name, unit, quantity;
+  double prior_estimate = 0.0, prior_u = 0.0;  // SI
+  double estimate = 0.0, u = 0.0;              // SI; u includes held combinations' priors
+  double u_data = 0.0;       // standard uncertainty from the data alone (identified part); 0 if none
+  ParameterStatus status = ParameterStatus::kFixed;
+};
+
+// A combination of parameters the data do not determine: sum_k coefficient_k * (p_k / u0_k),
+// unit vector in prior-scaled coordinates. ratio = (data-only u) / (prior u) along it
+// (infinity: the data are blind to it).
+struct HeldCombination {
+  std::vector<std::pair<std::string, double>> terms;  // parameters with |coefficient| >= 0.05
+  double ratio = 0.0;
+  std::string description;                            // "lam + srr (ratio inf)"
+};
+
+struct CalibratedTarget {
+  std::string name;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();   // tracker frame [m]
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  int readings = 0;
+};
+
+struct CalibratedBar {
+  std::string name;
+  double length = 0.0, u = 0.0;                          // adjusted length [m]
+};
+
+// One scalar observation's residual at the solution.
+struct CalibrationResidual {
+  std::string observation;   // "T3 front range", "bar1 position 2", "distance R0-R4"
+  std::string where;         // file and line / key
+  std::string unit;          // "m" or "rad"
+  double residual = 0.0;     // observed - adjusted, in `unit`
+  double u = 0.0;            // standard uncertainty of the observation, in `unit`
+  double normalised = 0.0;   // residual / u
+  double redundancy = 0.0;   // r_ii = 1 - h_ii, 0..1 (the observation's share of the dof)
+  double w = 0.0;            // normalised / sqrt(redundancy): ~N(0,1) without gross errors
+  bool outlier = false;      // |w| > outlier_limit
+};
+
+struct CalibrationResult {
+  std::string model;
+  std::vector<CalibratedParameter> parameters;  // every model parameter, model order
+  Eigen::MatrixXd covariance;                   // num_params^2, SI
+  Eigen::MatrixXd correlation;                  // num_params^2 (1 on the diagonal)
+  // Identifiability of the parameters the fit could move (prior-scaled): singular values of the
+  // reduced, whitened Jacobian (descending) and the condition number s_max / s_min.
+  std::vector<std::string> free_parameters;
+  Eigen::VectorXd singular_values;
+  Eigen::MatrixXd singular_vectors;             // columns: v_i over free_parameters
+  double condition_number = 0.0;
+  std::vector<HeldCombination> held;
+  std::vector<CalibratedTarget> targets;
+  std::vector<CalibratedBar> bars;
+  std::vector<CalibrationResidual> residuals;
+  int observations = 0;                         // scalar observations (incl. bar calibrations)
+  int unknowns = 0;                             // fitted: determined combinations + nuisance
+  int dof = 0;
+  double chi2 = 0.0;
+  double birge_ratio = 0.0;                     // sqrt(chi2 / dof)
+  double p_value = 0.0;                         // P(chi2_dof >= chi2)
+  int outliers = 0;
+  int iterations = 0;
+  double k = 0.0;                               // coverage factor of the expanded values printed
+};
+
+// Checks the data (unknown targets, too few observations) and identifies the parameters.
+// Throws InputError (naming data.where or an entry's where) and NumericalError (no convergence,
+// a singular nuisance block).
+CalibrationResult Calibrate(const CalibrationData& data, const CalibrationOptions& options = {});
+
+// ---------------------------------------------------------------------------------------------
+// Standard tests on a virtual tracker (`vlt test`, docs/calibration.md "Standard tests"): ASME
+// B89.4.19 length (system) tests with a scale bar, ranging tests against a reference
+// interferometer, two-face tests. The tracker has a true error state p (its [tracker] parameter
+// estimates) and reports coordinates with its own compensation p_c (the model's default
+// estimates): it reads m = f^-1(x; p) at a true point x and reports f(m; p_c).
+
+enum class TestKind { kLength, kRanging, kTwoFace };
+const char* TestKindName(TestKind kind);  // "length", "ranging", "two_face"
+
+struct StandardTest {
+  std::string name;
+  TestKind kind = TestKind::kLength;
+  // Tracker frame, true positions [m]: length and ranging: the two ends (ranging: a = the
+  // interferometer's home position); two-face: the target a (b unused).
+  Eigen::Vector3d a = Eigen::Vector3d::Zero(), b = Eigen::Vector3d::Zero();
+  Face face = Face::kFront;   // length and ranging tests
+  std::string bar;            // length tests: the bar (TestLayout::bars) that realises it
+  double reference_u = 0.0;   // ranging: u of the interferometer's distance [m]
+  std::string where;
+};
+
+struct TestLayout {
+  std::string name, source, where;
+  std::vector<ReferenceBar> bars;      // length, u, u_position (positions are filled by the tests)
+  std::vector<StandardTest> tests;
+};
+
+// Maximum permissible error a + b R, R = the largest range from the tracker to the test's
+// targets (the form of manufacturers' data sheets, e.g. 15 um + 6 um/m). set = false: no verdict.
+struct Mpe {
+  bool set = false;
+  double a = 0.0;   // m
+  double b = 0.0;   // m/m
+};
+
+struct TestSettings {
+  Mpe length, ranging, two_face;
+  double coverage_probability = 0.95;
+};
+
+struct TestResult {
+  std::string name;
+  TestKind kind = TestKind::kLength;
+  double reference = 0.0;          // reference length [m] (0 for two-face)
+  double range_max = 0.0;          // largest range to the test's targets [m]
+  // Length and ranging: the length error E = |p_b - p_a| - L (reported minus reference) [m].
+  // Two-face: the two-face error |p_back - p_front| [m], with its components along the line of
+  // sight (radial) and perpendicular to it (transverse).
+  double error = 0.0;
+  Eigen::Vector3d two_face = Eigen::Vector3d::Zero();   // p_back - p_front, tracker frame [m]
+  double two_face_radial = 0.0, two_face_transverse = 0.0;
+  // Uncertainty of the test itself: the reading noise and the reference standard (JCGM 100,
+  // linear propagation; two-face: along (p_back - p_front)/|...|, or the largest axis at 0).
+  double u = 0.0, U = 0.0, k = 0.0;
+  // Spread of the error that the parameters' standard uncertainties imply (what a tracker known
+  // to those uncertainties could show).
+  double u_parameters = 0.0;
+  double mpe = 0.0;                // 0 when no MPE is set for the kind
+  std::string verdict;             // "pass", "fail", "" (no MPE)
+  // d E / d p_k per model parameter (SI: m/m, m/rad, m/1); two-face: |d (p_back - p_front) / d p_k|.
+  Eigen::VectorXd sensitivity;
+};
+
+// Simulates every test for `tracker` (model, error state = parameter estimates, their u, noise).
+// NumericalError naming the test for a position on the standing axis.
+std::vector<TestResult> SimulateTests(const MeasurementSetup& tracker, const TestLayout& layout,
+                                      const TestSettings& settings);
+
+// Simulated measured data of the layout's tests for `tracker` (its error state = parameter
+// estimates): noisy readings of every target (length and ranging ends in their face, two-face
+// targets in both), each bar with the positions of its tests, each ranging test as a reference
+// distance. Truths drawn with Philox keyed by `seed` (docs/calibration.md): readings + N(0, noise),
+// bar lengths L_cal = L_true + N(0, u), per position + N(0, u_position), references likewise.
+// The returned priors are the model's defaults (what a user knows before calibrating).
+CalibrationData SimulateCalibrationData(const MeasurementSetup& tracker, const TestLayout& layout,
+                                        std::uint64_t seed);
+
+// ---------------------------------------------------------------------------------------------
+// Files (runtime/src/job/calibration.cc; every key in docs/calibration.md). Errors: InputError
+// "<file>: <key or line>: <problem>".
+
+// A test layout (e.g. examples/layouts/b89_4_19_2006.toml): [layout], [[bar]], [[length]],
+// [[ranging]], [[two_face]] with positions given by distance, azimuth, height, orientation.
+TestLayout LoadTestLayout(const std::string& path);
+
+// Input of `vlt test`: the tracker ([tracker] as in a job: its parameter estimates are its true
+// error state), the layout, the MPEs, and optionally the seed of simulated measured data.
+struct TestJob {
+  std::string file, name;
+  MeasurementSetup tracker;
+  TestLayout layout;
+  TestSettings settings;
+  bool simulate = false;          // [tests.simulate] present: write simulated calibration data
+  std::uint64_t seed = 1;
+};
+TestJob LoadTestJob(const std::string& path);
+
+// Input of `vlt calibrate`: [tracker] (model, priors, noise), [readings] (a CSV as in online
+// jobs; the name column names the target), [[bar]], [[reference]], [calibration] settings.
+struct CalibrationJob {
+  std::string file, name, instrument;
+  CalibrationData data;
+  CalibrationOptions options;
+  std::vector<std::string> data_files;   // the job file and every CSV it read (provenance)
+  std::string output_directory;          // [output] directory, "" = default
+};
+CalibrationJob LoadCalibrationJob(const std::string& path);
+
+// ---------------------------------------------------------------------------------------------
+// The calibration file (TOML, docs/calibration.md): written by `vlt calibrate`, loaded by a job's
+// `[tracker] calibration = "<file>"`.
+
+struct CalibrationProvenance {
+  std::string instrument;                  // free text: make, model, serial number
+  std::string created;                     // ISO 8601 UTC time of the calibration run
+  std::string vlt_version;
+  std::vector<std::pair<std::string, std::string>> data_files;  // (file, SHA-256 hex)
+};
+
+// The calibration file's text: model, provenance, every parameter (estimate, u, status, unit),
+// the correlation matrix, the fit statistics.
+std::string CalibrationFileToml(const CalibrationResult& result, const CalibrationProvenance& provenance);
+
+struct LoadedCalibration {
+  std::string model;
+  std::string instrument;
+  std::string created;
+  std::vector<std::string> names;          // parameters, model order
+  std::vector<double> estimates, u;        // SI
+  std::vector<std::string> status;
+  Eigen::MatrixXd correlation;             // names.size()^2
+};
+// Reads a calibration file; InputError "<file>: <key>: <problem>" when it is not one.
+LoadedCalibration LoadCalibrationFile(const std::string& path);
+
+// SHA-256 of a file's bytes, lower-case hex (for provenance). InputError if it cannot be read.
+std::string Sha256File(const std::string& path);
+
+}  // namespace vlt
