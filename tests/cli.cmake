@@ -67,6 +67,15 @@ add_test(NAME cli_run_good_json
           -DOUT=${_out}/good_json "-DFILES=${_all_files}"
           "-DEXPECT_STDOUT=^{\n \"schema\": \"vlt-results/1\"" -P ${_cli}/expect_outputs.cmake)
 
+# A two_face task between a point and its back-face twin, with Monte Carlo: all three
+# components in the summary, with a GUM-vs-MCM verdict.
+add_test(NAME cli_run_two_face
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=run;${_jobs}/two_face.toml;-o;${_out}/two_face"
+          -DOUT=${_out}/two_face "-DFILES=${_all_files}"
+          "-DEXPECT_STDOUT=P_two_face +two_face +dx +0\\.0000 mm .*validated.*P_two_face +two_face +dy .*P_two_face +two_face +dz .*Q_two_face +two_face +dz"
+          -P ${_cli}/expect_outputs.cmake)
+
 # The demo (the README's first command) with fewer trials, then its report in Chromium.
 add_test(NAME cli_demo
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>

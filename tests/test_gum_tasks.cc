@@ -138,7 +138,7 @@ TEST_P(GumTaskBruteForce, EqualsJointCovariance) {
   std::mt19937 gen(11);
   std::normal_distribution<double> noise(0.0, 2e-4);
   std::vector<Eigen::Vector3d> part;
-  const int n = kind == TaskKind::kDistance ? 2 : 8;
+  const int n = kind == TaskKind::kDistance || kind == TaskKind::kTwoFace ? 2 : 8;
   for (int i = 0; i < n; ++i) {
     const double t = 2.0 * std::numbers::pi * i / n;
     Eigen::Vector3d p = Eigen::Vector3d::Zero();
@@ -157,8 +157,13 @@ TEST_P(GumTaskBruteForce, EqualsJointCovariance) {
         p = Eigen::Vector3d(2.5, -0.5, 0.4) + 0.3 * Eigen::Vector3d(std::cos(t), std::sin(t), 0.1 * std::cos(t));
         break;
       case TaskKind::kLine: p = Eigen::Vector3d(1.0 + 0.5 * i, 0.2 * i, 0.3); break;
+      // The same point twice (both front face here; tests/test_two_face.cc has the back face):
+      // coincident points, where a distance would be refused.
+      case TaskKind::kTwoFace: p = Eigen::Vector3d(3.0, 1.5, 0.4); break;
     }
-    if (kind != TaskKind::kDistance) p += Eigen::Vector3d(noise(gen), noise(gen), noise(gen));
+    if (kind != TaskKind::kDistance && kind != TaskKind::kTwoFace) {
+      p += Eigen::Vector3d(noise(gen), noise(gen), noise(gen));
+    }
     part.push_back(p);
   }
   const std::vector<PointReadings> pts = Plan(m, part);
@@ -191,7 +196,7 @@ TEST_P(GumTaskBruteForce, EqualsJointCovariance) {
 
 INSTANTIATE_TEST_SUITE_P(AllKinds, GumTaskBruteForce,
                          testing::Values(TaskKind::kDistance, TaskKind::kPlane, TaskKind::kSphere,
-                                         TaskKind::kCircle, TaskKind::kLine),
+                                         TaskKind::kCircle, TaskKind::kLine, TaskKind::kTwoFace),
                          [](const testing::TestParamInfo<TaskKind>& info) {
                            return std::string(TaskKindName(info.param));
                          });

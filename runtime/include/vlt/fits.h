@@ -1,5 +1,6 @@
-// vlt/fits.h — the task quantities: distance between two points and least-squares features
-// (plane, sphere, circle, line), each with its Jacobian with respect to the point coordinates.
+// vlt/fits.h — the task quantities: distance between two points, the two-face difference of a
+// point measured in both faces, and least-squares features (plane, sphere, circle, line), each
+// with its Jacobian with respect to the point coordinates.
 //
 // One definition of every task serves both engines: the GUM engine calls with
 // options.jacobian = true and propagates G = d outputs / d point coordinates; the Monte Carlo
@@ -36,6 +37,7 @@ struct TaskOutput {
 //   sphere:   centre_x, centre_y, centre_z, radius, rms
 //   circle:   centre_x, centre_y, centre_z, radius, normal_x, normal_y, normal_z, rms
 //   line:     point_x, point_y, point_z, direction_x, direction_y, direction_z, straightness, rms
+//   two_face: dx, dy, dz
 std::span<const TaskOutput> TaskOutputs(TaskKind kind);
 
 struct FitOptions {
@@ -64,16 +66,24 @@ struct FitResult {
   int iterations = 0;                   // Levenberg-Marquardt + Newton iterations (sphere, circle), else 0
 };
 
-// Each function throws InputError "<where>: <kind> needs at least M points, got N" (distance:
-// exactly 2) or "<where>: <kind>: point i has a non-finite coordinate", and NumericalError
-// "<where>: <kind>: <reason>" when the feature is undefined for the points (coincident points,
-// collinear points for a plane or circle, coplanar points for a sphere, no preferred direction)
-// or the fit does not converge. Never NaN. `points` is 3 x N, one point per column (a
-// std::span<const Eigen::Vector3d> maps to it with Eigen::Map<const Eigen::Matrix3Xd>).
+// Each function throws InputError "<where>: <kind> needs at least M points, got N" (distance,
+// two_face: exactly 2) or "<where>: <kind>: point i has a non-finite coordinate", and
+// NumericalError "<where>: <kind>: <reason>" when the feature is undefined for the points
+// (coincident points, collinear points for a plane or circle, coplanar points for a sphere, no
+// preferred direction) or the fit does not converge. Never NaN. `points` is 3 x N, one point per
+// column (a std::span<const Eigen::Vector3d> maps to it with Eigen::Map<const Eigen::Matrix3Xd>).
 
 // |p1 - p0| of exactly two points.
 FitResult FitDistance(const Eigen::Ref<const Eigen::Matrix3Xd>& points,
                       const FitOptions& options = {}, std::string_view where = "task");
+
+// Two-face difference p1 - p0 (dx, dy, dz; second point minus first) of exactly two points: the
+// same nominal point measured in the front face (first) and in the back face (second); the order
+// is the caller's, the faces are not checked. Linear in the points, G = [-I, I]: differentiable
+// everywhere, also when the two points coincide (where FitDistance refuses). The B89.4.19
+// two-face error is |p1 - p0| (docs/tasks.md: why the vector is reported instead).
+FitResult FitTwoFace(const Eigen::Ref<const Eigen::Matrix3Xd>& points,
+                     const FitOptions& options = {}, std::string_view where = "task");
 
 // Total least squares plane (minimises the sum of squared orthogonal distances): through the
 // centroid, normal = eigenvector of the smallest eigenvalue of the centred scatter matrix.

@@ -107,14 +107,20 @@ std::string SummaryText(const Results& r) {
         // The headline quantities only; every component is in tasks.csv.
         bool headline = quantity == "distance" || quantity == "radius" || quantity == "flatness" ||
                         quantity == "straightness" || quantity == "normal_x" || quantity == "normal_y" ||
-                        quantity.rfind("centre_", 0) == 0;
+                        quantity.rfind("centre_", 0) == 0 || t.spec.kind == TaskKind::kTwoFace;
         if (!headline) continue;
         const Eigen::Index i = static_cast<Eigen::Index>(q);
         bool length = t.gum.units[q] == "m";
         double vs = length ? 1e3 : 1.0, us = length ? 1e6 : 1.0;
         char value_text[64];
-        if (length) std::snprintf(value_text, sizeof value_text, "%.4f mm", t.gum.value[i] * vs);
-        else std::snprintf(value_text, sizeof value_text, "%.6g", std::abs(t.gum.value[i]) < 1e-12 ? 0.0 : t.gum.value[i]);
+        // A value that rounds to zero is printed as 0, not -0.0000 (two_face of nominal points).
+        if (length) {
+          const double shown = std::abs(t.gum.value[i] * vs) < 5e-5 ? 0.0 : t.gum.value[i] * vs;
+          std::snprintf(value_text, sizeof value_text, "%.4f mm", shown);
+        } else {
+          std::snprintf(value_text, sizeof value_text, "%.6g",
+                        std::abs(t.gum.value[i]) < 1e-12 ? 0.0 : t.gum.value[i]);
+        }
         std::string value = value_text;
         std::string big_u = internal::Sig(t.gum.U[i] * us, 3) + (length ? " um" : "");
         std::string interval = "-", verdict = "not run";

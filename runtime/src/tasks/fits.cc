@@ -1,4 +1,5 @@
-// tasks/fits.cc — distance and least-squares features with exact Jacobians w.r.t. the points.
+// tasks/fits.cc — distance, two-face difference and least-squares features with exact
+// Jacobians w.r.t. the points.
 //
 // Derivatives (docs/tasks.md, "Jacobians"):
 //  - Centroid-based fits (plane, line, and the plane of a circle): the centred scatter matrix
@@ -32,6 +33,11 @@ using Points = Eigen::Ref<const Eigen::Matrix3Xd>;
 
 constexpr TaskOutput kDistanceOutputs[] = {
     {"distance", "m", "distance |p2 - p1| between the two points"},
+};
+constexpr TaskOutput kTwoFaceOutputs[] = {
+    {"dx", "m", "x of p2 - p1: back-face point (second) minus front-face point (first)"},
+    {"dy", "m", "y of p2 - p1"},
+    {"dz", "m", "z of p2 - p1"},
 };
 constexpr TaskOutput kPlaneOutputs[] = {
     {"centroid_x", "m", "x of the centroid of the points (a point of the least-squares plane)"},
@@ -87,6 +93,7 @@ const char* KindName(TaskKind kind) {
     case TaskKind::kSphere: return "sphere";
     case TaskKind::kCircle: return "circle";
     case TaskKind::kLine: return "line";
+    case TaskKind::kTwoFace: return "two_face";
   }
   return "task";
 }
@@ -415,6 +422,7 @@ std::span<const TaskOutput> TaskOutputs(TaskKind kind) {
     case TaskKind::kSphere: return kSphereOutputs;
     case TaskKind::kCircle: return kCircleOutputs;
     case TaskKind::kLine: return kLineOutputs;
+    case TaskKind::kTwoFace: return kTwoFaceOutputs;
   }
   return {};
 }
@@ -432,6 +440,18 @@ FitResult FitDistance(const Points& points, const FitOptions& options, std::stri
     const Vector3d u = d / length;
     r.jacobian.block<1, 3>(0, 0) = -u.transpose();
     r.jacobian.block<1, 3>(0, 3) = u.transpose();
+  }
+  return r;
+}
+
+FitResult FitTwoFace(const Points& points, const FitOptions& options, std::string_view where) {
+  CheckPoints(points, TaskKind::kTwoFace, 2, true, where);
+  FitResult r = MakeResult(TaskKind::kTwoFace, 2, options);
+  // Linear: no degenerate configuration, coincident points included (the usual case).
+  r.values = points.col(1) - points.col(0);
+  if (options.jacobian) {
+    r.jacobian.block<3, 3>(0, 0) = -Matrix3d::Identity();
+    r.jacobian.block<3, 3>(0, 3) = Matrix3d::Identity();
   }
   return r;
 }
@@ -637,6 +657,7 @@ FitResult FitTask(TaskKind kind, const Points& points, const FitOptions& options
     case TaskKind::kSphere: return FitSphere(points, options, where);
     case TaskKind::kCircle: return FitCircle(points, options, where);
     case TaskKind::kLine: return FitLine(points, options, where);
+    case TaskKind::kTwoFace: return FitTwoFace(points, options, where);
   }
   Fail(where, kind, "unknown task kind");
 }

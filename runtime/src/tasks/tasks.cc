@@ -18,7 +18,7 @@ struct KindName {
 constexpr KindName kKinds[] = {
     {TaskKind::kDistance, "distance", 2}, {TaskKind::kPlane, "plane", 3},
     {TaskKind::kSphere, "sphere", 4},     {TaskKind::kCircle, "circle", 3},
-    {TaskKind::kLine, "line", 2},
+    {TaskKind::kLine, "line", 2},         {TaskKind::kTwoFace, "two_face", 2},
 };
 
 }  // namespace
@@ -35,7 +35,7 @@ TaskKind ParseTaskKind(std::string_view text, std::string_view where) {
     if (k.name == text) return k.kind;
   }
   throw InputError(std::string(where) + ": unknown task kind '" + std::string(text) +
-                   "' (expected distance, plane, sphere, circle or line)");
+                   "' (expected distance, plane, sphere, circle, line or two_face)");
 }
 
 int MinimumPoints(TaskKind kind) {
@@ -49,9 +49,9 @@ std::vector<int> ResolveTaskPoints(const TaskSpec& spec, std::span<const std::st
                                    std::string_view where) {
   const std::string prefix = std::string(where) + ": task '" + spec.name + "'";
   const int count = static_cast<int>(spec.points.size());
-  if (spec.kind == TaskKind::kDistance && count != 2) {
-    throw InputError(prefix + ": distance needs exactly 2 points, " + std::to_string(count) +
-                     " given");
+  if ((spec.kind == TaskKind::kDistance || spec.kind == TaskKind::kTwoFace) && count != 2) {
+    throw InputError(prefix + ": " + std::string(TaskKindName(spec.kind)) +
+                     " needs exactly 2 points, " + std::to_string(count) + " given");
   }
   if (count < MinimumPoints(spec.kind)) {
     throw InputError(prefix + ": " + std::string(TaskKindName(spec.kind)) + " needs at least " +
