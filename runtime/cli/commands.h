@@ -15,6 +15,8 @@ void AddSimulateCommand(CLI::App& app, GlobalOptions& global);  // vlt simulate 
 void AddRunCommand(CLI::App& app, GlobalOptions& global);       // vlt run JOB.toml [-o DIR]
 void AddDemoCommand(CLI::App& app, GlobalOptions& global);      // vlt demo (also: bare `vlt`)
 void AddMapCommand(CLI::App& app, GlobalOptions& global);       // vlt map JOB.toml ...
+void AddTestCommand(CLI::App& app, GlobalOptions& global);      // vlt test FILE.toml [-o DIR]
+void AddCalibrateCommand(CLI::App& app, GlobalOptions& global); // vlt calibrate FILE.toml [-o DIR]
 
 // Runs the embedded default job into ./vlt-demo/ (what bare `vlt` does). Returns exit status.
 int RunDemo(const GlobalOptions& global);

@@ -81,6 +81,7 @@ struct Results {
   std::string job_description;
   JobMode mode = JobMode::kPlan;
   std::string model_name;
+  std::optional<CalibrationSource> calibration;  // [tracker] calibration: where the parameters came from
   MeasurementSetup setup;
   std::vector<UncertainInput> shared_inputs;  // MeasurementModel::shared_inputs()
   double coverage_probability = 0.95;

@@ -210,7 +210,10 @@ CalibrationResult Calibrate(const CalibrationData& data, const CalibrationOption
   Eigen::MatrixXd q = qr_n.householderQ() * Eigen::MatrixXd::Identity(m, nuisance);
   Eigen::MatrixXd reduced = j_free - q * (q.transpose() * j_free);
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(reduced, Eigen::ComputeFullV);
-  result.singular_values = svd.singularValues();
+  // With fewer rows than free parameters the SVD has min(m, F) singular values: the remaining
+  // right singular vectors span directions the data cannot see at all (singular value 0).
+  result.singular_values = Eigen::VectorXd::Zero(F);
+  result.singular_values.head(svd.singularValues().size()) = svd.singularValues();
   result.singular_vectors = svd.matrixV();
   const double s_max = F > 0 ? result.singular_values(0) : 0.0;
   std::vector<int> determined, held_free;
@@ -242,8 +245,10 @@ CalibrationResult Calibrate(const CalibrationData& data, const CalibrationOption
                          result.free_parameters[f];
       }
     }
-    h.description += blind ? " (the data are blind to it)"
-                           : " (data alone: " + std::to_string(ratio).substr(0, 5) + " x its prior u)";
+    char ratio_text[48];
+    std::snprintf(ratio_text, sizeof ratio_text, "%.3g", ratio);
+    h.description += blind ? std::string(" (the data are blind to it)")
+                           : std::string(" (data alone: ") + ratio_text + " x its prior u)";
     result.held.push_back(std::move(h));
   }
   result.condition_number = F > 0 && result.singular_values(F - 1) > 0.0
@@ -272,11 +277,13 @@ CalibrationResult Calibrate(const CalibrationData& data, const CalibrationOption
   result.observations = m;
   result.unknowns = n + nuisance;
   result.dof = m - result.unknowns;
-  if (result.dof < 0) {
+  // At least one redundant observation: without one the fit cannot be checked (chi-square,
+  // residuals) and nothing distinguishes a gross error from a parameter.
+  if (result.dof < 1) {
     throw InputError(data.where + ": " + std::to_string(m) + " scalar observations for " +
                      std::to_string(result.unknowns) + " unknowns (" + std::to_string(n) +
                      " parameter combinations, " + std::to_string(3 * T) + " target coordinates, " +
-                     std::to_string(B) + " bar lengths): too few observations");
+                     std::to_string(B) + " bar lengths): too few observations (no redundancy to check the fit)");
   }
 
   // --- The solve (Ceres, Levenberg-Marquardt). DENSE_SCHUR: Ceres eliminates an independent

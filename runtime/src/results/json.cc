@@ -238,6 +238,15 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
               {"n_dig", r.n_dig},
               {"points", r.points.size()},
               {"tasks", r.tasks.size()}};
+  // Where the tracker's error parameters came from (docs/calibration.md): null = the model's
+  // defaults and the job's [tracker.parameters].
+  j["job"]["calibration"] = nullptr;
+  if (r.calibration) {
+    j["job"]["calibration"] = {{"file", r.calibration->file},
+                               {"sha256", r.calibration->sha256},
+                               {"instrument", r.calibration->instrument},
+                               {"created", r.calibration->created}};
+  }
   json shared = json::array();
   for (const UncertainInput& in : r.shared_inputs) shared.push_back(Input(in));
   j["inputs"] = {{"noise",

@@ -91,6 +91,7 @@ Results RunJob(const Job& job, const RunOptions& options) {
   results.job_file = job.file;
   results.job_name = job.name;
   results.job_description = job.description;
+  results.calibration = job.calibration;
   results.mode = job.mode;
   results.model_name = job.setup.model ? job.setup.model->name : "";
   results.setup = job.setup;

@@ -1,0 +1,73 @@
+// `vlt calibrate FILE.toml [-o DIR]`: identify the tracker's error parameters from measured test
+// data (readings of targets, calibrated bars, reference distances) with honest covariance; writes
+// the calibration file a job loads with `[tracker] calibration = "..."`. docs/calibration.md.
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+
+#include "calibration/outputs.h"
+#include "results/internal.h"
+#include "run_job.h"
+#include "vlt/calibration.h"
+
+namespace vlt::cli {
+
+namespace {
+
+std::string UtcNow() {
+  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char buffer[32];
+  std::strftime(buffer, sizeof buffer, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buffer;
+}
+
+}  // namespace
+
+void AddCalibrateCommand(CLI::App& app, GlobalOptions& global) {
+  auto* command = app.add_subcommand("calibrate", "Identify a tracker's error parameters from measured test data "
+                                                  "(least squares with identifiability analysis); writes a calibration file");
+  auto file = std::make_shared<std::string>();
+  auto output = std::make_shared<std::string>();
+  command->add_option("file", *file, "Calibration job (TOML: [tracker], [readings], [[bar]], [[reference]], docs/calibration.md)")
+      ->required();
+  command->add_option("-o,--output", *output,
+                      "Output directory (default: [output] directory of the file, else ./vlt-out/<name>)");
+  command->footer("Exit status: 0 success, 2 bad input or no solution (one line on stderr; no output file is written).\n"
+                  "Outputs: calibration.toml (load it in a job: [tracker] calibration = \"...\"), parameters.csv,\n"
+                  "correlation.csv, identifiability.csv, targets.csv, residuals.csv, results.json, report.html.");
+  command->callback([file, output, &global] {
+    const CalibrationJob job = LoadCalibrationJob(*file);
+    const CalibrationResult result = Calibrate(job.data, job.options);
+    CalibrationProvenance provenance;
+    provenance.instrument = job.instrument;
+    provenance.created = UtcNow();
+    provenance.vlt_version = VLT_VERSION;
+    for (const std::string& f : job.data_files) provenance.data_files.emplace_back(f, Sha256File(f));
+    const auto files = calibration_outputs::CalibrationFiles(job, result, provenance);
+    std::filesystem::path dir;
+    if (!output->empty()) {
+      dir = *output;
+    } else if (!job.output_directory.empty()) {
+      dir = std::filesystem::path(job.output_directory);
+      if (dir.is_relative()) dir = std::filesystem::path(*file).parent_path() / dir;
+    } else {
+      dir = std::filesystem::path("vlt-out") / internal::SafeFileName(job.name);
+    }
+    WriteFilesAtomically(dir, files);
+    if (global.json) {
+      for (const auto& [name, content] : files) {
+        if (name == "results.json") std::fwrite(content.data(), 1, content.size(), stdout);
+      }
+    } else if (!global.quiet) {
+      const std::string text = calibration_outputs::CalibrationSummary(job, result);
+      std::fwrite(text.data(), 1, text.size(), stdout);
+      std::printf("Wrote %s/: ", dir.string().c_str());
+      for (std::size_t i = 0; i < files.size(); ++i) std::printf("%s%s", i ? ", " : "", files[i].first.c_str());
+      std::printf("\nUse it in a job:  [tracker] calibration = \"%s\"\n", (dir / "calibration.toml").string().c_str());
+    }
+  });
+}
+
+}  // namespace vlt::cli

@@ -1,0 +1,48 @@
+// `vlt test FILE.toml [-o DIR]`: the standard tests (ASME B89.4.19 pattern: length, ranging,
+// two-face) of a layout on a virtual tracker: each test's error, its uncertainty, pass/fail against
+// the MPE, and the sensitivity table; with [tests.simulate], simulated measured data for
+// `vlt calibrate`. docs/calibration.md.
+#include <cstdio>
+
+#include "calibration/outputs.h"
+#include "results/internal.h"
+#include "run_job.h"
+#include "vlt/calibration.h"
+
+namespace vlt::cli {
+
+void AddTestCommand(CLI::App& app, GlobalOptions& global) {
+  auto* command = app.add_subcommand("test", "Simulate the standard tracker tests (B89.4.19 pattern) of a layout on a "
+                                             "virtual tracker: errors, uncertainties, MPE verdicts, sensitivity table");
+  auto file = std::make_shared<std::string>();
+  auto output = std::make_shared<std::string>();
+  command->add_option("file", *file, "Test file (TOML: [tracker] + [tests], docs/calibration.md)")->required();
+  command->add_option("-o,--output", *output, "Output directory (default: ./vlt-out/<name>-tests)");
+  command->footer("Exit status: 0 success, 2 bad input (one line on stderr; no output file is written).\n"
+                  "Outputs: tests.csv, sensitivity.csv, results.json, report.html (+ simulated_readings.csv,\n"
+                  "simulated_calibration.toml with [tests.simulate]).");
+  command->callback([file, output, &global] {
+    const TestJob job = LoadTestJob(*file);
+    const std::vector<TestResult> results = SimulateTests(job.tracker, job.layout, job.settings);
+    CalibrationData simulated;
+    if (job.simulate) simulated = SimulateCalibrationData(job.tracker, job.layout, job.seed);
+    const auto files = calibration_outputs::TestFiles(job, results, job.simulate ? &simulated : nullptr);
+    const std::filesystem::path dir = output->empty()
+        ? std::filesystem::path("vlt-out") / internal::SafeFileName(job.name + "-tests")
+        : std::filesystem::path(*output);
+    WriteFilesAtomically(dir, files);
+    if (global.json) {
+      for (const auto& [name, content] : files) {
+        if (name == "results.json") std::fwrite(content.data(), 1, content.size(), stdout);
+      }
+    } else if (!global.quiet) {
+      const std::string text = calibration_outputs::TestSummary(job, results);
+      std::fwrite(text.data(), 1, text.size(), stdout);
+      std::printf("Wrote %s/: ", dir.string().c_str());
+      for (std::size_t i = 0; i < files.size(); ++i) std::printf("%s%s", i ? ", " : "", files[i].first.c_str());
+      std::printf("\n");
+    }
+  });
+}
+
+}  // namespace vlt::cli

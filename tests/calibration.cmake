@@ -1,0 +1,88 @@
+# The calibration loop on the command line (docs/calibration.md): `vlt test` on the shipped example
+# reproduces the shipped simulated data byte for byte, `vlt calibrate` on those data reproduces the
+# shipped calibration file, a job loads it, the reports draw, and bad input is one line, exit 2,
+# nothing written.
+if(NOT TARGET vlt)
+  return()
+endif()
+set(_cli ${CMAKE_CURRENT_SOURCE_DIR}/cli)
+set(_cal_jobs ${_cli}/calibration)
+set(_ex ${CMAKE_SOURCE_DIR}/examples/calibration)
+set(_out ${CMAKE_BINARY_DIR}/cli-tests)
+
+add_test(NAME cli_test_example
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=test;${_ex}/head_tracker_tests.toml;-o;${_out}/cal_test"
+          -DOUT=${_out}/cal_test
+          "-DFILES=tests.csv;sensitivity.csv;report.html;simulated_readings.csv;simulated_calibration.toml"
+          "-DEXPECT_STDOUT=78 tests of layout .* on a head tracker; largest \\|error\\| [0-9.]+ um .*pass, [0-9]+ fail"
+          -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_test_example PROPERTIES FIXTURES_SETUP vlt_cal_test)
+add_test(NAME cli_test_reproduces_shipped_readings
+  COMMAND ${CMAKE_COMMAND} -E compare_files ${_out}/cal_test/simulated_readings.csv ${_ex}/simulated_readings.csv)
+add_test(NAME cli_test_reproduces_shipped_calibration_input
+  COMMAND ${CMAKE_COMMAND} -E compare_files ${_out}/cal_test/simulated_calibration.toml ${_ex}/simulated_calibration.toml)
+add_test(NAME report_browser_test
+  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/cal_test/report.html -DPROFILE=${_out}/chromium-profile-cal-test
+          -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
+set_tests_properties(cli_test_reproduces_shipped_readings cli_test_reproduces_shipped_calibration_input
+  report_browser_test PROPERTIES FIXTURES_REQUIRED vlt_cal_test)
+set_tests_properties(report_browser_test PROPERTIES TIMEOUT 300)
+
+add_test(NAME cli_calibrate_example
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=calibrate;${_ex}/simulated_calibration.toml;-o;${_out}/cal_calibrate"
+          -DOUT=${_out}/cal_calibrate
+          "-DFILES=calibration.toml;parameters.csv;correlation.csv;identifiability.csv;targets.csv;residuals.csv;report.html"
+          "-DEXPECT_STDOUT=511 observations; 12 of 20 parameters identified.*held: .*lam .*srr \\(the data are blind to it\\)"
+          -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_calibrate_example PROPERTIES FIXTURES_SETUP vlt_cal_calibrate)
+add_test(NAME cli_calibrate_reproduces_shipped_file
+  COMMAND ${CMAKE_COMMAND} -DNEW=${_out}/cal_calibrate/calibration.toml -DOLD=${_ex}/calibration.toml
+          -P ${_cli}/compare_calibration.cmake)
+add_test(NAME report_browser_calibrate
+  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/cal_calibrate/report.html -DPROFILE=${_out}/chromium-profile-cal
+          -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
+set_tests_properties(cli_calibrate_reproduces_shipped_file report_browser_calibrate PROPERTIES
+  FIXTURES_REQUIRED vlt_cal_calibrate)
+set_tests_properties(report_browser_calibrate PROPERTIES TIMEOUT 300)
+
+# The job that uses the shipped calibration file: runs, and results.json names the file.
+add_test(NAME cli_run_with_calibration
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=--json;run;${_ex}/measure_with_calibration.toml;--trials;4000;-o;${_out}/cal_measure"
+          -DOUT=${_out}/cal_measure "-DFILES=points.csv;budget.csv;tasks.csv;results.json;report.html"
+          "-DEXPECT_STDOUT=\"calibration\": {[^}]*\"file\": \"[^\"]*calibration\\.toml\"[^}]*\"instrument\": \"simulated head tracker"
+          -P ${_cli}/expect_outputs.cmake)
+
+# Bad input: one line naming file and key or line, exit 2, nothing written.
+function(vlt_calibration_error name command file regex)
+  add_test(NAME cli_error_${name}
+    COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+            "-DARGS=${command};${_cal_jobs}/${file};-o;${_out}/error_${name}"
+            -DOUT=${_out}/error_${name} "-DEXPECT=${regex}" -P ${_cli}/expect_error.cmake)
+endfunction()
+vlt_calibration_error(calibrate_unknown_target calibrate unknown_target.toml
+                      "unknown_target\\.toml: bar\\[0\\]: target 'NOPE' has no readings")
+vlt_calibration_error(calibrate_too_few calibrate too_few.toml
+                      "too_few\\.toml: [0-9]+ scalar observations for [0-9]+ unknowns .*too few observations")
+vlt_calibration_error(calibrate_not_converged calibrate not_converged.toml
+                      "not_converged\\.toml: the calibration did not converge in 1 iterations")
+vlt_calibration_error(calibrate_unknown_fit calibrate unknown_fit.toml
+                      "unknown_fit\\.toml: calibration\\.fit: unknown parameter 'lambda' of model 'head'")
+vlt_calibration_error(calibrate_bar_without_u calibrate bar_without_u.toml
+                      "bar_without_u\\.toml: bar\\[0\\]\\.u: required key is missing")
+vlt_calibration_error(test_bad_orientation test bad_orientation.toml
+                      "bad_layout\\.toml: length\\[0\\]\\.orientation: 'diagonal' \\(expected horizontal")
+vlt_calibration_error(test_unknown_bar test unknown_bar.toml "unknown_bar_layout\\.toml: length\\[0\\]\\.bar: bar 'b2' is not defined")
+vlt_calibration_error(run_calibration_wrong_model run wrong_model.toml
+                      "wrong_model\\.toml: tracker\\.calibration: the calibration file is for model 'head', the tracker is model 'mirror'")
+vlt_calibration_error(run_calibration_and_parameter run calibration_and_parameter.toml
+                      "calibration_and_parameter\\.toml: tracker\\.parameters\\.ex: parameter 'ex' is given by the calibration file")
+vlt_calibration_error(run_calibration_missing run calibration_missing.toml
+                      "calibration_missing\\.toml: tracker\\.calibration: cannot read '.*no_such\\.toml'")
+
+foreach(cmd test calibrate)
+  add_test(NAME cli_help_${cmd} COMMAND vlt ${cmd} --help)
+  set_tests_properties(cli_help_${cmd} PROPERTIES PASS_REGULAR_EXPRESSION "Usage:.*${cmd}")
+endforeach()
