@@ -47,7 +47,13 @@ set_tests_properties(cli_calibrate_reproduces_shipped_file report_browser_calibr
   FIXTURES_REQUIRED vlt_cal_calibrate)
 set_tests_properties(report_browser_calibrate PROPERTIES TIMEOUT 300)
 
-# The job that uses the shipped calibration file: runs, and results.json names the file.
+# The job that uses the shipped calibration file: runs, the summary and results.json name the file.
+add_test(NAME cli_run_with_calibration_summary
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=run;${_ex}/measure_with_calibration.toml;--no-mcm;-o;${_out}/cal_measure_summary"
+          -DOUT=${_out}/cal_measure_summary "-DFILES=points.csv;results.json;report.html"
+          "-DEXPECT_STDOUT=Tracker parameters from the calibration file .*calibration[.]toml [(]instrument 'simulated head tracker"
+          -P ${_cli}/expect_outputs.cmake)
 add_test(NAME cli_run_with_calibration
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
           "-DARGS=--json;run;${_ex}/measure_with_calibration.toml;--trials;4000;-o;${_out}/cal_measure"
@@ -86,3 +92,10 @@ foreach(cmd test calibrate)
   add_test(NAME cli_help_${cmd} COMMAND vlt ${cmd} --help)
   set_tests_properties(cli_help_${cmd} PROPERTIES PASS_REGULAR_EXPRESSION "Usage:.*${cmd}")
 endforeach()
+
+# The report of the job with a calibration draws (its notes name the calibration file).
+set_tests_properties(cli_run_with_calibration_summary PROPERTIES FIXTURES_SETUP vlt_cal_measure)
+add_test(NAME report_browser_with_calibration
+  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/cal_measure_summary/report.html -DPROFILE=${_out}/chromium-profile-cal-measure
+          -DMIN_PLOTS=3 -P ${_cli}/report_browser.cmake)
+set_tests_properties(report_browser_with_calibration PROPERTIES FIXTURES_REQUIRED vlt_cal_measure TIMEOUT 300)

@@ -72,6 +72,10 @@ std::string SummaryText(const Results& r) {
   out << "vlt " << r.vlt_version << " — job '" << r.job_name << "' (" << r.job_file << "), model " << r.model_name
       << ", " << (r.mode == JobMode::kPlan ? "offline plan" : "online readings") << ", " << r.points.size()
       << " points, " << r.tasks.size() << " tasks\n";
+  if (r.calibration) {
+    out << "Tracker parameters from the calibration file " << r.calibration->file << " (instrument '"
+        << r.calibration->instrument << "', calibrated " << r.calibration->created << ")\n";
+  }
   std::snprintf(line, sizeof line,
                 "Coverage probability %.4g: U = k u per axis with k = %.3f; |U| = sqrt(Ux^2+Uy^2+Uz^2); "
                 "coverage ellipsoid k = %.3f\n\n",

@@ -1,0 +1,198 @@
+// The calibration file and its use (vlt/calibration.h), the statistics the calibration reports:
+//  - the file round-trips estimates, u and correlation bit for bit;
+//  - a job that loads it has exactly those parameters, and the GUM covariance of a point equals the
+//    independent brute-force J Sigma J^T built from the file's covariance (the correlation enters);
+//  - SHA-256 of the FIPS 180-2 example "abc"; the chi-square distribution function at published
+//    0.95 quantiles;
+//  - a gross error injected into simulated data is the flagged outlier with the largest |w|, and
+//    the redundancy numbers add up to the degrees of freedom.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include <Eigen/Dense>
+#include <gtest/gtest.h>
+
+#include "vlt/calibration.h"
+#include "vlt/error.h"
+#include "vlt/gum.h"
+#include "vlt/job.h"
+#include "vlt/models.h"
+
+namespace vlt {
+namespace {
+
+const std::string kLayout = std::string(VLT_SOURCE_DIR) + "/examples/layouts/b89_4_19_2006.toml";
+
+MeasurementSetup HeadTracker(std::uint64_t seed) {
+  const ModelInfo* model = FindModel("head");
+  MeasurementSetup s;
+  s.model = model;
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal;
+  for (int k = 0; k < model->num_params; ++k) {
+    UncertainInput in;
+    in.name = model->params[k].name;
+    in.u = model->params[k].default_u;
+    in.estimate = in.u * normal(rng);
+    s.params.push_back(in);
+  }
+  s.noise = {1.0e-6, 0.2e-6, 0.5e-6, 0.5e-6};
+  return s;
+}
+
+std::filesystem::path TempDir(const std::string& name) {
+  std::filesystem::path d = std::filesystem::path(VLT_BINARY_DIR) / "test-calibration-file" / name;
+  std::filesystem::remove_all(d);
+  std::filesystem::create_directories(d);
+  return d;
+}
+
+CalibrationResult ExampleCalibration() {
+  MeasurementSetup tracker = HeadTracker(3);
+  return Calibrate(SimulateCalibrationData(tracker, LoadTestLayout(kLayout), 17));
+}
+
+TEST(CalibrationFile, RoundTripsBitForBit) {
+  const CalibrationResult r = ExampleCalibration();
+  CalibrationProvenance prov;
+  prov.instrument = "test \"tracker\" #1";
+  prov.created = "2026-11-23T00:00:00Z";
+  const std::filesystem::path dir = TempDir("roundtrip");
+  {
+    std::ofstream out(dir / "cal.toml");
+    out << CalibrationFileToml(r, prov);
+  }
+  const LoadedCalibration c = LoadCalibrationFile((dir / "cal.toml").string());
+  EXPECT_EQ(c.model, "head");
+  EXPECT_EQ(c.instrument, prov.instrument);
+  ASSERT_EQ(c.names.size(), r.parameters.size());
+  for (std::size_t k = 0; k < r.parameters.size(); ++k) {
+    EXPECT_EQ(c.names[k], r.parameters[k].name);
+    EXPECT_EQ(c.estimates[k], r.parameters[k].estimate);  // bit for bit
+    EXPECT_EQ(c.u[k], r.parameters[k].u);
+    EXPECT_EQ(c.status[k], ParameterStatusName(r.parameters[k].status));
+    for (std::size_t j = 0; j < r.parameters.size(); ++j) EXPECT_EQ(c.correlation(k, j), r.correlation(k, j));
+  }
+}
+
+TEST(CalibrationFile, JobUsesItsEstimatesAndCovariance) {
+  const CalibrationResult r = ExampleCalibration();
+  const std::filesystem::path dir = TempDir("job");
+  {
+    std::ofstream out(dir / "cal.toml");
+    out << CalibrationFileToml(r, {});
+  }
+  const std::string job_text = R"(
+[tracker]
+model = "head"
+calibration = "cal.toml"
+[tracker.noise]
+range = "1 um"
+azimuth = "0.1 arcsec"
+elevation = "0.1 arcsec"
+[plan]
+point = [{name = "P", x = 4.0, y = 1.5, z = 0.7}]
+)";
+  const Job job = ParseJob(job_text, (dir / "job.toml").string(), dir);
+  ASSERT_TRUE(job.calibration.has_value());
+  EXPECT_EQ(job.calibration->sha256, Sha256File((dir / "cal.toml").string()));
+  const int P = static_cast<int>(r.parameters.size());
+  for (int k = 0; k < P; ++k) {
+    EXPECT_EQ(job.setup.params[k].estimate, r.parameters[k].estimate);
+    EXPECT_EQ(job.setup.params[k].u, r.parameters[k].u);
+  }
+  // GUM covariance of the point (parameters only: reading noise removed) against J_p Sigma J_p^T
+  // with Sigma rebuilt from the calibration's covariance matrix, J_p from central differences.
+  MeasurementSetup setup = job.setup;
+  setup.noise = {};
+  const MeasurementModel model(setup);
+  const Eigen::Vector3d readings = ReadingsForPartPoint(model, Eigen::Vector3d(4.0, 1.5, 0.7));
+  const std::vector<PointReadings> points = {{"P", readings}};
+  GumOptions options;
+  options.budgets = false;
+  const PointUncertainty u = PropagatePoints(model, points, options)[0];
+  Eigen::MatrixXd jp(3, P);
+  Eigen::VectorXd p0 = model.shared_estimates();
+  for (int k = 0; k < P; ++k) {
+    const double h = 1e-3 * r.parameters[k].u + 1e-12;
+    Eigen::VectorXd plus = p0, minus = p0;
+    plus(k) += h;
+    minus(k) -= h;
+    Eigen::Vector3d yp, ym;
+    model.Evaluate(readings.data(), plus.data(), yp.data());
+    model.Evaluate(readings.data(), minus.data(), ym.data());
+    jp.col(k) = (yp - ym) / (2 * h);
+  }
+  const Eigen::Matrix3d reference = jp * r.covariance * jp.transpose();
+  EXPECT_LT((u.cov_part - reference).norm(), 1e-6 * reference.norm());
+  // Without the correlation the answer differs (the test can fail).
+  Eigen::MatrixXd diagonal = r.covariance.diagonal().asDiagonal();
+  EXPECT_GT((jp * diagonal * jp.transpose() - reference).norm(), 1e-3 * reference.norm());
+}
+
+TEST(CalibrationFile, RefusesAFileThatIsNotOne) {
+  const std::filesystem::path dir = TempDir("bad");
+  {
+    std::ofstream out(dir / "x.toml");
+    out << "[calibration]\nmodel = \"head\"\n[[parameter]]\nname = \"lam\"\nestimate = 1.0\nu = -1.0\n";
+  }
+  try {
+    LoadCalibrationFile((dir / "x.toml").string());
+    FAIL() << "accepted a negative u";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("x.toml: parameter[0].u: expected a finite number >= 0"), std::string::npos) << e.what();
+  }
+}
+
+TEST(CalibrationStatistics, Sha256OfTheFipsExample) {
+  const std::filesystem::path dir = TempDir("sha");
+  {
+    std::ofstream out(dir / "abc.txt", std::ios::binary);
+    out << "abc";
+  }
+  EXPECT_EQ(Sha256File((dir / "abc.txt").string()),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+}
+
+TEST(CalibrationStatistics, ChiSquareDistributionAtPublishedQuantiles) {
+  // 0.95 quantiles of chi-square (NIST/SEMATECH e-Handbook table 1.3.6.7.4).
+  EXPECT_NEAR(ChiSquareCdf(3.841, 1), 0.95, 2e-5);
+  EXPECT_NEAR(ChiSquareCdf(18.307, 10), 0.95, 2e-5);
+  EXPECT_NEAR(ChiSquareCdf(124.342, 100), 0.95, 2e-5);
+  EXPECT_NEAR(ChiSquareCdf(43.773, 30), 0.95, 2e-5);
+  EXPECT_EQ(ChiSquareCdf(0.0, 5), 0.0);
+}
+
+TEST(CalibrationStatistics, GrossErrorIsTheFlaggedOutlier) {
+  MeasurementSetup tracker = HeadTracker(5);
+  CalibrationData data = SimulateCalibrationData(tracker, LoadTestLayout(kLayout), 23);
+  // 40 um on the range of a two-face reading (20 sigma).
+  std::size_t victim = 0;
+  while (data.readings[victim].target.rfind("TF3", 0) != 0) ++victim;
+  data.readings[victim].readings(0) += 40e-6;
+  const CalibrationResult r = Calibrate(data);
+  const CalibrationResidual* worst = nullptr;
+  double redundancy = 0.0;
+  for (const CalibrationResidual& res : r.residuals) {
+    redundancy += res.redundancy;
+    if (!worst || std::abs(res.w) > std::abs(worst->w)) worst = &res;
+  }
+  ASSERT_NE(worst, nullptr);
+  EXPECT_TRUE(worst->outlier);
+  // A target read twice (front, back) has one redundant range: the two range residuals of the
+  // pair are equal and opposite, so data snooping localises the error to the pair, not to a face.
+  const std::string target = data.readings[victim].target;
+  EXPECT_TRUE(worst->observation == target + " front range" || worst->observation == target + " back range")
+      << worst->observation;
+  EXPECT_GT(r.birge_ratio, 1.2);
+  // Redundancy numbers add up to the degrees of freedom (trace of I - H).
+  EXPECT_NEAR(redundancy, r.dof, 1e-6 * r.dof);
+  // The clean data set has no outlier at this limit on this seed, and Birge ratio ~1.
+  const CalibrationResult clean = Calibrate(SimulateCalibrationData(tracker, LoadTestLayout(kLayout), 23));
+  EXPECT_LT(clean.birge_ratio, 1.15);
+}
+
+}  // namespace
+}  // namespace vlt
