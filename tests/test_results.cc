@@ -3,6 +3,10 @@
 // the report page's ingredients, and all-or-nothing writing.
 #include "vlt/results.h"
 
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -227,33 +231,114 @@ class Writing : public ::testing::Test {
   std::filesystem::path dir_;
 };
 
-TEST_F(Writing, AllFilesOrNone) {
-  std::vector<std::pair<std::string, std::string>> files = {{"a.csv", "1\n"}, {"b.json", "{}\n"}, {"c.html", "x"}};
-  WriteFilesAtomically(dir_ / "out", files);
-  EXPECT_TRUE(std::filesystem::exists(dir_ / "out" / "c.html"));
-  int entries = 0;
-  for (auto& e : std::filesystem::directory_iterator(dir_ / "out")) {
-    (void)e;
-    ++entries;
-  }
-  EXPECT_EQ(entries, 3);  // no temporary file left
+using Files = std::vector<std::pair<std::string, std::string>>;
 
-  // The last rename cannot succeed (a directory holds that name): nothing of this run remains,
-  // the directory created for it is removed again.
-  std::filesystem::create_directories(dir_ / "blocked" / "c.html" / "inside");
-  EXPECT_THROW(WriteFilesAtomically(dir_ / "blocked", files), InputError);
-  EXPECT_FALSE(std::filesystem::exists(dir_ / "blocked" / "a.csv"));
-  EXPECT_FALSE(std::filesystem::exists(dir_ / "blocked" / "b.json"));
-  entries = 0;
-  for (auto& e : std::filesystem::directory_iterator(dir_ / "blocked")) {
+int Entries(const std::filesystem::path& dir) {
+  int n = 0;
+  for (auto& e : std::filesystem::directory_iterator(dir)) {
     (void)e;
-    ++entries;
+    ++n;
   }
-  EXPECT_EQ(entries, 1);  // only the blocking directory
+  return n;
+}
 
-  // An output path that is a file.
+TEST_F(Writing, NewDirectoryHoldsExactlyTheFilesAndTheMarker) {
+  std::filesystem::create_directories(dir_);
+  OutputDirectory out(dir_ / "out");
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "out"));  // nothing before Commit
+  out.Commit({{"points.csv", "1\n"}, {"results.json", "{}\n"}});
+  EXPECT_EQ(Entries(dir_ / "out"), 3);                   // two files + .vlt-output
+  EXPECT_TRUE(std::filesystem::exists(dir_ / "out" / kOutputMarker));
+  EXPECT_EQ(Entries(dir_), 1);                           // no staging directory left beside it
+}
+
+TEST_F(Writing, ASecondRunReplacesTheWholeSet) {
+  // Run A writes a map, run B does not: B's directory must not keep A's map (issue: stale files).
+  std::filesystem::create_directories(dir_);
+  OutputDirectory(dir_ / "out").Commit({{"points.csv", "A\n"}, {"map.csv", "A\n"}});
+  OutputDirectory(dir_ / "out").Commit({{"points.csv", "B\n"}});
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "out" / "map.csv"));
+  std::ifstream in(dir_ / "out" / "points.csv");
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "B");
+  EXPECT_EQ(Entries(dir_), 1);
+}
+
+TEST_F(Writing, ADirectoryVltDidNotWriteIsRefusedBeforeComputing) {
+  std::filesystem::create_directories(dir_ / "mine");
+  std::ofstream(dir_ / "mine" / "thesis.tex") << "precious";
+  try {
+    OutputDirectory out(dir_ / "mine");
+    FAIL() << "accepted a foreign directory";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("holds 'thesis.tex', which vlt did not write"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(std::filesystem::exists(dir_ / "mine" / "thesis.tex"));
+  // A path that is a file, and a parent that is a file.
   std::ofstream(dir_ / "file") << "x";
-  EXPECT_THROW(WriteFilesAtomically(dir_ / "file", files), InputError);
+  EXPECT_THROW(OutputDirectory(dir_ / "file"), InputError);
+  EXPECT_THROW(OutputDirectory(dir_ / "file" / "sub"), InputError);
+  // An empty directory and one with an older vlt's outputs (no marker) are accepted.
+  std::filesystem::create_directories(dir_ / "empty");
+  EXPECT_NO_THROW(OutputDirectory(dir_ / "empty"));
+  std::filesystem::create_directories(dir_ / "old");
+  std::ofstream(dir_ / "old" / "points.csv") << "x";
+  EXPECT_NO_THROW(OutputDirectory(dir_ / "old").Commit({{"tasks.csv", "y"}}));
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "old" / "points.csv"));
+}
+
+TEST_F(Writing, AFailedOrAbandonedRunLeavesTheOldSetAndNoStaging) {
+  std::filesystem::create_directories(dir_);
+  OutputDirectory(dir_ / "out").Commit({{"points.csv", "old\n"}});
+  {
+    OutputDirectory abandoned(dir_ / "out");  // e.g. the computation threw
+  }
+  EXPECT_THROW(OutputDirectory(dir_ / "out").Commit({{"bad/name.csv", "x"}}), InputError);
+  std::ifstream in(dir_ / "out" / "points.csv");
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "old");
+  EXPECT_EQ(Entries(dir_), 1);
+}
+
+TEST_F(Writing, SigtermWhileWritingRemovesTheStagingDirectory) {
+  std::filesystem::create_directories(dir_);
+  const std::filesystem::path target = dir_ / "out";
+  // The child writes a large set; the parent sends SIGTERM as soon as the staging directory
+  // appears. Retried: the child may finish first on a fast disk.
+  for (int attempt = 0; attempt < 10; ++attempt) {
+    std::filesystem::remove_all(target);
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      InstallOutputSignalHandlers();
+      Files files;
+      for (int i = 0; i < 24; ++i) files.emplace_back("f" + std::to_string(i) + ".csv", std::string(4 << 20, 'x'));
+      try {
+        OutputDirectory(target).Commit(files);
+      } catch (...) {
+        ::_exit(3);
+      }
+      ::_exit(0);
+    }
+    bool seen = false;
+    for (int spin = 0; spin < 200000 && !seen; ++spin) {
+      for (auto& e : std::filesystem::directory_iterator(dir_)) {
+        if (e.path().filename().string().rfind(".out.vlt-new-", 0) == 0) seen = true;
+      }
+      if (!seen) ::usleep(20);
+    }
+    if (seen) ::kill(child, SIGTERM);
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    if (!seen || !WIFSIGNALED(status)) continue;  // finished before the signal: try again
+    EXPECT_EQ(WTERMSIG(status), SIGTERM);
+    EXPECT_EQ(Entries(dir_), 0) << "staging directory left behind";
+    EXPECT_FALSE(std::filesystem::exists(target));
+    return;
+  }
+  FAIL() << "the child always finished before SIGTERM arrived";
 }
 
 }  // namespace

@@ -29,16 +29,28 @@ void AddCalibrateCommand(CLI::App& app, GlobalOptions& global) {
   auto* command = app.add_subcommand("calibrate", "Identify a tracker's error parameters from measured test data "
                                                   "(least squares with identifiability analysis); writes a calibration file");
   auto file = std::make_shared<std::string>();
-  auto output = std::make_shared<std::string>();
+  auto output_arg = std::make_shared<std::string>();
   command->add_option("file", *file, "Calibration job (TOML: [tracker], [readings], [[bar]], [[reference]], docs/calibration.md)")
       ->required();
-  command->add_option("-o,--output", *output,
+  command->add_option("-o,--output", *output_arg,
                       "Output directory (default: [output] directory of the file, else ./vlt-out/<name>)");
   command->footer("Exit status: 0 success, 2 bad input or no solution (one line on stderr; no output file is written).\n"
                   "Outputs: calibration.toml (load it in a job: [tracker] calibration = \"...\"), parameters.csv,\n"
                   "correlation.csv, identifiability.csv, targets.csv, residuals.csv, results.json, report.html.");
-  command->callback([file, output, &global] {
+  command->callback([file, output_arg, &global] {
     const CalibrationJob job = LoadCalibrationJob(*file);
+    EmitWarnings(job.warnings, global);
+    std::filesystem::path target;
+    if (!output_arg->empty()) {
+      target = *output_arg;
+    } else if (!job.output_directory.empty()) {
+      target = std::filesystem::path(job.output_directory);
+      if (target.is_relative()) target = std::filesystem::path(*file).parent_path() / target;
+    } else {
+      target = std::filesystem::path("vlt-out") / internal::SafeFileName(job.name);
+    }
+    OutputDirectory output(target);
+    const std::filesystem::path& dir = output.path();
     const CalibrationResult result = Calibrate(job.data, job.options);
     CalibrationProvenance provenance;
     provenance.instrument = job.instrument;
@@ -46,16 +58,7 @@ void AddCalibrateCommand(CLI::App& app, GlobalOptions& global) {
     provenance.vlt_version = VLT_VERSION;
     for (const std::string& f : job.data_files) provenance.data_files.emplace_back(f, Sha256File(f));
     const auto files = calibration_outputs::CalibrationFiles(job, result, provenance);
-    std::filesystem::path dir;
-    if (!output->empty()) {
-      dir = *output;
-    } else if (!job.output_directory.empty()) {
-      dir = std::filesystem::path(job.output_directory);
-      if (dir.is_relative()) dir = std::filesystem::path(*file).parent_path() / dir;
-    } else {
-      dir = std::filesystem::path("vlt-out") / internal::SafeFileName(job.name);
-    }
-    WriteFilesAtomically(dir, files);
+    output.Commit(files);
     if (global.json) {
       for (const auto& [name, content] : files) {
         if (name == "results.json") std::fwrite(content.data(), 1, content.size(), stdout);

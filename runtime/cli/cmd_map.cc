@@ -27,11 +27,12 @@ void AddMapCommand(CLI::App& app, GlobalOptions& global) {
   command->add_option("--step", o->step, "Grid spacing (default 0.25 m; e.g. 0.1m, 250mm)");
   command->add_option("-o,--output", o->output_dir,
                       "Output directory (default: [output] directory of the job, else ./vlt-out/<job name>)");
-  command->add_option("--threads", o->threads, "Threads (0 = all hardware threads)")->check(CLI::Range(0, 1024));
+  command->add_option("--threads", o->threads, "Threads (0 = all hardware threads)")->check(IntegerIn(0, 1024));
   command->footer("Map value: |U| = sqrt(Ux^2 + Uy^2 + Uz^2), U_i = k u_i (part frame, k from the job's coverage\n"
                   "probability). Nodes within 1 mm of the tracker's vertical axis are skipped and reported.");
   command->callback([o, &global] {
     Job job = LoadJob(o->job);
+    EmitWarnings(job.warnings, global);
     MapSettings settings;
     if (!o->plane.empty() || !o->box.empty()) {
       if (!o->plane.empty() && !o->box.empty()) throw InputError("command line: --plane and --box exclude each other");
@@ -47,16 +48,15 @@ void AddMapCommand(CLI::App& app, GlobalOptions& global) {
     } else {
       throw InputError("command line: give --plane and --extent, or --box (the job has no [map] section)");
     }
+    RunCliOptions ro;
+    ro.output_dir = o->output_dir;
+    OutputDirectory output(OutputPath(job, ro, std::filesystem::path("vlt-out") / vlt::internal::SafeFileName(job.name)));
     MeasurementModel model(job.setup);
     int threads = o->threads >= 0 ? o->threads : job.monte_carlo.threads;
     MapResult map = ComputeMap(model, settings, job.monte_carlo.coverage_probability, threads);
-    RunCliOptions ro;
-    ro.output_dir = o->output_dir;
-    std::filesystem::path dir =
-        OutputDirectory(job, ro, std::filesystem::path("vlt-out") / vlt::internal::SafeFileName(job.name));
     std::vector<std::pair<std::string, std::string>> files = {
         {"map.csv", MapCsv(map)}, {"map.html", MapHtml(map, job.name + ": " + settings.description)}};
-    WriteFilesAtomically(dir, files);
+    output.Commit(files);
     if (global.json) {  // the same object as "map" in results.json (docs/results.md)
       std::printf("%s\n", MapJson(map).c_str());
       return;
@@ -78,7 +78,7 @@ void AddMapCommand(CLI::App& app, GlobalOptions& global) {
       for (std::size_t i = 0; i < map.skipped.size() && i < 10; ++i) std::printf("  %s\n", map.skipped[i].c_str());
       if (map.skipped.size() > 10) std::printf("  ... (all in map.csv)\n");
     }
-    std::printf("Wrote %s/: map.csv, map.html\n", dir.string().c_str());
+    std::printf("Wrote %s/: map.csv, map.html\n", output.path().string().c_str());
   });
 }
 

@@ -1,6 +1,7 @@
 // `vlt run JOB.toml [-o DIR] [--no-mcm] [--trials N | --adaptive] [--seed S] [--threads T]`:
 // GUM + Monte Carlo + validation for every point and task of a job; writes points.csv,
 // budget.csv, tasks.csv, results.json, report.html (+ map.csv, map.html with a [map] section).
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -11,20 +12,55 @@
 
 namespace vlt::cli {
 
+namespace {
+
+std::string Quoted(const std::string& s) {
+  return "'" + (s.size() > 40 ? s.substr(0, 40) + "...(" + std::to_string(s.size()) + " characters)" : s) + "'";
+}
+
+}  // namespace
+
+CLI::Validator IntegerIn(std::int64_t lo, std::int64_t hi) {
+  const std::string range = std::to_string(lo) + " .. " + std::to_string(hi);
+  return CLI::Validator(
+      [lo, hi, range](std::string& text) -> std::string {
+        std::int64_t v = 0;
+        const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+        if (ec != std::errc() || end != text.data() + text.size() || v < lo || v > hi) {
+          return Quoted(text) + " is not an integer in " + range;
+        }
+        return {};
+      },
+      "INT in " + range);
+}
+
+CLI::Validator UnsignedInteger64() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        std::uint64_t v = 0;
+        const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+        if (ec != std::errc() || end != text.data() + text.size()) {
+          return Quoted(text) + " is not an integer in 0 .. 18446744073709551615";
+        }
+        return {};
+      },
+      "INT in 0 .. 2^64-1");
+}
+
 void AddRunOptions(CLI::App& command, RunCliOptions& options) {
   command.add_option("-o,--output", options.output_dir,
                      "Output directory (default: [output] directory of the job, else ./vlt-out/<job name>)");
   command.add_flag("--no-mcm", options.no_mcm, "GUM only: skip the Monte Carlo method and the validation");
   command.add_option("--trials", options.trials, "Monte Carlo trials M (overrides [monte_carlo] trials)")
-      ->check(CLI::Range(std::int64_t{1}, std::int64_t{1000000000}));
+      ->check(IntegerIn(1, 1000000000));
   command.add_flag("--adaptive", options.adaptive, "Adaptive Monte Carlo procedure (JCGM 101 7.9.4)");
   command.add_option("--seed", options.seed, "Monte Carlo seed (overrides [monte_carlo] seed)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(UnsignedInteger64());
   command.add_option("--threads", options.threads, "Threads (0 = all hardware threads)")
-      ->check(CLI::Range(0, 1024));
+      ->check(IntegerIn(0, 1024));
 }
 
-std::filesystem::path OutputDirectory(const Job& job, const RunCliOptions& options,
+std::filesystem::path OutputPath(const Job& job, const RunCliOptions& options,
                                       const std::filesystem::path& fallback) {
   if (!options.output_dir.empty()) return options.output_dir;
   if (!job.output.directory.empty()) {
@@ -39,6 +75,7 @@ int RunAndWrite(const Job& job, const RunCliOptions& options, const GlobalOption
   if (options.adaptive && options.trials > 0) {
     throw InputError("command line: --trials and --adaptive exclude each other");
   }
+  EmitWarnings(job.warnings, global);
   RunOptions run;
   run.monte_carlo = !options.no_mcm;
   if (options.adaptive) run.trials = 0;
@@ -52,14 +89,20 @@ int RunAndWrite(const Job& job, const RunCliOptions& options, const GlobalOption
     }
     run.trials = options.trials;
   }
-  if (options.seed >= 0) run.seed = static_cast<std::uint64_t>(options.seed);
+  if (!options.seed.empty()) {
+    std::uint64_t seed = 0;
+    std::from_chars(options.seed.data(), options.seed.data() + options.seed.size(), seed);  // validated
+    run.seed = seed;
+  }
   if (options.threads >= 0) run.threads = options.threads;
   run.progress = !global.quiet && !global.json;
-  std::filesystem::path dir = OutputDirectory(job, options, fallback_dir);
+  // The output location is checked before anything is computed (docs/cli.md "Outputs").
+  OutputDirectory output(OutputPath(job, options, fallback_dir));
+  const std::filesystem::path& dir = output.path();
 
   Results results = RunJob(job, run);
   auto files = ResultFiles(results);
-  WriteFilesAtomically(dir, files);
+  output.Commit(files);
 
   if (global.json) {
     for (const auto& [name, content] : files) {

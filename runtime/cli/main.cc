@@ -7,6 +7,47 @@
 
 #include "commands.h"
 #include "vlt/error.h"
+#include "vlt/results.h"
+
+namespace vlt::cli {
+
+// An error line quotes what the user wrote ('...'); a 2 MB CSV cell must not become a 2 MB line.
+// Quoted values longer than 60 characters keep their first 40, and the line is cut at 1000.
+std::string ShortenMessage(const std::string& message) {
+  std::string out;
+  std::size_t i = 0;
+  while (i < message.size()) {
+    const std::size_t open = message.find('\'', i);
+    const std::size_t close = open == std::string::npos ? std::string::npos : message.find('\'', open + 1);
+    if (close == std::string::npos) {
+      out += message.substr(i);
+      break;
+    }
+    out += message.substr(i, open + 1 - i);
+    const std::size_t length = close - open - 1;
+    if (length > 60) {
+      out += message.substr(open + 1, 40) + "...(" + std::to_string(length) + " characters)";
+    } else {
+      out += message.substr(open + 1, length);
+    }
+    out += '\'';
+    i = close + 1;
+  }
+  for (char& c : out) {
+    if (c == '\n' || c == '\r') c = ' ';
+  }
+  if (out.size() > 1000) out = out.substr(0, 1000) + "...";
+  return out;
+}
+
+void EmitWarnings(const std::vector<std::string>& warnings, const GlobalOptions& global) {
+  if (warnings.empty()) return;
+  if (global.strict) throw InputError(warnings.front() + " (a warning; --strict makes it an error)");
+  if (global.quiet) return;
+  for (const std::string& w : warnings) std::fprintf(stderr, "vlt: warning: %s\n", ShortenMessage(w).c_str());
+}
+
+}  // namespace vlt::cli
 
 int main(int argc, char** argv) {
   CLI::App app{"vlt — the Virtual Laser Tracker: GUM and Monte Carlo uncertainty of laser "
@@ -15,6 +56,7 @@ int main(int argc, char** argv) {
   vlt::cli::GlobalOptions global;
   app.add_flag("-q,--quiet", global.quiet, "Print nothing but errors");
   app.add_flag("--json", global.json, "Print results as JSON where a command prints results");
+  app.add_flag("--strict", global.strict, "Treat warnings (implausible but legal input) as errors");
   app.require_subcommand(0, 1);
   app.fallthrough();
 
@@ -26,16 +68,24 @@ int main(int argc, char** argv) {
   vlt::cli::AddSimulateCommand(app, global);
   vlt::cli::AddModelCommand(app, global);
 
+  vlt::InstallOutputSignalHandlers();
   try {
     app.parse(argc, argv);
     if (app.get_subcommands().empty()) return vlt::cli::RunDemo(global);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    // One line, like every other error (docs/cli.md): CLI11's text without its second line.
+    std::string message = e.what();
+    for (char& c : message) {
+      if (c == '\n' || c == '\r') c = ' ';
+    }
+    std::fprintf(stderr, "vlt: error: command line: %s (vlt --help)\n", vlt::cli::ShortenMessage(message).c_str());
+    return 2;
   } catch (const vlt::InputError& e) {
-    std::fprintf(stderr, "vlt: error: %s\n", e.what());
+    std::fprintf(stderr, "vlt: error: %s\n", vlt::cli::ShortenMessage(e.what()).c_str());
     return 2;
   } catch (const vlt::NumericalError& e) {
-    std::fprintf(stderr, "vlt: error: %s\n", e.what());
+    std::fprintf(stderr, "vlt: error: %s\n", vlt::cli::ShortenMessage(e.what()).c_str());
     return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "vlt: internal error: %s\n", e.what());

@@ -19,16 +19,21 @@ struct RunCliOptions {
   bool no_mcm = false;
   std::int64_t trials = -1;                // -1: from the job
   bool adaptive = false;
-  std::int64_t seed = -1;
+  std::string seed;                        // "": from the job; else an integer 0 .. 2^64-1
   int threads = -1;
 };
+
+// CLI11 validators that read the whole text as one integer and refuse anything else with a
+// short message (no silent clamping of 99999999999999999999, no 309-digit ranges).
+CLI::Validator IntegerIn(std::int64_t lo, std::int64_t hi);
+CLI::Validator UnsignedInteger64();
 
 // Adds -o, --no-mcm, --trials, --adaptive, --seed, --threads to a subcommand.
 void AddRunOptions(CLI::App& command, RunCliOptions& options);
 
 // Where the outputs of `job` go: -o, else [output] directory (relative to the job file), else
 // `fallback` (e.g. ./vlt-out/<job name>).
-std::filesystem::path OutputDirectory(const Job& job, const RunCliOptions& options,
+std::filesystem::path OutputPath(const Job& job, const RunCliOptions& options,
                                       const std::filesystem::path& fallback);
 
 // Runs the job, writes every output file (all or none), prints the summary / JSON. Returns 0.

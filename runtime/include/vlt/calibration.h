@@ -274,6 +274,7 @@ struct TestJob {
   TestSettings settings;
   bool simulate = false;          // [tests.simulate] present: write simulated calibration data
   std::uint64_t seed = 1;
+  std::vector<std::string> warnings;  // implausible but legal values (vlt/job.h Job::warnings)
 };
 TestJob LoadTestJob(const std::string& path);
 
@@ -285,6 +286,7 @@ struct CalibrationJob {
   CalibrationOptions options;
   std::vector<std::string> data_files;   // the job file and every CSV it read (provenance)
   std::string output_directory;          // [output] directory, "" = default
+  std::vector<std::string> warnings;     // implausible but legal values (vlt/job.h Job::warnings)
 };
 CalibrationJob LoadCalibrationJob(const std::string& path);
 

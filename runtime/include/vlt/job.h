@@ -53,6 +53,9 @@ struct MonteCarloSettings {
   int threads = 0;                    // 0: all hardware threads
 };
 
+// Largest number of nodes of a map grid (ParseMapPlane / ParseMapBox refuse more).
+inline constexpr double kMaxMapNodes = 1e6;
+
 // A grid for `vlt map` / [map]: a plane (two axes vary, one fixed) or a box (all three vary).
 struct MapSettings {
   enum class Kind { kPlane, kBox };
@@ -102,6 +105,9 @@ struct Job {
   std::vector<JobPoint> points;
   std::string readings_file;          // kReadings: the CSV as resolved (provenance)
   std::optional<CalibrationSource> calibration;  // parameters from a calibration file
+  // Implausible but legal values, one line each "<file>: <key>: <why>" (the command prints them
+  // as "vlt: warning: ..."; --strict makes the first one an error).
+  std::vector<std::string> warnings;
   std::vector<TaskSpec> tasks;
   std::vector<std::vector<int>> task_points;  // resolved indices into points, per task
   MonteCarloSettings monte_carlo;
@@ -124,6 +130,10 @@ inline constexpr const char* kDefaultJobName = "vlt-demo.toml";
 // Horizontal distance [m] below which a point is "on the tracker's vertical axis": its azimuth is
 // undefined, so no readings can be planned for it.
 inline constexpr double kVerticalAxisTolerance = 1e-6;
+
+// Largest range [m] vlt accepts from a reading or a planned point: beyond any laser tracker (the
+// longest reach 160 m), and a guard against values that overflow the computation (1e300 m).
+inline constexpr double kMaxRange = 1e4;
 
 // A nominal part-frame point expressed in the tracker frame at the job's estimates (inverse of the
 // station pose and part thermal expansion of vlt/measurement_model.h).

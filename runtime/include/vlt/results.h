@@ -125,11 +125,36 @@ std::string MapJson(const MapResult& map, int indent = 1);
 // with a map, map.csv and map.html.
 std::vector<std::pair<std::string, std::string>> ResultFiles(const Results& results);
 
-// Writes all `files` (name, content) into `dir` (created if missing) or none: each goes to a
-// temporary name first; only when all were written are they renamed. On failure the temporary
-// files (and `dir` if this call created it and it is empty) are removed and InputError is thrown.
-void WriteFilesAtomically(const std::filesystem::path& dir,
-                          const std::vector<std::pair<std::string, std::string>>& files);
+// The output directory of a command, replaced as one transaction (docs/cli.md "Outputs"):
+// construct it BEFORE computing (it checks the location: not a file, not a directory holding
+// files vlt did not write, a writable parent — else InputError), then Commit the complete set of
+// files: they are written into a staging directory beside the target and swapped in atomically,
+// so a reader sees the old set or the new set, never a mixture, and no file of an earlier run
+// survives. An uncommitted or failed transaction leaves the old set untouched and removes its
+// staging directory (also on SIGINT/SIGTERM once InstallOutputSignalHandlers ran).
+class OutputDirectory {
+ public:
+  explicit OutputDirectory(const std::filesystem::path& target);
+  ~OutputDirectory();
+  OutputDirectory(const OutputDirectory&) = delete;
+  OutputDirectory& operator=(const OutputDirectory&) = delete;
+
+  const std::filesystem::path& path() const { return target_; }
+  // Writes `files` (name, content; plain names) plus the marker file and swaps them in.
+  void Commit(const std::vector<std::pair<std::string, std::string>>& files);
+
+ private:
+  std::filesystem::path target_;
+  std::filesystem::path parent_;
+  std::filesystem::path staging_;
+};
+
+// The marker file vlt puts into every output directory it writes.
+inline constexpr const char* kOutputMarker = ".vlt-output";
+
+// SIGINT / SIGTERM remove a staging directory being written, then end the process as the signal
+// would (main() installs them once).
+void InstallOutputSignalHandlers();
 
 // A short human summary of the results (units in the headers) for the terminal.
 std::string SummaryText(const Results& results);

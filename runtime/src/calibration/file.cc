@@ -10,6 +10,7 @@
 #include <openssl/evp.h>
 #include <toml++/toml.h>
 
+#include "job/job_detail.h"
 #include "vlt/calibration.h"
 #include "vlt/error.h"
 #include "vlt/units.h"
@@ -110,16 +111,7 @@ std::string CalibrationFileToml(const CalibrationResult& result, const Calibrati
 }
 
 LoadedCalibration LoadCalibrationFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot read the calibration file");
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  toml::table root;
-  try {
-    root = toml::parse(buffer.str(), path);
-  } catch (const toml::parse_error& e) {
-    throw InputError(path + ": line " + std::to_string(e.source().begin.line) + ": TOML syntax error in the calibration file");
-  }
+  const toml::table root = job_detail::ParseToml(job_detail::ReadTextFile(path, "the calibration file"), path);
   LoadedCalibration c;
   const toml::table* meta = root["calibration"].as_table();
   if (!meta) throw InputError(path + ": calibration: not a vlt calibration file (no [calibration] table)");

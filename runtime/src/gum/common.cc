@@ -12,6 +12,7 @@
 #include <Eigen/Dense>
 
 #include "gum/internal.h"
+#include "model/correlation.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
 
@@ -87,15 +88,11 @@ SharedFactor MakeSharedFactor(const MeasurementModel& model) {
   const Eigen::MatrixXd r = model.shared_correlation().topLeftCorner(p, p);
   f.diagonal = r.isIdentity(0.0);
   if (!f.diagonal) {
-    // R = P^T L D L^T P (pivoted LDLT) -> L_p = P^T L sqrt(D).
-    const Eigen::LDLT<Eigen::MatrixXd> ldlt(r);
-    const Eigen::VectorXd d = ldlt.vectorD();
-    if (ldlt.info() != Eigen::Success || d.minCoeff() < -1e-12) {
+    // R = L_p L_p^T (model/correlation.h: Cholesky, or the eigen factor for singular R).
+    Eigen::MatrixXd lp;
+    if (!model_internal::CorrelationFactor(r, lp)) {
       throw InputError("parameter correlation matrix is not positive semi-definite");
     }
-    const Eigen::MatrixXd l = ldlt.matrixL();
-    Eigen::MatrixXd lp = ldlt.transpositionsP().transpose() *
-                         (l * d.cwiseMax(0.0).cwiseSqrt().asDiagonal());
     f.param_factor = f.u.head(p).asDiagonal() * lp;
   }
   return f;

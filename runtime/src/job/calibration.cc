@@ -188,6 +188,7 @@ TestJob LoadTestJob(const std::string& path) {
   holder.base_dir = BaseDirectory(path);
   ReadTracker(top, holder);
   job.tracker = holder.setup;
+  job.warnings = holder.warnings;
   Section tests = top.Sub("tests", true);
   tests.set_hint("layout, mpe, coverage_probability, simulate");
   const std::string layout = AsString(tests.Require("layout"), tests.Where("layout"));
@@ -250,6 +251,7 @@ CalibrationJob LoadCalibrationJob(const std::string& path) {
   }
   Section readings = top.Sub("readings", true);
   ReadReadings(readings, holder);
+  job.warnings = holder.warnings;
   job.data_files.push_back(holder.readings_file);
 
   CalibrationData& data = job.data;

@@ -1,5 +1,6 @@
 #include "job/csv.h"
 
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -77,14 +78,16 @@ CsvTable ParseCsv(std::string_view text, const std::string& file) {
   // Skip a UTF-8 byte order mark (spreadsheets write one).
   if (text.substr(0, 3) == "\xEF\xBB\xBF") pos = 3;
   while (pos <= text.size()) {
-    std::size_t end = text.find('\n', pos);
+    // A line ends at LF, CRLF or a lone CR (old spreadsheet exports on macOS).
+    std::size_t end = text.find_first_of("\r\n", pos);
     if (end == std::string_view::npos) end = text.size();
     std::string_view line = text.substr(pos, end - pos);
     ++line_number;
     pos = end + 1;
+    if (end < text.size() && text[end] == '\r' && pos < text.size() && text[pos] == '\n') ++pos;
     std::string trimmed = Trim(line);
     if (trimmed.empty() || trimmed[0] == '#') {
-      if (end == text.size()) break;
+      if (end >= text.size()) break;
       continue;
     }
     std::string where = file + ": line " + std::to_string(line_number);
@@ -105,13 +108,15 @@ CsvTable ParseCsv(std::string_view text, const std::string& file) {
       }
       table.rows.push_back(CsvRow{line_number, std::move(fields)});
     }
-    if (end == text.size()) break;
+    if (end >= text.size()) break;
   }
   if (table.header.empty()) throw InputError(file + ": empty CSV file (no header line)");
   return table;
 }
 
 CsvTable ReadCsvFile(const std::string& path, const std::string& label) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw InputError(label + ": is a directory, not a CSV file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(label + ": cannot read CSV file '" + path + "'");
   std::ostringstream buffer;

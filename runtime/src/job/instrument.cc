@@ -3,6 +3,7 @@
 // Keys and units: docs/job-file.md.
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 
 #include <Eigen/Eigenvalues>
 
@@ -13,6 +14,7 @@
 #include "vlt/job.h"
 #include "vlt/calibration.h"
 #include "vlt/models.h"
+#include "vlt/refractive_index.h"
 #include "vlt/units.h"
 
 namespace vlt::job_detail {
@@ -242,6 +244,30 @@ void ReadTracker(Section& top, Job& job) {
   setup.noise.elevation = AsQuantity(noise.Require("elevation"), Dimension::kAngle, noise.Where("elevation"));
   CheckUncertainty(setup.noise.elevation, noise.Where("elevation"));
   noise.Finish();
+  // Implausible but legal (docs/cli.md "Warnings"): a tracker's residual errors are micrometres
+  // and arcseconds, not millimetres and degrees; such values are usually a unit slip.
+  for (std::size_t k = 0; k < setup.params.size(); ++k) {
+    const UncertainInput& in = setup.params[k];
+    const double size = std::max(std::abs(in.estimate), in.u);
+    const std::string quantity = model->params[k].quantity;
+    const std::string where = tracker.Where("parameters." + in.name);
+    if (quantity == "length" && size > 1e-3) {
+      job.warnings.push_back(where + ": " + FormatQuantity(size, Dimension::kLength, "mm", 4) +
+                             " is implausible for a tracker error parameter (micrometres expected)");
+    } else if (quantity == "angle" && size > 100.0 * 4.84813681109536e-6) {
+      job.warnings.push_back(where + ": " + FormatQuantity(size, Dimension::kAngle, "arcsec", 4) +
+                             " is implausible for a tracker error parameter (arcseconds expected)");
+    } else if (quantity == "ratio" && size > 1e-3) {
+      job.warnings.push_back(where + ": " + FormatQuantity(size, Dimension::kRatio, "ppm", 4) +
+                             " is implausible for a tracker error parameter (ppm expected)");
+    }
+  }
+  if (setup.noise.range_a > 1e-3 || setup.noise.range_b > 1e-4) {
+    job.warnings.push_back(noise.Where("range") + ": range noise above 1 mm or 100 um/m is implausible for a laser tracker");
+  }
+  if (std::max(setup.noise.azimuth, setup.noise.elevation) > 100.0 * 4.84813681109536e-6) {
+    job.warnings.push_back(noise.Where("azimuth") + ": angle noise above 100 arcsec is implausible for a laser tracker");
+  }
   tracker.Finish();
 }
 
@@ -281,6 +307,23 @@ void ReadEnvironment(Section& top, Job& job) {
   if (env.humidity.estimate < 0.0 || env.humidity.estimate > 100.0) {
     throw InputError(s.Where("humidity") + ": relative humidity outside 0 .. 100 %");
   }
+  // A bare number is in Pa (docs/units.md); 1013 means hPa to most people: say so.
+  const toml::node* pressure = s.Get("pressure");
+  if (pressure && pressure->is_number() && env.pressure.estimate < 2000.0) {
+    char number[32];
+    std::snprintf(number, sizeof number, "%g", env.pressure.estimate);
+    throw InputError(s.Where("pressure") + ": " + number + " Pa (a bare number is in Pa) is no air pressure at a tracker: did you mean \"" +
+                     number + " hPa\"?");
+  }
+  // The estimates must lie in the equation's published range of validity (docs/units.md).
+  AirConditions air;
+  air.vacuum_wavelength = env.vacuum_wavelength;
+  air.temperature = env.temperature.estimate;
+  air.pressure = env.pressure.estimate;
+  air.humidity = env.humidity.estimate;
+  air.co2 = env.co2.estimate;
+  CheckAirValidity(env.equation == Environment::Equation::kCiddor ? AirEquation::kCiddor : AirEquation::kEdlenBoensch,
+                   air, s.WhereSelf());
   s.Finish();
   job.setup.environment = env;
 }
@@ -321,6 +364,17 @@ void ReadPart(Section& top, Job& job) {
     thermal.reference = AsQuantity(*n, Dimension::kTemperature, s.Where("reference"));
   }
   s.Finish();
+  // The part's coordinates are divided by 1 + cte (T - T_ref): a factor <= 0 is no expansion.
+  const double factor = 1.0 + thermal.cte.estimate * (thermal.temperature.estimate - thermal.reference);
+  if (!(factor > 0.0)) {
+    throw InputError(s.Where("cte") + ": the thermal expansion factor 1 + cte (T - T_ref) = " + std::to_string(factor) +
+                     " is not positive: not a physical expansion");
+  }
+  if (std::abs(thermal.cte.estimate) > 1e-4 || thermal.cte.u > 1e-4) {
+    job.warnings.push_back(s.Where("cte") + ": expansion coefficient " +
+                           FormatQuantity(thermal.cte.estimate, Dimension::kPerKelvin, "1/K", 3) +
+                           " is implausible for a part (engineering materials: below 3e-5 1/K)");
+  }
   job.setup.thermal = thermal;
 }
 

@@ -62,6 +62,10 @@ std::filesystem::path BaseDirectory(const std::string& path);
 // "5 um + 0.5 um/m" -> (a [m], b [m/m]); either term may be absent (instrument.cc).
 void ParseLengthPlusRatio(const std::string& text, const std::string& where, double& a, double& b);
 
+// Largest |estimate| and u of an uncertain input in SI units: beyond it squares and sums of
+// sensitivities overflow long before a result is meaningful.
+inline constexpr double kMaxMagnitude = 1e12;
+
 // Uncertain inputs (section.cc).
 void CheckUncertainty(double u, const std::string& where);  // finite and >= 0
 // Canonical distribution name; rejects a shape parameter the distribution does not have.

@@ -1,5 +1,6 @@
 // The grid of an uncertainty map (`vlt map`, [map] in a job): parsing and node generation.
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 
 #include "vlt/error.h"
@@ -57,9 +58,15 @@ void FillRanges(MapSettings& map, const std::vector<int>& axes, std::string_view
       throw InputError(w + ": " + std::string(1, axis_names[a]) + "max < " + std::string(1, axis_names[a]) + "min");
     }
   }
-  Eigen::Vector3i n = map.counts();
-  if (static_cast<double>(n[0]) * n[1] * n[2] > 1e6) {
-    throw InputError(std::string(where) + ": step: more than 1e6 grid nodes; use a larger step");
+  // Count in double before any conversion to int: a span of 3e9 m at 1 m steps is 3e9 nodes,
+  // beyond int (the cast would be undefined behaviour).
+  double nodes = 1.0;
+  for (int a = 0; a < 3; ++a) nodes *= std::floor((map.max[a] - map.min[a]) / map.step + 1e-9) + 1.0;
+  if (!(nodes <= kMaxMapNodes)) {
+    char count[32];
+    std::snprintf(count, sizeof count, "%.3g", nodes);
+    throw InputError(std::string(where) + ": step: the grid has " + count + " nodes, more than " +
+                     std::to_string(static_cast<long long>(kMaxMapNodes)) + "; use a larger step or a smaller extent");
   }
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <charconv>
 #include <cstdlib>
 
 #include "job/csv.h"
@@ -35,12 +36,17 @@ double PlanCoordinate(const toml::node& node, double unit_scale, const std::stri
 double CsvQuantity(const std::string& field, Dimension dim, double unit_scale, double unit_offset,
                    const std::string& where) {
   if (field.empty()) throw InputError(where + ": empty field");
-  char* end = nullptr;
-  double v = std::strtod(field.c_str(), &end);
-  if (end && *end == '\0') {
+  // A bare decimal number in the column's unit (docs/units.md: decimal literals only — no hex
+  // floats, no inf/nan, which strtod would take); anything else must carry its own unit.
+  std::string_view digits = field;
+  if (!digits.empty() && digits.front() == '+') digits.remove_prefix(1);
+  double v = 0.0;
+  const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), v, std::chars_format::general);
+  if (ec == std::errc() && end == digits.data() + digits.size()) {
     if (!std::isfinite(v)) throw InputError(where + ": '" + field + "' is not a finite number");
     return v * unit_scale + unit_offset;
   }
+  if (ec == std::errc::result_out_of_range) throw InputError(where + ": '" + field + "' is out of the range of finite numbers");
   return ParseQuantity(field, dim, where);  // a field with its own unit
 }
 
@@ -119,6 +125,11 @@ void ReadPlan(Section& s, Job& job) {
   // A planned point must have a defined azimuth: not on the tracker's vertical axis.
   for (const JobPoint& p : job.points) {
     Eigen::Vector3d t = PartToTrackerNominal(job.setup, p.nominal);
+    if (!(t.stableNorm() <= kMaxRange)) {
+      throw InputError(p.where + ": point '" + p.name + "' is " + FormatQuantity(t.stableNorm(), Dimension::kLength, "m", 6) +
+                       " from the tracker: beyond any laser tracker (at most " +
+                       FormatQuantity(kMaxRange, Dimension::kLength, "km", 3) + ")");
+    }
     if (std::hypot(t.x(), t.y()) < kVerticalAxisTolerance) {
       throw InputError(p.where + ": point '" + p.name +
                        "' lies on the tracker's vertical axis (azimuth undefined; move the point or the station)");
@@ -184,6 +195,10 @@ void ReadReadings(Section& s, Job& job) {
       r[k] = CsvQuantity(row.fields[col[k + 1]], dims[k], scales[k], 0, p.where + ": " + names[k + 1]);
     }
     if (!(r[0] > 0.0)) throw InputError(p.where + ": range must be positive");
+    if (r[0] > kMaxRange) {
+      throw InputError(p.where + ": " + names[1] + ": " + FormatQuantity(r[0], Dimension::kLength, "m", 6) +
+                       " is beyond any laser tracker (at most " + FormatQuantity(kMaxRange, Dimension::kLength, "km", 3) + ")");
+    }
     double elevation = zenith ? kPi / 2 - r[2] : r[2];
     // Normalise the elevation into [-pi/2, 3pi/2): front face up to pi/2, back face beyond.
     elevation = std::fmod(elevation + kPi / 2, 2 * kPi);
@@ -196,6 +211,10 @@ void ReadReadings(Section& s, Job& job) {
         throw InputError(p.where + ": face column says " + std::string(FaceName(declared)) +
                          " but the vertical angle is a " + std::string(FaceName(face)) + "-face reading");
       }
+    }
+    if (r[0] * std::abs(std::cos(elevation)) < kVerticalAxisTolerance) {
+      throw InputError(p.where + ": " + names[3] + ": the reading points along the tracker's standing axis "
+                       "(elevation +-90 deg, zenith 0 or 180 deg): its azimuth is undefined");
     }
     p.face = face;
     p.readings = {r[0], r[1], elevation};

@@ -2,6 +2,7 @@
 // keys, typed getters with unit strings, and the uncertain-input table shared by every section.
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -114,6 +115,7 @@ void CheckDistribution(UncertainInput& input, const std::string& where_distribut
 void CheckUncertainty(double u, const std::string& where) {
   if (!std::isfinite(u)) throw InputError(where + ": uncertainty is not finite");
   if (u < 0.0) throw InputError(where + ": negative uncertainty");
+  if (u > kMaxMagnitude) throw InputError(where + ": uncertainty beyond what vlt computes with (at most 1e12 in SI units)");
 }
 
 // An uncertain input: either a table {estimate, u, distribution, shape} (omitted keys keep the
@@ -124,11 +126,17 @@ void ReadUncertain(Section& parent, std::string_view key, Dimension value_dim, D
   if (!node) return;
   if (!node->is_table()) {
     input.estimate = AsQuantity(*node, value_dim, parent.Where(key));
+    if (std::abs(input.estimate) > kMaxMagnitude) {
+      throw InputError(parent.Where(key) + ": beyond what vlt computes with (at most 1e12 in SI units)");
+    }
     return;
   }
   Section s = parent.Sub(key, false);
   s.set_hint("estimate, u, distribution, shape");
   if (const toml::node* n = s.Get("estimate")) input.estimate = AsQuantity(*n, value_dim, s.Where("estimate"));
+  if (std::abs(input.estimate) > kMaxMagnitude) {
+    throw InputError(s.Where("estimate") + ": beyond what vlt computes with (at most 1e12 in SI units)");
+  }
   if (const toml::node* n = s.Get("u")) {
     input.u = AsQuantity(*n, u_dim, s.Where("u"));
     CheckUncertainty(input.u, s.Where("u"));
@@ -150,7 +158,54 @@ UncertainInput MakeInput(std::string name, std::string group, Dimension dim, dou
 }
 
 
+namespace {
+
+// TOML allows non-ASCII bytes only inside strings and comments. Debian's toml++ 3.3.0 has
+// undefined behaviour on some of them elsewhere (a bare "5 µm" or "20 °C"), so vlt refuses them
+// itself, before the parser sees them, with the fix in the message.
+void CheckBytesOutsideStrings(std::string_view text, const std::string& file) {
+  int line = 1, column = 0;
+  std::size_t i = 0;
+  auto starts = [&](std::string_view token) { return text.substr(i, token.size()) == token; };
+  auto advance = [&](std::size_t n) {
+    for (std::size_t k = 0; k < n && i < text.size(); ++k, ++i) {
+      if (text[i] == '\n') {
+        ++line;
+        column = 0;
+      } else {
+        ++column;
+      }
+    }
+  };
+  while (i < text.size()) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    if (c == '#') {
+      while (i < text.size() && text[i] != '\n') advance(1);
+    } else if (starts("\"\"\"") || starts("'''")) {
+      const std::string_view close = text.substr(i, 3);
+      advance(3);
+      while (i < text.size() && !starts(close)) advance(text[i] == '\\' && close[0] == '"' ? 2 : 1);
+      advance(3);
+    } else if (c == '"' || c == '\'') {
+      advance(1);
+      while (i < text.size() && text[i] != static_cast<char>(c) && text[i] != '\n') {
+        advance(text[i] == '\\' && c == '"' ? 2 : 1);
+      }
+      advance(1);
+    } else if (c >= 0x80) {
+      throw InputError(file + ": line " + std::to_string(line) + ", column " + std::to_string(column + 1) +
+                       ": a non-ASCII character outside a quoted string; values with units go in quotes, "
+                       "e.g. \"5 um\", \"20 degC\"");
+    } else {
+      advance(1);
+    }
+  }
+}
+
+}  // namespace
+
 toml::table ParseToml(std::string_view text, const std::string& file) {
+  CheckBytesOutsideStrings(text, file);
   try {
     return toml::parse(text, file);
   } catch (const toml::parse_error& e) {
@@ -162,6 +217,8 @@ toml::table ParseToml(std::string_view text, const std::string& file) {
 }
 
 std::string ReadTextFile(const std::string& path, const std::string& what) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw InputError(path + ": is a directory, not " + what);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot read " + what);
   std::ostringstream buffer;

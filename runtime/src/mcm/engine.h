@@ -51,7 +51,9 @@ class InputSampler {
   std::vector<Distribution> inputs_;
   std::vector<int> independent_;   // input indices drawn on their own
   std::vector<int> copula_;        // input indices drawn through the Gaussian copula
-  Eigen::MatrixXd cholesky_;       // lower factor of the copula's correlation matrix
+  Eigen::MatrixXd cholesky_;       // factor L L^T = R of the copula's correlation matrix: lower
+                                   // triangular (Cholesky) unless R is singular (eigen factor)
+  bool factor_is_lower_ = true;
   std::uint64_t first_stream_;
 };
 

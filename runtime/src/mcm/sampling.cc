@@ -7,6 +7,7 @@
 #include <Eigen/Cholesky>
 
 #include "mcm/engine.h"
+#include "model/correlation.h"
 #include "vlt/error.h"
 
 namespace vlt::mcm_internal {
@@ -98,15 +99,14 @@ InputSampler::InputSampler(std::vector<Distribution> inputs, std::vector<std::st
     for (int a = 0; a < m; ++a) {
       for (int b = 0; b < m; ++b) r(a, b) = correlation(copula_[a], copula_[b]);
     }
-    Eigen::LLT<Eigen::MatrixXd> llt(r);
-    if (llt.info() != Eigen::Success) {
+    // Gaussian copula through a factor L L^T = R (JCGM 101 6.4.8): Cholesky for a positive
+    // definite R, the eigen factor for a singular one (r = +-1): model/correlation.h.
+    if (!model_internal::CorrelationFactor(r, cholesky_)) {
       std::string list;
       for (int a = 0; a < m; ++a) list += (a ? ", '" : "'") + names[copula_[a]] + "'";
-      throw InputError(at + ": the correlation matrix of " + list +
-                       " is not positive definite (the Monte Carlo method draws correlated "
-                       "inputs through its Cholesky factor)");
+      throw InputError(at + ": the correlation matrix of " + list + " is not positive semi-definite");
     }
-    cholesky_ = llt.matrixL();
+    factor_is_lower_ = cholesky_.isLowerTriangular(0.0);
   }
 }
 
@@ -144,7 +144,8 @@ void InputSampler::Draw(const KeyedStream& rng, std::int64_t first, int n, doubl
   for (int i = 0; i < n; ++i) {
     for (int a = 0; a < m; ++a) {
       double zc = 0.0;
-      for (int b = 0; b <= a; ++b) zc += cholesky_(a, b) * scratch[static_cast<std::ptrdiff_t>(b) * n + i];
+      const int columns = factor_is_lower_ ? a + 1 : m;  // Cholesky: the same sums as always
+      for (int b = 0; b < columns; ++b) zc += cholesky_(a, b) * scratch[static_cast<std::ptrdiff_t>(b) * n + i];
       const Distribution& dist = inputs_[copula_[a]];
       double value;
       if (dist.kind() == DistributionKind::kNormal || dist.u() == 0.0) {

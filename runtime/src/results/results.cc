@@ -85,7 +85,39 @@ MapResult ComputeMap(const MeasurementModel& model, const MapSettings& settings,
   return map;
 }
 
+namespace {
+
+Results RunJobUnplaced(const Job& job, const RunOptions& options);
+
+// A numerical failure found while computing names the point ("point 'P7': ..."); give it the
+// place the point came from ("r.csv: line 9: point 'P7': ...", docs/cli.md: every error names
+// its file and key or line).
+std::string Placed(const Job& job, const std::string& message) {
+  if (message.rfind("point '", 0) != 0) return job.file + ": " + message;
+  const std::size_t end = message.find('\'', 7);
+  if (end == std::string::npos) return job.file + ": " + message;
+  const std::string name = message.substr(7, end - 7);
+  for (const JobPoint& p : job.points) {
+    if (p.name == name) return p.where + ": " + message;
+  }
+  return job.file + ": " + message;
+}
+
+}  // namespace
+
 Results RunJob(const Job& job, const RunOptions& options) {
+  try {
+    return RunJobUnplaced(job, options);
+  } catch (const NumericalError& e) {
+    const std::string message = e.what();
+    if (message.rfind(job.file, 0) == 0) throw;  // already placed
+    throw NumericalError(Placed(job, message));
+  }
+}
+
+namespace {
+
+Results RunJobUnplaced(const Job& job, const RunOptions& options) {
   Results results;
   results.vlt_version = VLT_VERSION;
   results.job_file = job.file;
@@ -214,5 +246,7 @@ Results RunJob(const Job& job, const RunOptions& options) {
   }
   return results;
 }
+
+}  // namespace
 
 }  // namespace vlt

@@ -27,45 +27,6 @@ std::vector<std::pair<std::string, std::string>> ResultFiles(const Results& resu
   return files;
 }
 
-void WriteFilesAtomically(const std::filesystem::path& dir,
-                          const std::vector<std::pair<std::string, std::string>>& files) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  bool created = false;
-  if (!fs::exists(dir, ec)) {
-    created = fs::create_directories(dir, ec);
-    if (ec) throw InputError(dir.string() + ": cannot create the output directory: " + ec.message());
-  } else if (!fs::is_directory(dir, ec)) {
-    throw InputError(dir.string() + ": output path exists and is not a directory");
-  }
-  const std::string suffix = ".vlt-tmp-" + std::to_string(::getpid());
-  std::vector<fs::path> temps;
-  auto cleanup = [&](std::size_t renamed_count) {
-    std::error_code ignore;
-    for (const fs::path& t : temps) fs::remove(t, ignore);
-    for (std::size_t i = 0; i < renamed_count; ++i) fs::remove(dir / files[i].first, ignore);
-    if (created && fs::is_empty(dir, ignore)) fs::remove(dir, ignore);
-  };
-  for (const auto& [name, content] : files) {
-    fs::path temp = dir / ("." + name + suffix);
-    temps.push_back(temp);
-    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
-    out.write(content.data(), static_cast<std::streamsize>(content.size()));
-    out.close();
-    if (!out) {
-      cleanup(0);
-      throw InputError((dir / name).string() + ": cannot write the output file");
-    }
-  }
-  for (std::size_t i = 0; i < files.size(); ++i) {
-    fs::rename(temps[i], dir / files[i].first, ec);
-    if (ec) {
-      cleanup(i);
-      throw InputError((dir / files[i].first).string() + ": cannot rename the output file: " + ec.message());
-    }
-  }
-}
-
 std::string SummaryText(const Results& r) {
   std::ostringstream out;
   char line[512];

@@ -1,0 +1,16 @@
+// model/correlation.h — the factor of a correlation matrix that both engines use to correlate
+// inputs (GUM: J L, Monte Carlo: the Gaussian copula, JCGM 101 6.4.8).
+#pragma once
+
+#include <Eigen/Core>
+
+namespace vlt::model_internal {
+
+// L with L L^T = R for a positive semi-definite correlation matrix R: the Cholesky factor when R
+// is positive definite (so the Monte Carlo stream of such jobs is what it always was), else
+// V sqrt(max(Lambda, 0)) from the eigendecomposition R = V Lambda V^T, which also serves singular
+// matrices such as r = +-1 (JCGM 101 6.4.8.1 allows them). Returns false if R has an eigenvalue
+// below -1e-10 (not a correlation matrix).
+bool CorrelationFactor(const Eigen::MatrixXd& r, Eigen::MatrixXd& factor);
+
+}  // namespace vlt::model_internal

@@ -1,0 +1,94 @@
+# The command line's promise (docs/cli.md), item by item: outputs are a transaction (the old set or
+# the new set, never a mixture; a directory vlt did not write is refused before computing), every
+# error is one line "vlt: error: <file>: <key or line>: <problem>" with exit 2 — command-line
+# errors included — and implausible values warn (--strict: error).
+if(NOT TARGET vlt)
+  return()
+endif()
+set(_cli ${CMAKE_CURRENT_SOURCE_DIR}/cli)
+set(_fd ${_cli}/front_door)
+set(_out ${CMAKE_BINARY_DIR}/cli-tests)
+
+# Run A (with a map) then run B (without) into one directory: B's directory has no map.
+add_test(NAME cli_outputs_replace_whole_set
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_fd}/with_map.toml;--no-mcm;-q;-o;${_out}/fd_replace"
+          -DEXPECT_RC=0 -DCLEAN=${_out}/fd_replace -P ${_cli}/expect_run.cmake)
+# (expect_run checks the map exists after run A through the second test's MISSING only after B.)
+add_test(NAME cli_outputs_replace_whole_set_second
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_fd}/without_map.toml;--no-mcm;-q;-o;${_out}/fd_replace"
+          -DEXPECT_RC=0 "-DMISSING=${_out}/fd_replace/map.csv;${_out}/fd_replace/map.html" -P ${_cli}/expect_run.cmake)
+set_tests_properties(cli_outputs_replace_whole_set PROPERTIES FIXTURES_SETUP fd_replace)
+set_tests_properties(cli_outputs_replace_whole_set_second PROPERTIES FIXTURES_REQUIRED fd_replace)
+
+# A directory holding a file vlt did not write: refused before computing, untouched.
+add_test(NAME cli_error_foreign_output_directory
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> -DPREEXISTING=ON
+          "-DARGS=run;${_fd}/without_map.toml;-o;${_out}/fd_foreign"
+          -DOUT=${_out}/fd_foreign "-DEXPECT=fd_foreign: the output directory holds 'keep\\.txt', which vlt did not write"
+          -P ${_cli}/expect_error.cmake)
+# -o naming a file.
+add_test(NAME cli_error_output_is_a_file
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_fd}/without_map.toml;-o;${_fd}/zenith.csv"
+          -DEXPECT_RC=2 "-DEXPECT_STDERR=^vlt: error: [^\n]*zenith\\.csv: the output path exists and is not a directory\n$"
+          -P ${_cli}/expect_run.cmake)
+
+# vlt_front_door_error(NAME REGEX ARGS...): exit 2, one line "vlt: error: ..." matching REGEX, no output.
+function(vlt_front_door_error name regex)
+  add_test(NAME cli_error_${name}
+    COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=${ARGN}"
+            -DOUT=${_out}/fd_error_${name} "-DEXPECT=${regex}" -P ${_cli}/expect_error.cmake)
+endfunction()
+set(_o -o ${_out}/fd_error)
+vlt_front_door_error(map_grid_overflow "command line: step: the grid has 6e\\+09 nodes, more than 1000000"
+                     map ${_fd}/without_map.toml --plane z=-0.8 --extent 0,3e9,0,1 --step 1m -o ${_out}/fd_error_map_grid_overflow)
+vlt_front_door_error(map_grid_overflow_job "map_overflow\\.toml: map: step: the grid has 6e\\+09 nodes"
+                     run ${_fd}/map_overflow.toml -o ${_out}/fd_error_map_grid_overflow_job)
+vlt_front_door_error(cli_trials_zero "command line: --trials: '0' is not an integer in 1 \\.\\. 1000000000"
+                     run ${_fd}/without_map.toml --trials 0 -o ${_out}/fd_error_cli_trials_zero)
+vlt_front_door_error(cli_threads_negative "command line: --threads: '-1' is not an integer in 0 \\.\\. 1024"
+                     run ${_fd}/without_map.toml --threads -1 -o ${_out}/fd_error_cli_threads_negative)
+vlt_front_door_error(cli_seed_text "command line: --seed: 'abc' is not an integer in 0 \\.\\. 18446744073709551615"
+                     run ${_fd}/without_map.toml --seed abc -o ${_out}/fd_error_cli_seed_text)
+vlt_front_door_error(cli_seed_overflow "command line: --seed: '99999999999999999999' is not an integer"
+                     run ${_fd}/without_map.toml --seed 99999999999999999999 -o ${_out}/fd_error_cli_seed_overflow)
+vlt_front_door_error(cli_unknown_option "command line: .*--frobnicate"
+                     run ${_fd}/without_map.toml --frobnicate -o ${_out}/fd_error_cli_unknown_option)
+vlt_front_door_error(cli_unknown_command "command line: .*frobnicate" frobnicate)
+vlt_front_door_error(cli_run_without_job "command line: job is required" run)
+vlt_front_door_error(zenith_reading "zenith\\.csv: line 3: elevation: the reading points along the tracker's standing axis"
+                     run ${_fd}/zenith.toml -o ${_out}/fd_error_zenith_reading)
+vlt_front_door_error(huge_range "huge_range\\.csv: line 3: range: 1e\\+300 m is beyond any laser tracker"
+                     run ${_fd}/huge_range.toml -o ${_out}/fd_error_huge_range)
+vlt_front_door_error(huge_uncertainty "huge_u\\.toml: tracker\\.parameters\\.tmv\\.u: uncertainty beyond what vlt computes with"
+                     run ${_fd}/huge_u.toml -o ${_out}/fd_error_huge_uncertainty)
+vlt_front_door_error(thermal_factor_zero "thermal_zero\\.toml: part\\.cte: the thermal expansion factor .* is not positive"
+                     run ${_fd}/thermal_zero.toml -o ${_out}/fd_error_thermal_factor_zero)
+vlt_front_door_error(pressure_in_pa "pressure_pa\\.toml: environment\\.pressure: 1013 Pa .*did you mean \"1013 hPa\""
+                     run ${_fd}/pressure_pa.toml -o ${_out}/fd_error_pressure_in_pa)
+vlt_front_door_error(air_outside_validity "air_invalid\\.toml: environment: temperature 5000 degC is outside the range of validity of the Ciddor equation"
+                     run ${_fd}/air_invalid.toml -o ${_out}/fd_error_air_outside_validity)
+vlt_front_door_error(job_is_a_directory "a_directory\\.toml: is a directory, not the job file"
+                     run ${_fd}/a_directory.toml -o ${_out}/fd_error_job_is_a_directory)
+vlt_front_door_error(hex_float_in_csv "hex\\.csv: line 2: range: .*'0x1p1'"
+                     run ${_fd}/hex.toml -o ${_out}/fd_error_hex_float_in_csv)
+vlt_front_door_error(bare_micro_sign "bare_micro\\.toml: line 4, column 11: a non-ASCII character outside a quoted string"
+                     run ${_fd}/bare_micro.toml -o ${_out}/fd_error_bare_micro_sign)
+vlt_front_door_error(strict_warning "implausible_u\\.toml: tracker\\.parameters\\.a0: .* is implausible for a tracker error parameter .*--strict"
+                     --strict run ${_fd}/implausible_u.toml -o ${_out}/fd_error_strict_warning)
+# A 2 MB CSV cell: the error line quotes 40 characters of it.
+add_test(NAME cli_error_long_value_is_cut
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_fd}/long_cell.toml;-o;${_out}/fd_long"
+          -DEXPECT_RC=2 "-DEXPECT_STDERR=long_cell\\.csv: line 2: elevation: '9+\\.\\.\\.[(]2000001 characters[)]'" -DMAX_STDERR=400
+          -P ${_cli}/expect_run.cmake)
+
+# Legal: a warning on stderr and the run goes on; a CR-only CSV; a correlation of exactly 1.
+add_test(NAME cli_warning_implausible_value
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_fd}/implausible_u.toml;--no-mcm;-o;${_out}/fd_warn"
+          -DEXPECT_RC=0 "-DEXPECT_STDERR=^vlt: warning: [^\n]*implausible_u\\.toml: tracker\\.parameters\\.a0: 2\\.063e\\+08 arcsec is implausible"
+          -DCLEAN=${_out}/fd_warn -P ${_cli}/expect_run.cmake)
+add_test(NAME cli_csv_cr_only_line_ends
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_fd}/cr_only.toml;--no-mcm;-o;${_out}/fd_cr"
+          -DOUT=${_out}/fd_cr "-DFILES=points.csv" "-DEXPECT_STDOUT=P1 .*P2 " -P ${_cli}/expect_outputs.cmake)
+add_test(NAME cli_correlation_of_one
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_fd}/correlation_one.toml;--trials;20000;-o;${_out}/fd_corr1"
+          -DOUT=${_out}/fd_corr1 "-DFILES=points.csv;results.json" -P ${_cli}/expect_outputs.cmake)
