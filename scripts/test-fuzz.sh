@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# CI stage 3: libFuzzer on the job parser, job + GUM, and the CSV / quantity / map parsers
+# (tests/fuzz/, docs/testing.md "Fuzzing"). Clang with ASan + UBSan + float-cast-overflow; each
+# harness runs VLT_FUZZ_SECONDS (default 60) from a seed corpus of the examples and test jobs.
+# Long runs: VLT_FUZZ_SECONDS=3600 bash scripts/test-fuzz.sh (findings go to build-fuzz/findings/).
+set -euo pipefail
+source "$(dirname "$0")/lib.sh"
+vlt_install_packages "${VLT_BUILD_PACKAGES[@]}" clang libfuzzer-14-dev
+seconds=${VLT_FUZZ_SECONDS:-60}
+dir="$VLT_ROOT/build-fuzz"
+CXX=clang++ vlt_build "$dir" -DVLT_FUZZ=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo -DVLT_BUILD_BENCH=OFF -DVLT_BUILD_TESTS=OFF
+
+# Seed corpora: every job file and CSV the project ships.
+rm -rf "$dir/corpus" && mkdir -p "$dir/corpus/job" "$dir/corpus/parsers" "$dir/findings"
+find "$VLT_ROOT/examples" "$VLT_ROOT/tests/cli" -name '*.toml' -type f -exec cp -t "$dir/corpus/job" {} +
+find "$VLT_ROOT/examples" "$VLT_ROOT/tests/cli" -name '*.csv' -type f -size -64k -exec cp -t "$dir/corpus/parsers" {} +
+printf '12 um\nz = 0.5 m\n0,4,-1,1\n' > "$dir/corpus/parsers/map_plane"
+printf '0.8 arcsec\n-1,1,-1,1,0,2\n0.25 m\n' > "$dir/corpus/parsers/map_box"
+
+export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
+export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+export LSAN_OPTIONS=suppressions=$VLT_ROOT/scripts/lsan.supp:print_suppressions=0
+status=0
+for harness in fuzz_job:job fuzz_job_gum:job fuzz_parsers:parsers; do
+  name=${harness%%:*}
+  corpus=${harness##*:}
+  echo "== $name: ${seconds} s"
+  mkdir -p "$dir/work/$name"
+  if ! "$dir/tests/fuzz/$name" -max_total_time="$seconds" -max_len=65536 -timeout=20 -rss_limit_mb=4096 \
+        -artifact_prefix="$dir/findings/$name-" -print_final_stats=1 \
+        "$dir/work/$name" "$dir/corpus/$corpus" 2>"$dir/work/$name.log"; then
+    echo "FAILED: $name found a problem; the input is in $dir/findings/ (log: $dir/work/$name.log)"
+    tail -40 "$dir/work/$name.log"
+    status=1
+  else
+    grep -E "stat::number_of_executed_units|Done [0-9]+ runs" "$dir/work/$name.log" | tail -2
+  fi
+done
+echo "fuzz: $([ $status -eq 0 ] && echo 3 passed, 0 failed || echo see above)"
+exit $status
