@@ -2,7 +2,9 @@
 // cases (validated, validated, not validated), a strongly non-linear model that must fail, the
 // multivariate point criterion on constructed regions with a closed-form answer, and a tracker
 // job whose linearised (GUM) point covariance the Monte Carlo method must validate.
+#include <algorithm>
 #include <cmath>
+#include <random>
 #include <numbers>
 #include <vector>
 
@@ -188,6 +190,74 @@ TEST(ValidatePoint, TrackerJobLinearisedCovarianceIsValidated) {
       EXPECT_TRUE(sv.validated) << sv.name << ": " << sv.verdict;
     }
   }
+}
+
+// The Monte Carlo tolerance of an interval end (vlt/validation.h: 2 u sqrt(a (1 - a) / M) /
+// phi(z_a)) against the empirical spread of the order statistic over 2000 repeated samples.
+TEST(ValidationTolerance, EndpointToleranceMatchesTheSpreadOfRepeatedRuns) {
+  const int m = 4000;
+  const double u = 2.0, p = 0.95;
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> normal(0.0, u);
+  std::vector<double> lows;
+  std::vector<double> y(m);
+  const std::size_t q = static_cast<std::size_t>(std::lround(p * m));  // JCGM 101 7.7.1
+  const std::size_t r = (m - q) / 2;
+  for (int rep = 0; rep < 2000; ++rep) {
+    for (double& v : y) v = normal(rng);
+    std::nth_element(y.begin(), y.begin() + static_cast<std::ptrdiff_t>(r), y.end());
+    lows.push_back(y[r]);
+  }
+  double mean = 0.0, var = 0.0;
+  for (double v : lows) mean += v / lows.size();
+  for (double v : lows) var += (v - mean) * (v - mean) / (lows.size() - 1);
+  const ScalarValidation v = ValidateScalar("y", "1", 0.0, u, kK95 * u, {mean, -mean}, 2, m, u, p);
+  EXPECT_NEAR(v.mcm_tolerance / 2.0, std::sqrt(var), 0.06 * std::sqrt(var));
+}
+
+// A linear model: GUM is exact, so a fixed-M Monte Carlo run can only disagree by noise. With
+// n_dig = 2 and M = 10^4 the old criterion called some runs "not validated"; now every run is
+// "validated" or "inconclusive" — never a false "not validated".
+TEST(ValidationTolerance, NoiseAloneNeverGivesNotValidated) {
+  const int m = 10000;
+  const double u = 2.0, p = 0.95;
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> normal(0.0, u);
+  std::vector<double> y(m);
+  int inconclusive = 0, validated = 0;
+  for (int rep = 0; rep < 200; ++rep) {
+    double mean = 0.0, sq = 0.0;
+    for (double& v : y) {
+      v = normal(rng);
+      mean += v / m;
+    }
+    for (double v : y) sq += (v - mean) * (v - mean) / (m - 1);
+    std::sort(y.begin(), y.end());
+    const std::size_t q = static_cast<std::size_t>(std::lround(p * m));
+    const std::size_t r = (m - q) / 2;
+    const ScalarValidation v =
+        ValidateScalar("y", "1", 0.0, u, kK95 * u, {y[r], y[r + q]}, 2, m, std::sqrt(sq), p);
+    EXPECT_NE(v.outcome, "not validated") << rep << ": " << v.verdict;
+    inconclusive += v.outcome == "inconclusive";
+    validated += v.outcome == "validated";
+  }
+  EXPECT_GT(inconclusive, 0);  // the old criterion would have said "not validated" for these
+  EXPECT_GT(validated, 0);
+  // With a genuinely wrong GUM (u 20 % too small) and many trials the verdict is "not validated".
+  for (double& v : y) v = normal(rng);
+  std::vector<double> big(400000);
+  for (double& v : big) v = normal(rng);
+  std::sort(big.begin(), big.end());
+  const std::size_t q = static_cast<std::size_t>(std::lround(p * big.size()));
+  const std::size_t r = (big.size() - q) / 2;
+  const ScalarValidation wrong = ValidateScalar("y", "1", 0.0, 0.8 * u, kK95 * 0.8 * u, {big[r], big[r + q]}, 2,
+                                                static_cast<std::int64_t>(big.size()), u, p);
+  EXPECT_EQ(wrong.outcome, "not validated") << wrong.verdict;
+  // A quantity without a GUM value (form error at nominal points) is "not applicable".
+  EXPECT_EQ(ValidateScalar("f", "m", 0.0, 0.0, 0.0, {1e-6, 5e-6}, 2, m, 1e-6, p, false).outcome, "not applicable");
+  EXPECT_EQ(CombinedOutcome({"validated", "not applicable"}), "validated");
+  EXPECT_EQ(CombinedOutcome({"validated", "inconclusive"}), "inconclusive");
+  EXPECT_EQ(CombinedOutcome({"inconclusive", "not validated"}), "not validated");
 }
 
 }  // namespace

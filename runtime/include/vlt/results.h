@@ -43,6 +43,7 @@ struct PointResult {
   std::array<ScalarValidation, 3> axis_validation;  // JCGM 101 8 per coordinate
   PointValidation region_validation;       // coverage ellipsoids (vlt/validation.h)
   bool validated = false;                  // all of the above validated
+  std::string outcome;                     // CombinedOutcome of the above (vlt/validation.h)
 };
 
 struct TaskResult {
@@ -52,7 +53,8 @@ struct TaskResult {
   bool has_mcm = false;
   std::vector<McmOutputResult> mcm;        // one per gum.quantities
   std::vector<ScalarValidation> validation;
-  bool validated = false;
+  bool validated = false;                  // every applicable quantity validated
+  std::string outcome;                     // CombinedOutcome (vlt/validation.h)
 };
 
 // Expanded uncertainty over a grid (`vlt map`, [map]). At every node the GUM expanded uncertainty
@@ -98,6 +100,7 @@ struct Results {
   double ellipsoid_scale = 0.0;               // report: exaggeration of the ellipsoids
   int validated_points = 0;
   int validated_tasks = 0;
+  int inconclusive_points = 0;
 };
 
 // Runs the whole job. Throws InputError / NumericalError (nothing is written here).

@@ -3,7 +3,9 @@
 // "Validation").
 #pragma once
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -16,6 +18,17 @@ namespace vlt {
 //   d_low = |y - U_p - y_low|, d_high = |y + U_p - y_high|,
 // delta = numerical tolerance of the GUM u(y) with n_dig significant digits (7.9.2).
 // validated <=> d_low <= delta and d_high <= delta.
+//
+// A comparison with a Monte Carlo run of fixed M can fail from Monte Carlo noise alone. vlt states
+// the Monte Carlo numerical tolerance of the interval ends, mcm_tolerance = 2 s_end with
+// s_end = u sqrt(a (1 - a) / M) / phi(z_a), a = (1 - p)/2, the large-sample standard deviation of
+// a quantile of a (near-)normal output (the 2 s of JCGM 101 7.9.4). Outcomes:
+//   "validated"       d_low, d_high <= delta;
+//   "inconclusive"    not within delta, but the Monte Carlo tolerance exceeds delta: more trials
+//                     (or --adaptive) are needed before anything can be said;
+//   "not validated"   not within delta, with a Monte Carlo tolerance within delta;
+//   "not applicable"  the GUM quantity has no first-order sensitivity (a form quantity at exact
+//                     nominal points, vlt/fits.h): GUM gives no value to compare.
 struct ScalarValidation {
   std::string name;
   std::string unit;
@@ -27,13 +40,23 @@ struct ScalarValidation {
   double d_low = 0.0;
   double d_high = 0.0;
   double delta = 0.0;
+  double mcm_tolerance = 0.0;  // 2 s_end (above); 0 when unknown (trials = 0)
   bool validated = false;
-  std::string verdict;         // "validated" / "not validated"
+  std::string outcome;         // "validated", "inconclusive", "not validated", "not applicable"
+  std::string verdict;         // outcome with the numbers
 };
 
+// trials: M of the Monte Carlo run; mcm_u: its standard uncertainty of the output; p: coverage
+// probability. differentiable = false: "not applicable".
 ScalarValidation ValidateScalar(const std::string& name, const std::string& unit, double gum_y,
                                 double gum_u, double gum_expanded,
-                                const CoverageInterval& mcm_symmetric, int significant_digits);
+                                const CoverageInterval& mcm_symmetric, int significant_digits,
+                                std::int64_t trials = 0, double mcm_u = 0.0, double p = 0.95,
+                                bool differentiable = true);
+
+// Outcome of several comparisons together: "not validated" if any is, else "inconclusive" if any
+// is, else "validated" ("not applicable" ones do not count; all of them: "not applicable").
+std::string CombinedOutcome(const std::vector<std::string>& outcomes);
 
 // Multivariate comparison for one point (JCGM 102 coverage regions, criterion defined by vlt):
 // GUM region  E_g = {eta : (eta - y_g)^T U_g^-1 (eta - y_g) <= k_g^2}, k_g = sqrt(chi2_3(p));
@@ -55,7 +78,12 @@ struct PointValidation {
   Eigen::Vector3d worst_direction = Eigen::Vector3d::UnitX();
   double worst_distance = 0.0;         // d(v) in the worst direction, m
   double worst_delta = 0.0;            // delta(s_g(v)) there, m
+  // Monte Carlo tolerance of the region's end in the worst direction: 2 s(v) with
+  // s(v) = s_m(v) sqrt(s_k^2 + k_m^2 / (2M)), s_k = sqrt(p (1 - p) / M) / f(k_m), f the chi density
+  // with 3 degrees of freedom (the quantile k_m and the spread s_m(v) both estimated from M trials).
+  double mcm_tolerance = 0.0;
   bool validated = false;
+  std::string outcome;                 // as ScalarValidation::outcome
   std::string verdict;
 };
 
@@ -64,6 +92,7 @@ struct PointValidation {
 // GUM covariance is not positive definite (no region to compare).
 PointValidation ValidatePoint(const std::string& name, const Eigen::Vector3d& gum_y,
                               const Eigen::Matrix3d& gum_covariance, double gum_coverage_factor,
-                              const McmPointResult& mcm, int significant_digits);
+                              const McmPointResult& mcm, int significant_digits,
+                              std::int64_t trials = 0, double p = 0.95);
 
 }  // namespace vlt

@@ -12,17 +12,34 @@
 #include <Eigen/Eigenvalues>
 
 #include "vlt/error.h"
+#include "vlt/gum.h"
 
 namespace vlt {
 namespace {
 
-std::string Verdict(bool validated, double worst, double delta, const std::string& unit) {
-  char text[160];
-  std::snprintf(text, sizeof text, "%s (largest endpoint difference %.3g %s, tolerance %.3g %s)",
-                validated ? "validated" : "not validated", worst, unit.c_str(), delta,
-                unit.c_str());
+// The outcome from the comparison and the Monte Carlo tolerance (vlt/validation.h).
+std::string Outcome(bool within, double mcm_tolerance, double delta) {
+  if (within) return "validated";
+  return mcm_tolerance > delta ? "inconclusive" : "not validated";
+}
+
+std::string Verdict(const std::string& outcome, double worst, double delta, double mcm_tolerance,
+                    const std::string& unit) {
+  char text[240];
+  if (outcome == "inconclusive") {
+    std::snprintf(text, sizeof text,
+                  "inconclusive: Monte Carlo tolerance %.3g %s larger than delta %.3g %s (largest endpoint "
+                  "difference %.3g %s); use more trials or the adaptive procedure",
+                  mcm_tolerance, unit.c_str(), delta, unit.c_str(), worst, unit.c_str());
+  } else {
+    std::snprintf(text, sizeof text, "%s (largest endpoint difference %.3g %s, tolerance %.3g %s)", outcome.c_str(),
+                  worst, unit.c_str(), delta, unit.c_str());
+  }
   return text;
 }
+
+// Standard normal density.
+double Phi(double z) { return std::exp(-0.5 * z * z) / std::sqrt(2.0 * std::numbers::pi); }
 
 // Directions spread evenly on the unit sphere (Fibonacci lattice).
 std::vector<Eigen::Vector3d> SphereDirections(int n) {
@@ -38,9 +55,22 @@ std::vector<Eigen::Vector3d> SphereDirections(int n) {
 
 }  // namespace
 
+std::string CombinedOutcome(const std::vector<std::string>& outcomes) {
+  bool any = false, inconclusive = false;
+  for (const std::string& o : outcomes) {
+    if (o == "not applicable") continue;
+    any = true;
+    if (o == "not validated") return o;
+    inconclusive = inconclusive || o == "inconclusive";
+  }
+  if (!any) return "not applicable";
+  return inconclusive ? "inconclusive" : "validated";
+}
+
 ScalarValidation ValidateScalar(const std::string& name, const std::string& unit, double gum_y,
                                 double gum_u, double gum_expanded,
-                                const CoverageInterval& mcm_symmetric, int significant_digits) {
+                                const CoverageInterval& mcm_symmetric, int significant_digits,
+                                std::int64_t trials, double mcm_u, double p, bool differentiable) {
   ScalarValidation v;
   v.name = name;
   v.unit = unit;
@@ -52,15 +82,29 @@ ScalarValidation ValidateScalar(const std::string& name, const std::string& unit
   // JCGM 101 8.2 b), c).
   v.d_low = std::abs(gum_y - gum_expanded - mcm_symmetric.low);
   v.d_high = std::abs(gum_y + gum_expanded - mcm_symmetric.high);
+  if (!differentiable) {
+    // GUM has no value here (no first-order sensitivity): nothing to validate (docs/tasks.md).
+    v.outcome = "not applicable";
+    v.verdict = "not applicable: GUM has no first-order value (not differentiable at zero form error); "
+                "the Monte Carlo interval is the answer";
+    return v;
+  }
   v.delta = NumericalTolerance(gum_u, significant_digits);
+  if (trials > 0 && mcm_u > 0.0) {
+    const double a = 0.5 * (1.0 - p);
+    const double z_a = NormalCoverageFactor(p);  // the (1 - a) quantile of N(0, 1)
+    v.mcm_tolerance = 2.0 * mcm_u * std::sqrt(a * (1.0 - a) / static_cast<double>(trials)) / Phi(z_a);
+  }
   v.validated = v.d_low <= v.delta && v.d_high <= v.delta;
-  v.verdict = Verdict(v.validated, std::max(v.d_low, v.d_high), v.delta, unit);
+  v.outcome = Outcome(v.validated, v.mcm_tolerance, v.delta);
+  v.verdict = Verdict(v.outcome, std::max(v.d_low, v.d_high), v.delta, v.mcm_tolerance, unit);
   return v;
 }
 
 PointValidation ValidatePoint(const std::string& name, const Eigen::Vector3d& gum_y,
                               const Eigen::Matrix3d& gum_covariance, double gum_coverage_factor,
-                              const McmPointResult& mcm, int significant_digits) {
+                              const McmPointResult& mcm, int significant_digits,
+                              std::int64_t trials, double p) {
   PointValidation v;
   v.name = name;
   v.gum_coverage_factor = gum_coverage_factor;
@@ -74,6 +118,7 @@ PointValidation ValidatePoint(const std::string& name, const Eigen::Vector3d& gu
   v.covariance_difference = (mcm.covariance - gum_covariance).norm() / norm_g;
   if (!mcm.has_region) {
     v.validated = false;
+    v.outcome = "not validated";
     v.verdict = "not validated (the Monte Carlo covariance is singular: no coverage region)";
     v.worst_ratio = 0.0;
     return v;
@@ -104,7 +149,16 @@ PointValidation ValidatePoint(const std::string& name, const Eigen::Vector3d& gu
     }
   }
   v.validated = v.worst_ratio <= 1.0;
-  v.verdict = Verdict(v.validated, v.worst_distance, v.worst_delta, "m");
+  if (trials > 0) {
+    const double m = static_cast<double>(trials);
+    const double k = mcm.coverage_factor;
+    const double density = std::sqrt(2.0 / std::numbers::pi) * k * k * std::exp(-0.5 * k * k);  // chi, 3 dof
+    const double s_k = std::sqrt(p * (1.0 - p) / m) / density;
+    const double s_m = std::sqrt(std::max(0.0, v.worst_direction.dot(mcm.covariance * v.worst_direction)));
+    v.mcm_tolerance = 2.0 * s_m * std::sqrt(s_k * s_k + k * k / (2.0 * m));
+  }
+  v.outcome = Outcome(v.validated, v.mcm_tolerance, v.worst_delta);
+  v.verdict = Verdict(v.outcome, v.worst_distance, v.worst_delta, v.mcm_tolerance, "m");
   return v;
 }
 

@@ -47,7 +47,7 @@ class Row {
 
 std::string Verdict(const PointResult& p) {
   if (!p.has_mcm) return "not run";
-  return p.validated ? "validated" : "not validated";
+  return p.outcome;
 }
 
 bool IsLength(const std::string& unit) { return unit == "m"; }

@@ -64,7 +64,8 @@ json Scalar(const ScalarValidation& v) {
   return json{{"name", v.name},       {"unit", v.unit},     {"gum_y", v.gum_y},
               {"gum_u", v.gum_u},     {"gum_U", v.gum_expanded}, {"mcm_low", v.mcm_low},
               {"mcm_high", v.mcm_high}, {"d_low", v.d_low}, {"d_high", v.d_high},
-              {"delta", v.delta},     {"validated", v.validated}, {"verdict", v.verdict}};
+              {"delta", v.delta},     {"mcm_tolerance", v.mcm_tolerance}, {"validated", v.validated},
+              {"outcome", v.outcome}, {"verdict", v.verdict}};
 }
 
 json Budget(const BudgetRow& b) {
@@ -130,10 +131,12 @@ json Point(const Results& r, const PointResult& p) {
                          {"worst_direction", Vec(v.worst_direction)},
                          {"worst_distance", v.worst_distance},
                          {"worst_delta", v.worst_delta},
+                         {"mcm_tolerance", v.mcm_tolerance},
                          {"validated", v.validated},
+                         {"outcome", v.outcome},
                          {"verdict", v.verdict}}},
                        {"validated", p.validated},
-                       {"verdict", p.validated ? "validated" : "not validated"}};
+                       {"verdict", p.outcome}};
   } else {
     j["mcm"] = nullptr;
     j["validation"] = nullptr;
@@ -171,8 +174,7 @@ json Task(const TaskResult& t) {
     for (const McmOutputResult& o : t.mcm) m.push_back(McmOut(o));
     for (const ScalarValidation& s : t.validation) v.push_back(Scalar(s));
     j["mcm"] = m;
-    j["validation"] = {{"quantities", v}, {"validated", t.validated},
-                       {"verdict", t.validated ? "validated" : "not validated"}};
+    j["validation"] = {{"quantities", v}, {"validated", t.validated}, {"verdict", t.outcome}};
   } else {
     j["mcm"] = nullptr;
     j["validation"] = nullptr;

@@ -190,24 +190,29 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
       PointResult& pr = results.points[i];
       pr.has_mcm = true;
       pr.mcm = mcm.points[i];
-      bool ok = true;
+      std::vector<std::string> outcomes;
       for (int a = 0; a < 3; ++a) {
         pr.mcm_axes[a] = mcm.outputs[3 * i + a];
         pr.axis_validation[a] = ValidateScalar(pr.mcm_axes[a].name, "m", pr.gum.part[a], pr.gum.u_part[a],
-                                               pr.gum.U_part[a], pr.mcm_axes[a].symmetric, results.n_dig);
-        ok = ok && pr.axis_validation[a].validated;
+                                               pr.gum.U_part[a], pr.mcm_axes[a].symmetric, results.n_dig,
+                                               mcm.trials, pr.mcm_axes[a].u, results.coverage_probability);
+        outcomes.push_back(pr.axis_validation[a].outcome);
       }
       try {
         pr.region_validation = ValidatePoint(pr.gum.name, pr.gum.part, pr.gum.cov_part, pr.gum.ellipsoid.k,
-                                             pr.mcm, results.n_dig);
-        ok = ok && pr.region_validation.validated;
+                                             pr.mcm, results.n_dig, mcm.trials, results.coverage_probability);
+        outcomes.push_back(pr.region_validation.outcome);
       } catch (const NumericalError& e) {
         pr.region_validation = PointValidation{};
         pr.region_validation.name = pr.gum.name;
+        pr.region_validation.outcome = "not validated";
         pr.region_validation.verdict = std::string("no coverage region: ") + e.what();
+        outcomes.push_back("not validated");
       }
-      pr.validated = ok;
-      results.validated_points += ok ? 1 : 0;
+      pr.outcome = CombinedOutcome(outcomes);
+      pr.validated = pr.outcome == "validated";
+      results.validated_points += pr.validated ? 1 : 0;
+      results.inconclusive_points += pr.outcome == "inconclusive" ? 1 : 0;
     }
     // Task outputs follow the points, task by task, TaskOutputs(kind) each (MakeMcmTask); they
     // are matched to the GUM quantities by name.
@@ -219,7 +224,7 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
         throw std::logic_error("Monte Carlo result has too few task outputs");
       }
       task.has_mcm = true;
-      bool ok = true;
+      std::vector<std::string> outcomes;
       for (std::size_t q = 0; q < task.gum.quantities.size(); ++q) {
         const std::string wanted = task.spec.name + "." + task.gum.quantities[q];
         std::size_t j = 0;
@@ -228,13 +233,17 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
           throw std::logic_error("Monte Carlo task output '" + wanted + "' missing");
         }
         task.mcm.push_back(mcm.outputs[offset + j]);
+        const bool differentiable = q >= task.gum.differentiable.size() || task.gum.differentiable[q];
         task.validation.push_back(ValidateScalar(wanted, task.gum.units[q], task.gum.value[q], task.gum.u[q],
-                                                 task.gum.U[q], task.mcm.back().symmetric, results.n_dig));
-        ok = ok && task.validation.back().validated;
+                                                 task.gum.U[q], task.mcm.back().symmetric, results.n_dig,
+                                                 mcm.trials, task.mcm.back().u, results.coverage_probability,
+                                                 differentiable));
+        outcomes.push_back(task.validation.back().outcome);
       }
       offset += mt.output_names.size();
-      task.validated = ok;
-      results.validated_tasks += ok ? 1 : 0;
+      task.outcome = CombinedOutcome(outcomes);
+      task.validated = task.outcome == "validated";
+      results.validated_tasks += task.validated ? 1 : 0;
     }
     mcm.outputs.clear();
     mcm.points.clear();

@@ -58,7 +58,7 @@ std::string SummaryText(const Results& r) {
                   name.c_str(), g.readings[0], g.part.x() * 1e3, g.part.y() * 1e3, g.part.z() * 1e3,
                   g.U_part.x() * 1e6, g.U_part.y() * 1e6, g.U_part.z() * 1e6, g.U_part.norm() * 1e6,
                   g.ellipsoid.semi_axes[0] * 1e6,
-                  !p.has_mcm ? "not run" : p.validated ? "validated" : "NOT validated");
+                  !p.has_mcm ? "not run" : p.outcome == "not validated" ? "NOT validated" : p.outcome.c_str());
     out << line;
   }
   if (!r.tasks.empty()) {
@@ -94,10 +94,9 @@ std::string SummaryText(const Results& r) {
           std::snprintf(buffer, sizeof buffer, "[%.3g, %.3g]%s", (t.mcm[q].symmetric.low - t.gum.value[i]) * us,
                         (t.mcm[q].symmetric.high - t.gum.value[i]) * us, length ? " um" : "");
           interval = buffer;
-          verdict = t.validation[q].validated ? "validated" : "NOT validated";
-          if (!t.validation[q].validated && t.gum.u[i] == 0.0 && t.mcm[q].u > 0.0) {
-            verdict += " (no first-order sensitivity: GUM u = 0)";
-          }
+          const std::string& outcome = t.validation[q].outcome;
+          verdict = outcome == "not validated" ? "NOT validated"
+                    : outcome == "not applicable" ? "GUM n/a (not differentiable): MCM interval" : outcome;
         }
         std::snprintf(line, sizeof line, "%-18s %-9s %-13s %16s %11s %24s  %s\n", t.spec.name.c_str(),
                       std::string(TaskKindName(t.spec.kind)).c_str(), quantity.c_str(), value.c_str(), big_u.c_str(),
@@ -110,14 +109,17 @@ std::string SummaryText(const Results& r) {
   if (r.has_mcm) {
     // Task results are counted per quantity: one output the GUM cannot linearise (e.g. the
     // flatness of nominal points) must not hide that the others are validated.
-    std::size_t quantities = 0, validated = 0;
+    std::size_t quantities = 0, validated = 0, inconclusive = 0;
     std::string failed;
     int listed = 0;
     for (const TaskResult& t : r.tasks) {
       for (const ScalarValidation& v : t.validation) {
+        if (v.outcome == "not applicable") continue;  // no GUM value to validate
         ++quantities;
         if (v.validated) {
           ++validated;
+        } else if (v.outcome == "inconclusive") {
+          ++inconclusive;
         } else if (listed++ < 6) {
           failed += (failed.empty() ? "" : ", ") + v.name;
         } else if (listed == 7) {
@@ -132,6 +134,10 @@ std::string SummaryText(const Results& r) {
                   static_cast<unsigned long long>(r.mcm.seed), r.mcm.threads, r.mcm.seconds, r.validated_points,
                   r.points.size(), validated, quantities);
     out << line;
+    if (r.inconclusive_points > 0 || inconclusive > 0) {
+      out << "Inconclusive (Monte Carlo tolerance larger than delta; more trials or --adaptive): " << r.inconclusive_points
+          << " points, " << inconclusive << " task quantities.\n";
+    }
     if (!failed.empty()) out << "Not validated: " << failed << " (tasks.csv, report.html).\n";
   } else {
     out << "Monte Carlo: not run (GUM only).\n";
