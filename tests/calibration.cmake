@@ -34,7 +34,7 @@ add_test(NAME cli_calibrate_example
           "-DARGS=calibrate;${_ex}/simulated_calibration.toml;-o;${_out}/cal_calibrate"
           -DOUT=${_out}/cal_calibrate
           "-DFILES=calibration.toml;parameters.csv;correlation.csv;identifiability.csv;targets.csv;residuals.csv;report.html"
-          "-DEXPECT_STDOUT=511 observations; 12 of 20 parameters identified.*held: .*lam .*srr \\(the data are blind to it\\)"
+          "-DEXPECT_STDOUT=511 observations; 11 of 20 parameters identified.*held: .*lam .*srr \\(the data are blind to it\\)"
           -P ${_cli}/expect_outputs.cmake)
 set_tests_properties(cli_calibrate_example PROPERTIES FIXTURES_SETUP vlt_cal_calibrate)
 add_test(NAME cli_calibrate_reproduces_shipped_file
@@ -76,6 +76,8 @@ vlt_calibration_error(calibrate_not_converged calibrate not_converged.toml
                       "not_converged\\.toml: the calibration did not converge in 1 iterations")
 vlt_calibration_error(calibrate_unknown_fit calibrate unknown_fit.toml
                       "unknown_fit\\.toml: calibration\\.fit: unknown parameter 'lambda' of model 'head'")
+vlt_calibration_error(calibrate_nothing_to_fit calibrate nothing_to_fit.toml
+                      "nothing_to_fit\\.toml: calibration\\.fit: no parameter is left to identify")
 vlt_calibration_error(calibrate_bar_without_u calibrate bar_without_u.toml
                       "bar_without_u\\.toml: bar\\[0\\]\\.u: required key is missing")
 vlt_calibration_error(test_bad_orientation test bad_orientation.toml

@@ -14,6 +14,7 @@
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
 
+#include "calibration/outputs.h"
 #include "vlt/calibration.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
@@ -189,9 +190,49 @@ TEST(CalibrationStatistics, GrossErrorIsTheFlaggedOutlier) {
   EXPECT_GT(r.birge_ratio, 1.2);
   // Redundancy numbers add up to the degrees of freedom (trace of I - H).
   EXPECT_NEAR(redundancy, r.dof, 1e-6 * r.dof);
+  // Residual signs are observed minus adjusted: a calibrated bar length 20 um too long gives a
+  // positive residual of the bar's calibration.
+  CalibrationData longer = SimulateCalibrationData(tracker, LoadTestLayout(kLayout), 23);
+  longer.bars[0].length += 20e-6;
+  const CalibrationResult rl = Calibrate(longer);
+  bool found = false;
+  for (const CalibrationResidual& res : rl.residuals) {
+    if (res.observation == longer.bars[0].name + " calibration") {
+      found = true;
+      EXPECT_GT(res.residual, 5e-6);
+    }
+  }
+  EXPECT_TRUE(found);
   // The clean data set has no outlier at this limit on this seed, and Birge ratio ~1.
   const CalibrationResult clean = Calibrate(SimulateCalibrationData(tracker, LoadTestLayout(kLayout), 23));
   EXPECT_LT(clean.birge_ratio, 1.15);
+}
+
+TEST(CalibrationFile, AwkwardNamesSurviveTheSimulatedCalibrationFile) {
+  // Target names with a backslash, a comma and a control character: vlt test writes them, vlt
+  // calibrate reads them back (one TOML string escaper for every file vlt writes).
+  TestLayout layout = LoadTestLayout(kLayout);
+  layout.tests[0].name = "LH1\\000";
+  layout.tests[1].name = "LH1,090";
+  layout.tests[2].name = std::string("LH1") + '\x01' + "180";
+  TestJob job;
+  job.file = "awkward.toml";
+  job.name = "awk\"ward";
+  job.tracker = HeadTracker(2);
+  job.layout = layout;
+  job.simulate = true;
+  const CalibrationData data = SimulateCalibrationData(job.tracker, layout, 4);
+  const std::filesystem::path dir = TempDir("awkward");
+  for (const auto& [name, content] : calibration_outputs::TestFiles(job, SimulateTests(job.tracker, layout, {}), &data)) {
+    std::ofstream(dir / name, std::ios::binary) << content;
+  }
+  const CalibrationJob loaded = LoadCalibrationJob((dir / "simulated_calibration.toml").string());
+  EXPECT_EQ(loaded.name, "awk\"ward-calibration");
+  ASSERT_EQ(loaded.data.readings.size(), data.readings.size());
+  EXPECT_EQ(loaded.data.readings[0].target, "LH1\\000.a");
+  EXPECT_EQ(loaded.data.readings[2].target, "LH1,090.a");
+  EXPECT_EQ(loaded.data.bars[0].positions[2].first, std::string("LH1") + '\x01' + "180.a");
+  EXPECT_NO_THROW(Calibrate(loaded.data));
 }
 
 }  // namespace

@@ -118,7 +118,7 @@ struct CalibratedParameter {
 // unit vector in prior-scaled coordinates. ratio = (data-only u) / (prior u) along it
 // (infinity: the data are blind to it).
 struct HeldCombination {
-  std::vector<std::pair<std::string, double>> terms;  // parameters with |coefficient| >= 0.05
+  std::vector<std::pair<std::string, double>> terms;  // parameters with |coefficient| >= 0.05 max
   double ratio = 0.0;
   std::string description;                            // "lam + srr (ratio inf)"
 };

@@ -10,6 +10,7 @@
 #include <openssl/evp.h>
 #include <toml++/toml.h>
 
+#include "calibration/toml_text.h"
 #include "job/job_detail.h"
 #include "vlt/calibration.h"
 #include "vlt/error.h"
@@ -25,16 +26,6 @@ std::string Exact(double v) {
   std::string s = buffer;
   if (s.find_first_of(".eEn") == std::string::npos) s += ".0";  // a TOML float, not an integer
   return s;
-}
-
-std::string Quoted(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    if (c == '\n') { out += "\\n"; continue; }
-    out += c;
-  }
-  return out + "\"";
 }
 
 }  // namespace
@@ -74,10 +65,10 @@ std::string CalibrationFileToml(const CalibrationResult& result, const Calibrati
         "# data), partly (mixes data and prior), held (not determined by the data: prior kept),\n"
         "# fixed (prior kept on purpose). Written by vlt; edit by hand only knowingly.\n\n";
   os << "[calibration]\n";
-  os << "model = " << Quoted(result.model) << "\n";
-  os << "instrument = " << Quoted(provenance.instrument) << "\n";
-  os << "created = " << Quoted(provenance.created) << "\n";
-  os << "vlt_version = " << Quoted(provenance.vlt_version) << "\n";
+  os << "model = " << calibration_internal::TomlQuoted(result.model) << "\n";
+  os << "instrument = " << calibration_internal::TomlQuoted(provenance.instrument) << "\n";
+  os << "created = " << calibration_internal::TomlQuoted(provenance.created) << "\n";
+  os << "vlt_version = " << calibration_internal::TomlQuoted(provenance.vlt_version) << "\n";
   os << "observations = " << result.observations << "\n";
   os << "unknowns = " << result.unknowns << "\n";
   os << "chi2 = " << Exact(result.chi2) << "\n";
@@ -85,18 +76,18 @@ std::string CalibrationFileToml(const CalibrationResult& result, const Calibrati
   os << "birge_ratio = " << Exact(result.birge_ratio) << "\n";
   os << "outliers = " << result.outliers << "\n";
   os << "held = [";
-  for (std::size_t i = 0; i < result.held.size(); ++i) os << (i ? ", " : "") << Quoted(result.held[i].description);
+  for (std::size_t i = 0; i < result.held.size(); ++i) os << (i ? ", " : "") << calibration_internal::TomlQuoted(result.held[i].description);
   os << "]\n\n";
   for (const auto& [file, sha] : provenance.data_files) {
-    os << "[[calibration.data_file]]\nfile = " << Quoted(file) << "\nsha256 = " << Quoted(sha) << "\n\n";
+    os << "[[calibration.data_file]]\nfile = " << calibration_internal::TomlQuoted(file) << "\nsha256 = " << calibration_internal::TomlQuoted(sha) << "\n\n";
   }
   for (const CalibratedParameter& p : result.parameters) {
     os << "[[parameter]]\n";
-    os << "name = " << Quoted(p.name) << "\n";
-    os << "unit = " << Quoted(p.unit) << "\n";
+    os << "name = " << calibration_internal::TomlQuoted(p.name) << "\n";
+    os << "unit = " << calibration_internal::TomlQuoted(p.unit) << "\n";
     os << "estimate = " << Exact(p.estimate) << "\n";
     os << "u = " << Exact(p.u) << "\n";
-    os << "status = " << Quoted(ParameterStatusName(p.status)) << "\n";
+    os << "status = " << calibration_internal::TomlQuoted(ParameterStatusName(p.status)) << "\n";
     os << "prior_estimate = " << Exact(p.prior_estimate) << "\n";
     os << "prior_u = " << Exact(p.prior_u) << "\n\n";
   }
@@ -137,7 +128,11 @@ LoadedCalibration LoadCalibrationFile(const std::string& path) {
     if (!u || !std::isfinite(*u) || *u < 0.0) throw InputError(where + ".u: expected a finite number >= 0");
     c.estimates.push_back(*estimate);
     c.u.push_back(*u);
-    c.status.push_back((*t)["status"].value<std::string>().value_or(""));
+    const std::string status = (*t)["status"].value<std::string>().value_or("");
+    if (status != "identified" && status != "partly" && status != "held" && status != "fixed") {
+      throw InputError(where + ".status: expected identified, partly, held or fixed");
+    }
+    c.status.push_back(status);
   }
   const int n = static_cast<int>(c.names.size());
   c.correlation = Eigen::MatrixXd::Identity(n, n);
@@ -154,6 +149,9 @@ LoadedCalibration LoadCalibrationFile(const std::string& path) {
     }
   }
   if (!(c.correlation - c.correlation.transpose()).isZero(1e-12)) throw InputError(where + ": not symmetric");
+  for (int i = 0; i < n; ++i) {
+    if (std::abs(c.correlation(i, i) - 1.0) > 1e-12) throw InputError(where + ": diagonal element " + std::to_string(i + 1) + " is not 1");
+  }
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(c.correlation);
   if (eig.eigenvalues().minCoeff() < -1e-10) throw InputError(where + ": not positive semi-definite");
   return c;

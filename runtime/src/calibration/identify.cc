@@ -109,6 +109,10 @@ class DistanceCost : public ceres::CostFunction {
   }
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
     const double length = obs_.bar >= 0 ? parameters[2][0] : obs_.length;
+    // Coincident ends: no direction. Tell Ceres the step is unusable (never throw through it).
+    const double dx = parameters[1][0] - parameters[0][0], dy = parameters[1][1] - parameters[0][1],
+                 dz = parameters[1][2] - parameters[0][2];
+    if (!(dx * dx + dy * dy + dz * dz > 0.0)) return false;
     double da[3], db[3];
     residuals[0] = DistanceResidual(obs_, parameters[0], parameters[1], length, da, db);
     if (jacobians) {
@@ -144,7 +148,9 @@ std::string FormatCoefficient(double c) {
 }
 
 // Upper tail of chi-square: P(chi2_dof >= x).
-double ChiSquareUpperTail(double x, int dof) { return dof > 0 ? 1.0 - ChiSquareCdf(x, dof) : 1.0; }
+double ChiSquareUpperTail(double x, int dof) {
+  return dof > 0 ? std::clamp(1.0 - ChiSquareCdf(x, dof), 0.0, 1.0) : 1.0;
+}
 
 }  // namespace
 
@@ -159,6 +165,10 @@ CalibrationResult Calibrate(const CalibrationData& data, const CalibrationOption
 
   // Prior-scaled coordinates z over the active parameters (u0 > 0); the user's `fit` selects
   // which of them the data may move.
+  if (!data.fit.empty() && static_cast<int>(data.fit.size()) != P) {
+    throw InputError(data.where + ": calibration.fit: " + std::to_string(data.fit.size()) + " flags for a model with " +
+                     std::to_string(P) + " parameters");
+  }
   ParameterMap map;
   map.p0 = problem.p0;
   std::vector<int> free;  // positions in `active`
@@ -170,6 +180,10 @@ CalibrationResult Calibrate(const CalibrationData& data, const CalibrationOption
   }
   const int A = static_cast<int>(map.active.size());
   const int F = static_cast<int>(free.size());
+  if (F == 0) {
+    throw InputError(data.where + ": calibration.fit: no parameter is left to identify (every parameter is excluded "
+                     "or has prior u = 0)");
+  }
   map.u_active.resize(A);
   for (int a = 0; a < A; ++a) map.u_active(a) = problem.u0(map.active[a]);
   Eigen::MatrixXd prior_corr = Eigen::MatrixXd::Identity(A, A);  // correlation of z
@@ -251,9 +265,9 @@ CalibrationResult Calibrate(const CalibrationData& data, const CalibrationOption
                            : std::string(" (data alone: ") + ratio_text + " x its prior u)";
     result.held.push_back(std::move(h));
   }
-  result.condition_number = F > 0 && result.singular_values(F - 1) > 0.0
-                                ? s_max / result.singular_values(F - 1)
-                                : std::numeric_limits<double>::infinity();
+  // Condition number of what is fitted: the determined combinations (the blind ones are held).
+  result.condition_number = determined.empty() ? std::numeric_limits<double>::infinity()
+                                                : s_max / result.singular_values(determined.back());
   // Bases in z (A-dimensional): determined combinations; held = held free ones + the active
   // parameters the user excluded from the fit.
   map.determined.setZero(A, static_cast<int>(determined.size()));
@@ -320,10 +334,14 @@ CalibrationResult Calibrate(const CalibrationData& data, const CalibrationOption
   solver_options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, &solver_problem, &summary);
-  result.iterations = static_cast<int>(summary.iterations.size());
-  if (summary.termination_type != ceres::CONVERGENCE) {
+  result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
+  if (summary.termination_type == ceres::NO_CONVERGENCE) {
     throw NumericalError(data.where + ": the calibration did not converge in " +
                          std::to_string(options.max_iterations) + " iterations (" + summary.message + ")");
+  }
+  if (summary.termination_type != ceres::CONVERGENCE) {
+    throw NumericalError(data.where + ": the calibration failed: " + summary.message +
+                         " (two targets of a bar or reference at one place?)");
   }
 
   // --- Covariance at the solution (eq. C-1..C-3).
@@ -376,8 +394,11 @@ CalibrationResult Calibrate(const CalibrationData& data, const CalibrationOption
       const int a = static_cast<int>(it - map.active.begin());
       const bool is_free = std::find(free.begin(), free.end(), a) != free.end();
       const double held_share = map.held.cols() ? map.held.row(a).squaredNorm() : 0.0;
+      // Identified: its axis lies in the determined directions AND its u is the data's (the
+      // priors of excluded parameters or held combinations reach it through K otherwise).
+      const bool data_only = cp.u > 0.0 && cp.u_data * cp.u_data >= 0.9 * cp.u * cp.u;
       if (!is_free) cp.status = ParameterStatus::kFixed;
-      else if (held_share < 1e-3) cp.status = ParameterStatus::kIdentified;
+      else if (held_share < 1e-3 && data_only) cp.status = ParameterStatus::kIdentified;
       else if (held_share > 1.0 - 1e-3) cp.status = ParameterStatus::kHeld;
       else cp.status = ParameterStatus::kPartly;
     }

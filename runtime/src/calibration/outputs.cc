@@ -2,6 +2,7 @@
 // results.json are SI with the unit in every column name; the reports show display units
 // (um, arcsec, ppm) and say so. Schema: docs/calibration.md "Outputs".
 #include "calibration/outputs.h"
+#include "calibration/toml_text.h"
 
 #include <algorithm>
 #include <cmath>
@@ -157,7 +158,7 @@ Files TestFiles(const TestJob& job, const std::vector<TestResult>& results, cons
     }
     t["sensitivity"] = std::vector<double>(r.sensitivity.data(), r.sensitivity.data() + P);
     tests.push_back(t);
-    for (int k = 0; k < P; ++k) never_seen[k] = std::max(never_seen[k], std::abs(r.sensitivity(k)) * model.params[k].default_u);
+    for (int k = 0; k < P; ++k) never_seen[k] = std::max(never_seen[k], std::abs(r.sensitivity(k)) * job.tracker.params[k].u);
   }
   j["tests"] = tests;
   // Parameters no test sees: the largest effect of one prior u on any test below 1 nm.
@@ -206,7 +207,7 @@ Files TestFiles(const TestJob& job, const std::vector<TestResult>& results, cons
          << (r.kind == TestKind::kTwoFace ? Fixed(r.two_face_transverse * 1e6, 2) : "") << "</td></tr>";
   }
   body << "</table></section>\n<section><h2>Sensitivity: which test sees which parameter</h2><p class=\"note\">|d error / d parameter| "
-          "in um per um, um per arcsec, um per ppm (sensitivity.csv has the signs). A column without colour is a parameter "
+          "in um per um, um per arcsec, um per ppm (sensitivity.csv has the signs of length and ranging tests; two-face rows are magnitudes). A column without colour is a parameter "
           "that no test of this layout sees.</p><div id=\"sens\" class=\"plot\"></div></section>\n";
   nlohmann::json z = nlohmann::json::array(), x = nlohmann::json::array(), y = nlohmann::json::array();
   for (int k = 0; k < P; ++k) {
@@ -237,20 +238,23 @@ Files TestFiles(const TestJob& job, const std::vector<TestResult>& results, cons
       << "# Run it with:  vlt calibrate simulated_calibration.toml\n"
       << "# The true error state of the simulated tracker (SI), to compare with the calibration:\n";
     for (int k = 0; k < P; ++k) t << "#   " << model.params[k].name << " = " << Num(job.tracker.params[k].estimate) << " " << model.params[k].unit << "\n";
-    t << "# Values without a unit are SI (m, rad). Every key: docs/calibration.md.\n\n[job]\nname = \""
-      << job.name << "-calibration\"\n\n[calibration]\ninstrument = \"simulated " << model.name << " tracker (vlt test, seed "
-      << job.seed << ")\"\n\n[tracker]\nmodel = \"" << model.name << "\"   # priors: the model's defaults\n\n[tracker.noise]\n"
+    using calibration_internal::TomlQuoted;
+    t << "# Values without a unit are SI (m, rad). Every key: docs/calibration.md.\n\n[job]\nname = "
+      << TomlQuoted(job.name + "-calibration") << "\n\n[calibration]\ninstrument = "
+      << TomlQuoted("simulated " + std::string(model.name) + " tracker (vlt test, seed " + std::to_string(job.seed) + ")")
+      << "\n\n[tracker]\nmodel = " << TomlQuoted(model.name) << "   # priors: the model's defaults\n\n[tracker.noise]\n"
       << "range_a = " << Num(simulated->noise.range_a) << "\nrange_b = " << Num(simulated->noise.range_b)
       << "\nazimuth = " << Num(simulated->noise.azimuth) << "\nelevation = " << Num(simulated->noise.elevation)
       << "\n\n[readings]\ncsv = \"simulated_readings.csv\"\ncolumns = { name = \"target\" }\n";
     for (const ReferenceBar& bar : simulated->bars) {
-      t << "\n[[bar]]\nname = \"" << bar.name << "\"\nlength = " << Num(bar.length) << "   # calibrated value, m\nu = "
+      t << "\n[[bar]]\nname = " << TomlQuoted(bar.name) << "\nlength = " << Num(bar.length) << "   # calibrated value, m\nu = "
         << Num(bar.u) << "\nu_position = " << Num(bar.u_position) << "\npositions = [\n";
-      for (const auto& [a, b] : bar.positions) t << "  [\"" << a << "\", \"" << b << "\"],\n";
+      for (const auto& [a, b] : bar.positions) t << "  [" << TomlQuoted(a) << ", " << TomlQuoted(b) << "],\n";
       t << "]\n";
     }
     for (const ReferenceDistance& d : simulated->distances) {
-      t << "\n[[reference]]\nfrom = \"" << d.from << "\"\nto = \"" << d.to << "\"\nlength = " << Num(d.length) << "\nu = " << Num(d.u) << "\n";
+      t << "\n[[reference]]\nfrom = " << TomlQuoted(d.from) << "\nto = " << TomlQuoted(d.to) << "\nlength = " << Num(d.length)
+        << "\nu = " << Num(d.u) << "\n";
     }
     files.emplace_back("simulated_calibration.toml", t.str());
   }

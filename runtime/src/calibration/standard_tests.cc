@@ -148,7 +148,11 @@ std::vector<TestResult> SimulateTests(const MeasurementSetup& tracker, const Tes
       r.error = d.norm() - r.reference;
       const Eigen::Vector3d unit = d / d.norm();
       double u_ref = test.reference_u;
-      if (test.kind == TestKind::kLength) u_ref = FindBar(layout, test).u;
+      if (test.kind == TestKind::kLength) {
+        // The bar's calibration and its reproducibility in this position (nests, sag, temperature).
+        const ReferenceBar& bar = FindBar(layout, test);
+        u_ref = std::hypot(bar.u, bar.u_position);
+      }
       const Eigen::RowVector3d ga = -unit.transpose() * sa.d_y_d_readings;
       const Eigen::RowVector3d gb = unit.transpose() * sb.d_y_d_readings;
       const double var = (ga * sa.reading_cov * ga.transpose())(0, 0) + (gb * sb.reading_cov * gb.transpose())(0, 0);
