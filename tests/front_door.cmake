@@ -92,3 +92,10 @@ add_test(NAME cli_csv_cr_only_line_ends
 add_test(NAME cli_correlation_of_one
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_fd}/correlation_one.toml;--trials;20000;-o;${_out}/fd_corr1"
           -DOUT=${_out}/fd_corr1 "-DFILES=points.csv;results.json" -P ${_cli}/expect_outputs.cmake)
+
+# Near the standing axis the first-order GUM is flagged without Monte Carlo (JCGM 100 5.1.2 note).
+add_test(NAME cli_gum_not_reliable_near_axis
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_fd}/near_axis.toml;--no-mcm;-o;${_out}/fd_axis"
+          -DOUT=${_out}/fd_axis "-DFILES=points.csv;results.json"
+          "-DEXPECT_STDOUT=UP2um [^\n]*GUM NOT RELIABLE [(]2nd order [0-9.]+ x u\\^2[)]; not run\nUP10mm [^\n]* not run\n"
+          -P ${_cli}/expect_outputs.cmake)

@@ -126,7 +126,24 @@ struct PointUncertainty {
   CoverageEllipsoid ellipsoid;                          // of cov_part
   std::vector<BudgetRow> budget;                        // part frame; empty if !options.budgets
   std::string correlation_handling;                     // how correlated inputs enter the budget
+  // Non-linearity (CheckSecondOrder; zero until it ran): the second-order variance per part-frame
+  // coordinate (JCGM 100 5.1.2 note) and its ratio to the first-order u^2; gum_reliable = false
+  // when a ratio exceeds the threshold: the linearised u is then not to be trusted here.
+  Eigen::Vector3d second_order_variance = Eigen::Vector3d::Zero();
+  Eigen::Vector3d second_order_ratio = Eigen::Vector3d::Zero();
+  bool gum_reliable = true;
 };
+
+// Default threshold of CheckSecondOrder: second-order terms above 1 % of u^2 (u off by > 0.5 %).
+inline constexpr double kSecondOrderThreshold = 0.01;
+
+// Fills second_order_variance, second_order_ratio and gum_reliable of `results` (from
+// PropagatePoints for the same points): u2^2(y_a) = 1/2 ||F^T H_a F||_F^2 with the Hessian H_a
+// from central differences of the generated Jacobians at one standard uncertainty of each
+// independent input (docs/gum.md "Non-linearity"). Costs 2 (3 + S) Jacobian evaluations per point.
+void CheckSecondOrder(const MeasurementModel& model, std::span<const PointReadings> points,
+                      std::span<PointUncertainty> results, double threshold = kSecondOrderThreshold,
+                      int threads = 0);
 
 // Propagates every point. Throws NumericalError "point '<name>': ..." for a singular point
 // (range <= 0, on the standing axis) or a non-finite result.

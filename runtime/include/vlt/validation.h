@@ -24,9 +24,9 @@ namespace vlt {
 // s_end = u sqrt(a (1 - a) / M) / phi(z_a), a = (1 - p)/2, the large-sample standard deviation of
 // a quantile of a (near-)normal output (the 2 s of JCGM 101 7.9.4). Outcomes:
 //   "validated"       d_low, d_high <= delta;
-//   "inconclusive"    not within delta, but the Monte Carlo tolerance exceeds delta: more trials
-//                     (or --adaptive) are needed before anything can be said;
-//   "not validated"   not within delta, with a Monte Carlo tolerance within delta;
+//   "inconclusive"    not within delta, but within delta + 2 mcm_tolerance (4 s_end): Monte Carlo
+//                     noise can explain it; more trials (or --adaptive) are needed;
+//   "not validated"   beyond delta + 2 mcm_tolerance: the GUM interval is not the Monte Carlo one;
 //   "not applicable"  the GUM quantity has no first-order sensitivity (a form quantity at exact
 //                     nominal points, vlt/fits.h): GUM gives no value to compare.
 struct ScalarValidation {

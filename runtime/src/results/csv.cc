@@ -59,7 +59,7 @@ std::string PointsCsv(const Results& r) {
   out << "name,face,range_m,azimuth_deg,elevation_deg,nominal_x_mm,nominal_y_mm,nominal_z_mm,"
          "x_mm,y_mm,z_mm,u_x_um,u_y_um,u_z_um,k,U_x_um,U_y_um,U_z_um,U_norm_um,"
          "ellipsoid_k,ellipsoid_a1_um,ellipsoid_a2_um,ellipsoid_a3_um,"
-         "u_radial_um,u_horizontal_um,u_vertical_um,"
+         "u_radial_um,u_horizontal_um,u_vertical_um,second_order_ratio_max,gum_reliable,"
          "mcm_x_mm,mcm_y_mm,mcm_z_mm,mcm_u_x_um,mcm_u_y_um,mcm_u_z_um,"
          "mcm_low_x_mm,mcm_high_x_mm,mcm_low_y_mm,mcm_high_y_mm,mcm_low_z_mm,mcm_high_z_mm,"
          "mcm_ellipsoid_k,d_max_um,delta_um,region_worst_ratio,gum_vs_mcm\n";
@@ -80,6 +80,7 @@ std::string PointsCsv(const Results& r) {
     row << g.U_part.norm() * kUm << g.ellipsoid.k;
     for (int a = 0; a < 3; ++a) row << g.ellipsoid.semi_axes[a] * kUm;
     row << g.los_part.u_radial * kUm << g.los_part.u_horizontal * kUm << g.los_part.u_vertical * kUm;
+    row << g.second_order_ratio.maxCoeff() << std::string(g.gum_reliable ? "yes" : "no");
     if (p.has_mcm) {
       for (int a = 0; a < 3; ++a) row << p.mcm_axes[a].mean * kMm;
       for (int a = 0; a < 3; ++a) row << p.mcm_axes[a].u * kUm;

@@ -105,6 +105,11 @@ json Point(const Results& r, const PointResult& p) {
                           {"u", Vec(g.u_tracker)},
                           {"line_of_sight", Los(g.los_tracker)}};
   gum["correlation_handling"] = g.correlation_handling;
+  // JCGM 100 5.1.2 note: second-order variance per coordinate, its ratio to u^2, and the flag.
+  gum["second_order"] = {{"variance", Vec(g.second_order_variance)},
+                         {"ratio", Vec(g.second_order_ratio)},
+                         {"threshold", kSecondOrderThreshold},
+                         {"reliable", g.gum_reliable}};
   j["gum"] = gum;
   json budget = json::array();
   for (const BudgetRow& b : g.budget) budget.push_back(Budget(b));

@@ -145,6 +145,8 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
   gum_options.budgets = true;
   gum_options.threads = threads;
   std::vector<PointUncertainty> gum_points = PropagatePoints(model, readings, gum_options);
+  // Where the linearisation is not reliable, said without Monte Carlo (JCGM 100 5.1.2 note).
+  CheckSecondOrder(model, readings, gum_points, kSecondOrderThreshold, threads);
   results.points.resize(job.points.size());
   for (std::size_t i = 0; i < job.points.size(); ++i) {
     results.points[i].input = job.points[i];

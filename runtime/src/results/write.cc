@@ -54,11 +54,17 @@ std::string SummaryText(const Results& r) {
     const PointResult& p = r.points[i];
     const PointUncertainty& g = p.gum;
     std::string name = p.input.name.size() > 14 ? p.input.name.substr(0, 13) + "~" : p.input.name;
+    std::string verdict = !p.has_mcm ? "not run" : p.outcome == "not validated" ? "NOT validated" : p.outcome;
+    if (!g.gum_reliable) {
+      // JCGM 100 5.1.2 note, computed without Monte Carlo: said with --no-mcm too.
+      char flag[96];
+      std::snprintf(flag, sizeof flag, "GUM NOT RELIABLE (2nd order %.3g x u^2); ", g.second_order_ratio.maxCoeff());
+      verdict = flag + verdict;
+    }
     std::snprintf(line, sizeof line, "%-14s %9.3f %10.3f %10.3f %10.3f %8.1f %8.1f %8.1f %8.1f %8.1f  %s\n",
                   name.c_str(), g.readings[0], g.part.x() * 1e3, g.part.y() * 1e3, g.part.z() * 1e3,
                   g.U_part.x() * 1e6, g.U_part.y() * 1e6, g.U_part.z() * 1e6, g.U_part.norm() * 1e6,
-                  g.ellipsoid.semi_axes[0] * 1e6,
-                  !p.has_mcm ? "not run" : p.outcome == "not validated" ? "NOT validated" : p.outcome.c_str());
+                  g.ellipsoid.semi_axes[0] * 1e6, verdict.c_str());
     out << line;
   }
   if (!r.tasks.empty()) {

@@ -1,0 +1,82 @@
+// gum/nonlinearity.cc — where the first-order GUM is not reliable, without Monte Carlo
+// (vlt/gum.h CheckSecondOrder; docs/gum.md "Non-linearity").
+//
+// JCGM 100 5.1.2 note: when the non-linearity of f is significant, the higher-order terms of the
+// Taylor series must be considered; for independent normal inputs the leading one adds
+//   u2^2(y) = 1/2 sum_i sum_j (d2f / dx_i dx_j)^2 u_i^2 u_j^2
+// to u^2(y). With correlated inputs vlt writes x = x0 + F z, z independent standard normals (F the
+// factor the GUM engine already uses: diag(u) with L_p on the correlated parameter block), so
+//   u2^2(y_a) = 1/2 || H_a ||_F^2,   H_a = d2 y_a / dz dz^T = F^T (d2 y_a / dx dx^T) F,
+// exact for the quadratic part of f. H_a comes from central differences of the exact generated
+// Jacobians: column k of H_a = (J(x0 + F e_k) - J(x0 - F e_k)) F / 2 (a step of one standard
+// uncertainty along each independent input). The ratio u2^2 / u^2 per coordinate says how much
+// the linearisation leaves out; above the threshold the point is flagged "GUM not reliable".
+#include <algorithm>
+#include <cmath>
+
+#include "gum/internal.h"
+#include "vlt/error.h"
+#include "vlt/gum.h"
+
+namespace vlt {
+
+void CheckSecondOrder(const MeasurementModel& model, std::span<const PointReadings> points,
+                      std::span<PointUncertainty> results, double threshold, int threads) {
+  if (points.size() != results.size()) throw std::invalid_argument("CheckSecondOrder: sizes differ");
+  const int S = model.num_shared();
+  const int n = 3 + S;
+  const gum_internal::SharedFactor factor = gum_internal::MakeSharedFactor(model);
+  // F of the shared inputs, column by column: F = Apply(I).
+  Eigen::MatrixXd f_shared(S, S);
+  {
+    const Eigen::MatrixXd identity = Eigen::MatrixXd::Identity(S, S);
+    factor.Apply(identity.data(), f_shared.data(), S);
+  }
+  const Eigen::VectorXd s0 = model.shared_estimates();
+  gum_internal::ParallelChunks(points.size(), 64, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
+    Eigen::Matrix<double, 3, 3> jr;
+    Eigen::Matrix<double, 3, Eigen::Dynamic> js(3, S);
+    Eigen::Vector3d y;
+    Eigen::VectorXd s(S);
+    Eigen::MatrixXd jz_plus(3, n), jz_minus(3, n);
+    std::vector<Eigen::MatrixXd> h(3, Eigen::MatrixXd(n, n));
+    for (std::size_t i = begin; i < end; ++i) {
+      const Eigen::Vector3d r0 = points[i].readings;
+      const Eigen::Vector3d u_r = model.reading_uncertainty(r0(0));
+      // J_z at x: [dy/dr diag(u_r) | dy/ds F].
+      auto jz = [&](const Eigen::Vector3d& r, const Eigen::VectorXd& shared, Eigen::MatrixXd& out) {
+        model.EvaluateWithJacobian(r.data(), shared.data(), y.data(), jr.data(), js.data());
+        out.leftCols(3) = jr * u_r.asDiagonal();
+        out.rightCols(S) = js * f_shared;
+      };
+      for (int k = 0; k < n; ++k) {
+        Eigen::Vector3d r_plus = r0, r_minus = r0;
+        Eigen::VectorXd s_plus = s0, s_minus = s0;
+        if (k < 3) {
+          r_plus(k) += u_r(k);
+          r_minus(k) -= u_r(k);
+        } else {
+          s_plus += f_shared.col(k - 3);
+          s_minus -= f_shared.col(k - 3);
+        }
+        jz(r_plus, s_plus, jz_plus);
+        jz(r_minus, s_minus, jz_minus);
+        for (int a = 0; a < 3; ++a) h[a].col(k) = 0.5 * (jz_plus.row(a) - jz_minus.row(a)).transpose();
+      }
+      PointUncertainty& p = results[i];
+      for (int a = 0; a < 3; ++a) {
+        const Eigen::MatrixXd sym = 0.5 * (h[a] + h[a].transpose());
+        p.second_order_variance(a) = 0.5 * sym.squaredNorm();
+        const double var1 = p.cov_part(a, a);
+        p.second_order_ratio(a) = var1 > 0.0 ? p.second_order_variance(a) / var1
+                                             : (p.second_order_variance(a) > 0.0 ? 1e300 : 0.0);
+      }
+      if (!p.second_order_variance.allFinite()) {
+        throw NumericalError("point '" + p.name + "': the second-order check gives a non-finite result");
+      }
+      p.gum_reliable = p.second_order_ratio.maxCoeff() <= threshold;
+    }
+  });
+}
+
+}  // namespace vlt
