@@ -34,7 +34,7 @@ add_test(NAME cli_calibrate_example
           "-DARGS=calibrate;${_ex}/simulated_calibration.toml;-o;${_out}/cal_calibrate"
           -DOUT=${_out}/cal_calibrate
           "-DFILES=calibration.toml;parameters.csv;correlation.csv;identifiability.csv;targets.csv;residuals.csv;report.html"
-          "-DEXPECT_STDOUT=511 observations; 11 of 20 parameters identified.*held: .*lam .*srr \\(the data are blind to it\\)"
+          "-DEXPECT_STDOUT=511 observations; 12 of 20 parameters identified.*held: .*lam .*srr \\(the data are blind to it\\)"
           -P ${_cli}/expect_outputs.cmake)
 set_tests_properties(cli_calibrate_example PROPERTIES FIXTURES_SETUP vlt_cal_calibrate)
 add_test(NAME cli_calibrate_reproduces_shipped_file
