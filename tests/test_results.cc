@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <map>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -15,6 +16,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "results/internal.h"
 #include "vlt/error.h"
 
 namespace vlt {
@@ -155,7 +157,7 @@ TEST(Results, CsvHeadersUnitsAndValues) {
   EXPECT_NEAR(std::stod(fields[column("x_mm")]), r.points[0].gum.part.x() * 1e3, 1e-9);
   EXPECT_NEAR(std::stod(fields[column("U_y_um")]), r.points[0].gum.U_part.y() * 1e6, 1e-9);
   EXPECT_NEAR(std::stod(fields[column("azimuth_deg")]), r.points[0].gum.readings[1] * 180 / M_PI, 1e-9);
-  EXPECT_EQ(fields.back(), r.points[0].validated ? "validated" : "not validated");
+  EXPECT_EQ(fields.back(), r.points[0].outcome);
   // budget.csv: one row per input (3 readings + 32 shared + correlation rows, if any) per point.
   std::stringstream budget(BudgetCsv(r));
   std::getline(budget, header);
@@ -181,6 +183,53 @@ TEST(Results, CsvHeadersUnitsAndValues) {
   EXPECT_NEAR(std::stod(fields[8]), r.tasks[0].gum.U[0] * 1e6, 1e-9);
   // The distance of the nominal points, independently.
   EXPECT_NEAR(r.tasks[0].gum.value[0], std::sqrt(1.0 + 1.0 + 0.01), 1e-9);
+}
+
+TEST(Results, BudgetSensitivitiesInTheUnitsPeopleRead) {
+  // budget.csv sensitivity_practical_*: um per um / arcsec / ppm / K / hPa. Independent checks:
+  // c_practical times u in the practical unit is the contribution in um; the range reading's
+  // sensitivity along the beam is 1 um/um, the azimuth reading's across it rho cos(E) * 4.848
+  // um/arcsec (1 arcsec at 1 m), the range scale's rho um/ppm.
+  const Results& r = SharedResults();
+  std::stringstream budget(BudgetCsv(r));
+  std::string header, row;
+  std::getline(budget, header);
+  const std::vector<std::string> columns = SplitLine(header);
+  auto column = [&](const std::string& name) {
+    return static_cast<std::size_t>(std::find(columns.begin(), columns.end(), name) - columns.begin());
+  };
+  const std::map<std::string, double> unit_size = {{"um/um", 1e-6}, {"um/arcsec", M_PI / 648000}, {"um/ppm", 1e-6},
+                                                   {"um/K", 1.0},   {"um/hPa", 100.0},             {"um/%", 1.0},
+                                                   {"um/(ppm/K)", 1e-6}};
+  int checked = 0;
+  while (std::getline(budget, row)) {
+    const std::vector<std::string> f = SplitLine(row);
+    if (f[column("point")] != "A" || f[column("sensitivity_practical_unit")].empty()) continue;
+    const std::string unit = f[column("sensitivity_practical_unit")];
+    ASSERT_TRUE(unit_size.count(unit)) << unit;
+    const double u = std::stod(f[column("u")]) / unit_size.at(unit);  // u in the practical unit
+    for (const char* axis : {"x", "y", "z"}) {
+      const double c = std::stod(f[column(std::string("sensitivity_practical_") + axis)]);
+      const double contribution = std::stod(f[column(std::string("contribution_") + axis + "_um")]);
+      EXPECT_NEAR(c * u, contribution, 1e-9 * std::abs(contribution) + 1e-12) << f[column("input")] << " " << axis;
+    }
+    ++checked;
+  }
+  EXPECT_GE(checked, 30);
+  const PointUncertainty& a = r.points[0].gum;
+  const double rho = a.readings[0], e = a.readings[2];
+  for (const BudgetRow& b : a.budget) {
+    const auto [unit, factor] = internal::PracticalSensitivity(b.input_unit);
+    const Eigen::Vector3d c = b.sensitivity * factor;
+    if (b.input == "range") {
+      EXPECT_EQ(unit, "um/um");
+      EXPECT_NEAR(c.norm(), 1.0, 1e-4);  // the range is along the beam; the air scales it by n_est/n ~ 1
+    }
+    if (b.input == "azimuth") {
+      EXPECT_EQ(unit, "um/arcsec");
+      EXPECT_NEAR(c.norm(), rho * std::cos(e) * 1e6 * M_PI / 648000, 1e-3 * c.norm());
+    }
+  }
 }
 
 TEST(Results, MapSkipsTheVerticalAxisAndHasNoNaN) {

@@ -100,10 +100,27 @@ std::string PointsCsv(const Results& r) {
   return out.str();
 }
 
+namespace internal {
+
+std::pair<std::string, double> PracticalSensitivity(const std::string& input_unit) {
+  constexpr double kArcsec = 3.14159265358979323846 / (180.0 * 3600.0);
+  if (input_unit == "m") return {"um/um", 1e6 * 1e-6};
+  if (input_unit == "rad") return {"um/arcsec", 1e6 * kArcsec};
+  if (input_unit == "1") return {"um/ppm", 1e6 * 1e-6};
+  if (input_unit == "degC" || input_unit == "K") return {"um/K", 1e6};
+  if (input_unit == "Pa") return {"um/hPa", 1e6 * 100.0};
+  if (input_unit == "%") return {"um/%", 1e6};
+  if (input_unit == "1/K") return {"um/(ppm/K)", 1e6 * 1e-6};
+  return {"um/" + input_unit, 1e6};
+}
+
+}  // namespace internal
+
 std::string BudgetCsv(const Results& r) {
   std::ostringstream out;
   out << "point,rank,input,group,unit,estimate,u,sensitivity_x,sensitivity_y,sensitivity_z,"
-         "sensitivity_unit,contribution_x_um,contribution_y_um,contribution_z_um,"
+         "sensitivity_unit,sensitivity_practical_x,sensitivity_practical_y,sensitivity_practical_z,"
+         "sensitivity_practical_unit,contribution_x_um,contribution_y_um,contribution_z_um,"
          "share_x,share_y,share_z,share_total\n";
   for (const PointResult& p : r.points) {
     int rank = 0;
@@ -112,6 +129,13 @@ std::string BudgetCsv(const Results& r) {
       row << p.input.name << ++rank << b.input << b.group << b.input_unit << b.estimate << b.u;
       for (int a = 0; a < 3; ++a) row << b.sensitivity[a];
       row << b.sensitivity_unit;
+      if (b.group == "correlation") {
+        row.Empty().Empty().Empty().Empty();
+      } else {
+        const auto [unit, factor] = internal::PracticalSensitivity(b.input_unit);
+        for (int a = 0; a < 3; ++a) row << b.sensitivity[a] * factor;
+        row << unit;
+      }
       for (int a = 0; a < 3; ++a) row << b.contribution[a] * kUm;
       for (int a = 0; a < 3; ++a) row << b.share[a];
       row << b.share_total;

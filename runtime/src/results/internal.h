@@ -20,6 +20,11 @@ McmTask MakeMcmTask(const TaskSpec& spec, const std::vector<int>& point_indices,
 
 // Number formatting for CSV/JSON/HTML: shortest round-trip representation ("%.17g" trimmed).
 std::string Num(double v);
+
+// Sensitivity of a coordinate (m) to an input, in the units people read (docs/results.md):
+// um/um, um/arcsec, um/ppm, um/K, um/hPa, um/%, um/(ppm/K), chosen from the input's SI unit
+// ("m", "rad", "1", "degC"/"K", "Pa", "%", "1/K"). Returns {unit, factor}: practical = SI * factor.
+std::pair<std::string, double> PracticalSensitivity(const std::string& input_unit);
 // Fixed number of significant digits.
 std::string Sig(double v, int digits);
 

@@ -76,6 +76,10 @@ json Budget(const BudgetRow& b) {
               {"u", b.u},
               {"sensitivity", Vec(b.sensitivity)},
               {"sensitivity_unit", b.sensitivity_unit},
+              {"sensitivity_practical", b.group == "correlation" ? json(nullptr)
+                                        : Vec(b.sensitivity * internal::PracticalSensitivity(b.input_unit).second)},
+              {"sensitivity_practical_unit", b.group == "correlation" ? std::string()
+                                             : internal::PracticalSensitivity(b.input_unit).first},
               {"contribution", Vec(b.contribution)},
               {"variance", Vec(b.variance)},
               {"share", Vec(b.share)},
