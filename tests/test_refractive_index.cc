@@ -236,3 +236,39 @@ TEST(RefractiveIndex, DispersionPoleIsNumericalError) {
 
 }  // namespace
 }  // namespace vlt
+
+namespace vlt {
+namespace {
+
+TEST(AirIndexReport, GroupIndexOfEdlenBoenschAgainstTheAnalyticDispersion) {
+  // Bönsch & Potulski: (n-1)_N 1e8 = 8091.37 + 2333983/(130 - s^2) + 15518/(38.9 - s^2), s = 1/lambda
+  // [1/um]; at fixed t, p, x (dry air) n - 1 = F (n-1)_N with F independent of lambda, so
+  // n_g - n = -lambda dn/dlambda = s dn/ds = F 1e-8 (2 * 2333983 s^2/(130 - s^2)^2 + 2 * 15518 s^2/(38.9 - s^2)^2).
+  AirConditions air;
+  air.vacuum_wavelength = 633e-9;
+  air.temperature = 20.0;
+  air.pressure = 101325.0;
+  air.humidity = 0.0;
+  air.co2 = 400e-6;
+  const double u[4] = {0.1, 10.0, 5.0, 50e-6};
+  const AirIndexReport r = AirIndexWithUncertainty(AirEquation::kEdlenBoensch, air, u);
+  const double s2 = std::pow(1.0 / 0.633, 2);
+  const double n_minus_1_n = 1e-8 * (8091.37 + 2333983.0 / (130.0 - s2) + 15518.0 / (38.9 - s2));
+  const double f = (r.n_phase - 1.0) / n_minus_1_n;
+  const double expected = f * 1e-8 * (2.0 * 2333983.0 * s2 / std::pow(130.0 - s2, 2) + 2.0 * 15518.0 * s2 / std::pow(38.9 - s2, 2));
+  EXPECT_NEAR(r.n_group - r.n_phase, expected, 1e-6 * expected);
+  // u(n): the root sum of squares of the exact sensitivities times u (independent inputs).
+  const RefractiveIndex n = AirRefractiveIndex(AirEquation::kEdlenBoensch, air);
+  const double u_phase = std::sqrt(std::pow(n.dn_dtemperature * u[0], 2) + std::pow(n.dn_dpressure * u[1], 2) +
+                                   std::pow(n.dn_dhumidity * u[2], 2) + std::pow(n.dn_dco2 * u[3], 2));
+  EXPECT_NEAR(r.u_phase, u_phase, 1e-12 * u_phase);
+  // In dry air with only temperature and pressure uncertain, n - 1 and n_g - 1 are both F(t, p)
+  // times a function of the wavelength: u(n_g)/(n_g - 1) = u(n)/(n - 1) exactly.
+  const double u_tp[4] = {0.1, 10.0, 0.0, 0.0};
+  const AirIndexReport d = AirIndexWithUncertainty(AirEquation::kEdlenBoensch, air, u_tp);
+  const double relative = d.u_phase / (d.n_phase - 1.0);
+  EXPECT_NEAR(d.u_group / (d.n_group - 1.0), relative, 2e-4 * relative);  // finite differences of n_g
+}
+
+}  // namespace
+}  // namespace vlt

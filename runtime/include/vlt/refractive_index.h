@@ -59,6 +59,19 @@ struct RefractiveIndex {
 RefractiveIndex AirRefractiveIndex(AirEquation equation, const AirConditions& air,
                                    std::string_view where = "refractive index");
 
+// The refractive index a job reports (results.json inputs.air, docs/units.md "Group index"):
+// the phase index n and the group index n_g = n - lambda dn/dlambda (what the pulses or the
+// modulation of an absolute distance meter travel with), each with its standard uncertainty from
+// the standard uncertainties u[4] of temperature [K], pressure [Pa], humidity [%] and CO2 [1]
+// (JCGM 100 5.1.2, independent inputs; dn/dx exact by automatic differentiation, dn_g/dx and
+// dn/dlambda by central differences).
+struct AirIndexReport {
+  double n_phase = 1.0, u_phase = 0.0;
+  double n_group = 1.0, u_group = 0.0;
+};
+AirIndexReport AirIndexWithUncertainty(AirEquation equation, const AirConditions& estimates, const double u[4],
+                                       std::string_view where = "refractive index");
+
 // Only n (same checks): the cheap path for Monte Carlo trials.
 double AirRefractiveIndexValue(AirEquation equation, const AirConditions& air,
                                std::string_view where = "refractive index");

@@ -242,4 +242,46 @@ double SaturationVapourPressure(double temperature_degc) {
   return Svp(temperature_degc);
 }
 
+namespace {
+
+// n_g = n - lambda dn/dlambda by a central difference over the vacuum wavelength (relative step
+// 1e-4: truncation ~1e-8 of the dispersion term, rounding ~1e-12 of it).
+double GroupIndex(AirEquation equation, const AirConditions& air, std::string_view where) {
+  const double h = 1e-4 * air.vacuum_wavelength;
+  AirConditions plus = air, minus = air;
+  plus.vacuum_wavelength += h;
+  minus.vacuum_wavelength -= h;
+  const double dn = (AirRefractiveIndexValue(equation, plus, where) - AirRefractiveIndexValue(equation, minus, where)) / (2.0 * h);
+  return AirRefractiveIndexValue(equation, air, where) - air.vacuum_wavelength * dn;
+}
+
+}  // namespace
+
+AirIndexReport AirIndexWithUncertainty(AirEquation equation, const AirConditions& estimates, const double u[4],
+                                       std::string_view where) {
+  AirIndexReport r;
+  const RefractiveIndex n = AirRefractiveIndex(equation, estimates, where);
+  r.n_phase = n.n;
+  const double grad[4] = {n.dn_dtemperature, n.dn_dpressure, n.dn_dhumidity, n.dn_dco2};
+  r.n_group = GroupIndex(equation, estimates, where);
+  // Steps for d n_g / d x: small against any realistic u, large against rounding.
+  const double steps[4] = {0.01, 1.0, 0.1, 1e-6};
+  double var_phase = 0.0, var_group = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    AirConditions plus = estimates, minus = estimates;
+    double* p = k == 0 ? &plus.temperature : k == 1 ? &plus.pressure : k == 2 ? &plus.humidity : &plus.co2;
+    double* m = k == 0 ? &minus.temperature : k == 1 ? &minus.pressure : k == 2 ? &minus.humidity : &minus.co2;
+    *p += steps[k];
+    *m -= steps[k];
+    if (k == 2) *m = std::max(*m, 0.0), *p = std::min(*p, 100.0);
+    if (k == 3) *m = std::max(*m, 0.0);
+    const double d_group = (GroupIndex(equation, plus, where) - GroupIndex(equation, minus, where)) / (*p - *m);
+    var_phase += grad[k] * grad[k] * u[k] * u[k];
+    var_group += d_group * d_group * u[k] * u[k];
+  }
+  r.u_phase = std::sqrt(var_phase);
+  r.u_group = std::sqrt(var_group);
+  return r;
+}
+
 }  // namespace vlt

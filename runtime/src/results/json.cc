@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include "results/internal.h"
+#include "vlt/refractive_index.h"
 #include "vlt/units.h"
 
 namespace vlt {
@@ -66,6 +67,27 @@ json Scalar(const ScalarValidation& v) {
               {"mcm_high", v.mcm_high}, {"d_low", v.d_low}, {"d_high", v.d_high},
               {"delta", v.delta},     {"mcm_tolerance", v.mcm_tolerance}, {"validated", v.validated},
               {"outcome", v.outcome}, {"verdict", v.verdict}};
+}
+
+// The refractive index of the job's air (docs/results.md inputs.air): phase and group index at
+// the estimates with their standard uncertainties. The range correction of the measurement model
+// uses the phase index n (docs/gum.md).
+json AirJson(const MeasurementSetup& s) {
+  if (!s.environment) return nullptr;
+  const Environment& e = *s.environment;
+  AirConditions air;
+  air.vacuum_wavelength = e.vacuum_wavelength;
+  air.temperature = e.temperature.estimate;
+  air.pressure = e.pressure.estimate;
+  air.humidity = e.humidity.estimate;
+  air.co2 = e.co2.estimate;
+  const double u[4] = {e.temperature.u, e.pressure.u, e.humidity.u, e.co2.u};
+  const AirEquation equation = e.equation == Environment::Equation::kCiddor ? AirEquation::kCiddor : AirEquation::kEdlenBoensch;
+  const AirIndexReport r = AirIndexWithUncertainty(equation, air, u);
+  return json{{"equation", std::string(AirEquationName(equation))},
+              {"n_phase", r.n_phase}, {"u_n_phase", r.u_phase},
+              {"n_group", r.n_group}, {"u_n_group", r.u_group},
+              {"range_correction_uses", "n_phase"}};
 }
 
 json Budget(const BudgetRow& b) {
@@ -271,6 +293,7 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
                   s.environment ? json(s.environment->equation == Environment::Equation::kCiddor ? "ciddor" : "edlen")
                                 : json(nullptr)},
                  {"vacuum_wavelength", s.environment ? json(s.environment->vacuum_wavelength) : json(nullptr)},
+                 {"air", AirJson(s)},
                  {"part_reference_temperature", s.thermal ? json(s.thermal->reference) : json(nullptr)}};
   if (r.has_mcm) {
     j["monte_carlo"] = {{"enabled", true},
