@@ -115,7 +115,7 @@ const ModelInfo kModel_gum_h1_end_gauge = {
     &ForwardBatch,
     6,  // ops_forward
     17,  // ops_forward_jacobians
-    0,  // ops_nominal_jacobians
+    1,  // ops_nominal_jacobians
 };
 
 }  // namespace vlt::generated

@@ -17,7 +17,7 @@
 // Operations after common-subexpression elimination (+ - * / unary minus, calls):
 //   Forward           6
 //   ForwardJacobians  17
-//   NominalJacobians  0
+//   NominalJacobians  1
 //   Sensitivity_l_s   5
 //   Sensitivity_d     0
 //   Sensitivity_alpha_s 2
@@ -85,13 +85,13 @@ void ForwardJacobians([[maybe_unused]] const Scalar* readings, [[maybe_unused]] 
 template <typename Scalar>
 void NominalJacobians([[maybe_unused]] const Scalar* readings, Scalar* out,
                       [[maybe_unused]] Scalar* d_out_d_readings, [[maybe_unused]] Scalar* d_out_d_params) {
-  out[0] = 0.0;
+  out[0] = 0.050000838;
   d_out_d_params[0] = 1.0;
   d_out_d_params[1] = 1.0;
   d_out_d_params[2] = 0.0;
   d_out_d_params[3] = 0.0;
-  d_out_d_params[4] = 0.0;
-  d_out_d_params[5] = 0.0;
+  d_out_d_params[4] = 0.0050000623;
+  d_out_d_params[5] = -5.750071645e-07;
 }
 
 // Column 0 of d_out_d_params: d out / d l_s.

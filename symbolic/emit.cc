@@ -94,10 +94,21 @@ GeneratedModel GenerateModel(const ModelSpec& spec) {
   gen.name = name;
   const FunctionBody forward = EmitBody(ForwardProgram(m.graph), all, out_lhs);
   const FunctionBody jacobians = EmitBody(JacobianProgram(m.graph, wrt, {}, true), all, jac_lhs);
-  GiNaC::exmap zero;
-  for (const auto& p : m.params) zero[p] = 0;
-  // Nominal: every parameter substituted by 0 after differentiation, then simplified.
-  const FunctionBody nominal = EmitBody(JacobianProgram(m.graph, wrt, zero, true), readings, jac_lhs);
+  // Nominal: after differentiation every parameter is substituted by its nominal value and the
+  // result simplified. Tracker models: 0 (a compensated tracker). Custom models: the spec's
+  // estimates — natural expressions such as v/i or 1/rho_w have no value at 0. An expression
+  // that is singular at the estimates is a spec error (one line, exit 2), not an internal one.
+  GiNaC::exmap nominal_values;
+  for (std::size_t k = 0; k < m.params.size(); ++k) {
+    nominal_values[m.params[k]] = spec.kind == "custom" ? GiNaC::ex(GiNaC::numeric(spec.params[k].estimate)) : GiNaC::ex(0);
+  }
+  FunctionBody nominal;
+  try {
+    nominal = EmitBody(JacobianProgram(m.graph, wrt, nominal_values, true), readings, jac_lhs);
+  } catch (const std::exception& e) {
+    throw SpecError(spec.spec_file + ": the model or its Jacobian is singular at the inputs' estimates (" +
+                    e.what() + "); give estimates where the expression is defined");
+  }
   std::vector<FunctionBody> sensitivity;
   for (int k = 0; k < np; ++k) {
     std::vector<std::string> col;

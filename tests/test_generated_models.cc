@@ -342,3 +342,31 @@ TEST(GeneratedJcgm101Additive, IsTheSumOfItsInputs) {
 }
 
 }  // namespace
+
+namespace vlt {
+namespace {
+
+// Custom models: NominalJacobians is the value and Jacobian at the spec's estimates (vlt-gen
+// specialises there), i.e. ForwardJacobians evaluated at the default estimates. For GUM H.1 this
+// is l = 50.000838 mm and the GUM's sensitivity coefficients.
+TEST(GeneratedCustomModels, NominalJacobiansAreForwardJacobiansAtTheEstimates) {
+  for (const ModelInfo* m : AllModels()) {
+    if (std::string_view(m->kind) != "custom") continue;
+    std::vector<double> p(m->num_params), out_n(m->num_outputs), out_f(m->num_outputs);
+    std::vector<double> jp_n(m->num_outputs * m->num_params), jp_f(jp_n.size());
+    for (int k = 0; k < m->num_params; ++k) p[k] = m->params[k].default_estimate;
+    m->nominal_jacobians(nullptr, out_n.data(), nullptr, jp_n.data());
+    m->forward_jacobians(nullptr, p.data(), out_f.data(), nullptr, jp_f.data());
+    for (int i = 0; i < m->num_outputs; ++i) EXPECT_NEAR(out_n[i], out_f[i], 1e-15 * std::abs(out_f[i])) << m->name;
+    for (std::size_t i = 0; i < jp_n.size(); ++i) EXPECT_NEAR(jp_n[i], jp_f[i], 1e-15 * std::abs(jp_f[i]) + 1e-300) << m->name;
+  }
+  const ModelInfo* h1 = FindModel("gum_h1_end_gauge");
+  ASSERT_NE(h1, nullptr);
+  double out = 0.0;
+  std::vector<double> jp(h1->num_params);
+  h1->nominal_jacobians(nullptr, &out, nullptr, jp.data());
+  EXPECT_NEAR(out, 0.050000838, 1e-12);  // GUM H.1.5: l = 50.000 838 mm
+}
+
+}  // namespace
+}  // namespace vlt

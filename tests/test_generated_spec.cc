@@ -177,6 +177,35 @@ TEST(VltGen, CustomOutputExpressionMustUseDeclaredInputs) {
   fs::remove_all(dir);
 }
 
+TEST(VltGen, ExpressionsUndefinedAtZeroGenerateAndSingularOnesAreRefused) {
+  // v/i (and 1/i) have no value at i = 0: the nominal Jacobian is taken at the estimates, so the
+  // spec generates; with the estimate i = 0 itself the spec is refused with one line, exit 2.
+  auto spec = [](double i_estimate) {
+    return std::string("[model]\nname = \"ohm\"\nkind = \"custom\"\ndescription = \"R = V / I\"\n\n"
+                       "[[input]]\nname = \"v\"\nunit = \"1\"\nquantity = \"dimensionless\"\ndescription = \"voltage\"\n"
+                       "estimate = 5.0\nu = 0.01\ndistribution = \"normal\"\n\n"
+                       "[[input]]\nname = \"i\"\nunit = \"1\"\nquantity = \"dimensionless\"\ndescription = \"current\"\n"
+                       "estimate = ") + std::to_string(i_estimate) +
+           "\nu = 0.001\ndistribution = \"normal\"\n\n[[output]]\nname = \"r\"\nunit = \"1\"\nquantity = \"dimensionless\"\n"
+           "description = \"resistance\"\nexpression = \"v/i + sqrt(v^2 + i^2) - sqrt(v^2 + i^2)\"\n";
+  };
+  const fs::path dir = TempDir();
+  fs::create_directories(dir / "models");
+  Write(dir / "models" / "ohm.toml", spec(0.5));
+  GenRun r = RunGen("--models " + (dir / "models").string() + " --out " + (dir / "out").string(), dir);
+  EXPECT_EQ(r.status, 0) << r.err;
+  const std::string header = Read(dir / "out" / "ohm.h");
+  EXPECT_NE(header.find("out[0] = 10.0;"), std::string::npos) << header;  // 5 / 0.5 at the estimates
+  Write(dir / "models" / "ohm.toml", spec(0.0));
+  fs::remove_all(dir / "out");
+  r = RunGen("--models " + (dir / "models").string() + " --out " + (dir / "out").string(), dir);
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_NE(r.err.find("ohm.toml: the model or its Jacobian is singular at the inputs' estimates"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "out" / "ohm.h"));
+  fs::remove_all(dir);
+}
+
 TEST(VltGen, SummaryListsParametersAndOperationCounts) {
   const fs::path dir = TempDir();
   const GenRun r = RunGen("--summary " + (kModels / "head.toml").string(), dir);

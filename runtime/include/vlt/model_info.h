@@ -33,7 +33,8 @@ struct QuantityInfo {
 using ForwardFn = void (*)(const double* readings, const double* params, double* outputs);
 using ForwardJacobiansFn = void (*)(const double* readings, const double* params, double* outputs,
                                     double* d_outputs_d_readings, double* d_outputs_d_params);
-// Same as ForwardJacobiansFn with every parameter at zero, specialised symbolically.
+// Same as ForwardJacobiansFn with every parameter at its nominal value, specialised symbolically:
+// 0 for tracker models (a compensated tracker), the spec's estimates for custom models.
 using NominalJacobiansFn = void (*)(const double* readings, double* outputs,
                                     double* d_outputs_d_readings, double* d_outputs_d_params);
 // Column k of d_outputs_d_params at general parameter values (k indexes params).
