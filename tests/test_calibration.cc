@@ -16,6 +16,7 @@
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
 
+#include "test_calibration_helpers.h"
 #include "vlt/calibration.h"
 #include "vlt/error.h"
 #include "vlt/job.h"
@@ -24,24 +25,10 @@
 namespace vlt {
 namespace {
 
-const std::string kLayout = std::string(VLT_SOURCE_DIR) + "/examples/layouts/b89_4_19_2006.toml";
+const std::string& kLayout = test::kB89Layout;
 
 MeasurementSetup Tracker(const std::string& model_name, double state_scale, std::uint64_t seed) {
-  const ModelInfo* model = FindModel(model_name);
-  MeasurementSetup s;
-  s.model = model;
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> normal;
-  for (int k = 0; k < model->num_params; ++k) {
-    UncertainInput in;
-    in.name = model->params[k].name;
-    in.unit = model->params[k].unit;
-    in.u = model->params[k].default_u;
-    in.estimate = state_scale * in.u * normal(rng);
-    s.params.push_back(in);
-  }
-  s.noise = {1.0e-6, 0.2e-6, 0.5e-6, 0.5e-6};  // 1 um + 0.2 um/m, 0.1 arcsec
-  return s;
+  return test::SimulatedTracker(model_name, state_scale, seed);
 }
 
 // A layout with only the tests of one kind.

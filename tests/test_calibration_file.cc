@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "calibration/outputs.h"
+#include "test_calibration_helpers.h"
 #include "vlt/calibration.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
@@ -24,24 +25,9 @@
 namespace vlt {
 namespace {
 
-const std::string kLayout = std::string(VLT_SOURCE_DIR) + "/examples/layouts/b89_4_19_2006.toml";
+const std::string& kLayout = test::kB89Layout;
 
-MeasurementSetup HeadTracker(std::uint64_t seed) {
-  const ModelInfo* model = FindModel("head");
-  MeasurementSetup s;
-  s.model = model;
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> normal;
-  for (int k = 0; k < model->num_params; ++k) {
-    UncertainInput in;
-    in.name = model->params[k].name;
-    in.u = model->params[k].default_u;
-    in.estimate = in.u * normal(rng);
-    s.params.push_back(in);
-  }
-  s.noise = {1.0e-6, 0.2e-6, 0.5e-6, 0.5e-6};
-  return s;
-}
+MeasurementSetup HeadTracker(std::uint64_t seed) { return test::SimulatedTracker("head", 1.0, seed); }
 
 std::filesystem::path TempDir(const std::string& name) {
   std::filesystem::path d = std::filesystem::path(VLT_BINARY_DIR) / "test-calibration-file" / name;

@@ -59,16 +59,9 @@ void AddCalibrateCommand(CLI::App& app, GlobalOptions& global) {
     for (const std::string& f : job.data_files) provenance.data_files.emplace_back(f, Sha256File(f));
     const auto files = calibration_outputs::CalibrationFiles(job, result, provenance);
     output.Commit(files);
-    if (global.json) {
-      for (const auto& [name, content] : files) {
-        if (name == "results.json") std::fwrite(content.data(), 1, content.size(), stdout);
-      }
-    } else if (!global.quiet) {
-      const std::string text = calibration_outputs::CalibrationSummary(job, result);
-      std::fwrite(text.data(), 1, text.size(), stdout);
-      std::printf("Wrote %s/: ", dir.string().c_str());
-      for (std::size_t i = 0; i < files.size(); ++i) std::printf("%s%s", i ? ", " : "", files[i].first.c_str());
-      std::printf("\nUse it in a job:  [tracker] calibration = \"%s\"\n", (dir / "calibration.toml").string().c_str());
+    PrintWritten(files, calibration_outputs::CalibrationSummary(job, result), dir, global);
+    if (!global.json && !global.quiet) {
+      std::printf("Use it in a job:  [tracker] calibration = \"%s\"\n", (dir / "calibration.toml").string().c_str());
     }
   });
 }

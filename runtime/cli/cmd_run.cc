@@ -47,6 +47,21 @@ CLI::Validator UnsignedInteger64() {
       "INT in 0 .. 2^64-1");
 }
 
+void PrintWritten(const std::vector<std::pair<std::string, std::string>>& files, const std::string& summary,
+                  const std::filesystem::path& dir, const GlobalOptions& global) {
+  if (global.json) {
+    for (const auto& [name, content] : files) {
+      if (name == "results.json") std::fwrite(content.data(), 1, content.size(), stdout);
+    }
+    return;
+  }
+  if (global.quiet) return;
+  std::fwrite(summary.data(), 1, summary.size(), stdout);
+  std::printf("Wrote %s/: ", dir.string().c_str());
+  for (std::size_t i = 0; i < files.size(); ++i) std::printf("%s%s", i ? ", " : "", files[i].first.c_str());
+  std::printf("\n");
+}
+
 void AddRunOptions(CLI::App& command, RunCliOptions& options) {
   command.add_option("-o,--output", options.output_dir,
                      "Output directory (default: [output] directory of the job, else ./vlt-out/<job name>)");
@@ -104,16 +119,9 @@ int RunAndWrite(const Job& job, const RunCliOptions& options, const GlobalOption
   auto files = ResultFiles(results);
   output.Commit(files);
 
-  if (global.json) {
-    for (const auto& [name, content] : files) {
-      if (name == "results.json") std::fwrite(content.data(), 1, content.size(), stdout);
-    }
-  } else if (!global.quiet) {
-    std::string text = SummaryText(results);
-    std::fwrite(text.data(), 1, text.size(), stdout);
-    std::printf("Wrote %s/: ", dir.string().c_str());
-    for (std::size_t i = 0; i < files.size(); ++i) std::printf("%s%s", i ? ", " : "", files[i].first.c_str());
-    std::printf("\nOpen %s in a browser for the report.\n", (dir / "report.html").string().c_str());
+  PrintWritten(files, SummaryText(results), dir, global);
+  if (!global.json && !global.quiet) {
+    std::printf("Open %s in a browser for the report.\n", (dir / "report.html").string().c_str());
   }
   return 0;
 }

@@ -33,17 +33,7 @@ void AddTestCommand(CLI::App& app, GlobalOptions& global) {
     if (job.simulate) simulated = SimulateCalibrationData(job.tracker, job.layout, job.seed);
     const auto files = calibration_outputs::TestFiles(job, results, job.simulate ? &simulated : nullptr);
     output.Commit(files);
-    if (global.json) {
-      for (const auto& [name, content] : files) {
-        if (name == "results.json") std::fwrite(content.data(), 1, content.size(), stdout);
-      }
-    } else if (!global.quiet) {
-      const std::string text = calibration_outputs::TestSummary(job, results);
-      std::fwrite(text.data(), 1, text.size(), stdout);
-      std::printf("Wrote %s/: ", dir.string().c_str());
-      for (std::size_t i = 0; i < files.size(); ++i) std::printf("%s%s", i ? ", " : "", files[i].first.c_str());
-      std::printf("\n");
-    }
+    PrintWritten(files, calibration_outputs::TestSummary(job, results), dir, global);
   });
 }
 

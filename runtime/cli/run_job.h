@@ -28,6 +28,11 @@ struct RunCliOptions {
 CLI::Validator IntegerIn(std::int64_t lo, std::int64_t hi);
 CLI::Validator UnsignedInteger64();
 
+// After a command committed its files: --json prints results.json, else (unless --quiet) the
+// summary and "Wrote DIR/: a, b, ..." (one place for run, test, calibrate).
+void PrintWritten(const std::vector<std::pair<std::string, std::string>>& files, const std::string& summary,
+                  const std::filesystem::path& dir, const GlobalOptions& global);
+
 // Adds -o, --no-mcm, --trials, --adaptive, --seed, --threads to a subcommand.
 void AddRunOptions(CLI::App& command, RunCliOptions& options);
 

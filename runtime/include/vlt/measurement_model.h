@@ -18,6 +18,7 @@
 #include <Eigen/Core>
 
 #include "vlt/model_info.h"
+#include "vlt/refractive_index.h"
 
 namespace vlt {
 
@@ -53,6 +54,11 @@ struct Environment {
   UncertainInput humidity;      // relative humidity, % (0..100)
   UncertainInput co2;           // mole fraction, 1 (e.g. 450e-6)
 };
+
+// The refractive-index equation and the air conditions at the estimates of an Environment
+// (vlt/refractive_index.h).
+AirEquation EquationOf(const Environment& environment);
+AirConditions AirAtEstimates(const Environment& environment);
 
 // Station pose: x_part = R * x_tracker + t, R = Rz(rz) * Ry(ry) * Rx(rx).
 struct StationPose {

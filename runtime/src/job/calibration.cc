@@ -176,13 +176,7 @@ TestJob LoadTestJob(const std::string& path) {
   TestJob job;
   job.file = path;
   job.name = std::filesystem::path(path).stem().string();
-  Section meta = top.Sub("job", false);
-  if (meta.exists()) {
-    meta.set_hint("name, description");
-    if (const toml::node* n = meta.Get("name")) job.name = AsString(*n, meta.Where("name"));
-    meta.Get("description");
-    meta.Finish();
-  }
+  ReadJobMeta(top, job.name, nullptr, job.name);
   Job holder;  // the job's [tracker] reader fills a Job
   holder.file = path;
   holder.base_dir = BaseDirectory(path);
@@ -235,13 +229,7 @@ CalibrationJob LoadCalibrationJob(const std::string& path) {
   job.file = path;
   job.name = std::filesystem::path(path).stem().string();
   job.data_files.push_back(path);
-  Section meta = top.Sub("job", false);
-  if (meta.exists()) {
-    meta.set_hint("name, description");
-    if (const toml::node* n = meta.Get("name")) job.name = AsString(*n, meta.Where("name"));
-    meta.Get("description");
-    meta.Finish();
-  }
+  ReadJobMeta(top, job.name, nullptr, job.name);
   Job holder;
   holder.file = path;
   holder.base_dir = BaseDirectory(path);

@@ -316,14 +316,7 @@ void ReadEnvironment(Section& top, Job& job) {
                      number + " hPa\"?");
   }
   // The estimates must lie in the equation's published range of validity (docs/units.md).
-  AirConditions air;
-  air.vacuum_wavelength = env.vacuum_wavelength;
-  air.temperature = env.temperature.estimate;
-  air.pressure = env.pressure.estimate;
-  air.humidity = env.humidity.estimate;
-  air.co2 = env.co2.estimate;
-  CheckAirValidity(env.equation == Environment::Equation::kCiddor ? AirEquation::kCiddor : AirEquation::kEdlenBoensch,
-                   air, s.WhereSelf());
+  CheckAirValidity(EquationOf(env), AirAtEstimates(env), s.WhereSelf());
   s.Finish();
   job.setup.environment = env;
 }

@@ -77,6 +77,9 @@ void ReadUncertain(Section& parent, std::string_view key, Dimension value_dim, D
                    UncertainInput& input);
 UncertainInput MakeInput(std::string name, std::string group, Dimension dim, double estimate, double u);
 
+// [job] name, description (optional; the name defaults to `default_name`); job.cc.
+void ReadJobMeta(Section& top, std::string& name, std::string* description, const std::string& default_name);
+
 // The readers of the job file's sections, one file per group.
 void ReadTracker(Section& top, Job& job);      // instrument.cc: [tracker]
 void ReadEnvironment(Section& top, Job& job);  // instrument.cc: [environment]

@@ -189,11 +189,18 @@ AirConditions Air(const Environment& e, const double* env) {
   air.co2 = env[3];
   return air;
 }
-AirEquation Equation(const Environment& e) {
+AirEquation Equation(const Environment& e) { return EquationOf(e); }
+}  // namespace
+
+AirEquation EquationOf(const Environment& e) {
   return e.equation == Environment::Equation::kCiddor ? AirEquation::kCiddor
                                                       : AirEquation::kEdlenBoensch;
 }
-}  // namespace
+
+AirConditions AirAtEstimates(const Environment& e) {
+  const double estimates[4] = {e.temperature.estimate, e.pressure.estimate, e.humidity.estimate, e.co2.estimate};
+  return Air(e, estimates);
+}
 
 double MeasurementModel::AirIndex(const double* env, double* gradient) const {
   const Environment& e = *setup_.environment;

@@ -75,15 +75,9 @@ json Scalar(const ScalarValidation& v) {
 json AirJson(const MeasurementSetup& s) {
   if (!s.environment) return nullptr;
   const Environment& e = *s.environment;
-  AirConditions air;
-  air.vacuum_wavelength = e.vacuum_wavelength;
-  air.temperature = e.temperature.estimate;
-  air.pressure = e.pressure.estimate;
-  air.humidity = e.humidity.estimate;
-  air.co2 = e.co2.estimate;
   const double u[4] = {e.temperature.u, e.pressure.u, e.humidity.u, e.co2.u};
-  const AirEquation equation = e.equation == Environment::Equation::kCiddor ? AirEquation::kCiddor : AirEquation::kEdlenBoensch;
-  const AirIndexReport r = AirIndexWithUncertainty(equation, air, u);
+  const AirEquation equation = EquationOf(e);
+  const AirIndexReport r = AirIndexWithUncertainty(equation, AirAtEstimates(e), u);
   return json{{"equation", std::string(AirEquationName(equation))},
               {"n_phase", r.n_phase}, {"u_n_phase", r.u_phase},
               {"n_group", r.n_group}, {"u_n_group", r.u_group},
