@@ -154,6 +154,35 @@ reference = "20 degC"
   EXPECT_EQ(job.name, "units");
 }
 
+TEST(Job, EnvironmentEquationSpellings) {
+  const auto job_with = [](const std::string& equation, const std::string& extra = "") {
+    return kTracker + "[environment]\nequation = \"" + equation + "\"\n" + extra +
+           "temperature = \"20 degC\"\npressure = \"1013.25 hPa\"\nhumidity = \"50 %\"\n" + kPlan;
+  };
+  // NIST's modified Edlén (Birch-Downs): "modified_edlen" and its aliases; "edlen" stays
+  // Bönsch-Potulski (docs/job-file.md).
+  for (const char* spelling : {"modified_edlen", "birch_downs", "edlen_birch_downs"}) {
+    Job job = Parse(job_with(spelling));
+    ASSERT_TRUE(job.setup.environment.has_value()) << spelling;
+    EXPECT_EQ(job.setup.environment->equation, AirEquation::kEdlenBirchDowns) << spelling;
+    EXPECT_EQ(EquationOf(*job.setup.environment), AirEquation::kEdlenBirchDowns) << spelling;
+  }
+  EXPECT_EQ(Parse(job_with("edlen")).setup.environment->equation, AirEquation::kEdlenBoensch);
+  EXPECT_EQ(Parse(job_with("ciddor")).setup.environment->equation, AirEquation::kCiddor);
+  // A bad spelling: the one-line message names every accepted spelling.
+  EXPECT_EQ(ErrorOf(job_with("edlen-modified")),
+            "job.toml: environment.equation: unknown refractive-index equation 'edlen-modified' (expected one "
+            "of: ciddor, edlen, edlen_boensch, boensch_potulski, modified_edlen, birch_downs, edlen_birch_downs)");
+  // Its range of validity (350 .. 650 nm) is checked; CO2 is not an input of it, so a CO2
+  // estimate the other equations refuse is no error (docs/units.md).
+  EXPECT_NE(ErrorOf(job_with("modified_edlen", "wavelength = \"1550 nm\"\n"))
+                .find("outside the range of validity of the modified Edlen (NIST, Birch-Downs) equation"),
+            std::string::npos);
+  EXPECT_EQ(ErrorOf(job_with("modified_edlen", "co2 = \"3000 ppm\"\n")), "");
+  EXPECT_NE(ErrorOf(job_with("ciddor", "co2 = \"3000 ppm\"\n")).find("CO2 mole fraction 3000 umol/mol is outside"),
+            std::string::npos);
+}
+
 TEST(Job, RangeNoiseSpellings) {
   std::string text = kTracker;
   text.replace(text.find("range = \"5 um + 0.5 um/m\""), 25, "range_a = \"0.004 mm\"\nrange_b = \"2 ppm\"");

@@ -1,9 +1,11 @@
-// test_refractive_index.cc — refractive index of air against published values, its derivatives
+// test_refractive_index.cc — refractive index of air (Ciddor, Edlén-Bönsch-Potulski, NIST's
+// modified Edlén) against published values and independent re-computations, its derivatives
 // against central finite differences, and refusals of impossible inputs.
 #include "vlt/refractive_index.h"
 
 #include <cmath>
 #include <limits>
+#include <string>
 #include <stdexcept>
 
 #include <gtest/gtest.h>
@@ -116,6 +118,147 @@ TEST(RefractiveIndex, EdlenStandardAirAndCiddorAgreement) {
               AirRefractiveIndexValue(AirEquation::kCiddor, dry), 1.2e-8);
 }
 
+// --- Modified Edlén (NIST Engineering Metrology Toolbox, Appendix A-IV; Birch & Downs) ----------
+
+// The modified Edlén equation written out again from NIST A-IV in plain double arithmetic, with
+// its own IAPWS-IF97 saturation vapour pressure (NIST A-I, t >= 0 degC), so that it shares no code
+// with the library: lambda [nm], t [degC], p [Pa], rh [%].
+double ClosedFormModifiedEdlen(double lambda_nm, double t, double p, double rh) {
+  const double n1 = 0.116705214528e4, n2 = -0.724213167032e6, n3 = -0.170738469401e2,
+               n4 = 0.120208247025e5, n5 = -0.323255503223e7, n6 = 0.149151086135e2,
+               n7 = -0.482326573616e4, n8 = 0.405113405421e6, n9 = -0.238555575678,
+               n10 = 0.650175348448e3;
+  const double T = t + 273.15;
+  const double th = T + n9 / (T - n10);
+  const double A = th * th + n1 * th + n2, B = n3 * th * th + n4 * th + n5,
+               C = n6 * th * th + n7 * th + n8;
+  const double psv = 1e6 * std::pow(2.0 * C / (-B + std::sqrt(B * B - 4.0 * A * C)), 4);
+  const double pv = rh / 100.0 * psv;
+  const double S = 1.0 / ((lambda_nm / 1000.0) * (lambda_nm / 1000.0));
+  const double ns = 1.0 + 1e-8 * (8342.54 + 2406147.0 / (130.0 - S) + 15998.0 / (38.9 - S));
+  const double X = (1.0 + 1e-8 * (0.601 - 0.00972 * t) * p) / (1.0 + 0.003661 * t);
+  const double ntp = 1.0 + p * (ns - 1.0) * X / 96095.43;
+  return ntp - 1e-10 * (292.75 / T) * (3.7345 - 0.0401 * S) * pv;
+}
+
+AirConditions Air(double lambda_nm, double t, double p, double rh, double co2 = 450e-6) {
+  AirConditions air;
+  air.vacuum_wavelength = lambda_nm * 1e-9;
+  air.temperature = t;
+  air.pressure = p;
+  air.humidity = rh;
+  air.co2 = co2;
+  return air;
+}
+
+TEST(RefractiveIndex, ModifiedEdlenNistCalculatorValues) {
+  // Output of the NIST calculator "Wavelength Calculator based on the Modified Edlén Equation"
+  // (https://emtoolbox.nist.gov/Wavelength/Edlen.asp), 9 decimals, at 20 degC, 101.325 kPa,
+  // 30 % RH (and the 450 umol/mol CO2 built into the equation), 300 .. 700 nm in 25 nm steps, as
+  // tabulated with that attribution in the air RINDEX table of a Geant4 simulation's
+  // GsimMaterialManager. Tolerance: half a unit of the 9th decimal (the values are rounded).
+  const double n[17] = {1.000286349, 1.000283315, 1.000280985, 1.000279151, 1.000277679,
+                        1.000276478, 1.000275484, 1.000274653, 1.000273949, 1.000273348,
+                        1.000272831, 1.000272382, 1.000271990, 1.000271646, 1.000271341,
+                        1.000271071, 1.000270830};
+  for (int k = 0; k < 17; ++k) {
+    const double lambda_nm = 300.0 + 25.0 * k;
+    EXPECT_NEAR(AirRefractiveIndexValue(AirEquation::kEdlenBirchDowns, Air(lambda_nm, 20.0, 101325.0, 30.0)),
+                n[k], 0.5e-9)
+        << lambda_nm << " nm";
+  }
+  // NOVACProject/SpectralEvaluation UnitTests/UnitTest_Air.cpp ("created with the help of
+  // https://emtoolbox.nist.gov/Wavelength/Edlen.asp"; conditions not stated there — these agree to
+  // the printed digit at 20 degC, 101.325 kPa, 50 % RH, this file's NIST check point).
+  EXPECT_NEAR(AirRefractiveIndexValue(AirEquation::kEdlenBirchDowns, NistPoint()), 1.000271374, 0.5e-9);
+  EXPECT_NEAR(AirRefractiveIndexValue(AirEquation::kEdlenBirchDowns, Air(350.0, 20.0, 101325.0, 50.0)),
+              1.000280826, 0.5e-9);
+  EXPECT_NEAR(AirRefractiveIndexValue(AirEquation::kEdlenBirchDowns, Air(400.0, 20.0, 101325.0, 50.0)),
+              1.000277516, 0.5e-9);
+}
+
+TEST(RefractiveIndex, ModifiedEdlenRefIndexValues) {
+  // Values printed (17 digits) in the README of P. Nair's `ref_index` 1.0 (PyPI; its `edlen`
+  // implements NIST A-IV with the IAPWS saturation pressure of A-I), 633 nm, 101325 Pa; 60 degC is
+  // outside the range of validity but the evaluation must still agree.
+  struct Case {
+    double t, rh, n;
+  };
+  const Case cases[] = {
+      {20.0, 20.0, 1.0002716291691649},
+      {20.0, 80.0, 1.0002711197635226},
+      {60.0, 80.0, 1.0002339748542823},
+  };
+  for (const Case& c : cases) {
+    EXPECT_NEAR(AirRefractiveIndexValue(AirEquation::kEdlenBirchDowns, Air(633.0, c.t, 101325.0, c.rh)), c.n,
+                1e-12)
+        << c.t << " degC " << c.rh << " %";
+  }
+}
+
+TEST(RefractiveIndex, ModifiedEdlenAgainstClosedForm) {
+  // Over the whole range of validity (and the CO2 range of the other equations): the library
+  // equals the independent closed form to rounding, and CO2 does not enter at all.
+  for (double lambda_nm : {350.0, 450.0, 550.0, 633.0, 650.0}) {
+    for (double t : {0.0, 10.0, 20.0, 30.0, 40.0}) {
+      for (double p : {60e3, 80e3, 101325.0, 120e3, 140e3}) {
+        for (double rh : {0.0, 50.0, 100.0}) {
+          const double expected = ClosedFormModifiedEdlen(lambda_nm, t, p, rh);
+          for (double co2 : {0.0, 450e-6, 2000e-6}) {
+            const AirConditions air = Air(lambda_nm, t, p, rh, co2);
+            const RefractiveIndex r = AirRefractiveIndex(AirEquation::kEdlenBirchDowns, air);
+            EXPECT_NEAR(r.n, expected, 1e-14) << lambda_nm << " nm " << t << " degC " << p << " Pa " << rh << " %";
+            EXPECT_DOUBLE_EQ(AirRefractiveIndexValue(AirEquation::kEdlenBirchDowns, air), r.n);
+            EXPECT_EQ(r.dn_dco2, 0.0);  // no CO2 term: exactly zero, not small
+          }
+        }
+      }
+    }
+  }
+  // The exact derivatives against central differences of the closed form (not of the library).
+  for (double t : {0.0, 20.0, 40.0}) {
+    const RefractiveIndex r = AirRefractiveIndex(AirEquation::kEdlenBirchDowns, Air(633.0, t, 101325.0, 50.0));
+    const double d_t = (ClosedFormModifiedEdlen(633.0, t + 1e-3, 101325.0, 50.0) -
+                        ClosedFormModifiedEdlen(633.0, t - 1e-3, 101325.0, 50.0)) / 2e-3;
+    const double d_p = (ClosedFormModifiedEdlen(633.0, t, 101326.0, 50.0) -
+                        ClosedFormModifiedEdlen(633.0, t, 101324.0, 50.0)) / 2.0;
+    const double d_h = (ClosedFormModifiedEdlen(633.0, t, 101325.0, 50.1) -
+                        ClosedFormModifiedEdlen(633.0, t, 101325.0, 49.9)) / 0.2;
+    EXPECT_NEAR(r.dn_dtemperature, d_t, 1e-5 * std::abs(d_t)) << t;
+    EXPECT_NEAR(r.dn_dpressure, d_p, 1e-5 * std::abs(d_p)) << t;
+    EXPECT_NEAR(r.dn_dhumidity, d_h, 1e-5 * std::abs(d_h)) << t;
+  }
+}
+
+TEST(RefractiveIndex, ModifiedEdlenAgreesWithCiddorAndBoenschPotulski) {
+  // At the check point (633 nm, 20 degC, 101325 Pa, 50 % RH, 450 umol/mol) the three equations
+  // give 1.0002713745 (modified Edlén), 1.0002713727 (Ciddor), 1.0002713569 (Bönsch-Potulski).
+  // Bounds: each equation's stated uncertainty is of order 1e-8, so two of them may differ by
+  // ~2e-8 (the bound the Bönsch-Potulski/Ciddor test above uses). Modified Edlén - Bönsch-Potulski
+  // = 1.75e-8: 0.86e-8 from the dry-air dispersion and density (at equal CO2) and 0.9e-8 from the
+  // water term (B&P: 3.8020 - 0.0384 s^2; NIST: (292.75/T)(3.7345 - 0.0401 s^2)); bound 2e-8.
+  // Modified Edlén - Ciddor = 0.17e-8 (NIST tuned its water-vapour term so that the two agree):
+  // bound 1e-8, also over the laboratory range below (largest difference there 0.22e-8).
+  const double med = AirRefractiveIndexValue(AirEquation::kEdlenBirchDowns, NistPoint());
+  EXPECT_NEAR(med, AirRefractiveIndexValue(AirEquation::kCiddor, NistPoint()), 1e-8);
+  EXPECT_NEAR(med, AirRefractiveIndexValue(AirEquation::kEdlenBoensch, NistPoint()), 2e-8);
+  AirConditions dry = NistPoint();
+  dry.humidity = 0.0;
+  const double med_dry = AirRefractiveIndexValue(AirEquation::kEdlenBirchDowns, dry);
+  EXPECT_NEAR(med_dry, AirRefractiveIndexValue(AirEquation::kCiddor, dry), 1e-8);
+  EXPECT_NEAR(med_dry, AirRefractiveIndexValue(AirEquation::kEdlenBoensch, dry), 2e-8);
+  for (double t : {15.0, 20.0, 25.0}) {
+    for (double p : {95e3, 101325.0, 105e3}) {
+      for (double rh : {0.0, 20.0, 50.0, 80.0}) {
+        const AirConditions air = Air(633.0, t, p, rh);
+        EXPECT_NEAR(AirRefractiveIndexValue(AirEquation::kEdlenBirchDowns, air),
+                    AirRefractiveIndexValue(AirEquation::kCiddor, air), 1e-8)
+            << t << " degC " << p << " Pa " << rh << " %";
+      }
+    }
+  }
+}
+
 // Central finite differences of the value path, step h.
 RefractiveIndex FiniteDifferences(AirEquation eq, const AirConditions& air) {
   const auto n = [&](AirConditions a) { return AirRefractiveIndexValue(eq, a); };
@@ -137,9 +280,9 @@ RefractiveIndex FiniteDifferences(AirEquation eq, const AirConditions& air) {
 }
 
 TEST(RefractiveIndex, DerivativesMatchFiniteDifferences) {
-  for (AirEquation eq : {AirEquation::kCiddor, AirEquation::kEdlenBoensch}) {
+  for (AirEquation eq : {AirEquation::kCiddor, AirEquation::kEdlenBoensch, AirEquation::kEdlenBirchDowns}) {
     for (double t : {-10.0, 5.0, 20.0, 35.0}) {
-      if (eq == AirEquation::kEdlenBoensch && t < 0.0) continue;
+      if (eq != AirEquation::kCiddor && t < 0.0) continue;
       for (double lambda : {633e-9, 1550e-9}) {
         AirConditions air = NistPoint();
         air.temperature = t;
@@ -160,13 +303,13 @@ TEST(RefractiveIndex, DerivativesMatchFiniteDifferences) {
 
 TEST(RefractiveIndex, SensitivitiesNearReferenceReadme) {
   // Reference README section 3: dn/dt ~ -9.5e-7 /K, dn/dp ~ +2.7e-9 /Pa, dn/dRH ~ -8.5e-9 /%RH.
-  for (AirEquation eq : {AirEquation::kCiddor, AirEquation::kEdlenBoensch}) {
+  for (AirEquation eq : {AirEquation::kCiddor, AirEquation::kEdlenBoensch, AirEquation::kEdlenBirchDowns}) {
     const RefractiveIndex r = AirRefractiveIndex(eq, NistPoint());
     EXPECT_NEAR(r.dn_dtemperature, -9.5e-7, 0.3e-7);
     EXPECT_NEAR(r.dn_dpressure, 2.7e-9, 0.05e-9);
     EXPECT_NEAR(r.dn_dhumidity, -8.5e-9, 0.5e-9);
-    // CO2: (n-1) * 0.53 per unit mole fraction ~ 1.45e-4.
-    EXPECT_NEAR(r.dn_dco2, 0.000271 * 0.534, 0.1e-4);
+    // CO2: (n-1) * 0.53 per unit mole fraction ~ 1.45e-4; none in the modified Edlén equation.
+    EXPECT_NEAR(r.dn_dco2, eq == AirEquation::kEdlenBirchDowns ? 0.0 : 0.000271 * 0.534, 0.1e-4);
   }
 }
 
@@ -191,7 +334,7 @@ TEST(RefractiveIndex, RefusesImpossibleInputs) {
       bad([&](AirConditions& a) { a.co2 = nan; }),
   };
   for (const AirConditions& air : cases) {
-    for (AirEquation eq : {AirEquation::kCiddor, AirEquation::kEdlenBoensch}) {
+    for (AirEquation eq : {AirEquation::kCiddor, AirEquation::kEdlenBoensch, AirEquation::kEdlenBirchDowns}) {
       EXPECT_THROW(AirRefractiveIndex(eq, air, "job.toml: environment"), InputError);
       EXPECT_THROW(AirRefractiveIndexValue(eq, air, "job.toml: environment"), InputError);
     }
@@ -223,14 +366,68 @@ TEST(RefractiveIndex, ValidityRangeAndNames) {
   EXPECT_THROW(ParseAirEquation("owens", "w"), InputError);
 }
 
+TEST(RefractiveIndex, ModifiedEdlenValidityRangeAndNames) {
+  const AirEquation med = AirEquation::kEdlenBirchDowns;
+  EXPECT_NO_THROW(CheckAirValidity(med, NistPoint(), "w"));
+  // Range of validity: 350..650 nm, 0..40 degC, 60..140 kPa (as the Edlén of Bönsch-Potulski).
+  const auto refused = [&](AirConditions air, const char* what) {
+    try {
+      CheckAirValidity(med, air, "job.toml: environment");
+      ADD_FAILURE() << "accepted " << what;
+    } catch (const InputError& e) {
+      const std::string m = e.what();
+      EXPECT_EQ(m.rfind("job.toml: environment: ", 0), 0u) << m;
+      EXPECT_NE(m.find("modified Edlen"), std::string::npos) << m;
+      EXPECT_NE(m.find(what), std::string::npos) << m;
+    }
+  };
+  refused(Air(1550.0, 20.0, 101325.0, 50.0), "wavelength");
+  refused(Air(340.0, 20.0, 101325.0, 50.0), "wavelength");
+  refused(Air(633.0, -1.0, 101325.0, 50.0), "temperature");
+  refused(Air(633.0, 41.0, 101325.0, 50.0), "temperature");
+  refused(Air(633.0, 20.0, 59e3, 50.0), "pressure");
+  refused(Air(633.0, 20.0, 141e3, 50.0), "pressure");
+  EXPECT_NO_THROW(CheckAirValidity(med, Air(350.0, 0.0, 60e3, 0.0), "w"));
+  EXPECT_NO_THROW(CheckAirValidity(med, Air(650.0, 40.0, 140e3, 100.0), "w"));
+  // CO2 is not an input of this equation: no range to check it against (the others refuse it).
+  const AirConditions co2_rich = Air(633.0, 20.0, 101325.0, 50.0, 3000e-6);
+  EXPECT_NO_THROW(CheckAirValidity(med, co2_rich, "w"));
+  EXPECT_THROW(CheckAirValidity(AirEquation::kCiddor, co2_rich, "w"), InputError);
+  EXPECT_EQ(AirRefractiveIndexValue(med, co2_rich), AirRefractiveIndexValue(med, NistPoint()));
+
+  EXPECT_EQ(AirEquationName(med), "modified_edlen");
+  EXPECT_EQ(AirEquationName(AirEquation::kEdlenBoensch), "edlen");  // "edlen" stays Bönsch-Potulski
+  for (const char* spelling : {"modified_edlen", "birch_downs", "edlen_birch_downs"}) {
+    EXPECT_EQ(ParseAirEquation(spelling, "w"), med) << spelling;
+  }
+  for (const char* spelling : {"edlen", "edlen_boensch", "boensch_potulski"}) {
+    EXPECT_EQ(ParseAirEquation(spelling, "w"), AirEquation::kEdlenBoensch) << spelling;
+  }
+  for (AirEquation eq : {AirEquation::kCiddor, AirEquation::kEdlenBoensch, med}) {
+    EXPECT_EQ(ParseAirEquation(AirEquationName(eq), "w"), eq);
+  }
+  // A bad spelling: one line naming every accepted spelling.
+  try {
+    ParseAirEquation("modified-edlen", "job.toml: environment.equation");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "job.toml: environment.equation: unknown refractive-index equation 'modified-edlen' (expected one "
+              "of: ciddor, edlen, edlen_boensch, boensch_potulski, modified_edlen, birch_downs, "
+              "edlen_birch_downs)");
+  }
+}
+
 TEST(RefractiveIndex, DispersionPoleIsNumericalError) {
   // sigma^2 = 130 um^-2 is a pole of the Edlén dispersion term: lambda = 1/sqrt(130) um.
   AirConditions air = NistPoint();
   air.vacuum_wavelength = 1e-6 / std::sqrt(130.0);
-  try {
-    const double n = AirRefractiveIndexValue(AirEquation::kEdlenBoensch, air);
-    EXPECT_TRUE(std::isfinite(n));  // if rounding misses the pole the value is finite
-  } catch (const NumericalError&) {
+  for (AirEquation eq : {AirEquation::kEdlenBoensch, AirEquation::kEdlenBirchDowns}) {
+    try {
+      const double n = AirRefractiveIndexValue(eq, air);
+      EXPECT_TRUE(std::isfinite(n));  // if rounding misses the pole the value is finite
+    } catch (const NumericalError&) {
+    }
   }
 }
 
@@ -268,6 +465,26 @@ TEST(AirIndexReport, GroupIndexOfEdlenBoenschAgainstTheAnalyticDispersion) {
   const AirIndexReport d = AirIndexWithUncertainty(AirEquation::kEdlenBoensch, air, u_tp);
   const double relative = d.u_phase / (d.n_phase - 1.0);
   EXPECT_NEAR(d.u_group / (d.n_group - 1.0), relative, 2e-4 * relative);  // finite differences of n_g
+}
+
+
+TEST(AirIndexReport, ModifiedEdlenGroupIndexAndNoCo2Contribution) {
+  // Dry air: n - 1 = F(t, p) (n_s - 1) with (n_s - 1) 1e8 = A + B/(130 - s^2) + C/(38.9 - s^2), so
+  // n_g - n = s dn/ds = F 1e-8 (2 B s^2/(130 - s^2)^2 + 2 C s^2/(38.9 - s^2)^2).
+  const AirConditions air = Air(633.0, 20.0, 101325.0, 0.0);
+  const double u[4] = {0.1, 10.0, 5.0, 50e-6};
+  const AirIndexReport r = AirIndexWithUncertainty(AirEquation::kEdlenBirchDowns, air, u);
+  const double s2 = std::pow(1.0 / 0.633, 2);
+  const double ns1 = 1e-8 * (8342.54 + 2406147.0 / (130.0 - s2) + 15998.0 / (38.9 - s2));
+  const double f = (r.n_phase - 1.0) / ns1;
+  const double expected =
+      f * 1e-8 * (2.0 * 2406147.0 * s2 / std::pow(130.0 - s2, 2) + 2.0 * 15998.0 * s2 / std::pow(38.9 - s2, 2));
+  EXPECT_NEAR(r.n_group - r.n_phase, expected, 1e-6 * expected);
+  // u(CO2) contributes nothing: the equation has no CO2 input (docs/units.md).
+  const double u_no_co2[4] = {0.1, 10.0, 5.0, 0.0};
+  const AirIndexReport r0 = AirIndexWithUncertainty(AirEquation::kEdlenBirchDowns, air, u_no_co2);
+  EXPECT_EQ(r.u_phase, r0.u_phase);
+  EXPECT_EQ(r.u_group, r0.u_group);
 }
 
 }  // namespace

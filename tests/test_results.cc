@@ -18,6 +18,7 @@
 
 #include "results/internal.h"
 #include "vlt/error.h"
+#include "vlt/refractive_index.h"
 
 namespace vlt {
 namespace {
@@ -136,6 +137,42 @@ TEST(Results, JsonSchemaKeys) {
   // The JSON holds exactly the GUM numbers (SI).
   EXPECT_DOUBLE_EQ(p["gum"]["U"][1].get<double>(), r.points[0].gum.U_part[1]);
   EXPECT_DOUBLE_EQ(j["tasks"][0]["gum"]["U"][0].get<double>(), r.tasks[0].gum.U[0]);
+}
+
+TEST(Results, ModifiedEdlenNamedInInputsAir) {
+  // equation = "modified_edlen" (NIST's modified Edlén, vlt/refractive_index.h) reaches
+  // results.json: inputs.environment_equation and inputs.air, whose n_phase is that equation's.
+  std::string text = kJob;
+  const std::string env = "[environment]\n";
+  text.replace(text.find(env), env.size(), env + "equation = \"modified_edlen\"\nco2 = { estimate = \"500 ppm\", u = \"50 ppm\" }\n");
+  Job job = ParseJob(text, "results.toml", ".");
+  RunOptions options;
+  options.monte_carlo = false;  // the GUM path is all this needs
+  options.compute_map = false;
+  options.threads = 1;
+  const Results r = RunJob(job, options);
+  nlohmann::json j = nlohmann::json::parse(ResultsJson(r));
+  EXPECT_EQ(j["inputs"]["environment_equation"], "modified_edlen");
+  const auto& air = j["inputs"]["air"];
+  EXPECT_EQ(air["equation"], "modified_edlen");
+  AirConditions conditions;
+  conditions.vacuum_wavelength = 633e-9;
+  conditions.temperature = 20.0;
+  conditions.pressure = 101325.0;
+  conditions.humidity = 50.0;
+  conditions.co2 = 500e-6;
+  EXPECT_DOUBLE_EQ(air["n_phase"].get<double>(),
+                   AirRefractiveIndexValue(AirEquation::kEdlenBirchDowns, conditions));
+  EXPECT_GT(air["u_n_phase"].get<double>(), 0.0);
+  // CO2 does not enter this equation: its budget rows carry zero sensitivity and contribution.
+  bool found = false;
+  for (const auto& row : j["points"][0]["budget"]) {
+    if (row["input"] != "environment.co2") continue;
+    found = true;
+    for (const auto& c : row["sensitivity"]) EXPECT_EQ(c.get<double>(), 0.0);
+    for (const auto& c : row["contribution"]) EXPECT_EQ(c.get<double>(), 0.0);
+  }
+  EXPECT_TRUE(found);
 }
 
 TEST(Results, CsvHeadersUnitsAndValues) {

@@ -46,7 +46,7 @@ struct ReadingNoise {
 // Air at the tracker: its refractive index scales every range (the tracker compensates with the
 // estimates; the deviation of the true index from the compensated one is a range scale error).
 struct Environment {
-  enum class Equation { kEdlenBoensch, kCiddor };
+  using Equation = AirEquation;  // one enum for the equation everywhere (vlt/refractive_index.h)
   Equation equation = Equation::kCiddor;
   double vacuum_wavelength = 633e-9;  // m
   UncertainInput temperature;   // degC

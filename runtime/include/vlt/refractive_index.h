@@ -1,16 +1,20 @@
 // vlt/refractive_index.h — phase refractive index of moist air and its sensitivities.
 //
 // A laser tracker measures optical path; the range is the optical path divided by the refractive
-// index of the air along the beam. vlt models the PHASE index (what an interferometer's
-// wavelength-in-air compensation uses). An absolute distance meter (ADM) really needs the GROUP
-// index, which exceeds the phase index by about 8e-6 at 633 nm; vlt does not
-// compute it — a known limitation stated in docs/units.md.
+// index of the air along the beam. The measurement model uses the PHASE index (what an
+// interferometer's wavelength-in-air compensation uses); AirIndexWithUncertainty also reports the
+// GROUP index n_g = n - lambda dn/dlambda (docs/units.md).
 //
-// Two equations (docs/units.md, "Refractive index of air"):
+// Three equations (docs/units.md, "Refractive index of air"):
 //  - kEdlenBoensch: Edlén's equation as updated by G. Bönsch and E. Potulski, Metrologia 35 (1998)
 //    133-139, eqs. (6)-(9) (dispersion, CO2, density, water vapour), with the water-vapour partial
 //    pressure from relative humidity through the IAPWS saturation vapour pressure over liquid
 //    water (as the NIST Engineering Metrology Toolbox does for its Edlén variant).
+//  - kEdlenBirchDowns: the "modified Edlén equation" of the NIST Engineering Metrology Toolbox
+//    (J. A. Stone, J. H. Zimmerman, "Index of Refraction of Air", Appendix A-IV): Edlén's equation
+//    as updated by K. P. Birch and M. J. Downs, Metrologia 30 (1993) 155 and 31 (1994) 315, with
+//    NIST's temperature factor 292.75 K / T on the water-vapour term. Its standard air contains
+//    450 umol/mol CO2 and CO2 is NOT an input: dn/dCO2 = 0 whatever the CO2 estimate.
 //  - kCiddor: P. E. Ciddor, Appl. Opt. 35 (1996) 1566-1573: BIPM-1981/91 moist-air density with
 //    compressibility Z, water vapour mole fraction from the enhancement factor and the IAPWS
 //    saturation vapour pressure (over ice below 0 degC), as in the NIST Engineering Metrology
@@ -24,12 +28,14 @@
 
 namespace vlt {
 
-enum class AirEquation { kEdlenBoensch, kCiddor };
+enum class AirEquation { kEdlenBoensch, kCiddor, kEdlenBirchDowns };
 
-// "edlen" or "ciddor" (the spellings job files use).
+// "edlen", "ciddor" or "modified_edlen" (the spellings job files use and results.json writes).
 std::string_view AirEquationName(AirEquation equation);
-// Inverse of AirEquationName; also accepts "edlen_boensch", "boensch_potulski". Throws InputError
-// "<where>: unknown refractive-index equation '<text>' (expected edlen or ciddor)".
+// Inverse of AirEquationName; also accepts the aliases "edlen_boensch", "boensch_potulski"
+// (kEdlenBoensch) and "birch_downs", "edlen_birch_downs" (kEdlenBirchDowns). Throws InputError
+// "<where>: unknown refractive-index equation '<text>' (expected one of: ciddor, edlen,
+// edlen_boensch, boensch_potulski, modified_edlen, birch_downs, edlen_birch_downs)".
 AirEquation ParseAirEquation(std::string_view text, std::string_view where);
 
 // Conditions of the air along the beam, SI as everywhere in vlt.
@@ -47,7 +53,8 @@ struct RefractiveIndex {
   double dn_dtemperature = 0.0;   // 1/K     (about -9.5e-7 /K near 20 degC, 633 nm)
   double dn_dpressure = 0.0;      // 1/Pa    (about +2.7e-9 /Pa)
   double dn_dhumidity = 0.0;      // 1/%RH   (about -8.5e-9 per %RH at 20 degC)
-  double dn_dco2 = 0.0;           // 1 per unit mole fraction (about +1.4e-4, i.e. 1.4e-10 per ppm)
+  double dn_dco2 = 0.0;           // 1 per unit mole fraction (about +1.4e-4, i.e. 1.4e-10 per ppm;
+                                  // exactly 0 for kEdlenBirchDowns, which has no CO2 input)
 };
 
 // Refractive index and derivatives. Throws InputError, message starting with `where`, when an
@@ -81,12 +88,15 @@ double AirRefractiveIndexValue(AirEquation equation, const AirConditions& air,
 //   Ciddor (NIST):  wavelength 300..1700 nm, temperature -40..100 degC, pressure 10..140 kPa,
 //                   humidity 0..100 %, CO2 0..2000 umol/mol;
 //   Edlén (NIST / Bönsch-Potulski): wavelength 350..650 nm, temperature 0..40 degC,
-//                   pressure 60..140 kPa, humidity 0..100 %, CO2 0..2000 umol/mol.
+//                   pressure 60..140 kPa, humidity 0..100 %, CO2 0..2000 umol/mol;
+//   modified Edlén (NIST / Birch-Downs): wavelength 350..650 nm, temperature 0..40 degC,
+//                   pressure 60..140 kPa, humidity 0..100 %; CO2 is not checked (not an input).
 void CheckAirValidity(AirEquation equation, const AirConditions& air, std::string_view where);
 
 // Saturation vapour pressure [Pa] at temperature t [degC]: over liquid water by the IAPWS
 // industrial formulation (IAPWS-IF97, eq. 30, as the NIST toolbox, Appendix A-I) for t >= 0,
-// over ice by the IAPWS 1993 sublimation formula for t < 0 (Ciddor; NIST). Both equations use it.
+// over ice by the IAPWS 1993 sublimation formula for t < 0 (Ciddor; NIST). All three equations
+// use it.
 // t must be finite and above -273.15 (else std::invalid_argument).
 double SaturationVapourPressure(double temperature_degc);
 

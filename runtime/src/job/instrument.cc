@@ -277,14 +277,8 @@ void ReadEnvironment(Section& top, Job& job) {
   s.set_hint("equation, wavelength, temperature, pressure, humidity, co2");
   Environment env;
   if (const toml::node* n = s.Get("equation")) {
-    std::string eq = AsString(*n, s.Where("equation"));
-    if (eq == "ciddor") {
-      env.equation = Environment::Equation::kCiddor;
-    } else if (eq == "edlen" || eq == "edlen_boensch") {
-      env.equation = Environment::Equation::kEdlenBoensch;
-    } else {
-      throw InputError(s.Where("equation") + ": unknown equation '" + eq + "' (expected ciddor or edlen)");
-    }
+    // Every spelling of vlt/refractive_index.h; an unknown one is a one-line error listing them.
+    env.equation = ParseAirEquation(AsString(*n, s.Where("equation")), s.Where("equation"));
   }
   if (const toml::node* n = s.Get("wavelength")) {
     env.vacuum_wavelength = AsQuantity(*n, Dimension::kLength, s.Where("wavelength"));

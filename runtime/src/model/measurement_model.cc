@@ -192,10 +192,7 @@ AirConditions Air(const Environment& e, const double* env) {
 AirEquation Equation(const Environment& e) { return EquationOf(e); }
 }  // namespace
 
-AirEquation EquationOf(const Environment& e) {
-  return e.equation == Environment::Equation::kCiddor ? AirEquation::kCiddor
-                                                      : AirEquation::kEdlenBoensch;
-}
+AirEquation EquationOf(const Environment& e) { return e.equation; }
 
 AirConditions AirAtEstimates(const Environment& e) {
   const double estimates[4] = {e.temperature.estimate, e.pressure.estimate, e.humidity.estimate, e.co2.estimate};

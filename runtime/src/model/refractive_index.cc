@@ -1,11 +1,13 @@
 // model/refractive_index.cc — phase refractive index of moist air (Edlén/Bönsch-Potulski 1998,
-// Ciddor 1996) with exact partial derivatives by forward-mode automatic differentiation.
+// Ciddor 1996, NIST's modified Edlén/Birch-Downs 1993-94) with exact partial derivatives by
+// forward-mode automatic differentiation.
 //
-// Both equations are written once, templated on the scalar type: double for the value-only path
+// Every equation is written once, templated on the scalar type: double for the value-only path
 // used by Monte Carlo trials, Eigen::AutoDiffScalar with 4 derivative directions
 // (temperature, pressure, humidity, CO2) for the GUM path. Equation numbers refer to the papers
 // and to J. A. Stone, J. H. Zimmerman, "Index of Refraction of Air", NIST Engineering Metrology
-// Toolbox, Appendix A (A-I saturation vapour pressure, A-II humidity, A-III Ciddor).
+// Toolbox, Appendix A (A-I saturation vapour pressure, A-II humidity, A-III Ciddor, A-IV modified
+// Edlén).
 #include "vlt/refractive_index.h"
 
 #include <cmath>
@@ -117,10 +119,33 @@ T EdlenBoensch(double sigma2, const T& t, const T& p, const T& h, const T& co2) 
   return 1.0 + n_tp1 - f * (3.8020 - 0.0384 * sigma2) * 1e-10;                 // eq. (9)
 }
 
+// --- Modified Edlén (NIST Appendix A-IV): Birch & Downs 1993/1994 with NIST's water term -------
+// Standard air of Birch & Downs: 15 degC, 101325 Pa, dry, 450 umol/mol CO2. The CO2 content is
+// built into the dispersion constants, so CO2 is not an argument: dn/dCO2 = 0. NIST multiplies
+// B&D's water-vapour term by 292.75 K / T (so that it stays right away from 20 degC,
+// "shop-floor" use).
+template <typename T>
+T EdlenBirchDowns(double sigma2, const T& t, const T& p, const T& h) {
+  constexpr double A = 8342.54, B = 2406147.0, C = 15998.0;            // dispersion
+  constexpr double D = 96095.43, E = 0.601, F = 0.00972, G = 0.003661;  // density (t, p)
+  const double n_s1 = 1e-8 * (A + B / (130.0 - sigma2) + C / (38.9 - sigma2));  // (n_s - 1)
+  const T x = (1.0 + 1e-8 * (E - F * t) * p) / (1.0 + G * t);
+  const T n_tp1 = p * n_s1 * x / D;                                            // (n_tp - 1)
+  const T p_v = (h / 100.0) * Svp(t);  // water vapour partial pressure, Pa (NIST A-II)
+  return 1.0 + n_tp1 - 1e-10 * (292.75 / (t + kZeroCelsius)) * (3.7345 - 0.0401 * sigma2) * p_v;
+}
+
 template <typename T>
 T Evaluate(AirEquation equation, double sigma2, const T& t, const T& p, const T& h, const T& co2) {
-  return equation == AirEquation::kCiddor ? Ciddor(sigma2, t, p, h, co2)
-                                          : EdlenBoensch(sigma2, t, p, h, co2);
+  switch (equation) {
+    case AirEquation::kCiddor:
+      return Ciddor(sigma2, t, p, h, co2);
+    case AirEquation::kEdlenBirchDowns:
+      return EdlenBirchDowns(sigma2, t, p, h);  // CO2 is not an input of this equation
+    case AirEquation::kEdlenBoensch:
+      break;
+  }
+  return EdlenBoensch(sigma2, t, p, h, co2);
 }
 
 std::string Num(double x) {
@@ -173,16 +198,38 @@ void CheckFinite(double v, std::string_view where) {
 }  // namespace
 
 std::string_view AirEquationName(AirEquation equation) {
-  return equation == AirEquation::kCiddor ? "ciddor" : "edlen";
+  switch (equation) {
+    case AirEquation::kCiddor:
+      return "ciddor";
+    case AirEquation::kEdlenBirchDowns:
+      return "modified_edlen";
+    case AirEquation::kEdlenBoensch:
+      break;
+  }
+  return "edlen";
 }
 
 AirEquation ParseAirEquation(std::string_view text, std::string_view where) {
-  if (text == "ciddor") return AirEquation::kCiddor;
-  if (text == "edlen" || text == "edlen_boensch" || text == "boensch_potulski") {
-    return AirEquation::kEdlenBoensch;
+  // Every accepted spelling; the first of each equation is its AirEquationName.
+  static constexpr struct {
+    std::string_view name;
+    AirEquation equation;
+  } kSpellings[] = {
+      {"ciddor", AirEquation::kCiddor},
+      {"edlen", AirEquation::kEdlenBoensch},
+      {"edlen_boensch", AirEquation::kEdlenBoensch},
+      {"boensch_potulski", AirEquation::kEdlenBoensch},
+      {"modified_edlen", AirEquation::kEdlenBirchDowns},
+      {"birch_downs", AirEquation::kEdlenBirchDowns},
+      {"edlen_birch_downs", AirEquation::kEdlenBirchDowns},
+  };
+  std::string expected;
+  for (const auto& s : kSpellings) {
+    if (text == s.name) return s.equation;
+    expected += (expected.empty() ? "" : ", ") + std::string(s.name);
   }
   throw InputError(std::string(where) + ": unknown refractive-index equation '" +
-                   std::string(text) + "' (expected edlen or ciddor)");
+                   std::string(text) + "' (expected one of: " + expected + ")");
 }
 
 RefractiveIndex AirRefractiveIndex(AirEquation equation, const AirConditions& air,
@@ -219,7 +266,10 @@ double AirRefractiveIndexValue(AirEquation equation, const AirConditions& air,
 void CheckAirValidity(AirEquation equation, const AirConditions& air, std::string_view where) {
   CheckPhysical(air, where);
   const bool ciddor = equation == AirEquation::kCiddor;
-  const std::string eq = ciddor ? "Ciddor" : "Edlen (Boensch-Potulski)";
+  const std::string eq = ciddor ? "Ciddor"
+                         : equation == AirEquation::kEdlenBirchDowns
+                             ? "modified Edlen (NIST, Birch-Downs)"
+                             : "Edlen (Boensch-Potulski)";
   const auto check = [&](double value, double lo, double hi, const char* what, double scale,
                          const char* unit) {
     if (value < lo || value > hi) {
@@ -232,7 +282,11 @@ void CheckAirValidity(AirEquation equation, const AirConditions& air, std::strin
         "vacuum wavelength", 1e9, "nm");
   check(air.temperature, ciddor ? -40.0 : 0.0, ciddor ? 100.0 : 40.0, "temperature", 1.0, "degC");
   check(air.pressure, ciddor ? 10e3 : 60e3, 140e3, "pressure", 1e-3, "kPa");
-  check(air.co2, 0.0, 2000e-6, "CO2 mole fraction", 1e6, "umol/mol");
+  // The modified Edlén equation has no CO2 input (its standard air holds 450 umol/mol): the CO2
+  // estimate neither enters n nor is checked against a range it does not have.
+  if (equation != AirEquation::kEdlenBirchDowns) {
+    check(air.co2, 0.0, 2000e-6, "CO2 mole fraction", 1e6, "umol/mol");
+  }
 }
 
 double SaturationVapourPressure(double temperature_degc) {

@@ -284,8 +284,7 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
                  {"shared", shared},
                  {"parameter_correlation", s.param_correlation.size() ? Mat(s.param_correlation) : json(nullptr)},
                  {"environment_equation",
-                  s.environment ? json(s.environment->equation == Environment::Equation::kCiddor ? "ciddor" : "edlen")
-                                : json(nullptr)},
+                  s.environment ? json(std::string(AirEquationName(EquationOf(*s.environment)))) : json(nullptr)},
                  {"vacuum_wavelength", s.environment ? json(s.environment->vacuum_wavelength) : json(nullptr)},
                  {"air", AirJson(s)},
                  {"part_reference_temperature", s.thermal ? json(s.thermal->reference) : json(nullptr)}};
