@@ -7,16 +7,20 @@
 namespace vlt::generated {
 
 extern const ModelInfo kModel_gum_h1_end_gauge;
+extern const ModelInfo kModel_gum_h2_impedance;
 extern const ModelInfo kModel_head;
 extern const ModelInfo kModel_jcgm101_additive;
+extern const ModelInfo kModel_jcgm101_mass;
 extern const ModelInfo kModel_mirror;
 
 extern const ModelInfo* const kModels[] = {
     &kModel_gum_h1_end_gauge,
+    &kModel_gum_h2_impedance,
     &kModel_head,
     &kModel_jcgm101_additive,
+    &kModel_jcgm101_mass,
     &kModel_mirror,
 };
-extern const std::size_t kNumModels = 4;
+extern const std::size_t kNumModels = 6;
 
 }  // namespace vlt::generated

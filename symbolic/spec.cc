@@ -103,16 +103,21 @@ class Reader {
     q.name = String(table, where, "name", true);
     if (!IsValidIdentifier(q.name)) {
       Fail(where + ".name", "'" + q.name +
-                                "' is not a valid name (lower-case letter first, then letters, "
+                                "' is not a valid name (a letter first, then letters, "
                                 "digits, '_'; not a name the generated code uses)");
     }
     const std::string w = where + "(" + q.name + ")";
     q.unit = String(table, w, "unit", true);
     q.quantity = String(table, w, "quantity", !is_output, "");
-    if (!q.quantity.empty() && !QuantityKinds().count(q.quantity)) {
+    // Tracker models use the kinds whose units vlt reads; a custom model may name any quantity
+    // ("voltage", "mass"): its job values are then plain numbers in the spec's unit.
+    const bool plain_words = !q.quantity.empty() &&
+        q.quantity.find_first_not_of("abcdefghijklmnopqrstuvwxyz ") == std::string::npos;
+    if (!q.quantity.empty() && !QuantityKinds().count(q.quantity) && !(is_custom && plain_words)) {
       std::string list;
       for (const auto& k : QuantityKinds()) list += (list.empty() ? "" : ", ") + k;
-      Fail(w + ".quantity", "unknown quantity kind '" + q.quantity + "' (" + list + ")");
+      Fail(w + ".quantity", "unknown quantity kind '" + q.quantity + "' (" + list +
+                                (is_custom ? "; or lower-case words for a custom model" : "") + ")");
     }
     q.description = String(table, w, "description", true);
     if (q.description.find('\n') != std::string::npos) Fail(w + ".description", "must be one line");

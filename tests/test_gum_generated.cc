@@ -140,7 +140,7 @@ TEST(GumGenerated, MirrorRangeScaleDistance) {
   s.params[mu].u = 1e-6;
   MeasurementModel m(s);
   const std::vector<PointReadings> pts = {{"P1", {3.0, 0.7, 0.2}}, {"P2", {11.0, 0.7, 0.2}}};
-  TaskSpec task{"d12", TaskKind::kDistance, {"P1", "P2"}};
+  TaskSpec task{"d12", TaskKind::kDistance, {"P1", "P2"}, {}};
   const TaskUncertainty t = PropagateTask(m, pts, task);
   EXPECT_NEAR(t.value(0), 8.0, 1e-9);
   EXPECT_NEAR(t.u(0), 1e-6 * 8.0, 1e-6 * 8.0 * 1e-9);

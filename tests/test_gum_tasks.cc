@@ -167,7 +167,7 @@ TEST_P(GumTaskBruteForce, EqualsJointCovariance) {
     part.push_back(p);
   }
   const std::vector<PointReadings> pts = Plan(m, part);
-  TaskSpec task{"t", kind, {}};
+  TaskSpec task{"t", kind, {}, {}};
   for (const auto& p : pts) task.points.push_back(p.name);
   const TaskUncertainty t = PropagateTask(m, pts, task);
 
@@ -216,7 +216,7 @@ TEST(GumTaskLarge, PlaneOverHundredThousandPointsClosedForm) {
   const int n = 100000;
   std::vector<PointReadings> pts(n);
   std::vector<std::string> names(n);
-  TaskSpec task{"floor", TaskKind::kPlane, {}};
+  TaskSpec task{"floor", TaskKind::kPlane, {}, {}};
   task.points.reserve(n);
   for (int i = 0; i < n; ++i) {
     const double a = 0.001 * i, r = 2.0 + 3.0 * (i % 97) / 97.0;

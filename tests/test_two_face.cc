@@ -127,12 +127,12 @@ TEST(TwoFaceFit, Refusals) {
 
   // Point-name resolution: exactly 2, like distance.
   const std::vector<std::string> names = {"A", "B", "C"};
-  EXPECT_EQ(ResolveTaskPoints({"tf", TaskKind::kTwoFace, {"B", "A"}}, names, "job.toml"),
+  EXPECT_EQ(ResolveTaskPoints({"tf", TaskKind::kTwoFace, {"B", "A"}, {}}, names, "job.toml"),
             (std::vector<int>{1, 0}));
   for (const std::vector<std::string>& points :
        {std::vector<std::string>{"A"}, std::vector<std::string>{"A", "B", "C"}}) {
     try {
-      ResolveTaskPoints({"tf", TaskKind::kTwoFace, points}, names, "job.toml");
+      ResolveTaskPoints({"tf", TaskKind::kTwoFace, points, {}}, names, "job.toml");
       ADD_FAILURE() << points.size() << " points accepted";
     } catch (const InputError& e) {
       EXPECT_NE(std::string(e.what()).find("job.toml: task 'tf': two_face needs exactly 2 points, " +
@@ -225,7 +225,7 @@ Vector3d EvaluateAtEstimates(const MeasurementModel& m, const Vector3d& readings
   return y;
 }
 
-const TaskSpec kTwoFaceTask{"tf", TaskKind::kTwoFace, {"P", "P_back"}};
+const TaskSpec kTwoFaceTask{"tf", TaskKind::kTwoFace, {"P", "P_back"}, {}};
 
 TEST(TwoFaceGum, CovarianceEqualsBruteForce) {
   // Non-zero parameter estimates (the general Jacobian kernel) and three points around the
@@ -271,7 +271,7 @@ TEST(TwoFaceGum, ZeroParametersGiveZeroDifference) {
   ASSERT_EQ(t.value.size(), 3);
   EXPECT_LT(t.value.cwiseAbs().maxCoeff(), 1e-12) << t.value.transpose();
   // The distance between the same two points is refused: that is why two_face exists.
-  EXPECT_THROW(PropagateTask(m, pair, TaskSpec{"d", TaskKind::kDistance, {"P", "P_back"}}), NumericalError);
+  EXPECT_THROW(PropagateTask(m, pair, TaskSpec{"d", TaskKind::kDistance, {"P", "P_back"}, {}}), NumericalError);
 }
 
 TEST(TwoFaceGum, UncompensatedOffsetsGiveTheTwoFaceError) {

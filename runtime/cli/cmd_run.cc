@@ -6,8 +6,10 @@
 #include <cstdio>
 #include <iostream>
 
+#include "job/job_detail.h"
 #include "results/internal.h"
 #include "run_job.h"
+#include "vlt/custom_job.h"
 #include "vlt/error.h"
 
 namespace vlt::cli {
@@ -75,12 +77,12 @@ void AddRunOptions(CLI::App& command, RunCliOptions& options) {
       ->check(IntegerIn(0, 1024));
 }
 
-std::filesystem::path OutputPath(const Job& job, const RunCliOptions& options,
-                                      const std::filesystem::path& fallback) {
+std::filesystem::path OutputPath(const OutputSettings& job_output, const std::filesystem::path& base_dir,
+                                 const RunCliOptions& options, const std::filesystem::path& fallback) {
   if (!options.output_dir.empty()) return options.output_dir;
-  if (!job.output.directory.empty()) {
-    std::filesystem::path d = job.output.directory;
-    return d.is_absolute() ? d : job.base_dir / d;
+  if (!job_output.directory.empty()) {
+    std::filesystem::path d = job_output.directory;
+    return d.is_absolute() ? d : base_dir / d;
   }
   return fallback;
 }
@@ -91,15 +93,33 @@ int RunAndWrite(const Job& job, const RunCliOptions& options, const GlobalOption
     throw InputError("command line: --trials and --adaptive exclude each other");
   }
   EmitWarnings(job.warnings, global);
+  RunOptions run = RunOptionsFrom(options, job.monte_carlo, global);
+  // The output location is checked before anything is computed (docs/cli.md "Outputs").
+  OutputDirectory output(OutputPath(job.output, job.base_dir, options, fallback_dir));
+  const std::filesystem::path& dir = output.path();
+
+  Results results = RunJob(job, run);
+  auto files = ResultFiles(results);
+  output.Commit(files);
+
+  PrintWritten(files, SummaryText(results), dir, global);
+  if (!global.json && !global.quiet) {
+    std::printf("Open %s in a browser for the report.\n", (dir / "report.html").string().c_str());
+  }
+  return 0;
+}
+
+RunOptions RunOptionsFrom(const RunCliOptions& options, const MonteCarloSettings& monte_carlo,
+                          const GlobalOptions& global) {
   RunOptions run;
   run.monte_carlo = !options.no_mcm;
   if (options.adaptive) run.trials = 0;
   if (options.trials > 0) {
     // JCGM 101 7.2.2: M at least 100/(1-p) (the job's coverage probability).
-    double minimum = std::ceil(100.0 / (1.0 - job.monte_carlo.coverage_probability));
+    double minimum = std::ceil(100.0 / (1.0 - monte_carlo.coverage_probability));
     if (static_cast<double>(options.trials) < minimum) {
       throw InputError("command line: --trials: at least " + std::to_string(static_cast<long long>(minimum)) +
-                       " trials for coverage probability " + std::to_string(job.monte_carlo.coverage_probability) +
+                       " trials for coverage probability " + std::to_string(monte_carlo.coverage_probability) +
                        " (JCGM 101 7.2.2)");
     }
     run.trials = options.trials;
@@ -111,17 +131,25 @@ int RunAndWrite(const Job& job, const RunCliOptions& options, const GlobalOption
   }
   if (options.threads >= 0) run.threads = options.threads;
   run.progress = !global.quiet && !global.json;
-  // The output location is checked before anything is computed (docs/cli.md "Outputs").
-  OutputDirectory output(OutputPath(job, options, fallback_dir));
-  const std::filesystem::path& dir = output.path();
+  return run;
+}
 
-  Results results = RunJob(job, run);
+// A custom-model job (vlt/custom_job.h): GUM with effective degrees of freedom, Monte Carlo,
+// validation, conformity; outputs.csv, budget.csv, results.json, report.html.
+int RunCustomAndWrite(const CustomJob& job, const RunCliOptions& options, const GlobalOptions& global) {
+  if (options.adaptive && options.trials > 0) {
+    throw InputError("command line: --trials and --adaptive exclude each other");
+  }
+  EmitWarnings(job.warnings, global);
+  RunOptions run = RunOptionsFrom(options, job.monte_carlo, global);
+  OutputDirectory output(OutputPath(job.output, job.base_dir, options,
+                                    std::filesystem::path("vlt-out") / vlt::internal::SafeFileName(job.name)));
+  CustomResults results = RunCustomJob(job, run);
   auto files = ResultFiles(results);
   output.Commit(files);
-
-  PrintWritten(files, SummaryText(results), dir, global);
+  PrintWritten(files, SummaryText(results), output.path(), global);
   if (!global.json && !global.quiet) {
-    std::printf("Open %s in a browser for the report.\n", (dir / "report.html").string().c_str());
+    std::printf("Open %s in a browser for the report.\n", (output.path() / "report.html").string().c_str());
   }
   return 0;
 }
@@ -136,6 +164,10 @@ void AddRunCommand(CLI::App& app, GlobalOptions& global) {
   command->footer("Exit status: 0 success, 2 bad input or a result that cannot be computed (one line on stderr;\n"
                   "no output file is written). Outputs: docs/results.md.");
   command->callback([job_file, options, &global] {
+    if (IsCustomModelJob(job_detail::ReadTextFile(*job_file, "the job file"))) {
+      RunCustomAndWrite(LoadCustomJob(*job_file), *options, global);
+      return;
+    }
     Job job = LoadJob(*job_file);
     std::filesystem::path fallback = std::filesystem::path("vlt-out") / vlt::internal::SafeFileName(job.name);
     RunAndWrite(job, *options, global, fallback);

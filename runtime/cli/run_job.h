@@ -38,8 +38,13 @@ void AddRunOptions(CLI::App& command, RunCliOptions& options);
 
 // Where the outputs of `job` go: -o, else [output] directory (relative to the job file), else
 // `fallback` (e.g. ./vlt-out/<job name>).
-std::filesystem::path OutputPath(const Job& job, const RunCliOptions& options,
-                                      const std::filesystem::path& fallback);
+std::filesystem::path OutputPath(const OutputSettings& job_output, const std::filesystem::path& base_dir,
+                                 const RunCliOptions& options, const std::filesystem::path& fallback);
+
+// The run options of the command line (--no-mcm, --trials, --adaptive, --seed, --threads) over
+// the job's [monte_carlo]; --trials below JCGM 101 7.2.2's minimum is an InputError.
+RunOptions RunOptionsFrom(const RunCliOptions& options, const MonteCarloSettings& monte_carlo,
+                          const GlobalOptions& global);
 
 // Runs the job, writes every output file (all or none), prints the summary / JSON. Returns 0.
 int RunAndWrite(const Job& job, const RunCliOptions& options, const GlobalOptions& global,

@@ -20,6 +20,7 @@
 // (zero range, on the standing axis) or a non-finite result throws NumericalError naming the point.
 #pragma once
 
+#include <limits>
 #include <span>
 #include <string>
 #include <vector>
@@ -44,6 +45,15 @@ double ChiSquareCoverageFactor(double p, int m);
 // P(chi^2_m <= x): the chi-square distribution function with m degrees of freedom (regularized
 // lower incomplete gamma P(m/2, x/2)); 0 for x <= 0.
 double ChiSquareCdf(double x, int m);
+// t_p(nu): P(|t_nu| <= k) = p for Student's t with nu degrees of freedom (JCGM 100 G.3.4, table
+// G.2: t_95.45(16) = 2.17, t_99(16) = 2.92); nu = infinity gives NormalCoverageFactor(p).
+// nu >= 1 (non-integer allowed); else std::invalid_argument.
+double StudentTCoverageFactor(double p, double nu);
+// Welch-Satterthwaite (JCGM 100 G.4.1, eq. G.2b): nu_eff = u_c^4 / sum_i (u_i(y)^4 / nu_i) over
+// independent components u_i(y) (signed or not: only u_i^2 enters) with nu_i degrees of freedom
+// (infinite ones contribute nothing). Returns infinity when every nu_i is infinite or u_c = 0.
+double WelchSatterthwaite(double u_c, const std::vector<double>& component_variances,
+                          const std::vector<double>& component_dof);
 
 // Unit of a sensitivity coefficient d output / d input from the two units: "m" and "rad" ->
 // "m/rad"; "m" and "m" -> "m/m"; "m" and "1" -> "m"; temperatures ("degC") enter as differences
@@ -230,6 +240,11 @@ struct CustomOutput {
   std::string unit;
   double estimate = 0.0;
   double u = 0.0;
+  // Effective degrees of freedom (JCGM 100 G.4.1) and the coverage factor k = t_p(nu_eff) with
+  // nu_eff truncated to the next lower integer (G.4.1 note 1, G.6.4); infinity and the normal k
+  // when every input's degrees of freedom are infinite.
+  double dof_effective = std::numeric_limits<double>::infinity();
+  double k = 0.0;
   double U = 0.0;  // k u
   std::vector<BudgetRow> budget;  // only .sensitivity(0), .contribution(0), .variance(0),
                                   // .share(0) are used (scalar output); sorted by share
@@ -238,12 +253,30 @@ struct CustomOutput {
 struct CustomUncertainty {
   std::vector<CustomOutput> outputs;
   Eigen::MatrixXd covariance;  // num_outputs x num_outputs
-  double k = 0.0;
+  Eigen::MatrixXd correlation; // of the outputs (identity where a u is 0)
+  double k = 0.0;              // normal coverage factor (infinite degrees of freedom)
+  // JCGM 102 6.5.2.3 coverage region of the output vector (>= 2 outputs): k = sqrt(chi2_m(p)).
+  double region_k = 0.0;
   std::string correlation_handling;
+};
+
+// Degrees of freedom of the inputs for the effective degrees of freedom of each output.
+//  - dof[i]: nu_i of input i (JCGM 100 G.3.3 Type B from the relative uncertainty of u, G.3.2
+//    n - 1 for a Type A mean); empty or infinity = known exactly (G.4.2).
+//  - components: sets of inputs that count as ONE component of the Welch-Satterthwaite sum,
+//    with the smallest nu of its members, its variance sum_{i,j} c_i c_j u_i u_j r_ij: the inputs
+//    of the same simultaneous observations (nu = n - 1; the per-set evaluation of JCGM 100 H.2.4
+//    has the same nu). Inputs correlated through `correlation` but in no common set are merged
+//    into one component too (the formula assumes independent components; the smallest nu is the
+//    conservative choice, docs/custom-models.md).
+struct InputDegreesOfFreedom {
+  std::vector<double> dof;
+  std::vector<std::vector<int>> components;
 };
 
 CustomUncertainty PropagateCustom(const ModelInfo& model, std::span<const UncertainInput> inputs,
                                   const Eigen::MatrixXd& correlation = {},
-                                  const GumOptions& options = {});
+                                  const GumOptions& options = {},
+                                  const InputDegreesOfFreedom& degrees_of_freedom = {});
 
 }  // namespace vlt

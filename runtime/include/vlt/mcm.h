@@ -22,6 +22,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -50,6 +51,15 @@ struct McmSettings {
   // Beyond the budget the coverage intervals and k_p are the averages of the batch values
   // (interval_method says so).
   std::size_t memory_budget_bytes = std::size_t{1} << 30;
+  // Tolerances whose probability of conformity is counted over the trials (JCGM 106 7.2.1, the
+  // MCM distribution function): McmOutputResult::conformity_probability of `output` is the
+  // fraction of all trials with lower <= value <= upper (limits may be infinite).
+  struct ToleranceCount {
+    int output = 0;
+    double lower = 0.0;
+    double upper = 0.0;
+  };
+  std::vector<ToleranceCount> tolerances;
 };
 
 // A coverage interval [low, high] for coverage probability p (JCGM 101 7.7).
@@ -79,6 +89,8 @@ struct McmOutputResult {
   CoverageInterval symmetric;       // probabilistically symmetric (7.7.1)
   CoverageInterval shortest;        // shortest (7.7.2)
   McmNumericalAccuracy accuracy;
+  // Fraction of trials within McmSettings::tolerances of this output (absent when none given).
+  std::optional<double> conformity_probability;
 };
 
 // JCGM 102 for one measured point (3 coordinates, part frame, m).
@@ -92,6 +104,17 @@ struct McmPointResult {
   // sqrt(chi2_3(p)) = sqrt(7.8147) = 2.7955 at p = 0.95. has_region = false when the covariance is singular.
   bool has_region = false;
   double coverage_factor = 0.0;
+};
+
+// JCGM 102 for the output vector of a custom model with two or more outputs (same meaning as
+// McmPointResult, any dimension m; GUM region k = sqrt(chi2_m(p))).
+struct McmVectorResult {
+  std::string name;
+  Eigen::VectorXd mean;
+  Eigen::MatrixXd covariance;     // divisor M - 1
+  Eigen::MatrixXd correlation;
+  bool has_region = false;
+  double coverage_factor = 0.0;   // k_p: p-quantile of |L^-1 (y_r - mean)|
 };
 
 struct McmResult {
@@ -109,6 +132,7 @@ struct McmResult {
   std::string interval_method;
   std::vector<McmOutputResult> outputs;
   std::vector<McmPointResult> points;   // empty for custom models
+  std::vector<McmVectorResult> vectors; // custom models with >= 2 outputs: the output vector
 };
 
 // One measured point of a job: its name and the estimates of its readings
@@ -150,10 +174,22 @@ struct McmJob {
 // non-finite value (e.g. a drawn point on the tracker axis).
 McmResult RunMcm(const McmJob& job, const McmSettings& settings);
 
+// Inputs estimated from the same n simultaneous observations (Type A, JCGM 100 5.2.3 / H.2):
+// jointly a multivariate t distribution t_nu(xbar, S / n) with nu = n - 1 (JCGM 102 6.5.3). The
+// members' UncertainInput must be normal with u = s / sqrt(n) (the scale, not the standard
+// deviation, which is larger by sqrt(nu / (nu - 2))) and their correlation the sample one.
+struct MultivariateTGroup {
+  std::vector<int> inputs;   // indices into the model's inputs
+  double dof = 0.0;          // nu = n - 1
+};
+
 // Custom model entry point: `inputs` one per model.params (same order); `correlation` empty
-// (independent) or num_params x num_params. Uses model.forward_batch when present.
+// (independent) or num_params x num_params. Uses model.forward_batch when present. A model with
+// two or more outputs also gets the JCGM 102 covariance and region of its output vector
+// (McmResult::vectors[0], named after the model).
 McmResult RunMcmCustom(const ModelInfo& model, std::span<const UncertainInput> inputs,
-                       const Eigen::MatrixXd& correlation, const McmSettings& settings);
+                       const Eigen::MatrixXd& correlation, const McmSettings& settings,
+                       std::span<const MultivariateTGroup> t_groups = {});
 
 // Coverage intervals from the sorted values v (ascending, 0-based: v[k - 1] = y_(k)) for
 // coverage probability p: q = pM if integer, else floor(pM + 1/2) (JCGM 101 7.7.1);

@@ -16,6 +16,8 @@
 
 #include <Eigen/Core>
 
+#include "vlt/conformity.h"
+#include "vlt/custom_job.h"
 #include "vlt/gum.h"
 #include "vlt/job.h"
 #include "vlt/mcm.h"
@@ -55,6 +57,10 @@ struct TaskResult {
   std::vector<ScalarValidation> validation;
   bool validated = false;                  // every applicable quantity validated
   std::string outcome;                     // CombinedOutcome (vlt/validation.h)
+  // Per quantity with a tolerance (TaskSpec::tolerances): the ISO 14253-1 decision from the GUM
+  // (y, U), or, for a quantity without a GUM value (a form quantity at exact nominal points), from
+  // the Monte Carlo shortest coverage interval; probability of conformity (JCGM 106).
+  std::vector<std::optional<ConformityDecision>> conformity;  // one per gum.quantities
 };
 
 // Expanded uncertainty over a grid (`vlt map`, [map]). At every node the GUM expanded uncertainty
@@ -105,6 +111,56 @@ struct Results {
 
 // Runs the whole job. Throws InputError / NumericalError (nothing is written here).
 Results RunJob(const Job& job, const RunOptions& options = {});
+
+// ---------------------------------------------------------------------------------------------
+// A custom-model job (vlt/custom_job.h, docs/custom-models.md): files outputs.csv, budget.csv,
+// results.json ("schema": "vlt-custom-results/1"), report.html.
+struct CustomOutputResult {
+  CustomOutput gum;                        // estimate, u, nu_eff, k = t_p(nu_eff), U, budget
+  bool has_mcm = false;
+  McmOutputResult mcm;                     // JCGM 101 7.6, 7.7
+  ScalarValidation validation;             // JCGM 101 8 (the GUM interval y +- k u)
+  std::optional<Tolerance> tolerance;
+  std::optional<ConformityDecision> conformity;   // ISO 14253-1 / JCGM 106
+};
+
+// JCGM 102 for the output vector (two or more outputs): the GUM region k = sqrt(chi2_m(p)) and
+// the Monte Carlo one, compared by their coverage factors and covariances.
+struct CustomRegionResult {
+  double gum_k = 0.0;
+  bool has_mcm = false;
+  McmVectorResult mcm;
+  double coverage_factor_ratio = 0.0;      // k_mcm / k_gum
+  double covariance_difference = 0.0;      // |U_mcm - U_gum|_F / |U_gum|_F
+};
+
+struct CustomResults {
+  std::string vlt_version;
+  std::string job_file;
+  std::string job_name;
+  std::string job_description;
+  const ModelInfo* model = nullptr;
+  std::vector<UncertainInput> inputs;          // the GUM's (CustomJob::inputs)
+  std::vector<UncertainInput> mcm_inputs;      // what Monte Carlo sampled
+  std::vector<CustomInputSource> sources;
+  std::vector<double> dof;
+  Eigen::MatrixXd correlation;
+  std::vector<std::vector<int>> simultaneous;
+  double coverage_probability = 0.95;
+  int n_dig = 2;
+  CustomUncertainty gum;
+  std::vector<CustomOutputResult> outputs;
+  std::optional<CustomRegionResult> region;
+  bool has_mcm = false;
+  McmResult mcm;                               // run information
+  std::string outcome;                         // CombinedOutcome of the validations
+  double gum_seconds = 0.0;
+  double mcm_seconds = 0.0;
+};
+
+CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options = {});
+std::vector<std::pair<std::string, std::string>> ResultFiles(const CustomResults& results);
+std::string SummaryText(const CustomResults& results);
 
 // The map of `settings` for a job's model (nodes in the part frame).
 MapResult ComputeMap(const MeasurementModel& model, const MapSettings& settings,

@@ -12,7 +12,10 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
+
+#include "vlt/conformity.h"
 
 namespace vlt {
 
@@ -37,6 +40,9 @@ struct TaskSpec {
   std::string name;                 // user's label, e.g. "bore_A"
   TaskKind kind = TaskKind::kDistance;
   std::vector<std::string> points;  // names of the measured points used, in order
+  // Tolerances of some of its quantities (vlt/conformity.h): quantity name (TaskOutputs(kind),
+  // e.g. "distance", "flatness", "radius") and the interval, SI units.
+  std::vector<std::pair<std::string, Tolerance>> tolerances;
 };
 
 // Indices of spec.points in `point_names`. Throws InputError "<where>: task '<name>': point

@@ -14,6 +14,7 @@
 #include "gum/internal.h"
 #include "model/correlation.h"
 #include "vlt/error.h"
+#include "vlt/distributions.h"
 #include "vlt/gum.h"
 
 namespace vlt {
@@ -52,6 +53,30 @@ double NormalCoverageFactor(double p) {
   }
   // P(|Z| <= k) = erf(k / sqrt 2) = p.
   return InvertIncreasing([](double k) { return std::erf(k / std::sqrt(2.0)); }, p, 0.0, 40.0);
+}
+
+double StudentTCoverageFactor(double p, double nu) {
+  if (!(p > 0.0 && p < 1.0) || !(nu >= 1.0)) {
+    throw std::invalid_argument("coverage probability must be in (0, 1), degrees of freedom >= 1");
+  }
+  if (std::isinf(nu)) return NormalCoverageFactor(p);
+  // P(|T| <= k) = 2 F(k) - 1 = p.
+  return InvertIncreasing([nu](double k) { return 2.0 * StudentTCdf(k, nu) - 1.0; }, p, 0.0,
+                          1e4);
+}
+
+double WelchSatterthwaite(double u_c, const std::vector<double>& component_variances,
+                          const std::vector<double>& component_dof) {
+  double denominator = 0.0;
+  for (std::size_t i = 0; i < component_variances.size(); ++i) {
+    const double nu = component_dof[i];
+    if (std::isfinite(nu) && nu > 0.0) {
+      denominator += component_variances[i] * component_variances[i] / nu;
+    }
+  }
+  const double u4 = u_c * u_c * u_c * u_c;
+  if (!(denominator > 0.0) || !(u4 > 0.0)) return std::numeric_limits<double>::infinity();
+  return u4 / denominator;
 }
 
 double ChiSquareCoverageFactor(double p, int m) {

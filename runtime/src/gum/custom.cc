@@ -2,18 +2,50 @@
 // (JCGM 100 5.1.2 uncorrelated, 5.2.2 correlated inputs), budget per output (JCGM 100 8).
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
 #include <Eigen/Dense>
 
+#include "model/correlation.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
 
 namespace vlt {
 
+namespace {
+
+// Components of the Welch-Satterthwaite sum (vlt/gum.h InputDegreesOfFreedom): the given sets,
+// merged with each other and with single inputs wherever `r` correlates inputs across them
+// (union-find). Returns the component index of every input.
+std::vector<int> WelchSatterthwaiteComponents(int n, const Eigen::MatrixXd& r,
+                                              const std::vector<std::vector<int>>& sets) {
+  std::vector<int> parent(n);
+  for (int i = 0; i < n; ++i) parent[i] = i;
+  auto find = [&](int i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  auto join = [&](int a, int b) { parent[find(a)] = find(b); };
+  for (const std::vector<int>& set : sets) {
+    for (std::size_t k = 1; k < set.size(); ++k) join(set[0], set[k]);
+  }
+  for (int a = 0; a < n; ++a) {
+    for (int b = a + 1; b < n; ++b) {
+      if (r(a, b) != 0.0) join(a, b);
+    }
+  }
+  std::vector<int> component(n);
+  for (int i = 0; i < n; ++i) component[i] = find(i);
+  return component;
+}
+
+}  // namespace
+
 CustomUncertainty PropagateCustom(const ModelInfo& model, std::span<const UncertainInput> inputs,
-                                  const Eigen::MatrixXd& correlation, const GumOptions& options) {
+                                  const Eigen::MatrixXd& correlation, const GumOptions& options,
+                                  const InputDegreesOfFreedom& degrees_of_freedom) {
   const int num_inputs = model.num_params;
   const int num_outputs = model.num_outputs;
   if (static_cast<int>(inputs.size()) != num_inputs) {
@@ -50,8 +82,35 @@ CustomUncertainty PropagateCustom(const ModelInfo& model, std::span<const Uncert
         }
       }
     }
+    Eigen::MatrixXd factor;
+    if (!model_internal::CorrelationFactor(correlation, factor)) {
+      throw InputError(std::string("model '") + model.name +
+                       "': the correlation matrix of the inputs is not positive semi-definite");
+    }
     r = correlation;
   }
+  std::vector<double> dof(num_inputs, std::numeric_limits<double>::infinity());
+  if (!degrees_of_freedom.dof.empty()) {
+    if (static_cast<int>(degrees_of_freedom.dof.size()) != num_inputs) {
+      throw InputError(std::string("model '") + model.name + "': degrees of freedom for " +
+                       std::to_string(degrees_of_freedom.dof.size()) + " of " +
+                       std::to_string(num_inputs) + " inputs");
+    }
+    for (int i = 0; i < num_inputs; ++i) {
+      dof[i] = degrees_of_freedom.dof[i];
+      if (!(dof[i] >= 1.0)) {
+        throw InputError(std::string("model '") + model.name + "': input '" + model.params[i].name +
+                         "': degrees of freedom must be >= 1 (or infinite)");
+      }
+    }
+  }
+  for (const std::vector<int>& set : degrees_of_freedom.components) {
+    for (int i : set) {
+      if (i < 0 || i >= num_inputs) throw InputError(std::string("model '") + model.name + "': bad input index in a component");
+    }
+  }
+  const std::vector<int> component =
+      WelchSatterthwaiteComponents(num_inputs, r, degrees_of_freedom.components);
 
   Eigen::VectorXd y(num_outputs);
   Eigen::MatrixXd j(num_outputs, num_inputs);
@@ -65,6 +124,18 @@ CustomUncertainty PropagateCustom(const ModelInfo& model, std::span<const Uncert
   CustomUncertainty result;
   result.covariance = ju * r * ju.transpose();
   result.k = NormalCoverageFactor(options.coverage_probability);
+  if (num_outputs >= 2) result.region_k = ChiSquareCoverageFactor(options.coverage_probability, num_outputs);
+  {
+    const Eigen::VectorXd sd = result.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+    result.correlation = Eigen::MatrixXd::Identity(num_outputs, num_outputs);
+    for (int a = 0; a < num_outputs; ++a) {
+      for (int b = 0; b < num_outputs; ++b) {
+        if (a != b && sd(a) > 0.0 && sd(b) > 0.0) {
+          result.correlation(a, b) = result.covariance(a, b) / (sd(a) * sd(b));
+        }
+      }
+    }
+  }
   result.correlation_handling =
       correlated ? "inputs correlated: each row is (c u)^2 of one input; the cross terms "
                    "2 sum_{i<j} c_i c_j u_i u_j r_ij are the row 'correlations' (may be "
@@ -77,7 +148,24 @@ CustomUncertainty PropagateCustom(const ModelInfo& model, std::span<const Uncert
     out.estimate = y(o);
     const double var = result.covariance(o, o);
     out.u = std::sqrt(std::max(0.0, var));
-    out.U = result.k * out.u;
+    // JCGM 100 G.4.1: one variance per component (a set's cross terms included), its smallest nu.
+    std::vector<double> comp_var(num_inputs, 0.0);
+    std::vector<double> comp_dof(num_inputs, std::numeric_limits<double>::infinity());
+    for (int a = 0; a < num_inputs; ++a) {
+      comp_dof[component[a]] = std::min(comp_dof[component[a]], dof[a]);
+      for (int b = 0; b < num_inputs; ++b) {
+        if (component[a] == component[b]) comp_var[component[a]] += ju(o, a) * r(a, b) * ju(o, b);
+      }
+    }
+    out.dof_effective = WelchSatterthwaite(out.u, comp_var, comp_dof);
+    // G.4.1 note 1 / G.6.4: nu_eff truncated to the next lower integer for t_p (a relative 1e-9
+    // guards the truncation of an exact integer against rounding: one component of nu = 4 gives
+    // 4, not 3.999999999).
+    out.k = std::isinf(out.dof_effective)
+                ? result.k
+                : StudentTCoverageFactor(options.coverage_probability,
+                                         std::max(1.0, std::floor(out.dof_effective * (1.0 + 1e-9))));
+    out.U = out.k * out.u;
     double sum_of_squares = 0.0;
     for (int i = 0; i < num_inputs; ++i) {
       BudgetRow row;

@@ -95,9 +95,9 @@ Job ParseJob(std::string_view text, const std::string& file, const std::filesyst
     }
   }
   ReadTasks(top, job);
-  ReadMonteCarlo(top, job);
+  ReadMonteCarlo(top, job.monte_carlo);
   ReadMap(top, job);
-  ReadOutput(top, job);
+  ReadOutput(top, job.output);
   top.Finish();
   return job;
 }

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <set>
 #include <string>
 #include <string_view>
@@ -59,6 +60,10 @@ toml::table ParseToml(std::string_view text, const std::string& file);
 std::string ReadTextFile(const std::string& path, const std::string& what);
 // The directory relative paths inside the file at `path` resolve against ("." for a bare name).
 std::filesystem::path BaseDirectory(const std::string& path);
+// A CSV field: a bare decimal number (in the column's unit: value * unit_scale + unit_offset; no
+// hex floats, inf or nan) or, when `dim` is given, a quantity with its own unit (points.cc).
+double CsvQuantity(const std::string& field, std::optional<Dimension> dim, double unit_scale,
+                   double unit_offset, const std::string& where);
 // "5 um + 0.5 um/m" -> (a [m], b [m/m]); either term may be absent (instrument.cc).
 void ParseLengthPlusRatio(const std::string& text, const std::string& where, double& a, double& b);
 
@@ -88,8 +93,8 @@ void ReadPart(Section& top, Job& job);         // instrument.cc: [part]
 void ReadPlan(Section& plan, Job& job);        // points.cc: [plan]
 void ReadReadings(Section& readings, Job& job);  // points.cc: [readings]
 void ReadTasks(Section& top, Job& job);        // tasks.cc: [[task]]
-void ReadMonteCarlo(Section& top, Job& job);   // settings.cc: [monte_carlo]
+void ReadMonteCarlo(Section& top, MonteCarloSettings& settings);  // settings.cc: [monte_carlo]
 void ReadMap(Section& top, Job& job);          // settings.cc: [map]
-void ReadOutput(Section& top, Job& job);       // settings.cc: [output]
+void ReadOutput(Section& top, OutputSettings& output);  // settings.cc: [output]
 
 }  // namespace vlt::job_detail

@@ -16,6 +16,24 @@
 
 namespace vlt::job_detail {
 
+double CsvQuantity(const std::string& field, std::optional<Dimension> dim, double unit_scale, double unit_offset,
+                   const std::string& where) {
+  if (field.empty()) throw InputError(where + ": empty field");
+  // A bare decimal number in the column's unit (docs/units.md: decimal literals only — no hex
+  // floats, no inf/nan, which strtod would take); anything else must carry its own unit.
+  std::string_view digits = field;
+  if (!digits.empty() && digits.front() == '+') digits.remove_prefix(1);
+  double v = 0.0;
+  const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), v, std::chars_format::general);
+  if (ec == std::errc() && end == digits.data() + digits.size()) {
+    if (!std::isfinite(v)) throw InputError(where + ": '" + field + "' is not a finite number");
+    return v * unit_scale + unit_offset;
+  }
+  if (ec == std::errc::result_out_of_range) throw InputError(where + ": '" + field + "' is out of the range of finite numbers");
+  if (!dim) throw InputError(where + ": '" + field + "' is not a decimal number");
+  return ParseQuantity(field, *dim, where);  // a field with its own unit
+}
+
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -31,23 +49,6 @@ Face ParseFaceField(std::string text, const std::string& where) {
 double PlanCoordinate(const toml::node& node, double unit_scale, const std::string& where) {
   if (node.is_number()) return AsNumber(node, where) * unit_scale;
   return AsQuantity(node, Dimension::kLength, where);
-}
-
-double CsvQuantity(const std::string& field, Dimension dim, double unit_scale, double unit_offset,
-                   const std::string& where) {
-  if (field.empty()) throw InputError(where + ": empty field");
-  // A bare decimal number in the column's unit (docs/units.md: decimal literals only — no hex
-  // floats, no inf/nan, which strtod would take); anything else must carry its own unit.
-  std::string_view digits = field;
-  if (!digits.empty() && digits.front() == '+') digits.remove_prefix(1);
-  double v = 0.0;
-  const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), v, std::chars_format::general);
-  if (ec == std::errc() && end == digits.data() + digits.size()) {
-    if (!std::isfinite(v)) throw InputError(where + ": '" + field + "' is not a finite number");
-    return v * unit_scale + unit_offset;
-  }
-  if (ec == std::errc::result_out_of_range) throw InputError(where + ": '" + field + "' is out of the range of finite numbers");
-  return ParseQuantity(field, dim, where);  // a field with its own unit
 }
 
 // Scale of `unit` for `dim` (value_SI = value * scale), with a job-file message for a bad unit.

@@ -11,11 +11,10 @@
 
 namespace vlt::job_detail {
 
-void ReadMonteCarlo(Section& top, Job& job) {
+void ReadMonteCarlo(Section& top, MonteCarloSettings& mc) {
   Section s = top.Sub("monte_carlo", false);
   if (!s.exists()) return;
   s.set_hint("enabled, trials, adaptive, n_dig, seed, coverage_probability, threads");
-  MonteCarloSettings& mc = job.monte_carlo;
   if (const toml::node* n = s.Get("enabled")) mc.enabled = AsBool(*n, s.Where("enabled"));
   if (const toml::node* n = s.Get("adaptive")) mc.adaptive = AsBool(*n, s.Where("adaptive"));
   if (const toml::node* n = s.Get("coverage_probability")) {
@@ -98,14 +97,14 @@ void ReadMap(Section& top, Job& job) {
   s.Finish();
 }
 
-void ReadOutput(Section& top, Job& job) {
+void ReadOutput(Section& top, OutputSettings& output) {
   Section s = top.Sub("output", false);
   if (!s.exists()) return;
   s.set_hint("directory, ellipsoid_scale");
-  if (const toml::node* n = s.Get("directory")) job.output.directory = AsString(*n, s.Where("directory"));
+  if (const toml::node* n = s.Get("directory")) output.directory = AsString(*n, s.Where("directory"));
   if (const toml::node* n = s.Get("ellipsoid_scale")) {
-    job.output.ellipsoid_scale = AsNumber(*n, s.Where("ellipsoid_scale"));
-    if (!(job.output.ellipsoid_scale > 0)) throw InputError(s.Where("ellipsoid_scale") + ": must be positive");
+    output.ellipsoid_scale = AsNumber(*n, s.Where("ellipsoid_scale"));
+    if (!(output.ellipsoid_scale > 0)) throw InputError(s.Where("ellipsoid_scale") + ": must be positive");
   }
   s.Finish();
 }

@@ -1,5 +1,8 @@
 // job/tasks.cc — the [[task]] tables of a job file (kind, name, points). Keys: docs/job-file.md.
+#include <cmath>
 #include <set>
+
+#include "vlt/fits.h"
 
 #include "vlt/tasks.h"
 #include <toml++/toml.h>
@@ -10,6 +13,43 @@
 #include "vlt/units.h"
 
 namespace vlt::job_detail {
+
+namespace {
+
+// [task.tolerance.<quantity>] lower = ..., upper = ... (either or both; lengths in length units,
+// direction components plain numbers).
+void ReadTaskTolerances(Section& t, TaskSpec& spec) {
+  Section tol = t.Sub("tolerance", false);
+  if (!tol.exists()) return;
+  const std::span<const TaskOutput> outputs = TaskOutputs(spec.kind);
+  for (const auto& [key, node] : tol.table()) {
+    const std::string name(key.str());
+    const TaskOutput* output = nullptr;
+    std::string list;
+    for (const TaskOutput& o : outputs) {
+      if (o.name == name) output = &o;
+      list += (list.empty() ? "" : ", ") + std::string(o.name);
+    }
+    if (output == nullptr) {
+      throw InputError(tol.Where(name) + ": a " + std::string(TaskKindName(spec.kind)) + " task has no quantity '" +
+                       name + "' (" + list + ")");
+    }
+    const Dimension dim = output->unit == "m" ? Dimension::kLength : Dimension::kDimensionless;
+    Section q = tol.Sub(name, true);
+    q.set_hint("lower, upper");
+    Tolerance limits;
+    if (const toml::node* n = q.Get("lower")) limits.lower = AsQuantity(*n, dim, q.Where("lower"));
+    if (const toml::node* n = q.Get("upper")) limits.upper = AsQuantity(*n, dim, q.Where("upper"));
+    if (std::isinf(limits.lower) && std::isinf(limits.upper)) throw InputError(q.WhereSelf() + ": give lower, upper or both");
+    if (!(limits.lower < limits.upper)) throw InputError(q.Where("upper") + ": must be above lower");
+    q.Finish();
+    tol.Get(name);
+    spec.tolerances.emplace_back(name, limits);
+  }
+  tol.Finish();
+}
+
+}  // namespace
 
 void ReadTasks(Section& top, Job& job) {
   const toml::node* n = top.Get("task");
@@ -22,7 +62,7 @@ void ReadTasks(Section& top, Job& job) {
     std::string path = "task[" + std::to_string(index++) + "]";
     if (!e.is_table()) throw InputError(job.file + ": " + path + ": expected a table");
     Section t(*e.as_table(), job.file, path);
-    t.set_hint("kind, name, points");
+    t.set_hint("kind, name, points, tolerance");
     TaskSpec spec;
     spec.kind = ParseTaskKind(AsString(t.Require("kind"), t.Where("kind")), t.Where("kind"));
     spec.name = AsString(t.Require("name"), t.Where("name"));
@@ -31,6 +71,7 @@ void ReadTasks(Section& top, Job& job) {
     const toml::node& pts = t.Require("points");
     if (!pts.is_array()) throw InputError(t.Where("points") + ": expected an array of point names");
     for (const toml::node& p : *pts.as_array()) spec.points.push_back(AsString(p, t.Where("points")));
+    ReadTaskTolerances(t, spec);
     t.Finish();
     job.task_points.push_back(ResolveTaskPoints(spec, point_names, t.Where("points")));
     job.tasks.push_back(std::move(spec));

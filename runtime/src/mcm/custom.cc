@@ -34,10 +34,10 @@ std::vector<std::string> Names(std::span<const UncertainInput> inputs) {
 class CustomKernel final : public mcm_internal::TrialKernel {
  public:
   CustomKernel(const ModelInfo& model, std::span<const UncertainInput> inputs,
-               const Eigen::MatrixXd& correlation)
+               const Eigen::MatrixXd& correlation, std::span<const MultivariateTGroup> t_groups)
       : model_(model),
         sampler_(Distributions(model, inputs), Names(inputs), correlation, 0,
-                 std::string("model '") + model.name + "': input correlation") {}
+                 std::string("model '") + model.name + "': input correlation", t_groups) {}
 
   int num_outputs() const override { return model_.num_outputs; }
 
@@ -90,7 +90,8 @@ class CustomKernel final : public mcm_internal::TrialKernel {
 }  // namespace
 
 McmResult RunMcmCustom(const ModelInfo& model, std::span<const UncertainInput> inputs,
-                       const Eigen::MatrixXd& correlation, const McmSettings& settings) {
+                       const Eigen::MatrixXd& correlation, const McmSettings& settings,
+                       std::span<const MultivariateTGroup> t_groups) {
   if (std::string_view(model.kind) != "custom") {
     throw InputError(std::string("Monte Carlo: model '") + model.name +
                      "' is not a custom model (use a job for tracker models)");
@@ -100,12 +101,13 @@ McmResult RunMcmCustom(const ModelInfo& model, std::span<const UncertainInput> i
                      std::to_string(model.num_params) + " inputs, " +
                      std::to_string(inputs.size()) + " given");
   }
-  const CustomKernel kernel(model, inputs, correlation);
+  const CustomKernel kernel(model, inputs, correlation, t_groups);
   mcm_internal::OutputSpec spec;
   for (int o = 0; o < model.num_outputs; ++o) {
     spec.names.emplace_back(model.outputs[o].name);
     spec.units.emplace_back(model.outputs[o].unit);
   }
+  if (model.num_outputs >= 2) spec.groups.push_back({model.name, 0, model.num_outputs, false});
   return mcm_internal::RunEngine(kernel, spec, settings);
 }
 

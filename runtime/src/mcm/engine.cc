@@ -143,54 +143,96 @@ double Average(const std::vector<double>& v) {
 }
 
 // Layout of the partial sums of one chunk / batch / run: per output sum d and sum d^2, then per
-// point the 3 cross sums (xy, xz, yz) of the deviations d = y - y(estimates).
+// output group (a point's x, y, z; a custom model's output vector) the cross sums of every pair
+// (a < b, in the order (0,1), (0,2), ..., (1,2), ...) of the deviations d = y - y(estimates).
 struct SumLayout {
   int outputs;
-  int points;
-  int stride() const { return 2 * outputs + 3 * points; }
+  std::vector<int> cross_offset;   // first cross sum of each group
+  int cross_total = 0;
+  int tolerances = 0;              // then one count per tolerance (McmSettings::tolerances)
+  SumLayout(int num_outputs, const std::vector<OutputGroup>& groups, int num_tolerances)
+      : outputs(num_outputs), tolerances(num_tolerances) {
+    for (const OutputGroup& g : groups) {
+      cross_offset.push_back(2 * outputs + cross_total);
+      cross_total += g.dim * (g.dim - 1) / 2;
+    }
+  }
+  int stride() const { return 2 * outputs + cross_total + tolerances; }
+  int count(int t) const { return 2 * outputs + cross_total + t; }
   int sum(int o) const { return 2 * o; }
   int sum2(int o) const { return 2 * o + 1; }
-  int cross(int p, int k) const { return 2 * outputs + 3 * p + k; }
+  int cross(int g, int pair) const { return cross_offset[g] + pair; }
 };
 
-// Mean and covariance of point p (3 outputs from `first`) from the sums of n trials.
-void PointMoments(const std::vector<double>& sums, const SumLayout& layout, int p, int first,
-                  const std::vector<double>& y0, std::int64_t n, Eigen::Vector3d* mean,
-                  Eigen::Matrix3d* cov) {
+// Index of the pair (a, b), a < b, among the pairs of a group of dimension dim.
+int PairIndex(int a, int b, int dim) {
+  if (a > b) std::swap(a, b);
+  return a * dim - a * (a + 1) / 2 + (b - a - 1);
+}
+
+// Adds the cross sums of group g over n trials (out: outputs[o * kSubBatch + i]) to part.
+void AddCrossSums(const OutputGroup& g, int gi, const SumLayout& layout, const double* out, int n,
+                  const std::vector<double>& y0, double* part) {
+  for (int a = 0; a < g.dim; ++a) {
+    const double* xa = out + static_cast<std::size_t>(g.first + a) * kSubBatch;
+    for (int b = a + 1; b < g.dim; ++b) {
+      const double* xb = out + static_cast<std::size_t>(g.first + b) * kSubBatch;
+      double s = 0.0;
+      for (int i = 0; i < n; ++i) s += (xa[i] - y0[g.first + a]) * (xb[i] - y0[g.first + b]);
+      part[layout.cross(gi, PairIndex(a, b, g.dim))] += s;
+    }
+  }
+}
+
+// Mean and covariance of group g (dim outputs from g.first) from the sums of n trials.
+void GroupMoments(const std::vector<double>& sums, const SumLayout& layout, const OutputGroup& g,
+                  int gi, const std::vector<double>& y0, std::int64_t n, Eigen::VectorXd* mean,
+                  Eigen::MatrixXd* cov) {
   const double dn = static_cast<double>(n);
-  Eigen::Vector3d s1;
-  for (int a = 0; a < 3; ++a) s1(a) = sums[layout.sum(first + a)];
-  for (int a = 0; a < 3; ++a) (*mean)(a) = y0[first + a] + s1(a) / dn;
-  static constexpr int kCross[3][3] = {{-1, 0, 1}, {0, -1, 2}, {1, 2, -1}};
-  for (int a = 0; a < 3; ++a) {
-    for (int b = 0; b < 3; ++b) {
-      const double sab = a == b ? sums[layout.sum2(first + a)] : sums[layout.cross(p, kCross[a][b])];
+  const int d = g.dim;
+  Eigen::VectorXd s1(d);
+  for (int a = 0; a < d; ++a) s1(a) = sums[layout.sum(g.first + a)];
+  mean->resize(d);
+  cov->resize(d, d);
+  for (int a = 0; a < d; ++a) (*mean)(a) = y0[g.first + a] + s1(a) / dn;
+  for (int a = 0; a < d; ++a) {
+    for (int b = 0; b < d; ++b) {
+      const double sab = a == b ? sums[layout.sum2(g.first + a)]
+                                : sums[layout.cross(gi, PairIndex(a, b, d))];
       (*cov)(a, b) = (sab - s1(a) * s1(b) / dn) / (dn - 1.0);
     }
   }
 }
 
-// k_p of JCGM 102 7.7.3 from the deviations (float, relative to y0) of n trials of one point:
-// the q-th smallest |L^-1 (y_r - mean)|. Returns false when the covariance is not positive
-// definite.
-bool RegionFactor(const float* x, const float* y, const float* z, std::int64_t n,
-                  const Eigen::Vector3d& mean_minus_y0, const Eigen::Matrix3d& cov, double p,
+// k_p of JCGM 102 7.7.3 from the deviations (float, relative to y0) of n trials of one group:
+// the q-th smallest |L^-1 (y_r - mean)|. series[a] holds component a. Returns false when the
+// covariance is not positive definite.
+bool RegionFactor(const std::vector<const float*>& series, std::int64_t n,
+                  const Eigen::VectorXd& mean_minus_y0, const Eigen::MatrixXd& cov, double p,
                   double* k) {
-  Eigen::LLT<Eigen::Matrix3d> llt(cov);
+  const int dim = static_cast<int>(series.size());
+  Eigen::LLT<Eigen::MatrixXd> llt(cov);
   if (llt.info() != Eigen::Success || !(cov.diagonal().minCoeff() > 0.0)) return false;
-  const Eigen::Matrix3d l_inv = Eigen::Matrix3d(llt.matrixL()).inverse();
+  const Eigen::MatrixXd l_inv = Eigen::MatrixXd(llt.matrixL()).inverse();
   if (!l_inv.allFinite()) return false;
   std::vector<double> d(static_cast<std::size_t>(n));
+  Eigen::VectorXd dev(dim), w(dim);
   for (std::int64_t r = 0; r < n; ++r) {
-    const Eigen::Vector3d dev(static_cast<double>(x[r]) - mean_minus_y0(0),
-                              static_cast<double>(y[r]) - mean_minus_y0(1),
-                              static_cast<double>(z[r]) - mean_minus_y0(2));
-    d[r] = (l_inv * dev).norm();
+    for (int a = 0; a < dim; ++a) dev(a) = static_cast<double>(series[a][r]) - mean_minus_y0(a);
+    w.noalias() = l_inv * dev;
+    d[r] = w.norm();
   }
   const std::int64_t q = CoverageCount(n, p);
   std::nth_element(d.begin(), d.begin() + (q - 1), d.end());
   *k = d[q - 1];
   return true;
+}
+
+// The component pointers of group g in a buffer holding `stride` values per output.
+std::vector<const float*> GroupSeries(const float* base, std::int64_t stride, const OutputGroup& g) {
+  std::vector<const float*> out;
+  for (int a = 0; a < g.dim; ++a) out.push_back(base + (g.first + a) * stride);
+  return out;
 }
 
 std::string FormatStatus(double value, const char* what) {
@@ -217,8 +259,14 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
                      std::to_string(settings.trials));
   }
   const int n_out = kernel.num_outputs();
-  const int n_points = static_cast<int>(spec.point_names.size());
-  const SumLayout layout{n_out, n_points};
+  const int n_groups = static_cast<int>(spec.groups.size());
+  for (const McmSettings::ToleranceCount& t : settings.tolerances) {
+    if (t.output < 0 || t.output >= kernel.num_outputs() || !(t.lower <= t.upper)) {
+      throw InputError("Monte Carlo: a tolerance needs an existing output and lower <= upper");
+    }
+  }
+  const int n_tolerances = static_cast<int>(settings.tolerances.size());
+  const SumLayout layout(n_out, spec.groups, n_tolerances);
   const int stride = layout.stride();
   const bool adaptive = settings.trials == 0;
 
@@ -265,7 +313,7 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
 
   std::vector<double> total(stride, 0.0);
   std::vector<BatchStats> stats(n_out);
-  std::vector<std::vector<double>> batch_k(n_points);   // only when values are not all kept
+  std::vector<std::vector<double>> batch_k(n_groups);   // only when values are not all kept
   std::vector<std::vector<float>> sort_space(threads);
 
   ProgressBar progress("Monte Carlo", settings.quiet);
@@ -278,18 +326,16 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
   // averaged-endpoint method when not every value is kept.
   auto batch_extras = [&](std::vector<float>& vals, std::int64_t bh,
                           const std::vector<double>& batch_sums) {
-    for (int pt = 0; pt < n_points; ++pt) {
-      const int first = spec.point_first_output[pt];
-      Eigen::Vector3d mean;
-      Eigen::Matrix3d cov;
-      PointMoments(batch_sums, layout, pt, first, y0, bh, &mean, &cov);
-      Eigen::Vector3d offset;
-      for (int a = 0; a < 3; ++a) offset(a) = mean(a) - y0[first + a];
+    for (int gi = 0; gi < n_groups; ++gi) {
+      const OutputGroup& g = spec.groups[gi];
+      Eigen::VectorXd mean;
+      Eigen::MatrixXd cov;
+      GroupMoments(batch_sums, layout, g, gi, y0, bh, &mean, &cov);
+      Eigen::VectorXd offset(g.dim);
+      for (int a = 0; a < g.dim; ++a) offset(a) = mean(a) - y0[g.first + a];
       double k = 0.0;
-      const float* base = vals.data();
-      if (RegionFactor(base + (first + 0) * bh, base + (first + 1) * bh, base + (first + 2) * bh,
-                       bh, offset, cov, p, &k)) {
-        batch_k[pt].push_back(k);
+      if (RegionFactor(GroupSeries(vals.data(), bh, g), bh, offset, cov, p, &k)) {
+        batch_k[gi].push_back(k);
       }
     }
     pool.ParallelFor(n_out, [&](int o, int w) {
@@ -335,21 +381,15 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
           part[layout.sum(o)] += s1;
           part[layout.sum2(o)] += s2;
         }
-        for (int pt = 0; pt < n_points; ++pt) {
-          const int f = spec.point_first_output[pt];
-          const double* x = out + static_cast<std::size_t>(f) * kSubBatch;
-          const double* y = x + kSubBatch;
-          const double* z = y + kSubBatch;
-          double sxy = 0.0, sxz = 0.0, syz = 0.0;
-          for (int i = 0; i < n; ++i) {
-            const double dx = x[i] - y0[f], dy = y[i] - y0[f + 1], dz = z[i] - y0[f + 2];
-            sxy += dx * dy;
-            sxz += dx * dz;
-            syz += dy * dz;
-          }
-          part[layout.cross(pt, 0)] += sxy;
-          part[layout.cross(pt, 1)] += sxz;
-          part[layout.cross(pt, 2)] += syz;
+        for (int gi = 0; gi < n_groups; ++gi) {
+          AddCrossSums(spec.groups[gi], gi, layout, out, n, y0, part);
+        }
+        for (int t = 0; t < n_tolerances; ++t) {
+          const McmSettings::ToleranceCount& tol = settings.tolerances[t];
+          const double* row = out + static_cast<std::size_t>(tol.output) * kSubBatch;
+          int inside = 0;
+          for (int i = 0; i < n; ++i) inside += (row[i] >= tol.lower && row[i] <= tol.upper) ? 1 : 0;
+          part[layout.count(t)] += inside;
         }
       }
     });
@@ -380,14 +420,17 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
             old_sums[layout.sum2(o)] += d * d;
           }
         }
-        for (int pt = 0; pt < n_points; ++pt) {
-          const int f = spec.point_first_output[pt];
-          for (std::int64_t i = 0; i < batch_size; ++i) {
-            const double dx = old[f * batch_size + i], dy = old[(f + 1) * batch_size + i],
-                         dz = old[(f + 2) * batch_size + i];
-            old_sums[layout.cross(pt, 0)] += dx * dy;
-            old_sums[layout.cross(pt, 1)] += dx * dz;
-            old_sums[layout.cross(pt, 2)] += dy * dz;
+        for (int gi = 0; gi < n_groups; ++gi) {
+          const OutputGroup& g = spec.groups[gi];
+          for (int a = 0; a < g.dim; ++a) {
+            for (int b = a + 1; b < g.dim; ++b) {
+              double sum = 0.0;
+              for (std::int64_t i = 0; i < batch_size; ++i) {
+                sum += static_cast<double>(old[(g.first + a) * batch_size + i]) *
+                       static_cast<double>(old[(g.first + b) * batch_size + i]);
+              }
+              old_sums[layout.cross(gi, PairIndex(a, b, g.dim))] += sum;
+            }
           }
         }
         batch_extras(old, batch_size, old_sums);
@@ -481,37 +524,52 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
     const double s1 = total[layout.sum(o)], s2 = total[layout.sum2(o)];
     r.mean = y0[o] + s1 / dn;
     r.u = std::sqrt(std::max(0.0, (s2 - s1 * s1 / dn) / (dn - 1.0)));
+    for (int t = 0; t < n_tolerances; ++t) {
+      if (settings.tolerances[t].output == o) r.conformity_probability = total[layout.count(t)] / dn;
+    }
     r.accuracy = {StdOfAverage(stats[o].mean), StdOfAverage(stats[o].u),
                   StdOfAverage(stats[o].low), StdOfAverage(stats[o].high),
                   NumericalTolerance(r.u, settings.significant_digits)};
   }
 
-  result.points.resize(n_points);
-  for (int pt = 0; pt < n_points; ++pt) {
-    McmPointResult& r = result.points[pt];
-    const int f = spec.point_first_output[pt];
-    r.name = spec.point_names[pt];
-    PointMoments(total, layout, pt, f, y0, done, &r.mean, &r.covariance);
-    for (int a = 0; a < 3; ++a) r.mean(a) = result.outputs[f + a].mean;
-    const Eigen::Vector3d sd = r.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
-    r.correlation = Eigen::Matrix3d::Identity();
-    for (int a = 0; a < 3; ++a) {
-      for (int b = 0; b < 3; ++b) {
+  for (int gi = 0; gi < n_groups; ++gi) {
+    const OutputGroup& g = spec.groups[gi];
+    McmVectorResult r;
+    r.name = g.name;
+    GroupMoments(total, layout, g, gi, y0, done, &r.mean, &r.covariance);
+    for (int a = 0; a < g.dim; ++a) r.mean(a) = result.outputs[g.first + a].mean;
+    const Eigen::VectorXd sd = r.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+    r.correlation = Eigen::MatrixXd::Identity(g.dim, g.dim);
+    for (int a = 0; a < g.dim; ++a) {
+      for (int b = 0; b < g.dim; ++b) {
         if (a != b && sd(a) > 0.0 && sd(b) > 0.0) {
           r.correlation(a, b) = r.covariance(a, b) / (sd(a) * sd(b));
         }
       }
     }
     if (keep_all) {
-      Eigen::Vector3d offset;
-      for (int a = 0; a < 3; ++a) offset(a) = r.mean(a) - y0[f + a];
+      Eigen::VectorXd offset(g.dim);
+      for (int a = 0; a < g.dim; ++a) offset(a) = r.mean(a) - y0[g.first + a];
+      std::vector<const float*> components;
+      for (int a = 0; a < g.dim; ++a) components.push_back(series[g.first + a].data());
       double k = 0.0;
-      r.has_region = RegionFactor(series[f].data(), series[f + 1].data(), series[f + 2].data(),
-                                  done, offset, r.covariance, p, &k);
+      r.has_region = RegionFactor(components, done, offset, r.covariance, p, &k);
       r.coverage_factor = r.has_region ? k : 0.0;
     } else {
-      r.has_region = !batch_k[pt].empty();
-      r.coverage_factor = Average(batch_k[pt]);
+      r.has_region = !batch_k[gi].empty();
+      r.coverage_factor = Average(batch_k[gi]);
+    }
+    if (g.point) {
+      McmPointResult pt;
+      pt.name = r.name;
+      pt.mean = r.mean;
+      pt.covariance = r.covariance;
+      pt.correlation = r.correlation;
+      pt.has_region = r.has_region;
+      pt.coverage_factor = r.coverage_factor;
+      result.points.push_back(std::move(pt));
+    } else {
+      result.vectors.push_back(std::move(r));
     }
   }
 

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -34,9 +35,13 @@ inline constexpr int kChunk = 2500;
 class InputSampler {
  public:
   // `correlation`: empty (independent) or size x size. `where` names the matrix in messages.
+  // `t_groups`: inputs drawn jointly as a multivariate t (JCGM 102 6.5.3, Type A inputs from the
+  // same simultaneous observations): their distributions must be normal with u the scale
+  // s / sqrt(n); every member's correlated normal is divided by sqrt(w / nu), w ~ chi2_nu drawn
+  // once per trial and group (stream kChiSquareStream + group).
   InputSampler(std::vector<Distribution> inputs, std::vector<std::string> names,
                const Eigen::MatrixXd& correlation, std::uint64_t first_stream,
-               std::string_view where);
+               std::string_view where, std::span<const MultivariateTGroup> t_groups = {});
 
   int size() const { return static_cast<int>(inputs_.size()); }
   const std::vector<Distribution>& inputs() const { return inputs_; }
@@ -55,7 +60,18 @@ class InputSampler {
                                    // triangular (Cholesky) unless R is singular (eigen factor)
   bool factor_is_lower_ = true;
   std::uint64_t first_stream_;
+  std::vector<int> t_group_of_;      // per copula_ position: index into t_dof_, or -1
+  std::vector<double> t_dof_;        // nu of each multivariate t group
 };
+
+// Random stream of the chi-square draw of multivariate t group g: kChiSquareStream + g, far above
+// any input index.
+inline constexpr std::uint64_t kChiSquareStream = std::uint64_t{1} << 40;
+
+// A chi-square variate with nu > 0 degrees of freedom for one trial: 2 Gamma(nu / 2) by
+// Marsaglia and Tsang's method (ACM TOMS 26 (2000) 363; shape < 1 through Gamma(a + 1) U^(1/a)),
+// exact, its uniforms from KeyedStream::TrialUniforms(trial, stream, attempt).
+double DrawChiSquare(const KeyedStream& rng, std::uint64_t stream, std::uint64_t trial, double nu);
 
 // Normals for trials [first, first + n) of one stream: out[i] = z(trial first + i).
 void DrawNormals(const KeyedStream& rng, std::uint64_t stream, std::int64_t first, int n,
@@ -83,12 +99,19 @@ class TrialKernel {
                    double* outputs) const = 0;
 };
 
+// Outputs that form one vector quantity (JCGM 102): a measured point (x, y, z) or the output
+// vector of a custom model. Its covariance and coverage region are computed.
+struct OutputGroup {
+  std::string name;
+  int first = 0;       // index of its first output; the others follow
+  int dim = 3;
+  bool point = true;   // true: reported in McmResult::points (dim 3), else McmResult::vectors
+};
+
 struct OutputSpec {
   std::vector<std::string> names;
   std::vector<std::string> units;
-  // Points (JCGM 102): name and index of the output holding x (y, z follow).
-  std::vector<std::string> point_names;
-  std::vector<int> point_first_output;
+  std::vector<OutputGroup> groups;
 };
 
 McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,

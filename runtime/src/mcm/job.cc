@@ -230,8 +230,7 @@ McmResult RunMcm(const McmJob& job_in, const McmSettings& settings) {
   mcm_internal::OutputSpec spec;
   static constexpr const char* kAxes[] = {"x", "y", "z"};
   for (std::size_t p = 0; p < job.points.size(); ++p) {
-    spec.point_names.push_back(job.points[p].name);
-    spec.point_first_output.push_back(static_cast<int>(spec.names.size()));
+    spec.groups.push_back({job.points[p].name, static_cast<int>(spec.names.size()), 3, true});
     for (const char* axis : kAxes) {
       spec.names.push_back(job.points[p].name + "." + axis);
       spec.units.push_back("m");

@@ -61,9 +61,30 @@ void DrawStudentT(const KeyedStream& rng, const Distribution& dist, std::uint64_
 
 }  // namespace
 
+double DrawChiSquare(const KeyedStream& rng, std::uint64_t stream, std::uint64_t trial, double nu) {
+  // Gamma(a), a = nu / 2: d = a' - 1/3, c = 1 / sqrt(9 d) with a' = a (a >= 1) or a + 1 (a < 1).
+  const double a = 0.5 * nu;
+  const double a1 = a < 1.0 ? a + 1.0 : a;
+  const double d = a1 - 1.0 / 3.0, c = 1.0 / std::sqrt(9.0 * d);
+  double u[4];
+  for (std::uint64_t attempt = 0;; ++attempt) {
+    rng.TrialUniforms(trial, stream, attempt, u);
+    // One normal from (u0, u1) by Box-Muller, u2 for the acceptance test, u3 for the boost.
+    const double z = std::sqrt(-2.0 * std::log(u[0])) * std::cos(2.0 * M_PI * u[1]);
+    const double t = 1.0 + c * z;
+    if (t <= 0.0) continue;
+    const double v = t * t * t;
+    if (std::log(u[2]) < 0.5 * z * z + d - d * v + d * std::log(v)) {
+      double g = d * v;
+      if (a < 1.0) g *= std::pow(u[3], 1.0 / a);
+      return 2.0 * g;
+    }
+  }
+}
+
 InputSampler::InputSampler(std::vector<Distribution> inputs, std::vector<std::string> names,
                            const Eigen::MatrixXd& correlation, std::uint64_t first_stream,
-                           std::string_view where)
+                           std::string_view where, std::span<const MultivariateTGroup> t_groups)
     : inputs_(std::move(inputs)), first_stream_(first_stream) {
   const int n = size();
   const std::string at(where);
@@ -85,9 +106,24 @@ InputSampler::InputSampler(std::vector<Distribution> inputs, std::vector<std::st
       }
     }
   }
-  // Inputs with a non-zero correlation to another input go through the copula.
+  // Inputs with a non-zero correlation to another input, and the members of a multivariate t
+  // group, go through the copula.
+  std::vector<int> group_of(n, -1);
+  for (std::size_t g = 0; g < t_groups.size(); ++g) {
+    if (!(t_groups[g].dof > 0.0) || !std::isfinite(t_groups[g].dof)) {
+      throw InputError(at + ": a multivariate t group needs finite degrees of freedom > 0");
+    }
+    for (int k : t_groups[g].inputs) {
+      if (k < 0 || k >= n || group_of[k] != -1 || inputs_[k].kind() != DistributionKind::kNormal) {
+        throw InputError(at + ": multivariate t group " + std::to_string(g) +
+                         ": each member must be a distinct normal input");
+      }
+      group_of[k] = static_cast<int>(g);
+    }
+    t_dof_.push_back(t_groups[g].dof);
+  }
   for (int i = 0; i < n; ++i) {
-    bool correlated = false;
+    bool correlated = group_of[i] != -1;
     if (correlation.size() != 0) {
       for (int j = 0; j < n && !correlated; ++j) correlated = j != i && correlation(i, j) != 0.0;
     }
@@ -107,6 +143,7 @@ InputSampler::InputSampler(std::vector<Distribution> inputs, std::vector<std::st
       throw InputError(at + ": the correlation matrix of " + list + " is not positive semi-definite");
     }
     factor_is_lower_ = cholesky_.isLowerTriangular(0.0);
+    for (int a = 0; a < m; ++a) t_group_of_.push_back(group_of[copula_[a]]);
   }
 }
 
@@ -141,11 +178,24 @@ void InputSampler::Draw(const KeyedStream& rng, std::int64_t first, int n, doubl
   }
   constexpr double kPmin = std::numeric_limits<double>::min();
   const double kPmax = std::nextafter(1.0, 0.0);
+  double t_scale[8];
+  std::vector<double> t_scale_heap;
+  double* mix = t_scale;
+  if (t_dof_.size() > 8) {
+    t_scale_heap.resize(t_dof_.size());
+    mix = t_scale_heap.data();
+  }
   for (int i = 0; i < n; ++i) {
+    // JCGM 102 6.5.3: X = x + L z / sqrt(w / nu), one w ~ chi2_nu per group and trial.
+    for (std::size_t g = 0; g < t_dof_.size(); ++g) {
+      const std::uint64_t trial = static_cast<std::uint64_t>(first + i);
+      mix[g] = std::sqrt(t_dof_[g] / DrawChiSquare(rng, kChiSquareStream + g, trial, t_dof_[g]));
+    }
     for (int a = 0; a < m; ++a) {
       double zc = 0.0;
       const int columns = factor_is_lower_ ? a + 1 : m;  // Cholesky: the same sums as always
       for (int b = 0; b < columns; ++b) zc += cholesky_(a, b) * scratch[static_cast<std::ptrdiff_t>(b) * n + i];
+      if (!t_group_of_.empty() && t_group_of_[a] >= 0) zc *= mix[t_group_of_[a]];
       const Distribution& dist = inputs_[copula_[a]];
       double value;
       if (dist.kind() == DistributionKind::kNormal || dist.u() == 0.0) {

@@ -148,7 +148,8 @@ std::string BudgetCsv(const Results& r) {
 std::string TasksCsv(const Results& r) {
   std::ostringstream out;
   out << "task,kind,quantity,value_unit,value,u_unit,u,k,U,mcm_mean,mcm_u,mcm_low,mcm_high,"
-         "d_low,d_high,delta,gum_vs_mcm\n";
+         "d_low,d_high,delta,gum_vs_mcm,tolerance_lower,tolerance_upper,conformity,"
+         "probability_of_conformity_gum,probability_of_conformity_mcm\n";
   for (const TaskResult& t : r.tasks) {
     for (std::size_t q = 0; q < t.gum.quantities.size(); ++q) {
       const bool length = IsLength(t.gum.units[q]);
@@ -166,6 +167,21 @@ std::string TasksCsv(const Results& r) {
             << v.d_high * us << v.delta * us << v.verdict;
       } else {
         row.Empty().Empty().Empty().Empty().Empty().Empty().Empty() << "not run";
+      }
+      // Conformity (vlt/conformity.h): limits in the value's unit (mm for lengths).
+      const std::optional<ConformityDecision>* c = q < t.conformity.size() ? &t.conformity[q] : nullptr;
+      const Tolerance* tol = nullptr;
+      for (const auto& [name, limits] : t.spec.tolerances) {
+        if (name == t.gum.quantities[q]) tol = &limits;
+      }
+      if (c != nullptr && c->has_value() && tol != nullptr) {
+        if (std::isinf(tol->lower)) row.Empty(); else row << tol->lower * vs;
+        if (std::isinf(tol->upper)) row.Empty(); else row << tol->upper * vs;
+        row << (*c)->verdict;
+        if ((*c)->probability_gum) row << *(*c)->probability_gum; else row.Empty();
+        if ((*c)->probability_mcm) row << *(*c)->probability_mcm; else row.Empty();
+      } else {
+        row.Empty().Empty().Empty().Empty().Empty();
       }
       out << row.str();
     }

@@ -11,6 +11,9 @@
 
 namespace vlt::internal {
 
+// The Monte Carlo settings of a run: the job's [monte_carlo] with the command line's overrides.
+McmSettings McmSettingsFor(const MonteCarloSettings& job, const RunOptions& options, int threads);
+
 // "(x, y, z) m" with 6 significant digits, for messages about grid nodes.
 std::string FormatNode(const Eigen::Vector3d& node);
 

@@ -1,5 +1,7 @@
 // results.json: everything of a run in one document, SI units throughout (schema in
 // docs/results.md; "schema": "vlt-results/1"). Also embedded in report.html.
+#include <cmath>
+
 #include <nlohmann/json.hpp>
 
 #include "results/internal.h"
@@ -204,6 +206,26 @@ json Task(const TaskResult& t) {
     j["mcm"] = nullptr;
     j["validation"] = nullptr;
   }
+  // ISO 14253-1 / JCGM 106 per quantity with a tolerance (docs/conformity.md); SI units.
+  json conformity = json::array();
+  for (std::size_t q = 0; q < t.conformity.size(); ++q) {
+    if (!t.conformity[q]) continue;
+    const ConformityDecision& d = *t.conformity[q];
+    Tolerance tol;
+    for (const auto& [name, limits] : t.spec.tolerances) {
+      if (name == t.gum.quantities[q]) tol = limits;
+    }
+    auto limit = [](double v) { return std::isinf(v) ? json(nullptr) : json(v); };
+    conformity.push_back({{"quantity", t.gum.quantities[q]},
+                          {"tolerance", {limit(tol.lower), limit(tol.upper)}},
+                          {"decision_rule", d.probability_gum ? "ISO 14253-1:2017 guard band w = U"
+                                                              : "Monte Carlo shortest coverage interval inside the tolerance (no GUM value)"},
+                          {"verdict", d.verdict},
+                          {"guard_band", d.guard_band},
+                          {"probability_gum", d.probability_gum ? json(*d.probability_gum) : json(nullptr)},
+                          {"probability_mcm", d.probability_mcm ? json(*d.probability_mcm) : json(nullptr)}});
+  }
+  j["conformity"] = conformity;
   return j;
 }
 

@@ -3,12 +3,24 @@
 #include "vlt/results.h"
 
 #include <chrono>
+#include <limits>
 #include <cmath>
 
 #include "results/internal.h"
 #include "vlt/error.h"
 
 namespace vlt {
+
+McmSettings internal::McmSettingsFor(const MonteCarloSettings& job, const RunOptions& options, int threads) {
+  McmSettings settings;
+  settings.seed = options.seed.value_or(job.seed);
+  settings.trials = options.trials.value_or(job.adaptive ? 0 : job.trials);
+  settings.coverage_probability = job.coverage_probability;
+  settings.significant_digits = job.n_dig;
+  settings.num_threads = threads;
+  settings.quiet = !options.progress;
+  return settings;
+}
 namespace {
 
 double Seconds(std::chrono::steady_clock::time_point since) {
@@ -105,6 +117,45 @@ std::string Placed(const Job& job, const std::string& message) {
 
 }  // namespace
 
+namespace {
+
+// ISO 14253-1 / JCGM 106 for the task quantities with a tolerance (TaskResult::conformity).
+void DecideTaskConformity(TaskResult& task) {
+  task.conformity.assign(task.gum.quantities.size(), std::nullopt);
+  for (const auto& [quantity, tol] : task.spec.tolerances) {
+    for (std::size_t q = 0; q < task.gum.quantities.size(); ++q) {
+      if (task.gum.quantities[q] != quantity) continue;
+      const Eigen::Index i = static_cast<Eigen::Index>(q);
+      const bool differentiable = q >= task.gum.differentiable.size() || task.gum.differentiable[q];
+      const bool mcm = task.has_mcm && q < task.mcm.size();
+      std::optional<double> p_mcm = mcm ? task.mcm[q].conformity_probability : std::nullopt;
+      if (differentiable) {
+        task.conformity[q] = DecideConformity(tol, task.gum.value[i], task.gum.u[i], task.gum.U[i], p_mcm);
+        continue;
+      }
+      // No GUM value (vlt/fits.h: a form quantity of points that fit exactly): the decision
+      // rule with the Monte Carlo shortest coverage interval in place of y +- U.
+      ConformityDecision d;
+      if (!mcm) {
+        d.verdict = "undetermined";
+        task.conformity[q] = d;
+        continue;
+      }
+      const CoverageInterval& ci = task.mcm[q].shortest;
+      d.guard_band = 0.5 * (ci.high - ci.low);
+      d.acceptance_lower = tol.lower;
+      d.acceptance_upper = tol.upper;
+      d.verdict = (ci.low >= tol.lower && ci.high <= tol.upper) ? "conforms"
+                  : (ci.high < tol.lower || ci.low > tol.upper) ? "does not conform"
+                                                                : "undetermined";
+      d.probability_mcm = p_mcm;
+      task.conformity[q] = d;
+    }
+  }
+}
+
+}  // namespace
+
 Results RunJob(const Job& job, const RunOptions& options) {
   try {
     return RunJobUnplaced(job, options);
@@ -172,13 +223,24 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
     for (const TaskResult& task : results.tasks) {
       mcm_job.tasks.push_back(internal::MakeMcmTask(task.spec, task.point_indices, task.gum));
     }
-    McmSettings settings;
-    settings.seed = options.seed.value_or(job.monte_carlo.seed);
-    settings.trials = options.trials.value_or(job.monte_carlo.adaptive ? 0 : job.monte_carlo.trials);
-    settings.coverage_probability = results.coverage_probability;
-    settings.significant_digits = job.monte_carlo.n_dig;
-    settings.num_threads = threads;
-    settings.quiet = !options.progress;
+    McmSettings settings = internal::McmSettingsFor(job.monte_carlo, options, threads);
+    // Task tolerances: count the trials inside them (JCGM 106 7.2.1). Task outputs follow the
+    // points, task by task, in MakeMcmTask's order.
+    {
+      std::size_t offset = 3 * readings.size();
+      for (std::size_t t = 0; t < results.tasks.size(); ++t) {
+        const McmTask& mt = mcm_job.tasks[t];
+        for (const auto& [quantity, tol] : results.tasks[t].spec.tolerances) {
+          const std::string wanted = results.tasks[t].spec.name + "." + quantity;
+          for (std::size_t j = 0; j < mt.output_names.size(); ++j) {
+            if (mt.output_names[j] == wanted) {
+              settings.tolerances.push_back({static_cast<int>(offset + j), tol.lower, tol.upper});
+            }
+          }
+        }
+        offset += mt.output_names.size();
+      }
+    }
     auto mcm_start = std::chrono::steady_clock::now();
     McmResult mcm = RunMcm(mcm_job, settings);
     results.mcm_seconds = Seconds(mcm_start);
@@ -251,6 +313,8 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
     mcm.points.clear();
     results.mcm = std::move(mcm);
   }
+
+  for (TaskResult& task : results.tasks) DecideTaskConformity(task);
 
   if (job.map && options.compute_map) {
     results.map = ComputeMap(model, *job.map, results.coverage_probability, threads);

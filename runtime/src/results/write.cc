@@ -111,6 +111,35 @@ std::string SummaryText(const Results& r) {
       }
     }
   }
+  // Conformity of the task quantities with a tolerance (ISO 14253-1, JCGM 106).
+  for (const TaskResult& t : r.tasks) {
+    for (std::size_t q = 0; q < t.conformity.size(); ++q) {
+      if (!t.conformity[q]) continue;
+      const ConformityDecision& d = *t.conformity[q];
+      Tolerance tol;
+      for (const auto& [name, limits] : t.spec.tolerances) {
+        if (name == t.gum.quantities[q]) tol = limits;
+      }
+      const bool length = t.gum.units[q] == "m";
+      Tolerance shown = tol;
+      if (length) {
+        shown.lower *= 1e3;
+        shown.upper *= 1e3;
+      }
+      std::snprintf(line, sizeof line, "%s %s %s: %s", t.spec.name.c_str(), t.gum.quantities[q].c_str(),
+                    DescribeTolerance(shown, length ? "mm" : t.gum.units[q]).c_str(), d.verdict.c_str());
+      out << (q == 0 && &t == &r.tasks.front() ? "\n" : "") << line << " (probability of conformity";
+      if (d.probability_gum) {
+        std::snprintf(line, sizeof line, " %.4g GUM", *d.probability_gum);
+        out << line;
+      }
+      if (d.probability_mcm) {
+        std::snprintf(line, sizeof line, "%s %.4g Monte Carlo", d.probability_gum ? "," : "", *d.probability_mcm);
+        out << line;
+      }
+      out << ")\n";
+    }
+  }
   out << "\n";
   if (r.has_mcm) {
     // Task results are counted per quantity: one output the GUM cannot linearise (e.g. the

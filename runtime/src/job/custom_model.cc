@@ -1,0 +1,381 @@
+// job/custom_model.cc — a job on a custom model (vlt/custom_job.h): [model], [inputs.<name>],
+// [observations], [correlations.<group>], [outputs.<name>], [monte_carlo], [output].
+// Keys, units and defaults: docs/custom-models.md; keep the two in step.
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <toml++/toml.h>
+
+#include "job/csv.h"
+#include "job/job_detail.h"
+#include "model/correlation.h"
+#include "vlt/custom_job.h"
+#include "vlt/distributions.h"
+#include "vlt/error.h"
+#include "vlt/models.h"
+
+namespace vlt {
+
+using namespace job_detail;
+
+namespace {
+
+// The dimension of a model quantity when vlt knows its units ("length", "temperature", ...);
+// none for quantities such as "voltage" (then values are plain numbers in the spec's unit).
+std::optional<Dimension> KnownDimension(std::string_view quantity) {
+  try {
+    return DimensionOfQuantity(quantity, "");
+  } catch (const InputError&) {
+    return std::nullopt;
+  }
+}
+
+double Value(const toml::node& node, std::optional<Dimension> dim, const std::string& unit,
+             const std::string& where) {
+  double v = 0.0;
+  if (dim) {
+    v = AsQuantity(node, *dim, where);
+  } else {
+    if (!node.is_number()) {
+      throw InputError(where + ": give a number in the model's unit (" + unit + ")");
+    }
+    v = AsNumber(node, where);
+  }
+  if (!std::isfinite(v) || std::abs(v) > kMaxMagnitude) {
+    throw InputError(where + ": beyond what vlt computes with (at most 1e12 in SI units)");
+  }
+  return v;
+}
+
+// Standard uncertainties of a temperature are temperature differences.
+std::optional<Dimension> UncertaintyDimension(std::optional<Dimension> dim) {
+  if (dim && *dim == Dimension::kTemperature) return Dimension::kTemperatureDifference;
+  return dim;
+}
+
+struct Observations {
+  std::vector<double> values;
+  std::string from;
+};
+
+// Type A (JCGM 100 4.2.1-4.2.3): mean, s(q_k), u = s / sqrt(n), nu = n - 1.
+void SetTypeA(const Observations& obs, UncertainInput& input, CustomInputSource& source,
+              double& dof, const std::string& where) {
+  const int n = static_cast<int>(obs.values.size());
+  if (n < 2) throw InputError(where + ": at least 2 observations are needed for a Type A evaluation");
+  double mean = 0.0;
+  for (double v : obs.values) mean += v;
+  mean /= n;
+  double ss = 0.0;
+  for (double v : obs.values) ss += (v - mean) * (v - mean);
+  const double s = std::sqrt(ss / (n - 1));
+  input.estimate = mean;
+  input.u = s / std::sqrt(static_cast<double>(n));
+  input.distribution = "normal";
+  input.shape = 0.0;
+  source.kind = "type A";
+  source.observations = n;
+  source.standard_deviation = s;
+  source.from = obs.from;
+  dof = n - 1.0;
+}
+
+}  // namespace
+
+bool IsCustomModelJob(std::string_view text) {
+  try {
+    const toml::table root = toml::parse(text);
+    return root.contains("model") && !root.contains("tracker");
+  } catch (const toml::parse_error&) {
+    return false;
+  }
+}
+
+CustomJob ParseCustomJob(std::string_view text, const std::string& file,
+                         const std::filesystem::path& base_dir) {
+  toml::table root = ParseToml(text, file);
+  CustomJob job;
+  job.file = file;
+  job.base_dir = base_dir;
+  Section top(root, file, "");
+  top.set_hint("job, model, observations, inputs, correlations, outputs, monte_carlo, output");
+  ReadJobMeta(top, job.name, &job.description, std::filesystem::path(file).stem().string());
+
+  // [model] name = "<a compiled custom model>"
+  Section model_section = top.Sub("model", true);
+  model_section.set_hint("name");
+  const std::string model_name = AsString(model_section.Require("name"), model_section.Where("name"));
+  const ModelInfo* model = FindModel(model_name);
+  if (model == nullptr || std::string_view(model->kind) != "custom") {
+    std::string list;
+    for (const ModelInfo* m : AllModels()) {
+      if (std::string_view(m->kind) == "custom") list += (list.empty() ? "" : ", ") + std::string(m->name);
+    }
+    throw InputError(model_section.Where("name") + ": '" + model_name +
+                     (model == nullptr ? "' is not a compiled model" : "' is a tracker model (use [tracker])") +
+                     " (custom models: " + list + "; add one with a spec in models/, docs/models.md)");
+  }
+  model_section.Finish();
+  job.model = model;
+  const int n_in = model->num_params;
+
+  // The spec's values first.
+  job.inputs.resize(n_in);
+  job.sources.resize(n_in);
+  job.dof.assign(n_in, std::numeric_limits<double>::infinity());
+  for (int i = 0; i < n_in; ++i) {
+    const QuantityInfo& q = model->params[i];
+    UncertainInput& in = job.inputs[i];
+    in.name = q.name;
+    in.unit = q.unit;
+    in.group = "input";
+    in.estimate = q.default_estimate;
+    in.u = q.default_u;
+    in.distribution = q.default_distribution;
+    in.shape = q.default_shape;
+  }
+
+  // [observations] file = "<csv>", simultaneous = true|false
+  std::optional<CsvTable> table;
+  bool simultaneous = false;
+  std::string observations_where;
+  Section obs_section = top.Sub("observations", false);
+  if (obs_section.exists()) {
+    obs_section.set_hint("file, simultaneous");
+    const std::string rel = AsString(obs_section.Require("file"), obs_section.Where("file"));
+    std::filesystem::path path = rel;
+    if (path.is_relative()) path = base_dir / path;
+    table = ReadCsvFile(path.string(), path.string());
+    if (table->rows.empty()) throw InputError(table->file + ": no observations (only a header)");
+    simultaneous = AsBool(obs_section.Require("simultaneous"), obs_section.Where("simultaneous"));
+    observations_where = obs_section.Where("simultaneous");
+    obs_section.Finish();
+  }
+
+  // [inputs.<name>]
+  std::vector<int> from_table;
+  std::vector<std::vector<double>> observed(n_in);   // Type A values, SI
+  Section inputs = top.Sub("inputs", false);
+  if (inputs.exists()) {
+    for (const auto& [key, node] : inputs.table()) {
+      const std::string name(key.str());
+      int i = FindParam(*model, name);
+      if (i < 0) {
+        std::string list;
+        for (int k = 0; k < n_in; ++k) list += (k ? ", " : "") + std::string(model->params[k].name);
+        throw InputError(inputs.Where(name) + ": model '" + model->name + "' has no input '" + name +
+                         "' (inputs: " + list + ")");
+      }
+      const QuantityInfo& q = model->params[i];
+      const std::optional<Dimension> dim = KnownDimension(q.quantity);
+      UncertainInput& in = job.inputs[i];
+      CustomInputSource& src = job.sources[i];
+      if (!node.is_table()) {
+        in.estimate = Value(node, dim, q.unit, inputs.Where(name));
+        src.kind = "type B";
+        inputs.Get(name);
+        continue;
+      }
+      Section s = inputs.Sub(name, false);
+      s.set_hint("estimate, u, distribution, shape, dof, observations");
+      if (const toml::node* obs = s.Get("observations")) {
+        for (const char* k : {"estimate", "u", "distribution", "shape", "dof"}) {
+          if (s.Get(k)) {
+            throw InputError(s.Where(k) + ": an input with observations takes its estimate, u and "
+                             "degrees of freedom from them (JCGM 100 4.2)");
+          }
+        }
+        Observations o;
+        if (const toml::array* arr = obs->as_array()) {
+          int index = 0;
+          for (const toml::node& e : *arr) {
+            o.values.push_back(Value(e, dim, q.unit, s.Where("observations") + "[" + std::to_string(index++) + "]"));
+          }
+          o.from = s.Where("observations");
+        } else if (obs->is_string()) {
+          if (!table) {
+            throw InputError(s.Where("observations") + ": a column name needs [observations] file = \"<csv>\"");
+          }
+          const std::string column = *obs->value<std::string>();
+          const int c = table->Column(column);
+          if (c < 0) {
+            throw InputError(s.Where("observations") + ": " + table->file + " has no column '" + column + "'");
+          }
+          for (const CsvRow& row : table->rows) {
+            o.values.push_back(CsvQuantity(row.fields[c], dim, 1.0, 0.0, table->Where(row) + ": column " + column));
+          }
+          o.from = table->file + ": column " + column;
+          from_table.push_back(i);
+        } else {
+          throw InputError(s.Where("observations") + ": expected an array of values or a column name of [observations] file");
+        }
+        SetTypeA(o, in, src, job.dof[i], s.Where("observations"));
+        observed[i] = std::move(o.values);
+      } else {
+        src.kind = "type B";
+        if (const toml::node* n = s.Get("estimate")) in.estimate = Value(*n, dim, q.unit, s.Where("estimate"));
+        if (const toml::node* n = s.Get("u")) {
+          in.u = Value(*n, UncertaintyDimension(dim), q.unit, s.Where("u"));
+          CheckUncertainty(in.u, s.Where("u"));
+        }
+        if (const toml::node* n = s.Get("distribution")) in.distribution = AsString(*n, s.Where("distribution"));
+        if (const toml::node* n = s.Get("shape")) in.shape = AsNumber(*n, s.Where("shape"));
+        CheckDistribution(in, s.Where("distribution"), s.Where("shape"));
+        if (const toml::node* n = s.Get("dof")) {
+          // JCGM 100 G.4.2: a Type B input has nu = (1/2) (u / Delta u)^-2; "infinity" = exact.
+          if (n->is_string() && *n->value<std::string>() == "infinity") {
+            job.dof[i] = std::numeric_limits<double>::infinity();
+          } else {
+            job.dof[i] = AsNumber(*n, s.Where("dof"));
+            if (!(job.dof[i] >= 1.0) || !std::isfinite(job.dof[i])) {
+              throw InputError(s.Where("dof") + ": degrees of freedom must be a number >= 1 (or \"infinity\")");
+            }
+          }
+        }
+      }
+      s.Finish();
+      inputs.Get(name);
+    }
+    inputs.Finish();
+  }
+
+  // Correlations: the sample correlation of simultaneous observations (JCGM 100 5.2.3, C.3.6
+  // eq. 17: r(q, w) = s(q, w) / (s(q) s(w)), the same for the means), then [correlations.<g>].
+  job.correlation = Eigen::MatrixXd::Identity(n_in, n_in);
+  std::vector<std::string> owner(n_in);
+  if (table && from_table.size() >= 2 && simultaneous) {
+    job.simultaneous.push_back(from_table);
+    const int rows = static_cast<int>(table->rows.size());
+    for (std::size_t a = 0; a < from_table.size(); ++a) {
+      for (std::size_t b = a + 1; b < from_table.size(); ++b) {
+        const int ia = from_table[a], ib = from_table[b];
+        const double ma = job.inputs[ia].estimate, mb = job.inputs[ib].estimate;
+        const double sa = job.sources[ia].standard_deviation, sb = job.sources[ib].standard_deviation;
+        double sab = 0.0;
+        for (int k = 0; k < rows; ++k) sab += (observed[ia][k] - ma) * (observed[ib][k] - mb);
+        sab /= rows - 1;
+        const double r = sa > 0.0 && sb > 0.0 ? sab / (sa * sb) : 0.0;
+        job.correlation(ia, ib) = job.correlation(ib, ia) = std::clamp(r, -1.0, 1.0);
+      }
+    }
+    for (int i : from_table) owner[i] = "simultaneous observations (" + observations_where + ")";
+  } else if (table && from_table.size() >= 2 && !simultaneous) {
+    // Independent series in one file: no correlation.
+  }
+
+  Section corr = top.Sub("correlations", false);
+  if (corr.exists()) {
+    for (const auto& [key, node] : corr.table()) {
+      const std::string gname(key.str());
+      Section g = corr.Sub(gname, true);
+      g.set_hint("inputs, matrix");
+      const toml::array* names = g.Require("inputs").as_array();
+      if (names == nullptr || names->size() < 2) {
+        throw InputError(g.Where("inputs") + ": expected an array of at least 2 input names");
+      }
+      std::vector<int> index;
+      for (const toml::node& e : *names) {
+        const std::string n = AsString(e, g.Where("inputs"));
+        const int i = FindParam(*model, n);
+        if (i < 0) throw InputError(g.Where("inputs") + ": model '" + model->name + "' has no input '" + n + "'");
+        if (!owner[i].empty()) {
+          throw InputError(g.Where("inputs") + ": input '" + n + "' is already correlated by " + owner[i]);
+        }
+        owner[i] = "correlations." + gname;
+        index.push_back(i);
+      }
+      const int m = static_cast<int>(index.size());
+      const toml::array* rows = g.Require("matrix").as_array();
+      if (rows == nullptr || static_cast<int>(rows->size()) != m) {
+        throw InputError(g.Where("matrix") + ": expected " + std::to_string(m) + " rows of " + std::to_string(m));
+      }
+      Eigen::MatrixXd c(m, m);
+      for (int a = 0; a < m; ++a) {
+        const toml::array* row = (*rows)[a].as_array();
+        if (row == nullptr || static_cast<int>(row->size()) != m) {
+          throw InputError(g.Where("matrix") + ": row " + std::to_string(a + 1) + " must have " + std::to_string(m) + " entries");
+        }
+        for (int b = 0; b < m; ++b) c(a, b) = AsNumber((*row)[b], g.Where("matrix"));
+      }
+      for (int a = 0; a < m; ++a) {
+        for (int b = 0; b < m; ++b) {
+          if (!(std::abs(c(a, b)) <= 1.0) || c(a, b) != c(b, a) || (a == b && c(a, b) != 1.0)) {
+            throw InputError(g.Where("matrix") + ": must be symmetric, 1 on the diagonal, entries in [-1, 1]");
+          }
+        }
+      }
+      Eigen::MatrixXd factor;
+      if (!model_internal::CorrelationFactor(c, factor)) {
+        throw InputError(g.Where("matrix") + ": correlation matrix is not positive semi-definite");
+      }
+      for (int a = 0; a < m; ++a) {
+        for (int b = 0; b < m; ++b) job.correlation(index[a], index[b]) = c(a, b);
+      }
+      g.Finish();
+      corr.Get(gname);
+    }
+    corr.Finish();
+  }
+
+  // What Monte Carlo samples: Type A alone -> t_nu with scale u (JCGM 101 6.4.9.2); simultaneous
+  // ones stay normal (scale) and are drawn as one multivariate t (JCGM 102 6.5.3).
+  job.mcm_inputs = job.inputs;
+  for (int i = 0; i < n_in; ++i) {
+    if (job.sources[i].kind != "type A") continue;
+    bool grouped = false;
+    for (const auto& set : job.simultaneous) {
+      for (int k : set) grouped = grouped || k == i;
+    }
+    if (grouped) continue;
+    const double nu = job.dof[i];
+    UncertainInput& m = job.mcm_inputs[i];
+    if (nu > 2.0) {
+      m.distribution = "student_t";
+      m.shape = nu;
+      m.u = job.inputs[i].u * std::sqrt(nu / (nu - 2.0));
+    }
+  }
+
+  // [outputs.<name>] tolerance = { lower = ..., upper = ... }
+  job.tolerances.assign(model->num_outputs, std::nullopt);
+  Section outputs = top.Sub("outputs", false);
+  if (outputs.exists()) {
+    for (const auto& [key, node] : outputs.table()) {
+      const std::string name(key.str());
+      int o = -1;
+      for (int k = 0; k < model->num_outputs; ++k) {
+        if (name == model->outputs[k].name) o = k;
+      }
+      if (o < 0) throw InputError(outputs.Where(name) + ": model '" + model->name + "' has no output '" + name + "'");
+      const std::optional<Dimension> dim = KnownDimension(model->outputs[o].quantity);
+      Section s = outputs.Sub(name, true);
+      s.set_hint("tolerance");
+      Section t = s.Sub("tolerance", true);
+      t.set_hint("lower, upper");
+      Tolerance tol;
+      if (const toml::node* n = t.Get("lower")) tol.lower = Value(*n, dim, model->outputs[o].unit, t.Where("lower"));
+      if (const toml::node* n = t.Get("upper")) tol.upper = Value(*n, dim, model->outputs[o].unit, t.Where("upper"));
+      if (std::isinf(tol.lower) && std::isinf(tol.upper)) throw InputError(t.WhereSelf() + ": give lower, upper or both");
+      if (!(tol.lower < tol.upper)) throw InputError(t.Where("upper") + ": must be above lower");
+      t.Finish();
+      s.Finish();
+      outputs.Get(name);
+      job.tolerances[o] = tol;
+    }
+    outputs.Finish();
+  }
+
+  ReadMonteCarlo(top, job.monte_carlo);
+  ReadOutput(top, job.output);
+  top.Finish();
+  return job;
+}
+
+CustomJob LoadCustomJob(const std::string& path) {
+  const std::string text = ReadTextFile(path, "the job file");
+  return ParseCustomJob(text, path, BaseDirectory(path));
+}
+
+}  // namespace vlt

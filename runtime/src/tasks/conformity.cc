@@ -1,0 +1,49 @@
+// tasks/conformity.cc — ISO 14253-1:2017 decision with guard band U and the JCGM 106:2012
+// probability of conformity (vlt/conformity.h, docs/conformity.md).
+#include "vlt/conformity.h"
+
+#include <cmath>
+#include <cstdio>
+
+#include "vlt/distributions.h"
+
+namespace vlt {
+
+ConformityDecision DecideConformity(const Tolerance& tolerance, double y, double u, double U,
+                                    std::optional<double> probability_mcm) {
+  ConformityDecision d;
+  d.guard_band = U;
+  d.acceptance_lower = tolerance.lower + U;   // -inf + U = -inf
+  d.acceptance_upper = tolerance.upper - U;
+  if (y >= d.acceptance_lower && y <= d.acceptance_upper) {
+    d.verdict = "conforms";
+  } else if (y < tolerance.lower - U || y > tolerance.upper + U) {
+    d.verdict = "does not conform";
+  } else {
+    d.verdict = "undetermined";
+  }
+  // JCGM 106 (7.3.2): p_c = Phi((T_U - y) / u) - Phi((T_L - y) / u); Phi(+-inf) = 1, 0.
+  if (u > 0.0) {
+    const double hi = std::isinf(tolerance.upper) ? 1.0 : StandardNormalCdf((tolerance.upper - y) / u);
+    const double lo = std::isinf(tolerance.lower) ? 0.0 : StandardNormalCdf((tolerance.lower - y) / u);
+    d.probability_gum = std::max(0.0, hi - lo);
+  } else {
+    d.probability_gum = (y >= tolerance.lower && y <= tolerance.upper) ? 1.0 : 0.0;
+  }
+  d.probability_mcm = probability_mcm;
+  return d;
+}
+
+std::string DescribeTolerance(const Tolerance& tolerance, const std::string& unit) {
+  char text[128];
+  if (std::isinf(tolerance.lower)) {
+    std::snprintf(text, sizeof text, "<= %.9g %s", tolerance.upper, unit.c_str());
+  } else if (std::isinf(tolerance.upper)) {
+    std::snprintf(text, sizeof text, ">= %.9g %s", tolerance.lower, unit.c_str());
+  } else {
+    std::snprintf(text, sizeof text, "[%.9g, %.9g] %s", tolerance.lower, tolerance.upper, unit.c_str());
+  }
+  return text;
+}
+
+}  // namespace vlt

@@ -1,0 +1,39 @@
+# Custom-model jobs through the command line (docs/custom-models.md): every example of
+# examples/custom/ runs and writes its files; bad custom jobs give one line and exit 2.
+if(NOT TARGET vlt)
+  return()
+endif()
+
+set(_custom_cli ${CMAKE_CURRENT_SOURCE_DIR}/cli)
+set(_custom_out ${CMAKE_BINARY_DIR}/cli-tests)
+set(_custom_files "outputs.csv;budget.csv;results.json;report.html")
+set(_custom_keys "schema;vlt_version;job;model;inputs;outputs;monte_carlo")
+
+file(GLOB _custom_examples CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/examples/custom/*.toml)
+foreach(example ${_custom_examples})
+  get_filename_component(ex ${example} NAME_WE)
+  add_test(NAME cli_custom_example_${ex}
+    COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+            "-DARGS=run;${example};--trials;20000;-o;${_custom_out}/custom_${ex}"
+            -DOUT=${_custom_out}/custom_${ex} "-DFILES=${_custom_files}" "-DJSON_KEYS=${_custom_keys}" -DSCHEMA=vlt-custom-results/1
+            "-DEXPECT_STDOUT=custom model ${ex}"
+            -P ${_custom_cli}/expect_outputs.cmake)
+endforeach()
+
+# GUM H.1 at 99 %: nu_eff 16, k = 2.921 in the summary; the conformity line.
+add_test(NAME cli_custom_gum_h1_summary
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=run;${CMAKE_SOURCE_DIR}/examples/custom/gum_h1_end_gauge.toml;--no-mcm;-o;${_custom_out}/custom_h1_summary"
+          -DOUT=${_custom_out}/custom_h1_summary "-DFILES=${_custom_files}" "-DJSON_KEYS=schema;outputs" -DSCHEMA=vlt-custom-results/1
+          "-DEXPECT_STDOUT=l +m +0\\.050000838 +3\\.171e-08 +16 +2\\.921 +9\\.262e-08.*undetermined"
+          -P ${_custom_cli}/expect_outputs.cmake)
+
+function(vlt_custom_error name job regex)
+  add_test(NAME cli_custom_error_${name}
+    COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+            "-DARGS=run;${_custom_cli}/custom/${job};-o;${_custom_out}/custom_error_${name};${ARGN}"
+            -DOUT=${_custom_out}/custom_error_${name} "-DEXPECT=${regex}"
+            -P ${_custom_cli}/expect_error.cmake)
+endfunction()
+vlt_custom_error(csv_field bad_observations.toml "bad_observations\\.csv: line 4: column V: 'oops' is not a decimal number")
+vlt_custom_error(tracker_model tracker_model.toml "tracker_model\\.toml: model\\.name: 'head' is a tracker model")

@@ -1,0 +1,395 @@
+// Custom-model jobs (vlt/custom_job.h): the GUM annex H and JCGM 101 clause 9 examples against
+// their published results, Type A inputs and effective degrees of freedom against closed forms,
+// the multivariate t of simultaneous observations against its known moments, conformity against
+// the normal distribution function, and bad input.
+#include <cmath>
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "mcm/engine.h"
+#include "vlt/conformity.h"
+#include "vlt/custom_job.h"
+#include "vlt/distributions.h"
+#include "vlt/error.h"
+#include "vlt/gum.h"
+#include "vlt/job.h"
+#include "vlt/models.h"
+#include "vlt/results.h"
+
+namespace vlt {
+namespace {
+
+const std::string kExamples = std::string(VLT_SOURCE_DIR) + "/examples/custom/";
+
+CustomJob Parse(const std::string& text) {
+  return ParseCustomJob(text, "job.toml", std::filesystem::path(kExamples));
+}
+
+RunOptions NoMcm() {
+  RunOptions o;
+  o.monte_carlo = false;
+  return o;
+}
+
+RunOptions Trials(std::int64_t m) {
+  RunOptions o;
+  o.trials = m;
+  return o;
+}
+
+const CustomOutputResult& Output(const CustomResults& r, const std::string& name) {
+  for (const CustomOutputResult& o : r.outputs) {
+    if (o.gum.name == name) return o;
+  }
+  throw std::runtime_error("no output " + name);
+}
+
+// JCGM 100 table G.2 (the values printed there, to their 2-3 decimals).
+TEST(StudentTCoverageFactor, TableG2) {
+  EXPECT_NEAR(StudentTCoverageFactor(0.95, 1), 12.71, 0.005);
+  EXPECT_NEAR(StudentTCoverageFactor(0.95, 4), 2.78, 0.005);
+  EXPECT_NEAR(StudentTCoverageFactor(0.95, 10), 2.23, 0.005);
+  EXPECT_NEAR(StudentTCoverageFactor(0.99, 16), 2.92, 0.005);
+  EXPECT_NEAR(StudentTCoverageFactor(0.9545, 20), 2.13, 0.005);
+  EXPECT_NEAR(StudentTCoverageFactor(0.9973, 5), 5.51, 0.005);
+  EXPECT_DOUBLE_EQ(StudentTCoverageFactor(0.95, std::numeric_limits<double>::infinity()),
+                   NormalCoverageFactor(0.95));
+  // Non-integer nu lies between its neighbours.
+  const double k = StudentTCoverageFactor(0.95, 4.5);
+  EXPECT_LT(k, StudentTCoverageFactor(0.95, 4));
+  EXPECT_GT(k, StudentTCoverageFactor(0.95, 5));
+}
+
+TEST(WelchSatterthwaite, ClosedForm) {
+  // Two components, u1^2 = 4, u2^2 = 1 with nu = 3 and 8: nu_eff = 25 / (16/3 + 1/8).
+  EXPECT_NEAR(WelchSatterthwaite(std::sqrt(5.0), {4.0, 1.0}, {3.0, 8.0}), 25.0 / (16.0 / 3.0 + 1.0 / 8.0), 1e-12);
+  // Only infinite degrees of freedom: infinite.
+  EXPECT_TRUE(std::isinf(WelchSatterthwaite(1.0, {1.0}, {std::numeric_limits<double>::infinity()})));
+  // One component carries everything: its own nu.
+  EXPECT_NEAR(WelchSatterthwaite(2.0, {4.0}, {7.0}), 7.0, 1e-12);
+}
+
+// GUM H.2: means, their standard uncertainties and correlations from the five simultaneous sets
+// (table H.2), and R, X, Z with their uncertainties and correlations (table H.3).
+TEST(CustomJob, GumH2PublishedValues) {
+  const CustomJob job = LoadCustomJob(kExamples + "gum_h2_impedance.toml");
+  ASSERT_EQ(job.inputs.size(), 3u);
+  EXPECT_NEAR(job.inputs[0].estimate, 4.9990, 0.00005);
+  EXPECT_NEAR(job.inputs[1].estimate, 19.6610e-3, 0.00005e-3);
+  EXPECT_NEAR(job.inputs[2].estimate, 1.04446, 0.000005);
+  EXPECT_NEAR(job.inputs[0].u, 0.0032, 0.00005);
+  EXPECT_NEAR(job.inputs[1].u, 0.0095e-3, 0.00005e-3);
+  EXPECT_NEAR(job.inputs[2].u, 0.00075, 0.000005);
+  EXPECT_NEAR(job.correlation(0, 1), -0.36, 0.005);
+  EXPECT_NEAR(job.correlation(0, 2), 0.86, 0.005);
+  EXPECT_NEAR(job.correlation(1, 2), -0.65, 0.005);
+  for (double nu : job.dof) EXPECT_EQ(nu, 4.0);
+  ASSERT_EQ(job.simultaneous.size(), 1u);
+
+  const CustomResults r = RunCustomJob(job, NoMcm());
+  EXPECT_NEAR(Output(r, "R").gum.estimate, 127.732, 0.0005);
+  EXPECT_NEAR(Output(r, "X").gum.estimate, 219.847, 0.0005);
+  EXPECT_NEAR(Output(r, "Z").gum.estimate, 254.260, 0.0005);
+  EXPECT_NEAR(Output(r, "R").gum.u, 0.071, 0.0005);
+  EXPECT_NEAR(Output(r, "X").gum.u, 0.295, 0.001);  // 0.2956: the GUM prints 0.295
+  EXPECT_NEAR(Output(r, "Z").gum.u, 0.236, 0.0005);
+  EXPECT_NEAR(r.gum.correlation(0, 1), -0.588, 0.0005);
+  EXPECT_NEAR(r.gum.correlation(0, 2), -0.485, 0.0005);
+  EXPECT_NEAR(r.gum.correlation(1, 2), 0.993, 0.0005);
+  // All inputs from the same 5 sets: one component, nu_eff = n - 1 = 4, k = t_95(4).
+  for (const CustomOutputResult& o : r.outputs) {
+    EXPECT_NEAR(o.gum.dof_effective, 4.0, 1e-9);
+    EXPECT_NEAR(o.gum.k, StudentTCoverageFactor(0.95, 4), 1e-12);
+  }
+  ASSERT_TRUE(r.region.has_value());
+  EXPECT_NEAR(r.region->gum_k, std::sqrt(7.814727903251178), 1e-9);  // chi2_3(0.95)
+}
+
+// Monte Carlo of GUM H.2: the means are a multivariate t with nu = 4 (JCGM 102 6.5.3), whose
+// covariance is nu / (nu - 2) = 2 times the GUM's: the Monte Carlo u of the nearly linear R, X,
+// Z is sqrt 2 times the GUM's, and their correlations are the GUM's.
+TEST(CustomJob, GumH2MonteCarloIsMultivariateT) {
+  const CustomJob job = LoadCustomJob(kExamples + "gum_h2_impedance.toml");
+  const CustomResults r = RunCustomJob(job, Trials(400000));
+  for (const CustomOutputResult& o : r.outputs) {
+    ASSERT_TRUE(o.has_mcm);
+    // Standard error of a standard deviation of a t_4 sample is large (infinite kurtosis): 3 %.
+    EXPECT_NEAR(o.mcm.u / o.gum.u, std::sqrt(2.0), 0.04 * std::sqrt(2.0)) << o.gum.name;
+    EXPECT_NEAR(o.mcm.mean, o.gum.estimate, 4.0 * o.mcm.u / std::sqrt(400000.0) + 1e-3 * o.gum.u);
+  }
+  ASSERT_TRUE(r.region && r.region->has_mcm);
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) EXPECT_NEAR(r.region->mcm.correlation(a, b), r.gum.correlation(a, b), 0.01);
+  }
+}
+
+// Chi-square draws for the multivariate t: mean nu, variance 2 nu (fractional nu, nu < 2 too).
+TEST(CustomJob, ChiSquareDrawMoments) {
+  const mcm_internal::KeyedStream rng(7);
+  for (double nu : {0.7, 1.0, 4.0, 9.5}) {
+    const int n = 200000;
+    double s1 = 0.0, s2 = 0.0;
+    for (int i = 0; i < n; ++i) {
+      const double w = mcm_internal::DrawChiSquare(rng, 3, static_cast<std::uint64_t>(i), nu);
+      ASSERT_GT(w, 0.0);
+      s1 += w;
+      s2 += w * w;
+    }
+    const double mean = s1 / n, var = s2 / n - mean * mean;
+    EXPECT_NEAR(mean, nu, 5.0 * std::sqrt(2.0 * nu / n)) << nu;
+    EXPECT_NEAR(var / (2.0 * nu), 1.0, 0.05) << nu;
+  }
+}
+
+// GUM H.1 with the degrees of freedom of table H.1 at p = 0.99 (H.1.6): nu_eff = 16,
+// k = t_99(16) = 2.92, U = 93 nm; l = 50.000 838 mm, u = 32 nm (H.1.5).
+TEST(CustomJob, GumH1EffectiveDegreesOfFreedom) {
+  const CustomJob job = LoadCustomJob(kExamples + "gum_h1_end_gauge.toml");
+  const CustomResults r = RunCustomJob(job, NoMcm());
+  const CustomOutput& l = r.outputs[0].gum;
+  EXPECT_NEAR(l.estimate, 0.050000838, 0.5e-9);
+  EXPECT_NEAR(l.u, 32e-9, 0.5e-9);
+  EXPECT_EQ(std::floor(l.dof_effective), 16.0);
+  EXPECT_NEAR(l.k, 2.92, 0.005);
+  EXPECT_NEAR(l.U, 93e-9, 0.5e-9);
+  // Conformity of the example's tolerance [50.0000, 50.0009] mm: undetermined, and the
+  // probability of conformity Phi((T_U - y) / u) (JCGM 106 7.3.2, closed form here).
+  ASSERT_TRUE(r.outputs[0].conformity.has_value());
+  EXPECT_EQ(r.outputs[0].conformity->verdict, "undetermined");
+  const double expected = StandardNormalCdf((0.0500009 - l.estimate) / l.u) - StandardNormalCdf((0.05 - l.estimate) / l.u);
+  EXPECT_NEAR(*r.outputs[0].conformity->probability_gum, expected, 1e-12);
+  EXPECT_NEAR(expected, 0.975, 0.005);
+}
+
+// JCGM 101 9.3 mass calibration (table 7): GUF u = 0.0539 mg, MCM u = 0.0754 mg, shortest 95 %
+// interval [1.0834, 1.3825] mg; the first-order GUM is not validated.
+TEST(CustomJob, Jcgm101MassCalibration) {
+  const CustomJob job = LoadCustomJob(kExamples + "jcgm101_mass.toml");
+  const CustomResults r = RunCustomJob(job, Trials(1000000));
+  const CustomOutputResult& o = r.outputs[0];
+  EXPECT_NEAR(o.gum.estimate, 1.2340, 0.00005);
+  EXPECT_NEAR(o.gum.u, 0.0539, 0.00005);
+  EXPECT_NEAR(o.mcm.mean, 1.2341, 0.0003);   // ~3 standard errors of the mean (u / sqrt(M))
+  EXPECT_NEAR(o.mcm.u, 0.0754, 0.0003);
+  EXPECT_NEAR(o.mcm.shortest.low, 1.0834, 0.0015);
+  EXPECT_NEAR(o.mcm.shortest.high, 1.3825, 0.0015);
+  EXPECT_EQ(o.validation.outcome, "not validated");
+}
+
+// Type A from an inline array: mean, s / sqrt(n), nu = n - 1 (JCGM 100 4.2), t for Monte Carlo.
+TEST(CustomJob, TypeAInlineObservations) {
+  const CustomJob job = Parse(R"(
+[model]
+name = "jcgm101_additive"
+[inputs.x1]
+observations = [1.0, 2.0, 4.0, 5.0, 3.0, 3.0]
+[inputs.x2]
+u = 0.5
+dof = 10
+)");
+  const double mean = 3.0, s = std::sqrt((4 + 1 + 1 + 4 + 0 + 0) / 5.0);
+  EXPECT_DOUBLE_EQ(job.inputs[0].estimate, mean);
+  EXPECT_NEAR(job.inputs[0].u, s / std::sqrt(6.0), 1e-15);
+  EXPECT_EQ(job.dof[0], 5.0);
+  EXPECT_EQ(job.mcm_inputs[0].distribution, "student_t");
+  EXPECT_EQ(job.mcm_inputs[0].shape, 5.0);
+  EXPECT_NEAR(job.mcm_inputs[0].u, job.inputs[0].u * std::sqrt(5.0 / 3.0), 1e-15);
+  EXPECT_EQ(job.sources[0].kind, "type A");
+  EXPECT_EQ(job.sources[1].kind, "type B");
+  // nu_eff by G.2b over x1 (nu 5), x2 (nu 10), x3, x4 (spec: u = 1, nu infinite).
+  const CustomResults r = RunCustomJob(job, NoMcm());
+  const double u1 = job.inputs[0].u, u2 = 0.5;
+  const double uc2 = u1 * u1 + u2 * u2 + 2.0;
+  const double nu = uc2 * uc2 / (std::pow(u1, 4) / 5.0 + std::pow(u2, 4) / 10.0);
+  EXPECT_NEAR(r.outputs[0].gum.dof_effective, nu, 1e-9 * nu);
+}
+
+// Explicit correlation (rho = 1 allowed, JCGM 101 6.4.8.1) between two inputs of the additive
+// model: u^2 = sum u_i^2 + 2 u1 u2.
+TEST(CustomJob, CorrelationOfAnyInputs) {
+  const CustomJob job = Parse(R"(
+[model]
+name = "jcgm101_additive"
+[correlations.same_source]
+inputs = ["x1", "x2"]
+matrix = [[1, 1], [1, 1]]
+)");
+  const CustomResults r = RunCustomJob(job, Trials(100000));
+  EXPECT_NEAR(r.outputs[0].gum.u, std::sqrt(4.0 + 2.0), 1e-12);
+  EXPECT_NEAR(r.outputs[0].mcm.u, std::sqrt(6.0), 0.02 * std::sqrt(6.0));
+}
+
+// The Monte Carlo probability of conformity against the normal closed form (linear model, normal
+// inputs: Y ~ N(0, 4)).
+TEST(CustomJob, ConformityProbabilityMonteCarlo) {
+  const CustomJob job = Parse(R"(
+[model]
+name = "jcgm101_additive"
+[outputs.y.tolerance]
+lower = -1.0
+upper = 3.0
+)");
+  const CustomResults r = RunCustomJob(job, Trials(200000));
+  const ConformityDecision& c = *r.outputs[0].conformity;
+  const double p = StandardNormalCdf(1.5) - StandardNormalCdf(-0.5);
+  EXPECT_NEAR(*c.probability_gum, p, 1e-12);
+  ASSERT_TRUE(c.probability_mcm.has_value());
+  EXPECT_NEAR(*c.probability_mcm, p, 5.0 * std::sqrt(p * (1 - p) / 200000.0));
+  EXPECT_EQ(c.verdict, "undetermined");
+}
+
+TEST(Conformity, DecisionRule) {
+  Tolerance t{-1.0, 1.0};
+  EXPECT_EQ(DecideConformity(t, 0.0, 0.1, 0.2).verdict, "conforms");
+  EXPECT_EQ(DecideConformity(t, 0.8, 0.1, 0.2).verdict, "conforms");       // 0.8 = 1 - U
+  EXPECT_EQ(DecideConformity(t, 0.9, 0.1, 0.2).verdict, "undetermined");
+  EXPECT_EQ(DecideConformity(t, 1.2, 0.1, 0.2).verdict, "undetermined");   // 1.2 = 1 + U
+  EXPECT_EQ(DecideConformity(t, 1.3, 0.1, 0.2).verdict, "does not conform");
+  EXPECT_EQ(DecideConformity(t, -1.3, 0.1, 0.2).verdict, "does not conform");
+  // One-sided (a form tolerance): only the upper limit.
+  Tolerance form;
+  form.upper = 50e-6;
+  const ConformityDecision d = DecideConformity(form, 30e-6, 5e-6, 10e-6);
+  EXPECT_EQ(d.verdict, "conforms");
+  EXPECT_NEAR(*d.probability_gum, StandardNormalCdf(4.0), 1e-15);
+  EXPECT_EQ(DescribeTolerance(form, "m"), "<= 5e-05 m");
+}
+
+void ExpectError(const std::string& text, const std::string& fragment) {
+  try {
+    (void)Parse(text);
+    FAIL() << "accepted: " << text;
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+  }
+}
+
+TEST(CustomJob, BadInputNamesFileAndKey) {
+  ExpectError("[model]\nname = \"nope\"\n", "job.toml: model.name: 'nope' is not a compiled model");
+  ExpectError("[model]\nname = \"mirror\"\n", "job.toml: model.name: 'mirror' is a tracker model");
+  ExpectError("[model]\nname = \"jcgm101_additive\"\n[inputs.x9]\nu = 1\n", "job.toml: inputs.x9: model 'jcgm101_additive' has no input 'x9'");
+  ExpectError("[model]\nname = \"jcgm101_additive\"\n[inputs.x1]\nobservations = [1, 2]\nu = 1\n",
+              "job.toml: inputs.x1.u: an input with observations");
+  ExpectError("[model]\nname = \"jcgm101_additive\"\n[inputs.x1]\nobservations = [1]\n",
+              "job.toml: inputs.x1.observations: at least 2 observations");
+  ExpectError("[model]\nname = \"jcgm101_additive\"\n[inputs.x1]\nobservations = \"V\"\n",
+              "job.toml: inputs.x1.observations: a column name needs [observations]");
+  ExpectError("[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = \"gum_h2_observations.csv\"\n",
+              "job.toml: observations.simultaneous: required key is missing");
+  ExpectError("[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = \"gum_h2_observations.csv\"\nsimultaneous = true\n[inputs.V]\nobservations = \"W\"\n",
+              "has no column 'W'");
+  ExpectError("[model]\nname = \"jcgm101_additive\"\n[correlations.a]\ninputs = [\"x1\", \"x2\", \"x3\"]\nmatrix = [[1, 0.9, -0.9], [0.9, 1, 0.9], [-0.9, 0.9, 1]]\n",
+              "job.toml: correlations.a.matrix: correlation matrix is not positive semi-definite");
+  ExpectError("[model]\nname = \"jcgm101_additive\"\n[correlations.a]\ninputs = [\"x1\", \"x2\"]\nmatrix = [[1, 0.5], [0.5, 1]]\n[correlations.b]\ninputs = [\"x2\", \"x3\"]\nmatrix = [[1, 0.5], [0.5, 1]]\n",
+              "job.toml: correlations.b.inputs: input 'x2' is already correlated by correlations.a");
+  ExpectError("[model]\nname = \"jcgm101_additive\"\n[outputs.y.tolerance]\nlower = 2\nupper = 1\n",
+              "job.toml: outputs.y.tolerance.upper: must be above lower");
+  ExpectError("[model]\nname = \"jcgm101_additive\"\n[inputs.x1]\ndof = 0.5\n", "job.toml: inputs.x1.dof: degrees of freedom must be");
+  ExpectError("[model]\nname = \"jcgm101_mass\"\n[inputs.rho_a]\nestimate = \"1.2 kg/m^3\"\n",
+              "job.toml: inputs.rho_a.estimate: give a number in the model's unit (kg/m^3)");
+}
+
+// Monte Carlo refuses Type A inputs with fewer than 4 observations (t with nu <= 2); the GUM runs.
+TEST(CustomJob, TooFewObservationsForMonteCarlo) {
+  const CustomJob job = Parse("[model]\nname = \"jcgm101_additive\"\n[inputs.x1]\nobservations = [1, 2, 4]\n");
+  EXPECT_NO_THROW((void)RunCustomJob(job, NoMcm()));
+  try {
+    (void)RunCustomJob(job, Trials(10000));
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("job.toml: inputs.x1.observations: Monte Carlo needs at least 4"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace vlt
+
+namespace vlt {
+namespace {
+
+// Task tolerances in a tracker job: the GUM probability of conformity is the normal closed form
+// at the task's y and u; the Monte Carlo one agrees within its binomial standard error; a form
+// quantity of nominal points (no GUM value) is decided from the Monte Carlo interval.
+TEST(TaskConformity, DistanceAndFlatness) {
+  const char* text = R"(
+[tracker]
+model = "mirror"
+[tracker.noise]
+range = "5 um + 0.5 um/m"
+azimuth = "0.5 arcsec"
+elevation = "0.5 arcsec"
+[plan]
+point = [ {name = "A", x = 2, y = 0.5, z = 0}, {name = "B", x = 3, y = 1.5, z = 0.1},
+          {name = "C", x = 2.5, y = 1.0, z = 0.6}, {name = "D", x = 4, y = -1, z = -0.3} ]
+[[task]]
+kind = "distance"
+name = "AB"
+points = ["A", "B"]
+[task.tolerance.distance]
+lower = "1.417740 m"
+upper = "1.417750 m"
+[[task]]
+kind = "line"
+name = "ABD"
+points = ["A", "B", "D"]
+[task.tolerance.straightness]
+upper = "1 mm"
+[monte_carlo]
+trials = 100000
+seed = 5
+)";
+  const Job job = ParseJob(text, "job.toml", ".");
+  const Results r = RunJob(job);
+  const TaskResult& d = r.tasks[0];
+  ASSERT_TRUE(d.conformity[0].has_value());
+  const double y = d.gum.value[0], u = d.gum.u[0];
+  const double p = StandardNormalCdf((1.41775 - y) / u) - StandardNormalCdf((1.41774 - y) / u);
+  EXPECT_NEAR(*d.conformity[0]->probability_gum, p, 1e-12);
+  EXPECT_GT(p, 0.2);  // the test means something: neither 0 nor 1
+  EXPECT_LT(p, 0.95);
+  EXPECT_EQ(d.conformity[0]->verdict, "undetermined");
+  ASSERT_TRUE(d.conformity[0]->probability_mcm.has_value());
+  EXPECT_NEAR(*d.conformity[0]->probability_mcm, p, 5.0 * std::sqrt(p * (1 - p) / 1e5) + 1e-4);
+  // The straightness of three points not on a line: a GUM value exists; of its quantities only
+  // straightness has a tolerance.
+  const TaskResult& l = r.tasks[1];
+  int with = 0;
+  for (const auto& c : l.conformity) with += c.has_value() ? 1 : 0;
+  EXPECT_EQ(with, 1);
+}
+
+TEST(TaskConformity, BadTolerance) {
+  const std::string base = R"(
+[tracker]
+model = "mirror"
+[tracker.noise]
+range = "5 um"
+azimuth = "0.5 arcsec"
+elevation = "0.5 arcsec"
+[plan]
+point = [ {name = "A", x = 2, y = 0.5, z = 0}, {name = "B", x = 3, y = 1.5, z = 0.1} ]
+[[task]]
+kind = "distance"
+name = "AB"
+points = ["A", "B"]
+)";
+  try {
+    (void)ParseJob(base + "[task.tolerance.radius]\nupper = \"1 mm\"\n", "job.toml", ".");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("job.toml: task[0].tolerance.radius: a distance task has no quantity 'radius' (distance)"),
+              std::string::npos) << e.what();
+  }
+  try {
+    (void)ParseJob(base + "[task.tolerance.distance]\nupper = \"1 deg\"\n", "job.toml", ".");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("job.toml: task[0].tolerance.distance.upper"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace vlt
