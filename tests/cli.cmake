@@ -32,6 +32,8 @@ vlt_cli_error(negative_uncertainty negative_u.toml "negative_u\\.toml: tracker\\
 vlt_cli_error(nonfinite_uncertainty nonfinite_u.toml "nonfinite_u\\.toml: tracker\\.parameters\\.rmv\\.u: not a finite number")
 vlt_cli_error(correlation_not_psd correlation_not_psd.toml
               "correlation_not_psd\\.toml: tracker\\.correlations\\.encoders\\.matrix: correlation matrix is not positive semi-definite")
+vlt_cli_error(correlation_unknown_input correlation_unknown_input.toml
+              "correlation_unknown_input\\.toml: correlations\\.thermometer\\.inputs: unknown input 'part\\.temperature': .*'thermal\\.temperature' for \\[part\\] temperature")
 vlt_cli_error(point_on_vertical_axis on_vertical_axis.toml
               "on_vertical_axis\\.toml: plan\\.point\\[4\\]: point 'Z' lies on the tracker's vertical axis")
 vlt_cli_error(csv_row bad_csv_row.toml "bad_readings\\.csv: line 4: elevation: 'oops' does not start with a number")

@@ -94,6 +94,12 @@ add_test(NAME cli_csv_cr_only_line_ends
 add_test(NAME cli_correlation_of_one
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_fd}/correlation_one.toml;--trials;20000;-o;${_out}/fd_corr1"
           -DOUT=${_out}/fd_corr1 "-DFILES=points.csv;results.json" -P ${_cli}/expect_outputs.cmake)
+# The same thermometer for the air and the part: [correlations] across input groups, r = 1 (a
+# singular correlation matrix) through the GUM and the Monte Carlo copula; validated.
+add_test(NAME cli_correlation_between_groups
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_fd}/shared_thermometer.toml;--trials;50000;-o;${_out}/fd_thermometer"
+          -DOUT=${_out}/fd_thermometer "-DFILES=points.csv;budget.csv;results.json"
+          "-DEXPECT_STDOUT=AB [^\n]* validated" -P ${_cli}/expect_outputs.cmake)
 
 # Near the standing axis the first-order GUM is flagged without Monte Carlo (JCGM 100 5.1.2 note).
 add_test(NAME cli_gum_not_reliable_near_axis

@@ -38,9 +38,11 @@ MeasurementSetup FullSetup(bool correlated) {
   s.model = &test::kIdealTracker;
   s.params = {In(2e-6, 5e-6), In(1e-6, 2e-6), In(-3e-6, 4e-6), In(1e-6, 3e-6)};
   if (correlated) {
-    s.param_correlation = Eigen::MatrixXd::Identity(4, 4);
-    s.param_correlation(0, 1) = s.param_correlation(1, 0) = -0.6;
-    s.param_correlation(2, 3) = s.param_correlation(3, 2) = 0.4;
+    Eigen::MatrixXd range(2, 2), angles(2, 2);
+    range << 1.0, -0.6, -0.6, 1.0;
+    angles << 1.0, 0.4, 0.4, 1.0;
+    s.correlations = {{"range", {"r0", "mu"}, range, "", ""},
+                      {"angles", {"azimuth_index", "elevation_index"}, angles, "", ""}};
   }
   s.noise = {3e-6, 0.5e-6, 2e-6, 2.5e-6};
   Environment e;

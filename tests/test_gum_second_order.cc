@@ -62,8 +62,7 @@ TEST(GumSecondOrder, RangeTimesAngleTermOfTheIdealTracker) {
   // With correlated parameters the independent directions are F e_k: a range offset r0 and a
   // scale mu fully correlated act as one input; the check must still be finite and small here.
   s.params = {In(0, 1e-6), In(0, 1e-6), In(0, 1e-6), In(0, 1e-6)};
-  s.param_correlation = Eigen::MatrixXd::Identity(4, 4);
-  s.param_correlation(0, 1) = s.param_correlation(1, 0) = 1.0;
+  s.correlations = {{"range", {"r0", "mu"}, Eigen::MatrixXd::Ones(2, 2), "", ""}};
   const PointUncertainty c = Check(MeasurementModel(s), Eigen::Vector3d(rho, 0.3, 0.2));
   EXPECT_TRUE(c.second_order_variance.allFinite());
   EXPECT_TRUE(c.gum_reliable);

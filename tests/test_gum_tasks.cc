@@ -33,8 +33,9 @@ MeasurementSetup MirrorSetup() {
     // Non-zero estimates so the general (not nominal) Jacobian kernel is used.
     s.params.push_back(In(0.3 * info->params[k].default_u, info->params[k].default_u));
   }
-  s.param_correlation = Eigen::MatrixXd::Identity(info->num_params, info->num_params);
-  s.param_correlation(0, 3) = s.param_correlation(3, 0) = 0.5;
+  Eigen::MatrixXd r(2, 2);
+  r << 1.0, 0.5, 0.5, 1.0;
+  s.correlations = {{"pair", {info->params[0].name, info->params[3].name}, r, "", ""}};
   s.noise = {5e-6, 0.5e-6, 1.5e-6, 1.5e-6};
   Environment e;
   e.temperature = In(20.5, 0.2);

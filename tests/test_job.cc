@@ -76,7 +76,7 @@ TEST(Job, MinimalJobAndModelDefaults) {
     EXPECT_DOUBLE_EQ(job.setup.params[k].u, q.default_u) << q.name;
     EXPECT_DOUBLE_EQ(job.setup.params[k].estimate, q.default_estimate) << q.name;
   }
-  EXPECT_EQ(job.setup.param_correlation.size(), 0);
+  EXPECT_TRUE(job.setup.correlations.empty());
   EXPECT_FALSE(job.setup.environment.has_value());
   EXPECT_FALSE(job.setup.pose.has_value());
   EXPECT_FALSE(job.setup.thermal.has_value());
@@ -202,14 +202,175 @@ TEST(Job, CorrelationMatrixPlacedAtTheParameters) {
 parameters = ["eas", "a0"]
 matrix = [[1, 0.4], [0.4, 1]]
 )" + kPlan);
-  const int n = job.setup.model->num_params;
-  ASSERT_EQ(job.setup.param_correlation.rows(), n);
+  ASSERT_EQ(job.setup.correlations.size(), 1u);
+  EXPECT_EQ(job.setup.correlations[0].name, "encoder");
+  const MeasurementModel model(job.setup);
+  const Eigen::MatrixXd& r = model.shared_correlation();
+  ASSERT_EQ(r.rows(), model.num_shared());
   int a0 = FindParam(*job.setup.model, "a0"), eas = FindParam(*job.setup.model, "eas");
   int tmv = FindParam(*job.setup.model, "tmv");
-  EXPECT_DOUBLE_EQ(job.setup.param_correlation(a0, eas), 0.4);
-  EXPECT_DOUBLE_EQ(job.setup.param_correlation(eas, a0), 0.4);
-  EXPECT_DOUBLE_EQ(job.setup.param_correlation(a0, a0), 1.0);
-  EXPECT_DOUBLE_EQ(job.setup.param_correlation(a0, tmv), 0.0);
+  EXPECT_DOUBLE_EQ(r(a0, eas), 0.4);
+  EXPECT_DOUBLE_EQ(r(eas, a0), 0.4);
+  EXPECT_DOUBLE_EQ(r(a0, a0), 1.0);
+  EXPECT_DOUBLE_EQ(r(a0, tmv), 0.0);
+}
+
+// [correlations.<group>]: any shared inputs, by the names results.json prints; with
+// [tracker.correlations] one set of groups, assembled by SharedCorrelation.
+const std::string kSurroundings = R"(
+[environment]
+temperature = { estimate = "21 degC", u = "0.3 K" }
+pressure = "1010 hPa"
+humidity = "40 %"
+[station]
+rx = "0.001 rad"
+tx = { estimate = "1 m", u = "20 um" }
+[part]
+cte = { estimate = "11.5 ppm/K", u = "1 ppm/K" }
+temperature = { estimate = "21.5 degC", u = "0.3 K" }
+)";
+
+TEST(Job, CorrelationsBetweenAnyInputs) {
+  Job job = Parse(kTracker + R"(
+[tracker.correlations.encoder]
+parameters = ["eas", "a0"]
+matrix = [[1, 0.4], [0.4, 1]]
+)" + kSurroundings + R"(
+[correlations.thermometer]
+inputs = ["environment.temperature", "thermal.temperature", "tmv"]
+matrix = [[1, 1, 0.2], [1, 1, 0.2], [0.2, 0.2, 1]]
+[correlations.fixture]
+inputs = ["pose.rx", "pose.tx", "thermal.cte"]   # pose.rx has u = 0: allowed
+matrix = [[1, -0.5, 0], [-0.5, 1, 0.3], [0, 0.3, 1]]
+)" + kPlan);
+  // The tracker's groups first, then [correlations] in key order.
+  ASSERT_EQ(job.setup.correlations.size(), 3u);
+  EXPECT_EQ(job.setup.correlations[0].name, "encoder");
+  EXPECT_EQ(job.setup.correlations[1].name, "fixture");
+  EXPECT_EQ(job.setup.correlations[2].name, "thermometer");
+  EXPECT_EQ(job.setup.correlations[2].where_matrix, "job.toml: correlations.thermometer.matrix");
+  const MeasurementModel model(job.setup);
+  const Eigen::MatrixXd& r = model.shared_correlation();
+  auto at = [&](const char* name) {
+    for (int s = 0; s < model.num_shared(); ++s) {
+      if (model.shared_inputs()[s].name == name) return s;
+    }
+    ADD_FAILURE() << name;
+    return 0;
+  };
+  EXPECT_DOUBLE_EQ(r(at("a0"), at("eas")), 0.4);
+  EXPECT_DOUBLE_EQ(r(at("environment.temperature"), at("thermal.temperature")), 1.0);
+  EXPECT_DOUBLE_EQ(r(at("thermal.temperature"), at("tmv")), 0.2);
+  EXPECT_DOUBLE_EQ(r(at("tmv"), at("environment.temperature")), 0.2);
+  EXPECT_DOUBLE_EQ(r(at("pose.tx"), at("pose.rx")), -0.5);
+  EXPECT_DOUBLE_EQ(r(at("thermal.cte"), at("pose.tx")), 0.3);
+  EXPECT_DOUBLE_EQ(r(at("thermal.cte"), at("thermal.temperature")), 0.0);
+  EXPECT_DOUBLE_EQ(r(at("environment.pressure"), at("environment.temperature")), 0.0);
+  EXPECT_TRUE(r.isApprox(r.transpose(), 0.0));
+  int correlated = 0;  // off-diagonal non-zeros: 2 (encoder) + 6 (thermometer) + 4 (fixture)
+  for (int i = 0; i < r.rows(); ++i)
+    for (int j = 0; j < r.cols(); ++j) correlated += i != j && r(i, j) != 0.0;
+  EXPECT_EQ(correlated, 12);
+}
+
+TEST(Job, CorrelationErrorsAreOneLineNamingFileAndKey) {
+  const std::string base = kTracker + kPlan + kSurroundings;
+  auto group = [](const std::string& name, const std::string& inputs, const std::string& matrix) {
+    return "[correlations." + name + "]\ninputs = [" + inputs + "]\nmatrix = " + matrix + "\n";
+  };
+  const std::string one = "[[1, 0.5], [0.5, 1]]";
+  struct Case {
+    std::string text, expected;
+  };
+  const Case cases[] = {
+      // Unknown names: the names of this job are listed.
+      {base + group("t", "\"environment.temperature\", \"thermal.temprature\"", one),
+       "job.toml: correlations.t.inputs: unknown input 'thermal.temprature' (inputs: a0, eac, "},
+      {base + group("t", "\"environment.temperature\", \"thermal.temprature\"", one),
+       "environment.temperature, environment.pressure, environment.humidity, environment.co2, pose.rx, pose.ry, "
+       "pose.rz, pose.tx, pose.ty, pose.tz, thermal.cte, thermal.temperature)"},
+      // The job file's section names are not the inputs' names: say which is meant.
+      {base + group("t", "\"environment.temperature\", \"part.temperature\"", one),
+       "job.toml: correlations.t.inputs: unknown input 'part.temperature': inputs are named as results.json and "
+       "budget.csv name them, 'thermal.temperature' for [part] temperature"},
+      {base + group("t", "\"station.tx\", \"tmv\"", one),
+       "job.toml: correlations.t.inputs: unknown input 'station.tx': inputs are named as results.json and budget.csv "
+       "name them, 'pose.tx' for [station] tx"},
+      {kTracker + kPlan + group("t", "\"environment.temperature\", \"tmv\"", one),
+       "job.toml: correlations.t.inputs: input 'environment.temperature' is not an input of this job: it has no "
+       "[environment] section"},
+      // One input in two groups, across the two spellings and within [correlations].
+      {base + "[tracker.correlations.a]\nparameters = [\"tmv\", \"a0\"]\nmatrix = " + one + "\n" +
+           group("b", "\"environment.temperature\", \"tmv\"", one),
+       "job.toml: correlations.b.inputs: input 'tmv' is already in correlation group 'a' (an input may be in one "
+       "group only)"},
+      {base + group("a", "\"environment.temperature\", \"thermal.temperature\"", one) +
+           group("b", "\"pose.tx\", \"environment.temperature\"", one),
+       "job.toml: correlations.b.inputs: input 'environment.temperature' is already in correlation group 'a'"},
+      {base + group("a", "\"tmv\", \"tmv\"", one), "job.toml: correlations.a.inputs: input 'tmv' appears twice"},
+      {base + "[tracker.correlations.g]\nparameters = [\"tmv\", \"a0\"]\nmatrix = " + one + "\n" +
+           group("g", "\"environment.temperature\", \"thermal.temperature\"", one),
+       "job.toml: correlations.g.inputs: correlation group name 'g' is used twice"},
+      // [tracker.correlations] stays restricted to parameters.
+      {base + "[tracker.correlations.c]\nparameters = [\"tmv\", \"environment.temperature\"]\nmatrix = " + one + "\n",
+       "job.toml: tracker.correlations.c.parameters: unknown parameter 'environment.temperature' of model 'mirror'"},
+      // The matrix: not positive semi-definite, wrong size, not a correlation matrix.
+      {base + group("t", "\"environment.temperature\", \"thermal.temperature\", \"tmv\"",
+                    "[[1, 0.9, 0.9], [0.9, 1, -0.9], [0.9, -0.9, 1]]"),
+       "job.toml: correlations.t.matrix: correlation matrix is not positive semi-definite (smallest eigenvalue -0.8)"},
+      {base + group("t", "\"environment.temperature\", \"thermal.temperature\", \"tmv\"", one),
+       "job.toml: correlations.t.matrix: expected 3 rows of 3 numbers (one per name in inputs)"},
+      {base + group("t", "\"environment.temperature\", \"thermal.temperature\"", "[[1, 0.5], [0.5]]"),
+       "job.toml: correlations.t.matrix: row 2: expected 2 numbers"},
+      {base + group("t", "\"environment.temperature\", \"thermal.temperature\"", "[[1, 0.5], [0.4, 1]]"),
+       "job.toml: correlations.t.matrix: not symmetric"},
+      {base + group("t", "\"environment.temperature\", \"thermal.temperature\"", "[[1, 1.5], [1.5, 1]]"),
+       "job.toml: correlations.t.matrix: correlation coefficient outside [-1, 1]"},
+      {base + group("t", "\"environment.temperature\", \"thermal.temperature\"", "[[0.9, 0.5], [0.5, 1]]"),
+       "job.toml: correlations.t.matrix: diagonal element 1 is not 1"},
+      {base + group("t", "", "[]"), "job.toml: correlations.t.inputs: no inputs"},
+      {base + "[correlations.t]\ninput = [\"tmv\"]\nmatrix = [[1]]\n", "job.toml: correlations.t.inputs: required key is missing"},
+      {base + "[correlations.t]\ninputs = [\"tmv\"]\nmatrix = [[1]]\nrho = 1\n", "job.toml: correlations.t.rho: unknown key"},
+      {base + "[correlations]\nt = 1\n", "job.toml: correlations.t: expected a table"},
+  };
+  for (const Case& c : cases) {
+    const std::string message = ErrorOf(c.text);
+    EXPECT_NE(message.find(c.expected), std::string::npos)
+        << "expected '" << c.expected << "' in the message, got '" << message << "'";
+  }
+}
+
+// A calibration file's parameters are the correlation group "calibration": other groups may
+// correlate other inputs, not those parameters.
+TEST(Job, CorrelationsBesideACalibrationFile) {
+  const std::filesystem::path dir = std::filesystem::path(VLT_SOURCE_DIR) / "examples" / "calibration";
+  const std::string tracker = R"(
+[tracker]
+model = "head"
+calibration = "calibration.toml"
+[tracker.noise]
+range = "1 um"
+azimuth = "0.1 arcsec"
+elevation = "0.1 arcsec"
+)";
+  const std::string plan = "[plan]\npoint = [{name = \"P\", x = 3.0, y = 1.0, z = 0.0}]\n";
+  const Job job = ParseJob(tracker + plan + kSurroundings +
+                               "[correlations.t]\ninputs = [\"environment.temperature\", \"thermal.temperature\"]\n"
+                               "matrix = [[1, 0.9], [0.9, 1]]\n",
+                           "job.toml", dir);
+  ASSERT_EQ(job.setup.correlations.size(), 2u);
+  EXPECT_EQ(job.setup.correlations[0].name, "calibration");
+  EXPECT_EQ(job.setup.correlations[0].where_inputs, "job.toml: tracker.calibration");
+  EXPECT_EQ(job.setup.correlations[1].name, "t");
+  EXPECT_NO_THROW(MeasurementModel{job.setup});
+  EXPECT_NE(ErrorOf(tracker + plan + kSurroundings +
+                        "[correlations.t]\ninputs = [\"environment.temperature\", \"ex\"]\nmatrix = [[1, 0.5], [0.5, 1]]\n",
+                    dir)
+                .find("job.toml: correlations.t.inputs: input 'ex' is already in correlation group 'calibration'"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(tracker + plan + "[tracker.correlations.c]\nparameters = [\"ex\", \"by\"]\nmatrix = [[1, 0.5], [0.5, 1]]\n", dir)
+                .find("job.toml: tracker.correlations.c.parameters: input 'ex' is already in correlation group 'calibration'"),
+            std::string::npos);
 }
 
 TEST(Job, TasksResolveToPointIndices) {

@@ -243,12 +243,16 @@ TEST(MeasurementModel, RejectsBadSetup) {
   s.params[1].u = -1.0;
   EXPECT_THROW(MeasurementModel{s}, InputError);
   s = IdealSetup(false, false, false);
-  s.param_correlation = Eigen::MatrixXd::Identity(3, 3);
+  s.correlations = {{"g", {"r0", "mu"}, Eigen::MatrixXd::Identity(3, 3), "", ""}};  // wrong size
   EXPECT_THROW(MeasurementModel{s}, InputError);
-  s.param_correlation = Eigen::MatrixXd::Identity(4, 4);
-  s.param_correlation(0, 1) = 0.5;  // not symmetric
+  Eigen::MatrixXd r = Eigen::MatrixXd::Identity(2, 2);
+  r(0, 1) = 0.5;  // not symmetric
+  s.correlations = {{"g", {"r0", "mu"}, r, "", ""}};
   EXPECT_THROW(MeasurementModel{s}, InputError);
-  s.param_correlation(1, 0) = 0.5;
+  r(1, 0) = 0.5;
+  s.correlations = {{"g", {"r0", "nu"}, r, "", ""}};  // unknown input
+  EXPECT_THROW(MeasurementModel{s}, InputError);
+  s.correlations = {{"g", {"r0", "mu"}, r, "", ""}};
   MeasurementModel ok(s);
   EXPECT_DOUBLE_EQ(ok.shared_correlation()(1, 0), 0.5);
 }

@@ -18,6 +18,7 @@
 
 #include "results/internal.h"
 #include "vlt/error.h"
+#include "vlt/models.h"
 #include "vlt/refractive_index.h"
 
 namespace vlt {
@@ -95,10 +96,12 @@ TEST(Results, JsonSchemaKeys) {
     EXPECT_TRUE(j["job"].contains(key)) << "job." << key;
   }
   EXPECT_EQ(j["job"]["mode"], "plan");
-  for (const char* key : {"noise", "shared", "parameter_correlation", "environment_equation", "vacuum_wavelength",
-                          "part_reference_temperature"}) {
+  for (const char* key : {"noise", "shared", "parameter_correlation", "correlations", "environment_equation",
+                          "vacuum_wavelength", "part_reference_temperature"}) {
     EXPECT_TRUE(j["inputs"].contains(key)) << "inputs." << key;
   }
+  EXPECT_TRUE(j["inputs"]["parameter_correlation"].is_null());  // independent inputs
+  EXPECT_EQ(j["inputs"]["correlations"], nlohmann::json::array());
   // 20 mirror parameters + 4 environment + 6 pose + 2 thermal shared inputs.
   EXPECT_EQ(j["inputs"]["shared"].size(), 32u);
   for (const char* key : {"enabled", "seed", "trials", "adaptive", "converged", "batch_size", "batches", "threads",
@@ -173,6 +176,52 @@ TEST(Results, ModifiedEdlenNamedInInputsAir) {
     for (const auto& c : row["contribution"]) EXPECT_EQ(c.get<double>(), 0.0);
   }
   EXPECT_TRUE(found);
+}
+
+// The correlation groups as given, the parameters' block, and the cross terms between groups.
+TEST(Results, CorrelationGroupsAreReported) {
+  std::string text = kJob;
+  text.replace(text.find("[plan]"), 6, R"([tracker.correlations.encoder]
+parameters = ["eas", "a0"]
+matrix = [[1, 0.4], [0.4, 1]]
+[correlations.thermometer]
+inputs = ["environment.temperature", "thermal.temperature"]
+matrix = [[1, 1], [1, 1]]
+[plan])");
+  Job job = ParseJob(text, "results.toml", ".");
+  RunOptions options;
+  options.monte_carlo = false;
+  options.compute_map = false;
+  options.threads = 1;
+  const Results r = RunJob(job, options);
+  const nlohmann::json j = nlohmann::json::parse(ResultsJson(r));
+  const nlohmann::json& groups = j["inputs"]["correlations"];
+  ASSERT_EQ(groups.size(), 2u);
+  EXPECT_EQ(groups[0]["name"], "encoder");
+  EXPECT_EQ(groups[0]["inputs"], nlohmann::json({"eas", "a0"}));
+  EXPECT_EQ(groups[0]["matrix"], nlohmann::json({{1.0, 0.4}, {0.4, 1.0}}));
+  EXPECT_EQ(groups[1]["name"], "thermometer");
+  EXPECT_EQ(groups[1]["inputs"], nlohmann::json({"environment.temperature", "thermal.temperature"}));
+  EXPECT_EQ(groups[1]["matrix"], nlohmann::json({{1.0, 1.0}, {1.0, 1.0}}));
+  // The parameters' block of the shared correlation, in the model's parameter order.
+  const nlohmann::json& p = j["inputs"]["parameter_correlation"];
+  const int a0 = FindParam(*job.setup.model, "a0"), eas = FindParam(*job.setup.model, "eas");
+  ASSERT_EQ(p.size(), static_cast<std::size_t>(job.setup.model->num_params));
+  EXPECT_EQ(p[a0][eas], 0.4);
+  EXPECT_EQ(p[a0][a0], 1.0);
+  const std::string handling = j["points"][0]["gum"]["correlation_handling"];
+  EXPECT_NE(handling.find("correlation groups: encoder, thermometer"), std::string::npos) << handling;
+  // The distance's budget by group: the cross terms between environment and thermal in
+  // "correlation"; the entries add up to the variance.
+  double sum = 0.0;
+  bool cross = false;
+  for (const nlohmann::json& g : j["tasks"][0]["budget_by_group"]) {
+    sum += g["variance"][0].get<double>();
+    cross = cross || g["group"] == "correlation";
+  }
+  EXPECT_TRUE(cross);
+  const double variance = j["tasks"][0]["gum"]["covariance"][0][0];
+  EXPECT_NEAR(sum, variance, 1e-9 * variance);
 }
 
 TEST(Results, CsvHeadersUnitsAndValues) {

@@ -40,7 +40,7 @@ TEST(DemoJob, GumWithinClosedFormBoundsAndSpecification) {
   ASSERT_STREQ(job.setup.model->name, "mirror");
   ASSERT_FALSE(job.setup.pose.has_value());     // part frame = tracker frame below
   ASSERT_FALSE(job.setup.thermal.has_value());
-  ASSERT_TRUE(job.setup.param_correlation.size() == 0);  // independent inputs
+  ASSERT_TRUE(job.setup.correlations.empty());  // independent inputs
   RunOptions options;
   options.monte_carlo = false;
   options.compute_map = false;

@@ -164,11 +164,11 @@ MeasurementSetup HeadSetup(double param_scale) {
     s.params.push_back(In(param_scale * info->params[k].default_u, info->params[k].default_u));
   }
   // A correlation between the transit-axis offset and the beam offset (the factorised path).
-  s.param_correlation = Eigen::MatrixXd::Identity(info->num_params, info->num_params);
-  const int ex = FindParam(*info, "ex"), by = FindParam(*info, "by");
-  EXPECT_GE(ex, 0);
-  EXPECT_GE(by, 0);
-  s.param_correlation(ex, by) = s.param_correlation(by, ex) = 0.4;
+  EXPECT_GE(FindParam(*info, "ex"), 0);
+  EXPECT_GE(FindParam(*info, "by"), 0);
+  Eigen::MatrixXd r(2, 2);
+  r << 1.0, 0.4, 0.4, 1.0;
+  s.correlations = {{"axis", {"ex", "by"}, r, "", ""}};
   s.noise = {2e-6, 0.3e-6, 2e-6, 2e-6};
   Environment e;
   e.temperature = In(20.4, 0.2);

@@ -5,7 +5,8 @@
 //  - Per point: U_y = J_r U_r J_r^T + J_s U_s J_s^T, with J_r = d y / d readings (3x3),
 //    U_r = diag(u(range)^2, u(azimuth)^2, u(elevation)^2) (readings independent between points
 //    and between the three readings), J_s = d y / d shared inputs (3 x S) and U_s the covariance
-//    of the shared inputs (diagonal except the correlated parameter block). The linearisation is
+//    of the shared inputs (diagonal except the correlation groups of the setup, which may link
+//    any shared inputs: MeasurementSetup::correlations). The linearisation is
 //    at the estimates (JCGM 100 5.1.2: first-order Taylor series); the Monte Carlo engine
 //    validates it (JCGM 101 8).
 //  - Expanded uncertainty per axis U = k u with k from the coverage probability p assuming a
@@ -182,7 +183,9 @@ Eigen::Vector3d ReadingsForPartPoint(const MeasurementModel& model, const Eigen:
 
 // Contribution of one group of inputs to the task covariance: "readings" (the independent
 // reading noise of all points) or a shared group ("parameter", "environment", "pose",
-// "thermal"). Groups are mutually uncorrelated, so their covariances add up to the total.
+// "thermal": its covariance with the correlations inside it). When correlation groups link inputs
+// of different groups, the entry "correlation" holds the cross terms between groups (may be
+// negative). The entries add up to the total.
 struct TaskGroupContribution {
   std::string group;
   Eigen::VectorXd variance;  // per task quantity [unit^2]
@@ -205,7 +208,7 @@ struct TaskUncertainty {
   std::vector<bool> differentiable;
   std::vector<TaskGroupContribution> budget;  // by input group, sorted by summed share
   // Budget per individual shared input: variance per quantity of (G J_s)_col u_col (correlated
-  // parameters counted without their cross terms; those are in the "correlations" row).
+  // inputs counted without their cross terms; those are in the "correlations" row).
   std::vector<std::string> shared_input_names;
   Eigen::MatrixXd shared_input_variance;  // k x (S + 1): last column = correlation term
 };

@@ -74,15 +74,52 @@ struct PartThermal {
   double reference = 20.0;      // degC
 };
 
+// A group of correlated shared inputs (JCGM 100 5.2, JCGM 101 6.4.8): any shared inputs, named
+// as MeasurementModel::shared_inputs() names them (a parameter's name such as "tmv",
+// "environment.temperature", "pose.rx", "thermal.temperature"; SharedInputNames), and their
+// correlation matrix in the order of `inputs`: symmetric, unit diagonal, entries in [-1, 1],
+// positive semi-definite (r = +-1 allowed). An input is in one group at most; inputs in no group
+// are independent of every other input. An input with u = 0 may be in a group (it has no effect).
+struct CorrelationGroup {
+  std::string name;                 // unique among the groups, e.g. "thermometer"; a job's
+                                    // calibration file gives the group "calibration"
+  std::vector<std::string> inputs;  // shared input names, in matrix order
+  Eigen::MatrixXd matrix;           // inputs.size() x inputs.size()
+  // Where the group was given, for messages: "job.toml: correlations.thermometer.inputs" and
+  // "job.toml: correlations.thermometer.matrix"; empty: "measurement setup: correlation group
+  // '<name>'".
+  std::string where_inputs;
+  std::string where_matrix;
+};
+
 struct MeasurementSetup {
   const ModelInfo* model = nullptr;                 // a tracker model (3 readings)
   std::vector<UncertainInput> params;               // one per model->params, same order
-  Eigen::MatrixXd param_correlation;                // empty = independent; else num_params^2
+  std::vector<CorrelationGroup> correlations;       // empty = every shared input independent
   ReadingNoise noise;
   std::optional<Environment> environment;
   std::optional<StationPose> pose;
   std::optional<PartThermal> thermal;
 };
+
+// The names of the shared inputs of a setup, in the order of MeasurementModel::shared_inputs():
+// the parameters' (the model's names unless given), then "environment.temperature", "...pressure",
+// "...humidity", "...co2", "pose.rx", ..., "pose.tz", "thermal.cte", "thermal.temperature" for
+// the groups the setup enables (an input's own non-empty name replaces the default).
+std::vector<std::string> SharedInputNames(const MeasurementSetup& setup);
+
+// Checks a correlation matrix: square, finite, symmetric, unit diagonal, entries in [-1, 1],
+// positive semi-definite (smallest eigenvalue >= -1e-10; r = +-1 pass). InputError
+// "<where>: <problem>" (one line).
+void CheckCorrelationMatrix(const Eigen::MatrixXd& matrix, const std::string& where);
+
+// The correlation matrix of the shared inputs named `names` (SharedInputNames order): the identity
+// with the entries of every group. Each group is checked (names known, each input in one group
+// only, group names unique, matrix of the right size and a correlation matrix:
+// CheckCorrelationMatrix); InputError at the group's where_inputs / where_matrix. The one place
+// where groups become a matrix (MeasurementModel, the job reader's checks).
+Eigen::MatrixXd SharedCorrelation(const std::vector<std::string>& names,
+                                  const std::vector<CorrelationGroup>& groups);
 
 class MeasurementModel {
  public:
@@ -93,7 +130,7 @@ class MeasurementModel {
   const std::vector<UncertainInput>& shared_inputs() const { return shared_; }
   int num_shared() const { return static_cast<int>(shared_.size()); }
   Eigen::VectorXd shared_estimates() const;
-  // Correlation of the shared inputs (identity except the param block), S x S.
+  // Correlation of the shared inputs, S x S: SharedCorrelation of setup().correlations.
   const Eigen::MatrixXd& shared_correlation() const { return shared_correlation_; }
   // Standard uncertainties of the 3 readings of a point at this range.
   Eigen::Vector3d reading_uncertainty(double range) const;

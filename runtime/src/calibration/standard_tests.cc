@@ -81,8 +81,9 @@ Sighting See(const MeasurementSetup& tracker, const Eigen::VectorXd& p_true,
 // Covariance of the parameters (u and correlation of the tracker's parameters).
 Eigen::MatrixXd ParamCovariance(const MeasurementSetup& tracker) {
   const int P = static_cast<int>(tracker.params.size());
-  Eigen::MatrixXd c = Eigen::MatrixXd::Identity(P, P);
-  if (tracker.param_correlation.size() > 0) c = tracker.param_correlation;
+  // The parameters' block of the shared correlation (the parameters come first).
+  Eigen::MatrixXd c =
+      SharedCorrelation(SharedInputNames(tracker), tracker.correlations).topLeftCorner(P, P);
   for (int i = 0; i < P; ++i)
     for (int j = 0; j < P; ++j) c(i, j) *= tracker.params[i].u * tracker.params[j].u;
   return c;

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -103,22 +104,60 @@ std::string SensitivityUnit(const std::string& output_unit, const std::string& i
 
 namespace gum_internal {
 
+namespace {
+
+// Adds the block of `inputs` (increasing) with correlation r to f; a single input stays diagonal.
+void AddBlock(SharedFactor& f, std::vector<int> inputs, const Eigen::MatrixXd& r) {
+  const int m = static_cast<int>(inputs.size());
+  if (m < 2) return;
+  SharedFactor::Block b;
+  b.inputs = std::move(inputs);
+  b.contiguous = b.inputs.back() - b.inputs.front() == m - 1;
+  b.correlation = r;
+  Eigen::MatrixXd l;
+  if (!model_internal::CorrelationFactor(r, l)) {
+    throw InputError("correlation matrix of the shared inputs is not positive semi-definite");
+  }
+  Eigen::VectorXd u(m);
+  for (int a = 0; a < m; ++a) u(a) = f.u(b.inputs[a]);
+  b.factor = u.asDiagonal() * l;
+  f.blocks.push_back(std::move(b));
+  f.diagonal = false;
+}
+
+}  // namespace
+
 SharedFactor MakeSharedFactor(const MeasurementModel& model) {
   SharedFactor f;
-  f.num_params = model.setup().model->num_params;
   f.num_shared = model.num_shared();
-  f.u.resize(f.num_shared);
-  for (int k = 0; k < f.num_shared; ++k) f.u(k) = model.shared_inputs()[k].u;
-  const int p = f.num_params;
-  const Eigen::MatrixXd r = model.shared_correlation().topLeftCorner(p, p);
-  f.diagonal = r.isIdentity(0.0);
-  if (!f.diagonal) {
-    // R = L_p L_p^T (model/correlation.h: Cholesky, or the eigen factor for singular R).
-    Eigen::MatrixXd lp;
-    if (!model_internal::CorrelationFactor(r, lp)) {
-      throw InputError("parameter correlation matrix is not positive semi-definite");
+  const int n = f.num_shared;
+  f.u.resize(n);
+  for (int k = 0; k < n; ++k) f.u(k) = model.shared_inputs()[k].u;
+  const Eigen::MatrixXd& r = model.shared_correlation();
+  // Blocks: connected components of the graph of non-zero correlations, in order of their first
+  // input (each in increasing order).
+  std::vector<int> component(n, -1);
+  for (int start = 0; start < n; ++start) {
+    if (component[start] >= 0) continue;
+    std::vector<int> members{start}, stack{start};
+    component[start] = start;
+    while (!stack.empty()) {
+      const int i = stack.back();
+      stack.pop_back();
+      for (int j = 0; j < n; ++j) {
+        if (component[j] < 0 && j != i && r(i, j) != 0.0) {
+          component[j] = start;
+          members.push_back(j);
+          stack.push_back(j);
+        }
+      }
     }
-    f.param_factor = f.u.head(p).asDiagonal() * lp;
+    std::sort(members.begin(), members.end());
+    const int m = static_cast<int>(members.size());
+    Eigen::MatrixXd rb(m, m);
+    for (int a = 0; a < m; ++a)
+      for (int c = 0; c < m; ++c) rb(a, c) = r(members[a], members[c]);
+    AddBlock(f, std::move(members), rb);
   }
   return f;
 }
@@ -126,13 +165,51 @@ SharedFactor MakeSharedFactor(const MeasurementModel& model) {
 void SharedFactor::Apply(const double* j, double* a, int rows) const {
   Eigen::Map<const Eigen::MatrixXd> jm(j, rows, num_shared);
   Eigen::Map<Eigen::MatrixXd> am(a, rows, num_shared);
-  if (diagonal) {
-    am = jm * u.asDiagonal();
-    return;
+  am = jm * u.asDiagonal();
+  for (const Block& b : blocks) {
+    const int m = static_cast<int>(b.inputs.size());
+    if (b.contiguous) {
+      am.middleCols(b.inputs.front(), m).noalias() = jm.middleCols(b.inputs.front(), m) * b.factor;
+    } else {
+      const Eigen::MatrixXd jb = jm(Eigen::all, b.inputs);
+      am(Eigen::all, b.inputs) = jb * b.factor;
+    }
   }
-  am.leftCols(num_params).noalias() = jm.leftCols(num_params) * param_factor;
-  const int rest = num_shared - num_params;
-  am.rightCols(rest) = jm.rightCols(rest) * u.tail(rest).asDiagonal();
+}
+
+bool SharedFactor::Separates(const std::vector<bool>& keep) const {
+  for (const Block& b : blocks) {
+    for (int i : b.inputs) {
+      if (keep[i] != keep[b.inputs.front()]) return false;
+    }
+  }
+  return true;
+}
+
+SharedFactor SharedFactor::Marginal(const std::vector<bool>& keep) const {
+  SharedFactor f;
+  f.num_shared = num_shared;
+  f.u = u;
+  for (int k = 0; k < num_shared; ++k) {
+    if (!keep[k]) f.u(k) = 0.0;
+  }
+  for (const Block& b : blocks) {
+    std::vector<int> kept, at;
+    for (int a = 0; a < static_cast<int>(b.inputs.size()); ++a) {
+      if (keep[b.inputs[a]]) {
+        kept.push_back(b.inputs[a]);
+        at.push_back(a);
+      }
+    }
+    if (kept.size() == b.inputs.size()) {
+      f.blocks.push_back(b);
+      f.diagonal = false;
+      continue;
+    }
+    // A principal submatrix of a positive semi-definite matrix is one too.
+    AddBlock(f, kept, b.correlation(at, at));
+  }
+  return f;
 }
 
 void ParallelChunks(std::size_t n, std::size_t chunk, int threads,

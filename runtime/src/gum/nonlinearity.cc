@@ -5,7 +5,7 @@
 // Taylor series must be considered; for independent normal inputs the leading one adds
 //   u2^2(y) = 1/2 sum_i sum_j (d2f / dx_i dx_j)^2 u_i^2 u_j^2
 // to u^2(y). With correlated inputs vlt writes x = x0 + F z, z independent standard normals (F the
-// factor the GUM engine already uses: diag(u) with L_p on the correlated parameter block), so
+// factor the GUM engine already uses: diag(u) with D_b L_b on each block of correlated inputs), so
 //   u2^2(y_a) = 1/2 || H_a ||_F^2,   H_a = d2 y_a / dz dz^T = F^T (d2 y_a / dx dx^T) F,
 // exact for the quadratic part of f. H_a comes from central differences of the exact generated
 // Jacobians: column k of H_a = (J(x0 + F e_k) - J(x0 - F e_k)) F / 2 (a step of one standard

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -74,27 +75,46 @@ CoverageEllipsoid Ellipsoid(const Eigen::Matrix3d& cov, double k3) {
   return e;
 }
 
-std::string CorrelationHandling(const SharedFactor& f) {
+std::string CorrelationHandling(const MeasurementModel& model, const SharedFactor& f) {
   if (f.diagonal) {
     return "all inputs uncorrelated: each row is (c u)^2, the shares of each axis sum to 100 %";
   }
-  return "error parameters correlated (parameter correlation matrix): each row is (c u)^2 of one "
-         "input; the cross terms 2 sum_{i<j} c_i c_j u_i u_j r_ij are the row 'correlations' "
-         "(may be negative); the shares of each axis, that row included, sum to 100 %";
+  std::string groups;
+  for (const CorrelationGroup& g : model.setup().correlations) {
+    groups += (groups.empty() ? "" : ", ") + g.name;
+  }
+  return "shared inputs correlated (correlation groups: " + groups +
+         "): each row is (c u)^2 of one input; the cross terms 2 sum_{i<j} c_i c_j u_i u_j r_ij "
+         "are the row 'correlations' (may be negative); the shares of each axis, that row "
+         "included, sum to 100 %";
 }
 
 // Per-thread scratch space, allocated once per chunk, not per point.
 struct Scratch {
-  explicit Scratch(int num_shared) : js(3 * num_shared), a(3 * num_shared) {}
-  std::vector<double> js, a;
+  explicit Scratch(int num_shared)
+      : js(3 * num_shared), a(3 * num_shared), instrument(3 * num_shared) {}
+  std::vector<double> js, a, instrument;
 };
 
-void PropagateOne(const MeasurementModel& model, const SharedFactor& factor,
+// The factors of a job's shared covariance: all of it, and that of the instrument inputs
+// (parameters, environment: the first num_instrument) for the tracker-frame covariance.
+struct Factors {
+  SharedFactor all;
+  int num_instrument = 0;
+  // When a correlation links instrument inputs with station or part inputs (pose, thermal), the
+  // columns of J F do not split by group: the instrument's own factor (its marginal covariance).
+  std::optional<SharedFactor> instrument;
+  std::string correlation_handling;
+};
+
+void PropagateOne(const MeasurementModel& model, const Factors& factors,
                   const Eigen::VectorXd& x, const Eigen::Matrix3d& rotation,
                   const Eigen::Vector3d& translation, double scale,
-                  int num_instrument, const PointReadings& point, std::size_t index, double k,
+                  const PointReadings& point, std::size_t index, double k,
                   double k3, const std::vector<BudgetRow>* templates_or_null, Scratch& scratch,
                   PointUncertainty& out) {
+  const SharedFactor& factor = factors.all;
+  const int num_instrument = factors.num_instrument;
   const int num_shared = model.num_shared();
   CheckReadings(point.readings, point.name, index);
   out.name = point.name;
@@ -111,12 +131,20 @@ void PropagateOne(const MeasurementModel& model, const SharedFactor& factor,
   factor.Apply(scratch.js.data(), scratch.a.data(), 3);
   Eigen::Map<const Eigen::MatrixXd> a(scratch.a.data(), 3, num_shared);
   // Instrument part (readings, parameters, environment) and station/part part (pose, thermal):
-  // the factor is block diagonal by group, so the column blocks of J F are independent.
+  // without a correlation between the two, the column blocks of J F are independent.
   Eigen::Matrix3d cov_instrument = jr_u * jr_u.transpose();
-  cov_instrument.noalias() += a.leftCols(num_instrument) * a.leftCols(num_instrument).transpose();
-  out.cov_part = cov_instrument;
-  const int rest = num_shared - num_instrument;
-  out.cov_part.noalias() += a.rightCols(rest) * a.rightCols(rest).transpose();
+  if (!factors.instrument) {
+    cov_instrument.noalias() += a.leftCols(num_instrument) * a.leftCols(num_instrument).transpose();
+    out.cov_part = cov_instrument;
+    const int rest = num_shared - num_instrument;
+    out.cov_part.noalias() += a.rightCols(rest) * a.rightCols(rest).transpose();
+  } else {
+    out.cov_part = cov_instrument;
+    out.cov_part.noalias() += a * a.transpose();
+    Eigen::Map<Eigen::MatrixXd> ai(scratch.instrument.data(), 3, num_shared);
+    factors.instrument->Apply(scratch.js.data(), ai.data(), 3);
+    cov_instrument.noalias() += ai.leftCols(num_instrument) * ai.leftCols(num_instrument).transpose();
+  }
   // y = s (R x_t + t) at the estimates: d x_t = R^T d y / s for the instrument inputs.
   out.cov_tracker = rotation.transpose() * cov_instrument * rotation / (scale * scale);
 
@@ -131,7 +159,7 @@ void PropagateOne(const MeasurementModel& model, const SharedFactor& factor,
   out.los_tracker = Split(los, out.cov_tracker);
   out.los_part = Split(rotation * los, out.cov_part);
   out.ellipsoid = Ellipsoid(out.cov_part, k3);
-  out.correlation_handling = CorrelationHandling(factor);
+  out.correlation_handling = factors.correlation_handling;
   if (templates_or_null == nullptr) return;
   const std::vector<BudgetRow>& templates = *templates_or_null;
 
@@ -236,12 +264,17 @@ std::vector<PointUncertainty> PropagatePoints(const MeasurementModel& model,
                                               const GumOptions& options) {
   const double k = NormalCoverageFactor(options.coverage_probability);
   const double k3 = ChiSquareCoverageFactor(options.coverage_probability, 3);
-  const SharedFactor factor = gum_internal::MakeSharedFactor(model);
+  Factors factors;
+  factors.all = gum_internal::MakeSharedFactor(model);
+  factors.num_instrument = NumInstrument(model);
+  std::vector<bool> instrument(model.num_shared(), false);
+  for (int s = 0; s < factors.num_instrument; ++s) instrument[s] = true;
+  if (!factors.all.Separates(instrument)) factors.instrument = factors.all.Marginal(instrument);
+  factors.correlation_handling = CorrelationHandling(model, factors.all);
   const Eigen::VectorXd x = model.shared_estimates();
   const Eigen::Matrix3d rotation = model.PoseRotation(x.data());
   const Eigen::Vector3d translation = model.PoseTranslation(x.data());
   const double scale = model.ThermalScale(x.data());
-  const int num_instrument = NumInstrument(model);
   const std::vector<BudgetRow> templates = BudgetTemplates(model);
   const std::vector<BudgetRow>* budget_templates = options.budgets ? &templates : nullptr;
   std::vector<PointUncertainty> results(points.size());
@@ -249,7 +282,7 @@ std::vector<PointUncertainty> PropagatePoints(const MeasurementModel& model,
       points.size(), kChunk, options.threads, [&](std::size_t, std::size_t begin, std::size_t end) {
         Scratch scratch(model.num_shared());
         for (std::size_t i = begin; i < end; ++i) {
-          PropagateOne(model, factor, x, rotation, translation, scale, num_instrument, points[i], i, k, k3,
+          PropagateOne(model, factors, x, rotation, translation, scale, points[i], i, k, k3,
                        budget_templates, scratch, results[i]);
         }
       });

@@ -101,8 +101,10 @@ void PropagateTaskCovariance(const MeasurementModel& model, std::span<const Poin
   result.k = NormalCoverageFactor(options.coverage_probability);
   result.U = result.k * result.u;
 
-  // Budget by group: the factor is block diagonal by group, so the groups' covariances
-  // (columns of A per group) add up exactly to the total.
+  // Budget by group: each group's covariance with the correlations inside it, J_g F_g (J_g F_g)^T
+  // with F_g the factor of the group's marginal covariance (the columns of A of the group when no
+  // correlation links it to another group). Correlations between groups add the cross terms, the
+  // entry "correlation" (total minus the groups; may be negative): the entries add up to the total.
   const Eigen::VectorXd total = result.covariance.diagonal();
   auto share = [&](const Eigen::VectorXd& v) {
     Eigen::VectorXd s(k);
@@ -112,32 +114,49 @@ void PropagateTaskCovariance(const MeasurementModel& model, std::span<const Poin
   result.budget.clear();
   result.budget.push_back({"readings", cov_readings.diagonal(), share(cov_readings.diagonal())});
   const char* const groups[] = {"parameter", "environment", "pose", "thermal"};
+  Eigen::VectorXd groups_sum = Eigen::VectorXd::Zero(k);
+  bool between_groups = false;
   for (const char* group : groups) {
-    Eigen::VectorXd v = Eigen::VectorXd::Zero(k);
+    std::vector<bool> in_group(num_shared, false);
     bool present = false;
     for (int s = 0; s < num_shared; ++s) {
-      if (model.shared_inputs()[s].group != group) continue;
-      present = true;
-      v += a.col(s).cwiseAbs2();
+      in_group[s] = model.shared_inputs()[s].group == group;
+      present = present || in_group[s];
     }
-    if (present) result.budget.push_back({group, v, share(v)});
+    if (!present) continue;
+    Eigen::VectorXd v = Eigen::VectorXd::Zero(k);
+    if (factor.Separates(in_group)) {
+      for (int s = 0; s < num_shared; ++s) {
+        if (in_group[s]) v += a.col(s).cwiseAbs2();
+      }
+    } else {
+      between_groups = true;
+      Eigen::MatrixXd a_group(k, num_shared);
+      factor.Marginal(in_group).Apply(g_js.data(), a_group.data(), k);
+      v = a_group.rowwise().squaredNorm();
+    }
+    groups_sum += v;
+    result.budget.push_back({group, v, share(v)});
+  }
+  if (between_groups) {
+    const Eigen::VectorXd v = a.rowwise().squaredNorm() - groups_sum;
+    result.budget.push_back({"correlation", v, share(v)});
   }
   std::stable_sort(result.budget.begin(), result.budget.end(),
                    [](const TaskGroupContribution& l, const TaskGroupContribution& r) {
                      return l.share.sum() > r.share.sum();
                    });
 
-  // Per shared input: (G J_s column * u)^2; last column the parameter cross terms.
+  // Per shared input: (G J_s column * u)^2; last column every cross term of correlated inputs
+  // (the shared variance minus the inputs' own).
   result.shared_input_names.clear();
   result.shared_input_variance = Eigen::MatrixXd::Zero(k, num_shared + 1);
-  Eigen::VectorXd params_var = Eigen::VectorXd::Zero(k);
   for (int s = 0; s < num_shared; ++s) {
     result.shared_input_names.push_back(model.shared_inputs()[s].name);
     result.shared_input_variance.col(s) = (g_js.col(s) * factor.u(s)).cwiseAbs2();
-    if (s < factor.num_params) params_var += a.col(s).cwiseAbs2();
   }
   result.shared_input_variance.col(num_shared) =
-      params_var - result.shared_input_variance.leftCols(factor.num_params).rowwise().sum();
+      a.rowwise().squaredNorm() - result.shared_input_variance.leftCols(num_shared).rowwise().sum();
 }
 
 TaskUncertainty PropagateTask(const MeasurementModel& model, std::span<const PointReadings> points,

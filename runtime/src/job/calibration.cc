@@ -181,6 +181,7 @@ TestJob LoadTestJob(const std::string& path) {
   holder.file = path;
   holder.base_dir = BaseDirectory(path);
   ReadTracker(top, holder);
+  SharedCorrelation(SharedInputNames(holder.setup), holder.setup.correlations);  // checks the groups
   job.tracker = holder.setup;
   job.warnings = holder.warnings;
   Section tests = top.Sub("tests", true);
@@ -246,7 +247,11 @@ CalibrationJob LoadCalibrationJob(const std::string& path) {
   data.where = path;
   data.model = holder.setup.model;
   data.priors = holder.setup.params;
-  data.prior_correlation = holder.setup.param_correlation;
+  // The priors' correlation: [tracker.correlations] (parameters only), checked and assembled by
+  // SharedCorrelation as in a job.
+  if (!holder.setup.correlations.empty()) {
+    data.prior_correlation = SharedCorrelation(SharedInputNames(holder.setup), holder.setup.correlations);
+  }
   data.noise = holder.setup.noise;
   for (const JobPoint& p : holder.points) {
     data.readings.push_back({p.name, p.face, p.readings, p.where});

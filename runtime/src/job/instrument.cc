@@ -1,11 +1,11 @@
 // job/instrument.cc — the instrument sections of a job file: [tracker] (model, error parameters,
-// correlations, range noise), [environment] (air), [station] (pose), [part] (thermal expansion).
+// correlations, range noise), [environment] (air), [station] (pose), [part] (thermal expansion),
+// and [correlations] between any of their inputs.
 // Keys and units: docs/job-file.md.
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
-
-#include <Eigen/Eigenvalues>
 
 #include <toml++/toml.h>
 
@@ -63,6 +63,46 @@ void ParseLengthPlusRatio(const std::string& text, const std::string& where, dou
   CheckUncertainty(b, where);
 }
 
+namespace {
+
+// One correlation group table: `<inputs_key>` = [names...] and matrix = [[...], ...] (m x m
+// numbers). What the names and the matrix mean is checked with every other group by
+// SharedCorrelation (vlt/measurement_model.h), the one checker of both spellings.
+CorrelationGroup ReadCorrelationGroup(Section& parent, const std::string& name,
+                                      const std::string& inputs_key) {
+  Section g = parent.Sub(name, true);
+  g.set_hint(inputs_key + ", matrix");
+  CorrelationGroup group;
+  group.name = name;
+  group.where_inputs = g.Where(inputs_key);
+  group.where_matrix = g.Where("matrix");
+  const toml::node& names_node = g.Require(inputs_key);
+  if (!names_node.is_array()) {
+    throw InputError(group.where_inputs + ": expected an array of " +
+                     (inputs_key == "parameters" ? "parameter" : "input") + " names");
+  }
+  for (const toml::node& e : *names_node.as_array()) group.inputs.push_back(AsString(e, group.where_inputs));
+  const int m = static_cast<int>(group.inputs.size());
+  const toml::node& mat_node = g.Require("matrix");
+  const std::string& wm = group.where_matrix;
+  if (!mat_node.is_array() || static_cast<int>(mat_node.as_array()->size()) != m) {
+    throw InputError(wm + ": expected " + std::to_string(m) + " rows of " + std::to_string(m) +
+                     " numbers (one per name in " + inputs_key + ")");
+  }
+  group.matrix.resize(m, m);
+  for (int i = 0; i < m; ++i) {
+    const toml::node& row = *mat_node.as_array()->get(i);
+    if (!row.is_array() || static_cast<int>(row.as_array()->size()) != m) {
+      throw InputError(wm + ": row " + std::to_string(i + 1) + ": expected " + std::to_string(m) + " numbers");
+    }
+    for (int j = 0; j < m; ++j) group.matrix(i, j) = AsNumber(*row.as_array()->get(j), wm);
+  }
+  g.Finish();
+  return group;
+}
+
+}  // namespace
+
 void ReadTracker(Section& top, Job& job) {
   Section tracker = top.Sub("tracker", true);
   tracker.set_hint("model, calibration, parameters, correlations, noise");
@@ -83,6 +123,7 @@ void ReadTracker(Section& top, Job& job) {
   MeasurementSetup& setup = job.setup;
   setup.model = model;
   setup.params.clear();
+  setup.correlations.clear();
   std::vector<Dimension> dims;
   for (int k = 0; k < model->num_params; ++k) {
     const QuantityInfo& q = model->params[k];
@@ -114,16 +155,17 @@ void ReadTracker(Section& top, Job& job) {
       calibrated[k] = true;
       index.push_back(k);
     }
-    Eigen::MatrixXd full = Eigen::MatrixXd::Identity(model->num_params, model->num_params);
     for (std::size_t i = 0; i < index.size(); ++i) {
       UncertainInput& input = setup.params[index[i]];
       input.estimate = c.estimates[i];
       input.u = c.u[i];
       input.distribution = "normal";  // the calibration's covariance: multivariate normal
       input.shape = 0.0;
-      for (std::size_t j = 0; j < index.size(); ++j) full(index[i], index[j]) = c.correlation(i, j);
     }
-    setup.param_correlation = full;
+    // The file's correlation: the correlation group "calibration" of the parameters it gives.
+    if (!c.names.empty()) {
+      setup.correlations.push_back({"calibration", c.names, c.correlation, where, where});
+    }
     job.calibration = CalibrationSource{path.string(), Sha256File(path.string()), c.instrument, c.created};
   }
 
@@ -150,69 +192,24 @@ void ReadTracker(Section& top, Job& job) {
     params.Finish();
   }
 
-  // [tracker.correlations.<name>]: parameters = [...], matrix = [[...], ...]
-  if (!job.calibration) setup.param_correlation.resize(0, 0);
+  // [tracker.correlations.<name>]: parameters = [...], matrix = [[...], ...]: a correlation group
+  // of parameters ([correlations.<name>] of ReadCorrelations without the restriction).
   Section corr = tracker.Sub("correlations", false);
-  if (corr.exists() && job.calibration) {
-    throw InputError(corr.WhereSelf() + ": the calibration file (tracker.calibration) gives the parameters' correlation");
-  }
   if (corr.exists()) {
-    const int n = model->num_params;
-    Eigen::MatrixXd full = Eigen::MatrixXd::Identity(n, n);
-    std::vector<std::string> owner(n);
     for (auto&& [key, node] : corr.table()) {
       (void)node;
-      std::string group_name(key.str());
-      Section g = corr.Sub(group_name, true);
-      g.set_hint("parameters, matrix");
-      const toml::node& names_node = g.Require("parameters");
-      if (!names_node.is_array()) throw InputError(g.Where("parameters") + ": expected an array of parameter names");
-      std::vector<int> idx;
-      for (const toml::node& e : *names_node.as_array()) {
-        std::string pname = AsString(e, g.Where("parameters"));
-        int k = FindParam(*model, pname);
-        if (k < 0) throw InputError(g.Where("parameters") + ": unknown parameter '" + pname + "' of model '" + model_name + "'");
-        if (!owner[k].empty()) {
-          throw InputError(g.Where("parameters") + ": parameter '" + pname + "' already appears in correlation matrix '" + owner[k] + "'");
-        }
-        owner[k] = group_name;
-        idx.push_back(k);
-      }
-      const int m = static_cast<int>(idx.size());
-      const toml::node& mat_node = g.Require("matrix");
-      std::string wm = g.Where("matrix");
-      if (!mat_node.is_array() || static_cast<int>(mat_node.as_array()->size()) != m) {
-        throw InputError(wm + ": expected " + std::to_string(m) + " rows of " + std::to_string(m) + " numbers");
-      }
-      Eigen::MatrixXd c(m, m);
-      for (int i = 0; i < m; ++i) {
-        const toml::node& row = *mat_node.as_array()->get(i);
-        if (!row.is_array() || static_cast<int>(row.as_array()->size()) != m) {
-          throw InputError(wm + ": row " + std::to_string(i + 1) + ": expected " + std::to_string(m) + " numbers");
-        }
-        for (int j = 0; j < m; ++j) c(i, j) = AsNumber(*row.as_array()->get(j), wm);
-      }
-      for (int i = 0; i < m; ++i) {
-        if (std::abs(c(i, i) - 1.0) > 1e-12) throw InputError(wm + ": diagonal element " + std::to_string(i + 1) + " is not 1");
-        for (int j = 0; j < m; ++j) {
-          if (std::abs(c(i, j) - c(j, i)) > 1e-12) throw InputError(wm + ": not symmetric");
-          if (std::abs(c(i, j)) > 1.0) throw InputError(wm + ": correlation coefficient outside [-1, 1]");
+      CorrelationGroup group = ReadCorrelationGroup(corr, std::string(key.str()), "parameters");
+      for (const std::string& name : group.inputs) {
+        if (FindParam(*model, name) < 0) {
+          throw InputError(group.where_inputs + ": unknown parameter '" + name + "' of model '" + model_name +
+                           "' (other inputs: [correlations." + group.name + "] with inputs = [...])");
         }
       }
-      // A correlation matrix must be positive semi-definite (JCGM 101 6.4.8.1), else no joint
-      // distribution has it and the GUM variance can come out negative.
-      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(c);
-      if (eig.eigenvalues().minCoeff() < -1e-10) {
-        throw InputError(wm + ": correlation matrix is not positive semi-definite (smallest eigenvalue " +
-                         std::to_string(eig.eigenvalues().minCoeff()) + ")");
-      }
-      for (int i = 0; i < m; ++i)
-        for (int j = 0; j < m; ++j) full(idx[i], idx[j]) = c(i, j);
-      g.Finish();
+      setup.correlations.push_back(std::move(group));
     }
     corr.Finish();
-    setup.param_correlation = full;
   }
+  // The groups are checked with the others by ReadCorrelations (a calibration or test job: job/calibration.cc).
 
   // [tracker.noise]: reading noise of every point.
   Section noise = tracker.Sub("noise", true);
@@ -365,5 +362,40 @@ void ReadPart(Section& top, Job& job) {
   job.setup.thermal = thermal;
 }
 
+
+void ReadCorrelations(Section& top, Job& job) {
+  MeasurementSetup& setup = job.setup;
+  const std::vector<std::string> names = SharedInputNames(setup);
+  Section corr = top.Sub("correlations", false);
+  if (corr.exists()) {
+    for (auto&& [key, node] : corr.table()) {
+      (void)node;
+      CorrelationGroup group = ReadCorrelationGroup(corr, std::string(key.str()), "inputs");
+      // Names that SharedCorrelation would only call unknown: say what is meant.
+      for (const std::string& name : group.inputs) {
+        if (std::find(names.begin(), names.end(), name) != names.end()) continue;
+        const std::size_t dot = name.find('.');
+        const std::string head = name.substr(0, dot), tail = dot == std::string::npos ? "" : name.substr(dot + 1);
+        const char* prefix = head == "part" ? "thermal." : head == "station" ? "pose." : nullptr;
+        if (prefix != nullptr && std::find(names.begin(), names.end(), prefix + tail) != names.end()) {
+          throw InputError(group.where_inputs + ": unknown input '" + name +
+                           "': inputs are named as results.json and budget.csv name them, '" + prefix + tail +
+                           "' for [" + head + "] " + tail);
+        }
+        const char* section = head == "environment" ? "environment" : head == "pose" ? "station" : head == "thermal" ? "part" : nullptr;
+        const bool absent = (head == "environment" && !setup.environment) || (head == "pose" && !setup.pose) ||
+                            (head == "thermal" && !setup.thermal);
+        if (section != nullptr && absent) {
+          throw InputError(group.where_inputs + ": input '" + name + "' is not an input of this job: it has no [" + section + "] section");
+        }
+      }
+      setup.correlations.push_back(std::move(group));
+    }
+    corr.Finish();
+  }
+  // Every group, of the calibration file, [tracker.correlations] and [correlations], through the
+  // one checker: names known, an input in one group only, each matrix a correlation matrix.
+  SharedCorrelation(names, setup.correlations);
+}
 
 }  // namespace vlt::job_detail

@@ -66,13 +66,14 @@ Job ParseJob(std::string_view text, const std::string& file, const std::filesyst
   job.base_dir = base_dir;
   job.name = std::filesystem::path(file).stem().string();
   Section top(root, file, "");
-  top.set_hint("job, tracker, environment, station, part, plan, readings, task, monte_carlo, map, output");
+  top.set_hint("job, tracker, environment, station, part, correlations, plan, readings, task, monte_carlo, map, output");
 
   ReadJobMeta(top, job.name, &job.description, job.name);
   ReadTracker(top, job);
   ReadEnvironment(top, job);
   ReadStation(top, job);
   ReadPart(top, job);
+  ReadCorrelations(top, job);
 
   Section plan = top.Sub("plan", false);
   Section readings = top.Sub("readings", false);

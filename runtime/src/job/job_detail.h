@@ -90,6 +90,7 @@ void ReadTracker(Section& top, Job& job);      // instrument.cc: [tracker]
 void ReadEnvironment(Section& top, Job& job);  // instrument.cc: [environment]
 void ReadStation(Section& top, Job& job);      // instrument.cc: [station]
 void ReadPart(Section& top, Job& job);         // instrument.cc: [part]
+void ReadCorrelations(Section& top, Job& job); // instrument.cc: [correlations] (after the above)
 void ReadPlan(Section& plan, Job& job);        // points.cc: [plan]
 void ReadReadings(Section& readings, Job& job);  // points.cc: [readings]
 void ReadTasks(Section& top, Job& job);        // tasks.cc: [[task]]

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <Eigen/Dense>
 
@@ -20,6 +21,39 @@ void Fill(UncertainInput& input, const char* name, const char* unit, const char*
   if (input.name.empty()) input.name = name;
   if (input.unit.empty()) input.unit = unit;
   input.group = group;
+}
+
+// Calls visit(input, default name, default unit, group) for every shared input of `setup` in the
+// order of the shared vector: params | environment | pose | thermal (enabled groups only). The one
+// definition of that order and of the default names (MeasurementModel, SharedInputNames).
+template <typename Setup, typename Visit>
+void ForEachShared(Setup& setup, Visit visit) {
+  for (std::size_t k = 0; k < setup.params.size(); ++k) {
+    const bool known = setup.model != nullptr && static_cast<int>(k) < setup.model->num_params;
+    visit(setup.params[k], known ? setup.model->params[k].name : "",
+          known ? setup.model->params[k].unit : "", "parameter");
+  }
+  if (setup.environment) {
+    auto& env = *setup.environment;
+    visit(env.temperature, "environment.temperature", "degC", "environment");
+    visit(env.pressure, "environment.pressure", "Pa", "environment");
+    visit(env.humidity, "environment.humidity", "%", "environment");
+    visit(env.co2, "environment.co2", "1", "environment");
+  }
+  if (setup.pose) {
+    auto& pose = *setup.pose;
+    visit(pose.rx, "pose.rx", "rad", "pose");
+    visit(pose.ry, "pose.ry", "rad", "pose");
+    visit(pose.rz, "pose.rz", "rad", "pose");
+    visit(pose.tx, "pose.tx", "m", "pose");
+    visit(pose.ty, "pose.ty", "m", "pose");
+    visit(pose.tz, "pose.tz", "m", "pose");
+  }
+  if (setup.thermal) {
+    auto& thermal = *setup.thermal;
+    visit(thermal.cte, "thermal.cte", "1/K", "thermal");
+    visit(thermal.temperature, "thermal.temperature", "degC", "thermal");
+  }
 }
 
 void CheckInput(const UncertainInput& input) {
@@ -70,6 +104,14 @@ Eigen::Matrix3d dRz(double a) {
 
 }  // namespace
 
+std::vector<std::string> SharedInputNames(const MeasurementSetup& setup) {
+  std::vector<std::string> names;
+  ForEachShared(setup, [&](const UncertainInput& input, const char* name, const char*, const char*) {
+    names.push_back(input.name.empty() ? std::string(name) : input.name);
+  });
+  return names;
+}
+
 MeasurementModel::MeasurementModel(MeasurementSetup setup) : setup_(std::move(setup)) {
   const ModelInfo* model = setup_.model;
   if (model == nullptr) throw InputError("measurement setup: no tracker model");
@@ -87,75 +129,31 @@ MeasurementModel::MeasurementModel(MeasurementSetup setup) : setup_(std::move(se
                      std::to_string(num_params) + " parameters, " +
                      std::to_string(setup_.params.size()) + " given");
   }
-  for (int k = 0; k < num_params; ++k) {
-    Fill(setup_.params[k], model->params[k].name, model->params[k].unit, "parameter");
-    CheckInput(setup_.params[k]);
-    shared_.push_back(setup_.params[k]);
-  }
+  ForEachShared(setup_, [&](UncertainInput& input, const char* name, const char* unit,
+                            const char* group) {
+    Fill(input, name, unit, group);
+    CheckInput(input);
+    shared_.push_back(input);
+  });
+  int offset = num_params;
   if (setup_.environment) {
-    Environment& env = *setup_.environment;
-    Fill(env.temperature, "environment.temperature", "degC", "environment");
-    Fill(env.pressure, "environment.pressure", "Pa", "environment");
-    Fill(env.humidity, "environment.humidity", "%", "environment");
-    Fill(env.co2, "environment.co2", "1", "environment");
-    env_offset_ = static_cast<int>(shared_.size());
-    for (const UncertainInput* in : {&env.temperature, &env.pressure, &env.humidity, &env.co2}) {
-      CheckInput(*in);
-      shared_.push_back(*in);
-    }
-    if (!(env.vacuum_wavelength > 0.0) || !std::isfinite(env.vacuum_wavelength)) {
+    env_offset_ = offset;
+    offset += 4;
+    const double wavelength = setup_.environment->vacuum_wavelength;
+    if (!(wavelength > 0.0) || !std::isfinite(wavelength)) {
       throw InputError("measurement setup: environment vacuum wavelength must be positive");
     }
   }
   if (setup_.pose) {
-    StationPose& pose = *setup_.pose;
-    Fill(pose.rx, "pose.rx", "rad", "pose");
-    Fill(pose.ry, "pose.ry", "rad", "pose");
-    Fill(pose.rz, "pose.rz", "rad", "pose");
-    Fill(pose.tx, "pose.tx", "m", "pose");
-    Fill(pose.ty, "pose.ty", "m", "pose");
-    Fill(pose.tz, "pose.tz", "m", "pose");
-    pose_offset_ = static_cast<int>(shared_.size());
-    for (const UncertainInput* in : {&pose.rx, &pose.ry, &pose.rz, &pose.tx, &pose.ty, &pose.tz}) {
-      CheckInput(*in);
-      shared_.push_back(*in);
-    }
+    pose_offset_ = offset;
+    offset += 6;
   }
-  if (setup_.thermal) {
-    PartThermal& thermal = *setup_.thermal;
-    Fill(thermal.cte, "thermal.cte", "1/K", "thermal");
-    Fill(thermal.temperature, "thermal.temperature", "degC", "thermal");
-    thermal_offset_ = static_cast<int>(shared_.size());
-    CheckInput(thermal.cte);
-    CheckInput(thermal.temperature);
-    shared_.push_back(thermal.cte);
-    shared_.push_back(thermal.temperature);
-  }
+  if (setup_.thermal) thermal_offset_ = offset;
 
-  const int num_shared = static_cast<int>(shared_.size());
-  shared_correlation_ = Eigen::MatrixXd::Identity(num_shared, num_shared);
-  const Eigen::MatrixXd& r = setup_.param_correlation;
-  if (r.size() != 0) {
-    if (r.rows() != num_params || r.cols() != num_params) {
-      throw InputError("measurement setup: the parameter correlation matrix must be " +
-                       std::to_string(num_params) + " x " + std::to_string(num_params));
-    }
-    for (int i = 0; i < num_params; ++i) {
-      if (std::abs(r(i, i) - 1.0) > 1e-12) {
-        throw InputError("measurement setup: parameter correlation matrix: diagonal entry of '" +
-                         shared_[i].name + "' is not 1");
-      }
-      for (int j = 0; j < num_params; ++j) {
-        if (!std::isfinite(r(i, j)) || std::abs(r(i, j)) > 1.0 ||
-            std::abs(r(i, j) - r(j, i)) > 1e-12) {
-          throw InputError("measurement setup: parameter correlation matrix: entry ('" +
-                           shared_[i].name + "', '" + shared_[j].name +
-                           "') must be in [-1, 1] and symmetric");
-        }
-      }
-    }
-    shared_correlation_.topLeftCorner(num_params, num_params) = r;
-  }
+  std::vector<std::string> names;
+  names.reserve(shared_.size());
+  for (const UncertainInput& input : shared_) names.push_back(input.name);
+  shared_correlation_ = SharedCorrelation(names, setup_.correlations);
 
   estimates_ = shared_estimates();
   if (env_offset_ >= 0) n_est_ = AirIndex(estimates_.data() + env_offset_, dn_est_);

@@ -74,6 +74,23 @@ json Scalar(const ScalarValidation& v) {
 // The refractive index of the job's air (docs/results.md inputs.air): phase and group index at
 // the estimates with their standard uncertainties. The range correction of the measurement model
 // uses the phase index n (docs/gum.md).
+// The correlation groups as given (name, inputs, matrix) and the parameters' block of the shared
+// correlation (null when the parameters are independent of each other).
+json CorrelationGroupsJson(const MeasurementSetup& s) {
+  json groups = json::array();
+  for (const CorrelationGroup& g : s.correlations) {
+    groups.push_back({{"name", g.name}, {"inputs", g.inputs}, {"matrix", Mat(g.matrix)}});
+  }
+  return groups;
+}
+
+json ParameterCorrelationJson(const MeasurementSetup& s) {
+  if (s.correlations.empty()) return nullptr;
+  const int p = static_cast<int>(s.params.size());
+  const Eigen::MatrixXd r = SharedCorrelation(SharedInputNames(s), s.correlations).topLeftCorner(p, p);
+  return r.isIdentity(0.0) ? json(nullptr) : Mat(r);
+}
+
 json AirJson(const MeasurementSetup& s) {
   if (!s.environment) return nullptr;
   const Environment& e = *s.environment;
@@ -304,7 +321,8 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
                    {"azimuth", s.noise.azimuth},
                    {"elevation", s.noise.elevation}}},
                  {"shared", shared},
-                 {"parameter_correlation", s.param_correlation.size() ? Mat(s.param_correlation) : json(nullptr)},
+                 {"parameter_correlation", ParameterCorrelationJson(s)},
+                 {"correlations", CorrelationGroupsJson(s)},
                  {"environment_equation",
                   s.environment ? json(std::string(AirEquationName(EquationOf(*s.environment)))) : json(nullptr)},
                  {"vacuum_wavelength", s.environment ? json(s.environment->vacuum_wavelength) : json(nullptr)},
