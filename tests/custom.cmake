@@ -37,3 +37,13 @@ function(vlt_custom_error name job regex)
 endfunction()
 vlt_custom_error(csv_field bad_observations.toml "bad_observations\\.csv: line 4: column V: 'oops' is not a decimal number")
 vlt_custom_error(tracker_model tracker_model.toml "tracker_model\\.toml: model\\.name: 'head' is a tracker model")
+
+# `vlt simulate` on a custom model: y and dy/dx at the inputs given (JCGM 101 9.3 at rho_a =
+# 1.3 kg/m^3: delta_m = 1.234 mg with d/d rho_W = (m_Rc + dm_Rc)(rho_a - 1.2)/rho_W^2 = 1.5625e-4).
+add_test(NAME cli_custom_simulate COMMAND vlt simulate --model jcgm101_mass rho_a=1.3)
+set_tests_properties(cli_custom_simulate PROPERTIES PASS_REGULAR_EXPRESSION
+  "delta_m = 1\\.234[0-9]* mg +sensitivities: d/dm_Rc 1 d/ddelta_m_Rc 1 d/drho_a 0 d/drho_W -0\\.000156252")
+add_test(NAME cli_custom_simulate_point
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=simulate;--model;jcgm101_mass;--point;1,1,1"
+          -DOUT=${_custom_out}/custom_simulate_point "-DEXPECT=--point: 'jcgm101_mass' is a custom model"
+          -P ${_custom_cli}/expect_error.cmake)

@@ -284,7 +284,12 @@ TEST(CustomJob, BadInputNamesFileAndKey) {
   ExpectError("[model]\nname = \"jcgm101_additive\"\n[correlations.a]\ninputs = [\"x1\", \"x2\", \"x3\"]\nmatrix = [[1, 0.9, -0.9], [0.9, 1, 0.9], [-0.9, 0.9, 1]]\n",
               "job.toml: correlations.a.matrix: correlation matrix is not positive semi-definite");
   ExpectError("[model]\nname = \"jcgm101_additive\"\n[correlations.a]\ninputs = [\"x1\", \"x2\"]\nmatrix = [[1, 0.5], [0.5, 1]]\n[correlations.b]\ninputs = [\"x2\", \"x3\"]\nmatrix = [[1, 0.5], [0.5, 1]]\n",
-              "job.toml: correlations.b.inputs: input 'x2' is already correlated by correlations.a");
+              "job.toml: correlations.b.inputs: input 'x2' is already in correlation group 'a'");
+  // An input of the simultaneous observations may not be correlated again by hand.
+  ExpectError("[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = \"gum_h2_observations.csv\"\nsimultaneous = true\n"
+              "[inputs.V]\nobservations = \"V\"\n[inputs.phi]\nobservations = \"phi\"\n"
+              "[correlations.a]\ninputs = [\"V\", \"I_amp\"]\nmatrix = [[1, 0.5], [0.5, 1]]\n",
+              "job.toml: correlations.a.inputs: input 'V' is already in correlation group 'observations'");
   ExpectError("[model]\nname = \"jcgm101_additive\"\n[outputs.y.tolerance]\nlower = 2\nupper = 1\n",
               "job.toml: outputs.y.tolerance.upper: must be above lower");
   ExpectError("[model]\nname = \"jcgm101_additive\"\n[inputs.x1]\ndof = 0.5\n", "job.toml: inputs.x1.dof: degrees of freedom must be");

@@ -1,4 +1,5 @@
-// `vlt simulate --model NAME --point X,Y,Z [--face front|back] [PARAM=VALUE ...] [--json]`:
+// `vlt simulate --model NAME --point X,Y,Z [--face front|back] [PARAM=VALUE ...] [--json]`
+// (a custom model: `vlt simulate --model NAME [INPUT=VALUE ...]`, its outputs and sensitivities):
 // what a tracker with the given error state shows when locked on a point (vlt/inverse.h),
 // the coordinates it reports with its nominal (error-free) model, and the coordinate error
 // (reported minus true). Values take units (vlt/units.h): tmv=5um rmv=1arcsec mu=2ppm.
@@ -29,11 +30,13 @@ struct SimulateOptions {
   std::vector<std::string> assignments;
 };
 
+// The kind's dimension where vlt/units.h knows it; a plain number otherwise.
 Dimension DimensionOf(const QuantityInfo& q) {
-  const std::string kind = q.quantity;
-  if (kind == "length") return Dimension::kLength;
-  if (kind == "angle") return Dimension::kAngle;
-  if (kind == "ratio") return Dimension::kRatio;
+  for (Dimension d : {Dimension::kLength, Dimension::kAngle, Dimension::kRatio, Dimension::kTemperature,
+                      Dimension::kTemperatureDifference, Dimension::kPressure, Dimension::kHumidity,
+                      Dimension::kFraction, Dimension::kPerKelvin, Dimension::kTime}) {
+    if (DimensionName(d) == q.quantity) return d;
+  }
   return Dimension::kDimensionless;
 }
 
@@ -53,22 +56,13 @@ std::array<double, 3> ParsePoint(const std::string& text) {
   return p;
 }
 
-void Simulate(const SimulateOptions& options, const GlobalOptions& global) {
-  const ModelInfo* model = FindModel(options.model);
-  if (!model) {
-    std::string known;
-    for (const ModelInfo* m : AllModels()) known += (known.empty() ? "" : ", ") + std::string(m->name);
-    throw InputError("command line: --model: unknown model '" + options.model + "' (known: " + known + ")");
-  }
-  if (std::string(model->kind) != "tracker") {
-    throw InputError("command line: --model: '" + options.model + "' is a custom model; simulate needs a tracker");
-  }
-  const Face face = ParseFace(options.face.c_str(), "command line: --face");
-  const std::array<double, 3> point = ParsePoint(options.point);
-
+// INPUT=VALUE assignments over the model's default estimates. Values take units where the
+// quantity kind has them (length, angle, ratio, temperature, ...); other kinds (a custom model's
+// "voltage") are plain numbers in the spec's unit.
+std::vector<double> AssignedParams(const ModelInfo* model, const std::vector<std::string>& assignments) {
   std::vector<double> params(model->num_params);
   for (int k = 0; k < model->num_params; ++k) params[k] = model->params[k].default_estimate;
-  for (const std::string& a : options.assignments) {
+  for (const std::string& a : assignments) {
     const std::size_t eq = a.find('=');
     if (eq == std::string::npos || eq == 0) {
       throw InputError("command line: '" + a + "': expected PARAMETER=VALUE, e.g. tmv=5um");
@@ -83,6 +77,66 @@ void Simulate(const SimulateOptions& options, const GlobalOptions& global) {
     }
     params[k] = ParseQuantity(a.substr(eq + 1), DimensionOf(model->params[k]), "command line: " + name);
   }
+  return params;
+}
+
+// A custom model: y = f(x) and the sensitivities dy/dx at the given inputs (exact, generated).
+void SimulateCustom(const ModelInfo* model, const SimulateOptions& options, const GlobalOptions& global) {
+  if (!options.point.empty()) {
+    throw InputError("command line: --point: '" + options.model + "' is a custom model (no readings); give its inputs as NAME=VALUE");
+  }
+  const std::vector<double> x = AssignedParams(model, options.assignments);
+  std::vector<double> y(model->num_outputs), jac(static_cast<std::size_t>(model->num_outputs) * model->num_params);
+  double unused = 0.0;
+  model->forward_jacobians(nullptr, x.data(), y.data(), &unused, jac.data());
+  for (double v : y) {
+    if (!std::isfinite(v)) throw InputError("command line: the model '" + options.model + "' is not finite at these inputs");
+  }
+  if (global.json) {
+    nlohmann::json j;
+    j["model"] = model->name;
+    nlohmann::json in = nlohmann::json::object(), out = nlohmann::json::object();
+    for (int k = 0; k < model->num_params; ++k) in[model->params[k].name] = x[k];
+    for (int o = 0; o < model->num_outputs; ++o) {
+      nlohmann::json sens = nlohmann::json::object();
+      for (int k = 0; k < model->num_params; ++k) {
+        sens[model->params[k].name] = jac[static_cast<std::size_t>(k) * model->num_outputs + o];
+      }
+      out[model->outputs[o].name] = {{"value", y[o]}, {"unit", model->outputs[o].unit}, {"sensitivities", sens}};
+    }
+    j["inputs"] = in;
+    j["outputs"] = out;
+    std::printf("%s\n", j.dump(2).c_str());
+    return;
+  }
+  if (global.quiet) return;
+  std::printf("model %s (custom), inputs:", model->name);
+  for (int k = 0; k < model->num_params; ++k) std::printf(" %s=%.10g %s", model->params[k].name, x[k], model->params[k].unit);
+  std::printf("\n");
+  for (int o = 0; o < model->num_outputs; ++o) {
+    std::printf("%s = %.12g %s   sensitivities:", model->outputs[o].name, y[o], model->outputs[o].unit);
+    for (int k = 0; k < model->num_params; ++k) {
+      std::printf(" d/d%s %.6g", model->params[k].name, jac[static_cast<std::size_t>(k) * model->num_outputs + o] + 0.0);
+    }
+    std::printf("\n");
+  }
+}
+
+void Simulate(const SimulateOptions& options, const GlobalOptions& global) {
+  const ModelInfo* model = FindModel(options.model);
+  if (!model) {
+    std::string known;
+    for (const ModelInfo* m : AllModels()) known += (known.empty() ? "" : ", ") + std::string(m->name);
+    throw InputError("command line: --model: unknown model '" + options.model + "' (known: " + known + ")");
+  }
+  if (std::string(model->kind) != "tracker") {
+    SimulateCustom(model, options, global);
+    return;
+  }
+  if (options.point.empty()) throw InputError("command line: --point is required for a tracker model");
+  const Face face = ParseFace(options.face.c_str(), "command line: --face");
+  const std::array<double, 3> point = ParsePoint(options.point);
+  const std::vector<double> params = AssignedParams(model, options.assignments);
 
   const std::array<double, 3> readings = InverseReadings(*model, params.data(), point, face);
   // What the tracker reports: its nominal model, every parameter 0.
@@ -135,12 +189,14 @@ void AddSimulateCommand(CLI::App& app, GlobalOptions& global) {
       "simulate", "Readings a tracker with a given error state shows at a point, the coordinates it "
                   "reports with its nominal model, and the coordinate error");
   auto options = std::make_shared<SimulateOptions>();
-  command->add_option("--model", options->model, "Tracker model (vlt model list)")->required();
-  command->add_option("--point", options->point, "True reflector centre X,Y,Z in the tracker frame "
-                                                  "(m, or with units: 2m,1m,500mm)")->required();
+  command->add_option("--model", options->model, "Model (vlt model list): a tracker, or a custom model "
+                                                  "(then: its outputs and sensitivities at the inputs given)")->required();
+  command->add_option("--point", options->point, "Tracker models: true reflector centre X,Y,Z in the tracker frame "
+                                                  "(m, or with units: 2m,1m,500mm)");
   command->add_option("--face", options->face, "front (elevation in [-90, 90] deg) or back (A+180, 180-E)");
   command->add_option("assignments", options->assignments,
-                      "Error parameters PARAMETER=VALUE with units, e.g. tmv=5um rmv=1arcsec mu=2ppm");
+                      "Error parameters PARAMETER=VALUE with units, e.g. tmv=5um rmv=1arcsec mu=2ppm; "
+                      "a custom model's inputs INPUT=VALUE");
   command->footer("Exit status: 0 success, 2 bad input or a point where the readings are undefined "
                   "(on the vertical axis). Parameters: vlt model show NAME, docs/models.md.");
   command->callback([options, &global] { Simulate(*options, global); });

@@ -1,6 +1,7 @@
 // job/custom_model.cc — a job on a custom model (vlt/custom_job.h): [model], [inputs.<name>],
 // [observations], [correlations.<group>], [outputs.<name>], [monte_carlo], [output].
 // Keys, units and defaults: docs/custom-models.md; keep the two in step.
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -10,7 +11,6 @@
 
 #include "job/csv.h"
 #include "job/job_detail.h"
-#include "model/correlation.h"
 #include "vlt/custom_job.h"
 #include "vlt/distributions.h"
 #include "vlt/error.h"
@@ -242,14 +242,20 @@ CustomJob ParseCustomJob(std::string_view text, const std::string& file,
   }
 
   // Correlations: the sample correlation of simultaneous observations (JCGM 100 5.2.3, C.3.6
-  // eq. 17: r(q, w) = s(q, w) / (s(q) s(w)), the same for the means), then [correlations.<g>].
-  job.correlation = Eigen::MatrixXd::Identity(n_in, n_in);
-  std::vector<std::string> owner(n_in);
+  // eq. 17: r(q, w) = s(q, w) / (s(q) s(w)), the same for the means) as the group
+  // "observations", then [correlations.<g>]; all through SharedCorrelation, the one checker.
+  std::vector<CorrelationGroup> groups;
   if (table && from_table.size() >= 2 && simultaneous) {
     job.simultaneous.push_back(from_table);
     const int rows = static_cast<int>(table->rows.size());
-    for (std::size_t a = 0; a < from_table.size(); ++a) {
-      for (std::size_t b = a + 1; b < from_table.size(); ++b) {
+    const int m = static_cast<int>(from_table.size());
+    CorrelationGroup g;
+    g.name = "observations";
+    g.where_inputs = g.where_matrix = observations_where;
+    g.matrix = Eigen::MatrixXd::Identity(m, m);
+    for (int a = 0; a < m; ++a) {
+      g.inputs.push_back(job.inputs[from_table[a]].name);
+      for (int b = a + 1; b < m; ++b) {
         const int ia = from_table[a], ib = from_table[b];
         const double ma = job.inputs[ia].estimate, mb = job.inputs[ib].estimate;
         const double sa = job.sources[ia].standard_deviation, sb = job.sources[ib].standard_deviation;
@@ -257,67 +263,22 @@ CustomJob ParseCustomJob(std::string_view text, const std::string& file,
         for (int k = 0; k < rows; ++k) sab += (observed[ia][k] - ma) * (observed[ib][k] - mb);
         sab /= rows - 1;
         const double r = sa > 0.0 && sb > 0.0 ? sab / (sa * sb) : 0.0;
-        job.correlation(ia, ib) = job.correlation(ib, ia) = std::clamp(r, -1.0, 1.0);
+        g.matrix(a, b) = g.matrix(b, a) = std::clamp(r, -1.0, 1.0);
       }
     }
-    for (int i : from_table) owner[i] = "simultaneous observations (" + observations_where + ")";
-  } else if (table && from_table.size() >= 2 && !simultaneous) {
-    // Independent series in one file: no correlation.
+    groups.push_back(std::move(g));
   }
-
   Section corr = top.Sub("correlations", false);
   if (corr.exists()) {
     for (const auto& [key, node] : corr.table()) {
-      const std::string gname(key.str());
-      Section g = corr.Sub(gname, true);
-      g.set_hint("inputs, matrix");
-      const toml::array* names = g.Require("inputs").as_array();
-      if (names == nullptr || names->size() < 2) {
-        throw InputError(g.Where("inputs") + ": expected an array of at least 2 input names");
-      }
-      std::vector<int> index;
-      for (const toml::node& e : *names) {
-        const std::string n = AsString(e, g.Where("inputs"));
-        const int i = FindParam(*model, n);
-        if (i < 0) throw InputError(g.Where("inputs") + ": model '" + model->name + "' has no input '" + n + "'");
-        if (!owner[i].empty()) {
-          throw InputError(g.Where("inputs") + ": input '" + n + "' is already correlated by " + owner[i]);
-        }
-        owner[i] = "correlations." + gname;
-        index.push_back(i);
-      }
-      const int m = static_cast<int>(index.size());
-      const toml::array* rows = g.Require("matrix").as_array();
-      if (rows == nullptr || static_cast<int>(rows->size()) != m) {
-        throw InputError(g.Where("matrix") + ": expected " + std::to_string(m) + " rows of " + std::to_string(m));
-      }
-      Eigen::MatrixXd c(m, m);
-      for (int a = 0; a < m; ++a) {
-        const toml::array* row = (*rows)[a].as_array();
-        if (row == nullptr || static_cast<int>(row->size()) != m) {
-          throw InputError(g.Where("matrix") + ": row " + std::to_string(a + 1) + " must have " + std::to_string(m) + " entries");
-        }
-        for (int b = 0; b < m; ++b) c(a, b) = AsNumber((*row)[b], g.Where("matrix"));
-      }
-      for (int a = 0; a < m; ++a) {
-        for (int b = 0; b < m; ++b) {
-          if (!(std::abs(c(a, b)) <= 1.0) || c(a, b) != c(b, a) || (a == b && c(a, b) != 1.0)) {
-            throw InputError(g.Where("matrix") + ": must be symmetric, 1 on the diagonal, entries in [-1, 1]");
-          }
-        }
-      }
-      Eigen::MatrixXd factor;
-      if (!model_internal::CorrelationFactor(c, factor)) {
-        throw InputError(g.Where("matrix") + ": correlation matrix is not positive semi-definite");
-      }
-      for (int a = 0; a < m; ++a) {
-        for (int b = 0; b < m; ++b) job.correlation(index[a], index[b]) = c(a, b);
-      }
-      g.Finish();
-      corr.Get(gname);
+      (void)node;
+      groups.push_back(ReadCorrelationGroup(corr, std::string(key.str()), "inputs"));
     }
     corr.Finish();
   }
+  std::vector<std::string> names;
+  for (const UncertainInput& in : job.inputs) names.push_back(in.name);
+  job.correlation = SharedCorrelation(names, groups);
 
   // What Monte Carlo samples: Type A alone -> t_nu with scale u (JCGM 101 6.4.9.2); simultaneous
   // ones stay normal (scale) and are drawn as one multivariate t (JCGM 102 6.5.3).

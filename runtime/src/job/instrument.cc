@@ -63,11 +63,9 @@ void ParseLengthPlusRatio(const std::string& text, const std::string& where, dou
   CheckUncertainty(b, where);
 }
 
-namespace {
-
 // One correlation group table: `<inputs_key>` = [names...] and matrix = [[...], ...] (m x m
 // numbers). What the names and the matrix mean is checked with every other group by
-// SharedCorrelation (vlt/measurement_model.h), the one checker of both spellings.
+// SharedCorrelation (vlt/measurement_model.h), the one checker of every spelling.
 CorrelationGroup ReadCorrelationGroup(Section& parent, const std::string& name,
                                       const std::string& inputs_key) {
   Section g = parent.Sub(name, true);
@@ -100,8 +98,6 @@ CorrelationGroup ReadCorrelationGroup(Section& parent, const std::string& name,
   g.Finish();
   return group;
 }
-
-}  // namespace
 
 void ReadTracker(Section& top, Job& job) {
   Section tracker = top.Sub("tracker", true);

@@ -82,6 +82,10 @@ void ReadUncertain(Section& parent, std::string_view key, Dimension value_dim, D
                    UncertainInput& input);
 UncertainInput MakeInput(std::string name, std::string group, Dimension dim, double estimate, double u);
 
+// One [<...>.correlations.<name>] table: `<inputs_key>` = [names] and matrix = [[...]]; the
+// meaning is checked by SharedCorrelation (vlt/measurement_model.h) with the other groups.
+CorrelationGroup ReadCorrelationGroup(Section& parent, const std::string& name, const std::string& inputs_key);
+
 // [job] name, description (optional; the name defaults to `default_name`); job.cc.
 void ReadJobMeta(Section& top, std::string& name, std::string* description, const std::string& default_name);
 
