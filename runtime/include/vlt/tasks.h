@@ -43,6 +43,14 @@ struct TaskSpec {
   // Tolerances of some of its quantities (vlt/conformity.h): quantity name (TaskOutputs(kind),
   // e.g. "distance", "flatness", "radius") and the interval, SI units.
   std::vector<std::pair<std::string, Tolerance>> tolerances;
+
+  // The tolerance of `quantity`, or nullptr.
+  const Tolerance* ToleranceOf(std::string_view quantity) const {
+    for (const auto& [name, limits] : tolerances) {
+      if (name == quantity) return &limits;
+    }
+    return nullptr;
+  }
 };
 
 // Indices of spec.points in `point_names`. Throws InputError "<where>: task '<name>': point

@@ -170,10 +170,7 @@ std::string TasksCsv(const Results& r) {
       }
       // Conformity (vlt/conformity.h): limits in the value's unit (mm for lengths).
       const std::optional<ConformityDecision>* c = q < t.conformity.size() ? &t.conformity[q] : nullptr;
-      const Tolerance* tol = nullptr;
-      for (const auto& [name, limits] : t.spec.tolerances) {
-        if (name == t.gum.quantities[q]) tol = &limits;
-      }
+      const Tolerance* tol = t.spec.ToleranceOf(t.gum.quantities[q]);
       if (c != nullptr && c->has_value() && tol != nullptr) {
         if (std::isinf(tol->lower)) row.Empty(); else row << tol->lower * vs;
         if (std::isinf(tol->upper)) row.Empty(); else row << tol->upper * vs;

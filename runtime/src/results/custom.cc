@@ -19,10 +19,6 @@ namespace {
 
 using json = nlohmann::ordered_json;
 
-double Seconds(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 // JSON has no infinity: an infinite number of degrees of freedom is written as null.
 json Dof(double nu) { return std::isfinite(nu) ? json(nu) : json(nullptr); }
 std::string DofText(double nu) { return std::isfinite(nu) ? internal::Num(nu) : "inf"; }
@@ -56,7 +52,7 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
   } catch (const NumericalError& e) {
     throw NumericalError(job.file + ": " + e.what());
   }
-  r.gum_seconds = Seconds(gum_start);
+  r.gum_seconds = internal::Seconds(gum_start);
   r.outputs.resize(model.num_outputs);
   for (int o = 0; o < model.num_outputs; ++o) {
     r.outputs[o].gum = r.gum.outputs[o];
@@ -93,7 +89,7 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
     } catch (const NumericalError& e) {
       throw NumericalError(job.file + ": " + e.what());
     }
-    r.mcm_seconds = Seconds(mcm_start);
+    r.mcm_seconds = internal::Seconds(mcm_start);
     r.has_mcm = true;
     std::vector<std::string> outcomes;
     for (int o = 0; o < model.num_outputs; ++o) {

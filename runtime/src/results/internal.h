@@ -1,6 +1,7 @@
 // results/internal.h — shared by results/*.cc and report/html.cc.
 #pragma once
 
+#include <chrono>
 #include <string>
 #include <vector>
 
@@ -10,6 +11,9 @@
 #include "vlt/results.h"
 
 namespace vlt::internal {
+
+// Wall time since `since`, s.
+double Seconds(std::chrono::steady_clock::time_point since);
 
 // The Monte Carlo settings of a run: the job's [monte_carlo] with the command line's overrides.
 McmSettings McmSettingsFor(const MonteCarloSettings& job, const RunOptions& options, int threads);

@@ -228,10 +228,7 @@ json Task(const TaskResult& t) {
   for (std::size_t q = 0; q < t.conformity.size(); ++q) {
     if (!t.conformity[q]) continue;
     const ConformityDecision& d = *t.conformity[q];
-    Tolerance tol;
-    for (const auto& [name, limits] : t.spec.tolerances) {
-      if (name == t.gum.quantities[q]) tol = limits;
-    }
+    const Tolerance tol = *t.spec.ToleranceOf(t.gum.quantities[q]);
     auto limit = [](double v) { return std::isinf(v) ? json(nullptr) : json(v); };
     conformity.push_back({{"quantity", t.gum.quantities[q]},
                           {"tolerance", {limit(tol.lower), limit(tol.upper)}},

@@ -21,13 +21,9 @@ McmSettings internal::McmSettingsFor(const MonteCarloSettings& job, const RunOpt
   settings.quiet = !options.progress;
   return settings;
 }
-namespace {
-
-double Seconds(std::chrono::steady_clock::time_point since) {
+double internal::Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
-
-}  // namespace
 
 std::vector<PointReadings> JobReadings(const Job& job, const MeasurementModel& model) {
   std::vector<PointReadings> readings;
@@ -213,7 +209,7 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
       throw NumericalError(job.file + ": task[" + std::to_string(t) + "]: " + e.what());
     }
   }
-  results.gum_seconds = Seconds(gum_start);
+  results.gum_seconds = internal::Seconds(gum_start);
 
   // Monte Carlo (JCGM 101 / 102) on the same model, and the validation of JCGM 101 8.
   if (options.monte_carlo && job.monte_carlo.enabled) {
@@ -243,7 +239,7 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
     }
     auto mcm_start = std::chrono::steady_clock::now();
     McmResult mcm = RunMcm(mcm_job, settings);
-    results.mcm_seconds = Seconds(mcm_start);
+    results.mcm_seconds = internal::Seconds(mcm_start);
     results.has_mcm = true;
 
     const std::size_t np = results.points.size();

@@ -116,10 +116,7 @@ std::string SummaryText(const Results& r) {
     for (std::size_t q = 0; q < t.conformity.size(); ++q) {
       if (!t.conformity[q]) continue;
       const ConformityDecision& d = *t.conformity[q];
-      Tolerance tol;
-      for (const auto& [name, limits] : t.spec.tolerances) {
-        if (name == t.gum.quantities[q]) tol = limits;
-      }
+      const Tolerance tol = *t.spec.ToleranceOf(t.gum.quantities[q]);
       const bool length = t.gum.units[q] == "m";
       Tolerance shown = tol;
       if (length) {
