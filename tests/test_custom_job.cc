@@ -178,6 +178,22 @@ TEST(CustomJob, Jcgm101MassCalibration) {
   EXPECT_EQ(o.validation.outcome, "not validated");
 }
 
+// JCGM 101 9.2.3 and 9.2.4 (tables 3 and 4): the MCM 95 % intervals of sums with rectangular
+// inputs, [-3.88, 3.88] and [-17.0, 17.0], against the GUM's +-3.92 and +-19.89.
+TEST(CustomJob, Jcgm101AdditiveCases) {
+  const CustomResults rect = RunCustomJob(LoadCustomJob(kExamples + "jcgm101_additive_rectangular.toml"), Trials(1000000));
+  EXPECT_NEAR(rect.outputs[0].gum.U, 3.92, 0.005);
+  EXPECT_NEAR(rect.outputs[0].mcm.symmetric.low, -3.88, 0.01);
+  EXPECT_NEAR(rect.outputs[0].mcm.symmetric.high, 3.88, 0.01);
+  const CustomResults dom = RunCustomJob(LoadCustomJob(kExamples + "jcgm101_additive_dominant.toml"), Trials(1000000));
+  EXPECT_NEAR(dom.outputs[0].gum.u, 10.15, 0.005);
+  EXPECT_NEAR(dom.outputs[0].gum.U, 19.89, 0.005);
+  EXPECT_NEAR(dom.outputs[0].mcm.u, 10.15, 0.02);
+  EXPECT_NEAR(dom.outputs[0].mcm.symmetric.low, -17.0, 0.05);
+  EXPECT_NEAR(dom.outputs[0].mcm.symmetric.high, 17.0, 0.05);
+  EXPECT_EQ(dom.outputs[0].validation.outcome, "not validated");
+}
+
 // Type A from an inline array: mean, s / sqrt(n), nu = n - 1 (JCGM 100 4.2), t for Monte Carlo.
 TEST(CustomJob, TypeAInlineObservations) {
   const CustomJob job = Parse(R"(
