@@ -69,8 +69,13 @@ void ReadTasks(Section& top, Job& job) {
     if (spec.name.empty()) throw InputError(t.Where("name") + ": empty task name");
     if (!seen.insert(spec.name).second) throw InputError(t.Where("name") + ": task '" + spec.name + "' defined twice");
     const toml::node& pts = t.Require("points");
-    if (!pts.is_array()) throw InputError(t.Where("points") + ": expected an array of point names");
-    for (const toml::node& p : *pts.as_array()) spec.points.push_back(AsString(p, t.Where("points")));
+    if (pts.is_string() && *pts.value<std::string>() == "all") {
+      spec.points = point_names;  // a scan: every point of the job, in the job's order
+    } else if (!pts.is_array()) {
+      throw InputError(t.Where("points") + ": expected an array of point names or \"all\"");
+    } else {
+      for (const toml::node& p : *pts.as_array()) spec.points.push_back(AsString(p, t.Where("points")));
+    }
     ReadTaskTolerances(t, spec);
     t.Finish();
     job.task_points.push_back(ResolveTaskPoints(spec, point_names, t.Where("points")));
