@@ -478,3 +478,28 @@ TEST_F(Writing, SigtermWhileWritingRemovesTheStagingDirectory) {
 
 }  // namespace
 }  // namespace vlt
+
+namespace vlt {
+namespace {
+
+// A job too large for the memory is refused before computing, with one line naming the file,
+// the size and what would fit (issue: 10^6 points died of std::bad_alloc after 18 minutes).
+TEST(Results, JobTooLargeForMemoryIsAnInputError) {
+  const Job job = ParseJob(kJob, "results.toml", ".");
+  const std::uint64_t need = EstimateJobMemory(job);
+  // 4 points of a mirror job with environment, pose and thermal: 3 + 20 + 4 + 6 + 2 rows each.
+  EXPECT_EQ(need, kJobBaseBytes + 4 * (3 + 20 + 4 + 6 + 2) * kBytesPerBudgetRow);
+  EXPECT_NO_THROW(CheckJobMemory(job, need));
+  try {
+    CheckJobMemory(job, need - 1);
+    FAIL();
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    EXPECT_EQ(m.rfind("results.toml: plan: this job needs about ", 0), 0u) << m;
+    EXPECT_NE(m.find("split it into jobs of at most 3 points"), std::string::npos) << m;
+    EXPECT_EQ(m.find('\n'), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace vlt

@@ -109,8 +109,20 @@ struct Results {
   int inconclusive_points = 0;
 };
 
-// Runs the whole job. Throws InputError / NumericalError (nothing is written here).
+// Runs the whole job. Throws InputError / NumericalError (nothing is written here). Refuses
+// (InputError, before computing) a job whose estimated memory exceeds what is available.
 Results RunJob(const Job& job, const RunOptions& options = {});
+
+// Memory a run of `job` needs, bytes: kJobBaseBytes plus kBytesPerBudgetRow per budget row of
+// every point (3 readings + the shared inputs), measured (docs/performance.md "Memory of a job").
+inline constexpr std::uint64_t kJobBaseBytes = std::uint64_t{64} << 20;
+inline constexpr std::uint64_t kBytesPerBudgetRow = 7900;
+std::uint64_t EstimateJobMemory(const Job& job);
+// MemAvailable of /proc/meminfo (else the physical memory), bytes.
+std::uint64_t AvailableMemory();
+// InputError "<file>: plan: this job needs about X GiB of memory (...) and Y GiB are available;
+// split it into jobs of at most N points" when EstimateJobMemory(job) > available_bytes.
+void CheckJobMemory(const Job& job, std::uint64_t available_bytes);
 
 // ---------------------------------------------------------------------------------------------
 // A custom-model job (vlt/custom_job.h, docs/custom-models.md): files outputs.csv, budget.csv,

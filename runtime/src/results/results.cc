@@ -3,6 +3,8 @@
 #include "vlt/results.h"
 
 #include <chrono>
+#include <cstdio>
+#include <unistd.h>
 #include <limits>
 #include <cmath>
 
@@ -152,7 +154,55 @@ void DecideTaskConformity(TaskResult& task) {
 
 }  // namespace
 
+std::uint64_t EstimateJobMemory(const Job& job) {
+  // Measured (docs/performance.md "Memory of a job"): about 7.7 kB per budget row of a point
+  // (3 readings + the shared inputs) for the point's results, its rows in results.json (DOM and
+  // text), budget.csv and report.html, which are all held until the output is committed.
+  const std::uint64_t shared = static_cast<std::uint64_t>(job.setup.model ? job.setup.model->num_params : 0) +
+                               (job.setup.environment ? 4 : 0) + (job.setup.pose ? 6 : 0) +
+                               (job.setup.thermal ? 2 : 0);
+  return kJobBaseBytes + static_cast<std::uint64_t>(job.points.size()) * (3 + shared) * kBytesPerBudgetRow;
+}
+
+std::uint64_t AvailableMemory() {
+  // Linux: MemAvailable of /proc/meminfo (kB); else the physical memory.
+  if (std::FILE* f = std::fopen("/proc/meminfo", "r")) {
+    char line[256];
+    unsigned long long kb = 0;
+    bool found = false;
+    while (std::fgets(line, sizeof line, f)) {
+      if (std::sscanf(line, "MemAvailable: %llu kB", &kb) == 1) {
+        found = true;
+        break;
+      }
+    }
+    std::fclose(f);
+    if (found) return static_cast<std::uint64_t>(kb) * 1024;
+  }
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && page > 0 ? static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page)
+                               : std::numeric_limits<std::uint64_t>::max();
+}
+
+void CheckJobMemory(const Job& job, std::uint64_t available_bytes) {
+  const std::uint64_t need = EstimateJobMemory(job);
+  if (need <= available_bytes) return;
+  const double gib = 1024.0 * 1024.0 * 1024.0;
+  const std::uint64_t per_point = job.points.empty() ? 1 : (need - kJobBaseBytes) / job.points.size();
+  const std::uint64_t fits = available_bytes > kJobBaseBytes ? (available_bytes - kJobBaseBytes) / per_point : 0;
+  char text[512];
+  std::snprintf(text, sizeof text,
+                ": this job needs about %.1f GiB of memory (%zu points x %.0f kB: every point's budget is held "
+                "for results.json, budget.csv and report.html) and %.1f GiB are available; split it into "
+                "jobs of at most %llu points",
+                static_cast<double>(need) / gib, job.points.size(), static_cast<double>(per_point) / 1024.0,
+                static_cast<double>(available_bytes) / gib, static_cast<unsigned long long>(fits));
+  throw InputError(job.file + (job.mode == JobMode::kPlan ? ": plan" : ": readings") + text);
+}
+
 Results RunJob(const Job& job, const RunOptions& options) {
+  // A job too large for memory fails here, before computing, not with std::bad_alloc.
+  CheckJobMemory(job, AvailableMemory());
   try {
     return RunJobUnplaced(job, options);
   } catch (const NumericalError& e) {
