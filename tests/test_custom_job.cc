@@ -163,6 +163,27 @@ TEST(CustomJob, GumH1EffectiveDegreesOfFreedom) {
   EXPECT_NEAR(expected, 0.975, 0.005);
 }
 
+// The second-order terms of JCGM 100 5.1.2 note against the published values: GUM H.1.7
+// (u_c = 34 nm with them; the terms are l_s u(dalpha) u(theta) and l_s u(alpha_s) u(dtheta),
+// closed form here) and JCGM 101 table 7 (GUF with the second-order terms: 0.0750 mg).
+TEST(CustomJob, SecondOrderTermsPublished) {
+  const CustomResults h1 = RunCustomJob(LoadCustomJob(kExamples + "gum_h1_end_gauge.toml"), NoMcm());
+  const CustomOutput& l = h1.outputs[0].gum;
+  const double ls = 0.050000623;
+  const double closed = std::pow(ls * 0.58e-6 * 0.41, 2) + std::pow(ls * 1.2e-6 * 0.029, 2);
+  EXPECT_NEAR(l.second_order_variance, closed, 1e-6 * closed);
+  EXPECT_NEAR(std::sqrt(l.u * l.u + l.second_order_variance), 34e-9, 0.5e-9);
+  EXPECT_FALSE(l.gum_reliable);
+  const CustomResults mass = RunCustomJob(LoadCustomJob(kExamples + "jcgm101_mass.toml"), NoMcm());
+  const CustomOutput& m = mass.outputs[0].gum;
+  EXPECT_NEAR(std::sqrt(m.u * m.u + m.second_order_variance), 0.0750, 0.00005);
+  EXPECT_FALSE(m.gum_reliable);
+  // A linear model has none.
+  const CustomResults add = RunCustomJob(Parse("[model]\nname = \"jcgm101_additive\"\n"), NoMcm());
+  EXPECT_EQ(add.outputs[0].gum.second_order_variance, 0.0);
+  EXPECT_TRUE(add.outputs[0].gum.gum_reliable);
+}
+
 // JCGM 101 9.3 mass calibration (table 7): GUF u = 0.0539 mg, MCM u = 0.0754 mg, shortest 95 %
 // interval [1.0834, 1.3825] mg; the first-order GUM is not validated.
 TEST(CustomJob, Jcgm101MassCalibration) {

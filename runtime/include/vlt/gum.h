@@ -249,6 +249,14 @@ struct CustomOutput {
   double dof_effective = std::numeric_limits<double>::infinity();
   double k = 0.0;
   double U = 0.0;  // k u
+  // Non-linearity (JCGM 100 5.1.2 note), as CheckSecondOrder does for points: the leading
+  // second-order variance u2^2 = 1/2 ||F^T H F||_F^2 (H the Hessian of the output, F the factor of
+  // the input covariance; Richardson-extrapolated central differences of the generated Jacobian
+  // at one and half a standard uncertainty), its ratio to u^2, and gum_reliable = ratio <= kSecondOrderThreshold. For GUM H.1
+  // sqrt(u^2 + u2^2) is the 34 nm of H.1.7; for JCGM 101 9.3 the 0.0750 mg of its table 7.
+  double second_order_variance = 0.0;
+  double second_order_ratio = 0.0;
+  bool gum_reliable = true;
   std::vector<BudgetRow> budget;  // only .sensitivity(0), .contribution(0), .variance(0),
                                   // .share(0) are used (scalar output); sorted by share
 };

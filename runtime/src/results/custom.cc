@@ -128,14 +128,17 @@ using internal::Num;
 
 std::string OutputsCsv(const CustomResults& r) {
   std::ostringstream out;
-  out << "output,unit,estimate,u,dof_effective,k,U,gum_low,gum_high,mcm_mean,mcm_u,mcm_symmetric_low,"
+  out << "output,unit,estimate,u,dof_effective,k,U,gum_low,gum_high,u_with_second_order,second_order_ratio,"
+         "gum_reliable,mcm_mean,mcm_u,mcm_symmetric_low,"
          "mcm_symmetric_high,mcm_shortest_low,mcm_shortest_high,validation,d_low,d_high,delta,"
          "tolerance_lower,tolerance_upper,conformity,probability_of_conformity_gum,"
          "probability_of_conformity_mcm\n";
   for (const CustomOutputResult& o : r.outputs) {
     const CustomOutput& g = o.gum;
     out << g.name << "," << g.unit << "," << Num(g.estimate) << "," << Num(g.u) << "," << DofText(g.dof_effective)
-        << "," << Num(g.k) << "," << Num(g.U) << "," << Num(g.estimate - g.U) << "," << Num(g.estimate + g.U) << ",";
+        << "," << Num(g.k) << "," << Num(g.U) << "," << Num(g.estimate - g.U) << "," << Num(g.estimate + g.U) << ","
+        << Num(std::sqrt(g.u * g.u + g.second_order_variance)) << "," << Num(g.second_order_ratio) << ","
+        << (g.gum_reliable ? "true" : "false") << ",";
     if (o.has_mcm) {
       out << Num(o.mcm.mean) << "," << Num(o.mcm.u) << "," << Num(o.mcm.symmetric.low) << ","
           << Num(o.mcm.symmetric.high) << "," << Num(o.mcm.shortest.low) << "," << Num(o.mcm.shortest.high) << ","
@@ -232,7 +235,11 @@ json ResultsJsonObject(const CustomResults& r) {
     json e{{"name", g.name},
            {"unit", g.unit},
            {"gum", {{"estimate", g.estimate}, {"u", g.u}, {"dof_effective", Dof(g.dof_effective)}, {"k", g.k},
-                    {"U", g.U}, {"interval", {g.estimate - g.U, g.estimate + g.U}}, {"budget", budget}}}};
+                    {"U", g.U}, {"interval", {g.estimate - g.U, g.estimate + g.U}},
+                    {"second_order", {{"variance", g.second_order_variance}, {"ratio", g.second_order_ratio},
+                                      {"u_with_second_order", std::sqrt(g.u * g.u + g.second_order_variance)},
+                                      {"threshold", kSecondOrderThreshold}, {"gum_reliable", g.gum_reliable}}},
+                    {"budget", budget}}}};
     if (o.has_mcm) {
       e["mcm"] = {{"mean", o.mcm.mean}, {"u", o.mcm.u}, {"value_at_estimates", o.mcm.value_at_estimates},
                   {"symmetric_interval", {o.mcm.symmetric.low, o.mcm.symmetric.high}},
@@ -328,7 +335,8 @@ std::string ReportHtmlText(const CustomResults& r) {
   if (any_corr) h << ".</p>\n";
   h << "<h2>Results</h2>\n<table><tr><th class=l>output</th><th class=l>unit</th><th>y (GUM)</th><th>u</th>"
        "<th>&nu;<sub>eff</sub></th><th>k</th><th>U</th><th>MCM mean</th><th>MCM u</th>"
-       "<th>MCM symmetric interval</th><th>MCM shortest interval</th><th class=l>GUM vs MCM</th></tr>\n";
+       "<th>MCM symmetric interval</th><th>MCM shortest interval</th><th class=l>GUM vs MCM</th>"
+       "<th class=l>linearisation (JCGM 100 5.1.2 note)</th></tr>\n";
   for (const CustomOutputResult& o : r.outputs) {
     const CustomOutput& g = o.gum;
     h << "<tr><td class=l>" << Esc(g.name) << "</td><td class=l>" << Esc(g.unit) << "</td><td>" << Num(g.estimate)
@@ -342,6 +350,10 @@ std::string ReportHtmlText(const CustomResults& r) {
     } else {
       h << "<td></td><td></td><td></td><td></td><td class=l>Monte Carlo not run</td>";
     }
+    h << "<td class=\"l " << (g.gum_reliable ? "ok" : "bad") << "\">"
+      << (g.gum_reliable ? "reliable" : "GUM NOT RELIABLE") << ": second-order terms "
+      << internal::Sig(100.0 * g.second_order_ratio, 3) << " % of u&sup2;, u with them "
+      << internal::Sig(std::sqrt(g.u * g.u + g.second_order_variance), 4) << "</td>";
     h << "</tr>\n";
   }
   h << "</table>\n";
@@ -427,6 +439,12 @@ std::string SummaryText(const CustomResults& r) {
     const CustomOutput& g = o.gum;
     std::string verdict = !o.has_mcm ? "not run" : o.validation.outcome == "not validated" ? "NOT validated"
                                                                                           : o.validation.outcome;
+    if (!g.gum_reliable) {
+      // JCGM 100 5.1.2 note, computed without Monte Carlo: said with --no-mcm too.
+      char flag[96];
+      std::snprintf(flag, sizeof flag, "GUM NOT RELIABLE (2nd order %.3g x u^2); ", g.second_order_ratio);
+      verdict = flag + verdict;
+    }
     std::snprintf(line, sizeof line, "%-16s %-6s %17.10g %11.4g %7s %6.3f %11.4g %11s  %s\n", g.name.c_str(),
                   g.unit.c_str(), g.estimate, g.u, DofText(std::floor(g.dof_effective * (1.0 + 1e-9))).c_str(), g.k, g.U,
                   o.has_mcm ? internal::Sig(o.mcm.u, 4).c_str() : "", verdict.c_str());
