@@ -7,7 +7,8 @@ VLT_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 VLT_BUILD_PACKAGES=(g++ cmake make pkg-config git
   libginac-dev libeigen3-dev libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev librandom123-dev libceres-dev
-  libssl-dev)
+  libssl-dev
+  python3-numpy)  # bench/numpy_baseline.py: the numpy baseline of the Monte Carlo benchmark
 # plotly.js for report.html comes from the npm registry (`npm ci` at configure time). Debian's
 # nodejs + npm are installed only when no `npm` is on the PATH: a machine may already have a
 # Node.js from elsewhere, and Debian's npm package conflicts with it.
