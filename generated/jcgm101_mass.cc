@@ -66,7 +66,7 @@ void ForwardBatch(std::size_t n, [[maybe_unused]] const double* const* readings,
 
 const QuantityInfo kParams[] = {
     {"m_Rc", "mg", "mass",
-     "Conventional mass of the reference weight, minus nothing: 100 000.000 mg (JCGM 101 table 6)",
+     "Conventional mass of the reference weight R: 100 000.000 mg (JCGM 101 table 6)",
      100000.0, 0.05, "normal", 0.0},
     {"delta_m_Rc", "mg", "mass",
      "Mass of a small weight added to R to balance it with W (JCGM 101 table 6)",

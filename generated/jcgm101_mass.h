@@ -5,7 +5,7 @@
 // Readings:
 //   (none)
 // Inputs:
-//   0  m_Rc      [mg]    estimate 100000.0, u 0.05 (normal) — Conventional mass of the reference weight, minus nothing: 100 000.000 mg (JCGM 101 table 6)
+//   0  m_Rc      [mg]    estimate 100000.0, u 0.05 (normal) — Conventional mass of the reference weight R: 100 000.000 mg (JCGM 101 table 6)
 //   1  delta_m_Rc [mg]    estimate 1.234, u 0.02 (normal) — Mass of a small weight added to R to balance it with W (JCGM 101 table 6)
 //   2  rho_a     [kg/m^3]estimate 1.2, u 0.05773502691896258 (rectangular) — Air density, rectangular on [1.10, 1.30] kg/m^3 (JCGM 101 table 6)
 //   3  rho_W     [kg/m^3]estimate 8000.0, u 577.3502691896258 (rectangular) — Density of the weight W, rectangular on [7000, 9000] kg/m^3 (JCGM 101 table 6)

@@ -47,3 +47,10 @@ add_test(NAME cli_custom_simulate_point
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=simulate;--model;jcgm101_mass;--point;1,1,1"
           -DOUT=${_custom_out}/custom_simulate_point "-DEXPECT=--point: 'jcgm101_mass' is a custom model"
           -P ${_custom_cli}/expect_error.cmake)
+
+# A custom job run twice into the same directory: the second run replaces the first set (the
+# directory holds only files vlt writes).
+add_test(NAME cli_custom_rerun_same_directory
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=run;${CMAKE_SOURCE_DIR}/examples/custom/jcgm101_mass.toml;--trials;10000;-o;${_custom_out}/custom_rerun"
+          -DOUT=${_custom_out}/custom_rerun -P ${_custom_cli}/run_twice.cmake)

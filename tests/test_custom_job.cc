@@ -4,6 +4,7 @@
 // the normal distribution function, and bad input.
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -56,6 +57,13 @@ TEST(StudentTCoverageFactor, TableG2) {
   EXPECT_NEAR(StudentTCoverageFactor(0.9973, 5), 5.51, 0.005);
   EXPECT_DOUBLE_EQ(StudentTCoverageFactor(0.95, std::numeric_limits<double>::infinity()),
                    NormalCoverageFactor(0.95));
+  // Huge nu: the normal k (the incomplete beta function cannot resolve 1e15).
+  EXPECT_NEAR(StudentTCoverageFactor(0.95, 1e15), NormalCoverageFactor(0.95), 1e-9);
+  EXPECT_NEAR(StudentTCoverageFactor(0.95, 1e6), NormalCoverageFactor(0.95), 1e-5);
+  // Heavy tails, closed forms: nu = 1 (Cauchy) tan(pi p / 2); nu = 2 p sqrt(2 / (1 - p^2)).
+  EXPECT_NEAR(StudentTCoverageFactor(0.99999, 1), std::tan(0.5 * M_PI * 0.99999), 1e-6);
+  EXPECT_NEAR(StudentTCoverageFactor(0.95, 2), 4.303, 0.0005);           // table G.2
+  EXPECT_NEAR(StudentTCoverageFactor(0.95, 2.000001), 4.303, 0.0005);    // the numerical path agrees
   // Non-integer nu lies between its neighbours.
   const double k = StudentTCoverageFactor(0.95, 4.5);
   EXPECT_LT(k, StudentTCoverageFactor(0.95, 4));
@@ -107,22 +115,67 @@ TEST(CustomJob, GumH2PublishedValues) {
   EXPECT_NEAR(r.region->gum_k, std::sqrt(7.814727903251178), 1e-9);  // chi2_3(0.95)
 }
 
-// Monte Carlo of GUM H.2: the means are a multivariate t with nu = 4 (JCGM 102 6.5.3), whose
-// covariance is nu / (nu - 2) = 2 times the GUM's: the Monte Carlo u of the nearly linear R, X,
-// Z is sqrt 2 times the GUM's, and their correlations are the GUM's.
-TEST(CustomJob, GumH2MonteCarloIsMultivariateT) {
-  const CustomJob job = LoadCustomJob(kExamples + "gum_h2_impedance.toml");
-  const CustomResults r = RunCustomJob(job, Trials(400000));
-  for (const CustomOutputResult& o : r.outputs) {
-    ASSERT_TRUE(o.has_mcm);
-    // Standard error of a standard deviation of a t_4 sample is large (infinite kurtosis): 3 %.
-    EXPECT_NEAR(o.mcm.u / o.gum.u, std::sqrt(2.0), 0.04 * std::sqrt(2.0)) << o.gum.name;
-    EXPECT_NEAR(o.mcm.mean, o.gum.estimate, 4.0 * o.mcm.u / std::sqrt(400000.0) + 1e-3 * o.gum.u);
+// Monte Carlo of GUM H.2 is refused: N = 3 inputs observed together n = 5 times give the
+// multivariate t of JCGM 102 6.5.3 nu = n - N = 2 degrees of freedom, no covariance.
+TEST(CustomJob, GumH2MonteCarloNeedsMoreObservations) {
+  CustomJob job = LoadCustomJob(kExamples + "gum_h2_impedance.toml");
+  EXPECT_FALSE(job.monte_carlo.enabled);  // the example says why
+  job.monte_carlo.enabled = true;
+  ASSERT_EQ(job.simultaneous_mcm_dof.size(), 1u);
+  EXPECT_EQ(job.simultaneous_mcm_dof[0], 2.0);
+  try {
+    (void)RunCustomJob(job, Trials(10000));
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("gum_h2_impedance.toml: observations: Monte Carlo needs at least N + 3 "
+                                         "simultaneous observations of N inputs"),
+              std::string::npos) << e.what();
   }
-  ASSERT_TRUE(r.region && r.region->has_mcm);
-  for (int a = 0; a < 3; ++a) {
-    for (int b = 0; b < 3; ++b) EXPECT_NEAR(r.region->mcm.correlation(a, b), r.gum.correlation(a, b), 0.01);
+}
+
+// The multivariate t of simultaneous observations (JCGM 102 6.5.3) against its covariance
+// Q / (n (n - N - 2)) computed here from the observations: n = 9 sets of N = 2 inputs x1, x2 of
+// the additive model, y = x1 + x2 + x3 + x4 with x3, x4 ~ N(0, 1):
+// var(y) = (Q11 + Q22 + 2 Q12) / (n (n - N - 2)) + 2.
+TEST(CustomJob, SimultaneousObservationsMultivariateT) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "vlt_test_custom_mvt";
+  std::filesystem::create_directories(dir);
+  const double q1[9] = {1.2, 0.7, 1.9, 1.4, 0.3, 1.1, 1.6, 0.9, 1.0};
+  const double q2[9] = {2.1, 1.8, 2.9, 2.2, 1.1, 2.4, 2.3, 2.0, 1.6};
+  {
+    std::ofstream csv(dir / "obs.csv");
+    csv << "a,b\n";
+    for (int k = 0; k < 9; ++k) csv << q1[k] << "," << q2[k] << "\n";
   }
+  const CustomJob job = ParseCustomJob(R"(
+[model]
+name = "jcgm101_additive"
+[observations]
+file = "obs.csv"
+simultaneous = true
+[inputs.x1]
+observations = "a"
+[inputs.x2]
+observations = "b"
+)", "job.toml", dir);
+  double m1 = 0, m2 = 0;
+  for (int k = 0; k < 9; ++k) m1 += q1[k] / 9, m2 += q2[k] / 9;
+  double q11 = 0, q22 = 0, q12 = 0;
+  for (int k = 0; k < 9; ++k) {
+    q11 += (q1[k] - m1) * (q1[k] - m1);
+    q22 += (q2[k] - m2) * (q2[k] - m2);
+    q12 += (q1[k] - m1) * (q2[k] - m2);
+  }
+  EXPECT_NEAR(job.correlation(0, 1), q12 / std::sqrt(q11 * q22), 1e-12);
+  EXPECT_EQ(job.simultaneous_mcm_dof[0], 7.0);
+  const CustomResults r = RunCustomJob(job, Trials(1000000));
+  const double var_mcm_expected = (q11 + q22 + 2 * q12) / (9.0 * (9.0 - 2.0 - 2.0)) + 2.0;
+  // The sample variance of 10^6 draws of a t_7 mixture: relative standard error below 0.3 %.
+  EXPECT_NEAR(r.outputs[0].mcm.u * r.outputs[0].mcm.u / var_mcm_expected, 1.0, 0.012);
+  // The GUM: u^2 = (Q11 + Q22 + 2 Q12) / (n (n - 1)) + 2, nu_eff from one component of nu = n - 1.
+  const double var_gum = (q11 + q22 + 2 * q12) / (9.0 * 8.0) + 2.0;
+  EXPECT_NEAR(r.outputs[0].gum.u * r.outputs[0].gum.u, var_gum, 1e-12 * var_gum);
+  std::filesystem::remove_all(dir);
 }
 
 // Chi-square draws for the multivariate t: mean nu, variance 2 nu (fractional nu, nu < 2 too).
@@ -158,9 +211,10 @@ TEST(CustomJob, GumH1EffectiveDegreesOfFreedom) {
   // probability of conformity Phi((T_U - y) / u) (JCGM 106 7.3.2, closed form here).
   ASSERT_TRUE(r.outputs[0].conformity.has_value());
   EXPECT_EQ(r.outputs[0].conformity->verdict, "undetermined");
-  const double expected = StandardNormalCdf((0.0500009 - l.estimate) / l.u) - StandardNormalCdf((0.05 - l.estimate) / l.u);
+  // With nu_eff = 16 the t distribution function (JCGM 106 7.3.3, as U = t_99(16) u).
+  const double expected = StudentTCdf((0.0500009 - l.estimate) / l.u, 16) - StudentTCdf((0.05 - l.estimate) / l.u, 16);
   EXPECT_NEAR(*r.outputs[0].conformity->probability_gum, expected, 1e-12);
-  EXPECT_NEAR(expected, 0.975, 0.005);
+  EXPECT_NEAR(expected, 0.966, 0.005);
 }
 
 // The second-order terms of JCGM 100 5.1.2 note against the published values: GUM H.1.7
@@ -401,6 +455,55 @@ seed = 5
   int with = 0;
   for (const auto& c : l.conformity) with += c.has_value() ? 1 : 0;
   EXPECT_EQ(with, 1);
+}
+
+// A form quantity without a GUM value (straightness of collinear nominal points, docs/tasks.md)
+// is decided from the Monte Carlo shortest interval; its GUM probability is absent.
+TEST(TaskConformity, FormQuantityDecidedByMonteCarlo) {
+  const std::string text = R"(
+[tracker]
+model = "mirror"
+[tracker.noise]
+range = "5 um + 0.5 um/m"
+azimuth = "0.5 arcsec"
+elevation = "0.5 arcsec"
+[plan]
+point = [ {name = "A", x = 2, y = -1, z = 0.2}, {name = "B", x = 3, y = 0, z = 0.2}, {name = "C", x = 4, y = 1, z = 0.2} ]
+[[task]]
+kind = "line"
+name = "edge"
+points = ["A", "B", "C"]
+[task.tolerance.straightness]
+upper = "LIMIT"
+[monte_carlo]
+trials = 20000
+seed = 2
+)";
+  auto run = [&](const std::string& limit) {
+    std::string t = text;
+    t.replace(t.find("LIMIT"), 5, limit);
+    return RunJob(ParseJob(t, "job.toml", "."));
+  };
+  const Results wide = run("1 mm");
+  const TaskResult& task = wide.tasks[0];
+  std::size_t q = 0;
+  while (task.gum.quantities[q] != "straightness") ++q;
+  ASSERT_FALSE(task.gum.differentiable[q]);
+  const ConformityDecision& d = *task.conformity[q];
+  EXPECT_FALSE(d.probability_gum.has_value());
+  EXPECT_EQ(d.verdict, "conforms");  // the whole Monte Carlo interval (tens of um) is below 1 mm
+  EXPECT_DOUBLE_EQ(*d.probability_mcm, 1.0);
+  // A limit inside the interval: undetermined, and the Monte Carlo probability in (0, 1).
+  const McmOutputResult& m = task.mcm[q];
+  const double mid = 0.5 * (m.shortest.low + m.shortest.high);
+  const Results tight = run(std::to_string(mid * 1e6) + " um");
+  const ConformityDecision& t = *tight.tasks[0].conformity[q];
+  EXPECT_EQ(t.verdict, "undetermined");
+  EXPECT_GT(*t.probability_mcm, 0.05);
+  EXPECT_LT(*t.probability_mcm, 0.95);
+  // Below the whole interval: does not conform.
+  const Results low = run(std::to_string(0.5 * m.shortest.low * 1e6) + " um");
+  EXPECT_EQ(low.tasks[0].conformity[q]->verdict, "does not conform");
 }
 
 TEST(TaskConformity, BadTolerance) {

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "job/job_detail.h"
 #include "vlt/error.h"
 #include "vlt/inverse.h"
 #include "vlt/models.h"
@@ -30,14 +31,14 @@ struct SimulateOptions {
   std::vector<std::string> assignments;
 };
 
-// The kind's dimension where vlt/units.h knows it; a plain number otherwise.
+// The kind's dimension where vlt/units.h knows it (job_detail::DimensionOfQuantity); a plain
+// number in the spec's unit otherwise (a custom model's "voltage").
 Dimension DimensionOf(const QuantityInfo& q) {
-  for (Dimension d : {Dimension::kLength, Dimension::kAngle, Dimension::kRatio, Dimension::kTemperature,
-                      Dimension::kTemperatureDifference, Dimension::kPressure, Dimension::kHumidity,
-                      Dimension::kFraction, Dimension::kPerKelvin, Dimension::kTime}) {
-    if (DimensionName(d) == q.quantity) return d;
+  try {
+    return job_detail::DimensionOfQuantity(q.quantity, "");
+  } catch (const InputError&) {
+    return Dimension::kDimensionless;
   }
-  return Dimension::kDimensionless;
 }
 
 std::array<double, 3> ParsePoint(const std::string& text) {

@@ -26,17 +26,20 @@ struct ConformityDecision {
   double acceptance_lower = 0.0;           // lower + U (-inf when one-sided)
   double acceptance_upper = 0.0;           // upper - U (+inf when one-sided)
   // JCGM 106 7.3.2: probability of conformity p_c = P(lower <= Y <= upper) for the normal PDF
-  // N(y, u^2) of the GUM (u = 0: 1 or 0); absent where the GUM gives no value (a form quantity
-  // at exact nominal points).
+  // N(y, u^2) of the GUM (u = 0: 1 or 0), or, with finite effective degrees of freedom, the
+  // scaled and shifted t_nu_eff(y, u^2) (JCGM 106 7.3.3; consistent with U = t_p(nu_eff) u);
+  // absent where the GUM gives no value (a form quantity at exact nominal points).
   std::optional<double> probability_gum;
   // The same from the Monte Carlo values (the fraction of the M trials inside the tolerance,
   // JCGM 106 7.2 with the MCM distribution function); absent without Monte Carlo.
   std::optional<double> probability_mcm;
 };
 
-// y, u: the GUM estimate and standard uncertainty; U: the expanded uncertainty (the guard band).
+// y, u: the GUM estimate and standard uncertainty; U: the expanded uncertainty (the guard band);
+// dof: the effective degrees of freedom of u (infinity: normal).
 ConformityDecision DecideConformity(const Tolerance& tolerance, double y, double u, double U,
-                                    std::optional<double> probability_mcm = std::nullopt);
+                                    std::optional<double> probability_mcm = std::nullopt,
+                                    double dof = std::numeric_limits<double>::infinity());
 
 // "[a, b] m", "<= b m", ">= a m" for reports.
 std::string DescribeTolerance(const Tolerance& tolerance, const std::string& unit);

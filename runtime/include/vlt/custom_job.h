@@ -44,8 +44,9 @@ struct CustomJob {
   std::vector<UncertainInput> inputs;
   // What the Monte Carlo method samples (JCGM 101 6.4.9 / JCGM 102 6.5.3): a Type A input on its
   // own is a scaled and shifted t with nu = n - 1, scale u (its standard deviation is
-  // u sqrt(nu / (nu - 2)), so n >= 4); simultaneous Type A inputs are normal with u = the scale,
-  // drawn as one multivariate t group (t_groups).
+  // u sqrt(nu / (nu - 2)), so n >= 4); N simultaneous Type A inputs are normal with u = their
+  // scale u sqrt((n - 1) / (n - N)), drawn as one multivariate t with nu = n - N
+  // (simultaneous_mcm_dof; a covariance exists for n >= N + 3).
   std::vector<UncertainInput> mcm_inputs;
   std::vector<CustomInputSource> sources;
   std::vector<double> dof;            // nu per input (infinity: known exactly, JCGM 100 G.4.2)
@@ -53,6 +54,7 @@ struct CustomJob {
   // Inputs of the same simultaneous observations (JCGM 100 5.2.3, H.2): their correlation is
   // the sample one (C.3.6 / eq. 17), one Welch-Satterthwaite component, one multivariate t.
   std::vector<std::vector<int>> simultaneous;
+  std::vector<double> simultaneous_mcm_dof;   // nu = n - N of each group's multivariate t
   std::vector<std::optional<Tolerance>> tolerances;   // per output
   MonteCarloSettings monte_carlo;
   OutputSettings output;

@@ -277,9 +277,10 @@ struct CustomUncertainty {
 //  - components: sets of inputs that count as ONE component of the Welch-Satterthwaite sum,
 //    with the smallest nu of its members, its variance sum_{i,j} c_i c_j u_i u_j r_ij: the inputs
 //    of the same simultaneous observations (nu = n - 1; the per-set evaluation of JCGM 100 H.2.4
-//    has the same nu). Inputs correlated through `correlation` but in no common set are merged
-//    into one component too (the formula assumes independent components; the smallest nu is the
-//    conservative choice, docs/custom-models.md).
+//    has the same nu). Other inputs are components of their own, also when `correlation`
+//    correlates them: their cross terms enter u_c but not the sum (the formula assumes
+//    independent components; merging would make nu_eff jump with a negligible r;
+//    docs/custom-models.md).
 struct InputDegreesOfFreedom {
   std::vector<double> dof;
   std::vector<std::vector<int>> components;

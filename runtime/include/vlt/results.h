@@ -158,6 +158,7 @@ struct CustomResults {
   std::vector<double> dof;
   Eigen::MatrixXd correlation;
   std::vector<std::vector<int>> simultaneous;
+  std::vector<double> simultaneous_mcm_dof;
   double coverage_probability = 0.95;
   int n_dig = 2;
   CustomUncertainty gum;

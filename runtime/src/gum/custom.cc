@@ -16,11 +16,10 @@ namespace vlt {
 
 namespace {
 
-// Components of the Welch-Satterthwaite sum (vlt/gum.h InputDegreesOfFreedom): the given sets,
-// merged with each other and with single inputs wherever `r` correlates inputs across them
-// (union-find). Returns the component index of every input.
-std::vector<int> WelchSatterthwaiteComponents(int n, const Eigen::MatrixXd& r,
-                                              const std::vector<std::vector<int>>& sets) {
+// Components of the Welch-Satterthwaite sum (vlt/gum.h InputDegreesOfFreedom): the given sets
+// (merged where they share an input, union-find), every other input on its own. Returns the
+// component index of every input.
+std::vector<int> WelchSatterthwaiteComponents(int n, const std::vector<std::vector<int>>& sets) {
   std::vector<int> parent(n);
   for (int i = 0; i < n; ++i) parent[i] = i;
   auto find = [&](int i) {
@@ -30,11 +29,6 @@ std::vector<int> WelchSatterthwaiteComponents(int n, const Eigen::MatrixXd& r,
   auto join = [&](int a, int b) { parent[find(a)] = find(b); };
   for (const std::vector<int>& set : sets) {
     for (std::size_t k = 1; k < set.size(); ++k) join(set[0], set[k]);
-  }
-  for (int a = 0; a < n; ++a) {
-    for (int b = a + 1; b < n; ++b) {
-      if (r(a, b) != 0.0) join(a, b);
-    }
   }
   std::vector<int> component(n);
   for (int i = 0; i < n; ++i) component[i] = find(i);
@@ -110,7 +104,7 @@ CustomUncertainty PropagateCustom(const ModelInfo& model, std::span<const Uncert
     }
   }
   const std::vector<int> component =
-      WelchSatterthwaiteComponents(num_inputs, r, degrees_of_freedom.components);
+      WelchSatterthwaiteComponents(num_inputs, degrees_of_freedom.components);
 
   Eigen::VectorXd y(num_outputs);
   Eigen::MatrixXd j(num_outputs, num_inputs);

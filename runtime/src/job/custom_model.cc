@@ -22,14 +22,17 @@ using namespace job_detail;
 
 namespace {
 
-// The dimension of a model quantity when vlt knows its units ("length", "temperature", ...);
-// none for quantities such as "voltage" (then values are plain numbers in the spec's unit).
-std::optional<Dimension> KnownDimension(std::string_view quantity) {
+// The dimension of a model quantity when vlt knows its units ("length", "temperature", ...) AND
+// the spec states it in vlt's unit of that kind (m, degC, ...): then job values may carry units.
+// None for quantities such as "voltage", or a length the spec gives in mm: values are plain
+// numbers in the spec's unit (a quantity string would be converted to vlt's unit, not the spec's).
+std::optional<Dimension> KnownDimension(const QuantityInfo& q) {
   try {
-    return DimensionOfQuantity(quantity, "");
+    const Dimension d = DimensionOfQuantity(q.quantity, "");
+    if (SiUnit(d) == q.unit) return d;
   } catch (const InputError&) {
-    return std::nullopt;
   }
+  return std::nullopt;
 }
 
 double Value(const toml::node& node, std::optional<Dimension> dim, const std::string& unit,
@@ -44,7 +47,7 @@ double Value(const toml::node& node, std::optional<Dimension> dim, const std::st
     v = AsNumber(node, where);
   }
   if (!std::isfinite(v) || std::abs(v) > kMaxMagnitude) {
-    throw InputError(where + ": beyond what vlt computes with (at most 1e12 in SI units)");
+    throw InputError(where + ": beyond what vlt computes with (at most 1e12 in the model's unit)");
   }
   return v;
 }
@@ -169,7 +172,7 @@ CustomJob ParseCustomJob(std::string_view text, const std::string& file,
                          "' (inputs: " + list + ")");
       }
       const QuantityInfo& q = model->params[i];
-      const std::optional<Dimension> dim = KnownDimension(q.quantity);
+      const std::optional<Dimension> dim = KnownDimension(q);
       UncertainInput& in = job.inputs[i];
       CustomInputSource& src = job.sources[i];
       if (!node.is_table()) {
@@ -204,7 +207,10 @@ CustomJob ParseCustomJob(std::string_view text, const std::string& file,
             throw InputError(s.Where("observations") + ": " + table->file + " has no column '" + column + "'");
           }
           for (const CsvRow& row : table->rows) {
-            o.values.push_back(CsvQuantity(row.fields[c], dim, 1.0, 0.0, table->Where(row) + ": column " + column));
+            const std::string where = table->Where(row) + ": column " + column;
+            const double v = CsvQuantity(row.fields[c], dim, 1.0, 0.0, where);
+            if (std::abs(v) > kMaxMagnitude) throw InputError(where + ": beyond what vlt computes with (at most 1e12)");
+            o.values.push_back(v);
           }
           o.from = table->file + ": column " + column;
           from_table.push_back(i);
@@ -280,9 +286,19 @@ CustomJob ParseCustomJob(std::string_view text, const std::string& file,
   for (const UncertainInput& in : job.inputs) names.push_back(in.name);
   job.correlation = SharedCorrelation(names, groups);
 
-  // What Monte Carlo samples: Type A alone -> t_nu with scale u (JCGM 101 6.4.9.2); simultaneous
-  // ones stay normal (scale) and are drawn as one multivariate t (JCGM 102 6.5.3).
+  // What Monte Carlo samples: Type A alone -> t_nu with scale u (JCGM 101 6.4.9.2); N simultaneous
+  // ones jointly the multivariate t of JCGM 102 6.5.3, t_nu(xbar, Q / (n (n - N))) with
+  // nu = n - N, Q = sum (q_k - qbar)(q_k - qbar)^T: the members stay normal with u = the scale
+  // s / sqrt(n) sqrt((n - 1) / (n - N)) and their sample correlation, drawn as one group.
   job.mcm_inputs = job.inputs;
+  for (std::size_t g = 0; g < job.simultaneous.size(); ++g) {
+    const double n = job.sources[job.simultaneous[g].front()].observations;
+    const double members = static_cast<double>(job.simultaneous[g].size());
+    job.simultaneous_mcm_dof.push_back(n - members);
+    for (int i : job.simultaneous[g]) {
+      job.mcm_inputs[i].u = n > members ? job.inputs[i].u * std::sqrt((n - 1.0) / (n - members)) : job.inputs[i].u;
+    }
+  }
   for (int i = 0; i < n_in; ++i) {
     if (job.sources[i].kind != "type A") continue;
     bool grouped = false;
@@ -310,7 +326,7 @@ CustomJob ParseCustomJob(std::string_view text, const std::string& file,
         if (name == model->outputs[k].name) o = k;
       }
       if (o < 0) throw InputError(outputs.Where(name) + ": model '" + model->name + "' has no output '" + name + "'");
-      const std::optional<Dimension> dim = KnownDimension(model->outputs[o].quantity);
+      const std::optional<Dimension> dim = KnownDimension(model->outputs[o]);
       Section s = outputs.Sub(name, true);
       s.set_hint("tolerance");
       Section t = s.Sub("tolerance", true);

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <string>
 
 #include <Eigen/Cholesky>
@@ -70,7 +71,7 @@ double DrawChiSquare(const KeyedStream& rng, std::uint64_t stream, std::uint64_t
   for (std::uint64_t attempt = 0;; ++attempt) {
     rng.TrialUniforms(trial, stream, attempt, u);
     // One normal from (u0, u1) by Box-Muller, u2 for the acceptance test, u3 for the boost.
-    const double z = std::sqrt(-2.0 * std::log(u[0])) * std::cos(2.0 * M_PI * u[1]);
+    const double z = std::sqrt(-2.0 * std::log(u[0])) * std::cos(2.0 * std::numbers::pi * u[1]);
     const double t = 1.0 + c * z;
     if (t <= 0.0) continue;
     const double v = t * t * t;

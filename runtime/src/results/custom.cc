@@ -1,6 +1,7 @@
 // results/custom.cc — a custom-model job run (vlt/results.h RunCustomJob) and its files:
 // outputs.csv, budget.csv, results.json ("vlt-custom-results/1"), report.html; docs/results.md
 // "Custom-model jobs".
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -38,6 +39,7 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
   r.dof = job.dof;
   r.correlation = job.correlation;
   r.simultaneous = job.simultaneous;
+  r.simultaneous_mcm_dof = job.simultaneous_mcm_dof;
   r.coverage_probability = job.monte_carlo.coverage_probability;
   r.n_dig = job.monte_carlo.n_dig;
   const ModelInfo& model = *job.model;
@@ -65,9 +67,22 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
 
   const bool run_mcm = options.monte_carlo && job.monte_carlo.enabled;
   if (run_mcm) {
+    // JCGM 102 6.5.3: the multivariate t of N simultaneous inputs has nu = n - N and a covariance
+    // only for nu > 2.
+    for (std::size_t g = 0; g < job.simultaneous.size(); ++g) {
+      if (job.simultaneous_mcm_dof[g] <= 2.0) {
+        const int n = job.sources[job.simultaneous[g].front()].observations;
+        throw InputError(job.file + ": observations: Monte Carlo needs at least N + 3 simultaneous observations of N "
+                         "inputs (JCGM 102 6.5.3: the multivariate t with nu = n - N <= 2 has no covariance); " +
+                         std::to_string(n) + " observations of " + std::to_string(job.simultaneous[g].size()) +
+                         " inputs: give more, or run with --no-mcm");
+      }
+    }
     // JCGM 101 6.4.9: a t distribution with nu <= 2 has no standard deviation.
     for (std::size_t i = 0; i < job.sources.size(); ++i) {
-      if (job.sources[i].kind == "type A" && job.sources[i].observations < 4) {
+      bool grouped = false;
+      for (const auto& set : job.simultaneous) grouped = grouped || std::find(set.begin(), set.end(), static_cast<int>(i)) != set.end();
+      if (job.sources[i].kind == "type A" && !grouped && job.sources[i].observations < 4) {
         throw InputError(job.file + ": inputs." + job.inputs[i].name +
                          ".observations: Monte Carlo needs at least 4 observations of a Type A input "
                          "(JCGM 101 6.4.9: the t distribution with nu = n - 1 <= 2 has no standard "
@@ -79,8 +94,8 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
       if (job.tolerances[o]) settings.tolerances.push_back({o, job.tolerances[o]->lower, job.tolerances[o]->upper});
     }
     std::vector<MultivariateTGroup> t_groups;
-    for (const std::vector<int>& set : job.simultaneous) {
-      t_groups.push_back({set, job.dof[set.front()]});
+    for (std::size_t g = 0; g < job.simultaneous.size(); ++g) {
+      t_groups.push_back({job.simultaneous[g], job.simultaneous_mcm_dof[g]});
     }
     const auto mcm_start = std::chrono::steady_clock::now();
     McmResult mcm;
@@ -105,7 +120,7 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
     if (r.region && !mcm.vectors.empty()) {
       r.region->has_mcm = true;
       r.region->mcm = mcm.vectors.front();
-      r.region->coverage_factor_ratio = r.region->mcm.coverage_factor / r.region->gum_k;
+      r.region->coverage_factor_ratio = r.region->mcm.has_region ? r.region->mcm.coverage_factor / r.region->gum_k : 0.0;
       const double norm = r.gum.covariance.norm();
       r.region->covariance_difference = norm > 0.0 ? (r.region->mcm.covariance - r.gum.covariance).norm() / norm : 0.0;
     }
@@ -117,7 +132,10 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
     if (!out.tolerance) continue;
     std::optional<double> p_mcm;
     if (out.has_mcm) p_mcm = out.mcm.conformity_probability;
-    out.conformity = DecideConformity(*out.tolerance, out.gum.estimate, out.gum.u, out.gum.U, p_mcm);
+    // The t of the truncated nu_eff, the same as U = t_p(nu_eff) u (JCGM 100 G.6.4).
+    const double nu = std::isinf(out.gum.dof_effective) ? out.gum.dof_effective
+                                                        : std::max(1.0, std::floor(out.gum.dof_effective * (1.0 + 1e-9)));
+    out.conformity = DecideConformity(*out.tolerance, out.gum.estimate, out.gum.u, out.gum.U, p_mcm, nu);
   }
   return r;
 }
@@ -183,6 +201,16 @@ std::string BudgetCsvText(const CustomResults& r) {
   return out.str();
 }
 
+// Index of the simultaneous-observation group input i belongs to, or -1.
+int SimultaneousGroup(const CustomResults& r, int i) {
+  for (std::size_t g = 0; g < r.simultaneous.size(); ++g) {
+    if (std::find(r.simultaneous[g].begin(), r.simultaneous[g].end(), i) != r.simultaneous[g].end()) {
+      return static_cast<int>(g);
+    }
+  }
+  return -1;
+}
+
 json ResultsJsonObject(const CustomResults& r) {
   const ModelInfo& model = *r.model;
   json j;
@@ -201,6 +229,13 @@ json ResultsJsonObject(const CustomResults& r) {
            {"monte_carlo", {{"distribution", r.mcm_inputs[i].distribution},
                             {"standard_deviation", r.mcm_inputs[i].u},
                             {"shape", r.mcm_inputs[i].shape}}}};
+    const int group = SimultaneousGroup(r, static_cast<int>(i));
+    if (group >= 0) {
+      // JCGM 102 6.5.3: one multivariate t of the group; scale and nu = n - N.
+      const double nu = r.simultaneous_mcm_dof[group], scale = r.mcm_inputs[i].u;
+      e["monte_carlo"] = {{"distribution", "multivariate_t"}, {"dof", nu}, {"scale", scale},
+                          {"standard_deviation", nu > 2.0 ? json(scale * std::sqrt(nu / (nu - 2.0))) : json(nullptr)}};
+    }
     if (src.kind == "type A") {
       e["observations"] = {{"n", src.observations}, {"standard_deviation", src.standard_deviation}, {"from", src.from}};
     }
@@ -280,13 +315,15 @@ json ResultsJsonObject(const CustomResults& r) {
       }
       reg["mcm_k"] = r.region->has_mcm && r.region->mcm.has_region ? json(r.region->mcm.coverage_factor) : json(nullptr);
       reg["mcm_covariance"] = cov;
-      reg["coverage_factor_ratio"] = r.region->coverage_factor_ratio;
+      reg["coverage_factor_ratio"] = r.region->mcm.has_region ? json(r.region->coverage_factor_ratio) : json(nullptr);
       reg["covariance_difference"] = r.region->covariance_difference;
     }
     j["coverage_region"] = reg;
   }
-  if (r.has_mcm) {
-    j["monte_carlo"] = {{"seed", r.mcm.seed}, {"trials", r.mcm.trials}, {"adaptive", r.mcm.adaptive},
+  if (!r.has_mcm) {
+    j["monte_carlo"] = {{"enabled", false}};
+  } else {
+    j["monte_carlo"] = {{"enabled", true}, {"seed", r.mcm.seed}, {"trials", r.mcm.trials}, {"adaptive", r.mcm.adaptive},
                         {"converged", r.mcm.converged}, {"threads", r.mcm.threads}, {"n_dig", r.n_dig},
                         {"interval_method", r.mcm.interval_method}, {"outcome", r.outcome}};
   }
@@ -294,6 +331,11 @@ json ResultsJsonObject(const CustomResults& r) {
 }
 
 std::string Esc(const std::string& s) { return internal::HtmlEscape(s); }
+
+// "k = 2.78" or "none" where the Monte Carlo region could not be formed.
+std::string RegionK(const CustomRegionResult& region) {
+  return region.mcm.has_region ? internal::Sig(region.mcm.coverage_factor, 4) : std::string("none (singular covariance)");
+}
 
 std::string ReportHtmlText(const CustomResults& r) {
   const ModelInfo& model = *r.model;
@@ -316,6 +358,10 @@ std::string ReportHtmlText(const CustomResults& r) {
                                internal::Sig(r.sources[i].standard_deviation, 4) + " (" + r.sources[i].from + ")";
     std::string dist = r.mcm_inputs[i].distribution;
     if (r.mcm_inputs[i].shape != 0.0) dist += " (" + internal::Sig(r.mcm_inputs[i].shape, 4) + ")";
+    if (const int g = SimultaneousGroup(r, static_cast<int>(i)); g >= 0) {
+      dist = "multivariate t (nu = " + internal::Sig(r.simultaneous_mcm_dof[g], 4) + ", scale " +
+             internal::Sig(r.mcm_inputs[i].u, 4) + ")";
+    }
     h << "<tr><td class=l>" << Esc(in.name) << "</td><td class=l>" << Esc(src) << "</td><td>" << Num(in.estimate)
       << "</td><td>" << internal::Sig(in.u, 4) << "</td><td class=l>" << Esc(in.unit) << "</td><td>" << DofText(r.dof[i])
       << "</td><td class=l>" << Esc(dist) << "</td></tr>\n";
@@ -361,8 +407,9 @@ std::string ReportHtmlText(const CustomResults& r) {
     h << "<p>Output vector (JCGM 102): GUM coverage region k = " << internal::Sig(r.region->gum_k, 4)
       << " (sqrt of the chi-square quantile, " << model.num_outputs << " dimensions)";
     if (r.region->has_mcm) {
-      h << "; Monte Carlo k = " << internal::Sig(r.region->mcm.coverage_factor, 4) << " (ratio "
-        << internal::Sig(r.region->coverage_factor_ratio, 4) << "), relative covariance difference "
+      h << "; Monte Carlo k = " << RegionK(*r.region) << " (ratio "
+        << (r.region->mcm.has_region ? internal::Sig(r.region->coverage_factor_ratio, 4) : std::string("-"))
+        << "), relative covariance difference "
         << internal::Sig(r.region->covariance_difference, 3);
     }
     h << ". Output correlation (GUM): ";
@@ -429,7 +476,7 @@ std::string SummaryText(const CustomResults& r) {
   char line[512];
   out << "vlt " << r.vlt_version << " — job '" << r.job_name << "' (" << r.job_file << "), custom model "
       << r.model->name << ", " << r.inputs.size() << " inputs, " << r.outputs.size() << " outputs\n";
-  std::snprintf(line, sizeof line, "Coverage probability %.4g: U = k u, k = t_p(nu_eff) (JCGM 100 G.4)\n\n",
+  std::snprintf(line, sizeof line, "Coverage probability %.6g: U = k u, k = t_p(nu_eff) (JCGM 100 G.4)\n\n",
                 r.coverage_probability);
   out << line;
   std::snprintf(line, sizeof line, "%-16s %-6s %17s %11s %7s %6s %11s %11s  %s\n", "output", "unit", "y", "u",
@@ -453,10 +500,7 @@ std::string SummaryText(const CustomResults& r) {
   if (r.region) {
     std::snprintf(line, sizeof line, "Output vector: GUM coverage region k = %.4f", r.region->gum_k);
     out << line;
-    if (r.region->has_mcm) {
-      std::snprintf(line, sizeof line, ", Monte Carlo k = %.4f", r.region->mcm.coverage_factor);
-      out << line;
-    }
+    if (r.region->has_mcm) out << ", Monte Carlo k = " << RegionK(*r.region);
     out << "\n";
   }
   for (const CustomOutputResult& o : r.outputs) {

@@ -233,7 +233,8 @@ json Task(const TaskResult& t) {
     conformity.push_back({{"quantity", t.gum.quantities[q]},
                           {"tolerance", {limit(tol.lower), limit(tol.upper)}},
                           {"decision_rule", d.probability_gum ? "ISO 14253-1:2017 guard band w = U"
-                                                              : "Monte Carlo shortest coverage interval inside the tolerance (no GUM value)"},
+                                            : d.probability_mcm ? "Monte Carlo shortest coverage interval inside the tolerance (no GUM value)"
+                                                                : "none: no GUM value and no Monte Carlo"},
                           {"verdict", d.verdict},
                           {"guard_band", d.guard_band},
                           {"probability_gum", d.probability_gum ? json(*d.probability_gum) : json(nullptr)},

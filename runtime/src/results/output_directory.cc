@@ -57,7 +57,7 @@ bool CopyPath(char* buffer, const fs::path& p) {
 // written by vlt, also by versions before the marker existed.
 const std::set<std::string>& KnownOutputNames() {
   static const std::set<std::string> names = {
-      kOutputMarker, "points.csv", "budget.csv", "tasks.csv", "results.json", "report.html", "map.csv", "map.html",
+      kOutputMarker, "points.csv", "outputs.csv", "budget.csv", "tasks.csv", "results.json", "report.html", "map.csv", "map.html",
       "tests.csv", "sensitivity.csv", "simulated_readings.csv", "simulated_calibration.toml", "calibration.toml",
       "parameters.csv", "correlation.csv", "identifiability.csv", "targets.csv", "residuals.csv"};
   return names;

@@ -112,6 +112,7 @@ std::string SummaryText(const Results& r) {
     }
   }
   // Conformity of the task quantities with a tolerance (ISO 14253-1, JCGM 106).
+  bool first_conformity = true;
   for (const TaskResult& t : r.tasks) {
     for (std::size_t q = 0; q < t.conformity.size(); ++q) {
       if (!t.conformity[q]) continue;
@@ -125,7 +126,8 @@ std::string SummaryText(const Results& r) {
       }
       std::snprintf(line, sizeof line, "%s %s %s: %s", t.spec.name.c_str(), t.gum.quantities[q].c_str(),
                     DescribeTolerance(shown, length ? "mm" : t.gum.units[q]).c_str(), d.verdict.c_str());
-      out << (q == 0 && &t == &r.tasks.front() ? "\n" : "") << line << " (probability of conformity";
+      out << (first_conformity ? "\n" : "") << line << " (probability of conformity";
+      first_conformity = false;
       if (d.probability_gum) {
         std::snprintf(line, sizeof line, " %.4g GUM", *d.probability_gum);
         out << line;

@@ -10,7 +10,7 @@
 namespace vlt {
 
 ConformityDecision DecideConformity(const Tolerance& tolerance, double y, double u, double U,
-                                    std::optional<double> probability_mcm) {
+                                    std::optional<double> probability_mcm, double dof) {
   ConformityDecision d;
   d.guard_band = U;
   d.acceptance_lower = tolerance.lower + U;   // -inf + U = -inf
@@ -22,10 +22,13 @@ ConformityDecision DecideConformity(const Tolerance& tolerance, double y, double
   } else {
     d.verdict = "undetermined";
   }
-  // JCGM 106 (7.3.2): p_c = Phi((T_U - y) / u) - Phi((T_L - y) / u); Phi(+-inf) = 1, 0.
+  // JCGM 106 (7.3.2): p_c = Phi((T_U - y) / u) - Phi((T_L - y) / u); Phi(+-inf) = 1, 0; with
+  // finite nu_eff the t distribution function in place of Phi (7.3.3).
+  const bool t = std::isfinite(dof) && dof <= 1e7;
+  auto cdf = [&](double z) { return t ? StudentTCdf(z, dof) : StandardNormalCdf(z); };
   if (u > 0.0) {
-    const double hi = std::isinf(tolerance.upper) ? 1.0 : StandardNormalCdf((tolerance.upper - y) / u);
-    const double lo = std::isinf(tolerance.lower) ? 0.0 : StandardNormalCdf((tolerance.lower - y) / u);
+    const double hi = std::isinf(tolerance.upper) ? 1.0 : cdf((tolerance.upper - y) / u);
+    const double lo = std::isinf(tolerance.lower) ? 0.0 : cdf((tolerance.lower - y) / u);
     d.probability_gum = std::max(0.0, hi - lo);
   } else {
     d.probability_gum = (y >= tolerance.lower && y <= tolerance.upper) ? 1.0 : 0.0;
