@@ -94,6 +94,17 @@ add_test(NAME report_browser_map
 set_tests_properties(report_browser_demo report_browser_map PROPERTIES
   FIXTURES_REQUIRED vlt_demo_outputs TIMEOUT 300)
 
+# A scan (2000 points, one plane over all): report.html holds the 200 points with the largest |U|
+# and an overview, stays small and draws.
+add_test(NAME cli_run_scan
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_jobs}/scan_2000.toml;-o;${_out}/scan"
+          -DOUT=${_out}/scan "-DFILES=${_all_files}" "-DEXPECT_STDOUT=2000 points, 1 tasks" -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_run_scan PROPERTIES FIXTURES_SETUP vlt_scan_outputs)
+add_test(NAME report_browser_scan
+  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/scan/report.html -DPROFILE=${_out}/chromium-profile-scan
+          -DMIN_PLOTS=3 -DMAX_BYTES=10000000 -P ${_cli}/report_browser.cmake)
+set_tests_properties(report_browser_scan PROPERTIES FIXTURES_REQUIRED vlt_scan_outputs TIMEOUT 300)
+
 # vlt map through the tracker's vertical axis: the node at the origin is skipped and reported.
 add_test(NAME cli_map_plane
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>

@@ -4,6 +4,7 @@
 # holds a drawn figure and the 3-D scene has a WebGL context; window.onerror counts errors into
 # data-errors. A missing Chromium is a FAILURE (scripts/test.sh installs the Debian package).
 #   -DPAGE=/abs/path/report.html -DPROFILE=/abs/tmp/dir [-DCHROMIUM=/usr/bin/chromium]
+#   [-DMAX_BYTES=N] (the page may not be larger)
 cmake_minimum_required(VERSION 3.25)
 if(NOT CHROMIUM)
   find_program(CHROMIUM NAMES chromium chromium-browser google-chrome)
@@ -13,6 +14,12 @@ if(NOT CHROMIUM)
 endif()
 if(NOT EXISTS ${PAGE})
   message(FATAL_ERROR "page ${PAGE} does not exist")
+endif()
+if(DEFINED MAX_BYTES)
+  file(SIZE ${PAGE} page_bytes)
+  if(page_bytes GREATER MAX_BYTES)
+    message(FATAL_ERROR "${PAGE} has ${page_bytes} bytes, more than ${MAX_BYTES}")
+  endif()
 endif()
 file(REMOVE_RECURSE ${PROFILE})
 file(MAKE_DIRECTORY ${PROFILE})

@@ -35,7 +35,14 @@ std::pair<std::string, double> PracticalSensitivity(const std::string& input_uni
 // Fixed number of significant digits.
 std::string Sig(double v, int digits);
 
-// results.json text; for_html: compact, "</" escaped, plus the report's own settings.
+// report.html of a job with more points than kReportDetailedPoints embeds those with the largest
+// |U| in full and an overview (x, y, z, |U|) of at most kReportOverviewPoints points, so that the
+// page stays small and draws (issue: 10^4 points made a 154 MB page that never drew).
+inline constexpr std::size_t kReportDetailedPoints = 200;
+inline constexpr std::size_t kReportOverviewPoints = 20000;
+
+// results.json text; for_html: compact, "</" escaped, plus the report's own settings (and, for a
+// scan, only the points above).
 std::string ResultsJsonText(const Results& results, int indent, bool for_html);
 
 std::string HtmlEscape(const std::string& text);

@@ -1,5 +1,6 @@
 // results.json: everything of a run in one document, SI units throughout (schema in
 // docs/results.md; "schema": "vlt-results/1"). Also embedded in report.html.
+#include <algorithm>
 #include <cmath>
 
 #include <nlohmann/json.hpp>
@@ -342,7 +343,34 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
     j["monte_carlo"] = {{"enabled", false}};
   }
   json points = json::array();
-  for (const PointResult& p : r.points) points.push_back(Point(r, p));
+  if (for_html && r.points.size() > internal::kReportDetailedPoints) {
+    // A scan in report.html (docs/results.md "report.html"): the points with the largest |U| in
+    // full (table, budgets, ellipsoids), an overview of at most kReportOverviewPoints points
+    // (every s-th, in job order) for the 3-D plot; every point stays in points.csv / budget.csv.
+    std::vector<std::size_t> order(r.points.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::partial_sort(order.begin(), order.begin() + internal::kReportDetailedPoints, order.end(),
+                      [&](std::size_t a, std::size_t b) {
+                        const double ua = r.points[a].gum.U_part.norm(), ub = r.points[b].gum.U_part.norm();
+                        return ua != ub ? ua > ub : a < b;
+                      });
+    order.resize(internal::kReportDetailedPoints);
+    std::sort(order.begin(), order.end());
+    for (std::size_t i : order) points.push_back(Point(r, r.points[i]));
+    const std::size_t stride = (r.points.size() + internal::kReportOverviewPoints - 1) / internal::kReportOverviewPoints;
+    json ox = json::array(), oy = json::array(), oz = json::array(), ou = json::array();
+    for (std::size_t i = 0; i < r.points.size(); i += stride) {
+      const PointUncertainty& g = r.points[i].gum;
+      ox.push_back(g.part.x());
+      oy.push_back(g.part.y());
+      oz.push_back(g.part.z());
+      ou.push_back(g.U_part.norm());
+    }
+    j["points_total"] = r.points.size();
+    j["points_overview"] = {{"every", stride}, {"x", ox}, {"y", oy}, {"z", oz}, {"U_norm", ou}};
+  } else {
+    for (const PointResult& p : r.points) points.push_back(Point(r, p));
+  }
   j["points"] = points;
   json tasks = json::array();
   for (const TaskResult& t : r.tasks) tasks.push_back(Task(t));
