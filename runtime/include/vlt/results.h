@@ -116,7 +116,7 @@ Results RunJob(const Job& job, const RunOptions& options = {});
 // Memory a run of `job` needs, bytes: kJobBaseBytes plus kBytesPerBudgetRow per budget row of
 // every point (3 readings + the shared inputs), measured (docs/performance.md "Memory of a job").
 inline constexpr std::uint64_t kJobBaseBytes = std::uint64_t{64} << 20;
-inline constexpr std::uint64_t kBytesPerBudgetRow = 7900;
+inline constexpr std::uint64_t kBytesPerBudgetRow = 3600;
 std::uint64_t EstimateJobMemory(const Job& job);
 // MemAvailable of /proc/meminfo (else the physical memory), bytes.
 std::uint64_t AvailableMemory();

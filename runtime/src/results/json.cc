@@ -342,7 +342,9 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
   } else {
     j["monte_carlo"] = {{"enabled", false}};
   }
-  json points = json::array();
+  // The points are serialised one at a time into the text below (never one document of every
+  // point: its DOM was most of a scan's memory); here a placeholder holds their place.
+  std::vector<std::size_t> point_indices;
   if (for_html && r.points.size() > internal::kReportDetailedPoints) {
     // A scan in report.html (docs/results.md "report.html"): the points with the largest |U| in
     // full (table, budgets, ellipsoids), an overview of at most kReportOverviewPoints points
@@ -356,7 +358,7 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
                       });
     order.resize(internal::kReportDetailedPoints);
     std::sort(order.begin(), order.end());
-    for (std::size_t i : order) points.push_back(Point(r, r.points[i]));
+    point_indices = std::move(order);
     const std::size_t stride = (r.points.size() + internal::kReportOverviewPoints - 1) / internal::kReportOverviewPoints;
     json ox = json::array(), oy = json::array(), oz = json::array(), ou = json::array();
     for (std::size_t i = 0; i < r.points.size(); i += stride) {
@@ -369,9 +371,11 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
     j["points_total"] = r.points.size();
     j["points_overview"] = {{"every", stride}, {"x", ox}, {"y", oy}, {"z", oz}, {"U_norm", ou}};
   } else {
-    for (const PointResult& p : r.points) points.push_back(Point(r, p));
+    point_indices.resize(r.points.size());
+    for (std::size_t i = 0; i < point_indices.size(); ++i) point_indices[i] = i;
   }
-  j["points"] = points;
+  static constexpr const char* kPointsPlaceholder = "@@vlt-points@@";
+  j["points"] = kPointsPlaceholder;
   json tasks = json::array();
   for (const TaskResult& t : r.tasks) tasks.push_back(Task(t));
   j["tasks"] = tasks;
@@ -395,7 +399,39 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
                   {"gum_seconds", r.gum_seconds},
                   {"mcm_seconds", r.mcm_seconds}};
   if (for_html) j["report"] = {{"ellipsoid_scale", r.ellipsoid_scale}};
-  std::string text = j.dump(indent, ' ', false, json::error_handler_t::replace);
+  std::string text;
+  {
+    const std::string outer = j.dump(indent, ' ', false, json::error_handler_t::replace);
+    const std::string quoted = std::string("\"") + kPointsPlaceholder + "\"";
+    const std::size_t at = outer.find(quoted);
+    if (at == std::string::npos) throw std::logic_error("results.json: points placeholder missing");
+    // "points" is a member of the top-level object: its elements sit two levels deep.
+    const std::string pad = indent >= 0 ? std::string(static_cast<std::size_t>(2 * indent), ' ') : "";
+    const std::string close_pad = indent >= 0 ? std::string(static_cast<std::size_t>(indent), ' ') : "";
+    text.reserve(outer.size() + point_indices.size() * 4096);
+    text.append(outer, 0, at);
+    if (point_indices.empty()) {
+      text += "[]";
+    } else {
+      text += indent >= 0 ? "[\n" : "[";
+      for (std::size_t n = 0; n < point_indices.size(); ++n) {
+        std::string one = Point(r, r.points[point_indices[n]]).dump(indent, ' ', false, json::error_handler_t::replace);
+        if (indent >= 0) {
+          text += pad;
+          for (char c : one) {
+            text += c;
+            if (c == '\n') text += pad;
+          }
+          text += n + 1 < point_indices.size() ? ",\n" : "\n";
+        } else {
+          text += one;
+          if (n + 1 < point_indices.size()) text += ',';
+        }
+      }
+      text += indent >= 0 ? close_pad + "]" : "]";
+    }
+    text.append(outer, at + quoted.size(), std::string::npos);
+  }
   if (for_html) {
     // Inside <script> the sequence "</" could close the element: "<\/" is the same JSON string.
     std::string safe;

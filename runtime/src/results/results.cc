@@ -155,9 +155,9 @@ void DecideTaskConformity(TaskResult& task) {
 }  // namespace
 
 std::uint64_t EstimateJobMemory(const Job& job) {
-  // Measured (docs/performance.md "Memory of a job"): about 7.7 kB per budget row of a point
-  // (3 readings + the shared inputs) for the point's results, its rows in results.json (DOM and
-  // text), budget.csv and report.html, which are all held until the output is committed.
+  // Measured (docs/performance.md "Memory of a job"): about 3.5 kB per budget row of a point
+  // (3 readings + the shared inputs) for the point's results and its rows in results.json and
+  // budget.csv, which are all held as text until the output is committed.
   const std::uint64_t shared = static_cast<std::uint64_t>(job.setup.model ? job.setup.model->num_params : 0) +
                                (job.setup.environment ? 4 : 0) + (job.setup.pose ? 6 : 0) +
                                (job.setup.thermal ? 2 : 0);
