@@ -370,6 +370,8 @@ TEST(CustomJob, BadInputNamesFileAndKey) {
               "job.toml: inputs.x1.observations: a column name needs [observations]");
   ExpectError("[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = \"gum_h2_observations.csv\"\n",
               "job.toml: observations.simultaneous: required key is missing");
+  ExpectError("[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = \"nope.csv\"\nsimultaneous = true\n",
+              "job.toml: observations.file: cannot read '");
   ExpectError("[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = \"gum_h2_observations.csv\"\nsimultaneous = true\n[inputs.V]\nobservations = \"W\"\n",
               "has no column 'W'");
   ExpectError("[model]\nname = \"jcgm101_additive\"\n[correlations.a]\ninputs = [\"x1\", \"x2\", \"x3\"]\nmatrix = [[1, 0.9, -0.9], [0.9, 1, 0.9], [-0.9, 0.9, 1]]\n",
@@ -386,6 +388,16 @@ TEST(CustomJob, BadInputNamesFileAndKey) {
   ExpectError("[model]\nname = \"jcgm101_additive\"\n[inputs.x1]\ndof = 0.5\n", "job.toml: inputs.x1.dof: degrees of freedom must be");
   ExpectError("[model]\nname = \"jcgm101_mass\"\n[inputs.rho_a]\nestimate = \"1.2 kg/m^3\"\n",
               "job.toml: inputs.rho_a.estimate: give a number in the model's unit (kg/m^3)");
+}
+
+// An [observations] file no input reads, or simultaneous with one reader: a warning each.
+TEST(CustomJob, ObservationsWarnings) {
+  const CustomJob unused = Parse("[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = \"gum_h2_observations.csv\"\nsimultaneous = true\n");
+  ASSERT_EQ(unused.warnings.size(), 1u);
+  EXPECT_NE(unused.warnings[0].find("job.toml: observations.file: no input reads a column of"), std::string::npos) << unused.warnings[0];
+  const CustomJob one = Parse("[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = \"gum_h2_observations.csv\"\nsimultaneous = true\n[inputs.V]\nobservations = \"V\"\n");
+  ASSERT_EQ(one.warnings.size(), 1u);
+  EXPECT_NE(one.warnings[0].find("job.toml: observations.simultaneous: only one input reads"), std::string::npos) << one.warnings[0];
 }
 
 // Monte Carlo refuses Type A inputs with fewer than 4 observations (t with nu <= 2); the GUM runs.

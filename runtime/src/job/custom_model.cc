@@ -150,6 +150,9 @@ CustomJob ParseCustomJob(std::string_view text, const std::string& file,
     const std::string rel = AsString(obs_section.Require("file"), obs_section.Where("file"));
     std::filesystem::path path = rel;
     if (path.is_relative()) path = base_dir / path;
+    if (!std::filesystem::is_regular_file(path)) {
+      throw InputError(obs_section.Where("file") + ": cannot read '" + path.string() + "'");
+    }
     table = ReadCsvFile(path.string(), path.string());
     if (table->rows.empty()) throw InputError(table->file + ": no observations (only a header)");
     simultaneous = AsBool(obs_section.Require("simultaneous"), obs_section.Where("simultaneous"));
@@ -251,6 +254,13 @@ CustomJob ParseCustomJob(std::string_view text, const std::string& file,
   // eq. 17: r(q, w) = s(q, w) / (s(q) s(w)), the same for the means) as the group
   // "observations", then [correlations.<g>]; all through SharedCorrelation, the one checker.
   std::vector<CorrelationGroup> groups;
+  if (table && from_table.empty()) {
+    job.warnings.push_back(observations_where.substr(0, observations_where.rfind('.')) +
+                           ".file: no input reads a column of " + table->file);
+  } else if (table && from_table.size() == 1 && simultaneous) {
+    job.warnings.push_back(observations_where + ": only one input reads " + table->file +
+                           ": there is no correlation to estimate");
+  }
   if (table && from_table.size() >= 2 && simultaneous) {
     job.simultaneous.push_back(from_table);
     const int rows = static_cast<int>(table->rows.size());
