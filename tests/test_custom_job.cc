@@ -175,6 +175,16 @@ observations = "b"
   // The GUM: u^2 = (Q11 + Q22 + 2 Q12) / (n (n - 1)) + 2, nu_eff from one component of nu = n - 1.
   const double var_gum = (q11 + q22 + 2 * q12) / (9.0 * 8.0) + 2.0;
   EXPECT_NEAR(r.outputs[0].gum.u * r.outputs[0].gum.u, var_gum, 1e-12 * var_gum);
+  // The same seed gives bit-identical results for any number of threads (the chi-square draw of
+  // the group is keyed by the trial like every other draw).
+  RunOptions one = Trials(60000), two = Trials(60000);
+  one.threads = 1;
+  two.threads = 2;
+  const CustomResults r1 = RunCustomJob(job, one), r2 = RunCustomJob(job, two);
+  EXPECT_EQ(r1.outputs[0].mcm.mean, r2.outputs[0].mcm.mean);
+  EXPECT_EQ(r1.outputs[0].mcm.u, r2.outputs[0].mcm.u);
+  EXPECT_EQ(r1.outputs[0].mcm.shortest.low, r2.outputs[0].mcm.shortest.low);
+  EXPECT_EQ(r1.outputs[0].mcm.shortest.high, r2.outputs[0].mcm.shortest.high);
   std::filesystem::remove_all(dir);
 }
 
