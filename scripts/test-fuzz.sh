@@ -21,7 +21,7 @@ export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 export LSAN_OPTIONS=suppressions=$VLT_ROOT/scripts/lsan.supp:print_suppressions=0
 status=0
-for harness in fuzz_job:job fuzz_job_gum:job fuzz_parsers:parsers; do
+for harness in fuzz_job:job fuzz_job_gum:job fuzz_custom_job:job fuzz_parsers:parsers; do
   name=${harness%%:*}
   corpus=${harness##*:}
   echo "== $name: ${seconds} s"
@@ -36,5 +36,5 @@ for harness in fuzz_job:job fuzz_job_gum:job fuzz_parsers:parsers; do
     grep -E "stat::number_of_executed_units|Done [0-9]+ runs" "$dir/work/$name.log" | tail -2
   fi
 done
-echo "fuzz: $([ $status -eq 0 ] && echo 3 passed, 0 failed || echo see above)"
+echo "fuzz: $([ $status -eq 0 ] && echo 4 passed, 0 failed || echo see above)"
 exit $status
