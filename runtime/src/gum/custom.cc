@@ -146,17 +146,7 @@ CustomUncertainty PropagateCustom(const ModelInfo& model, std::span<const Uncert
   result.covariance = ju * r * ju.transpose();
   result.k = NormalCoverageFactor(options.coverage_probability);
   if (num_outputs >= 2) result.region_k = ChiSquareCoverageFactor(options.coverage_probability, num_outputs);
-  {
-    const Eigen::VectorXd sd = result.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
-    result.correlation = Eigen::MatrixXd::Identity(num_outputs, num_outputs);
-    for (int a = 0; a < num_outputs; ++a) {
-      for (int b = 0; b < num_outputs; ++b) {
-        if (a != b && sd(a) > 0.0 && sd(b) > 0.0) {
-          result.correlation(a, b) = result.covariance(a, b) / (sd(a) * sd(b));
-        }
-      }
-    }
-  }
+  result.correlation = model_internal::CorrelationOfCovariance(result.covariance);
   result.correlation_handling =
       correlated ? "inputs correlated: each row is (c u)^2 of one input; the cross terms "
                    "2 sum_{i<j} c_i c_j u_i u_j r_ij are the row 'correlations' (may be "

@@ -25,6 +25,7 @@
 
 #include "mcm/engine.h"
 #include "mcm/progress.h"
+#include "model/correlation.h"
 #include "vlt/error.h"
 
 namespace vlt::mcm_internal {
@@ -538,15 +539,7 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
     r.name = g.name;
     GroupMoments(total, layout, g, gi, y0, done, &r.mean, &r.covariance);
     for (int a = 0; a < g.dim; ++a) r.mean(a) = result.outputs[g.first + a].mean;
-    const Eigen::VectorXd sd = r.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
-    r.correlation = Eigen::MatrixXd::Identity(g.dim, g.dim);
-    for (int a = 0; a < g.dim; ++a) {
-      for (int b = 0; b < g.dim; ++b) {
-        if (a != b && sd(a) > 0.0 && sd(b) > 0.0) {
-          r.correlation(a, b) = r.covariance(a, b) / (sd(a) * sd(b));
-        }
-      }
-    }
+    r.correlation = model_internal::CorrelationOfCovariance(r.covariance);
     if (keep_all) {
       Eigen::VectorXd offset(g.dim);
       for (int a = 0; a < g.dim; ++a) offset(a) = r.mean(a) - y0[g.first + a];

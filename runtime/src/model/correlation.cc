@@ -28,6 +28,18 @@ bool CorrelationFactor(const Eigen::MatrixXd& r, Eigen::MatrixXd& factor) {
   return true;
 }
 
+Eigen::MatrixXd CorrelationOfCovariance(const Eigen::MatrixXd& covariance) {
+  const Eigen::Index n = covariance.rows();
+  const Eigen::VectorXd sd = covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+  Eigen::MatrixXd r = Eigen::MatrixXd::Identity(n, n);
+  for (Eigen::Index a = 0; a < n; ++a) {
+    for (Eigen::Index b = 0; b < n; ++b) {
+      if (a != b && sd(a) > 0.0 && sd(b) > 0.0) r(a, b) = covariance(a, b) / (sd(a) * sd(b));
+    }
+  }
+  return r;
+}
+
 }  // namespace vlt::model_internal
 
 namespace vlt {
@@ -120,3 +132,4 @@ Eigen::MatrixXd SharedCorrelation(const std::vector<std::string>& names,
 }
 
 }  // namespace vlt
+

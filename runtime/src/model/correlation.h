@@ -13,4 +13,8 @@ namespace vlt::model_internal {
 // below -1e-10 (not a correlation matrix).
 bool CorrelationFactor(const Eigen::MatrixXd& r, Eigen::MatrixXd& factor);
 
+// The correlation matrix of a covariance matrix: r_ab = U_ab / (s_a s_b), s = sqrt(diag U);
+// identity where a standard deviation is 0 (GUM custom outputs, Monte Carlo output vectors).
+Eigen::MatrixXd CorrelationOfCovariance(const Eigen::MatrixXd& covariance);
+
 }  // namespace vlt::model_internal

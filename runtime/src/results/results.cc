@@ -269,22 +269,27 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
     for (const TaskResult& task : results.tasks) {
       mcm_job.tasks.push_back(internal::MakeMcmTask(task.spec, task.point_indices, task.gum));
     }
-    McmSettings settings = internal::McmSettingsFor(job.monte_carlo, options, threads);
-    // Task tolerances: count the trials inside them (JCGM 106 7.2.1). Task outputs follow the
-    // points, task by task, in MakeMcmTask's order.
+    // Task outputs follow the points (3 each), task by task, in MakeMcmTask's order: the index
+    // of each task's first Monte Carlo output.
+    std::vector<std::size_t> task_first_output(results.tasks.size());
     {
       std::size_t offset = 3 * readings.size();
       for (std::size_t t = 0; t < results.tasks.size(); ++t) {
-        const McmTask& mt = mcm_job.tasks[t];
-        for (const auto& [quantity, tol] : results.tasks[t].spec.tolerances) {
-          const std::string wanted = results.tasks[t].spec.name + "." + quantity;
-          for (std::size_t j = 0; j < mt.output_names.size(); ++j) {
-            if (mt.output_names[j] == wanted) {
-              settings.tolerances.push_back({static_cast<int>(offset + j), tol.lower, tol.upper});
-            }
+        task_first_output[t] = offset;
+        offset += mcm_job.tasks[t].output_names.size();
+      }
+    }
+    McmSettings settings = internal::McmSettingsFor(job.monte_carlo, options, threads);
+    // Task tolerances: count the trials inside them (JCGM 106 7.2.1).
+    for (std::size_t t = 0; t < results.tasks.size(); ++t) {
+      const McmTask& mt = mcm_job.tasks[t];
+      for (const auto& [quantity, tol] : results.tasks[t].spec.tolerances) {
+        const std::string wanted = results.tasks[t].spec.name + "." + quantity;
+        for (std::size_t j = 0; j < mt.output_names.size(); ++j) {
+          if (mt.output_names[j] == wanted) {
+            settings.tolerances.push_back({static_cast<int>(task_first_output[t] + j), tol.lower, tol.upper});
           }
         }
-        offset += mt.output_names.size();
       }
     }
     auto mcm_start = std::chrono::steady_clock::now();
@@ -324,12 +329,11 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
       results.validated_points += pr.validated ? 1 : 0;
       results.inconclusive_points += pr.outcome == "inconclusive" ? 1 : 0;
     }
-    // Task outputs follow the points, task by task, TaskOutputs(kind) each (MakeMcmTask); they
-    // are matched to the GUM quantities by name.
-    std::size_t offset = 3 * np;
+    // Task outputs (task_first_output) are matched to the GUM quantities by name.
     for (std::size_t t = 0; t < results.tasks.size(); ++t) {
       TaskResult& task = results.tasks[t];
       const McmTask& mt = mcm_job.tasks[t];
+      const std::size_t offset = task_first_output[t];
       if (offset + mt.output_names.size() > mcm.outputs.size()) {
         throw std::logic_error("Monte Carlo result has too few task outputs");
       }
@@ -350,7 +354,6 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
                                                  differentiable));
         outcomes.push_back(task.validation.back().outcome);
       }
-      offset += mt.output_names.size();
       task.outcome = CombinedOutcome(outcomes);
       task.validated = task.outcome == "validated";
       results.validated_tasks += task.validated ? 1 : 0;
