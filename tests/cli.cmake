@@ -67,7 +67,7 @@ add_test(NAME cli_run_good_json
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
           "-DARGS=run;${_jobs}/good.toml;-o;${_out}/good_json;--trials;4000;--json"
           -DOUT=${_out}/good_json "-DFILES=${_all_files}"
-          "-DEXPECT_STDOUT=^{\n \"schema\": \"vlt-results/1\"" -P ${_cli}/expect_outputs.cmake)
+          "-DEXPECT_STDOUT=^{\n \"schema\": \"vlt-results/2\"" -P ${_cli}/expect_outputs.cmake)
 
 # A two_face task between a point and its back-face twin, with Monte Carlo: all three
 # components in the summary, with a GUM-vs-MCM verdict.

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <filesystem>
 #include <fstream>
@@ -18,6 +19,7 @@
 
 #include "results/internal.h"
 #include "vlt/error.h"
+#include "vlt/fits.h"
 #include "vlt/models.h"
 #include "vlt/refractive_index.h"
 
@@ -86,9 +88,9 @@ std::vector<std::string> SplitLine(const std::string& line) {
 TEST(Results, JsonSchemaKeys) {
   const Results& r = SharedResults();
   nlohmann::json j = nlohmann::json::parse(ResultsJson(r));
-  EXPECT_EQ(j["schema"], "vlt-results/1");
-  for (const char* key : {"schema", "vlt_version", "units", "job", "inputs", "monte_carlo", "points", "tasks", "map",
-                          "summary"}) {
+  EXPECT_EQ(j["schema"], "vlt-results/2");
+  for (const char* key : {"schema", "vlt_version", "units", "job", "inputs", "monte_carlo", "points_file", "tasks",
+                          "map", "summary"}) {
     EXPECT_TRUE(j.contains(key)) << key;
   }
   for (const char* key : {"name", "description", "file", "mode", "model", "coverage_probability", "k_axis", "k_region",
@@ -109,18 +111,23 @@ TEST(Results, JsonSchemaKeys) {
     EXPECT_TRUE(j["monte_carlo"].contains(key)) << "monte_carlo." << key;
   }
   EXPECT_EQ(j["monte_carlo"]["trials"], 4000);
-  ASSERT_EQ(j["points"].size(), 4u);
-  const auto& p = j["points"][0];
-  for (const char* key : {"name", "face", "readings", "nominal", "gum", "budget", "mcm", "validation"}) {
+  // vlt-results/2: no points in results.json; points.jsonl holds one object per point, in job
+  // order; the budget rows are in budget.csv only.
+  EXPECT_FALSE(j.contains("points"));
+  EXPECT_EQ(j["points_file"], "points.jsonl");
+  std::stringstream lines(PointsJsonl(r));
+  std::vector<nlohmann::json> points;
+  for (std::string line; std::getline(lines, line);) points.push_back(nlohmann::json::parse(line));
+  ASSERT_EQ(points.size(), 4u);
+  EXPECT_EQ(points[3]["name"], r.points[3].input.name);
+  const auto& p = points[0];
+  for (const char* key : {"name", "face", "readings", "nominal", "gum", "mcm", "validation"}) {
     EXPECT_TRUE(p.contains(key)) << "points[]." << key;
   }
+  EXPECT_FALSE(p.contains("budget"));
   for (const char* key : {"estimate", "covariance", "u", "k", "U", "U_norm", "ellipsoid", "line_of_sight",
                           "tracker_frame", "correlation_handling"}) {
     EXPECT_TRUE(p["gum"].contains(key)) << "points[].gum." << key;
-  }
-  for (const char* key : {"input", "group", "unit", "estimate", "u", "sensitivity", "sensitivity_unit", "contribution",
-                          "variance", "share", "share_total"}) {
-    EXPECT_TRUE(p["budget"][0].contains(key)) << "points[].budget[]." << key;
   }
   for (const char* key : {"mean", "covariance", "correlation", "has_region", "coverage_factor", "axes"}) {
     EXPECT_TRUE(p["mcm"].contains(key)) << "points[].mcm." << key;
@@ -169,12 +176,15 @@ TEST(Results, ModifiedEdlenNamedInInputsAir) {
   EXPECT_GT(air["u_n_phase"].get<double>(), 0.0);
   // CO2 does not enter this equation: its budget rows carry zero sensitivity and contribution.
   bool found = false;
-  for (const auto& row : j["points"][0]["budget"]) {
-    if (row["input"] != "environment.co2") continue;
-    found = true;
-    for (const auto& c : row["sensitivity"]) EXPECT_EQ(c.get<double>(), 0.0);
-    for (const auto& c : row["contribution"]) EXPECT_EQ(c.get<double>(), 0.0);
-  }
+  const std::size_t first[] = {0};
+  internal::ForEachPointBudget(r, first, [&](std::size_t, const PointUncertainty& g) {
+    for (const BudgetRow& row : g.budget) {
+      if (row.input != "environment.co2") continue;
+      found = true;
+      EXPECT_EQ(row.sensitivity, Eigen::Vector3d::Zero());
+      EXPECT_EQ(row.contribution, Eigen::Vector3d::Zero());
+    }
+  });
   EXPECT_TRUE(found);
 }
 
@@ -209,7 +219,7 @@ matrix = [[1, 1], [1, 1]]
   ASSERT_EQ(p.size(), static_cast<std::size_t>(job.setup.model->num_params));
   EXPECT_EQ(p[a0][eas], 0.4);
   EXPECT_EQ(p[a0][a0], 1.0);
-  const std::string handling = j["points"][0]["gum"]["correlation_handling"];
+  const std::string handling = r.points[0].gum.correlation_handling;
   EXPECT_NE(handling.find("correlation groups: encoder, thermometer"), std::string::npos) << handling;
   // The distance's budget by group: the cross terms between environment and thermal in
   // "correlation"; the entries add up to the variance.
@@ -253,10 +263,28 @@ TEST(Results, CsvHeadersUnitsAndValues) {
     EXPECT_EQ(SplitLine(row).size(), n_columns) << row;
     ++rows;
   }
+  // The budgets are not held in Results (empty there); budget.csv recomputes them with the run's
+  // model and readings: the same numbers as a direct propagation with budgets of the job's points.
+  for (const PointResult& p : r.points) EXPECT_TRUE(p.gum.budget.empty());
+  const Job job = ParseJob(kJob, "results.toml", ".");
+  const MeasurementModel model(job.setup);
+  GumOptions options;
+  options.coverage_probability = r.coverage_probability;
+  options.threads = 1;
+  const std::vector<PointUncertainty> direct = PropagatePoints(model, JobReadings(job, model), options);
   std::size_t expected_rows = 0;
-  for (const PointResult& p : r.points) expected_rows += p.gum.budget.size();
+  for (const PointUncertainty& g : direct) expected_rows += g.budget.size();
   EXPECT_EQ(static_cast<std::size_t>(rows), expected_rows);
-  EXPECT_GE(r.points[0].gum.budget.size(), 35u);
+  EXPECT_GE(direct[0].budget.size(), 35u);
+  internal::ForEachPointBudget(r, {}, [&](std::size_t i, const PointUncertainty& g) {
+    ASSERT_EQ(g.budget.size(), direct[i].budget.size());
+    for (std::size_t b = 0; b < g.budget.size(); ++b) {
+      EXPECT_EQ(g.budget[b].input, direct[i].budget[b].input);
+      EXPECT_EQ(g.budget[b].sensitivity, direct[i].budget[b].sensitivity);  // bit for bit
+      EXPECT_EQ(g.budget[b].contribution, direct[i].budget[b].contribution);
+      EXPECT_EQ(g.budget[b].share_total, direct[i].budget[b].share_total);
+    }
+  });
   // tasks.csv: the distance in mm, its U in um.
   std::stringstream tasks(TasksCsv(r));
   std::getline(tasks, header);
@@ -451,7 +479,7 @@ TEST_F(Writing, SigtermWhileWritingRemovesTheStagingDirectory) {
       Files files;
       for (int i = 0; i < 24; ++i) files.emplace_back("f" + std::to_string(i) + ".csv", std::string(4 << 20, 'x'));
       try {
-        OutputDirectory(target).Commit(files);
+        OutputDirectory(target).Commit(AsOutputFiles(files));
       } catch (...) {
         ::_exit(3);
       }
@@ -486,12 +514,19 @@ namespace {
 // the size and what would fit (issue: 10^6 points died of std::bad_alloc after 18 minutes).
 TEST(Results, JobTooLargeForMemoryIsAnInputError) {
   const Job job = ParseJob(kJob, "results.toml", ".");
-  const std::uint64_t need = EstimateJobMemory(job);
-  // 4 points of a mirror job with environment, pose and thermal: 3 + 20 + 4 + 6 + 2 rows each.
-  EXPECT_EQ(need, kJobBaseBytes + 4 * (3 + 20 + 4 + 6 + 2) * kBytesPerBudgetRow);
-  EXPECT_NO_THROW(CheckJobMemory(job, need));
+  RunOptions gum_only;
+  gum_only.monte_carlo = false;
+  const std::uint64_t need = EstimateJobMemory(job, gum_only);
+  // 4 points of a mirror job with environment, pose and thermal: 3 + 20 + 4 + 6 + 2 inputs each.
+  EXPECT_EQ(need, kJobBaseBytes + 4 * (kBytesPerPoint + (3 + 20 + 4 + 6 + 2) * kBytesPerPointInput));
+  // With Monte Carlo (4000 trials): the Monte Carlo part per point, one batch of float values of
+  // the 12 point outputs + the task outputs, and all of them stored (4000 trials fit the budget).
+  std::uint64_t outputs = 12;
+  for (const TaskSpec& t : job.tasks) outputs += TaskOutputs(t.kind).size();
+  EXPECT_EQ(EstimateJobMemory(job), need + 4 * kBytesPerPointMcm + 2 * 4 * outputs * 4000);
+  EXPECT_NO_THROW(CheckJobMemory(job, need, gum_only));
   try {
-    CheckJobMemory(job, need - 1);
+    CheckJobMemory(job, need - 1, gum_only);
     FAIL();
   } catch (const InputError& e) {
     const std::string m = e.what();
@@ -499,6 +534,59 @@ TEST(Results, JobTooLargeForMemoryIsAnInputError) {
     EXPECT_NE(m.find("split it into jobs of at most 3 points"), std::string::npos) << m;
     EXPECT_EQ(m.find('\n'), std::string::npos);
   }
+}
+
+}  // namespace
+}  // namespace vlt
+
+namespace vlt {
+namespace {
+
+// The numbers of every file: internal::Num is specified as the first of "%.6g" ... "%.17g" that
+// reads back as the value (docs/results.md "Numbers"). The fast version (std::to_chars) must give
+// the same characters: checked against that definition, evaluated with snprintf/strtod, over
+// random bit patterns, values next to powers of two (where the rounding interval is asymmetric),
+// and the magnitudes the files hold.
+std::string NumBySpecification(double v) {
+  char buffer[40];
+  for (int precision = 6; precision <= 17; ++precision) {
+    std::snprintf(buffer, sizeof buffer, "%.*g", precision, v);
+    if (std::strtod(buffer, nullptr) == v) break;
+  }
+  return buffer;
+}
+
+TEST(Numbers, FastFormattingEqualsThePrintfDefinition) {
+  std::uint64_t state = 0x9e3779b97f4a7c15ull;
+  auto next = [&] {
+    state ^= state << 13;
+    state ^= state >> 7;
+    state ^= state << 17;
+    return state;
+  };
+  std::vector<double> values = {0.0, -0.0, 1.0, 0.1, 0.5, 100000.0, 1234567.0, 1e-4, 1e-5, 2.42406840554768e-06,
+                                1.9599639845400536, 50.000838e-3, 1e300, 5e-324, -3.5, 123456.5};
+  for (int i = 0; i < 200000; ++i) {
+    double v;
+    const std::uint64_t bits = next();
+    std::memcpy(&v, &bits, sizeof v);
+    if (std::isfinite(v)) values.push_back(v);
+    const double scaled = static_cast<double>(next() % 2000001) * 1e-6 - 1.0;  // typical: mm, um, shares
+    values.push_back(scaled * std::pow(10.0, static_cast<int>(next() % 21) - 10));
+  }
+  for (int e = -1074; e <= 1023; ++e) {  // powers of two and their neighbours
+    const double p = std::ldexp(1.0, e);
+    values.push_back(p);
+    values.push_back(std::nextafter(p, 0.0));
+    values.push_back(std::nextafter(p, 2 * p + 1));
+  }
+  int mismatches = 0;
+  for (double v : values) {
+    if (internal::Num(v) != NumBySpecification(v) && ++mismatches < 5) {
+      ADD_FAILURE() << std::hexfloat << v << ": " << internal::Num(v) << " vs " << NumBySpecification(v);
+    }
+  }
+  EXPECT_EQ(mismatches, 0) << "of " << values.size();
 }
 
 }  // namespace

@@ -58,7 +58,7 @@ void AddCalibrateCommand(CLI::App& app, GlobalOptions& global) {
     provenance.vlt_version = VLT_VERSION;
     for (const std::string& f : job.data_files) provenance.data_files.emplace_back(f, Sha256File(f));
     const auto files = calibration_outputs::CalibrationFiles(job, result, provenance);
-    output.Commit(files);
+    output.Commit(AsOutputFiles(files));
     PrintWritten(files, calibration_outputs::CalibrationSummary(job, result), dir, global);
     if (!global.json && !global.quiet) {
       std::printf("Use it in a job:  [tracker] calibration = \"%s\"\n", (dir / "calibration.toml").string().c_str());

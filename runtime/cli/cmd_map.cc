@@ -56,7 +56,7 @@ void AddMapCommand(CLI::App& app, GlobalOptions& global) {
     MapResult map = ComputeMap(model, settings, job.monte_carlo.coverage_probability, threads);
     std::vector<std::pair<std::string, std::string>> files = {
         {"map.csv", MapCsv(map)}, {"map.html", MapHtml(map, job.name + ": " + settings.description)}};
-    output.Commit(files);
+    output.Commit(AsOutputFiles(files));
     if (global.json) {  // the same object as "map" in results.json (docs/results.md)
       std::printf("%s\n", MapJson(map).c_str());
       return;

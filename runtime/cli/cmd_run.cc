@@ -49,19 +49,27 @@ CLI::Validator UnsignedInteger64() {
       "INT in 0 .. 2^64-1");
 }
 
-void PrintWritten(const std::vector<std::pair<std::string, std::string>>& files, const std::string& summary,
+void PrintWritten(const std::vector<OutputFile>& files, const std::string& summary,
                   const std::filesystem::path& dir, const GlobalOptions& global) {
   if (global.json) {
-    for (const auto& [name, content] : files) {
-      if (name == "results.json") std::fwrite(content.data(), 1, content.size(), stdout);
+    for (const OutputFile& file : files) {
+      if (file.name != "results.json") continue;
+      StringText text;
+      file.write(text);
+      std::fwrite(text.text().data(), 1, text.text().size(), stdout);
     }
     return;
   }
   if (global.quiet) return;
   std::fwrite(summary.data(), 1, summary.size(), stdout);
   std::printf("Wrote %s/: ", dir.string().c_str());
-  for (std::size_t i = 0; i < files.size(); ++i) std::printf("%s%s", i ? ", " : "", files[i].first.c_str());
+  for (std::size_t i = 0; i < files.size(); ++i) std::printf("%s%s", i ? ", " : "", files[i].name.c_str());
   std::printf("\n");
+}
+
+void PrintWritten(const std::vector<std::pair<std::string, std::string>>& files, const std::string& summary,
+                  const std::filesystem::path& dir, const GlobalOptions& global) {
+  PrintWritten(AsOutputFiles(files), summary, dir, global);
 }
 
 void AddRunOptions(CLI::App& command, RunCliOptions& options) {
@@ -146,7 +154,7 @@ int RunCustomAndWrite(const CustomJob& job, const RunCliOptions& options, const 
                                     std::filesystem::path("vlt-out") / vlt::internal::SafeFileName(job.name)));
   CustomResults results = RunCustomJob(job, run);
   auto files = ResultFiles(results);
-  output.Commit(files);
+  output.Commit(AsOutputFiles(files));
   PrintWritten(files, SummaryText(results), output.path(), global);
   if (!global.json && !global.quiet) {
     std::printf("Open %s in a browser for the report.\n", (output.path() / "report.html").string().c_str());

@@ -32,7 +32,7 @@ void AddTestCommand(CLI::App& app, GlobalOptions& global) {
     CalibrationData simulated;
     if (job.simulate) simulated = SimulateCalibrationData(job.tracker, job.layout, job.seed);
     const auto files = calibration_outputs::TestFiles(job, results, job.simulate ? &simulated : nullptr);
-    output.Commit(files);
+    output.Commit(AsOutputFiles(files));
     PrintWritten(files, calibration_outputs::TestSummary(job, results), dir, global);
   });
 }

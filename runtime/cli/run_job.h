@@ -30,6 +30,8 @@ CLI::Validator UnsignedInteger64();
 
 // After a command committed its files: --json prints results.json, else (unless --quiet) the
 // summary and "Wrote DIR/: a, b, ..." (one place for run, test, calibrate).
+void PrintWritten(const std::vector<OutputFile>& files, const std::string& summary,
+                  const std::filesystem::path& dir, const GlobalOptions& global);
 void PrintWritten(const std::vector<std::pair<std::string, std::string>>& files, const std::string& summary,
                   const std::filesystem::path& dir, const GlobalOptions& global);
 

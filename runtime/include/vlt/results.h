@@ -9,8 +9,11 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <memory>
+#include <functional>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -36,14 +39,21 @@ struct RunOptions {
   bool progress = false;                   // MCM progress bar on a terminal
 };
 
-struct PointResult {
-  JobPoint input;                          // name, face, nominal (plan), readings as given
-  PointUncertainty gum;
-  bool has_mcm = false;
+// The Monte Carlo results of one point and their comparison with the GUM.
+struct PointMcm {
   McmPointResult mcm;                      // JCGM 102: mean, covariance, region factor
-  std::array<McmOutputResult, 3> mcm_axes; // JCGM 101 per coordinate x, y, z
+  std::array<McmOutputResult, 3> axes;     // JCGM 101 per coordinate x, y, z
   std::array<ScalarValidation, 3> axis_validation;  // JCGM 101 8 per coordinate
   PointValidation region_validation;       // coverage ellipsoids (vlt/validation.h)
+};
+
+struct PointResult {
+  JobPoint input;                          // name, face, nominal (plan), readings as given
+  PointUncertainty gum;                    // budget empty: see internal::ForEachPointBudget
+  bool has_mcm = false;
+  // Set when has_mcm (held apart: a GUM-only scan of 10^6 points does not carry 1.6 kB of empty
+  // Monte Carlo fields per point).
+  std::shared_ptr<const PointMcm> monte_carlo;
   bool validated = false;                  // all of the above validated
   std::string outcome;                     // CombinedOutcome of the above (vlt/validation.h)
 };
@@ -103,6 +113,7 @@ struct Results {
   std::optional<MapResult> map;
   double gum_seconds = 0.0;
   double mcm_seconds = 0.0;
+  int threads = 0;                            // of the run (the budgets are recomputed with them)
   double ellipsoid_scale = 0.0;               // report: exaggeration of the ellipsoids
   int validated_points = 0;
   int validated_tasks = 0;
@@ -113,16 +124,24 @@ struct Results {
 // (InputError, before computing) a job whose estimated memory exceeds what is available.
 Results RunJob(const Job& job, const RunOptions& options = {});
 
-// Memory a run of `job` needs, bytes: kJobBaseBytes plus kBytesPerBudgetRow per budget row of
-// every point (3 readings + the shared inputs), measured (docs/performance.md "Memory of a job").
+// Memory a run of `job` needs, bytes (docs/performance.md "Memory of a job", measured):
+//   kJobBaseBytes
+//   + per point: kBytesPerPoint + kBytesPerPointInput per input of the point (3 readings + the
+//     shared inputs: the points' sensitivities a task propagates)
+//   + with Monte Carlo: kBytesPerPointMcm per point, one batch of float values of every output
+//     (JCGM 101 7.9.4: up to 10^4 trials) and the stored values for the coverage intervals
+//     (at most McmSettings::memory_budget_bytes).
+// Per-point files are streamed and budgets recomputed when written: they add nothing.
 inline constexpr std::uint64_t kJobBaseBytes = std::uint64_t{64} << 20;
-inline constexpr std::uint64_t kBytesPerBudgetRow = 3600;
-std::uint64_t EstimateJobMemory(const Job& job);
+inline constexpr std::uint64_t kBytesPerPoint = 1800;
+inline constexpr std::uint64_t kBytesPerPointInput = 24;
+inline constexpr std::uint64_t kBytesPerPointMcm = 1800;
+std::uint64_t EstimateJobMemory(const Job& job, const RunOptions& options = {});
 // MemAvailable of /proc/meminfo (else the physical memory), bytes.
 std::uint64_t AvailableMemory();
 // InputError "<file>: plan: this job needs about X GiB of memory (...) and Y GiB are available;
-// split it into jobs of at most N points" when EstimateJobMemory(job) > available_bytes.
-void CheckJobMemory(const Job& job, std::uint64_t available_bytes);
+// split it into jobs of at most N points" when EstimateJobMemory(job, options) > available_bytes.
+void CheckJobMemory(const Job& job, std::uint64_t available_bytes, const RunOptions& options = {});
 
 // ---------------------------------------------------------------------------------------------
 // A custom-model job (vlt/custom_job.h, docs/custom-models.md): files outputs.csv, budget.csv,
@@ -182,9 +201,14 @@ MapResult ComputeMap(const MeasurementModel& model, const MapSettings& settings,
 // The readings of every point of a job (plan: computed from the nominal points).
 std::vector<PointReadings> JobReadings(const Job& job, const MeasurementModel& model);
 
-// File contents (docs/results.md).
+class OutputText;
+// File contents (docs/results.md). The per-point files are written as they are formatted.
+void WritePointsCsv(const Results& results, OutputText& out);
+void WriteBudgetCsv(const Results& results, OutputText& out);
+void WritePointsJsonl(const Results& results, OutputText& out);
 std::string PointsCsv(const Results& results);
 std::string BudgetCsv(const Results& results);
+std::string PointsJsonl(const Results& results);
 std::string TasksCsv(const Results& results);
 std::string MapCsv(const MapResult& map);
 std::string ResultsJson(const Results& results, int indent = 1);
@@ -193,9 +217,38 @@ std::string MapHtml(const MapResult& map, const std::string& title);
 // The map alone as JSON: the "map" object of results.json (docs/results.md), for `vlt map --json`.
 std::string MapJson(const MapResult& map, int indent = 1);
 
-// The files of a `vlt run`: points.csv, budget.csv, tasks.csv, results.json, report.html and,
-// with a map, map.csv and map.html.
-std::vector<std::pair<std::string, std::string>> ResultFiles(const Results& results);
+// Where an output file's text goes while it is written: the staging file of an OutputDirectory
+// (buffered) or a string (tests, --json on stdout).
+class OutputText {
+ public:
+  virtual ~OutputText() = default;
+  virtual void Write(std::string_view text) = 0;
+};
+class StringText final : public OutputText {
+ public:
+  void Write(std::string_view text) override { text_.append(text); }
+  std::string& text() { return text_; }
+
+ private:
+  std::string text_;
+};
+
+// One file of an output set: its plain name and what writes its text. The per-point files of a
+// scan are written point by point into the staging directory, never held whole in memory.
+struct OutputFile {
+  std::string name;
+  std::function<void(OutputText&)> write;
+  OutputFile(std::string file_name, std::string content);
+  OutputFile(std::string file_name, std::function<void(OutputText&)> writer);
+};
+
+// Files whose text is already complete (name, content).
+std::vector<OutputFile> AsOutputFiles(const std::vector<std::pair<std::string, std::string>>& files);
+
+// The files of a `vlt run`: points.csv, points.jsonl, budget.csv, tasks.csv, results.json,
+// report.html and, with a map, map.csv and map.html. The writers refer to `results`, which must
+// outlive the Commit.
+std::vector<OutputFile> ResultFiles(const Results& results);
 
 // The output directory of a command, replaced as one transaction (docs/cli.md "Outputs"):
 // construct it BEFORE computing (it checks the location: not a file, not a directory holding
@@ -212,8 +265,8 @@ class OutputDirectory {
   OutputDirectory& operator=(const OutputDirectory&) = delete;
 
   const std::filesystem::path& path() const { return target_; }
-  // Writes `files` (name, content; plain names) plus the marker file and swaps them in.
-  void Commit(const std::vector<std::pair<std::string, std::string>>& files);
+  // Writes `files` (plain names) plus the marker file and swaps them in.
+  void Commit(const std::vector<OutputFile>& files);
 
  private:
   std::filesystem::path target_;

@@ -29,20 +29,54 @@ class Row {
  public:
   Row& operator<<(const std::string& s) { return Add(Csv(s)); }
   Row& operator<<(const char* s) { return Add(Csv(s)); }
-  Row& operator<<(double v) { return Add(Num(v)); }
+  Row& operator<<(double v) {
+    Separate();
+    internal::AppendNum(line_, v);
+    return *this;
+  }
   Row& operator<<(int v) { return Add(std::to_string(v)); }
   Row& Empty() { return Add(""); }
   std::string str() const { return line_ + "\n"; }
+  const std::string& line() const { return line_; }
 
  private:
-  Row& Add(const std::string& s) {
+  void Separate() {
     if (!first_) line_ += ',';
-    line_ += s;
     first_ = false;
+  }
+  Row& Add(const std::string& s) {
+    Separate();
+    line_ += s;
     return *this;
   }
   std::string line_;
   bool first_ = true;
+};
+
+// Rows of a per-point file, formatted into a buffer that is written every kWriteBufferBytes.
+class RowBuffer {
+ public:
+  explicit RowBuffer(OutputText& out) : out_(out) { buffer_.reserve(internal::kWriteBufferBytes + 4096); }
+  ~RowBuffer() { out_.Write(buffer_); }
+  RowBuffer(const RowBuffer&) = delete;
+  RowBuffer& operator=(const RowBuffer&) = delete;
+  RowBuffer& operator<<(const char* header) {
+    buffer_ += header;
+    return *this;
+  }
+  RowBuffer& operator<<(const Row& row) {
+    buffer_ += row.line();
+    buffer_ += '\n';
+    if (buffer_.size() >= internal::kWriteBufferBytes) {
+      out_.Write(buffer_);
+      buffer_.clear();
+    }
+    return *this;
+  }
+
+ private:
+  OutputText& out_;
+  std::string buffer_;
 };
 
 std::string Verdict(const PointResult& p) {
@@ -54,8 +88,8 @@ bool IsLength(const std::string& unit) { return unit == "m"; }
 
 }  // namespace
 
-std::string PointsCsv(const Results& r) {
-  std::ostringstream out;
+void WritePointsCsv(const Results& r, OutputText& text) {
+  RowBuffer out(text);
   out << "name,face,range_m,azimuth_deg,elevation_deg,nominal_x_mm,nominal_y_mm,nominal_z_mm,"
          "x_mm,y_mm,z_mm,u_x_um,u_y_um,u_z_um,k,U_x_um,U_y_um,U_z_um,U_norm_um,"
          "ellipsoid_k,ellipsoid_a1_um,ellipsoid_a2_um,ellipsoid_a3_um,"
@@ -82,22 +116,22 @@ std::string PointsCsv(const Results& r) {
     row << g.los_part.u_radial * kUm << g.los_part.u_horizontal * kUm << g.los_part.u_vertical * kUm;
     row << g.second_order_ratio.maxCoeff() << std::string(g.gum_reliable ? "yes" : "no");
     if (p.has_mcm) {
-      for (int a = 0; a < 3; ++a) row << p.mcm_axes[a].mean * kMm;
-      for (int a = 0; a < 3; ++a) row << p.mcm_axes[a].u * kUm;
-      for (int a = 0; a < 3; ++a) row << p.mcm_axes[a].symmetric.low * kMm << p.mcm_axes[a].symmetric.high * kMm;
+      const PointMcm& m = *p.monte_carlo;
+      for (int a = 0; a < 3; ++a) row << m.axes[a].mean * kMm;
+      for (int a = 0; a < 3; ++a) row << m.axes[a].u * kUm;
+      for (int a = 0; a < 3; ++a) row << m.axes[a].symmetric.low * kMm << m.axes[a].symmetric.high * kMm;
       double d_max = 0.0, delta = 0.0;
       for (int a = 0; a < 3; ++a) {
-        d_max = std::max({d_max, p.axis_validation[a].d_low, p.axis_validation[a].d_high});
-        delta = a == 0 ? p.axis_validation[a].delta : std::min(delta, p.axis_validation[a].delta);
+        d_max = std::max({d_max, m.axis_validation[a].d_low, m.axis_validation[a].d_high});
+        delta = a == 0 ? m.axis_validation[a].delta : std::min(delta, m.axis_validation[a].delta);
       }
-      row << p.mcm.coverage_factor << d_max * kUm << delta * kUm << p.region_validation.worst_ratio;
+      row << m.mcm.coverage_factor << d_max * kUm << delta * kUm << m.region_validation.worst_ratio;
     } else {
       for (int k = 0; k < 16; ++k) row.Empty();
     }
     row << Verdict(p);
-    out << row.str();
+    out << row;
   }
-  return out.str();
 }
 
 namespace internal {
@@ -116,33 +150,47 @@ std::pair<std::string, double> PracticalSensitivity(const std::string& input_uni
 
 }  // namespace internal
 
-std::string BudgetCsv(const Results& r) {
-  std::ostringstream out;
-  out << "point,rank,input,group,unit,estimate,u,sensitivity_x,sensitivity_y,sensitivity_z,"
-         "sensitivity_unit,sensitivity_practical_x,sensitivity_practical_y,sensitivity_practical_z,"
-         "sensitivity_practical_unit,contribution_x_um,contribution_y_um,contribution_z_um,"
-         "share_x,share_y,share_z,share_total\n";
-  for (const PointResult& p : r.points) {
-    int rank = 0;
-    for (const BudgetRow& b : p.gum.budget) {
-      Row row;
-      row << p.input.name << ++rank << b.input << b.group << b.input_unit << b.estimate << b.u;
-      for (int a = 0; a < 3; ++a) row << b.sensitivity[a];
-      row << b.sensitivity_unit;
-      if (b.group == "correlation") {
-        row.Empty().Empty().Empty().Empty();
-      } else {
-        const auto [unit, factor] = internal::PracticalSensitivity(b.input_unit);
-        for (int a = 0; a < 3; ++a) row << b.sensitivity[a] * factor;
-        row << unit;
+void WriteBudgetCsv(const Results& r, OutputText& out) {
+  out.Write("point,rank,input,group,unit,estimate,u,sensitivity_x,sensitivity_y,sensitivity_z,"
+            "sensitivity_unit,sensitivity_practical_x,sensitivity_practical_y,sensitivity_practical_z,"
+            "sensitivity_practical_unit,contribution_x_um,contribution_y_um,contribution_z_um,"
+            "share_x,share_y,share_z,share_total\n");
+  internal::WritePointBudgets(r, out, [&](std::size_t first, std::span<const PointUncertainty> points,
+                                          std::string& text) {
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      int rank = 0;
+      for (const BudgetRow& b : points[i].budget) {
+        Row row;
+        row << r.points[first + i].input.name << ++rank << b.input << b.group << b.input_unit << b.estimate << b.u;
+        for (int a = 0; a < 3; ++a) row << b.sensitivity[a];
+        row << b.sensitivity_unit;
+        if (b.group == "correlation") {
+          row.Empty().Empty().Empty().Empty();
+        } else {
+          const auto [unit, factor] = internal::PracticalSensitivity(b.input_unit);
+          for (int a = 0; a < 3; ++a) row << b.sensitivity[a] * factor;
+          row << unit;
+        }
+        for (int a = 0; a < 3; ++a) row << b.contribution[a] * kUm;
+        for (int a = 0; a < 3; ++a) row << b.share[a];
+        row << b.share_total;
+        text += row.line();
+        text += '\n';
       }
-      for (int a = 0; a < 3; ++a) row << b.contribution[a] * kUm;
-      for (int a = 0; a < 3; ++a) row << b.share[a];
-      row << b.share_total;
-      out << row.str();
     }
-  }
-  return out.str();
+  });
+}
+
+std::string PointsCsv(const Results& r) {
+  StringText text;
+  WritePointsCsv(r, text);
+  return std::move(text.text());
+}
+
+std::string BudgetCsv(const Results& r) {
+  StringText text;
+  WriteBudgetCsv(r, text);
+  return std::move(text.text());
 }
 
 std::string TasksCsv(const Results& r) {

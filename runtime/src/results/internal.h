@@ -2,6 +2,8 @@
 #pragma once
 
 #include <chrono>
+#include <functional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -27,6 +29,8 @@ McmTask MakeMcmTask(const TaskSpec& spec, const std::vector<int>& point_indices,
 
 // Number formatting for CSV/JSON/HTML: shortest round-trip representation ("%.17g" trimmed).
 std::string Num(double v);
+// Appends Num(v) to out without allocating a string per number (the per-point files).
+void AppendNum(std::string& out, double v);
 
 // Sensitivity of a coordinate (m) to an input, in the units people read (docs/results.md):
 // um/um, um/arcsec, um/ppm, um/K, um/hPa, um/%, um/(ppm/K), chosen from the input's SI unit
@@ -44,6 +48,27 @@ inline constexpr std::size_t kReportOverviewPoints = 20000;
 // results.json text; for_html: compact, "</" escaped, plus the report's own settings (and, for a
 // scan, only the points above).
 std::string ResultsJsonText(const Results& results, int indent, bool for_html);
+
+// The per-point files are formatted into a buffer of about this size, then written.
+inline constexpr std::size_t kWriteBufferBytes = std::size_t{1} << 20;
+
+// The uncertainty budgets of points of `results` (indices into results.points; all when empty),
+// in that order: visit(n, gum) with gum.budget filled, n = position in `indices` (or the point
+// index). Budgets are not held in Results (for a scan they were most of its memory): they are
+// recomputed, chunk by chunk, by the same engine from the same model and readings, so they are the
+// budgets of the run bit for bit (test_results.cc).
+void ForEachPointBudget(const Results& results, std::span<const std::size_t> indices,
+                        const std::function<void(std::size_t, const PointUncertainty&)>& visit);
+
+// Writes the text of n items (points) to `out` in item order: format(begin, end, text) appends
+// the text of items [begin, end) to `text`; ranges are formatted on up to `threads` threads
+// (0: all), the output does not depend on the thread count.
+void WriteInBlocks(OutputText& out, std::size_t n, int threads,
+                   const std::function<void(std::size_t, std::size_t, std::string&)>& format);
+// WriteInBlocks over every point of `results` with the points' budgets (recomputed as in
+// ForEachPointBudget): format(first, budgets of points first.., text).
+void WritePointBudgets(const Results& results, OutputText& out,
+                       const std::function<void(std::size_t, std::span<const PointUncertainty>, std::string&)>& format);
 
 std::string HtmlEscape(const std::string& text);
 // Safe directory name from a job name ([A-Za-z0-9._-], others -> '_').

@@ -1,5 +1,7 @@
-// results.json: everything of a run in one document, SI units throughout (schema in
-// docs/results.md; "schema": "vlt-results/1"). Also embedded in report.html.
+// results.json: the run in one document, SI units throughout (schema in docs/results.md;
+// "schema": "vlt-results/2"); the detail of every point in points.jsonl, one JSON object per line,
+// written point by point (a scan of 10^6 points never exists as one document). The report embeds
+// its own variant (the points it draws, with their budgets).
 #include <algorithm>
 #include <cmath>
 
@@ -122,7 +124,9 @@ json Budget(const BudgetRow& b) {
               {"share_total", b.share_total}};
 }
 
-json Point(const Results& r, const PointResult& p) {
+// One point's detail: a line of points.jsonl (budget == nullptr: the rows are in budget.csv) or an
+// element of the report's points (with its budget).
+json Point(const Results& r, const PointResult& p, const std::vector<BudgetRow>* budget) {
   const PointUncertainty& g = p.gum;
   json j;
   j["name"] = p.input.name;
@@ -151,21 +155,24 @@ json Point(const Results& r, const PointResult& p) {
                          {"threshold", kSecondOrderThreshold},
                          {"reliable", g.gum_reliable}};
   j["gum"] = gum;
-  json budget = json::array();
-  for (const BudgetRow& b : g.budget) budget.push_back(Budget(b));
-  j["budget"] = budget;
+  if (budget != nullptr) {
+    json rows = json::array();
+    for (const BudgetRow& b : *budget) rows.push_back(Budget(b));
+    j["budget"] = rows;
+  }
   if (p.has_mcm) {
+    const PointMcm& m = *p.monte_carlo;
     json axes = json::array();
-    for (int a = 0; a < 3; ++a) axes.push_back(McmOut(p.mcm_axes[a]));
-    j["mcm"] = {{"mean", Vec(p.mcm.mean)},
-                {"covariance", Mat(p.mcm.covariance)},
-                {"correlation", Mat(p.mcm.correlation)},
-                {"has_region", p.mcm.has_region},
-                {"coverage_factor", p.mcm.coverage_factor},
+    for (int a = 0; a < 3; ++a) axes.push_back(McmOut(m.axes[a]));
+    j["mcm"] = {{"mean", Vec(m.mcm.mean)},
+                {"covariance", Mat(m.mcm.covariance)},
+                {"correlation", Mat(m.mcm.correlation)},
+                {"has_region", m.mcm.has_region},
+                {"coverage_factor", m.mcm.coverage_factor},
                 {"axes", axes}};
     json av = json::array();
-    for (int a = 0; a < 3; ++a) av.push_back(Scalar(p.axis_validation[a]));
-    const PointValidation& v = p.region_validation;
+    for (int a = 0; a < 3; ++a) av.push_back(Scalar(m.axis_validation[a]));
+    const PointValidation& v = m.region_validation;
     j["validation"] = {{"axes", av},
                        {"region",
                         {{"gum_coverage_factor", v.gum_coverage_factor},
@@ -286,7 +293,7 @@ json Map(const MapResult& m) {
 
 std::string internal::ResultsJsonText(const Results& r, int indent, bool for_html) {
   json j;
-  j["schema"] = "vlt-results/1";
+  j["schema"] = "vlt-results/2";
   j["vlt_version"] = r.vlt_version;
   j["units"] = {{"length", "m"},          {"angle", "rad"},          {"temperature", "degC"},
                 {"pressure", "Pa"},       {"humidity", "%"},         {"ratio", "1"},
@@ -375,7 +382,11 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
     for (std::size_t i = 0; i < point_indices.size(); ++i) point_indices[i] = i;
   }
   static constexpr const char* kPointsPlaceholder = "@@vlt-points@@";
-  j["points"] = kPointsPlaceholder;
+  if (for_html) {
+    j["points"] = kPointsPlaceholder;
+  } else {
+    j["points_file"] = "points.jsonl";  // vlt-results/2: one line per point, in job order
+  }
   json tasks = json::array();
   for (const TaskResult& t : r.tasks) tasks.push_back(Task(t));
   j["tasks"] = tasks;
@@ -400,7 +411,14 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
                   {"mcm_seconds", r.mcm_seconds}};
   if (for_html) j["report"] = {{"ellipsoid_scale", r.ellipsoid_scale}};
   std::string text;
-  {
+  if (!for_html) {
+    text = j.dump(indent, ' ', false, json::error_handler_t::replace);
+  } else {
+    // The points' budgets are not held in Results: recomputed for the points drawn.
+    std::vector<std::vector<BudgetRow>> budgets(point_indices.size());
+    internal::ForEachPointBudget(r, point_indices, [&](std::size_t n, const PointUncertainty& g) {
+      budgets[n] = g.budget;
+    });
     const std::string outer = j.dump(indent, ' ', false, json::error_handler_t::replace);
     const std::string quoted = std::string("\"") + kPointsPlaceholder + "\"";
     const std::size_t at = outer.find(quoted);
@@ -415,7 +433,8 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
     } else {
       text += indent >= 0 ? "[\n" : "[";
       for (std::size_t n = 0; n < point_indices.size(); ++n) {
-        std::string one = Point(r, r.points[point_indices[n]]).dump(indent, ' ', false, json::error_handler_t::replace);
+        std::string one = Point(r, r.points[point_indices[n]], &budgets[n])
+                              .dump(indent, ' ', false, json::error_handler_t::replace);
         if (indent >= 0) {
           text += pad;
           for (char c : one) {
@@ -450,6 +469,21 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
 }
 
 std::string ResultsJson(const Results& r, int indent) { return internal::ResultsJsonText(r, indent, false); }
+
+void WritePointsJsonl(const Results& r, OutputText& out) {
+  internal::WriteInBlocks(out, r.points.size(), r.threads, [&](std::size_t begin, std::size_t end, std::string& text) {
+    for (std::size_t i = begin; i < end; ++i) {
+      text += Point(r, r.points[i], nullptr).dump(-1, ' ', false, json::error_handler_t::replace);
+      text += '\n';
+    }
+  });
+}
+
+std::string PointsJsonl(const Results& r) {
+  StringText text;
+  WritePointsJsonl(r, text);
+  return std::move(text.text());
+}
 
 std::string MapJson(const MapResult& map, int indent) { return Map(map).dump(indent); }
 

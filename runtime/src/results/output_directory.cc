@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <array>
 #include <csignal>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <set>
@@ -57,7 +58,7 @@ bool CopyPath(char* buffer, const fs::path& p) {
 // written by vlt, also by versions before the marker existed.
 const std::set<std::string>& KnownOutputNames() {
   static const std::set<std::string> names = {
-      kOutputMarker, "points.csv", "outputs.csv", "budget.csv", "tasks.csv", "results.json", "report.html", "map.csv", "map.html",
+      kOutputMarker, "points.csv", "points.jsonl", "outputs.csv", "budget.csv", "tasks.csv", "results.json", "report.html", "map.csv", "map.html",
       "tests.csv", "sensitivity.csv", "simulated_readings.csv", "simulated_calibration.toml", "calibration.toml",
       "parameters.csv", "correlation.csv", "identifiability.csv", "targets.csv", "residuals.csv"};
   return names;
@@ -128,7 +129,52 @@ OutputDirectory::~OutputDirectory() {
   }
 }
 
-void OutputDirectory::Commit(const std::vector<std::pair<std::string, std::string>>& files) {
+OutputFile::OutputFile(std::string file_name, std::string content)
+    : name(std::move(file_name)),
+      write([text = std::move(content)](OutputText& out) { out.Write(text); }) {}
+
+OutputFile::OutputFile(std::string file_name, std::function<void(OutputText&)> writer)
+    : name(std::move(file_name)), write(std::move(writer)) {}
+
+namespace {
+
+// A staging file, written through a 1 MiB stdio buffer; a write error is reported once at the end.
+class FileText final : public OutputText {
+ public:
+  explicit FileText(const fs::path& path) : file_(std::fopen(path.c_str(), "wb")) {
+    if (file_ != nullptr) std::setvbuf(file_, nullptr, _IOFBF, std::size_t{1} << 20);
+  }
+  ~FileText() override {
+    if (file_ != nullptr) std::fclose(file_);
+  }
+  FileText(const FileText&) = delete;
+  FileText& operator=(const FileText&) = delete;
+  void Write(std::string_view text) override {
+    if (file_ != nullptr && !text.empty()) std::fwrite(text.data(), 1, text.size(), file_);
+  }
+  // Flushes and closes; false on any error since opening.
+  bool Close() {
+    if (file_ == nullptr) return false;
+    const bool ok = std::fflush(file_) == 0 && std::ferror(file_) == 0;
+    const bool closed = std::fclose(file_) == 0;
+    file_ = nullptr;
+    return ok && closed;
+  }
+
+ private:
+  std::FILE* file_;
+};
+
+}  // namespace
+
+std::vector<OutputFile> AsOutputFiles(const std::vector<std::pair<std::string, std::string>>& files) {
+  std::vector<OutputFile> all;
+  all.reserve(files.size());
+  for (const auto& [name, content] : files) all.emplace_back(name, content);
+  return all;
+}
+
+void OutputDirectory::Commit(const std::vector<OutputFile>& files) {
   std::error_code ec;
   fs::create_directories(parent_, ec);
   if (ec) throw InputError(target_.string() + ": cannot create '" + parent_.string() + "': " + ec.message());
@@ -144,14 +190,14 @@ void OutputDirectory::Commit(const std::vector<std::pair<std::string, std::strin
   staging_ = parent_ / ("." + name + ".vlt-new-" + pid);
   RemoveQuietly(staging_);
   // Prepare the signal handler's list before anything exists on disk.
-  std::vector<std::pair<std::string, std::string>> all = files;
+  std::vector<OutputFile> all = files;
   all.emplace_back(kOutputMarker, std::string("written by vlt ") + VLT_VERSION +
                                       "; vlt replaces this directory as a whole on its next run into it\n");
   g_staging_active = 0;
   int count = 0;
   bool registered = CopyPath(g_staging_dir, staging_) && all.size() <= static_cast<std::size_t>(kMaxStaged);
   for (std::size_t i = 0; registered && i < all.size(); ++i) {
-    registered = CopyPath(g_staged_files[count++], staging_ / all[i].first);
+    registered = CopyPath(g_staged_files[count++], staging_ / all[i].name);
   }
   g_staged_count = registered ? count : 0;
   g_staging_active = registered ? 1 : 0;
@@ -159,12 +205,13 @@ void OutputDirectory::Commit(const std::vector<std::pair<std::string, std::strin
   if (!fs::create_directory(staging_, ec) || ec) {
     throw InputError(target_.string() + ": cannot create the staging directory '" + staging_.string() + "'");
   }
-  for (const auto& [file, content] : all) {
-    if (file.find('/') != std::string::npos) throw InputError(file + ": an output file name may not contain '/'");
-    std::ofstream out(staging_ / file, std::ios::binary | std::ios::trunc);
-    out.write(content.data(), static_cast<std::streamsize>(content.size()));
-    out.flush();
-    if (!out) throw InputError((target_ / file).string() + ": cannot write the output file (disk full?)");
+  for (const OutputFile& file : all) {
+    if (file.name.find('/') != std::string::npos) {
+      throw InputError(file.name + ": an output file name may not contain '/'");
+    }
+    FileText out(staging_ / file.name);
+    file.write(out);
+    if (!out.Close()) throw InputError((target_ / file.name).string() + ": cannot write the output file (disk full?)");
   }
   // Swap in.
   const bool exists = fs::exists(fs::symlink_status(target_, ec));

@@ -2,14 +2,17 @@
 // validation of JCGM 101 8 (vlt/validation.h) into one Results struct.
 #include "vlt/results.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <unistd.h>
 #include <limits>
 #include <cmath>
 
+#include "gum/internal.h"
 #include "results/internal.h"
 #include "vlt/error.h"
+#include "vlt/fits.h"
 
 namespace vlt {
 
@@ -154,14 +157,24 @@ void DecideTaskConformity(TaskResult& task) {
 
 }  // namespace
 
-std::uint64_t EstimateJobMemory(const Job& job) {
-  // Measured (docs/performance.md "Memory of a job"): about 3.5 kB per budget row of a point
-  // (3 readings + the shared inputs) for the point's results and its rows in results.json and
-  // budget.csv, which are all held as text until the output is committed.
+std::uint64_t EstimateJobMemory(const Job& job, const RunOptions& options) {
   const std::uint64_t shared = static_cast<std::uint64_t>(job.setup.model ? job.setup.model->num_params : 0) +
                                (job.setup.environment ? 4 : 0) + (job.setup.pose ? 6 : 0) +
                                (job.setup.thermal ? 2 : 0);
-  return kJobBaseBytes + static_cast<std::uint64_t>(job.points.size()) * (3 + shared) * kBytesPerBudgetRow;
+  const auto n = static_cast<std::uint64_t>(job.points.size());
+  std::uint64_t bytes = kJobBaseBytes + n * (kBytesPerPoint + (3 + shared) * kBytesPerPointInput);
+  if (options.monte_carlo && job.monte_carlo.enabled) {
+    const std::int64_t trials = options.trials.value_or(job.monte_carlo.adaptive ? 0 : job.monte_carlo.trials);
+    std::uint64_t outputs = 3 * n;
+    for (const TaskSpec& t : job.tasks) outputs += TaskOutputs(t.kind).size();
+    const McmSettings defaults;
+    const std::uint64_t batch = trials > 0 ? std::min<std::uint64_t>(10000, static_cast<std::uint64_t>(trials)) : 10000;
+    const std::uint64_t stored =
+        trials > 0 ? std::min<std::uint64_t>(defaults.memory_budget_bytes, 4 * outputs * static_cast<std::uint64_t>(trials))
+                   : defaults.memory_budget_bytes;
+    bytes += n * kBytesPerPointMcm + 4 * outputs * batch + stored;
+  }
+  return bytes;
 }
 
 std::uint64_t AvailableMemory() {
@@ -184,25 +197,84 @@ std::uint64_t AvailableMemory() {
                                : std::numeric_limits<std::uint64_t>::max();
 }
 
-void CheckJobMemory(const Job& job, std::uint64_t available_bytes) {
-  const std::uint64_t need = EstimateJobMemory(job);
+void CheckJobMemory(const Job& job, std::uint64_t available_bytes, const RunOptions& options) {
+  const std::uint64_t need = EstimateJobMemory(job, options);
   if (need <= available_bytes) return;
   const double gib = 1024.0 * 1024.0 * 1024.0;
   const std::uint64_t per_point = job.points.empty() ? 1 : (need - kJobBaseBytes) / job.points.size();
   const std::uint64_t fits = available_bytes > kJobBaseBytes ? (available_bytes - kJobBaseBytes) / per_point : 0;
   char text[512];
   std::snprintf(text, sizeof text,
-                ": this job needs about %.1f GiB of memory (%zu points x %.0f kB: every point's budget is held "
-                "for results.json, budget.csv and report.html) and %.1f GiB are available; split it into "
-                "jobs of at most %llu points",
+                ": this job needs about %.1f GiB of memory (%zu points x %.1f kB%s) and %.1f GiB are available; "
+                "split it into jobs of at most %llu points",
                 static_cast<double>(need) / gib, job.points.size(), static_cast<double>(per_point) / 1024.0,
+                options.monte_carlo && job.monte_carlo.enabled ? ", with the Monte Carlo values of every output" : "",
                 static_cast<double>(available_bytes) / gib, static_cast<unsigned long long>(fits));
   throw InputError(job.file + (job.mode == JobMode::kPlan ? ": plan" : ": readings") + text);
 }
 
+namespace {
+
+// The budgets of points [begin, end) of `indices` (all points when empty), computed on one thread.
+std::vector<PointUncertainty> BudgetsOf(const Results& r, const MeasurementModel& model,
+                                        std::span<const std::size_t> indices, std::size_t begin, std::size_t end) {
+  std::vector<PointReadings> chunk(end - begin);
+  for (std::size_t i = begin; i < end; ++i) {
+    const PointUncertainty& g = r.points[indices.empty() ? i : indices[i]].gum;
+    chunk[i - begin].name = g.name;
+    chunk[i - begin].readings = g.readings;
+  }
+  GumOptions options;
+  options.coverage_probability = r.coverage_probability;
+  options.budgets = true;
+  options.threads = 1;  // the caller runs chunks in parallel
+  return PropagatePoints(model, chunk, options);
+}
+
+}  // namespace
+
+void internal::WriteInBlocks(OutputText& out, std::size_t n, int threads,
+                             const std::function<void(std::size_t, std::size_t, std::string&)>& format) {
+  // Blocks of kParts parts of kPart items: the parts of a block are formatted in parallel, each
+  // into its own text, then written in order; the text does not depend on the thread count.
+  constexpr std::size_t kPart = 512, kParts = 16;
+  std::vector<std::string> parts(kParts);
+  for (std::size_t block = 0; block < n; block += kPart * kParts) {
+    const std::size_t len = std::min(n - block, kPart * kParts);
+    gum_internal::ParallelChunks(len, kPart, threads, [&](std::size_t c, std::size_t b, std::size_t e) {
+      parts[c].clear();
+      format(block + b, block + e, parts[c]);
+    });
+    for (std::size_t c = 0; c * kPart < len; ++c) out.Write(parts[c]);
+  }
+}
+
+void internal::WritePointBudgets(
+    const Results& r, OutputText& out,
+    const std::function<void(std::size_t, std::span<const PointUncertainty>, std::string&)>& format) {
+  if (r.points.empty()) return;
+  const MeasurementModel model(r.setup);
+  WriteInBlocks(out, r.points.size(), r.threads, [&](std::size_t begin, std::size_t end, std::string& text) {
+    format(begin, BudgetsOf(r, model, {}, begin, end), text);
+  });
+}
+
+void internal::ForEachPointBudget(const Results& r, std::span<const std::size_t> indices,
+                                  const std::function<void(std::size_t, const PointUncertainty&)>& visit) {
+  if (r.points.empty()) return;
+  const MeasurementModel model(r.setup);
+  const std::size_t n = indices.empty() ? r.points.size() : indices.size();
+  constexpr std::size_t kChunk = 4096;
+  for (std::size_t begin = 0; begin < n; begin += kChunk) {
+    const std::size_t end = std::min(n, begin + kChunk);
+    const std::vector<PointUncertainty> gum = BudgetsOf(r, model, indices, begin, end);
+    for (std::size_t i = begin; i < end; ++i) visit(i, gum[i - begin]);
+  }
+}
+
 Results RunJob(const Job& job, const RunOptions& options) {
   // A job too large for memory fails here, before computing, not with std::bad_alloc.
-  CheckJobMemory(job, AvailableMemory());
+  CheckJobMemory(job, AvailableMemory(), options);
   try {
     return RunJobUnplaced(job, options);
   } catch (const NumericalError& e) {
@@ -239,8 +311,10 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
   std::vector<PointReadings> readings = JobReadings(job, model);
   GumOptions gum_options;
   gum_options.coverage_probability = results.coverage_probability;
-  gum_options.budgets = true;
+  // Budgets are written from ForEachPointBudget when the files are (not held: O(N) memory).
+  gum_options.budgets = false;
   gum_options.threads = threads;
+  results.threads = threads;
   std::vector<PointUncertainty> gum_points = PropagatePoints(model, readings, gum_options);
   // Where the linearisation is not reliable, said without Monte Carlo (JCGM 100 5.1.2 note).
   CheckSecondOrder(model, readings, gum_points, kSecondOrderThreshold, threads);
@@ -304,26 +378,28 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
     for (std::size_t i = 0; i < np; ++i) {
       PointResult& pr = results.points[i];
       pr.has_mcm = true;
-      pr.mcm = mcm.points[i];
+      auto m = std::make_shared<PointMcm>();
+      m->mcm = mcm.points[i];
       std::vector<std::string> outcomes;
       for (int a = 0; a < 3; ++a) {
-        pr.mcm_axes[a] = mcm.outputs[3 * i + a];
-        pr.axis_validation[a] = ValidateScalar(pr.mcm_axes[a].name, "m", pr.gum.part[a], pr.gum.u_part[a],
-                                               pr.gum.U_part[a], pr.mcm_axes[a].symmetric, results.n_dig,
-                                               mcm.trials, pr.mcm_axes[a].u, results.coverage_probability);
-        outcomes.push_back(pr.axis_validation[a].outcome);
+        m->axes[a] = mcm.outputs[3 * i + a];
+        m->axis_validation[a] = ValidateScalar(m->axes[a].name, "m", pr.gum.part[a], pr.gum.u_part[a],
+                                               pr.gum.U_part[a], m->axes[a].symmetric, results.n_dig,
+                                               mcm.trials, m->axes[a].u, results.coverage_probability);
+        outcomes.push_back(m->axis_validation[a].outcome);
       }
       try {
-        pr.region_validation = ValidatePoint(pr.gum.name, pr.gum.part, pr.gum.cov_part, pr.gum.ellipsoid.k,
-                                             pr.mcm, results.n_dig, mcm.trials, results.coverage_probability);
-        outcomes.push_back(pr.region_validation.outcome);
+        m->region_validation = ValidatePoint(pr.gum.name, pr.gum.part, pr.gum.cov_part, pr.gum.ellipsoid.k,
+                                             m->mcm, results.n_dig, mcm.trials, results.coverage_probability);
+        outcomes.push_back(m->region_validation.outcome);
       } catch (const NumericalError& e) {
-        pr.region_validation = PointValidation{};
-        pr.region_validation.name = pr.gum.name;
-        pr.region_validation.outcome = "not validated";
-        pr.region_validation.verdict = std::string("no coverage region: ") + e.what();
+        m->region_validation = PointValidation{};
+        m->region_validation.name = pr.gum.name;
+        m->region_validation.outcome = "not validated";
+        m->region_validation.verdict = std::string("no coverage region: ") + e.what();
         outcomes.push_back("not validated");
       }
+      pr.monte_carlo = std::move(m);
       pr.outcome = CombinedOutcome(outcomes);
       pr.validated = pr.outcome == "validated";
       results.validated_points += pr.validated ? 1 : 0;

@@ -1,5 +1,8 @@
 // Tasks in the Monte Carlo engine: each trial refits the drawn points with vlt/fits.h, the same
 // definition the GUM engine linearises, so the fitting algorithm is itself propagated.
+#include <algorithm>
+#include <charconv>
+#include <cmath>
 #include <cstdio>
 
 #include "results/internal.h"
@@ -49,13 +52,36 @@ McmTask MakeMcmTask(const TaskSpec& spec, const std::vector<int>& point_indices,
   return task;
 }
 
-std::string Num(double v) {
+// The old definition, kept as the specification: the first of "%.6g" ... "%.17g" that reads back
+// as v. Computed directly: the shortest round-trip representation (std::to_chars, Ryu) has d
+// significant digits, no p < d round-trips, so the answer is "%.{max(6, d)}g" unless that rounding
+// falls outside v's rounding interval (possible next to a power of two), then one more digit.
+// std::to_chars(general, p) is specified as printf's %.pg ([charconv.to.chars]).
+void AppendNum(std::string& out, double v) {
   char buffer[40];
-  for (int precision = 6; precision <= 17; ++precision) {
-    std::snprintf(buffer, sizeof buffer, "%.*g", precision, v);
-    if (std::strtod(buffer, nullptr) == v) break;
+  if (!std::isfinite(v)) {
+    std::snprintf(buffer, sizeof buffer, "%g", v);
+    out += buffer;
+    return;
   }
-  return buffer;
+  auto shortest = std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::scientific);
+  int digits = 0;
+  for (const char* c = buffer; c < shortest.ptr && *c != 'e'; ++c) digits += (*c >= '0' && *c <= '9') ? 1 : 0;
+  for (int precision = std::max(6, digits); precision <= 17; ++precision) {
+    auto end = std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::general, precision).ptr;
+    double back = 0.0;
+    std::from_chars(buffer, end, back);
+    if (back == v || precision == 17) {
+      out.append(buffer, end);
+      return;
+    }
+  }
+}
+
+std::string Num(double v) {
+  std::string out;
+  AppendNum(out, v);
+  return out;
 }
 
 std::string Sig(double v, int digits) {

@@ -12,17 +12,22 @@
 
 namespace vlt {
 
-std::vector<std::pair<std::string, std::string>> ResultFiles(const Results& results) {
-  // Everything is rendered in memory first: a failure here leaves the disk untouched.
-  std::vector<std::pair<std::string, std::string>> files;
-  files.emplace_back("points.csv", PointsCsv(results));
-  files.emplace_back("budget.csv", BudgetCsv(results));
-  files.emplace_back("tasks.csv", TasksCsv(results));
-  files.emplace_back("results.json", ResultsJson(results));
-  files.emplace_back("report.html", ReportHtml(results));
+std::vector<OutputFile> ResultFiles(const Results& results) {
+  // Written when the output directory commits, into its staging directory: a failure leaves the
+  // old set untouched; the per-point files are streamed, never held whole.
+  const Results* r = &results;
+  std::vector<OutputFile> files;
+  files.emplace_back("points.csv", [r](OutputText& out) { WritePointsCsv(*r, out); });
+  files.emplace_back("points.jsonl", [r](OutputText& out) { WritePointsJsonl(*r, out); });
+  files.emplace_back("budget.csv", [r](OutputText& out) { WriteBudgetCsv(*r, out); });
+  files.emplace_back("tasks.csv", [r](OutputText& out) { out.Write(TasksCsv(*r)); });
+  files.emplace_back("results.json", [r](OutputText& out) { out.Write(ResultsJson(*r)); });
+  files.emplace_back("report.html", [r](OutputText& out) { out.Write(ReportHtml(*r)); });
   if (results.map) {
-    files.emplace_back("map.csv", MapCsv(*results.map));
-    files.emplace_back("map.html", MapHtml(*results.map, results.job_name + ": " + results.map->settings.description));
+    files.emplace_back("map.csv", [r](OutputText& out) { out.Write(MapCsv(*r->map)); });
+    files.emplace_back("map.html", [r](OutputText& out) {
+      out.Write(MapHtml(*r->map, r->job_name + ": " + r->map->settings.description));
+    });
   }
   return files;
 }
