@@ -55,7 +55,7 @@ add_test(NAME cli_error_map_without_extent
           "-DARGS=map;${_jobs}/good.toml;--plane;z=0;-o;${_out}/error_map"
           -DOUT=${_out}/error_map "-DEXPECT=--extent: required with --plane" -P ${_cli}/expect_error.cmake)
 
-set(_all_files "points.csv;budget.csv;tasks.csv;results.json;report.html")
+set(_all_files "points.csv;points.jsonl;budget.csv;tasks.csv;results.json;report.html")
 
 # A good job, GUM only and with a small Monte Carlo run; --json prints results.json.
 add_test(NAME cli_run_good_no_mcm
@@ -104,6 +104,23 @@ add_test(NAME report_browser_scan
   COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/scan/report.html -DPROFILE=${_out}/chromium-profile-scan
           -DMIN_PLOTS=3 -DMAX_BYTES=10000000 -P ${_cli}/report_browser.cmake)
 set_tests_properties(report_browser_scan PROPERTIES FIXTURES_REQUIRED vlt_scan_outputs TIMEOUT 300)
+
+# A large scan (10^5 points, generated at test time): every file is written (points.jsonl has a
+# line per point), and the report stays small (the 200 largest-|U| points, an overview of 20000)
+# and draws. docs/performance.md 4.2 records the 10^6-point run (time, memory, page size).
+find_package(Python3 COMPONENTS Interpreter REQUIRED)
+add_test(NAME cli_make_scan_large
+  COMMAND ${Python3_EXECUTABLE} ${_cli}/make_scan.py 100000 ${_out}/scan_large_job)
+set_tests_properties(cli_make_scan_large PROPERTIES FIXTURES_SETUP vlt_scan_large_job)
+add_test(NAME cli_run_scan_large
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_out}/scan_large_job/scan.toml;-q;-o;${_out}/scan_large"
+          -DOUT=${_out}/scan_large "-DFILES=${_all_files};points.jsonl" -DSKIP_JSONL_LINES=ON -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_run_scan_large PROPERTIES FIXTURES_REQUIRED vlt_scan_large_job
+                     FIXTURES_SETUP vlt_scan_large_outputs TIMEOUT 600)
+add_test(NAME report_browser_scan_large
+  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/scan_large/report.html -DPROFILE=${_out}/chromium-profile-scan-large
+          -DMIN_PLOTS=3 -DMAX_BYTES=20000000 -P ${_cli}/report_browser.cmake)
+set_tests_properties(report_browser_scan_large PROPERTIES FIXTURES_REQUIRED vlt_scan_large_outputs TIMEOUT 300)
 
 # vlt map through the tracker's vertical axis: the node at the origin is skipped and reported.
 add_test(NAME cli_map_plane

@@ -3,7 +3,8 @@
 # schema's top-level keys.
 #   -DVLT=... -DARGS="..." -DOUT=... -DFILES="points.csv;..." [-DEXPECT_STDOUT=<regex>]
 #   [-DJSON_KEYS="schema;..."] (default: the top-level keys of a tracker job's results.json)
-#   [-DSCHEMA=...] (default: vlt-results/2; its points.jsonl must hold one parsable object per point)
+#   [-DSCHEMA=...] (default: vlt-results/2; its points.jsonl must hold one parsable object per point,
+#   unless -DSKIP_JSONL_LINES=ON for a scan too large to parse in CMake)
 cmake_minimum_required(VERSION 3.25)
 file(REMOVE_RECURSE ${OUT})
 execute_process(COMMAND ${VLT} ${ARGS} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
@@ -43,7 +44,7 @@ if("results.json" IN_LIST FILES)
   if(json MATCHES "[^A-Za-z_\"]nan[^A-Za-z_\"]|NaN|Infinity")
     message(FATAL_ERROR "results.json contains NaN or Infinity")
   endif()
-  if(SCHEMA STREQUAL "vlt-results/2")
+  if(SCHEMA STREQUAL "vlt-results/2" AND NOT SKIP_JSONL_LINES)
     # points.jsonl: a line per point of the job, each a JSON object naming its point.
     string(JSON n_points GET "${json}" job points)
     file(READ ${OUT}/points.jsonl text)

@@ -43,6 +43,7 @@ struct TaskSpec {
   // Tolerances of some of its quantities (vlt/conformity.h): quantity name (TaskOutputs(kind),
   // e.g. "distance", "flatness", "radius") and the interval, SI units.
   std::vector<std::pair<std::string, Tolerance>> tolerances;
+  bool all_points = false;          // `points = "all"`: every point of the job, in job order
 
   // The tolerance of `quantity`, or nullptr.
   const Tolerance* ToleranceOf(std::string_view quantity) const {

@@ -33,12 +33,17 @@ void CheckSecondOrder(const MeasurementModel& model, std::span<const PointReadin
     factor.Apply(identity.data(), f_shared.data(), S);
   }
   const Eigen::VectorXd s0 = model.shared_estimates();
+  // Independent shared inputs (the usual case): F = diag(u), and J_s F is a column scaling, not a
+  // 3 x S x S product per Jacobian (2 (3 + S) Jacobians per point).
+  const bool f_is_diagonal = f_shared.isDiagonal(0.0);
+  const Eigen::VectorXd f_diagonal = f_shared.diagonal();
   gum_internal::ParallelChunks(points.size(), 64, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
     Eigen::Matrix<double, 3, 3> jr;
     Eigen::Matrix<double, 3, Eigen::Dynamic> js(3, S);
     Eigen::Vector3d y;
     Eigen::VectorXd s(S);
     Eigen::MatrixXd jz_plus(3, n), jz_minus(3, n);
+    Eigen::VectorXd s_plus(S), s_minus(S);
     std::vector<Eigen::MatrixXd> h(3, Eigen::MatrixXd(n, n));
     for (std::size_t i = begin; i < end; ++i) {
       const Eigen::Vector3d r0 = points[i].readings;
@@ -47,11 +52,16 @@ void CheckSecondOrder(const MeasurementModel& model, std::span<const PointReadin
       auto jz = [&](const Eigen::Vector3d& r, const Eigen::VectorXd& shared, Eigen::MatrixXd& out) {
         model.EvaluateWithJacobian(r.data(), shared.data(), y.data(), jr.data(), js.data());
         out.leftCols(3) = jr * u_r.asDiagonal();
-        out.rightCols(S) = js * f_shared;
+        if (f_is_diagonal) {
+          out.rightCols(S) = js * f_diagonal.asDiagonal();
+        } else {
+          out.rightCols(S).noalias() = js * f_shared;
+        }
       };
       for (int k = 0; k < n; ++k) {
         Eigen::Vector3d r_plus = r0, r_minus = r0;
-        Eigen::VectorXd s_plus = s0, s_minus = s0;
+        s_plus = s0;
+        s_minus = s0;
         if (k < 3) {
           r_plus(k) += u_r(k);
           r_minus(k) -= u_r(k);

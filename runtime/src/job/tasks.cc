@@ -71,6 +71,7 @@ void ReadTasks(Section& top, Job& job) {
     const toml::node& pts = t.Require("points");
     if (pts.is_string() && *pts.value<std::string>() == "all") {
       spec.points = point_names;  // a scan: every point of the job, in the job's order
+      spec.all_points = true;
     } else if (!pts.is_array()) {
       throw InputError(t.Where("points") + ": expected an array of point names or \"all\"");
     } else {

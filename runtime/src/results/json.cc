@@ -200,7 +200,8 @@ json Task(const TaskResult& t) {
   json j;
   j["name"] = t.spec.name;
   j["kind"] = std::string(TaskKindName(t.spec.kind));
-  j["points"] = t.spec.points;
+  // `points = "all"` stays "all" (a scan's task would list every point name again).
+  j["points"] = t.spec.all_points ? json("all") : json(t.spec.points);
   j["quantities"] = t.gum.quantities;
   j["units"] = t.gum.units;
   j["gum"] = {{"value", Vec(t.gum.value)}, {"covariance", Mat(t.gum.covariance)}, {"u", Vec(t.gum.u)},

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <span>
 #include <cstdio>
 #include <unistd.h>
 #include <limits>
@@ -237,7 +238,7 @@ void internal::WriteInBlocks(OutputText& out, std::size_t n, int threads,
                              const std::function<void(std::size_t, std::size_t, std::string&)>& format) {
   // Blocks of kParts parts of kPart items: the parts of a block are formatted in parallel, each
   // into its own text, then written in order; the text does not depend on the thread count.
-  constexpr std::size_t kPart = 512, kParts = 16;
+  constexpr std::size_t kPart = 256, kParts = 8;
   std::vector<std::string> parts(kParts);
   for (std::size_t block = 0; block < n; block += kPart * kParts) {
     const std::size_t len = std::min(n - block, kPart * kParts);
@@ -315,13 +316,19 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
   gum_options.budgets = false;
   gum_options.threads = threads;
   results.threads = threads;
-  std::vector<PointUncertainty> gum_points = PropagatePoints(model, readings, gum_options);
-  // Where the linearisation is not reliable, said without Monte Carlo (JCGM 100 5.1.2 note).
-  CheckSecondOrder(model, readings, gum_points, kSecondOrderThreshold, threads);
+  // In blocks moved into the results as they are done: a scan never holds two copies of its
+  // points (point names are never empty, so messages name the point, not a block position).
   results.points.resize(job.points.size());
-  for (std::size_t i = 0; i < job.points.size(); ++i) {
-    results.points[i].input = job.points[i];
-    results.points[i].gum = std::move(gum_points[i]);
+  constexpr std::size_t kGumBlock = 65536;
+  for (std::size_t begin = 0; begin < readings.size(); begin += kGumBlock) {
+    const std::span<const PointReadings> block(readings.data() + begin, std::min(kGumBlock, readings.size() - begin));
+    std::vector<PointUncertainty> gum_points = PropagatePoints(model, block, gum_options);
+    // Where the linearisation is not reliable, said without Monte Carlo (JCGM 100 5.1.2 note).
+    CheckSecondOrder(model, block, gum_points, kSecondOrderThreshold, threads);
+    for (std::size_t i = 0; i < block.size(); ++i) {
+      results.points[begin + i].input = job.points[begin + i];
+      results.points[begin + i].gum = std::move(gum_points[i]);
+    }
   }
   results.tasks.resize(job.tasks.size());
   for (std::size_t t = 0; t < job.tasks.size(); ++t) {

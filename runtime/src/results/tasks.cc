@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 
 #include "results/internal.h"
 #include "vlt/fits.h"
@@ -66,12 +68,36 @@ void AppendNum(std::string& out, double v) {
   }
   auto shortest = std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::scientific);
   int digits = 0;
-  for (const char* c = buffer; c < shortest.ptr && *c != 'e'; ++c) digits += (*c >= '0' && *c <= '9') ? 1 : 0;
-  for (int precision = std::max(6, digits); precision <= 17; ++precision) {
-    auto end = std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::general, precision).ptr;
+  const char* e = buffer;
+  for (; e < shortest.ptr && *e != 'e'; ++e) digits += (*e >= '0' && *e <= '9') ? 1 : 0;
+  int exponent = 0;
+  std::from_chars(e + 1 + (e[1] == '+' ? 1 : 0), shortest.ptr, exponent);
+  // Away from a power of two the rounding interval is symmetric about v, and the closest
+  // p-digit decimal (%.pg, p >= d) is then the shortest one padded with zeros, which %g strips:
+  // "%.{max(6, d)}g" is the shortest digits laid out as %g lays them out (scientific when the
+  // exponent is < -4 or >= the precision, else fixed). At a power of two (fraction bits all zero)
+  // the interval below is half as wide, and subnormals are coarser: there %.pg is formatted and
+  // read back for p = max(6, d) ... 17.
+  std::uint64_t bits = 0;
+  std::memcpy(&bits, &v, sizeof bits);
+  const bool power_of_two = (bits & ((std::uint64_t{1} << 52) - 1)) == 0;
+  // Subnormals have fewer significant bits: their interval can hold several 6-digit decimals.
+  const bool subnormal = (bits & (std::uint64_t{0x7ff} << 52)) == 0;
+  const int precision = std::max(6, digits);
+  if (!power_of_two && !subnormal) {
+    if (exponent < -4 || exponent >= precision) {
+      out.append(buffer, shortest.ptr);
+    } else {
+      auto fixed = std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::fixed);
+      out.append(buffer, fixed.ptr);
+    }
+    return;
+  }
+  for (int p = precision; p <= 17; ++p) {
+    auto end = std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::general, p).ptr;
     double back = 0.0;
     std::from_chars(buffer, end, back);
-    if (back == v || precision == 17) {
+    if (back == v || p == 17) {
       out.append(buffer, end);
       return;
     }
