@@ -1,9 +1,11 @@
 // vlt/results.h — a job run through the GUM engine, the Monte Carlo engine and the validation
 // into one Results struct, and the files written from it (docs/results.md):
-//   points.csv, budget.csv, tasks.csv, results.json, report.html (+ map.csv, map.html for maps).
+//   points.csv, points.jsonl, budget.csv, tasks.csv, results.json, report.html (+ map.csv,
+//   map.html for maps).
 //
-// Output files are built in memory first, written to temporary names in the output directory and
-// renamed only when all of them were written: on any error no output file of the run remains.
+// Output files are written by their writers (OutputFile) into a staging directory that replaces
+// the output directory only when all of them were written: on any error no output file of the run
+// remains. The per-point files are streamed; budgets are recomputed when written, not held.
 #pragma once
 
 #include <array>
