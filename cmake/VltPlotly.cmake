@@ -46,6 +46,14 @@ else()
   endif()
   set(VLT_PLOTLY_JS_FILE ${VLT_PLOTLY_JS})
 endif()
+# plotly.js's MIT licence text travels with every page that embeds it: the package's own LICENSE
+# when it is there, else the copy in third_party/.
+get_filename_component(_vlt_plotly_dir ${VLT_PLOTLY_JS_FILE} DIRECTORY)
+if(EXISTS ${_vlt_plotly_dir}/LICENSE)
+  set(VLT_PLOTLY_LICENSE_FILE ${_vlt_plotly_dir}/LICENSE)
+else()
+  set(VLT_PLOTLY_LICENSE_FILE ${CMAKE_SOURCE_DIR}/third_party/plotly.js-LICENSE)
+endif()
 # Read the version from the banner ("* plotly.js v4.1.2") for the report's footer.
 file(STRINGS ${VLT_PLOTLY_JS_FILE} _vlt_plotly_banner LIMIT_COUNT 3 REGEX "plotly\\.js v")
 string(REGEX MATCH "v[0-9][0-9.]*" VLT_PLOTLY_VERSION "${_vlt_plotly_banner}")

@@ -152,7 +152,14 @@ foreach(cmd run demo map)
   set_tests_properties(cli_help_${cmd} PROPERTIES PASS_REGULAR_EXPRESSION "Usage:.*${cmd}")
 endforeach()
 add_test(NAME cli_version COMMAND vlt --version)
-set_tests_properties(cli_version PROPERTIES PASS_REGULAR_EXPRESSION "^vlt [0-9]+\\.[0-9]+\\.[0-9]+")
+set_tests_properties(cli_version PROPERTIES
+  PASS_REGULAR_EXPRESSION "^vlt [0-9]+\\.[0-9]+\\.[0-9]+ \\(commit [0-9a-z-]+, [A-Za-z]+ build\\)")
+# `vlt demo --help` names the folder the demo writes to.
+add_test(NAME cli_help_demo_folder COMMAND vlt demo --help)
+set_tests_properties(cli_help_demo_folder PROPERTIES PASS_REGULAR_EXPRESSION "Output directory \\(default: ./vlt-demo\\)")
+# model show: a gauge's nominal length in mm with all its digits, its u in um (GUM H.1).
+add_test(NAME cli_model_show_units COMMAND vlt model show gum_h1_end_gauge)
+set_tests_properties(cli_model_show_units PROPERTIES PASS_REGULAR_EXPRESSION "l_s +\\[m\\]  50\\.000623 mm  u = 0\\.025 um")
 add_test(NAME cli_demo_show_job COMMAND vlt demo --show-job)
 set_tests_properties(cli_demo_show_job PROPERTIES PASS_REGULAR_EXPRESSION "model = \"mirror\"")
 

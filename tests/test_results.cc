@@ -381,6 +381,17 @@ TEST(Results, ReportIsSelfContained) {
   EXPECT_EQ(html.find("<script src="), std::string::npos);  // nothing loaded from elsewhere
   EXPECT_EQ(html.find("@VLT_"), std::string::npos);          // every placeholder filled
   EXPECT_NE(html.find("id=\"vlt-status\""), std::string::npos);
+  // plotly.js's MIT notice travels with it (its copyright line and the permission notice), in an
+  // HTML comment before the script.
+  const std::size_t notice = html.find("Permission is hereby granted, free of charge");
+  const std::size_t copyright = html.find("Copyright (c) ");
+  const std::size_t script = html.find("<script>/**");
+  ASSERT_NE(notice, std::string::npos);
+  ASSERT_NE(copyright, std::string::npos);
+  EXPECT_NE(html.find("Plotly"), std::string::npos);
+  EXPECT_LT(notice, script);
+  EXPECT_LT(html.rfind("<!--", notice), notice);
+  EXPECT_GT(html.find("-->", notice), notice);
 }
 
 class Writing : public ::testing::Test {

@@ -25,7 +25,7 @@ void AddDemoCommand(CLI::App& app, GlobalOptions& global) {
                                              "panel) into ./vlt-demo/ — also what bare `vlt` does");
   auto options = std::make_shared<RunCliOptions>();
   auto show = std::make_shared<bool>(false);
-  AddRunOptions(*command, *options);
+  AddRunOptions(*command, *options, "./vlt-demo");
   command->add_flag("--show-job", *show, "Print the embedded job file (a starting point for your own) and exit");
   command->callback([options, show, &global] {
     if (*show) {

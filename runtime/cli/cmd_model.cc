@@ -1,6 +1,7 @@
 // `vlt model list` and `vlt model show NAME [--json]`: the models vlt-gen generated from
 // models/*.toml, their readings, error parameters (default estimates and standard
 // uncertainties) and outputs (docs/models.md explains every parameter).
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -23,8 +24,10 @@ const ModelInfo& RequireModel(const std::string& name) {
   throw InputError("model: unknown model '" + name + "' (known: " + known + ")");
 }
 
-// A value in the unit a metrologist reads it in (um, arcsec, ppm), else SI.
+// A value in the unit a metrologist reads it in (um, arcsec, ppm), else SI. A length of 1 mm or
+// more (a gauge's nominal, not an error) in mm with every digit the spec gives (50.000623 mm).
 std::string Friendly(double si, const std::string& quantity) {
+  if (quantity == "length" && std::abs(si) >= 1e-3) return FormatQuantity(si, Dimension::kLength, "mm", 12);
   if (quantity == "length") return FormatQuantity(si, Dimension::kLength, "um", 4);
   if (quantity == "angle") return FormatQuantity(si, Dimension::kAngle, "arcsec", 4);
   if (quantity == "ratio") return FormatQuantity(si, Dimension::kRatio, "ppm", 4);

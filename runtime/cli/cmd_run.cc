@@ -72,9 +72,8 @@ void PrintWritten(const std::vector<std::pair<std::string, std::string>>& files,
   PrintWritten(AsOutputFiles(files), summary, dir, global);
 }
 
-void AddRunOptions(CLI::App& command, RunCliOptions& options) {
-  command.add_option("-o,--output", options.output_dir,
-                     "Output directory (default: [output] directory of the job, else ./vlt-out/<job name>)");
+void AddRunOptions(CLI::App& command, RunCliOptions& options, const std::string& default_output) {
+  command.add_option("-o,--output", options.output_dir, "Output directory (default: " + default_output + ")");
   command.add_flag("--no-mcm", options.no_mcm, "GUM only: skip the Monte Carlo method and the validation");
   command.add_option("--trials", options.trials, "Monte Carlo trials M (overrides [monte_carlo] trials)")
       ->check(IntegerIn(1, 1000000000));

@@ -52,7 +52,9 @@ void EmitWarnings(const std::vector<std::string>& warnings, const GlobalOptions&
 int main(int argc, char** argv) {
   CLI::App app{"vlt — the Virtual Laser Tracker: GUM and Monte Carlo uncertainty of laser "
                "tracker measurements from an explicit model of the instrument"};
-  app.set_version_flag("--version", std::string("vlt ") + VLT_VERSION);
+  // Version, the commit the build was configured from, and the build type (runtime/CMakeLists.txt).
+  app.set_version_flag("--version", std::string("vlt ") + VLT_VERSION + " (commit " + VLT_COMMIT + ", " +
+                                        VLT_BUILD_TYPE + " build)");
   vlt::cli::GlobalOptions global;
   app.add_flag("-q,--quiet", global.quiet, "Print nothing but errors");
   app.add_flag("--json", global.json, "Print results as JSON where a command prints results");

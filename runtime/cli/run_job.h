@@ -36,7 +36,8 @@ void PrintWritten(const std::vector<std::pair<std::string, std::string>>& files,
                   const std::filesystem::path& dir, const GlobalOptions& global);
 
 // Adds -o, --no-mcm, --trials, --adaptive, --seed, --threads to a subcommand.
-void AddRunOptions(CLI::App& command, RunCliOptions& options);
+void AddRunOptions(CLI::App& command, RunCliOptions& options,
+                   const std::string& default_output = "[output] directory of the job, else ./vlt-out/<job name>");
 
 // Where the outputs of `job` go: -o, else [output] directory (relative to the job file), else
 // `fallback` (e.g. ./vlt-out/<job name>).

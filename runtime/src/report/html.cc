@@ -56,6 +56,7 @@ std::string Page(const std::string& title, const std::string& data) {
   std::string version = VLT_VERSION;
   return Fill(report::ReportTemplate(), {{"VLT_TITLE", escaped_title},
                                          {"VLT_PLOTLY_JS", CheckedPlotly()},
+                                         {"VLT_PLOTLY_LICENSE", report::PlotlyLicense()},
                                          {"VLT_DATA", data},
                                          {"VLT_VERSION", version},
                                          {"VLT_PLOTLY_VERSION", report::PlotlyVersion()}});
