@@ -464,7 +464,8 @@ TEST_F(JobFiles, UnreadableCsvRowNamesFileAndLine) {
     LoadJob((dir_ / "job.toml").string());
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("plan.csv: line 4: 3 fields, the header has 4"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("plan.csv: line 4: 3 fields, the header has 4 (separator ','"), std::string::npos)
+        << e.what();
   }
 }
 
@@ -562,6 +563,41 @@ TEST(Csv, QuotesCommentsAndLineNumbers) {
   EXPECT_THROW(ParseCsv("a,b\n\"x,1\n", "f.csv"), InputError);
   EXPECT_THROW(ParseCsv("a,a\n", "f.csv"), InputError);
   EXPECT_THROW(ParseCsv("# only\n", "f.csv"), InputError);
+}
+
+// Spreadsheet exports in locales with a decimal comma: ';' separators (or tabs), numbers such as
+// "4000,5" and "-0,25e-3" and "12,5 mm" read with a decimal point; a name with a comma stays.
+TEST(Csv, SemicolonsAndDecimalCommasAreDetected) {
+  CsvTable t = ParseCsv("name;x;y;z\nWing::Skin::A,1;4000,5;-0,25e-3;12,5 mm\n\"B;1\";1;2;3\n", "f.csv");
+  EXPECT_EQ(t.delimiter, ';');
+  ASSERT_EQ(t.header.size(), 4u);
+  ASSERT_EQ(t.rows.size(), 2u);
+  EXPECT_EQ(t.rows[0].fields[0], "Wing::Skin::A,1");  // not a number: kept
+  EXPECT_EQ(t.rows[0].fields[1], "4000.5");
+  EXPECT_EQ(t.rows[0].fields[2], "-0.25e-3");
+  EXPECT_EQ(t.rows[0].fields[3], "12.5 mm");
+  EXPECT_EQ(t.rows[1].fields[0], "B;1");
+  CsvTable tabs = ParseCsv("name\tx\nA\t3,25\n", "t.csv");
+  EXPECT_EQ(tabs.delimiter, '\t');
+  EXPECT_EQ(tabs.rows[0].fields[1], "3.25");
+  // With ',' separators nothing is rewritten, and a wrong row says which separator was used.
+  CsvTable commas = ParseCsv("name,x\n\"3,25\",1\n", "c.csv");
+  EXPECT_EQ(commas.rows[0].fields[0], "3,25");
+  try {
+    ParseCsv("name;x;y\nA;1\n", "s.csv");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "s.csv: line 2: 2 fields, the header has 3 (separator ';', taken from the header line)");
+  }
+}
+
+TEST_F(JobFiles, PlanCsvWithSemicolonsAndDecimalCommas) {
+  Write("plan.csv", "name;x;y;z\nA;3000,5;0;0\nB;4000;1000,25;12\n");
+  Write("job.toml", kTracker + "[plan]\nunit = \"mm\"\ncsv = \"plan.csv\"\n");
+  Job job = LoadJob((dir_ / "job.toml").string());
+  ASSERT_EQ(job.points.size(), 2u);
+  EXPECT_DOUBLE_EQ(job.points[0].nominal.x(), 3.0005);
+  EXPECT_DOUBLE_EQ(job.points[1].nominal.y(), 1.00025);
 }
 
 TEST(Job, DefaultJobParses) {

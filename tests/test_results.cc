@@ -373,6 +373,24 @@ TEST(Results, MapSkipsTheVerticalAxisAndHasNoNaN) {
   EXPECT_LT((one.U[0] - r.points[0].gum.U_part).norm(), 1e-12);
 }
 
+// SpatialAnalyzer-style names are shown whole in the terminal summary, the columns aligned.
+TEST(Results, SummaryShowsLongPointNamesWhole) {
+  Results r = SharedResults();
+  const std::string name = "Wing::Skin::Collection::Point_0001";
+  r.points[0].input.name = name;
+  const std::string summary = SummaryText(r);
+  const std::size_t at = summary.find(name + " ");
+  ASSERT_NE(at, std::string::npos) << summary;
+  const std::size_t header = summary.find("point ");
+  const std::size_t header_line = summary.rfind('\n', header) + 1;
+  const std::size_t row_line = summary.rfind('\n', at) + 1;
+  // "range[m]" right-aligned over the range column: both columns end at the same offset.
+  const std::size_t header_range = summary.find("range[m]", header) + 8 - header_line;
+  const std::size_t range_start = summary.find_first_not_of(' ', at + name.size());
+  const std::size_t row_range = summary.find(' ', range_start) - row_line;
+  EXPECT_EQ(header_range, row_range) << summary;
+}
+
 TEST(Results, ReportIsSelfContained) {
   const Results& r = SharedResults();
   std::string html = ReportHtml(r);

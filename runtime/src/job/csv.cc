@@ -1,5 +1,6 @@
 #include "job/csv.h"
 
+#include <cctype>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -18,7 +19,7 @@ std::string Trim(std::string_view s) {
 
 // Splits one physical line into fields. Quoted fields may not span lines (plan and readings
 // files never need that, and it keeps line numbers exact).
-std::vector<std::string> SplitLine(std::string_view line, const std::string& where) {
+std::vector<std::string> SplitLine(std::string_view line, const std::string& where, char delimiter) {
   std::vector<std::string> fields;
   std::size_t i = 0;
   while (true) {
@@ -42,19 +43,57 @@ std::vector<std::string> SplitLine(std::string_view line, const std::string& whe
       }
       if (!closed) throw InputError(where + ": unterminated quoted field");
       while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
-      if (i < line.size() && line[i] != ',') {
+      if (i < line.size() && line[i] != delimiter) {
         throw InputError(where + ": unexpected text after a quoted field");
       }
     } else {
       std::size_t start = i;
-      while (i < line.size() && line[i] != ',') ++i;
+      while (i < line.size() && line[i] != delimiter) ++i;
       field = Trim(line.substr(start, i - start));
     }
     fields.push_back(std::move(field));
     if (i >= line.size()) break;
-    ++i;  // the comma
+    ++i;  // the delimiter
   }
   return fields;
+}
+
+// The separator of a file, from its header line: ';' (spreadsheets in locales with a decimal
+// comma) or a tab when the header has one outside quotes, else ','.
+char DetectDelimiter(std::string_view header) {
+  bool quoted = false, tab = false;
+  for (char c : header) {
+    if (c == '"') quoted = !quoted;
+    if (quoted) continue;
+    if (c == ';') return ';';
+    tab = tab || c == '\t';
+  }
+  return tab ? '\t' : ',';
+}
+
+// With ';' or tab separators, "12,5", "-0,25e-3", "1,5 mm" are numbers with a decimal comma: the
+// comma becomes a point. Anything else (a name such as "A,B") is left as it is.
+void DecimalCommaToPoint(std::string& field) {
+  std::size_t i = 0;
+  if (i < field.size() && (field[i] == '+' || field[i] == '-')) ++i;
+  const std::size_t int_start = i;
+  while (i < field.size() && std::isdigit(static_cast<unsigned char>(field[i]))) ++i;
+  if (i == int_start || i >= field.size() || field[i] != ',') return;
+  const std::size_t comma = i++;
+  const std::size_t frac_start = i;
+  while (i < field.size() && std::isdigit(static_cast<unsigned char>(field[i]))) ++i;
+  if (i == frac_start) return;
+  if (i < field.size() && (field[i] == 'e' || field[i] == 'E')) {
+    std::size_t j = i + 1;
+    if (j < field.size() && (field[j] == '+' || field[j] == '-')) ++j;
+    const std::size_t exp_start = j;
+    while (j < field.size() && std::isdigit(static_cast<unsigned char>(field[j]))) ++j;
+    if (j == exp_start) return;
+    i = j;
+  }
+  if (i < field.size() && field[i] != ' ' && field[i] != '\t') return;  // a unit follows after a blank
+  if (field.find(',', i) != std::string::npos) return;
+  field[comma] = '.';
 }
 
 }  // namespace
@@ -91,7 +130,11 @@ CsvTable ParseCsv(std::string_view text, const std::string& file) {
       continue;
     }
     std::string where = file + ": line " + std::to_string(line_number);
-    std::vector<std::string> fields = SplitLine(line, where);
+    if (table.header.empty()) table.delimiter = DetectDelimiter(line);
+    std::vector<std::string> fields = SplitLine(line, where, table.delimiter);
+    if (table.delimiter != ',' && !table.header.empty()) {
+      for (std::string& field : fields) DecimalCommaToPoint(field);
+    }
     if (table.header.empty()) {
       for (const std::string& name : fields) {
         if (name.empty()) throw InputError(where + ": empty column name in the header");
@@ -104,7 +147,9 @@ CsvTable ParseCsv(std::string_view text, const std::string& file) {
     } else {
       if (fields.size() != table.header.size()) {
         throw InputError(where + ": " + std::to_string(fields.size()) + " fields, the header has " +
-                         std::to_string(table.header.size()));
+                         std::to_string(table.header.size()) + " (separator '" +
+                         (table.delimiter == '\t' ? std::string("tab") : std::string(1, table.delimiter)) +
+                         "', taken from the header line)");
       }
       table.rows.push_back(CsvRow{line_number, std::move(fields)});
     }

@@ -1,9 +1,12 @@
 // job/csv.h — reading the small CSV files a job refers to (plan points, tracker readings), keeping
 // the line number of every row so that an error names "<file>: line N: <problem>".
 //
-// Dialect (RFC 4180 subset): comma-separated; the first non-blank, non-comment line is the header;
-// fields may be enclosed in double quotes ("" is a quote inside); blanks around fields are
-// ignored; lines that are blank or start with '#' are skipped; CRLF line ends are accepted.
+// Dialect (RFC 4180 subset): the first non-blank, non-comment line is the header and sets the
+// separator: ';' or a tab when it has one (outside quotes), else ','. With ';' or tab, a field that
+// is a number with a decimal comma ("12,5", "-0,25e-3", "1,5 mm") is read with a decimal point
+// (spreadsheet exports in such locales). Fields may be enclosed in double quotes ("" is a quote
+// inside); blanks around fields are ignored; lines that are blank or start with '#' are skipped;
+// CRLF and CR line ends and a UTF-8 byte order mark are accepted.
 #pragma once
 
 #include <string>
@@ -20,6 +23,7 @@ struct CsvRow {
 struct CsvTable {
   std::string file;                 // path as used in messages
   int header_line = 0;
+  char delimiter = ',';              // ',', ';' or '\t' (from the header line)
   std::vector<std::string> header;  // column names, trimmed
   std::vector<CsvRow> rows;         // every row has exactly header.size() fields
 

@@ -1,6 +1,7 @@
 // Writing the result files all-or-nothing, and the terminal summary.
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -11,6 +12,18 @@
 #include "vlt/error.h"
 
 namespace vlt {
+namespace {
+
+// printf into a std::string of any length (names of any length).
+template <typename... Args>
+std::string FormatLine(const char* format, Args... args) {
+  const int n = std::snprintf(nullptr, 0, format, args...);
+  std::string text(static_cast<std::size_t>(std::max(n, 0)), '\0');
+  std::snprintf(text.data(), text.size() + 1, format, args...);
+  return text;
+}
+
+}  // namespace
 
 std::vector<OutputFile> ResultFiles(const Results& results) {
   // Written when the output directory commits, into its staging directory: a failure leaves the
@@ -47,10 +60,15 @@ std::string SummaryText(const Results& r) {
                 "coverage ellipsoid k = %.3f\n\n",
                 r.coverage_probability, r.k_axis, r.k_region);
   out << line;
-  std::snprintf(line, sizeof line, "%-14s %9s %10s %10s %10s %8s %8s %8s %8s %8s  %s\n", "point", "range[m]",
-                "x[mm]", "y[mm]", "z[mm]", "Ux[um]", "Uy[um]", "Uz[um]", "|U|[um]", "a1[um]", "GUM vs MCM");
-  out << line;
   const std::size_t max_rows = 40;
+  // Point names are shown whole (SpatialAnalyzer-style "Group::Collection::Point" included): the
+  // column is as wide as the longest name shown.
+  int name_width = 14;
+  for (std::size_t i = 0; i < r.points.size() && i < max_rows; ++i) {
+    name_width = std::max(name_width, static_cast<int>(r.points[i].input.name.size()));
+  }
+  out << FormatLine("%-*s %9s %10s %10s %10s %8s %8s %8s %8s %8s  %s\n", name_width, "point", "range[m]", "x[mm]",
+                    "y[mm]", "z[mm]", "Ux[um]", "Uy[um]", "Uz[um]", "|U|[um]", "a1[um]", "GUM vs MCM");
   for (std::size_t i = 0; i < r.points.size(); ++i) {
     if (i == max_rows) {
       out << "... " << (r.points.size() - max_rows) << " more points in points.csv\n";
@@ -58,7 +76,6 @@ std::string SummaryText(const Results& r) {
     }
     const PointResult& p = r.points[i];
     const PointUncertainty& g = p.gum;
-    std::string name = p.input.name.size() > 14 ? p.input.name.substr(0, 13) + "~" : p.input.name;
     std::string verdict = !p.has_mcm ? "not run" : p.outcome == "not validated" ? "NOT validated" : p.outcome;
     if (!g.gum_reliable) {
       // JCGM 100 5.1.2 note, computed without Monte Carlo: said with --no-mcm too.
@@ -66,11 +83,11 @@ std::string SummaryText(const Results& r) {
       std::snprintf(flag, sizeof flag, "GUM NOT RELIABLE (2nd order %.3g x u^2); ", g.second_order_ratio.maxCoeff());
       verdict = flag + verdict;
     }
-    std::snprintf(line, sizeof line, "%-14s %9.3f %10.3f %10.3f %10.3f %8.1f %8.1f %8.1f %8.1f %8.1f  %s\n",
-                  name.c_str(), g.readings[0], g.part.x() * 1e3, g.part.y() * 1e3, g.part.z() * 1e3,
+    out << FormatLine("%-*s %9.3f %10.3f %10.3f %10.3f %8.1f %8.1f %8.1f %8.1f %8.1f  %s\n", name_width,
+                  p.input.name.c_str(), g.readings[0], g.part.x() * 1e3, g.part.y() * 1e3, g.part.z() * 1e3,
                   g.U_part.x() * 1e6, g.U_part.y() * 1e6, g.U_part.z() * 1e6, g.U_part.norm() * 1e6,
                   g.ellipsoid.semi_axes[0] * 1e6, verdict.c_str());
-    out << line;
+    
   }
   if (!r.tasks.empty()) {
     out << "\n";
