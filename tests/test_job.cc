@@ -434,6 +434,59 @@ units = { range = "mm", azimuth = "deg", elevation = "deg" }
   EXPECT_LT((ideal(job.points[0].readings) - ideal(job.points[1].readings)).norm(), 1e-12);
 }
 
+// Cartesian readings (x, y, z in the tracker frame, as tracker software exports them) are the
+// spherical readings through the ideal conversion: read back exactly, the face from the face column.
+TEST_F(JobFiles, CartesianReadingsAreTheSphericalOnes) {
+  const double deg = kPi / 180;
+  // Front face: 4 m at azimuth 30 deg, elevation 10 deg; 6 m at azimuth 300 deg, elevation -20 deg;
+  // the first point again in the back face (azimuth 210 deg, elevation 170 deg).
+  const Eigen::Vector3d spherical[3] = {{4.0, 30 * deg, 10 * deg}, {6.0, 300 * deg, -20 * deg}, {4.0, 210 * deg, 170 * deg}};
+  auto ideal = [](const Eigen::Vector3d& r) {
+    return Eigen::Vector3d(r[0] * std::cos(r[2]) * std::cos(r[1]), r[0] * std::cos(r[2]) * std::sin(r[1]),
+                           r[0] * std::sin(r[2]));
+  };
+  std::string csv = "name;X [mm];Y [mm];Z [mm];face\n";
+  const char* names[3] = {"Wing::A", "Wing::B", "Wing::A_back"};
+  const char* faces[3] = {"front", "front", "back"};
+  for (int i = 0; i < 3; ++i) {
+    const Eigen::Vector3d x = ideal(spherical[i]) * 1e3;
+    char line[256];
+    std::snprintf(line, sizeof line, "%s;%.12f;%.12f;%.12f;%s\n", names[i], x[0], x[1], x[2], faces[i]);
+    std::string row = line;
+    for (char& c : row) c = c == '.' && &c != row.data() ? ',' : c;  // a decimal-comma export
+    csv += row;
+  }
+  Write("xyz.csv", csv);
+  Write("job.toml", kTracker + R"(
+[readings]
+csv = "xyz.csv"
+coordinates = "cartesian"
+columns = { x = "X [mm]", y = "Y [mm]", z = "Z [mm]" }
+units = { x = "mm", y = "mm", z = "mm" }
+)");
+  Job job = LoadJob((dir_ / "job.toml").string());
+  ASSERT_EQ(job.points.size(), 3u);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(job.points[i].name, names[i]);
+    EXPECT_NEAR(job.points[i].readings[0], spherical[i][0], 1e-12) << i;
+    EXPECT_NEAR(job.points[i].readings[1], spherical[i][1], 1e-12) << i;
+    EXPECT_NEAR(job.points[i].readings[2], spherical[i][2], 1e-12) << i;
+  }
+  EXPECT_EQ(job.points[0].face, Face::kFront);
+  EXPECT_EQ(job.points[2].face, Face::kBack);
+  // vertical_angle belongs to spherical readings; the origin has no direction.
+  Write("job2.toml", kTracker + "[readings]\ncsv = \"xyz.csv\"\ncoordinates = \"cartesian\"\nvertical_angle = \"zenith\"\n");
+  EXPECT_THROW(LoadJob((dir_ / "job2.toml").string()), InputError);
+  Write("o.csv", "name,x,y,z\nO,0,0,0\n");
+  Write("job3.toml", kTracker + "[readings]\ncsv = \"o.csv\"\ncoordinates = \"cartesian\"\n");
+  try {
+    LoadJob((dir_ / "job3.toml").string());
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("o.csv: line 2: the point is at the tracker's origin"), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(JobFiles, ReadingsFaceColumnMustAgree) {
   Write("r.csv", "name,range,azimuth,elevation,face\nP,4,0.5,0.2,back\n");
   Write("job.toml", kTracker + "[readings]\ncsv = \"r.csv\"\n");

@@ -139,13 +139,28 @@ void ReadPlan(Section& s, Job& job) {
 }
 
 void ReadReadings(Section& s, Job& job) {
-  s.set_hint("csv, columns, units, vertical_angle");
+  s.set_hint("csv, coordinates, columns, units, vertical_angle");
   std::string rel = AsString(s.Require("csv"), s.Where("csv"));
+  // Spherical readings (range, azimuth, elevation) as the tracker measured them, or Cartesian
+  // coordinates (x, y, z) in the tracker (station) frame as tracker software exports them: those
+  // are the tracker's readings through the ideal spherical-to-Cartesian conversion, so they are
+  // converted back exactly (docs/job-file.md); the reading noise applies to the spherical readings.
+  bool cartesian = false;
+  if (const toml::node* n = s.Get("coordinates")) {
+    const std::string v = AsString(*n, s.Where("coordinates"));
+    if (v == "cartesian") cartesian = true;
+    else if (v != "spherical") throw InputError(s.Where("coordinates") + ": expected \"spherical\" or \"cartesian\"");
+  }
   std::string names[5] = {"name", "range", "azimuth", "elevation", "face"};
   const char* keys[5] = {"name", "range", "azimuth", "elevation", "face"};
+  if (cartesian) {
+    names[1] = keys[1] = "x";
+    names[2] = keys[2] = "y";
+    names[3] = keys[3] = "z";
+  }
   Section cols = s.Sub("columns", false);
   if (cols.exists()) {
-    cols.set_hint("name, range, azimuth, elevation, face");
+    cols.set_hint(cartesian ? "name, x, y, z, face" : "name, range, azimuth, elevation, face");
     for (int k = 0; k < 5; ++k) {
       if (const toml::node* n = cols.Get(keys[k])) names[k] = AsString(*n, cols.Where(keys[k]));
     }
@@ -153,10 +168,14 @@ void ReadReadings(Section& s, Job& job) {
   }
   std::string units[3] = {"m", "rad", "rad"};
   Dimension dims[3] = {Dimension::kLength, Dimension::kAngle, Dimension::kAngle};
+  if (cartesian) {
+    units[1] = units[2] = "m";
+    dims[1] = dims[2] = Dimension::kLength;
+  }
   Section us = s.Sub("units", false);
   double scales[3];
   if (us.exists()) {
-    us.set_hint("range, azimuth, elevation");
+    us.set_hint(cartesian ? "x, y, z" : "range, azimuth, elevation");
     for (int k = 0; k < 3; ++k) {
       if (const toml::node* n = us.Get(keys[k + 1])) units[k] = AsString(*n, us.Where(keys[k + 1]));
     }
@@ -164,7 +183,9 @@ void ReadReadings(Section& s, Job& job) {
   }
   for (int k = 0; k < 3; ++k) scales[k] = UnitScale(units[k], dims[k], s.Where(std::string("units.") + keys[k + 1]));
   bool zenith = false;
-  if (const toml::node* n = s.Get("vertical_angle")) {
+  if (const toml::node* n = s.Get("vertical_angle"); n != nullptr && cartesian) {
+    throw InputError(s.Where("vertical_angle") + ": only for spherical readings (coordinates = \"cartesian\")");
+  } else if (n != nullptr) {
     std::string v = AsString(*n, s.Where("vertical_angle"));
     if (v == "zenith") zenith = true;
     else if (v != "elevation") throw InputError(s.Where("vertical_angle") + ": expected \"elevation\" or \"zenith\"");
@@ -194,6 +215,20 @@ void ReadReadings(Section& s, Job& job) {
     double r[3];
     for (int k = 0; k < 3; ++k) {
       r[k] = CsvQuantity(row.fields[col[k + 1]], dims[k], scales[k], 0, p.where + ": " + names[k + 1]);
+    }
+    if (cartesian) {
+      // The front-face readings of the point; a face column "back" gives the back-face readings
+      // of the same direction (H + pi, pi - E) below.
+      const double x = r[0], y = r[1], z = r[2];
+      r[0] = std::sqrt(x * x + y * y + z * z);
+      r[1] = std::atan2(y, x);
+      if (r[1] < 0) r[1] += 2 * kPi;
+      r[2] = std::atan2(z, std::hypot(x, y));
+      if (col[4] >= 0 && !row.fields[col[4]].empty() && ParseFaceField(row.fields[col[4]], p.where) == Face::kBack) {
+        r[1] = r[1] >= kPi ? r[1] - kPi : r[1] + kPi;
+        r[2] = kPi - r[2];
+      }
+      if (!(r[0] > 0.0)) throw InputError(p.where + ": the point is at the tracker's origin (range 0)");
     }
     if (!(r[0] > 0.0)) throw InputError(p.where + ": range must be positive");
     if (r[0] > kMaxRange) {
