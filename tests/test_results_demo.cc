@@ -11,11 +11,13 @@
 //    beam. Keeping only those terms gives a LOWER bound of u along each direction. An UPPER bound
 //    adds every other input with the largest gain it can have: 2 r for an angle (a mirror doubles
 //    angles), 2 for an offset, and the refractive-index sensitivities of the air (|dn/dt| < 1e-6/K,
-//    |dn/dp| < 3e-9/Pa, |dn/dRH| < 1e-8/%, |dn/dx_CO2| < 2e-4, reference/README.md 3) times r.
+//    |dn/dp| < 3e-9/Pa, |dn/dRH| < 1e-8/%, |dn/dx_CO2| < 2e-4 at 633 nm near 20 degC, 101 kPa,
+//    50 %: bounds on the derivatives of Ciddor's equation, Appl. Opt. 35 (1996) 1566) times r.
 //    The GUM results along the line of sight must lie between the two.
 // 2. The plausibility the demo promises (docs/job-file.md): transverse expanded uncertainties of
-//    the order of a commercial tracker's specification 15 um + 6 um/m (reference/README.md 2:
-//    Leica AT500 MPE, typical results about half of it), radial ones of the order of the ADM's
+//    the order of a commercial tracker's specification 15 um + 6 um/m (the MPE of the Leica
+//    Absolute Tracker AT500 product specification, ISO 10360-10 Annex D; typical results about
+//    half of it), radial ones of the order of the ADM's
 //    10 um + 0.3 um/m: within [0.6, 1.4] and [0.5, 2] of those.
 #include <cmath>
 #include <numbers>
