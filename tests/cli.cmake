@@ -180,3 +180,13 @@ add_test(NAME report_browser_map_box
           -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
 set_tests_properties(report_browser_no_mcm PROPERTIES FIXTURES_REQUIRED vlt_good_no_mcm TIMEOUT 300)
 set_tests_properties(report_browser_map_box PROPERTIES FIXTURES_REQUIRED vlt_map_box TIMEOUT 300)
+
+# vlt as a library (docs/library.md): install, then build and run examples/consumer with
+# find_package(vlt) and with pkg-config. Not in the sanitizer build (its libvlt.a needs the
+# sanitizer runtime, which a consumer does not link).
+if(NOT VLT_SANITIZE)
+  add_test(NAME cli_consumer_install
+    COMMAND ${CMAKE_COMMAND} -DBUILD_DIR=${CMAKE_BINARY_DIR} -DSOURCE_DIR=${CMAKE_SOURCE_DIR}
+            -DOUT=${_out}/consumer -DCXX=${CMAKE_CXX_COMPILER} -P ${_cli}/consumer.cmake)
+  set_tests_properties(cli_consumer_install PROPERTIES TIMEOUT 600)
+endif()

@@ -1,0 +1,39 @@
+# Run by CTest (tests/cli.cmake cli_consumer_install): install the build tree into a fresh prefix,
+# then build examples/consumer against it twice — with find_package(vlt) and with pkg-config — and
+# run both: they must run the demo job through the installed library and print its results.
+#   -DBUILD_DIR=... -DSOURCE_DIR=... -DOUT=... -DCXX=...
+cmake_minimum_required(VERSION 3.25)
+file(REMOVE_RECURSE ${OUT})
+set(prefix ${OUT}/prefix)
+macro(run what)
+  execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "${what} failed (${rc}):\n${out}\n${err}")
+  endif()
+endmacro()
+run("cmake --install" ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
+foreach(f include/vlt/results.h lib/libvlt.a lib/cmake/vlt/vltConfig.cmake lib/cmake/vlt/vltConfigVersion.cmake
+          lib/cmake/vlt/vltTargets.cmake lib/pkgconfig/vlt.pc bin/vlt)
+  if(NOT EXISTS ${prefix}/${f})
+    message(FATAL_ERROR "cmake --install did not install ${f}")
+  endif()
+endforeach()
+# 1. CMake: find_package(vlt) -> vlt::vlt with its dependencies.
+run("configure the consumer" ${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/consumer -B ${OUT}/build
+    -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_BUILD_TYPE=Release)
+run("build the consumer" ${CMAKE_COMMAND} --build ${OUT}/build)
+run("run the consumer" ${OUT}/build/vlt_consumer)
+if(NOT out MATCHES "job 'vlt-demo', [0-9]+ points.*worst point .*: \\|U\\| = [0-9.]+ um.*task ")
+  message(FATAL_ERROR "unexpected consumer output:\n${out}")
+endif()
+set(cmake_out "${out}")
+# 2. pkg-config: the same program from `pkg-config --cflags --libs vlt`.
+set(ENV{PKG_CONFIG_PATH} ${prefix}/lib/pkgconfig)
+run("pkg-config" pkg-config --cflags --libs vlt)
+separate_arguments(flags UNIX_COMMAND "${out}")
+run("compile with pkg-config" ${CXX} -std=c++20 -O1 ${SOURCE_DIR}/examples/consumer/main.cc -o ${OUT}/consumer_pc ${flags})
+run("run the pkg-config consumer" ${OUT}/consumer_pc)
+if(NOT out STREQUAL cmake_out)
+  message(FATAL_ERROR "the two consumers differ:\n${cmake_out}\n${out}")
+endif()
+message(STATUS "ok:\n${out}")
