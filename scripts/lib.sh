@@ -8,7 +8,9 @@ VLT_BUILD_PACKAGES=(g++ cmake make pkg-config git
   libginac-dev libeigen3-dev libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev librandom123-dev libceres-dev
   libssl-dev
-  python3-numpy)  # bench/numpy_baseline.py: the numpy baseline of the Monte Carlo benchmark
+  pybind11-dev python3-dev  # the Python module (python/)
+  python3-numpy             # the Python module's arrays; bench/numpy_baseline.py
+  python3-pytest)           # tests/python, run by CTest
 # plotly.js for report.html comes from the npm registry (`npm ci` at configure time). Debian's
 # nodejs + npm are installed only when no `npm` is on the PATH: a machine may already have a
 # Node.js from elsewhere, and Debian's npm package conflicts with it.

@@ -11,6 +11,7 @@
 
 #include "job/job_detail.h"
 #include "vlt/error.h"
+#include "vlt/inverse.h"
 #include "vlt/job.h"
 #include "vlt/units.h"
 
@@ -217,18 +218,18 @@ void ReadReadings(Section& s, Job& job) {
       r[k] = CsvQuantity(row.fields[col[k + 1]], dims[k], scales[k], 0, p.where + ": " + names[k + 1]);
     }
     if (cartesian) {
-      // The front-face readings of the point; a face column "back" gives the back-face readings
-      // of the same direction (H + pi, pi - E) below.
-      const double x = r[0], y = r[1], z = r[2];
-      r[0] = std::sqrt(x * x + y * y + z * z);
-      r[1] = std::atan2(y, x);
-      if (r[1] < 0) r[1] += 2 * kPi;
-      r[2] = std::atan2(z, std::hypot(x, y));
-      if (col[4] >= 0 && !row.fields[col[4]].empty() && ParseFaceField(row.fields[col[4]], p.where) == Face::kBack) {
-        r[1] = r[1] >= kPi ? r[1] - kPi : r[1] + kPi;
-        r[2] = kPi - r[2];
+      // The ideal tracker's readings of the point (vlt/inverse.h IdealReadings), in the face the
+      // face column gives (front by default).
+      const Face face = col[4] >= 0 && !row.fields[col[4]].empty() ? ParseFaceField(row.fields[col[4]], p.where)
+                                                                     : Face::kFront;
+      try {
+        const std::array<double, 3> ideal = IdealReadings({r[0], r[1], r[2]}, face);
+        r[0] = ideal[0];
+        r[1] = ideal[1];
+        r[2] = ideal[2];
+      } catch (const NumericalError& e) {
+        throw InputError(p.where + ": " + e.what());
       }
-      if (!(r[0] > 0.0)) throw InputError(p.where + ": the point is at the tracker's origin (range 0)");
     }
     if (!(r[0] > 0.0)) throw InputError(p.where + ": range must be positive");
     if (r[0] > kMaxRange) {

@@ -1,0 +1,272 @@
+// The Python module `vlt` (pybind11; docs/python.md): jobs run through the same engine as the
+// `vlt` command, results as dicts and numpy arrays, the GUM of many points from a numpy array of
+// readings in one call (the GIL released while the engine runs), and the models' metadata.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <string>
+
+#include <toml++/toml.h>
+
+#include "vlt/error.h"
+#include "vlt/gum.h"
+#include "vlt/inverse.h"
+#include "vlt/job.h"
+#include "vlt/models.h"
+#include "vlt/results.h"
+
+namespace py = pybind11;
+
+namespace {
+
+// A Python value as a TOML node (a job given as a dict): dict -> table, list/tuple -> array,
+// str, bool, int, float. Anything else is a ValueError naming the key.
+toml::table TableOf(const py::dict& d, const std::string& where);
+
+void Insert(toml::table& t, const std::string& key, const py::handle& v, const std::string& where);
+
+toml::array ArrayOf(const py::sequence& s, const std::string& where) {
+  toml::array a;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    const py::handle v = s[i];
+    const std::string at = where + "[" + std::to_string(i) + "]";
+    if (py::isinstance<py::dict>(v)) a.push_back(TableOf(v.cast<py::dict>(), at));
+    else if (py::isinstance<py::bool_>(v)) a.push_back(v.cast<bool>());
+    else if (py::isinstance<py::int_>(v)) a.push_back(v.cast<std::int64_t>());
+    else if (py::isinstance<py::float_>(v)) a.push_back(v.cast<double>());
+    else if (py::isinstance<py::str>(v)) a.push_back(v.cast<std::string>());
+    else if (py::isinstance<py::list>(v) || py::isinstance<py::tuple>(v)) a.push_back(ArrayOf(v.cast<py::sequence>(), at));
+    else throw vlt::InputError(at + ": a job value must be a dict, list, str, bool, int or float");
+  }
+  return a;
+}
+
+void Insert(toml::table& t, const std::string& key, const py::handle& v, const std::string& where) {
+  if (py::isinstance<py::dict>(v)) t.insert(key, TableOf(v.cast<py::dict>(), where));
+  else if (py::isinstance<py::bool_>(v)) t.insert(key, v.cast<bool>());
+  else if (py::isinstance<py::int_>(v)) t.insert(key, v.cast<std::int64_t>());
+  else if (py::isinstance<py::float_>(v)) t.insert(key, v.cast<double>());
+  else if (py::isinstance<py::str>(v)) t.insert(key, v.cast<std::string>());
+  else if (py::isinstance<py::list>(v) || py::isinstance<py::tuple>(v)) t.insert(key, ArrayOf(v.cast<py::sequence>(), where));
+  else throw vlt::InputError(where + ": a job value must be a dict, list, str, bool, int or float");
+}
+
+toml::table TableOf(const py::dict& d, const std::string& where) {
+  toml::table t;
+  for (const auto& [k, v] : d) {
+    const std::string key = py::str(k);
+    Insert(t, key, v, where.empty() ? key : where + "." + key);
+  }
+  return t;
+}
+
+// A job from a path to a job file, or from a dict (relative CSV paths against base_dir).
+vlt::Job JobOf(const py::object& job, const std::string& base_dir) {
+  if (py::isinstance<py::dict>(job)) {
+    std::ostringstream text;
+    text << TableOf(job.cast<py::dict>(), "");
+    return vlt::ParseJob(text.str(), "<dict>", std::filesystem::path(base_dir));
+  }
+  if (py::isinstance<py::str>(job) || py::hasattr(job, "__fspath__")) {
+    return vlt::LoadJob(py::str(job).cast<std::string>());
+  }
+  throw vlt::InputError("job: expected a path to a job file or a dict");
+}
+
+py::object JsonLoads(const std::string& text) { return py::module_::import("json").attr("loads")(text); }
+
+// "estimate" (N, 3) m, "covariance" (N, 3, 3) m^2, "U" (N, 3) m of N GUM results (part frame).
+void AddGumArrays(py::dict& out, std::size_t count, const std::function<const vlt::PointUncertainty&(std::size_t)>& at) {
+  const auto n = static_cast<py::ssize_t>(count);
+  py::array_t<double> estimate({n, py::ssize_t{3}}), covariance({n, py::ssize_t{3}, py::ssize_t{3}}),
+      expanded({n, py::ssize_t{3}});
+  auto e = estimate.mutable_unchecked<2>();
+  auto c = covariance.mutable_unchecked<3>();
+  auto u = expanded.mutable_unchecked<2>();
+  for (py::ssize_t i = 0; i < n; ++i) {
+    const vlt::PointUncertainty& g = at(static_cast<std::size_t>(i));
+    for (int a = 0; a < 3; ++a) {
+      e(i, a) = g.part[a];
+      u(i, a) = g.U_part[a];
+      for (int b = 0; b < 3; ++b) c(i, a, b) = g.cov_part(a, b);
+    }
+  }
+  out["estimate"] = estimate;
+  out["covariance"] = covariance;
+  out["U"] = expanded;
+}
+
+// results.json as a dict, plus "points": the objects of points.jsonl, and numpy arrays of every
+// point: "names", "estimate" (N, 3) m, "covariance" (N, 3, 3) m^2, "U" (N, 3) m (part frame).
+py::dict ResultsDict(const vlt::Results& r) {
+  py::dict out = JsonLoads(vlt::ResultsJson(r)).cast<py::dict>();
+  py::list points;
+  std::istringstream lines(vlt::PointsJsonl(r));
+  for (std::string line; std::getline(lines, line);) points.append(JsonLoads(line));
+  out["points"] = points;
+  py::list names;
+  for (const vlt::PointResult& p : r.points) names.append(p.input.name);
+  out["names"] = names;
+  AddGumArrays(out, r.points.size(), [&](std::size_t i) -> const vlt::PointUncertainty& { return r.points[i].gum; });
+  return out;
+}
+
+py::dict QuantityDict(const vlt::QuantityInfo& q, bool defaults) {
+  py::dict d;
+  d["name"] = q.name;
+  d["unit"] = q.unit;
+  d["quantity"] = q.quantity;
+  d["description"] = q.description;
+  if (defaults) {
+    d["default_estimate"] = q.default_estimate;
+    d["default_u"] = q.default_u;
+    d["default_distribution"] = q.default_distribution;
+  }
+  return d;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(vlt, m) {
+  m.doc() = "vlt — the Virtual Laser Tracker: GUM and Monte Carlo uncertainty of laser tracker measurements";
+  m.attr("__version__") = VLT_VERSION;
+  // Bad input is a ValueError carrying vlt's one-line message "<file>: <key>: <problem>".
+  py::register_exception<vlt::InputError>(m, "InputError", PyExc_ValueError);
+  py::register_exception<vlt::NumericalError>(m, "NumericalError", PyExc_ArithmeticError);
+
+  m.def(
+      "models",
+      [] {
+        py::list out;
+        for (const vlt::ModelInfo* info : vlt::AllModels()) {
+          py::dict d;
+          d["name"] = info->name;
+          d["kind"] = info->kind;
+          d["description"] = info->description;
+          py::list readings, params, outputs;
+          for (int i = 0; i < info->num_readings; ++i) readings.append(QuantityDict(info->readings[i], false));
+          for (int i = 0; i < info->num_params; ++i) params.append(QuantityDict(info->params[i], true));
+          for (int i = 0; i < info->num_outputs; ++i) outputs.append(QuantityDict(info->outputs[i], false));
+          d["readings"] = readings;
+          d["params"] = params;
+          d["outputs"] = outputs;
+          out.append(d);
+        }
+        return out;
+      },
+      "Every generated model: name, kind, description, readings, params (with their defaults, SI), outputs.");
+
+  m.def(
+      "run",
+      [](const py::object& job, bool monte_carlo, std::optional<std::int64_t> trials,
+         std::optional<std::uint64_t> seed, std::optional<int> threads, const std::string& base_dir) {
+        const vlt::Job parsed = JobOf(job, base_dir);
+        vlt::RunOptions options;
+        options.monte_carlo = monte_carlo;
+        options.trials = trials;
+        options.seed = seed;
+        options.threads = threads;
+        options.compute_map = false;
+        vlt::Results results;
+        {
+          py::gil_scoped_release release;
+          results = vlt::RunJob(parsed, options);
+        }
+        return ResultsDict(results);
+      },
+      py::arg("job"), py::arg("monte_carlo") = true, py::arg("trials") = py::none(), py::arg("seed") = py::none(),
+      py::arg("threads") = py::none(), py::arg("base_dir") = ".",
+      "Runs a tracker job (a path to a job file, or the job as a dict) like `vlt run`, without writing files.\n"
+      "Returns results.json as a dict (docs/results.md) with 'points' (the objects of points.jsonl) and numpy\n"
+      "arrays 'estimate' (N, 3) m, 'covariance' (N, 3, 3) m^2, 'U' (N, 3) m, part frame, and 'names'.");
+
+  m.def(
+      "simulate",
+      [](const std::string& model_name, const py::array_t<double, py::array::c_style | py::array::forcecast>& points,
+         const std::map<std::string, double>& params, const std::string& face_name) {
+        const vlt::ModelInfo* model = vlt::FindModel(model_name);
+        if (model == nullptr || std::string(model->kind) != "tracker") {
+          throw vlt::InputError("model: '" + model_name + "' is not a tracker model (vlt.models())");
+        }
+        if (points.ndim() != 2 || points.shape(1) != 3) {
+          throw vlt::InputError("points: expected an array of shape (N, 3) in metres, tracker frame");
+        }
+        std::vector<double> x(static_cast<std::size_t>(model->num_params), 0.0);
+        for (const auto& [name, value] : params) {
+          int k = 0;
+          while (k < model->num_params && name != model->params[k].name) ++k;
+          if (k == model->num_params) throw vlt::InputError("params: '" + name + "' is not a parameter of " + model_name);
+          x[static_cast<std::size_t>(k)] = value;
+        }
+        const vlt::Face face = vlt::ParseFace(face_name.c_str(), "face");
+        const auto n = points.shape(0);
+        py::array_t<double> readings({n, py::ssize_t{3}}), reported({n, py::ssize_t{3}});
+        auto p = points.unchecked<2>();
+        auto rd = readings.mutable_unchecked<2>();
+        auto rp = reported.mutable_unchecked<2>();
+        {
+          py::gil_scoped_release release;
+          const std::vector<double> zero(static_cast<std::size_t>(model->num_params), 0.0);
+          for (py::ssize_t i = 0; i < n; ++i) {
+            // What the tracker reads at the true point with this error state, and what its nominal
+            // model (every parameter 0) reports from those readings: `vlt simulate`.
+            const std::array<double, 3> r = vlt::InverseReadings(*model, x.data(), {p(i, 0), p(i, 1), p(i, 2)}, face);
+            double y[3];
+            model->forward(r.data(), zero.data(), y);
+            for (int a = 0; a < 3; ++a) {
+              rd(i, a) = r[static_cast<std::size_t>(a)];
+              rp(i, a) = y[a];
+            }
+          }
+        }
+        py::dict out;
+        out["readings"] = readings;
+        out["reported"] = reported;
+        return out;
+      },
+      py::arg("model"), py::arg("points"), py::arg("params") = std::map<std::string, double>{}, py::arg("face") = "front",
+      "What a tracker with an error state reads and reports (`vlt simulate`): points (N, 3) true reflector\n"
+      "centres, tracker frame, m; params {name: value in SI} (others 0) -> dict of 'readings' (N, 3) =\n"
+      "range [m], azimuth [rad], elevation [rad] and 'reported' (N, 3) m, the nominal model's coordinates.");
+
+  m.def(
+      "gum",
+      [](const py::object& job, const py::array_t<double, py::array::c_style | py::array::forcecast>& readings,
+         std::optional<int> threads, const std::string& base_dir) {
+        if (readings.ndim() != 2 || readings.shape(1) != 3) {
+          throw vlt::InputError("readings: expected an array of shape (N, 3): range [m], azimuth [rad], elevation [rad]");
+        }
+        const vlt::Job parsed = JobOf(job, base_dir);
+        const auto n = static_cast<std::size_t>(readings.shape(0));
+        std::vector<vlt::PointReadings> points(n);
+        auto r = readings.unchecked<2>();
+        for (std::size_t i = 0; i < n; ++i) {
+          points[i].name = "#" + std::to_string(i);
+          points[i].readings = {r(i, 0), r(i, 1), r(i, 2)};
+        }
+        std::vector<vlt::PointUncertainty> gum;
+        {
+          py::gil_scoped_release release;
+          const vlt::MeasurementModel model(parsed.setup);
+          vlt::GumOptions options;
+          options.coverage_probability = parsed.monte_carlo.coverage_probability;
+          options.budgets = false;
+          options.threads = threads.value_or(parsed.monte_carlo.threads);
+          gum = vlt::PropagatePoints(model, points, options);
+        }
+        py::dict out;
+        AddGumArrays(out, n, [&](std::size_t i) -> const vlt::PointUncertainty& { return gum[i]; });
+        return out;
+      },
+      py::arg("job"), py::arg("readings"), py::arg("threads") = py::none(), py::arg("base_dir") = ".",
+      "The GUM of many points at once with the tracker, noise, environment and pose of `job`:\n"
+      "readings (N, 3) = range [m], azimuth [rad], elevation [rad] -> dict of 'estimate' (N, 3) m,\n"
+      "'covariance' (N, 3, 3) m^2, 'U' (N, 3) m (k of the job's coverage probability), part frame.");
+}

@@ -1,0 +1,119 @@
+"""pytest suite of the Python module `vlt` (python/vlt_module.cc, docs/python.md), run by CTest
+(`python_module`) with PYTHONPATH=<build>/python. References: the `vlt` command's own files for the
+same job (points.jsonl, points.csv), the module's two entry points against each other, and closed
+forms (U = k sqrt(diag covariance), symmetric covariances)."""
+import json
+import math
+import os
+import subprocess
+import tempfile
+
+import numpy as np
+import pytest
+
+import vlt
+
+SOURCE = os.environ["VLT_SOURCE_DIR"]
+VLT = os.environ["VLT_BINARY"]
+JOB = os.path.join(SOURCE, "examples", "panel_station.toml")
+
+
+def test_models_list_the_generated_models_with_units():
+    models = {m["name"]: m for m in vlt.models()}
+    assert {"mirror", "head", "gum_h1_end_gauge"} <= set(models)
+    mirror = models["mirror"]
+    assert mirror["kind"] == "tracker"
+    assert [r["name"] for r in mirror["readings"]] == ["range", "azimuth", "elevation"]
+    assert len(mirror["params"]) == 20
+    assert all(p["default_u"] > 0 and p["unit"] for p in mirror["params"])
+
+
+def test_run_equals_the_command_line():
+    r = vlt.run(JOB, monte_carlo=False)
+    assert r["schema"] == "vlt-results/2"
+    n = r["job"]["points"]
+    assert len(r["points"]) == n == len(r["names"])
+    assert r["estimate"].shape == (n, 3) and r["covariance"].shape == (n, 3, 3) and r["U"].shape == (n, 3)
+    # The command line, same job, GUM only: the same points.jsonl objects, bit for bit.
+    with tempfile.TemporaryDirectory() as out:
+        subprocess.run([VLT, "-q", "run", JOB, "--no-mcm", "-o", out], check=True)
+        with open(os.path.join(out, "points.jsonl")) as f:
+            cli = [json.loads(line) for line in f]
+    assert [p["gum"] for p in r["points"]] == [p["gum"] for p in cli]
+    # The arrays are the same numbers as the dicts; U = k sqrt(diag); covariances symmetric.
+    for i, p in enumerate(r["points"]):
+        assert r["names"][i] == p["name"]
+        assert np.array_equal(r["estimate"][i], p["gum"]["estimate"])
+        assert np.array_equal(r["covariance"][i], np.array(p["gum"]["covariance"]))
+    k = r["job"]["k_axis"]
+    assert np.allclose(r["U"], k * np.sqrt(np.einsum("nii->ni", r["covariance"])), rtol=1e-14, atol=0)
+    assert np.array_equal(r["covariance"], np.transpose(r["covariance"], (0, 2, 1)))
+
+
+def test_gum_of_an_array_of_readings_equals_run():
+    r = vlt.run(JOB, monte_carlo=False)
+    readings = np.array([[p["readings"]["range"], p["readings"]["azimuth"], p["readings"]["elevation"]]
+                         for p in r["points"]])
+    g = vlt.gum(JOB, readings)
+    assert np.array_equal(g["estimate"], r["estimate"])
+    assert np.array_equal(g["covariance"], r["covariance"])
+    assert np.array_equal(g["U"], r["U"])
+    # Thread count does not change a bit; a wrong shape is a ValueError.
+    assert np.array_equal(vlt.gum(JOB, readings, threads=1)["covariance"], vlt.gum(JOB, readings, threads=2)["covariance"])
+    with pytest.raises(ValueError, match=r"shape \(N, 3\)"):
+        vlt.gum(JOB, readings[:, :2])
+
+
+def test_a_job_given_as_a_dict():
+    job = {
+        "job": {"name": "from-python"},
+        "tracker": {"model": "mirror", "noise": {"range": "5 um + 0.5 um/m", "azimuth": "0.5 arcsec",
+                                                  "elevation": "0.5 arcsec"}},
+        "plan": {"point": [{"name": "A", "x": 3.0, "y": 0.0, "z": 0.0}, {"name": "B", "x": 4.0, "y": 1.0, "z": 0.5}]},
+        "task": [{"kind": "distance", "name": "AB", "points": ["A", "B"]}],
+        "monte_carlo": {"trials": 20000, "seed": 7},
+    }
+    r = vlt.run(job)
+    assert r["job"]["name"] == "from-python" and r["names"] == ["A", "B"]
+    task = r["tasks"][0]
+    assert task["name"] == "AB" and task["quantities"][0] == "distance"
+    assert task["gum"]["value"][0] == pytest.approx(math.sqrt(1 + 1 + 0.25), abs=1e-9)
+    assert task["mcm"] is not None and r["monte_carlo"]["trials"] == 20000
+    # The same job written as a file gives the same numbers.
+    with tempfile.TemporaryDirectory() as d:
+        path = os.path.join(d, "job.toml")
+        with open(path, "w") as f:
+            f.write('[job]\nname = "from-python"\n[tracker]\nmodel = "mirror"\n[tracker.noise]\n'
+                    'range = "5 um + 0.5 um/m"\nazimuth = "0.5 arcsec"\nelevation = "0.5 arcsec"\n'
+                    '[[plan.point]]\nname = "A"\nx = 3.0\ny = 0.0\nz = 0.0\n'
+                    '[[plan.point]]\nname = "B"\nx = 4.0\ny = 1.0\nz = 0.5\n'
+                    '[[task]]\nkind = "distance"\nname = "AB"\npoints = ["A", "B"]\n'
+                    '[monte_carlo]\ntrials = 20000\nseed = 7\n')
+        from_file = vlt.run(path)
+    assert np.array_equal(from_file["covariance"], r["covariance"])
+    assert from_file["tasks"][0]["mcm"] == task["mcm"]
+
+
+def test_bad_input_is_a_value_error_with_the_one_line_message():
+    with pytest.raises(ValueError, match=r"^<dict>: tracker\.model: unknown model 'nope'"):
+        vlt.run({"tracker": {"model": "nope"}, "plan": {"point": [{"name": "A", "x": 3, "y": 0, "z": 0}]}})
+    with pytest.raises(ValueError, match="cannot read the job file"):
+        vlt.run("/nonexistent/job.toml")
+
+
+def test_simulate_equals_the_command_line():
+    points = np.array([[4.0, 1.0, 0.5], [-3.0, 2.0, -0.4]])
+    s = vlt.simulate("mirror", points, {"tmv": 5e-6, "rmv": 4.84813681109536e-06})
+    assert s["readings"].shape == (2, 3) and s["reported"].shape == (2, 3)
+    for i, p in enumerate(points):
+        cli = json.loads(subprocess.run([VLT, "--json", "simulate", "--model", "mirror", "--point",
+                                         ",".join(repr(v) for v in p), "tmv=5um", "rmv=1arcsec"],
+                                        check=True, capture_output=True, text=True).stdout)
+        assert np.allclose(s["readings"][i], [cli["readings"]["range_m"], cli["readings"]["azimuth_rad"],
+                                              cli["readings"]["elevation_rad"]], rtol=0, atol=1e-15)
+        assert np.allclose(s["reported"][i], cli["reported_m"], rtol=0, atol=1e-15)
+    # No error state: the tracker reads the ideal readings and reports the true point.
+    ideal = vlt.simulate("mirror", points)
+    assert np.allclose(ideal["reported"], points, rtol=0, atol=1e-12)
+    with pytest.raises(ValueError, match="not a parameter"):
+        vlt.simulate("mirror", points, {"nope": 1.0})
