@@ -41,6 +41,10 @@ vlt_require(RANDOM123_FOUND librandom123-dev "Random123")
 find_package(Ceres 2.1 QUIET)
 vlt_require(Ceres_FOUND libceres-dev "Ceres Solver")
 
+# NLopt (C++ interface): station optimisation, `vlt plan` (runtime/src/planning/).
+pkg_check_modules(NLOPT_CXX QUIET IMPORTED_TARGET nlopt_cxx)
+vlt_require(NLOPT_CXX_FOUND libnlopt-cxx-dev "NLopt (C++)")
+
 # OpenSSL's libcrypto: SHA-256 of the data files a calibration file records (provenance).
 find_package(OpenSSL QUIET COMPONENTS Crypto)
 vlt_require(OPENSSL_FOUND libssl-dev "OpenSSL (libcrypto)")

@@ -7,6 +7,7 @@ VLT_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 VLT_BUILD_PACKAGES=(g++ cmake make pkg-config git
   libginac-dev libeigen3-dev libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev librandom123-dev libceres-dev
+  libnlopt-cxx-dev          # station planning (runtime/src/planning/)
   libssl-dev
   pybind11-dev python3-dev  # the Python module (python/)
   python3-numpy             # the Python module's arrays; bench/numpy_baseline.py

@@ -181,6 +181,49 @@ add_test(NAME report_browser_map_box
 set_tests_properties(report_browser_no_mcm PROPERTIES FIXTURES_REQUIRED vlt_good_no_mcm TIMEOUT 300)
 set_tests_properties(report_browser_map_box PROPERTIES FIXTURES_REQUIRED vlt_map_box TIMEOUT 300)
 
+# Station planning (docs/planning.md): the example, its report, and `vlt run` on the job it
+# writes gives the objective it reports; bad [optimize] input is one line, exit 2, nothing written.
+add_test(NAME cli_plan_example
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=plan;${CMAKE_SOURCE_DIR}/examples/station_plan.toml;--threads;2;-o;${_out}/plan"
+          -DOUT=${_out}/plan "-DFILES=plan.json;station_map.csv;station_map.html;planned_job.toml"
+          "-DEXPECT_STDOUT=recommended +x = [-0-9.]+ m, y = [-0-9.]+ m, z = [-0-9.]+ m: objective [0-9.]+ um.*job's station"
+          -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_plan_example PROPERTIES FIXTURES_SETUP vlt_plan)
+add_test(NAME cli_plan_reproduced_by_run
+  COMMAND ${Python3_EXECUTABLE} ${_cli}/plan_reproduced.py $<TARGET_FILE:vlt> ${_out}/plan ${_out}/plan_run)
+add_test(NAME report_browser_station_map
+  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/plan/station_map.html -DPROFILE=${_out}/chromium-profile-plan
+          -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
+set_tests_properties(cli_plan_reproduced_by_run report_browser_station_map PROPERTIES FIXTURES_REQUIRED vlt_plan TIMEOUT 300)
+vlt_cli_error(plan_unknown_task plan_unknown_task.toml
+              "plan_unknown_task\\.toml: optimize\\.objective: no task 'bore' \\(tasks: AB\\)")
+# vlt_cli_command_error(NAME REGEX ARGS...): `vlt ARGS -o DIR` must fail (one line, exit 2, nothing written).
+function(vlt_cli_command_error name regex)
+  add_test(NAME cli_error_${name}
+    COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=${ARGN};-o;${_out}/error_${name}"
+            -DOUT=${_out}/error_${name} "-DEXPECT=${regex}" -P ${_cli}/expect_error.cmake)
+endfunction()
+vlt_cli_command_error(plan_no_feasible_station
+  "plan_no_station\\.toml: optimize: no feasible station in the region .*below min_range" plan ${_jobs}/plan_no_station.toml)
+vlt_cli_command_error(plan_without_optimize
+  "good\\.toml: optimize: the job has no \\[optimize\\] section" plan ${_jobs}/good.toml)
+
+# The Monte Carlo map and the per-source layers: every kind of layer draws (map.html#layer=N).
+add_test(NAME cli_map_mcm
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=map;${_jobs}/good.toml;--plane;z=0;--extent;2,5,-1,1;--step;0.5;--mcm;--trials;10000;-o;${_out}/map_mcm"
+          -DOUT=${_out}/map_mcm "-DFILES=map.csv;map.html"
+          "-DEXPECT_STDOUT=Dominant source: .*Monte Carlo \\(10000 trials, seed 7\\): GUM validated at [0-9]+ node"
+          -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_map_mcm PROPERTIES FIXTURES_SETUP vlt_map_mcm)
+foreach(layer 1 2 3 4 8)
+  add_test(NAME report_browser_map_layer_${layer}
+    COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/map_mcm/map.html -DFRAGMENT=layer=${layer}
+            -DPROFILE=${_out}/chromium-profile-map-layer-${layer} -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
+  set_tests_properties(report_browser_map_layer_${layer} PROPERTIES FIXTURES_REQUIRED vlt_map_mcm TIMEOUT 300)
+endforeach()
+
 # vlt as a library (docs/library.md): install, then build and run examples/consumer with
 # find_package(vlt) and with pkg-config. Not in the sanitizer build (its libvlt.a needs the
 # sanitizer runtime, which a consumer does not link).

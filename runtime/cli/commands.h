@@ -27,6 +27,7 @@ void AddSimulateCommand(CLI::App& app, GlobalOptions& global);  // vlt simulate 
 void AddRunCommand(CLI::App& app, GlobalOptions& global);       // vlt run JOB.toml [-o DIR]
 void AddDemoCommand(CLI::App& app, GlobalOptions& global);      // vlt demo (also: bare `vlt`)
 void AddMapCommand(CLI::App& app, GlobalOptions& global);       // vlt map JOB.toml ...
+void AddPlanCommand(CLI::App& app, GlobalOptions& global);      // vlt plan JOB.toml [-o DIR]
 void AddTestCommand(CLI::App& app, GlobalOptions& global);      // vlt test FILE.toml [-o DIR]
 void AddCalibrateCommand(CLI::App& app, GlobalOptions& global); // vlt calibrate FILE.toml [-o DIR]
 

@@ -65,6 +65,7 @@ int main(int argc, char** argv) {
   vlt::cli::AddDemoCommand(app, global);
   vlt::cli::AddRunCommand(app, global);
   vlt::cli::AddMapCommand(app, global);
+  vlt::cli::AddPlanCommand(app, global);
   vlt::cli::AddTestCommand(app, global);
   vlt::cli::AddCalibrateCommand(app, global);
   vlt::cli::AddSimulateCommand(app, global);

@@ -4,7 +4,7 @@
 # holds a drawn figure and the 3-D scene has a WebGL context; window.onerror counts errors into
 # data-errors. A missing Chromium is a FAILURE (scripts/test.sh installs the Debian package).
 #   -DPAGE=/abs/path/report.html -DPROFILE=/abs/tmp/dir [-DCHROMIUM=/usr/bin/chromium]
-#   [-DMAX_BYTES=N] (the page may not be larger)
+#   [-DMAX_BYTES=N] (the page may not be larger) [-DFRAGMENT=layer=3] (appended as #...)
 cmake_minimum_required(VERSION 3.25)
 if(NOT CHROMIUM)
   find_program(CHROMIUM NAMES chromium chromium-browser google-chrome)
@@ -21,12 +21,16 @@ if(DEFINED MAX_BYTES)
     message(FATAL_ERROR "${PAGE} has ${page_bytes} bytes, more than ${MAX_BYTES}")
   endif()
 endif()
+set(_fragment "")
+if(DEFINED FRAGMENT)
+  set(_fragment "#${FRAGMENT}")  # e.g. layer=3: what map.html shows first
+endif()
 file(REMOVE_RECURSE ${PROFILE})
 file(MAKE_DIRECTORY ${PROFILE})
 execute_process(
   COMMAND ${CHROMIUM} --headless --no-sandbox --disable-gpu --enable-unsafe-swiftshader --disable-quic
           --no-first-run --disable-background-networking --disable-component-update --disable-sync
-          --user-data-dir=${PROFILE} --virtual-time-budget=60000 --dump-dom file://${PAGE}
+          --user-data-dir=${PROFILE} --virtual-time-budget=60000 --dump-dom file://${PAGE}${_fragment}
   RESULT_VARIABLE rc OUTPUT_VARIABLE dom ERROR_VARIABLE log TIMEOUT 240)
 file(REMOVE_RECURSE ${PROFILE})
 if(NOT rc EQUAL 0)

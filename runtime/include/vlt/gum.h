@@ -169,6 +169,25 @@ std::vector<Eigen::Vector3d> ExpandedUncertaintyField(const MeasurementModel& mo
                                                       double coverage_probability = 0.95,
                                                       int threads = 0);
 
+// What each source contributes to the map value |U| = k sqrt(trace U_y) (vlt map's per-source
+// layers, docs/gum.md "Sources of a map"). The columns of [J_r U_r^1/2 | J_s F] (F the factor of
+// the shared covariance, gum/internal.h) are grouped into sources: the three readings, each
+// independent shared input with u > 0, and each block of correlated shared inputs (one source:
+// the correlation makes its inputs' contributions inseparable). For source s at a node
+//   U_s = k sqrt(sum over the three axes and the source's columns of (J F)^2),
+// so that sum_s U_s^2 = |U|^2 exactly: the per-source maps add up in quadrature to the total.
+struct UncertaintySource {
+  std::string name;   // "range", "azimuth", "elevation", a shared input's name (SharedInputNames)
+                      // or "correlations.<group>" for a correlated block ("#2", ... when a group
+                      // falls into several blocks)
+  std::string group;  // "reading", "parameter", "environment", "pose", "thermal" or "correlation"
+};
+std::vector<UncertaintySource> UncertaintySources(const MeasurementModel& model);
+// U_s of every source (UncertaintySources order) at every reading triple: sources x points [m].
+Eigen::MatrixXd ExpandedUncertaintyBySource(const MeasurementModel& model,
+                                            std::span<const Eigen::Vector3d> readings,
+                                            double coverage_probability = 0.95, int threads = 0);
+
 // ---------------------------------------------------------------------------------------------
 // Offline (plan) mode: the readings that would measure a nominal point given in the part frame
 // (at the reference temperature), using the estimates of every shared input: undo thermal, undo

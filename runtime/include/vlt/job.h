@@ -53,6 +53,10 @@ struct MonteCarloSettings {
   int threads = 0;                    // 0: all hardware threads
 };
 
+// Largest range [m] vlt accepts from a reading or a planned point: beyond any laser tracker (the
+// longest reach 160 m), and a guard against values that overflow the computation (1e300 m).
+inline constexpr double kMaxRange = 1e4;
+
 // Largest number of nodes of a map grid (ParseMapPlane / ParseMapBox refuse more).
 inline constexpr double kMaxMapNodes = 1e6;
 
@@ -67,6 +71,7 @@ struct MapSettings {
   double step = 0.25;                 // grid spacing [m]
   std::string frame = "part";         // coordinates of the grid: "part" (like plan points)
   std::string description;            // e.g. "plane z = 0 m, x 0..4 m, y -1..1 m, step 0.25 m"
+  bool monte_carlo = false;           // also the Monte Carlo map (AddMonteCarloToMap, vlt/results.h)
 
   // Number of grid nodes along each axis (1 along the fixed axis of a plane).
   Eigen::Vector3i counts() const;
@@ -80,6 +85,38 @@ struct MapSettings {
 MapSettings ParseMapPlane(std::string_view plane, std::string_view extent, std::string_view step,
                           std::string_view where);
 MapSettings ParseMapBox(std::string_view box, std::string_view step, std::string_view where);
+
+// [optimize]: where `vlt plan` may put the station and what it minimises (docs/planning.md).
+// Positions are the tracker's origin (the pose translation t of [station]) in the part frame.
+struct KeepOutBox {
+  std::string name;                   // for messages and the report, e.g. "keep_out[0]" or its name
+  Eigen::Vector3d min = Eigen::Vector3d::Zero();  // [m]
+  Eigen::Vector3d max = Eigen::Vector3d::Zero();
+};
+struct ObjectiveTerm {
+  // "points": the largest |U| = sqrt(U_x^2 + U_y^2 + U_z^2) of the job's points; or
+  // "<task>.<quantity>": the expanded uncertainty U of a task quantity with unit m.
+  std::string quantity = "points";
+  double weight = 1.0;                // objective = sum of weight * term [m]
+  int task = -1;                      // index into Job::tasks, -1 for "points"
+  int output = -1;                    // index into TaskOutputs(kind)
+};
+struct OptimizeSettings {
+  std::vector<Eigen::Vector2d> floor;   // polygon of allowed (x, y) [m], >= 3 vertices
+  double z_min = 0.0, z_max = 0.0;      // allowed heights of the origin [m] (equal: fixed)
+  double min_range = 0.0;               // every point at least this far from the station [m]
+  double max_range = kMaxRange;         // and at most this far
+  double acceptance_angle = 0.0;        // half-angle [rad]; 0: not checked
+  Eigen::Vector3d target_normal = Eigen::Vector3d::Zero();  // default normal of every point (unit; 0: none)
+  std::vector<std::pair<std::string, Eigen::Vector3d>> normals;  // per point (unit)
+  std::vector<KeepOutBox> keep_out;     // may not hold the station nor lie under it, nor cross a
+                                        // line of sight
+  std::vector<ObjectiveTerm> objective; // at least one
+  double step = 0.0;                    // station map spacing [m]
+  std::int64_t evaluations = 2000;      // of the global search
+  std::uint64_t seed = 20090101;        // of the global search (NLopt's generator)
+  std::string where;                    // "<file>: optimize"
+};
 
 struct OutputSettings {
   std::string directory;              // [output] directory (relative to the job file); "" = default
@@ -112,6 +149,7 @@ struct Job {
   std::vector<std::vector<int>> task_points;  // resolved indices into points, per task
   MonteCarloSettings monte_carlo;
   std::optional<MapSettings> map;
+  std::optional<OptimizeSettings> optimize;  // [optimize] (vlt plan)
   OutputSettings output;
 
   std::vector<std::string> point_names() const;
@@ -131,9 +169,6 @@ inline constexpr const char* kDefaultJobName = "vlt-demo.toml";
 // undefined, so no readings can be planned for it.
 inline constexpr double kVerticalAxisTolerance = 1e-6;
 
-// Largest range [m] vlt accepts from a reading or a planned point: beyond any laser tracker (the
-// longest reach 160 m), and a guard against values that overflow the computation (1e300 m).
-inline constexpr double kMaxRange = 1e4;
 
 // A nominal part-frame point expressed in the tracker frame at the job's estimates (inverse of the
 // station pose and part thermal expansion of vlt/measurement_model.h).

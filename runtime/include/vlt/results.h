@@ -92,6 +92,38 @@ struct MapResult {
   std::vector<double> U_norm;              // m (zero where skipped)
   std::vector<std::string> skipped;        // "x,y,z: reason" for each skipped node
   std::string quantity = "U_norm = sqrt(U_x^2 + U_y^2 + U_z^2), U_i = k u_i, part frame";
+  std::string value_name = "|U|";          // what U_norm holds, for plots ("objective" for a
+                                           // station map of `vlt plan`)
+
+  // Per source (ExpandedUncertaintyBySource): what each source and each group of sources
+  // contributes, U_s = k sqrt(trace of the source's part of U_y); sum_s U_s^2 = U_norm^2 and
+  // sum_g U_g^2 = U_norm^2 at every computed node (zero where skipped).
+  struct Layer {
+    std::string name;                      // a source ("tmv", "correlations.thermometer") or group
+    std::string group;                     // its group ("reading", "parameter", ...)
+    std::vector<double> U;                 // m, one per node
+  };
+  std::vector<Layer> sources;              // UncertaintySources order (empty for objective maps)
+  std::vector<Layer> groups;               // reading, parameter, environment, pose, thermal,
+                                           // correlation: those present
+  std::vector<int> dominant;               // per node: index into sources of the largest U_s (-1
+                                           // where skipped)
+
+  // Monte Carlo at the nodes ([map] monte_carlo = true, `vlt map --mcm`): each node run as a
+  // plan point through the job's Monte Carlo engine and validated as points are (JCGM 101 8,
+  // JCGM 102 regions): U_norm_mcm = k sqrt(trace U_mcm) with the same k as U_norm.
+  bool has_mcm = false;
+  std::int64_t mcm_trials = 0;
+  std::uint64_t mcm_seed = 0;
+  std::vector<double> U_norm_mcm;          // m, one per node (0 where skipped)
+  std::vector<std::string> verdict;        // "validated", "not validated", "inconclusive"; "" skipped
+
+  // Named positions drawn on the map (`vlt plan`: the recommended and the job's station).
+  struct Marker {
+    std::string name;
+    Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  };
+  std::vector<Marker> markers;
 };
 
 struct Results {
@@ -196,9 +228,14 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options = {})
 std::vector<std::pair<std::string, std::string>> ResultFiles(const CustomResults& results);
 std::string SummaryText(const CustomResults& results);
 
-// The map of `settings` for a job's model (nodes in the part frame).
+// The map of `settings` for a job's model (nodes in the part frame), with its per-source layers.
 MapResult ComputeMap(const MeasurementModel& model, const MapSettings& settings,
                      double coverage_probability, int threads);
+// Adds the Monte Carlo map (MapResult::has_mcm ...): the computed nodes of `map` as plan points
+// of `job` (its setup and [monte_carlo] settings, overridden by `options`; no tasks) through
+// RunJob. The same seed gives the same map for any thread count. Refuses (InputError) what
+// CheckJobMemory refuses.
+void AddMonteCarloToMap(const Job& job, const RunOptions& options, MapResult& map);
 
 // The readings of every point of a job (plan: computed from the nominal points).
 std::vector<PointReadings> JobReadings(const Job& job, const MeasurementModel& model);

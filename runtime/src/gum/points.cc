@@ -289,14 +289,15 @@ std::vector<PointUncertainty> PropagatePoints(const MeasurementModel& model,
   return results;
 }
 
-std::vector<Eigen::Vector3d> ExpandedUncertaintyField(const MeasurementModel& model,
-                                                      std::span<const Eigen::Vector3d> readings,
-                                                      double coverage_probability, int threads) {
-  const double k = NormalCoverageFactor(coverage_probability);
-  const SharedFactor factor = gum_internal::MakeSharedFactor(model);
+namespace {
+
+// Calls body(i, J_r, u_r, scratch) with scratch.js = J_s for every reading triple, evaluated at the
+// shared estimates, in parallel chunks (the lean map paths below; a throw names the index).
+template <typename Body>
+void ForEachMapJacobian(const MeasurementModel& model, std::span<const Eigen::Vector3d> readings, int threads,
+                        Body&& body) {
   const Eigen::VectorXd x = model.shared_estimates();
   const int num_shared = model.num_shared();
-  std::vector<Eigen::Vector3d> field(readings.size());
   gum_internal::ParallelChunks(
       readings.size(), kChunk, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
         Scratch scratch(num_shared);
@@ -306,28 +307,122 @@ std::vector<Eigen::Vector3d> ExpandedUncertaintyField(const MeasurementModel& mo
           Eigen::Vector3d y;
           Eigen::Matrix3d jr;
           model.EvaluateWithJacobian(r.data(), x.data(), y.data(), jr.data(), scratch.js.data());
-          const Eigen::Vector3d ur = model.reading_uncertainty(r(0));
-          // Only the diagonal of J U J^T: sum of squares of the rows of [J_r U_r^1/2, J_s F].
-          const Eigen::Vector3d var_readings = (jr * ur.asDiagonal()).rowwise().squaredNorm();
-          Eigen::Vector3d var;
-          if (factor.diagonal) {
-            // Accumulated in three scalars, in the same order as var(i) += ... (bit-identical):
-            // with an Eigen::Vector3d accumulator GCC keeps the sums in memory and every
-            // addition waits for a store-to-load forward (docs/performance.md 6.1).
-            var = AddSharedVariances(var_readings, factor.u.data(), scratch.js.data(), num_shared);
-          } else {
-            factor.Apply(scratch.js.data(), scratch.a.data(), 3);
-            var = var_readings + Eigen::Map<const Eigen::MatrixXd>(scratch.a.data(), 3, num_shared)
-                                     .rowwise()
-                                     .squaredNorm();
-          }
-          field[i] = k * var.cwiseSqrt();
-          if (!field[i].allFinite() || !y.allFinite()) {
-            throw NumericalError(PointLabel("", i) + "the model gives a non-finite result");
-          }
+          if (!y.allFinite()) throw NumericalError(PointLabel("", i) + "the model gives a non-finite result");
+          body(i, jr, model.reading_uncertainty(r(0)), scratch);
         }
       });
+}
+
+}  // namespace
+
+std::vector<Eigen::Vector3d> ExpandedUncertaintyField(const MeasurementModel& model,
+                                                      std::span<const Eigen::Vector3d> readings,
+                                                      double coverage_probability, int threads) {
+  const double k = NormalCoverageFactor(coverage_probability);
+  const SharedFactor factor = gum_internal::MakeSharedFactor(model);
+  const int num_shared = model.num_shared();
+  std::vector<Eigen::Vector3d> field(readings.size());
+  ForEachMapJacobian(model, readings, threads,
+                     [&](std::size_t i, const Eigen::Matrix3d& jr, const Eigen::Vector3d& ur, Scratch& scratch) {
+    // Only the diagonal of J U J^T: sum of squares of the rows of [J_r U_r^1/2, J_s F].
+    const Eigen::Vector3d var_readings = (jr * ur.asDiagonal()).rowwise().squaredNorm();
+    Eigen::Vector3d var;
+    if (factor.diagonal) {
+      // Accumulated in three scalars, in the same order as var(i) += ... (bit-identical): with an
+      // Eigen::Vector3d accumulator GCC keeps the sums in memory and every addition waits for a
+      // store-to-load forward (docs/performance.md 6.1).
+      var = AddSharedVariances(var_readings, factor.u.data(), scratch.js.data(), num_shared);
+    } else {
+      factor.Apply(scratch.js.data(), scratch.a.data(), 3);
+      var = var_readings + Eigen::Map<const Eigen::MatrixXd>(scratch.a.data(), 3, num_shared).rowwise().squaredNorm();
+    }
+    field[i] = k * var.cwiseSqrt();
+    if (!field[i].allFinite()) throw NumericalError(PointLabel("", i) + "the model gives a non-finite result");
+  });
   return field;
+}
+
+namespace {
+
+// The sources of UncertaintySources and, for every column of [J_r U_r^1/2 | J_s F], the source it
+// belongs to (-1: an independent input with u = 0, which contributes nothing).
+struct SourceColumns {
+  std::vector<UncertaintySource> sources;
+  std::vector<int> source_of_column;  // 3 + S
+};
+
+SourceColumns MakeSourceColumns(const MeasurementModel& model, const SharedFactor& factor) {
+  SourceColumns sc;
+  const int num_shared = model.num_shared();
+  sc.source_of_column.assign(3 + num_shared, -1);
+  for (int r = 0; r < 3; ++r) {
+    sc.source_of_column[r] = r;
+    sc.sources.push_back({kReadingNames[r], "reading"});
+  }
+  std::vector<int> block_of(num_shared, -1);
+  for (std::size_t b = 0; b < factor.blocks.size(); ++b) {
+    for (int s : factor.blocks[b].inputs) block_of[s] = static_cast<int>(b);
+  }
+  const std::vector<std::string> names = SharedInputNames(model.setup());
+  std::vector<int> block_source(factor.blocks.size(), -1);
+  for (int s = 0; s < num_shared; ++s) {
+    const int b = block_of[s];
+    if (b < 0) {
+      if (!(factor.u(s) > 0.0)) continue;
+      sc.source_of_column[3 + s] = static_cast<int>(sc.sources.size());
+      sc.sources.push_back({names[s], model.shared_inputs()[s].group});
+      continue;
+    }
+    if (block_source[b] < 0) {
+      // Named after the correlation group that holds the block's inputs (an input is in one group).
+      std::string name = "correlations";
+      for (const CorrelationGroup& g : model.setup().correlations) {
+        if (std::find(g.inputs.begin(), g.inputs.end(), names[s]) != g.inputs.end()) name += "." + g.name;
+      }
+      std::string unique = name;
+      for (int n = 2; std::any_of(sc.sources.begin(), sc.sources.end(),
+                                  [&](const UncertaintySource& u) { return u.name == unique; });
+           ++n) {
+        unique = name + "#" + std::to_string(n);
+      }
+      block_source[b] = static_cast<int>(sc.sources.size());
+      sc.sources.push_back({unique, "correlation"});
+    }
+    sc.source_of_column[3 + s] = block_source[b];
+  }
+  return sc;
+}
+
+}  // namespace
+
+std::vector<UncertaintySource> UncertaintySources(const MeasurementModel& model) {
+  return MakeSourceColumns(model, gum_internal::MakeSharedFactor(model)).sources;
+}
+
+Eigen::MatrixXd ExpandedUncertaintyBySource(const MeasurementModel& model,
+                                            std::span<const Eigen::Vector3d> readings,
+                                            double coverage_probability, int threads) {
+  const double k = NormalCoverageFactor(coverage_probability);
+  const SharedFactor factor = gum_internal::MakeSharedFactor(model);
+  const SourceColumns sc = MakeSourceColumns(model, factor);
+  const int num_shared = model.num_shared();
+  const Eigen::Index num_sources = static_cast<Eigen::Index>(sc.sources.size());
+  Eigen::MatrixXd by_source = Eigen::MatrixXd::Zero(num_sources, static_cast<Eigen::Index>(readings.size()));
+  ForEachMapJacobian(model, readings, threads,
+                     [&](std::size_t i, const Eigen::Matrix3d& jr, const Eigen::Vector3d& ur, Scratch& scratch) {
+    const Eigen::Index col = static_cast<Eigen::Index>(i);
+    // trace(U_y) = |U|^2 / k^2 column by column of [J_r U_r^1/2 | J_s F], summed per source.
+    for (int c = 0; c < 3; ++c) by_source(c, col) = (jr.col(c) * ur(c)).squaredNorm();
+    factor.Apply(scratch.js.data(), scratch.a.data(), 3);
+    const Eigen::Map<const Eigen::MatrixXd> a(scratch.a.data(), 3, num_shared);
+    for (int s = 0; s < num_shared; ++s) {
+      const int source = sc.source_of_column[3 + s];
+      if (source >= 0) by_source(source, col) += a.col(s).squaredNorm();
+    }
+    by_source.col(col) = k * by_source.col(col).cwiseSqrt();
+    if (!by_source.col(col).allFinite()) throw NumericalError(PointLabel("", i) + "the model gives a non-finite result");
+  });
+  return by_source;
 }
 
 Eigen::Vector3d ReadingsForPartPoint(const MeasurementModel& model, const Eigen::Vector3d& part,

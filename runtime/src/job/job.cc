@@ -98,6 +98,7 @@ Job ParseJob(std::string_view text, const std::string& file, const std::filesyst
   ReadTasks(top, job);
   ReadMonteCarlo(top, job.monte_carlo);
   ReadMap(top, job);
+  ReadOptimize(top, job);
   ReadOutput(top, job.output);
   top.Finish();
   return job;

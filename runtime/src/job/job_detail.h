@@ -8,6 +8,7 @@
 #include <set>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <toml++/toml.h>
 
@@ -99,7 +100,12 @@ void ReadPlan(Section& plan, Job& job);        // points.cc: [plan]
 void ReadReadings(Section& readings, Job& job);  // points.cc: [readings]
 void ReadTasks(Section& top, Job& job);        // tasks.cc: [[task]]
 void ReadMonteCarlo(Section& top, MonteCarloSettings& settings);  // settings.cc: [monte_carlo]
+// "a,b,c,d" or an array of numbers / quantity strings, as one comma-separated text (settings.cc).
+std::string ExtentString(const toml::node& node, const std::string& where);
+// Exactly `count` lengths [m] from such a text or array (bare numbers are metres).
+std::vector<double> LengthList(const toml::node& node, std::size_t count, const std::string& where);
 void ReadMap(Section& top, Job& job);          // settings.cc: [map]
+void ReadOptimize(Section& top, Job& job);     // optimize.cc: [optimize] (after the tasks)
 void ReadOutput(Section& top, OutputSettings& output);  // settings.cc: [output]
 
 }  // namespace vlt::job_detail

@@ -52,8 +52,6 @@ void ReadMonteCarlo(Section& top, MonteCarloSettings& mc) {
   s.Finish();
 }
 
-namespace {
-
 std::string ExtentString(const toml::node& node, const std::string& where) {
   if (node.is_string()) return *node.value<std::string>();
   if (!node.is_array()) throw InputError(where + ": expected \"a,b,c,d\" or an array of quantities");
@@ -71,12 +69,29 @@ std::string ExtentString(const toml::node& node, const std::string& where) {
   return out;
 }
 
-}  // namespace
+std::vector<double> LengthList(const toml::node& node, std::size_t count, const std::string& where) {
+  const std::string text = node.is_string() || node.is_array() ? ExtentString(node, where) : std::to_string(AsNumber(node, where));
+  std::vector<double> values;
+  std::string part;
+  for (std::size_t i = 0; i <= text.size(); ++i) {
+    if (i == text.size() || text[i] == ',') {
+      values.push_back(ParseQuantity(part, Dimension::kLength, where));
+      part.clear();
+    } else {
+      part += text[i];
+    }
+  }
+  if (values.size() != count) {
+    throw InputError(where + ": expected " + std::to_string(count) + " comma-separated lengths, got " +
+                     std::to_string(values.size()));
+  }
+  return values;
+}
 
 void ReadMap(Section& top, Job& job) {
   Section s = top.Sub("map", false);
   if (!s.exists()) return;
-  s.set_hint("plane, extent, box, step");
+  s.set_hint("plane, extent, box, step, monte_carlo");
   const toml::node* plane = s.Get("plane");
   const toml::node* extent = s.Get("extent");
   const toml::node* box = s.Get("box");
@@ -94,6 +109,7 @@ void ReadMap(Section& top, Job& job) {
   } else {
     throw InputError(s.Where("plane") + ": required key is missing (plane + extent, or box)");
   }
+  if (const toml::node* n = s.Get("monte_carlo")) job.map->monte_carlo = AsBool(*n, s.Where("monte_carlo"));
   s.Finish();
 }
 

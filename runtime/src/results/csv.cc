@@ -236,19 +236,31 @@ std::string TasksCsv(const Results& r) {
 
 std::string MapCsv(const MapResult& map) {
   std::ostringstream out;
-  out << "x_m,y_m,z_m,U_x_um,U_y_um,U_z_um,U_norm_um,status\n";
+  // Per-source columns follow the totals (docs/results.md "map.csv"): groups, then sources.
+  out << "x_m,y_m,z_m,U_x_um,U_y_um,U_z_um,U_norm_um,status";
+  if (map.has_mcm) out << ",U_norm_mcm_um,gum_vs_mcm";
+  if (!map.sources.empty()) out << ",dominant_source";
+  for (const MapResult::Layer& g : map.groups) out << "," << Csv("U_group_" + g.name + "_um");
+  for (const MapResult::Layer& l : map.sources) out << "," << Csv("U_" + l.name + "_um");
+  out << "\n";
   std::size_t skipped = 0;
   for (std::size_t i = 0; i < map.nodes.size(); ++i) {
     Row row;
     row << map.nodes[i].x() << map.nodes[i].y() << map.nodes[i].z();
+    const std::size_t extra = (map.has_mcm ? 2 : 0) + (map.sources.empty() ? 0 : 1) + map.groups.size() + map.sources.size();
     if (map.computed[i]) {
       row << map.U[i].x() * kUm << map.U[i].y() * kUm << map.U[i].z() * kUm << map.U_norm[i] * kUm << "ok";
+      if (map.has_mcm) row << map.U_norm_mcm[i] * kUm << map.verdict[i];
+      if (!map.sources.empty()) row << map.sources[static_cast<std::size_t>(map.dominant[i])].name;
+      for (const MapResult::Layer& g : map.groups) row << g.U[i] * kUm;
+      for (const MapResult::Layer& l : map.sources) row << l.U[i] * kUm;
     } else {
       std::string reason = skipped < map.skipped.size() ? map.skipped[skipped] : "skipped";
       ++skipped;
       std::size_t colon = reason.find("m: ");
       if (colon != std::string::npos) reason = reason.substr(colon + 3);
       row.Empty().Empty().Empty().Empty() << "skipped: " + reason;
+      for (std::size_t e = 0; e < extra; ++e) row.Empty();
     }
     out << row.str();
   }

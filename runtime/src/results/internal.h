@@ -51,6 +51,9 @@ std::string ResultsJsonText(const Results& results, int indent, bool for_html);
 
 // The per-point files are formatted into a buffer of about this size, then written.
 inline constexpr std::size_t kWriteBufferBytes = std::size_t{1} << 20;
+// Largest number of per-source map values (layers x nodes) put into results.json and map.html:
+// beyond it the page would not draw in a browser (docs/results.md); map.csv has them all.
+inline constexpr std::size_t kMaxMapLayerValues = 4000000;
 
 // The uncertainty budgets of points of `results` (indices into results.points; all when empty),
 // in that order: visit(n, gum) with gum.budget filled, n = position in `indices` (or the point

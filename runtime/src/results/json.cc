@@ -282,11 +282,48 @@ json Map(const MapResult& m) {
       uz.push_back(nullptr);
     }
   }
+  j["value_name"] = m.value_name;
   j["U_norm"] = un;
   j["U_x"] = ux;
   j["U_y"] = uy;
   j["U_z"] = uz;
   j["skipped"] = m.skipped;
+  auto values = [&](const std::vector<double>& v) {
+    json a = json::array();
+    for (std::size_t i = 0; i < m.nodes.size(); ++i) a.push_back(m.computed[i] ? json(v[i]) : json(nullptr));
+    return a;
+  };
+  // Per-source layers (docs/results.md): in results.json and the HTML only while the grid is
+  // small enough to draw (kMaxMapLayerValues); map.csv has them always.
+  const bool layers = (m.sources.size() + m.groups.size()) * m.nodes.size() <= internal::kMaxMapLayerValues;
+  j["layers_included"] = layers;
+  json groups = json::array(), sources = json::array();
+  if (layers) {
+    for (const MapResult::Layer& g : m.groups) groups.push_back({{"name", g.name}, {"U", values(g.U)}});
+    for (const MapResult::Layer& l : m.sources) sources.push_back({{"name", l.name}, {"group", l.group}, {"U", values(l.U)}});
+  }
+  j["groups"] = groups;
+  j["sources"] = sources;
+  json dominant = json::array();
+  if (layers && !m.sources.empty()) {
+    for (std::size_t i = 0; i < m.nodes.size(); ++i) dominant.push_back(m.computed[i] ? json(m.dominant[i]) : json(nullptr));
+  }
+  j["dominant"] = dominant;
+  if (m.has_mcm) {
+    json mc;
+    mc["trials"] = m.mcm_trials;
+    mc["seed"] = m.mcm_seed;
+    mc["U_norm"] = values(m.U_norm_mcm);
+    json verdict = json::array();
+    for (std::size_t i = 0; i < m.nodes.size(); ++i) verdict.push_back(m.computed[i] ? json(m.verdict[i]) : json(nullptr));
+    mc["verdict"] = verdict;
+    j["monte_carlo"] = mc;
+  } else {
+    j["monte_carlo"] = nullptr;
+  }
+  json markers = json::array();
+  for (const MapResult::Marker& k : m.markers) markers.push_back({{"name", k.name}, {"position", Vec(k.position)}});
+  j["markers"] = markers;
   return j;
 }
 

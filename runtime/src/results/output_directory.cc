@@ -60,7 +60,8 @@ const std::set<std::string>& KnownOutputNames() {
   static const std::set<std::string> names = {
       kOutputMarker, "points.csv", "points.jsonl", "outputs.csv", "budget.csv", "tasks.csv", "results.json", "report.html", "map.csv", "map.html",
       "tests.csv", "sensitivity.csv", "simulated_readings.csv", "simulated_calibration.toml", "calibration.toml",
-      "parameters.csv", "correlation.csv", "identifiability.csv", "targets.csv", "residuals.csv"};
+      "parameters.csv", "correlation.csv", "identifiability.csv", "targets.csv", "residuals.csv",
+      "plan.json", "station_map.csv", "station_map.html", "planned_job.toml"};
   return names;
 }
 

@@ -96,7 +96,72 @@ MapResult ComputeMap(const MeasurementModel& model, const MapSettings& settings,
       throw NumericalError("map node " + internal::FormatNode(map.nodes[i]) + ": non-finite uncertainty");
     }
   }
+  // Per source and per group: the columns of [J_r U_r^1/2 | J_s F] (vlt/gum.h), in quadrature.
+  const std::vector<UncertaintySource> sources = UncertaintySources(model);
+  const Eigen::MatrixXd by_source = ExpandedUncertaintyBySource(model, readings, coverage_probability, threads);
+  std::vector<double> group_sq;
+  for (const UncertaintySource& s : sources) {
+    map.sources.push_back({s.name, s.group, std::vector<double>(n, 0.0)});
+    if (std::none_of(map.groups.begin(), map.groups.end(), [&](const MapResult::Layer& g) { return g.name == s.group; })) {
+      map.groups.push_back({s.group, s.group, std::vector<double>(n, 0.0)});
+    }
+  }
+  map.dominant.assign(n, -1);
+  for (std::size_t j = 0; j < index.size(); ++j) {
+    const std::size_t i = index[j];
+    const Eigen::Index col = static_cast<Eigen::Index>(j);
+    double largest = -1.0;
+    for (std::size_t s = 0; s < sources.size(); ++s) {
+      const double u = by_source(static_cast<Eigen::Index>(s), col);
+      map.sources[s].U[i] = u;
+      // Ties within rounding (1e-9 relative: equal azimuth and elevation noise at elevation 0, say)
+      // go to the first source, so that equal contributions do not make a checkerboard.
+      if (u > largest * (1.0 + 1e-9)) {
+        largest = u;
+        map.dominant[i] = static_cast<int>(s);
+      }
+      for (MapResult::Layer& g : map.groups) {
+        if (g.name == sources[s].group) g.U[i] += u * u;
+      }
+    }
+    for (MapResult::Layer& g : map.groups) g.U[i] = std::sqrt(g.U[i]);
+  }
   return map;
+}
+
+void AddMonteCarloToMap(const Job& job, const RunOptions& options, MapResult& map) {
+  Job nodes = job;
+  nodes.mode = JobMode::kPlan;
+  nodes.points.clear();
+  nodes.tasks.clear();
+  nodes.task_points.clear();
+  nodes.map.reset();
+  nodes.monte_carlo.enabled = true;
+  std::vector<std::size_t> index;
+  for (std::size_t i = 0; i < map.nodes.size(); ++i) {
+    if (!map.computed[i]) continue;
+    JobPoint p;
+    p.name = "node " + std::to_string(i);
+    p.nominal = map.nodes[i];
+    p.where = job.file + ": map: node " + internal::FormatNode(map.nodes[i]);
+    nodes.points.push_back(std::move(p));
+    index.push_back(i);
+  }
+  map.has_mcm = true;
+  map.U_norm_mcm.assign(map.nodes.size(), 0.0);
+  map.verdict.assign(map.nodes.size(), "");
+  if (index.empty()) return;
+  RunOptions run = options;
+  run.monte_carlo = true;
+  run.compute_map = false;
+  const Results r = RunJob(nodes, run);
+  map.mcm_trials = r.mcm.trials;
+  map.mcm_seed = r.mcm.seed;
+  for (std::size_t j = 0; j < index.size(); ++j) {
+    const PointResult& p = r.points[j];
+    map.U_norm_mcm[index[j]] = map.k * std::sqrt(p.monte_carlo->mcm.covariance.trace());
+    map.verdict[index[j]] = p.outcome;
+  }
 }
 
 namespace {
@@ -450,6 +515,9 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
 
   if (job.map && options.compute_map) {
     results.map = ComputeMap(model, *job.map, results.coverage_probability, threads);
+    if (job.map->monte_carlo && options.monte_carlo && job.monte_carlo.enabled) {
+      AddMonteCarloToMap(job, options, *results.map);
+    }
   }
   return results;
 }
