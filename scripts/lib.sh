@@ -18,8 +18,9 @@ VLT_BUILD_PACKAGES=(g++ cmake make pkg-config git
 if ! command -v npm >/dev/null 2>&1; then
   VLT_BUILD_PACKAGES+=(nodejs npm)
 fi
-# Extra packages for the test suite only: the headless browser that renders report.html.
-VLT_TEST_PACKAGES=(chromium)
+# Extra packages for the test suite only: the headless browser that renders and prints report.html.
+VLT_TEST_PACKAGES=(chromium
+  poppler-utils)   # pdftotext / pdfinfo / pdfimages: the printed report (tests/cli/report_print.cmake)
 
 vlt_as_root() {
   if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi

@@ -91,7 +91,11 @@ add_test(NAME report_browser_demo
 add_test(NAME report_browser_map
   COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/demo/map.html -DPROFILE=${_out}/chromium-profile-map
           -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
-set_tests_properties(report_browser_demo report_browser_map PROPERTIES
+# The report printed to PDF ("a report one can file"): every table whole, the plots, provenance.
+add_test(NAME report_print_demo
+  COMMAND ${CMAKE_COMMAND} -DDIR=${_out}/demo -DPROFILE=${_out}/chromium-profile-print -DMIN_PAGES=6
+          -P ${_cli}/report_print.cmake)
+set_tests_properties(report_browser_demo report_browser_map report_print_demo PROPERTIES
   FIXTURES_REQUIRED vlt_demo_outputs TIMEOUT 300)
 
 # A scan (2000 points, one plane over all): report.html holds the 200 points with the largest |U|

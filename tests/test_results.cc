@@ -1,6 +1,7 @@
 // test_results.cc — Results and the files written from them (docs/results.md): the results.json
 // schema keys, CSV headers and units against the GUM values, the map (skipped nodes, never NaN),
 // the report page's ingredients, and all-or-nothing writing.
+#include "vlt/calibration.h"
 #include "vlt/results.h"
 
 #include <signal.h>
@@ -12,6 +13,7 @@
 #include <map>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -98,6 +100,30 @@ TEST(Results, JsonSchemaKeys) {
     EXPECT_TRUE(j["job"].contains(key)) << "job." << key;
   }
   EXPECT_EQ(j["job"]["mode"], "plan");
+  // Provenance: the job file's SHA-256 (of the text it was parsed from), when, which build.
+  ASSERT_EQ(j["job"]["input_files"].size(), 1u);
+  EXPECT_EQ(j["job"]["input_files"][0]["role"], "job");
+  EXPECT_EQ(j["job"]["input_files"][0]["sha256"], Sha256Bytes(kJob));
+  EXPECT_EQ(j["vlt_commit"], VltCommit());
+  EXPECT_TRUE(std::regex_match(j["created"].get<std::string>(), std::regex(R"(\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ)")))
+      << j["created"];
+  // Inputs as typed ("0.2 K", "1013.25 hPa", "10 deg"), else in a readable unit (the model's
+  // default u of a0 is 0.35 arcsec, its estimate 0).
+  auto shared = [&](const std::string& name) {
+    for (const auto& in : j["inputs"]["shared"]) {
+      if (in["name"] == name) return in;
+    }
+    return nlohmann::json();
+  };
+  EXPECT_EQ(shared("environment.temperature")["display_estimate"], "20 degC");
+  EXPECT_EQ(shared("environment.temperature")["display_u"], "0.2 K");
+  EXPECT_EQ(shared("environment.pressure")["display_estimate"], "1013.25 hPa");
+  EXPECT_EQ(shared("pose.rz")["display_estimate"], "10 deg");
+  EXPECT_EQ(shared("pose.rz")["display_u"], "5 urad");
+  EXPECT_EQ(shared("thermal.cte")["display_u"], "1 ppm/K");
+  EXPECT_EQ(shared("a0")["display_u"], "0.35 arcsec");
+  EXPECT_EQ(shared("a0")["display_estimate"], "0 arcsec");
+  EXPECT_EQ(shared("pose.ty")["display_estimate"], "0 um");  // not in the job: 0, readable
   for (const char* key : {"noise", "shared", "parameter_correlation", "correlations", "environment_equation",
                           "vacuum_wavelength", "part_reference_temperature"}) {
     EXPECT_TRUE(j["inputs"].contains(key)) << "inputs." << key;

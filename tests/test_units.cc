@@ -174,5 +174,21 @@ TEST(Units, FormatRoundTrips) {
   EXPECT_THROW(FromSi(1.0, Dimension::kLength, "arcsec"), std::invalid_argument);
 }
 
+// What the user typed is shown back (UncertainInput::display_*): the unit after the number.
+TEST(Units, TypedUnitAndReadableFormat) {
+  EXPECT_EQ(TypedUnit("0.4 arcsec"), "arcsec");
+  EXPECT_EQ(TypedUnit(" -1.5e-3  um/m "), "um/m");
+  EXPECT_EQ(TypedUnit("22.3degC"), "degC");
+  EXPECT_EQ(TypedUnit("12"), "");
+  EXPECT_EQ(TypedUnit("1e3 hPa"), "hPa");
+  // Readable: below 1 mm in um, a gauge in mm with every digit; small angles in arcsec.
+  EXPECT_EQ(FormatReadable(12e-6, Dimension::kLength), "12 um");
+  EXPECT_EQ(FormatReadable(0.050000623, Dimension::kLength), "50.000623 mm");
+  EXPECT_EQ(FormatReadable(ToSi(0.35, Dimension::kAngle, "arcsec"), Dimension::kAngle), "0.35 arcsec");
+  EXPECT_EQ(FormatReadable(ToSi(20, Dimension::kAngle, "deg"), Dimension::kAngle), "20 deg");
+  EXPECT_EQ(FormatReadable(101325.0, Dimension::kPressure), "1013.25 hPa");
+  EXPECT_EQ(FormatReadable(11.5e-6, Dimension::kPerKelvin), "11.5 ppm/K");
+}
+
 }  // namespace
 }  // namespace vlt

@@ -24,13 +24,11 @@ const ModelInfo& RequireModel(const std::string& name) {
   throw InputError("model: unknown model '" + name + "' (known: " + known + ")");
 }
 
-// A value in the unit a metrologist reads it in (um, arcsec, ppm), else SI. A length of 1 mm or
-// more (a gauge's nominal, not an error) in mm with every digit the spec gives (50.000623 mm).
+// A value in the unit a metrologist reads it in (FormatReadable, vlt/units.h), else %.6g.
 std::string Friendly(double si, const std::string& quantity) {
-  if (quantity == "length" && std::abs(si) >= 1e-3) return FormatQuantity(si, Dimension::kLength, "mm", 12);
-  if (quantity == "length") return FormatQuantity(si, Dimension::kLength, "um", 4);
+  if (quantity == "length") return FormatReadable(si, Dimension::kLength);
   if (quantity == "angle") return FormatQuantity(si, Dimension::kAngle, "arcsec", 4);
-  if (quantity == "ratio") return FormatQuantity(si, Dimension::kRatio, "ppm", 4);
+  if (quantity == "ratio") return FormatReadable(si, Dimension::kRatio);
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.6g", si);
   return buf;

@@ -53,8 +53,8 @@ int main(int argc, char** argv) {
   CLI::App app{"vlt — the Virtual Laser Tracker: GUM and Monte Carlo uncertainty of laser "
                "tracker measurements from an explicit model of the instrument"};
   // Version, the commit the build was configured from, and the build type (runtime/CMakeLists.txt).
-  app.set_version_flag("--version", std::string("vlt ") + VLT_VERSION + " (commit " + VLT_COMMIT + ", " +
-                                        VLT_BUILD_TYPE + " build)");
+  app.set_version_flag("--version", std::string("vlt ") + VLT_VERSION + " (commit " + vlt::VltCommit() + ", " +
+                                        vlt::VltBuildType() + " build)");
   vlt::cli::GlobalOptions global;
   app.add_flag("-q,--quiet", global.quiet, "Print nothing but errors");
   app.add_flag("--json", global.json, "Print results as JSON where a command prints results");

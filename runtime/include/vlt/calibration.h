@@ -32,6 +32,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -319,5 +320,7 @@ LoadedCalibration LoadCalibrationFile(const std::string& path);
 
 // SHA-256 of a file's bytes, lower-case hex (for provenance). InputError if it cannot be read.
 std::string Sha256File(const std::string& path);
+// SHA-256 of bytes in memory, lower-case hex.
+std::string Sha256Bytes(std::string_view bytes);
 
 }  // namespace vlt

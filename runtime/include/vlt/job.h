@@ -132,6 +132,13 @@ struct CalibrationSource {
   std::string created;       // [calibration] created of the file (ISO 8601 UTC)
 };
 
+// A file a job was read from, for provenance (results.json "job.input_files", the report header).
+struct InputFile {
+  std::string role;          // "job", "plan csv", "readings csv", "calibration"
+  std::string path;          // as named in messages (resolved against the job file's directory)
+  std::string sha256;        // of the file's bytes, lower-case hex
+};
+
 struct Job {
   std::string file;                   // the job file as named in messages
   std::filesystem::path base_dir;     // relative paths in the job are relative to this
@@ -142,6 +149,7 @@ struct Job {
   std::vector<JobPoint> points;
   std::string readings_file;          // kReadings: the CSV as resolved (provenance)
   std::optional<CalibrationSource> calibration;  // parameters from a calibration file
+  std::vector<InputFile> input_files;  // the job file (from its text), its CSVs, its calibration file
   // Implausible but legal values, one line each "<file>: <key>: <why>" (the command prints them
   // as "vlt: warning: ..."; --strict makes the first one an error).
   std::vector<std::string> warnings;

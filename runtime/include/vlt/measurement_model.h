@@ -33,6 +33,11 @@ struct UncertainInput {
   std::string distribution = "normal";
   double shape = 0.0;       // degrees of freedom (student_t), half-width uncertainty ratio
                             // (curvilinear_trapezoid), ... ; 0 where the distribution has none
+  // The estimate and u in the units the job file gave them ("22.3 degC", "0.3 K", "0.4 arcsec");
+  // empty when not typed with a unit (model defaults, bare SI numbers): reports then use
+  // FormatReadable (vlt/units.h).
+  std::string display_estimate;
+  std::string display_u;
 };
 
 // Standard uncertainty of the readings of one point.

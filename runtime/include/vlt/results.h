@@ -128,6 +128,9 @@ struct MapResult {
 
 struct Results {
   std::string vlt_version;
+  std::string vlt_commit;                     // VltCommit()
+  std::string created;                        // when the run was made, ISO 8601 UTC (RunCreatedTime)
+  std::vector<InputFile> input_files;         // Job::input_files
   std::string job_file;
   std::string job_name;
   std::string job_description;
@@ -153,6 +156,14 @@ struct Results {
   int validated_tasks = 0;
   int inconclusive_points = 0;
 };
+
+// The commit vlt was built from (`git describe --always --dirty` at configure time; "unknown"
+// outside a git checkout) and its build type.
+const char* VltCommit();
+const char* VltBuildType();
+// Now as ISO 8601 UTC ("2026-11-24T22:19:30Z"); with SOURCE_DATE_EPOCH set (reproducible builds'
+// convention) that time instead, so that two runs can be compared byte for byte.
+std::string RunCreatedTime();
 
 // Runs the whole job. Throws InputError / NumericalError (nothing is written here). Refuses
 // (InputError, before computing) a job whose estimated memory exceeds what is available.

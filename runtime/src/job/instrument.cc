@@ -163,6 +163,7 @@ void ReadTracker(Section& top, Job& job) {
       setup.correlations.push_back({"calibration", c.names, c.correlation, where, where});
     }
     job.calibration = CalibrationSource{path.string(), Sha256File(path.string()), c.instrument, c.created};
+    job.input_files.push_back({"calibration", job.calibration->file, job.calibration->sha256});
   }
 
   // [tracker.parameters.<name>]: override the model's defaults.

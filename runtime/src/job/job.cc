@@ -13,6 +13,7 @@
 #include <toml++/toml.h>
 
 #include "job/job_detail.h"
+#include "vlt/calibration.h"
 #include "vlt/error.h"
 
 namespace vlt {
@@ -65,8 +66,10 @@ Job ParseJob(std::string_view text, const std::string& file, const std::filesyst
   job.file = file;
   job.base_dir = base_dir;
   job.name = std::filesystem::path(file).stem().string();
+  job.input_files.push_back({"job", file, Sha256Bytes(text)});
   Section top(root, file, "");
-  top.set_hint("job, tracker, environment, station, part, correlations, plan, readings, task, monte_carlo, map, output");
+  top.set_hint(
+      "job, tracker, environment, station, part, correlations, plan, readings, task, monte_carlo, map, optimize, output");
 
   ReadJobMeta(top, job.name, &job.description, job.name);
   ReadTracker(top, job);

@@ -10,6 +10,7 @@
 #include <toml++/toml.h>
 
 #include "job/job_detail.h"
+#include "vlt/calibration.h"
 #include "vlt/error.h"
 #include "vlt/inverse.h"
 #include "vlt/job.h"
@@ -75,6 +76,7 @@ void ReadPlan(Section& s, Job& job) {
     }
     CsvTable table = ReadCsvFile(path.string(), path.string());
     rel = path.string();
+    job.input_files.push_back({"plan csv", rel, Sha256File(rel)});
     for (const char* col : {"name", "x", "y", "z"}) {
       if (table.Column(col) < 0) {
         throw InputError(rel + ": line " + std::to_string(table.header_line) + ": missing column '" + col +
@@ -152,13 +154,10 @@ void ReadReadings(Section& s, Job& job) {
     if (v == "cartesian") cartesian = true;
     else if (v != "spherical") throw InputError(s.Where("coordinates") + ": expected \"spherical\" or \"cartesian\"");
   }
-  std::string names[5] = {"name", "range", "azimuth", "elevation", "face"};
-  const char* keys[5] = {"name", "range", "azimuth", "elevation", "face"};
-  if (cartesian) {
-    names[1] = keys[1] = "x";
-    names[2] = keys[2] = "y";
-    names[3] = keys[3] = "z";
-  }
+  static const char* const kSpherical[5] = {"name", "range", "azimuth", "elevation", "face"};
+  static const char* const kCartesian[5] = {"name", "x", "y", "z", "face"};
+  const char* const* keys = cartesian ? kCartesian : kSpherical;
+  std::vector<std::string> names(keys, keys + 5);
   Section cols = s.Sub("columns", false);
   if (cols.exists()) {
     cols.set_hint(cartesian ? "name, x, y, z, face" : "name, range, azimuth, elevation, face");
@@ -200,6 +199,7 @@ void ReadReadings(Section& s, Job& job) {
   CsvTable table = ReadCsvFile(path.string(), path.string());
   rel = path.string();
   job.readings_file = rel;
+  job.input_files.push_back({"readings csv", rel, Sha256File(rel)});
   int col[5];
   for (int k = 0; k < 5; ++k) {
     col[k] = table.Column(names[k]);

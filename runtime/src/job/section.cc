@@ -124,8 +124,15 @@ void ReadUncertain(Section& parent, std::string_view key, Dimension value_dim, D
                    UncertainInput& input) {
   const toml::node* node = parent.Get(key);
   if (!node) return;
+  // The units the user typed, to show the values back in them (UncertainInput::display_*).
+  auto typed = [](const toml::node& n, double si, Dimension dim) {
+    if (!n.is_string()) return std::string();
+    const std::string unit = TypedUnit(*n.value<std::string>());
+    return unit.empty() ? std::string() : FormatQuantity(si, dim, unit, 8);
+  };
   if (!node->is_table()) {
     input.estimate = AsQuantity(*node, value_dim, parent.Where(key));
+    input.display_estimate = typed(*node, input.estimate, value_dim);
     if (std::abs(input.estimate) > kMaxMagnitude) {
       throw InputError(parent.Where(key) + ": beyond what vlt computes with (at most 1e12 in SI units)");
     }
@@ -133,13 +140,17 @@ void ReadUncertain(Section& parent, std::string_view key, Dimension value_dim, D
   }
   Section s = parent.Sub(key, false);
   s.set_hint("estimate, u, distribution, shape");
-  if (const toml::node* n = s.Get("estimate")) input.estimate = AsQuantity(*n, value_dim, s.Where("estimate"));
+  if (const toml::node* n = s.Get("estimate")) {
+    input.estimate = AsQuantity(*n, value_dim, s.Where("estimate"));
+    input.display_estimate = typed(*n, input.estimate, value_dim);
+  }
   if (std::abs(input.estimate) > kMaxMagnitude) {
     throw InputError(s.Where("estimate") + ": beyond what vlt computes with (at most 1e12 in SI units)");
   }
   if (const toml::node* n = s.Get("u")) {
     input.u = AsQuantity(*n, u_dim, s.Where("u"));
     CheckUncertainty(input.u, s.Where("u"));
+    input.display_u = typed(*n, input.u, u_dim);
   }
   if (const toml::node* n = s.Get("distribution")) input.distribution = AsString(*n, s.Where("distribution"));
   if (const toml::node* n = s.Get("shape")) input.shape = AsNumber(*n, s.Where("shape"));

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <charconv>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -319,6 +320,48 @@ std::string FormatQuantity(double si, Dimension dimension, std::string_view unit
   std::snprintf(buffer, sizeof buffer, "%.*g", significant_digits < 1 ? 1 : significant_digits,
                 value);
   return std::string(buffer) + " " + std::string(unit);
+}
+
+std::string FormatReadable(double si, Dimension dimension) {
+  const double a = std::abs(si);
+  switch (dimension) {
+    case Dimension::kLength:
+      return a >= 1e-3 ? FormatQuantity(si, dimension, "mm", 12) : FormatQuantity(si, dimension, "um", 4);
+    case Dimension::kAngle:
+      return a >= 3.14159265358979323846 / 180.0 ? FormatQuantity(si, dimension, "deg", 8)
+                                                 : FormatQuantity(si, dimension, "arcsec", 4);
+    case Dimension::kRatio:
+    case Dimension::kFraction:
+      return FormatQuantity(si, dimension, "ppm", 4);
+    case Dimension::kPerKelvin:
+      return FormatQuantity(si, dimension, "ppm/K", 4);
+    case Dimension::kPressure:
+      return FormatQuantity(si, dimension, "hPa", 6);
+    case Dimension::kTemperature:
+      return FormatQuantity(si, dimension, "degC", 6);
+    case Dimension::kTemperatureDifference:
+      return FormatQuantity(si, dimension, "K", 4);
+    case Dimension::kHumidity:
+      return FormatQuantity(si, dimension, "%", 4);
+    default:
+      return FormatQuantity(si, dimension, {}, 6);
+  }
+}
+
+std::string TypedUnit(std::string_view text) {
+  std::size_t i = 0;
+  while (i < text.size() && std::isspace(static_cast<unsigned char>(text[i]))) ++i;
+  if (i < text.size() && (text[i] == '+' || text[i] == '-')) ++i;
+  while (i < text.size() && (std::isdigit(static_cast<unsigned char>(text[i])) || text[i] == '.')) ++i;
+  if (i < text.size() && (text[i] == 'e' || text[i] == 'E') && i + 1 < text.size() &&
+      (std::isdigit(static_cast<unsigned char>(text[i + 1])) || text[i + 1] == '-' || text[i + 1] == '+')) {
+    i += 2;
+    while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i]))) ++i;
+  }
+  std::size_t end = text.size();
+  while (end > i && std::isspace(static_cast<unsigned char>(text[end - 1]))) --end;
+  while (i < end && std::isspace(static_cast<unsigned char>(text[i]))) ++i;
+  return std::string(text.substr(i, end - i));
 }
 
 }  // namespace vlt

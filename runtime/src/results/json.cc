@@ -4,6 +4,7 @@
 // its own variant (the points it draws, with their budgets).
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include <nlohmann/json.hpp>
 
@@ -39,10 +40,28 @@ json Columns(const Eigen::Matrix3d& m) {
   return a;
 }
 
+// An input's value as the report shows it: as typed, else in a readable unit of its SI unit,
+// else "%.6g <unit>" (custom models' own units).
+std::string Shown(const std::string& typed, double si, const std::string& unit, bool is_u) {
+  if (!typed.empty()) return typed;
+  static const std::pair<const char*, Dimension> kDimensions[] = {
+      {"m", Dimension::kLength}, {"rad", Dimension::kAngle},  {"1", Dimension::kRatio},
+      {"Pa", Dimension::kPressure}, {"%", Dimension::kHumidity}, {"1/K", Dimension::kPerKelvin}};
+  if (unit == "degC") return FormatReadable(si, is_u ? Dimension::kTemperatureDifference : Dimension::kTemperature);
+  for (const auto& [name, dimension] : kDimensions) {
+    if (unit == name) return FormatReadable(si, dimension);
+  }
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.6g", si);
+  return unit.empty() ? std::string(buffer) : std::string(buffer) + " " + unit;
+}
+
 json Input(const UncertainInput& in) {
   return json{{"name", in.name},         {"group", in.group},   {"unit", in.unit},
               {"estimate", in.estimate}, {"u", in.u},           {"distribution", in.distribution},
-              {"shape", in.shape}};
+              {"shape", in.shape},
+              {"display_estimate", Shown(in.display_estimate, in.estimate, in.unit, false)},
+              {"display_u", Shown(in.display_u, in.u, in.unit, true)}};
 }
 
 json Los(const LineOfSightSplit& s) {
@@ -333,6 +352,8 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
   json j;
   j["schema"] = "vlt-results/2";
   j["vlt_version"] = r.vlt_version;
+  j["vlt_commit"] = r.vlt_commit;
+  j["created"] = r.created;
   j["units"] = {{"length", "m"},          {"angle", "rad"},          {"temperature", "degC"},
                 {"pressure", "Pa"},       {"humidity", "%"},         {"ratio", "1"},
                 {"expansion_coefficient", "1/K"}, {"time", "s"}};
@@ -348,6 +369,9 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
               {"n_dig", r.n_dig},
               {"points", r.points.size()},
               {"tasks", r.tasks.size()}};
+  json files = json::array();
+  for (const InputFile& f : r.input_files) files.push_back({{"role", f.role}, {"path", f.path}, {"sha256", f.sha256}});
+  j["job"]["input_files"] = files;
   // Where the tracker's error parameters came from (docs/calibration.md): null = the model's
   // defaults and the job's [tracker.parameters].
   j["job"]["calibration"] = nullptr;

@@ -9,6 +9,8 @@
 #include <unistd.h>
 #include <limits>
 #include <cmath>
+#include <cstdlib>
+#include <ctime>
 
 #include "gum/internal.h"
 #include "results/internal.h"
@@ -16,6 +18,23 @@
 #include "vlt/fits.h"
 
 namespace vlt {
+
+const char* VltCommit() { return VLT_COMMIT; }
+const char* VltBuildType() { return VLT_BUILD_TYPE; }
+
+std::string RunCreatedTime() {
+  std::time_t now = std::time(nullptr);
+  if (const char* epoch = std::getenv("SOURCE_DATE_EPOCH")) {
+    char* end = nullptr;
+    const long long v = std::strtoll(epoch, &end, 10);
+    if (end != epoch && *end == '\0' && v >= 0) now = static_cast<std::time_t>(v);
+  }
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char buffer[32];
+  std::strftime(buffer, sizeof buffer, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return buffer;
+}
 
 McmSettings internal::McmSettingsFor(const MonteCarloSettings& job, const RunOptions& options, int threads) {
   McmSettings settings;
@@ -355,6 +374,9 @@ namespace {
 Results RunJobUnplaced(const Job& job, const RunOptions& options) {
   Results results;
   results.vlt_version = VLT_VERSION;
+  results.vlt_commit = VltCommit();
+  results.created = RunCreatedTime();
+  results.input_files = job.input_files;
   results.job_file = job.file;
   results.job_name = job.name;
   results.job_description = job.description;
