@@ -91,6 +91,16 @@ add_test(NAME report_browser_demo
 add_test(NAME report_browser_map
   COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/demo/map.html -DPROFILE=${_out}/chromium-profile-map
           -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
+# An adaptive run's report: the convergence plot and the histograms draw.
+add_test(NAME cli_run_adaptive
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_jobs}/good.toml;--adaptive;-o;${_out}/adaptive"
+          -DOUT=${_out}/adaptive "-DFILES=${_all_files}" -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_run_adaptive PROPERTIES FIXTURES_SETUP vlt_adaptive)
+add_test(NAME report_browser_adaptive
+  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/adaptive/report.html -DPROFILE=${_out}/chromium-profile-adaptive
+          -DMIN_PLOTS=5 -P ${_cli}/report_browser.cmake)
+set_tests_properties(report_browser_adaptive PROPERTIES FIXTURES_REQUIRED vlt_adaptive TIMEOUT 300)
+
 # The report printed to PDF ("a report one can file"): every table whole, the plots, provenance.
 add_test(NAME report_print_demo
   COMMAND ${CMAKE_COMMAND} -DDIR=${_out}/demo -DPROFILE=${_out}/chromium-profile-print -DMIN_PAGES=6

@@ -283,6 +283,48 @@ TEST(McmAdaptive, StopsWhenEveryStatisticIsWithinTolerance) {
   EXPECT_NEAR(y.symmetric.high, 3.92, 0.1);
 }
 
+// The histogram (the JCGM 101 figure): every trial counted once, and for Y ~ N(0, 2^2) (four
+// standard normal inputs) the bins hold the normal probabilities: within 2.5 standard errors of a
+// binomial count in every bin (60 bins: a false alarm probability of about 0.7 %, fixed seed).
+TEST(McmHistogram, CountsEveryTrialAndFollowsTheNormal) {
+  const std::vector<UncertainInput> in = {Input("x1", 0, 1), Input("x2", 0, 1), Input("x3", 0, 1),
+                                          Input("x4", 0, 1)};
+  const McmResult r = RunMcmCustom(Additive(), in, {}, Fixed(200'000, 4));
+  const McmOutputResult::Histogram& h = r.outputs[0].histogram;
+  ASSERT_EQ(h.counts.size(), static_cast<std::size_t>(kHistogramBins));
+  std::int64_t total = h.below + h.above;
+  for (std::int64_t c : h.counts) total += c;
+  EXPECT_EQ(total, 200'000);
+  EXPECT_NEAR(h.low, r.outputs[0].mean - 5 * r.outputs[0].u, 1e-12);
+  EXPECT_NEAR(h.width * kHistogramBins, 10 * r.outputs[0].u, 1e-12);
+  const auto cdf = [](double y) { return 0.5 * std::erfc(-y / (2.0 * std::sqrt(2.0))); };  // N(0, 4)
+  for (int b = 0; b < kHistogramBins; ++b) {
+    const double p = cdf(h.low + (b + 1) * h.width) - cdf(h.low + b * h.width);
+    const double expected = 200'000 * p, sd = std::sqrt(200'000 * p * (1 - p));
+    EXPECT_NEAR(static_cast<double>(h.counts[static_cast<std::size_t>(b)]), expected, 2.5 * sd + 1) << "bin " << b;
+  }
+}
+
+// The convergence record of the adaptive procedure: one entry per batch from the second, the
+// trials increasing by a batch, every ratio above 1 but the last (where it stopped).
+TEST(McmAdaptive, RecordsItsConvergence) {
+  const std::vector<UncertainInput> in = {Input("x1", 0, 1), Input("x2", 0, 1), Input("x3", 0, 1),
+                                          Input("x4", 0, 1)};
+  McmSettings s = Fixed(0, 5);
+  const McmResult r = RunMcmCustom(Additive(), in, {}, s);
+  ASSERT_TRUE(r.converged);
+  ASSERT_EQ(r.convergence_trials.size(), static_cast<std::size_t>(r.batches - 1));
+  ASSERT_EQ(r.convergence_ratio.size(), r.convergence_trials.size());
+  for (std::size_t i = 0; i < r.convergence_trials.size(); ++i) {
+    EXPECT_EQ(r.convergence_trials[i], static_cast<std::int64_t>(i + 2) * r.batch_size);
+    if (i + 1 < r.convergence_ratio.size()) {
+      EXPECT_GT(r.convergence_ratio[i], 1.0);
+    }
+  }
+  EXPECT_LE(r.convergence_ratio.back(), 1.0);
+  EXPECT_TRUE(RunMcmCustom(Additive(), in, {}, Fixed(20'000, 5)).convergence_trials.empty());
+}
+
 TEST(McmAdaptive, ReportsNotConvergedAtMaxTrials) {
   const std::vector<UncertainInput> in = {Input("x1", 0, 1), Input("x2", 0, 1), Input("x3", 0, 1),
                                           Input("x4", 0, 1)};

@@ -387,6 +387,14 @@ TEST(Results, MapSkipsTheVerticalAxisAndHasNoNaN) {
       EXPECT_NEAR(m.U_norm[i], m.U[i].norm(), 1e-18);
     }
   }
+  // The tracker (the pose's origin) and the job's points are marked (report maps).
+  ASSERT_EQ(m.markers.size(), 1u + 4u);
+  EXPECT_EQ(m.markers[0].name, "tracker");
+  EXPECT_FALSE(m.markers[0].point);
+  EXPECT_NEAR(m.markers[0].position.x(), -1.0 / (1 + 11.5e-6 * (21 - 20)), 1e-12);  // tx, reduced to 20 degC
+  EXPECT_EQ(m.markers[1].name, "A");
+  EXPECT_TRUE(m.markers[1].point);
+  EXPECT_EQ(m.markers[1].position, Eigen::Vector3d(2, 0.5, 0));
   std::string csv = MapCsv(m);
   // No field is a NaN or an infinity ("dominant_source" in the header has "nan" in it).
   for (const char* bad : {",nan", ",-nan", ",inf", ",-inf"}) EXPECT_EQ(csv.find(bad), std::string::npos) << bad;

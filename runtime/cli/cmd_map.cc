@@ -65,6 +65,7 @@ void AddMapCommand(CLI::App& app, GlobalOptions& global) {
     MeasurementModel model(job.setup);
     int threads = o->threads >= 0 ? o->threads : job.monte_carlo.threads;
     MapResult map = ComputeMap(model, settings, job.monte_carlo.coverage_probability, threads);
+    MarkJobOnMap(job, model, map);
     if (o->mcm || settings.monte_carlo) {
       RunCliOptions run;
       run.trials = o->trials;

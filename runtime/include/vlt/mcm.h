@@ -91,7 +91,18 @@ struct McmOutputResult {
   McmNumericalAccuracy accuracy;
   // Fraction of trials within McmSettings::tolerances of this output (absent when none given).
   std::optional<double> conformity_probability;
+  // The distribution of the M values (the JCGM 101 figures: histogram with the GUM Gaussian and
+  // the coverage intervals): kHistogramBins bins of equal width from mean - 5 u to mean + 5 u,
+  // values outside counted in below / above. Empty (no counts) when not every value was kept
+  // (the averaged-endpoint method) or u = 0.
+  struct Histogram {
+    double low = 0.0;                 // left edge of the first bin (SI)
+    double width = 0.0;               // bin width (SI)
+    std::vector<std::int64_t> counts;
+    std::int64_t below = 0, above = 0;
+  } histogram;
 };
+inline constexpr int kHistogramBins = 60;
 
 // JCGM 102 for one measured point (3 coordinates, part frame, m).
 struct McmPointResult {
@@ -125,6 +136,11 @@ struct McmResult {
   bool converged = true;          // adaptive: false when max_trials stopped it first
   std::int64_t batch_size = 0;    // trials per batch (7.9.4 a)
   std::int64_t batches = 0;       // h
+  // Adaptive runs (7.9.4): after each batch from the second on, the trials so far and the
+  // stopping criterion's worst ratio 2 s / delta over the outputs and their four statistics
+  // (the run stops at <= 1): the convergence plot of the report. Empty for a fixed M.
+  std::vector<std::int64_t> convergence_trials;
+  std::vector<double> convergence_ratio;
   int threads = 1;
   double seconds = 0.0;           // wall time of the trials
   // "order statistics of all M values" or

@@ -122,6 +122,7 @@ struct MapResult {
   struct Marker {
     std::string name;
     Eigen::Vector3d position = Eigen::Vector3d::Zero();
+    bool point = false;                    // a measured point (small dot) rather than a station
   };
   std::vector<Marker> markers;
 };
@@ -180,7 +181,8 @@ Results RunJob(const Job& job, const RunOptions& options = {});
 inline constexpr std::uint64_t kJobBaseBytes = std::uint64_t{64} << 20;
 inline constexpr std::uint64_t kBytesPerPoint = 1800;
 inline constexpr std::uint64_t kBytesPerPointInput = 24;
-inline constexpr std::uint64_t kBytesPerPointMcm = 1800;
+// (measured 1800, plus the histograms of the three coordinates, McmOutputResult::histogram)
+inline constexpr std::uint64_t kBytesPerPointMcm = 1800 + 3 * (kHistogramBins * 8 + 32);
 std::uint64_t EstimateJobMemory(const Job& job, const RunOptions& options = {});
 // MemAvailable of /proc/meminfo (else the physical memory), bytes.
 std::uint64_t AvailableMemory();
@@ -242,6 +244,10 @@ std::string SummaryText(const CustomResults& results);
 // The map of `settings` for a job's model (nodes in the part frame), with its per-source layers.
 MapResult ComputeMap(const MeasurementModel& model, const MapSettings& settings,
                      double coverage_probability, int threads);
+// Marks the job's tracker (its origin, part frame, at the estimates) and its points (plan: nominal;
+// readings: the part-frame estimates; at most kMaxMapPointMarkers) on the map.
+inline constexpr std::size_t kMaxMapPointMarkers = 500;
+void MarkJobOnMap(const Job& job, const MeasurementModel& model, MapResult& map);
 // Adds the Monte Carlo map (MapResult::has_mcm ...): the computed nodes of `map` as plan points
 // of `job` (its setup and [monte_carlo] settings, overridden by `options`; no tasks) through
 // RunJob. The same seed gives the same map for any thread count. Refuses (InputError) what

@@ -322,6 +322,8 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
   std::int64_t done = 0;
   std::int64_t batches = 0;
   bool converged = !adaptive;
+  std::vector<std::int64_t> convergence_trials;  // McmResult::convergence_*
+  std::vector<double> convergence_ratio;
 
   // Batch statistics that need every value of a batch (shortest interval, k_p), for the
   // averaged-endpoint method when not every value is kept.
@@ -486,6 +488,8 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
         }
         if (worst <= 1.0) converged = true;
         status = FormatStatus(worst, "worst 2s/delta (stops at <= 1):");
+        convergence_trials.push_back(done);
+        convergence_ratio.push_back(worst);
       }
       progress.Update(done, 0, status);
       if (converged || done + batch_size > settings.max_trials) break;
@@ -512,6 +516,8 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
   result.converged = converged;
   result.batch_size = batch_size;
   result.batches = batches;
+  result.convergence_trials = std::move(convergence_trials);
+  result.convergence_ratio = std::move(convergence_ratio);
   result.threads = threads;
   result.interval_method = keep_all ? "order statistics of all M values"
                                     : "average of the batch endpoints (memory budget exceeded)";
@@ -567,7 +573,22 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
   }
 
   if (keep_all) {
-    // 7.7 from all M values (reorders the stored series: done last).
+    // 7.7 from all M values (reorders the stored series: done last), after the histogram of the
+    // values (McmOutputResult::histogram), which does not depend on their order.
+    pool.ParallelFor(n_out, [&](int o, int) {
+      McmOutputResult& out = result.outputs[o];
+      if (!(out.u > 0.0) || !std::isfinite(out.u)) return;
+      McmOutputResult::Histogram& h = out.histogram;
+      h.low = out.mean - 5.0 * out.u;
+      h.width = 10.0 * out.u / kHistogramBins;
+      h.counts.assign(kHistogramBins, 0);
+      for (const float v : series[o]) {
+        const double bin = std::floor((y0[o] + static_cast<double>(v) - h.low) / h.width);
+        if (bin < 0.0) ++h.below;
+        else if (bin >= kHistogramBins) ++h.above;
+        else ++h.counts[static_cast<std::size_t>(bin)];
+      }
+    });
     pool.ParallelFor(n_out, [&](int o, int) {
       CoverageIntervals(series[o], y0[o], p, &result.outputs[o].symmetric,
                         &result.outputs[o].shortest);

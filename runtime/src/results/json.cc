@@ -64,6 +64,34 @@ json Input(const UncertainInput& in) {
               {"display_u", Shown(in.display_u, in.u, in.unit, true)}};
 }
 
+// What a shared input is, for hover texts: a model parameter's description from its spec, else the
+// meaning of the environment, pose and part inputs (docs/job-file.md).
+std::string InputDescription(const MeasurementSetup& setup, const UncertainInput& in) {
+  if (in.group == "parameter" && setup.model) {
+    // setup.params[k] is the model's parameter k (under its own name when the job renamed it).
+    for (std::size_t k = 0; k < setup.params.size() && k < static_cast<std::size_t>(setup.model->num_params); ++k) {
+      if (setup.params[k].name == in.name || in.name == setup.model->params[k].name) return setup.model->params[k].description;
+    }
+  }
+  static const std::pair<const char*, const char*> kMeaning[] = {
+      {"environment.temperature", "Air temperature along the beam (refractive index of air: the range)"},
+      {"environment.pressure", "Air pressure (refractive index of air: the range)"},
+      {"environment.humidity", "Relative humidity of the air (refractive index of air: the range)"},
+      {"environment.co2", "CO2 mole fraction of the air (refractive index of air: the range)"},
+      {"pose.rx", "Station rotation about the part x axis"},
+      {"pose.ry", "Station rotation about the part y axis"},
+      {"pose.rz", "Station rotation about the part z axis"},
+      {"pose.tx", "Station origin, part x"},
+      {"pose.ty", "Station origin, part y"},
+      {"pose.tz", "Station origin, part z"},
+      {"thermal.cte", "Expansion coefficient of the part (coordinates reduced to the reference temperature)"},
+      {"thermal.temperature", "Temperature of the part"}};
+  for (const auto& [name, meaning] : kMeaning) {
+    if (in.name == name) return meaning;
+  }
+  return "";
+}
+
 json Los(const LineOfSightSplit& s) {
   return json{{"u_radial", s.u_radial}, {"u_horizontal", s.u_horizontal}, {"u_vertical", s.u_vertical},
               {"directions", Columns(s.directions)}};
@@ -82,7 +110,14 @@ json McmOut(const McmOutputResult& m) {
                 {"s_u", m.accuracy.s_u},
                 {"s_low", m.accuracy.s_low},
                 {"s_high", m.accuracy.s_high},
-                {"delta", m.accuracy.delta}}}};
+                {"delta", m.accuracy.delta}}},
+              {"histogram", m.histogram.counts.empty()
+                                ? json(nullptr)
+                                : json{{"low", m.histogram.low},
+                                       {"width", m.histogram.width},
+                                       {"counts", m.histogram.counts},
+                                       {"below", m.histogram.below},
+                                       {"above", m.histogram.above}}}};
 }
 
 json Scalar(const ScalarValidation& v) {
@@ -341,7 +376,9 @@ json Map(const MapResult& m) {
     j["monte_carlo"] = nullptr;
   }
   json markers = json::array();
-  for (const MapResult::Marker& k : m.markers) markers.push_back({{"name", k.name}, {"position", Vec(k.position)}});
+  for (const MapResult::Marker& k : m.markers) {
+    markers.push_back({{"name", k.name}, {"position", Vec(k.position)}, {"kind", k.point ? "point" : "station"}});
+  }
   j["markers"] = markers;
   return j;
 }
@@ -382,7 +419,11 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
                                {"created", r.calibration->created}};
   }
   json shared = json::array();
-  for (const UncertainInput& in : r.shared_inputs) shared.push_back(Input(in));
+  for (const UncertainInput& in : r.shared_inputs) {
+    json j_in = Input(in);
+    j_in["description"] = InputDescription(s, in);
+    shared.push_back(std::move(j_in));
+  }
   j["inputs"] = {{"noise",
                   {{"range_a", s.noise.range_a},
                    {"range_b", s.noise.range_b},
@@ -407,7 +448,11 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
                         {"threads", r.mcm.threads},
                         {"seconds", r.mcm.seconds},
                         {"interval_method", r.mcm.interval_method},
-                        {"n_dig", r.n_dig}};
+                        {"n_dig", r.n_dig},
+                        {"convergence", r.mcm.convergence_trials.empty()
+                                            ? json(nullptr)
+                                            : json{{"trials", r.mcm.convergence_trials},
+                                                   {"worst_ratio", r.mcm.convergence_ratio}}}};
   } else {
     j["monte_carlo"] = {{"enabled", false}};
   }

@@ -148,6 +148,17 @@ MapResult ComputeMap(const MeasurementModel& model, const MapSettings& settings,
   return map;
 }
 
+void MarkJobOnMap(const Job& job, const MeasurementModel& model, MapResult& map) {
+  const Eigen::VectorXd x = model.shared_estimates();
+  map.markers.push_back({"tracker", model.ThermalScale(x.data()) * model.PoseTranslation(x.data()), false});
+  if (job.points.size() > kMaxMapPointMarkers) return;
+  for (const JobPoint& p : job.points) {
+    Eigen::Vector3d where = p.nominal;
+    if (job.mode == JobMode::kReadings) model.Evaluate(p.readings.data(), x.data(), where.data());
+    map.markers.push_back({p.name, where, true});
+  }
+}
+
 void AddMonteCarloToMap(const Job& job, const RunOptions& options, MapResult& map) {
   Job nodes = job;
   nodes.mode = JobMode::kPlan;
@@ -537,6 +548,7 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
 
   if (job.map && options.compute_map) {
     results.map = ComputeMap(model, *job.map, results.coverage_probability, threads);
+    MarkJobOnMap(job, model, *results.map);
     if (job.map->monte_carlo && options.monte_carlo && job.monte_carlo.enabled) {
       AddMonteCarloToMap(job, options, *results.map);
     }
