@@ -6,6 +6,7 @@
 #include <pybind11/stl.h>
 
 #include <cstdint>
+#include <fstream>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -15,6 +16,7 @@
 
 #include <toml++/toml.h>
 
+#include "vlt/custom_job.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
 #include "vlt/inverse.h"
@@ -67,12 +69,34 @@ toml::table TableOf(const py::dict& d, const std::string& where) {
   return t;
 }
 
-// A job from a path to a job file, or from a dict (relative CSV paths against base_dir).
-vlt::Job JobOf(const py::object& job, const std::string& base_dir) {
+// A job's TOML text and its name in messages: from a path to a job file, or from a dict.
+struct JobText {
+  std::string text, file;
+  std::filesystem::path base_dir;
+};
+JobText JobTextOf(const py::object& job, const std::string& base_dir) {
   if (py::isinstance<py::dict>(job)) {
     std::ostringstream text;
     text << TableOf(job.cast<py::dict>(), "");
-    return vlt::ParseJob(text.str(), "<dict>", std::filesystem::path(base_dir));
+    return {text.str(), "<dict>", std::filesystem::path(base_dir)};
+  }
+  if (py::isinstance<py::str>(job) || py::hasattr(job, "__fspath__")) {
+    const std::string path = py::str(job).cast<std::string>();
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw vlt::InputError(path + ": cannot read the job file");
+    std::ostringstream text;
+    text << in.rdbuf();
+    const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+    return {text.str(), path, parent.empty() ? std::filesystem::path(".") : parent};
+  }
+  throw vlt::InputError("job: expected a path to a job file or a dict");
+}
+
+// A tracker job from a path to a job file, or from a dict (relative CSV paths against base_dir).
+vlt::Job JobOf(const py::object& job, const std::string& base_dir) {
+  if (py::isinstance<py::dict>(job)) {
+    const JobText t = JobTextOf(job, base_dir);
+    return vlt::ParseJob(t.text, t.file, t.base_dir);
   }
   if (py::isinstance<py::str>(job) || py::hasattr(job, "__fspath__")) {
     return vlt::LoadJob(py::str(job).cast<std::string>());
@@ -167,13 +191,27 @@ PYBIND11_MODULE(vlt, m) {
       "run",
       [](const py::object& job, bool monte_carlo, std::optional<std::int64_t> trials,
          std::optional<std::uint64_t> seed, std::optional<int> threads, const std::string& base_dir) {
-        const vlt::Job parsed = JobOf(job, base_dir);
         vlt::RunOptions options;
         options.monte_carlo = monte_carlo;
         options.trials = trials;
         options.seed = seed;
         options.threads = threads;
         options.compute_map = false;
+        const JobText text = JobTextOf(job, base_dir);
+        if (vlt::IsCustomModelJob(text.text)) {
+          // A custom-model job ([model], docs/custom-models.md): its results.json as a dict.
+          const vlt::CustomJob custom = vlt::ParseCustomJob(text.text, text.file, text.base_dir);
+          std::string json;
+          {
+            py::gil_scoped_release release;
+            const vlt::CustomResults results = vlt::RunCustomJob(custom, options);
+            for (const auto& [name, content] : vlt::ResultFiles(results)) {
+              if (name == "results.json") json = content;
+            }
+          }
+          return JsonLoads(json).cast<py::dict>();
+        }
+        const vlt::Job parsed = JobOf(job, base_dir);
         vlt::Results results;
         {
           py::gil_scoped_release release;
@@ -183,7 +221,8 @@ PYBIND11_MODULE(vlt, m) {
       },
       py::arg("job"), py::arg("monte_carlo") = true, py::arg("trials") = py::none(), py::arg("seed") = py::none(),
       py::arg("threads") = py::none(), py::arg("base_dir") = ".",
-      "Runs a tracker job (a path to a job file, or the job as a dict) like `vlt run`, without writing files.\n"
+      "Runs a job (a path to a job file, or the job as a dict) like `vlt run`, without writing files.\n"
+      "A custom-model job ([model]) returns its results.json as a dict (\"schema\": \"vlt-custom-results/1\"). A tracker job:\n"
       "Returns results.json as a dict (docs/results.md) with 'points' (the objects of points.jsonl) and numpy\n"
       "arrays 'estimate' (N, 3) m, 'covariance' (N, 3, 3) m^2, 'U' (N, 3) m, part frame, and 'names'.");
 

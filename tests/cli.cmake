@@ -239,11 +239,12 @@ foreach(layer 1 2 3 4 8)
 endforeach()
 
 # vlt as a library (docs/library.md): install, then build and run examples/consumer with
-# find_package(vlt) and with pkg-config. Not in the sanitizer build (its libvlt.a needs the
+# find_package(vlt) and with pkg-config, and its Python twin against the installed module. Not in the sanitizer build (its libvlt.a needs the
 # sanitizer runtime, which a consumer does not link).
 if(NOT VLT_SANITIZE)
   add_test(NAME cli_consumer_install
     COMMAND ${CMAKE_COMMAND} -DBUILD_DIR=${CMAKE_BINARY_DIR} -DSOURCE_DIR=${CMAKE_SOURCE_DIR}
-            -DOUT=${_out}/consumer -DCXX=${CMAKE_CXX_COMPILER} -P ${_cli}/consumer.cmake)
+            -DOUT=${_out}/consumer -DCXX=${CMAKE_CXX_COMPILER}
+            $<$<TARGET_EXISTS:vlt_python>:-DPYTHON=${Python3_EXECUTABLE}> -P ${_cli}/consumer.cmake)
   set_tests_properties(cli_consumer_install PROPERTIES TIMEOUT 600)
 endif()

@@ -1,7 +1,8 @@
 # Run by CTest (tests/cli.cmake cli_consumer_install): install the build tree into a fresh prefix,
 # then build examples/consumer against it twice — with find_package(vlt) and with pkg-config — and
-# run both: they must run the demo job through the installed library and print its results.
-#   -DBUILD_DIR=... -DSOURCE_DIR=... -DOUT=... -DCXX=...
+# run both: they must run the demo job through the installed library and print its results; with
+# PYTHON, the installed Python module must print the same.
+#   -DBUILD_DIR=... -DSOURCE_DIR=... -DOUT=... -DCXX=... [-DPYTHON=python3: also the installed Python module]
 cmake_minimum_required(VERSION 3.25)
 file(REMOVE_RECURSE ${OUT})
 set(prefix ${OUT}/prefix)
@@ -35,5 +36,21 @@ run("compile with pkg-config" ${CXX} -std=c++20 -O1 ${SOURCE_DIR}/examples/consu
 run("run the pkg-config consumer" ${OUT}/consumer_pc)
 if(NOT out STREQUAL cmake_out)
   message(FATAL_ERROR "the two consumers differ:\n${cmake_out}\n${out}")
+endif()
+# 3. Python: the installed module runs the same job (written by the installed `vlt demo
+# --show-job`) and prints the same lines (examples/consumer/consumer.py).
+if(PYTHON)
+  file(GLOB module ${prefix}/lib/python3*/dist-packages/vlt*.so)
+  if(NOT module)
+    message(FATAL_ERROR "cmake --install did not install the Python module into lib/python3.X/dist-packages")
+  endif()
+  get_filename_component(module_dir "${module}" DIRECTORY)
+  run("vlt demo --show-job" ${prefix}/bin/vlt demo --show-job)
+  file(WRITE ${OUT}/vlt-demo.toml "${out}")
+  set(ENV{PYTHONPATH} ${module_dir})
+  run("the Python consumer" ${PYTHON} ${SOURCE_DIR}/examples/consumer/consumer.py ${OUT}/vlt-demo.toml)
+  if(NOT out STREQUAL cmake_out)
+    message(FATAL_ERROR "the Python consumer differs from the C++ one:\n${cmake_out}\n${out}")
+  endif()
 endif()
 message(STATUS "ok:\n${out}")

@@ -117,3 +117,20 @@ def test_simulate_equals_the_command_line():
     assert np.allclose(ideal["reported"], points, rtol=0, atol=1e-12)
     with pytest.raises(ValueError, match="not a parameter"):
         vlt.simulate("mirror", points, {"nope": 1.0})
+
+
+def test_a_custom_model_job_equals_the_command_line():
+    # GUM H.2 (examples/custom): a custom-model job ([model]) with Type A observations from a CSV
+    # next to the job file; the module reads it as the command line does.
+    job = os.path.join(SOURCE, "examples", "custom", "gum_h2_impedance.toml")
+    r = vlt.run(job, trials=20000, seed=4)
+    assert r["schema"] == "vlt-custom-results/1"
+    with tempfile.TemporaryDirectory() as out:
+        subprocess.run([VLT, "-q", "run", job, "--trials", "20000", "--seed", "4", "-o", out], check=True)
+        with open(os.path.join(out, "results.json")) as f:
+            cli = json.load(f)
+    assert r["outputs"] == cli["outputs"]
+    assert r["input_correlations"] == cli["input_correlations"]
+    # The published GUM H.2 result: R = 127.732 ohm, u(R) = 0.071 ohm.
+    R = [o for o in r["outputs"] if o["name"] == "R"][0]
+    assert abs(R["gum"]["estimate"] - 127.732) < 0.0005 and abs(R["gum"]["u"] - 0.071) < 0.0005
