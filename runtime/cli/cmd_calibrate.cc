@@ -1,29 +1,15 @@
 // `vlt calibrate FILE.toml [-o DIR]`: identify the tracker's error parameters from measured test
 // data (readings of targets, calibrated bars, reference distances) with honest covariance; writes
 // the calibration file a job loads with `[tracker] calibration = "..."`. docs/calibration.md.
-#include <chrono>
 #include <cstdio>
-#include <ctime>
 
 #include "calibration/outputs.h"
 #include "results/internal.h"
 #include "run_job.h"
 #include "vlt/calibration.h"
+#include "vlt/results.h"
 
 namespace vlt::cli {
-
-namespace {
-
-std::string UtcNow() {
-  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char buffer[32];
-  std::strftime(buffer, sizeof buffer, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buffer;
-}
-
-}  // namespace
 
 void AddCalibrateCommand(CLI::App& app, GlobalOptions& global) {
   auto* command = app.add_subcommand("calibrate", "Identify a tracker's error parameters from measured test data "
@@ -40,21 +26,15 @@ void AddCalibrateCommand(CLI::App& app, GlobalOptions& global) {
   command->callback([file, output_arg, &global] {
     const CalibrationJob job = LoadCalibrationJob(*file);
     EmitWarnings(job.warnings, global);
-    std::filesystem::path target;
-    if (!output_arg->empty()) {
-      target = *output_arg;
-    } else if (!job.output_directory.empty()) {
-      target = std::filesystem::path(job.output_directory);
-      if (target.is_relative()) target = std::filesystem::path(*file).parent_path() / target;
-    } else {
-      target = std::filesystem::path("vlt-out") / internal::SafeFileName(job.name);
-    }
-    OutputDirectory output(target);
+    RunCliOptions where;
+    where.output_dir = *output_arg;
+    OutputDirectory output(OutputPath(OutputSettings{job.output_directory}, std::filesystem::path(*file).parent_path(), where,
+                                      std::filesystem::path("vlt-out") / internal::SafeFileName(job.name)));
     const std::filesystem::path& dir = output.path();
     const CalibrationResult result = Calibrate(job.data, job.options);
     CalibrationProvenance provenance;
     provenance.instrument = job.instrument;
-    provenance.created = UtcNow();
+    provenance.created = RunCreatedTime();  // SOURCE_DATE_EPOCH when set
     provenance.vlt_version = VLT_VERSION;
     for (const std::string& f : job.data_files) provenance.data_files.emplace_back(f, Sha256File(f));
     const auto files = calibration_outputs::CalibrationFiles(job, result, provenance);

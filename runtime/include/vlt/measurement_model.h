@@ -71,6 +71,10 @@ struct StationPose {
   UncertainInput tx, ty, tz;    // m
 };
 
+// R = Rz(rz) Ry(ry) Rx(rx) of a pose (angles [rad]) and its partial derivatives d R / d(rx, ry, rz).
+Eigen::Matrix3d PoseRotationMatrix(double rx, double ry, double rz);
+void PoseRotationDerivatives(double rx, double ry, double rz, Eigen::Matrix3d d_rotation[3]);
+
 // Part thermal expansion: coordinates reported at the reference temperature,
 // x_ref = x_part / (1 + cte * (temperature - reference)).
 struct PartThermal {

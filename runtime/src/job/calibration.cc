@@ -19,22 +19,6 @@ using namespace job_detail;
 
 namespace {
 
-// Array of tables `key` of `top` (absent: empty), each visited as a Section "<key>[i]".
-template <typename Fn>
-void ForEachTable(Section& top, const std::string& file, std::string_view key, Fn&& fn) {
-  const toml::node* n = top.Get(key);
-  if (!n) return;
-  if (!n->is_array()) throw InputError(top.Where(key) + ": expected [[" + std::string(key) + "]] tables");
-  int index = 0;
-  for (const toml::node& e : *n->as_array()) {
-    const std::string path = std::string(key) + "[" + std::to_string(index++) + "]";
-    if (!e.is_table()) throw InputError(file + ": " + path + ": expected a table");
-    Section s(*e.as_table(), file, path);
-    fn(s);
-    s.Finish();
-  }
-}
-
 double Positive(Section& s, std::string_view key, Dimension dim) {
   const double v = AsQuantity(s.Require(key), dim, s.Where(key));
   if (!(v > 0.0) || !std::isfinite(v)) throw InputError(s.Where(key) + ": must be positive");

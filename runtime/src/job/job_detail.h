@@ -12,6 +12,7 @@
 
 #include <toml++/toml.h>
 
+#include "vlt/error.h"
 #include "vlt/job.h"
 #include "vlt/units.h"
 
@@ -90,13 +91,32 @@ CorrelationGroup ReadCorrelationGroup(Section& parent, const std::string& name, 
 // [job] name, description (optional; the name defaults to `default_name`); job.cc.
 void ReadJobMeta(Section& top, std::string& name, std::string* description, const std::string& default_name);
 
+// Array of tables `key` of `top` (absent: empty), each visited as a Section "<key>[i]" and
+// finished after `fn` (unknown keys are errors).
+template <typename Fn>
+void ForEachTable(Section& top, const std::string& file, std::string_view key, Fn&& fn) {
+  const toml::node* n = top.Get(key);
+  if (!n) return;
+  if (!n->is_array()) throw InputError(top.Where(key) + ": expected [[" + std::string(key) + "]] tables");
+  int index = 0;
+  for (const toml::node& e : *n->as_array()) {
+    const std::string path = std::string(key) + "[" + std::to_string(index++) + "]";
+    if (!e.is_table()) throw InputError(file + ": " + path + ": expected a table");
+    Section s(*e.as_table(), file, path);
+    fn(s);
+    s.Finish();
+  }
+}
+
 // The readers of the job file's sections, one file per group.
 void ReadTracker(Section& top, Job& job);      // instrument.cc: [tracker]
 void ReadEnvironment(Section& top, Job& job);  // instrument.cc: [environment]
 void ReadStation(Section& top, Job& job);      // instrument.cc: [station]
 void ReadPart(Section& top, Job& job);         // instrument.cc: [part]
 void ReadCorrelations(Section& top, Job& job); // instrument.cc: [correlations] (after the above)
-void ReadPlan(Section& plan, Job& job);        // points.cc: [plan]
+// points.cc: [plan]; check_reach: every point within range of the job's station and off its
+// vertical axis (a network's [targets] are checked per station instead).
+void ReadPlan(Section& plan, Job& job, bool check_reach = true);
 void ReadReadings(Section& readings, Job& job);  // points.cc: [readings]
 void ReadTasks(Section& top, Job& job);        // tasks.cc: [[task]]
 void ReadMonteCarlo(Section& top, MonteCarloSettings& settings);  // settings.cc: [monte_carlo]

@@ -62,7 +62,7 @@ double UnitScale(const std::string& unit, Dimension dim, const std::string& wher
 
 }  // namespace
 
-void ReadPlan(Section& s, Job& job) {
+void ReadPlan(Section& s, Job& job, bool check_reach) {
   s.set_hint("unit, csv, point");
   std::string unit = "m";
   if (const toml::node* n = s.Get("unit")) unit = AsString(*n, s.Where("unit"));
@@ -127,6 +127,7 @@ void ReadPlan(Section& s, Job& job) {
   if (job.points.empty()) throw InputError(s.WhereSelf() + ": the plan has no points (give csv or [[plan.point]])");
 
   // A planned point must have a defined azimuth: not on the tracker's vertical axis.
+  if (!check_reach) return;
   for (const JobPoint& p : job.points) {
     Eigen::Vector3d t = PartToTrackerNominal(job.setup, p.nominal);
     if (!(t.stableNorm() <= kMaxRange)) {

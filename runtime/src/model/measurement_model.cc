@@ -104,6 +104,14 @@ Eigen::Matrix3d dRz(double a) {
 
 }  // namespace
 
+Eigen::Matrix3d PoseRotationMatrix(double rx, double ry, double rz) { return Rz(rz) * Ry(ry) * Rx(rx); }
+
+void PoseRotationDerivatives(double rx, double ry, double rz, Eigen::Matrix3d d_rotation[3]) {
+  d_rotation[0] = Rz(rz) * Ry(ry) * dRx(rx);
+  d_rotation[1] = Rz(rz) * dRy(ry) * Rx(rx);
+  d_rotation[2] = dRz(rz) * Ry(ry) * Rx(rx);
+}
+
 std::vector<std::string> SharedInputNames(const MeasurementSetup& setup) {
   std::vector<std::string> names;
   ForEachShared(setup, [&](const UncertainInput& input, const char* name, const char*, const char*) {
@@ -160,9 +168,7 @@ MeasurementModel::MeasurementModel(MeasurementSetup setup) : setup_(std::move(se
   if (pose_offset_ >= 0) {
     const double* r = estimates_.data() + pose_offset_;
     rotation_est_ = PoseRotation(estimates_.data());
-    d_rotation_est_[0] = Rz(r[2]) * Ry(r[1]) * dRx(r[0]);
-    d_rotation_est_[1] = Rz(r[2]) * dRy(r[1]) * Rx(r[0]);
-    d_rotation_est_[2] = dRz(r[2]) * Ry(r[1]) * Rx(r[0]);
+    PoseRotationDerivatives(r[0], r[1], r[2], d_rotation_est_);
   }
 }
 
@@ -210,7 +216,7 @@ double MeasurementModel::AirIndex(const double* env, double* gradient) const {
 Eigen::Matrix3d MeasurementModel::PoseRotation(const double* shared) const {
   if (pose_offset_ < 0) return Eigen::Matrix3d::Identity();
   const double* r = shared + pose_offset_;
-  return Rz(r[2]) * Ry(r[1]) * Rx(r[0]);
+  return PoseRotationMatrix(r[0], r[1], r[2]);
 }
 
 Eigen::Vector3d MeasurementModel::PoseTranslation(const double* shared) const {
@@ -353,10 +359,9 @@ void MeasurementModel::EvaluateWithJacobian(const double* readings, const double
       for (int k = 0; k < 3; ++k) jy_s.col(pose_offset_ + k) = s * (d_rotation_est_[k] * x_t);
     } else {
       const double* r = shared + pose_offset_;
-      const Eigen::Matrix3d rx = Rx(r[0]), ry = Ry(r[1]), rz = Rz(r[2]);
-      jy_s.col(pose_offset_ + 0) = s * (rz * ry * dRx(r[0]) * x_t);
-      jy_s.col(pose_offset_ + 1) = s * (rz * dRy(r[1]) * rx * x_t);
-      jy_s.col(pose_offset_ + 2) = s * (dRz(r[2]) * ry * rx * x_t);
+      Eigen::Matrix3d d_rotation[3];
+      PoseRotationDerivatives(r[0], r[1], r[2], d_rotation);
+      for (int k = 0; k < 3; ++k) jy_s.col(pose_offset_ + k) = s * (d_rotation[k] * x_t);
     }
     jy_s.block<3, 3>(0, pose_offset_ + 3) = s * Eigen::Matrix3d::Identity();
   }

@@ -1,6 +1,7 @@
 // points.csv, budget.csv, tasks.csv, map.csv (docs/results.md). Units are in the column names:
 // coordinates in mm, uncertainties in um, angles in deg; budget estimates/u in each input's SI unit
 // (column `unit`). Numbers are printed with the shortest representation that reads back exactly.
+#include <cstdio>
 #include <cmath>
 #include <sstream>
 
@@ -15,15 +16,7 @@ constexpr double kMm = 1e3;   // m -> mm
 constexpr double kUm = 1e6;   // m -> um
 constexpr double kDeg = 180.0 / 3.14159265358979323846;
 
-std::string Csv(const std::string& field) {
-  if (field.find_first_of(",\"\n\r") == std::string::npos) return field;
-  std::string out = "\"";
-  for (char c : field) {
-    if (c == '"') out += '"';
-    out += c;
-  }
-  return out + "\"";
-}
+std::string Csv(const std::string& field) { return internal::CsvField(field); }
 
 class Row {
  public:
@@ -135,6 +128,24 @@ void WritePointsCsv(const Results& r, OutputText& text) {
 }
 
 namespace internal {
+
+std::string CsvField(const std::string& field) {
+  if (field.find_first_of(",\"\n\r") == std::string::npos) return field;
+  std::string out = "\"";
+  for (char c : field) {
+    if (c == '"') out += '"';
+    out += c;
+  }
+  return out + "\"";
+}
+
+std::string Fixed(double v, int decimals) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*f", decimals, v);
+  std::string s = buffer;
+  if (s.find_first_not_of("-0.") == std::string::npos && s[0] == '-') s.erase(0, 1);  // no "-0.00"
+  return s;
+}
 
 std::pair<std::string, double> PracticalSensitivity(const std::string& input_unit) {
   constexpr double kArcsec = 3.14159265358979323846 / (180.0 * 3600.0);

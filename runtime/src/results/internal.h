@@ -38,6 +38,10 @@ void AppendNum(std::string& out, double v);
 std::pair<std::string, double> PracticalSensitivity(const std::string& input_unit);
 // Fixed number of significant digits.
 std::string Sig(double v, int digits);
+// Fixed number of decimals, never "-0.00" (tables of reports).
+std::string Fixed(double v, int decimals);
+// A CSV field quoted when it holds a comma, quote or line break (RFC 4180).
+std::string CsvField(const std::string& field);
 
 // report.html of a job with more points than kReportDetailedPoints embeds those with the largest
 // |U| in full and an overview (x, y, z, |U|) of at most kReportOverviewPoints points, so that the

@@ -1,0 +1,195 @@
+// vlt/network.h — several tracker stations tied together by common targets: the bundle
+// adjustment of the station poses and the target coordinates, weighted by each reading's
+// uncertainty from the instrument model, with the instrument's error parameters either carried
+// as consider parameters (their uncertainty propagated, correlated over every reading) or
+// estimated from the network itself (self-calibration). docs/network.md has the equations.
+//
+// Frames (docs/conventions.md): every station has its own tracker frame; the part frame is the
+// network's. A station's pose maps its frame into the part frame, exactly as a job's [station]:
+//     x_part = R x_station + t,   R = Rz(rz) Ry(ry) Rx(rx).
+// The part frame is fixed by a datum: a station held exactly at its given pose, and/or reference
+// targets with known part-frame coordinates and standard uncertainties.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "vlt/calibration.h"
+#include "vlt/measurement_model.h"
+
+namespace vlt {
+
+// Pose of a station: (rx, ry, rz) [rad], (tx, ty, tz) [m], in that order everywhere.
+using StationPoseVector = Eigen::Matrix<double, 6, 1>;
+inline constexpr std::array<const char*, 6> kPoseNames = {"rx", "ry", "rz", "tx", "ty", "tz"};
+
+// R of a pose: PoseRotationMatrix / PoseRotationDerivatives (vlt/measurement_model.h).
+
+struct NetworkStation {
+  std::string name;
+  StationPoseVector pose = StationPoseVector::Zero();  // estimate (starting value, plan value)
+  bool pose_given = false;        // false: computed from already placed targets (Umeyama)
+  StationPoseVector pose_u = StationPoseVector::Zero();  // > 0: a prior on that component
+  bool datum = false;             // held exactly at `pose`: defines the part frame
+  std::vector<TargetReading> readings;   // what the station read (raw readings, both faces)
+  std::string where;              // "<file>: station[i]"
+};
+
+// A target with known part-frame coordinates: a pseudo-observation of each coordinate.
+struct NetworkReference {
+  std::string target;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  // [m]
+  double u = 0.0;                 // standard uncertainty of each coordinate [m], > 0
+  std::string where;
+};
+
+struct Network {
+  std::string where;              // the file, for messages
+  std::string name;
+  // One instrument moved from station to station: its model, error parameters (estimates = its
+  // compensation state, u and correlation), reading noise and air. No pose or thermal group.
+  MeasurementSetup instrument;
+  std::vector<NetworkStation> stations;
+  std::vector<NetworkReference> references;
+  // Shared inputs (MeasurementModel::shared_inputs names) estimated from the network with their
+  // prior as a pseudo-observation; every other shared input is a consider parameter.
+  std::vector<std::string> self_calibrate;
+  double coverage_probability = 0.95;
+  double outlier_limit = 3.29;    // |w| above it flags a reading component (Baarda, alpha 0.001)
+  int max_iterations = 100;
+};
+
+struct AdjustedStation {
+  std::string name;
+  StationPoseVector pose = StationPoseVector::Zero();
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+  int readings = 0;
+  bool datum = false;
+};
+
+struct AdjustedTarget {
+  std::string name;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();     // part frame [m]
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();   // [m^2]
+  int stations = 0;               // how many stations read it
+  int readings = 0;
+  bool reference = false;
+};
+
+// One reading component's residual at the solution, in the reading's own terms.
+struct NetworkResidual {
+  std::string station, target, component;   // component: "range", "azimuth", "elevation"
+  Face face = Face::kFront;
+  std::string where;
+  std::string unit;               // "m" or "rad"
+  double residual = 0.0;          // observed - adjusted reading
+  double u = 0.0;                 // its standard uncertainty (reading noise)
+  double normalised = 0.0;        // residual / u
+  double redundancy = 0.0;        // r_ii in [0, 1]
+  double w = 0.0;                 // normalised / sqrt(redundancy) (Baarda)
+  bool outlier = false;
+};
+
+struct NetworkResult {
+  std::vector<AdjustedStation> stations;
+  std::vector<AdjustedTarget> targets;        // sorted by first appearance
+  std::vector<CalibratedParameter> parameters;  // the self-calibrated shared inputs
+  // Full covariance of every unknown [m, rad, SI]: the free station poses (6 each, network
+  // order, datum stations left out), then the targets (3 each), then the self-calibrated inputs.
+  std::vector<std::string> unknown_names;     // "S2.rx", "T1.x", "tmv"
+  Eigen::MatrixXd covariance;
+  std::vector<int> station_offset;            // per station: first index in covariance, -1 datum
+  std::vector<int> target_offset;             // per target
+  std::vector<NetworkResidual> residuals;
+  int observations = 0;           // scalar observations incl. reference coordinates and priors
+  int unknowns = 0;
+  int dof = 0;
+  double chi2 = 0.0, birge_ratio = 0.0, p_value = 0.0;
+  int outliers = 0;
+  int iterations = 0;
+  double k = 0.0;                 // coverage factor of the expanded values printed (normal)
+  // Shares of the targets' variance (sum over targets of trace) from the reading noise and the
+  // references (`noise`) and from the consider parameters (`consider`); they add up to 1.
+  double share_noise = 0.0, share_consider = 0.0;
+};
+
+// The adjustment (docs/network.md): checks the network's structure (datum, connectivity, every
+// station placed by >= 3 common targets), finds starting values, solves with Ceres
+// (Levenberg-Marquardt, Schur elimination of the targets) and computes the full covariance.
+// InputError (structure) naming the file and the station / reference; NumericalError otherwise.
+NetworkResult AdjustNetwork(const Network& network);
+
+// Offline: the readings each station would show of the targets it sees (nominal part-frame
+// coordinates), at the instrument's estimates — the adjustment of them gives the predicted
+// uncertainty of every target before anyone moves a tracker. `sees[i]` lists the targets of
+// station i with their face.
+struct PlannedSighting {
+  std::string target;
+  Face face = Face::kFront;
+  std::string where;
+};
+void PlanNetworkReadings(Network& network, const std::vector<std::pair<std::string, Eigen::Vector3d>>& nominal,
+                         const std::vector<std::vector<PlannedSighting>>& sees);
+
+// A simulated measurement of `network` (whose stations already hold readings, e.g. planned):
+// the true targets are `truth` (part frame), the true poses the stations' poses, the true shared
+// inputs drawn from their distributions (normal, with the prior correlation) and returned in
+// `shared_true`; each reading is the exact inverse at the truth plus N(0, noise); each reference
+// is its true coordinates plus N(0, u^2). Philox keyed by `seed`: reproducible.
+Network SimulateNetwork(const Network& network, const std::vector<std::pair<std::string, Eigen::Vector3d>>& truth,
+                        std::uint64_t seed, Eigen::VectorXd* shared_true = nullptr);
+
+// Monte Carlo validation of the adjustment's GUM (JCGM 101 applied to the whole estimator): the
+// adjusted network is taken as the truth, `trials` measurements of it are simulated
+// (SimulateNetwork, seed derived from (seed, trial)) and each is re-adjusted; the spread of the
+// re-adjusted targets about the truth is compared with the GUM covariance. Bit-identical for
+// any thread count (every trial depends on (seed, trial) only; sums in trial order).
+struct NetworkMonteCarlo {
+  int trials = 0;
+  std::uint64_t seed = 0;
+  std::vector<Eigen::Matrix3d> covariance;  // per target (result order): E[(x - x_true)(..)^T]
+  std::vector<Eigen::Vector3d> bias;        // per target: mean of x - x_true [m]
+  // |u_MCM / u_GUM - 1| within which the two agree at this number of trials: z / sqrt(2 (M - 1))
+  // (the standard error of a standard deviation from M values), z the normal quantile that
+  // keeps all 3T coordinates inside with 95 % probability (Bonferroni).
+  double tolerance = 0.0;
+  double worst_ratio = 1.0;                 // u_MCM / u_GUM farthest from 1 over all coordinates
+  std::string worst;                        // "T3.z"
+  bool agrees = true;
+};
+NetworkMonteCarlo ValidateNetworkByMonteCarlo(const Network& network, const NetworkResult& result, int trials,
+                                              std::uint64_t seed, int threads = 0);
+
+// ---------------------------------------------------------------------------------------------
+// The network file (TOML, docs/network.md): [job], [tracker] and [environment] as in a job,
+// [network] settings, [datum], [[reference]], [[station]] with its pose and either its readings
+// (online) or the targets it sees (offline, with [targets] nominal coordinates), [[distance]].
+
+// A distance between two adjusted targets (measured from the same or from different stations):
+// its uncertainty carries the targets' correlation through the adjustment.
+struct NetworkDistance {
+  std::string from, to, where;
+};
+
+struct NetworkJob {
+  std::string file, name, description;
+  Network network;
+  bool offline = false;                   // stations `sees` targets of [targets]
+  std::vector<std::pair<std::string, Eigen::Vector3d>> nominal;  // offline: [targets], part frame
+  std::vector<NetworkDistance> distances;
+  std::vector<std::pair<std::string, std::string>> input_files;  // (role, path): the file, CSVs
+  std::vector<std::string> warnings;
+  std::string output_directory;           // [output] directory, "" = default
+  int monte_carlo_trials = 0;             // [network.monte_carlo] trials (0: no validation)
+  std::uint64_t monte_carlo_seed = 20090101;
+  std::string text;                       // the file's text (for simulated_network.toml)
+  std::filesystem::path base_dir;         // relative paths in the file resolve against it
+};
+NetworkJob LoadNetworkJob(const std::string& path);
+
+}  // namespace vlt

@@ -1,0 +1,649 @@
+// network/adjust.cc — AdjustNetwork (vlt/network.h): structure checks and starting values, the
+// Ceres solve, the covariance with consider parameters, residual statistics.
+// Equations: docs/network.md (N-1 .. N-9 below refer to it).
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <memory>
+#include <set>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+#include <ceres/ceres.h>
+
+#include "vlt/error.h"
+#include "vlt/gum.h"
+#include "vlt/network.h"
+
+namespace vlt {
+
+namespace {
+
+// One reading of a target by a station, prepared at the prior estimates s0 of the shared inputs.
+struct Observation {
+  int station = 0, target = 0, reading = 0;  // reading: index into the station's readings
+  Eigen::Vector3d readings;
+  Eigen::Vector3d y0;              // station-frame point at s0 [m]
+  Eigen::Vector3d sigma;           // u of range [m], azimuth, elevation [rad]
+  Eigen::Matrix3d whitening;       // W = S^-1/2 J_r^-1 (N-2): W^T W = (J_r S J_r^T)^-1
+  Eigen::Matrix<double, 3, Eigen::Dynamic> b;  // W d y / d s at s0 (3 x S)
+};
+
+// The shared inputs' split: estimated (self-calibration) and consider parameters.
+struct SharedSplit {
+  std::vector<int> estimated, consider;  // indices into the shared vector
+};
+
+// Residual of one reading (N-3): e = W (y(s) - R^T (x - t)), blocks [pose 6, target 3 (, s_E)].
+class ReadingCost : public ceres::CostFunction {
+ public:
+  ReadingCost(const MeasurementModel& model, const Observation& obs, const Eigen::VectorXd& s0,
+              const SharedSplit& split)
+      : model_(model), obs_(obs), s0_(s0), split_(split), e_(static_cast<int>(split.estimated.size())) {
+    set_num_residuals(3);
+    mutable_parameter_block_sizes()->push_back(6);
+    mutable_parameter_block_sizes()->push_back(3);
+    if (e_ > 0) mutable_parameter_block_sizes()->push_back(e_);
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const double* pose = parameters[0];
+    const Eigen::Map<const Eigen::Vector3d> x(parameters[1]);
+    Eigen::Vector3d y = obs_.y0;
+    Eigen::Matrix<double, 3, Eigen::Dynamic> dy_ds;
+    if (e_ > 0) {
+      Eigen::VectorXd s = s0_;
+      for (int k = 0; k < e_; ++k) s(split_.estimated[k]) = parameters[2][k];
+      Eigen::Matrix3d dy_dr;
+      dy_ds.resize(3, s.size());
+      model_.EvaluateWithJacobian(obs_.readings.data(), s.data(), y.data(), dy_dr.data(), dy_ds.data());
+    }
+    const Eigen::Matrix3d rotation = PoseRotationMatrix(pose[0], pose[1], pose[2]);
+    const Eigen::Vector3d d = x - Eigen::Vector3d(pose[3], pose[4], pose[5]);
+    Eigen::Map<Eigen::Vector3d> residual(residuals);
+    residual = obs_.whitening * (y - rotation.transpose() * d);
+    if (!jacobians) return true;
+    const Eigen::Matrix3d w_rt = obs_.whitening * rotation.transpose();
+    if (jacobians[0]) {
+      Eigen::Map<Eigen::Matrix<double, 3, 6, Eigen::RowMajor>> j(jacobians[0]);
+      Eigen::Matrix3d d_rotation[3];
+      PoseRotationDerivatives(pose[0], pose[1], pose[2], d_rotation);
+      for (int k = 0; k < 3; ++k) j.col(k) = -obs_.whitening * (d_rotation[k].transpose() * d);
+      j.rightCols<3>() = w_rt;
+    }
+    if (jacobians[1]) {
+      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> j(jacobians[1]);
+      j = -w_rt;
+    }
+    if (e_ > 0 && jacobians[2]) {
+      Eigen::Map<Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor>> j(jacobians[2], 3, e_);
+      for (int k = 0; k < e_; ++k) j.col(k) = obs_.whitening * dy_ds.col(split_.estimated[k]);
+    }
+    return true;
+  }
+
+ private:
+  const MeasurementModel& model_;
+  const Observation& obs_;
+  const Eigen::VectorXd& s0_;
+  const SharedSplit& split_;
+  int e_;
+};
+
+// A linear pseudo-observation L^-1 (v - v0) of a block (references, pose priors, self-calibration
+// priors): whitening L^-1 with rows only for the components that carry one.
+class PriorCost : public ceres::CostFunction {
+ public:
+  PriorCost(Eigen::VectorXd v0, Eigen::MatrixXd whitening) : v0_(std::move(v0)), w_(std::move(whitening)) {
+    set_num_residuals(static_cast<int>(w_.rows()));
+    mutable_parameter_block_sizes()->push_back(static_cast<int>(v0_.size()));
+  }
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const Eigen::Map<const Eigen::VectorXd> v(parameters[0], v0_.size());
+    Eigen::Map<Eigen::VectorXd>(residuals, w_.rows()) = w_ * (v - v0_);
+    if (jacobians && jacobians[0]) {
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[0], w_.rows(), w_.cols()) = w_;
+    }
+    return true;
+  }
+  const Eigen::VectorXd& v0() const { return v0_; }
+  const Eigen::MatrixXd& whitening() const { return w_; }
+
+ private:
+  Eigen::VectorXd v0_;
+  Eigen::MatrixXd w_;
+};
+
+// Upper tail of chi-square: P(chi2_dof >= x).
+double ChiSquareUpperTail(double x, int dof) {
+  return dof > 0 ? std::clamp(1.0 - ChiSquareCdf(x, dof), 0.0, 1.0) : 1.0;
+}
+
+// Pose (rx, ry, rz, tx, ty, tz) of a rotation R = Rz Ry Rx and translation (inverse of
+// PoseRotationMatrix; |ry| < pi/2 for a tracker standing upright or tilted less than 90 deg).
+StationPoseVector PoseFromRotation(const Eigen::Matrix3d& r, const Eigen::Vector3d& t) {
+  StationPoseVector pose;
+  pose(1) = std::asin(std::clamp(-r(2, 0), -1.0, 1.0));
+  pose(0) = std::atan2(r(2, 1), r(2, 2));
+  pose(2) = std::atan2(r(1, 0), r(0, 0));
+  pose.tail<3>() = t;
+  return pose;
+}
+
+}  // namespace
+
+NetworkResult AdjustNetwork(const Network& network) {
+  const std::string& file = network.where;
+  if (network.stations.empty()) throw InputError(file + ": station: the network has no station");
+  MeasurementSetup setup = network.instrument;
+  setup.pose.reset();
+  setup.thermal.reset();
+  const MeasurementModel model(setup);
+  const int S = model.num_shared();
+  const Eigen::VectorXd s0 = model.shared_estimates();
+  Eigen::VectorXd u_shared(S);
+  for (int k = 0; k < S; ++k) u_shared(k) = model.shared_inputs()[k].u;
+  const Eigen::MatrixXd sigma_shared = u_shared.asDiagonal() * model.shared_correlation() * u_shared.asDiagonal();
+
+  // --- Shared inputs: estimated (self-calibration) or considered (N-6).
+  SharedSplit split;
+  {
+    std::vector<bool> estimated(S, false);
+    for (const std::string& name : network.self_calibrate) {
+      int k = 0;
+      while (k < S && model.shared_inputs()[k].name != name) ++k;
+      if (k == S) throw InputError(file + ": network.self_calibrate: unknown input '" + name + "' of the instrument");
+      if (!(u_shared(k) > 0.0)) {
+        throw InputError(file + ": network.self_calibrate: '" + name + "' has u = 0: it is known exactly, nothing to calibrate");
+      }
+      estimated[k] = true;
+    }
+    for (int k = 0; k < S; ++k) (estimated[k] ? split.estimated : split.consider).push_back(k);
+    for (int a : split.estimated) {
+      for (int c : split.consider) {
+        if (model.shared_correlation()(a, c) != 0.0) {
+          throw InputError(file + ": network.self_calibrate: '" + model.shared_inputs()[a].name + "' is correlated with '" +
+                           model.shared_inputs()[c].name + "', which is not self-calibrated: calibrate both or neither");
+        }
+      }
+    }
+  }
+  const int E = static_cast<int>(split.estimated.size());
+  const int C = static_cast<int>(split.consider.size());
+
+  // --- Targets, in order of first appearance; observations prepared at s0 (N-2).
+  std::map<std::string, int> target_index;
+  std::vector<std::string> target_names;
+  std::vector<std::set<int>> target_stations;
+  std::vector<int> target_readings;
+  std::vector<Observation> observations;
+  std::set<std::string> station_names;
+  for (int i = 0; i < static_cast<int>(network.stations.size()); ++i) {
+    const NetworkStation& st = network.stations[i];
+    if (!station_names.insert(st.name).second) throw InputError(st.where + ".name: station '" + st.name + "' defined twice");
+    if (st.readings.empty()) throw InputError(st.where + ": station '" + st.name + "' has no readings");
+    for (int r = 0; r < static_cast<int>(st.readings.size()); ++r) {
+      const TargetReading& reading = st.readings[r];
+      auto [it, inserted] = target_index.emplace(reading.target, static_cast<int>(target_names.size()));
+      if (inserted) {
+        target_names.push_back(reading.target);
+        target_stations.emplace_back();
+        target_readings.push_back(0);
+      }
+      Observation obs;
+      obs.station = i;
+      obs.target = it->second;
+      obs.reading = r;
+      obs.readings = reading.readings;
+      Eigen::Matrix3d dy_dr;
+      Eigen::Matrix<double, 3, Eigen::Dynamic> dy_ds(3, S);
+      model.EvaluateWithJacobian(obs.readings.data(), s0.data(), obs.y0.data(), dy_dr.data(), dy_ds.data());
+      obs.sigma = model.reading_uncertainty(obs.readings(0));
+      Eigen::FullPivLU<Eigen::Matrix3d> lu(dy_dr);
+      if (!lu.isInvertible() || !(obs.sigma.minCoeff() > 0.0)) {
+        throw InputError(reading.where + ": the reading of '" + reading.target + "' carries no weight (singular reading "
+                         "Jacobian or zero reading noise: give [tracker.noise])");
+      }
+      obs.whitening = obs.sigma.cwiseInverse().asDiagonal() * lu.inverse();
+      obs.b = obs.whitening * dy_ds;
+      if (!obs.y0.allFinite() || !obs.whitening.allFinite()) throw InputError(reading.where + ": reading gives no finite point");
+      target_stations[obs.target].insert(i);
+      ++target_readings[obs.target];
+      observations.push_back(std::move(obs));
+    }
+  }
+  const int T = static_cast<int>(target_names.size());
+  const int P = static_cast<int>(network.stations.size());
+
+  // --- Datum and structure (N-1).
+  bool any_datum_station = false;
+  for (const NetworkStation& st : network.stations) any_datum_station |= st.datum;
+  std::set<std::string> reference_names;
+  for (const NetworkReference& ref : network.references) {
+    if (!target_index.count(ref.target)) throw InputError(ref.where + ".target: no station reads reference target '" + ref.target + "'");
+    if (!reference_names.insert(ref.target).second) throw InputError(ref.where + ".target: reference '" + ref.target + "' given twice");
+    if (!(ref.u > 0.0)) throw InputError(ref.where + ".u: must be positive (hold a station as the datum for an exact frame)");
+  }
+  if (!any_datum_station && network.references.size() < 3) {
+    throw InputError(file + ": datum: the part frame is undetermined: hold one station as the datum ([datum] station = "
+                     "\"<name>\") or give at least 3 [[reference]] targets with known coordinates");
+  }
+
+  // --- Structure and starting values (N-1). The stations are chained through common targets:
+  // from the held stations (or, without one, from the first station as a provisional frame), a
+  // station is placed by >= 3 non-collinear targets already placed (Umeyama's closed form,
+  // Eigen::umeyama) and then places the targets it reads. A station never placed is not tied to
+  // the network. Without a held station, the references (>= 3, not collinear) then carry the
+  // provisional frame into the part frame.
+  std::vector<Eigen::Vector3d> x(T, Eigen::Vector3d::Zero());
+  std::vector<bool> placed_target(T, false);
+  std::vector<StationPoseVector> pose(P, StationPoseVector::Zero());
+  std::vector<bool> placed_station(P, false);
+  std::vector<std::vector<const Observation*>> by_station(P);
+  for (const Observation& obs : observations) by_station[obs.station].push_back(&obs);
+  auto place_targets_of = [&](int i) {
+    std::map<int, std::pair<Eigen::Vector3d, int>> sum;
+    const Eigen::Matrix3d r = PoseRotationMatrix(pose[i](0), pose[i](1), pose[i](2));
+    for (const Observation* obs : by_station[i]) {
+      if (placed_target[obs->target]) continue;
+      auto& [acc, count] = sum[obs->target];
+      if (count == 0) acc.setZero();
+      acc += r * obs->y0 + pose[i].tail<3>();
+      ++count;
+    }
+    for (auto& [t, acc_count] : sum) {
+      x[t] = acc_count.first / acc_count.second;
+      placed_target[t] = true;
+    }
+  };
+  // Rigid transform dst ~ R src + t from >= 3 non-collinear point pairs; false when degenerate.
+  auto fit_rigid = [](const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& dst, Eigen::Matrix4d& transform) {
+    if (src.cols() < 3) return false;
+    const Eigen::Matrix3Xd centred = src.colwise() - src.rowwise().mean();
+    Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(centred);
+    if (!(svd.singularValues()(1) > 1e-6 * std::max(1.0, svd.singularValues()(0)))) return false;
+    transform = Eigen::umeyama(src, dst, false);
+    return true;
+  };
+  for (int i = 0; i < P; ++i) {
+    if (network.stations[i].datum) {
+      pose[i] = network.stations[i].pose;
+      placed_station[i] = true;
+    }
+  }
+  if (!any_datum_station) placed_station[0] = true;  // provisional frame: station 0's
+  for (int i = 0; i < P; ++i) if (placed_station[i]) place_targets_of(i);
+  for (bool progress = true; progress;) {
+    progress = false;
+    for (int i = 0; i < P; ++i) {
+      if (placed_station[i]) continue;
+      std::map<int, std::pair<Eigen::Vector3d, int>> local;  // station-frame mean per placed target
+      for (const Observation* obs : by_station[i]) {
+        if (!placed_target[obs->target]) continue;
+        auto& [acc, count] = local[obs->target];
+        if (count == 0) acc.setZero();
+        acc += obs->y0;
+        ++count;
+      }
+      Eigen::Matrix3Xd src(3, local.size()), dst(3, local.size());
+      int c = 0;
+      for (auto& [t, acc_count] : local) {
+        src.col(c) = acc_count.first / acc_count.second;
+        dst.col(c++) = x[t];
+      }
+      Eigen::Matrix4d transform;
+      if (!fit_rigid(src, dst, transform)) continue;
+      pose[i] = PoseFromRotation(transform.topLeftCorner<3, 3>(), transform.topRightCorner<3, 1>());
+      placed_station[i] = true;
+      place_targets_of(i);
+      progress = true;
+    }
+  }
+  for (int i = 0; i < P; ++i) {
+    if (!placed_station[i]) {
+      throw InputError(network.stations[i].where + ": station '" + network.stations[i].name +
+                       "' shares fewer than 3 non-collinear targets with the rest of the network (disconnected "
+                       "network; give it more common targets)");
+    }
+  }
+  if (!any_datum_station) {
+    Eigen::Matrix3Xd src(3, network.references.size()), dst(3, network.references.size());
+    for (std::size_t r = 0; r < network.references.size(); ++r) {
+      src.col(static_cast<Eigen::Index>(r)) = x[target_index.at(network.references[r].target)];
+      dst.col(static_cast<Eigen::Index>(r)) = network.references[r].position;
+    }
+    Eigen::Matrix4d transform;
+    if (!fit_rigid(src, dst, transform)) {
+      throw InputError(file + ": datum: the references do not fix the part frame: they are collinear (give at least "
+                       "3 references not on one line, or hold one station as the datum)");
+    }
+    const Eigen::Matrix3d r = transform.topLeftCorner<3, 3>();
+    const Eigen::Vector3d t = transform.topRightCorner<3, 1>();
+    for (int i = 0; i < P; ++i) {
+      pose[i] = PoseFromRotation(r * PoseRotationMatrix(pose[i](0), pose[i](1), pose[i](2)), r * pose[i].tail<3>() + t);
+    }
+  }
+  // Starting values: a given pose where the file gives one (the plan's, or the user's better
+  // guess), then every target from its readings.
+  for (int i = 0; i < P; ++i) if (network.stations[i].pose_given) pose[i] = network.stations[i].pose;
+  std::fill(placed_target.begin(), placed_target.end(), false);
+  for (int i = 0; i < P; ++i) place_targets_of(i);
+
+  // --- Unknowns: free poses (6 each), self-calibrated inputs (E), targets (3 each): the
+  // order of the normal matrix (targets last, eliminated by the Schur complement, N-5).
+  std::vector<int> pose_offset(P, -1);
+  int a = 0;
+  for (int i = 0; i < P; ++i) {
+    if (!network.stations[i].datum) {
+      pose_offset[i] = a;
+      a += 6;
+    }
+  }
+  const int e_offset = a;
+  a += E;
+  const int n = a + 3 * T;
+  Eigen::VectorXd s_est(std::max(E, 1));
+  for (int k = 0; k < E; ++k) s_est(k) = s0(split.estimated[k]);
+
+  // --- The solve.
+  ceres::Problem::Options problem_options;
+  problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  for (const Observation& obs : observations) {
+    auto* cost = new ReadingCost(model, obs, s0, split);
+    if (E > 0) problem.AddResidualBlock(cost, nullptr, pose[obs.station].data(), x[obs.target].data(), s_est.data());
+    else problem.AddResidualBlock(cost, nullptr, pose[obs.station].data(), x[obs.target].data());
+  }
+  for (int i = 0; i < P; ++i) {
+    if (network.stations[i].datum) problem.SetParameterBlockConstant(pose[i].data());
+  }
+  // Pseudo-observations (N-4): references, pose priors, self-calibration priors.
+  struct Prior {
+    std::string label, where, unit;
+    int offset;                    // first unknown of the block (internal order)
+    const PriorCost* cost;
+    const double* block;           // the block's values
+    std::vector<int> components;   // which components of the block have a row
+  };
+  std::vector<Prior> priors;
+  for (const NetworkReference& ref : network.references) {
+    const int t = target_index.at(ref.target);
+    auto* cost = new PriorCost(ref.position, Eigen::Matrix3d::Identity() / ref.u);
+    problem.AddResidualBlock(cost, nullptr, x[t].data());
+    priors.push_back({ref.target + " reference", ref.where, "m", a + 3 * t, cost, x[t].data(), {0, 1, 2}});
+  }
+  for (int i = 0; i < P; ++i) {
+    const NetworkStation& st = network.stations[i];
+    if (st.datum) continue;
+    std::vector<int> rows;
+    for (int c = 0; c < 6; ++c) if (st.pose_u(c) > 0.0) rows.push_back(c);
+    if (rows.empty()) continue;
+    Eigen::MatrixXd w = Eigen::MatrixXd::Zero(static_cast<int>(rows.size()), 6);
+    for (std::size_t r = 0; r < rows.size(); ++r) w(static_cast<int>(r), rows[r]) = 1.0 / st.pose_u(rows[r]);
+    auto* cost = new PriorCost(st.pose, w);
+    problem.AddResidualBlock(cost, nullptr, pose[i].data());
+    priors.push_back({st.name + " pose prior", st.where, "", pose_offset[i], cost, pose[i].data(), rows});
+  }
+  if (E > 0) {
+    Eigen::MatrixXd sigma_e(E, E);
+    Eigen::VectorXd v0(E);
+    for (int p = 0; p < E; ++p) {
+      v0(p) = s0(split.estimated[p]);
+      for (int q = 0; q < E; ++q) sigma_e(p, q) = sigma_shared(split.estimated[p], split.estimated[q]);
+    }
+    Eigen::LLT<Eigen::MatrixXd> llt(sigma_e);
+    if (llt.info() != Eigen::Success) {
+      throw InputError(file + ": network.self_calibrate: the prior covariance of the self-calibrated inputs is singular");
+    }
+    const Eigen::MatrixXd w = llt.matrixL().solve(Eigen::MatrixXd::Identity(E, E));
+    auto* cost = new PriorCost(v0, w);
+    problem.AddResidualBlock(cost, nullptr, s_est.data());
+    std::vector<int> rows(E);
+    for (int p = 0; p < E; ++p) rows[p] = p;
+    priors.push_back({"self-calibration prior", file + ": network.self_calibrate", "", e_offset, cost, s_est.data(), rows});
+  }
+
+  ceres::Solver::Options options;
+  // Schur elimination of the targets needs something left to reduce to (free poses or s_E).
+  options.linear_solver_type = a > 0 ? ceres::DENSE_SCHUR : ceres::DENSE_QR;
+  options.max_num_iterations = network.max_iterations;
+  options.function_tolerance = 1e-14;
+  options.gradient_tolerance = 1e-14;
+  options.parameter_tolerance = 1e-13;
+  options.num_threads = 1;
+  options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  NetworkResult result;
+  result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
+  if (summary.termination_type != ceres::CONVERGENCE) {
+    throw NumericalError(file + ": the bundle adjustment did not converge: " + summary.message);
+  }
+
+  // --- Normal matrix and consider cross terms, blockwise (N-5, N-6): unknown order
+  // [poses | s_E | targets]; the target block is 3x3 block-diagonal.
+  Eigen::MatrixXd n_aa = Eigen::MatrixXd::Zero(a, a);
+  Eigen::MatrixXd n_at = Eigen::MatrixXd::Zero(a, 3 * T);
+  std::vector<Eigen::Matrix3d> n_tt(T, Eigen::Matrix3d::Zero());
+  Eigen::MatrixXd g = Eigen::MatrixXd::Zero(n, C);  // J^T B_c
+  Eigen::VectorXd e(3 * observations.size());
+  // Local Jacobian of one reading: columns [pose 6 | s_E | target 3].
+  const int local = 6 + E + 3;
+  std::vector<Eigen::MatrixXd> j_local(observations.size());
+  std::vector<Eigen::Matrix<double, 3, Eigen::Dynamic>> b_consider(observations.size());
+  Eigen::VectorXd s_hat = s0;
+  for (int k = 0; k < E; ++k) s_hat(split.estimated[k]) = s_est(k);
+  for (std::size_t o = 0; o < observations.size(); ++o) {
+    const Observation& obs = observations[o];
+    ReadingCost cost(model, obs, s0, split);
+    const double* params[3] = {pose[obs.station].data(), x[obs.target].data(), s_est.data()};
+    Eigen::Matrix<double, 3, 6, Eigen::RowMajor> jp;
+    Eigen::Matrix<double, 3, 3, Eigen::RowMajor> jx;
+    Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor> je(3, std::max(E, 1));
+    double* jac[3] = {jp.data(), jx.data(), je.data()};
+    cost.Evaluate(params, e.data() + 3 * o, jac);
+    Eigen::MatrixXd& j = j_local[o];
+    j.setZero(3, local);
+    if (pose_offset[obs.station] >= 0) j.leftCols(6) = jp;
+    if (E > 0) j.middleCols(6, E) = je.leftCols(E);
+    j.rightCols(3) = jx;
+    // Consider columns: W d y / d s_c at the solution's shared values (N-6).
+    Eigen::Vector3d y;
+    Eigen::Matrix3d dy_dr;
+    Eigen::Matrix<double, 3, Eigen::Dynamic> dy_ds(3, S);
+    model.EvaluateWithJacobian(obs.readings.data(), s_hat.data(), y.data(), dy_dr.data(), dy_ds.data());
+    b_consider[o].resize(3, C);
+    for (int c = 0; c < C; ++c) b_consider[o].col(c) = obs.whitening * dy_ds.col(split.consider[c]);
+    // Scatter into the normal matrix.
+    std::vector<int> index;  // global index of each local column, -1 absent
+    for (int c = 0; c < 6; ++c) index.push_back(pose_offset[obs.station] >= 0 ? pose_offset[obs.station] + c : -1);
+    for (int c = 0; c < E; ++c) index.push_back(e_offset + c);
+    for (int c = 0; c < 3; ++c) index.push_back(a + 3 * obs.target + c);
+    const Eigen::MatrixXd jtj = j.transpose() * j;
+    const Eigen::MatrixXd jtb = j.transpose() * b_consider[o];
+    for (int r = 0; r < local; ++r) {
+      if (index[r] < 0) continue;
+      g.row(index[r]) += jtb.row(r);
+      for (int c = 0; c < local; ++c) {
+        if (index[c] < 0) continue;
+        if (index[r] < a && index[c] < a) n_aa(index[r], index[c]) += jtj(r, c);
+        else if (index[r] < a) n_at(index[r], index[c] - a) += jtj(r, c);
+        else if (index[c] >= a) n_tt[obs.target](index[r] - a - 3 * obs.target, index[c] - a - 3 * obs.target) += jtj(r, c);
+      }
+    }
+  }
+  double chi2 = e.squaredNorm();
+  Eigen::VectorXd prior_residuals_all;
+  for (const Prior& prior : priors) {
+    const Eigen::MatrixXd& w = prior.cost->whitening();
+    const int width = static_cast<int>(w.cols());
+    const Eigen::Map<const Eigen::VectorXd> v(prior.block, width);
+    chi2 += (w * (v - prior.cost->v0())).squaredNorm();
+    const Eigen::MatrixXd wtw = w.transpose() * w;
+    for (int r = 0; r < width; ++r) {
+      for (int c = 0; c < width; ++c) {
+        const int gr = prior.offset + r, gc = prior.offset + c;
+        if (gr < a && gc < a) n_aa(gr, gc) += wtw(r, c);
+        else if (gr >= a && gc >= a) n_tt[(gr - a) / 3]((gr - a) % 3, (gc - a) % 3) += wtw(r, c);
+      }
+    }
+  }
+
+  // --- Inverse by the Schur complement of the targets (N-5).
+  std::vector<Eigen::Matrix3d> n_tt_inv(T);
+  for (int t = 0; t < T; ++t) {
+    Eigen::LLT<Eigen::Matrix3d> llt(n_tt[t]);
+    if (llt.info() != Eigen::Success) throw NumericalError(file + ": target '" + target_names[t] + "' is not determined");
+    n_tt_inv[t] = llt.solve(Eigen::Matrix3d::Identity());
+  }
+  Eigen::MatrixXd h(3 * T, a);  // N_tt^-1 N_ta
+  for (int t = 0; t < T; ++t) h.middleRows<3>(3 * t) = n_tt_inv[t] * n_at.middleCols<3>(3 * t).transpose();
+  Eigen::MatrixXd schur = n_aa - n_at * h;
+  Eigen::MatrixXd c_aa(a, a);
+  if (a > 0) {
+    // Scale to unit diagonal before judging the rank: poses mix radians and metres.
+    const Eigen::VectorXd scale = schur.diagonal().cwiseMax(std::numeric_limits<double>::min()).cwiseSqrt().cwiseInverse();
+    const Eigen::MatrixXd scaled = scale.asDiagonal() * schur * scale.asDiagonal();
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled);
+    if (!(eig.eigenvalues()(0) > 1e-10 * eig.eigenvalues()(a - 1))) {
+      // The weakest direction names the station that floats.
+      const Eigen::VectorXd v = eig.eigenvectors().col(0);
+      Eigen::Index worst = 0;
+      v.cwiseAbs().maxCoeff(&worst);
+      std::string what = "the self-calibrated inputs";
+      for (int i = 0; i < P; ++i) {
+        if (pose_offset[i] >= 0 && worst >= pose_offset[i] && worst < pose_offset[i] + 6) what = "station '" + network.stations[i].name + "'";
+      }
+      throw InputError(file + ": datum: the network does not determine " + what +
+                       " (collinear references or common targets, or a datum that leaves a rotation free)");
+    }
+    c_aa = scale.asDiagonal() * eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() *
+           eig.eigenvectors().transpose() * scale.asDiagonal();
+  }
+  // Order of the result: [free poses | targets | s_E].
+  const int target_start = e_offset;          // after the poses
+  const int e_start = e_offset + 3 * T;
+  auto out_index = [&](int gi) { return gi < e_offset ? gi : (gi < a ? e_start + (gi - e_offset) : target_start + (gi - a)); };
+  Eigen::MatrixXd cov_internal(n, n);          // internal order [poses | s_E | targets]
+  cov_internal.topLeftCorner(a, a) = c_aa;
+  const Eigen::MatrixXd c_ta = -h * c_aa;
+  cov_internal.bottomLeftCorner(3 * T, a) = c_ta;
+  cov_internal.topRightCorner(a, 3 * T) = c_ta.transpose();
+  cov_internal.bottomRightCorner(3 * T, 3 * T) = h * c_aa * h.transpose();
+  for (int t = 0; t < T; ++t) cov_internal.block<3, 3>(a + 3 * t, a + 3 * t) += n_tt_inv[t];
+  // Consider parameters: K = -N^-1 J^T B_c moves the estimate by K delta_c (N-7).
+  const Eigen::MatrixXd gain = -cov_internal * g;
+  Eigen::MatrixXd sigma_c(C, C);
+  for (int p = 0; p < C; ++p)
+    for (int q = 0; q < C; ++q) sigma_c(p, q) = sigma_shared(split.consider[p], split.consider[q]);
+  const Eigen::MatrixXd consider_part = gain * sigma_c * gain.transpose();
+
+  std::vector<int> perm(n);
+  for (int gi = 0; gi < n; ++gi) perm[gi] = out_index(gi);
+  result.covariance.resize(n, n);
+  for (int r = 0; r < n; ++r)
+    for (int c = 0; c < n; ++c) result.covariance(perm[r], perm[c]) = cov_internal(r, c) + consider_part(r, c);
+  result.unknown_names.assign(n, "");
+  result.station_offset = pose_offset;
+  for (int i = 0; i < P; ++i) {
+    if (pose_offset[i] < 0) continue;
+    for (int c = 0; c < 6; ++c) result.unknown_names[pose_offset[i] + c] = network.stations[i].name + "." + kPoseNames[c];
+  }
+  static const char* kAxis[3] = {"x", "y", "z"};
+  for (int t = 0; t < T; ++t) {
+    result.target_offset.push_back(target_start + 3 * t);
+    for (int c = 0; c < 3; ++c) result.unknown_names[target_start + 3 * t + c] = target_names[t] + "." + kAxis[c];
+  }
+  for (int k = 0; k < E; ++k) result.unknown_names[e_start + k] = model.shared_inputs()[split.estimated[k]].name;
+
+  // --- Results.
+  result.k = NormalCoverageFactor(network.coverage_probability);
+  double trace_noise = 0.0, trace_consider = 0.0;
+  for (int t = 0; t < T; ++t) {
+    AdjustedTarget at;
+    at.name = target_names[t];
+    at.position = x[t];
+    at.covariance = result.covariance.block<3, 3>(target_start + 3 * t, target_start + 3 * t);
+    at.stations = static_cast<int>(target_stations[t].size());
+    at.readings = target_readings[t];
+    at.reference = reference_names.count(at.name) > 0;
+    trace_noise += cov_internal.block<3, 3>(a + 3 * t, a + 3 * t).trace();
+    trace_consider += consider_part.block<3, 3>(a + 3 * t, a + 3 * t).trace();
+    if (!at.position.allFinite() || !at.covariance.allFinite()) throw NumericalError(file + ": target '" + at.name + "' came out non-finite");
+    result.targets.push_back(at);
+  }
+  const double total = trace_noise + trace_consider;
+  result.share_noise = total > 0.0 ? trace_noise / total : 0.0;
+  result.share_consider = total > 0.0 ? trace_consider / total : 0.0;
+  for (int i = 0; i < P; ++i) {
+    AdjustedStation as;
+    as.name = network.stations[i].name;
+    as.pose = pose[i];
+    as.datum = network.stations[i].datum;
+    as.readings = static_cast<int>(by_station[i].size());
+    if (pose_offset[i] >= 0) as.covariance = result.covariance.block<6, 6>(pose_offset[i], pose_offset[i]);
+    result.stations.push_back(as);
+  }
+  for (int k = 0; k < E; ++k) {
+    const int s = split.estimated[k];
+    const UncertainInput& in = model.shared_inputs()[s];
+    CalibratedParameter cp;
+    cp.name = in.name;
+    cp.unit = in.unit;
+    cp.prior_estimate = in.estimate;
+    cp.prior_u = in.u;
+    cp.estimate = s_est(k);
+    cp.u = std::sqrt(std::max(0.0, result.covariance(e_start + k, e_start + k)));
+    cp.u_data = cp.u;
+    cp.status = ParameterStatus::kIdentified;
+    if (s < setup.model->num_params) cp.quantity = setup.model->params[s].quantity;
+    result.parameters.push_back(cp);
+  }
+
+  // --- Residuals: redundancy numbers r_ii = 1 - (J N^-1 J^T)_ii and data snooping (N-8).
+  int observations_count = static_cast<int>(e.size());
+  for (const Prior& prior : priors) observations_count += static_cast<int>(prior.cost->whitening().rows());
+  result.observations = observations_count;
+  result.unknowns = n;
+  result.dof = observations_count - n;
+  result.chi2 = chi2;
+  result.birge_ratio = result.dof > 0 ? std::sqrt(chi2 / result.dof) : 0.0;
+  result.p_value = ChiSquareUpperTail(chi2, result.dof);
+  static const char* kReading[3] = {"range", "azimuth", "elevation"};
+  for (std::size_t o = 0; o < observations.size(); ++o) {
+    const Observation& obs = observations[o];
+    std::vector<int> index;
+    for (int c = 0; c < 6; ++c) index.push_back(pose_offset[obs.station] >= 0 ? pose_offset[obs.station] + c : -1);
+    for (int c = 0; c < E; ++c) index.push_back(e_offset + c);
+    for (int c = 0; c < 3; ++c) index.push_back(a + 3 * obs.target + c);
+    Eigen::MatrixXd c_local = Eigen::MatrixXd::Zero(local, local);
+    for (int r = 0; r < local; ++r)
+      for (int c = 0; c < local; ++c)
+        if (index[r] >= 0 && index[c] >= 0) c_local(r, c) = cov_internal(index[r], index[c]);
+    const Eigen::MatrixXd hat = j_local[o] * c_local * j_local[o].transpose();
+    const TargetReading& src = network.stations[obs.station].readings[obs.reading];
+    for (int c = 0; c < 3; ++c) {
+      NetworkResidual res;
+      res.station = network.stations[obs.station].name;
+      res.target = target_names[obs.target];
+      res.component = kReading[c];
+      res.face = src.face;
+      res.where = src.where;
+      res.unit = c == 0 ? "m" : "rad";
+      res.u = obs.sigma(c);
+      res.normalised = e(3 * o + c);
+      res.residual = res.normalised * res.u;
+      res.redundancy = std::clamp(1.0 - hat(c, c), 0.0, 1.0);
+      res.w = res.redundancy > 1e-9 ? res.normalised / std::sqrt(res.redundancy) : 0.0;
+      res.outlier = std::abs(res.w) > network.outlier_limit;
+      result.outliers += res.outlier ? 1 : 0;
+      result.residuals.push_back(std::move(res));
+    }
+  }
+  return result;
+}
+
+}  // namespace vlt

@@ -1,0 +1,471 @@
+// network/outputs.cc — the files of `vlt network` (outputs.h). CSVs and results.json are SI with
+// the unit in every column name; the summary prints um and arcsec and says so.
+#include "network/outputs.h"
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <set>
+#include <numbers>
+
+#include <filesystem>
+#include <sstream>
+
+#include <Eigen/Eigenvalues>
+#include <nlohmann/json.hpp>
+#include <toml++/toml.h>
+
+#include "report/page.h"
+#include "results/internal.h"
+#include "vlt/calibration.h"
+#include "vlt/results.h"
+
+namespace vlt::network_outputs {
+
+namespace {
+
+using internal::AppendNum;
+using internal::Num;
+using internal::Fixed;
+std::string Csv(const std::string& s) { return internal::CsvField(s); }
+
+
+
+
+constexpr double kArcsec = std::numbers::pi / (180.0 * 3600.0);
+
+// report.html: the network in 3-D (stations, targets coloured by |U|, lines of sight, the axes of
+// every target's coverage ellipsoid, exaggerated), then the tables a metrologist signs.
+std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, const NetworkMonteCarlo* mc,
+                          const std::vector<DistanceResult>& distances) {
+  using internal::HtmlEscape;
+  std::ostringstream body, script;
+  body << "<section><h2>Adjustment</h2><table>"
+       << "<tr><th class=\"l\">mode</th><td class=\"l\">" << (job.offline ? "plan (predicted uncertainties of planned readings)" : "measured readings") << "</td></tr>"
+       << "<tr><th class=\"l\">instrument model</th><td class=\"l\">" << HtmlEscape(job.network.instrument.model->name) << "</td></tr>"
+       << "<tr><th class=\"l\">stations / targets</th><td class=\"l\">" << result.stations.size() << " / " << result.targets.size() << "</td></tr>"
+       << "<tr><th class=\"l\">observations / unknowns / dof</th><td class=\"l\">" << result.observations << " / " << result.unknowns << " / " << result.dof << "</td></tr>"
+       << "<tr><th class=\"l\">chi-square, Birge ratio, p</th><td class=\"l\">" << internal::Sig(result.chi2, 4) << ", " << Fixed(result.birge_ratio, 3) << ", " << Fixed(result.p_value, 3) << "</td></tr>"
+       << "<tr><th class=\"l\">outliers (|w| &gt; " << Fixed(job.network.outlier_limit, 2) << ")</th><td class=\"l\">" << result.outliers << "</td></tr>"
+       << "<tr><th class=\"l\">self-calibrated inputs</th><td class=\"l\">" << result.parameters.size() << "</td></tr>"
+       << "<tr><th class=\"l\">targets' variance from reading noise and references / from the instrument's parameters</th><td class=\"l\">"
+       << Fixed(100.0 * result.share_noise, 1) << " % / " << Fixed(100.0 * result.share_consider, 1) << " %</td></tr>"
+       << "<tr><th class=\"l\">coverage factor k (p = " << Num(job.network.coverage_probability) << ", normal)</th><td class=\"l\">" << Fixed(result.k, 3) << "</td></tr>";
+  if (mc) {
+    body << "<tr><th class=\"l\">Monte Carlo (" << mc->trials << " re-adjustments): u_MCM / u_GUM farthest from 1</th><td class=\"l "
+         << (mc->agrees ? "ok" : "bad") << "\">" << Fixed(mc->worst_ratio, 3) << " at " << HtmlEscape(mc->worst) << " (tolerance &plusmn; "
+         << Fixed(mc->tolerance, 3) << "): " << (mc->agrees ? "the GUM agrees" : "the GUM does not agree") << "</td></tr>";
+  }
+  body << "</table></section>\n";
+  // 3-D view.
+  double extent = 0.0;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = Eigen::Vector3d::Constant(-1e300);
+  for (const AdjustedTarget& t : result.targets) { lo = lo.cwiseMin(t.position); hi = hi.cwiseMax(t.position); }
+  for (const AdjustedStation& st : result.stations) { lo = lo.cwiseMin(st.pose.tail<3>()); hi = hi.cwiseMax(st.pose.tail<3>()); }
+  extent = (hi - lo).norm();
+  double largest_axis = 0.0;
+  for (const AdjustedTarget& t : result.targets) {
+    largest_axis = std::max(largest_axis, result.k * std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(t.covariance).eigenvalues().maxCoeff())));
+  }
+  const double scale = largest_axis > 0.0 ? 0.04 * extent / largest_axis : 1.0;
+  body << "<section><h2>The network</h2><p class=\"note\">Part frame, m. Targets coloured by |U| = k sqrt(trace C) in um; grey lines: lines of "
+          "sight; the three principal axes of each target's coverage ellipsoid (k sqrt(eigenvalues)) drawn " << Num(scale)
+       << " times enlarged.</p><div id=\"net\" class=\"plot\"></div></section>\n";
+  nlohmann::json tx = nlohmann::json::array(), ty = nlohmann::json::array(), tz = nlohmann::json::array(), tc = nlohmann::json::array(),
+                 tn = nlohmann::json::array();
+  for (const AdjustedTarget& t : result.targets) {
+    tx.push_back(t.position(0)); ty.push_back(t.position(1)); tz.push_back(t.position(2));
+    tc.push_back(result.k * std::sqrt(t.covariance.trace()) * 1e6);
+    tn.push_back(t.name);
+  }
+  nlohmann::json sx = nlohmann::json::array(), sy = nlohmann::json::array(), sz = nlohmann::json::array(), sn = nlohmann::json::array();
+  for (const AdjustedStation& st : result.stations) {
+    sx.push_back(st.pose(3)); sy.push_back(st.pose(4)); sz.push_back(st.pose(5)); sn.push_back(st.name + (st.datum ? " (datum)" : ""));
+  }
+  nlohmann::json lx = nlohmann::json::array(), ly = nlohmann::json::array(), lz = nlohmann::json::array();
+  std::map<std::string, int> target_of;
+  for (std::size_t t = 0; t < result.targets.size(); ++t) target_of[result.targets[t].name] = static_cast<int>(t);
+  for (std::size_t i = 0; i < job.network.stations.size(); ++i) {
+    std::set<std::string> seen;
+    for (const TargetReading& r : job.network.stations[i].readings) {
+      if (!seen.insert(r.target).second) continue;
+      const Eigen::Vector3d& p = result.targets[target_of.at(r.target)].position;
+      const Eigen::Vector3d o = result.stations[i].pose.tail<3>();
+      lx.push_back(o(0)); ly.push_back(o(1)); lz.push_back(o(2));
+      lx.push_back(p(0)); ly.push_back(p(1)); lz.push_back(p(2));
+      lx.push_back(nullptr); ly.push_back(nullptr); lz.push_back(nullptr);
+    }
+  }
+  nlohmann::json ex = nlohmann::json::array(), ey = nlohmann::json::array(), ez = nlohmann::json::array();
+  for (const AdjustedTarget& t : result.targets) {
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(t.covariance);
+    for (int c = 0; c < 3; ++c) {
+      const Eigen::Vector3d axis = eig.eigenvectors().col(c) * result.k * std::sqrt(std::max(0.0, eig.eigenvalues()(c))) * scale;
+      for (const Eigen::Vector3d& p : {Eigen::Vector3d(t.position - axis), Eigen::Vector3d(t.position + axis)}) {
+        ex.push_back(p(0)); ey.push_back(p(1)); ez.push_back(p(2));
+      }
+      ex.push_back(nullptr); ey.push_back(nullptr); ez.push_back(nullptr);
+    }
+  }
+  script << "Plotly.newPlot('net',["
+         << "{type:'scatter3d',mode:'lines',name:'lines of sight',hoverinfo:'skip',line:{color:'rgba(120,120,120,0.35)',width:1},x:" << lx.dump()
+         << ",y:" << ly.dump() << ",z:" << lz.dump() << "},"
+         << "{type:'scatter3d',mode:'lines',name:'coverage ellipsoid axes',hoverinfo:'skip',line:{color:'#b42318',width:3},x:" << ex.dump()
+         << ",y:" << ey.dump() << ",z:" << ez.dump() << "},"
+         << "{type:'scatter3d',mode:'markers',name:'targets',text:" << tn.dump() << ",x:" << tx.dump() << ",y:" << ty.dump() << ",z:" << tz.dump()
+         << ",marker:{size:4,color:" << tc.dump() << ",colorscale:'Viridis',colorbar:{title:'|U| / um',x:1.02}},hovertemplate:'%{text}<br>|U| %{marker.color:.1f} um<extra></extra>'},"
+         << "{type:'scatter3d',mode:'markers+text',name:'stations',text:" << sn.dump() << ",x:" << sx.dump() << ",y:" << sy.dump() << ",z:" << sz.dump()
+         << ",marker:{size:7,symbol:'diamond',color:'#1f3a5f'}}"
+         << "],{margin:{l:0,r:0,t:10,b:0},legend:{x:0,y:1},scene:{aspectmode:'data',xaxis:{title:'x / m'},yaxis:{title:'y / m'},zaxis:{title:'z / m'}}},{responsive:true}).then(done);";
+  // Tables.
+  body << "<section><h2>Targets</h2><p class=\"note\">Part frame. U = k u per coordinate, um; the full covariance (targets with each "
+          "other and with the stations) is in covariance.csv.</p><table><tr><th class=\"l\">target</th><th>x / m</th><th>y / m</th><th>z / m</th>"
+          "<th>U<sub>x</sub> / um</th><th>U<sub>y</sub> / um</th><th>U<sub>z</sub> / um</th><th>stations</th><th class=\"l\">reference</th></tr>";
+  for (const AdjustedTarget& t : result.targets) {
+    body << "<tr><td class=\"l\">" << HtmlEscape(t.name) << "</td>";
+    for (int c = 0; c < 3; ++c) body << "<td>" << Fixed(t.position(c), 6) << "</td>";
+    for (int c = 0; c < 3; ++c) body << "<td>" << Fixed(result.k * std::sqrt(t.covariance(c, c)) * 1e6, 1) << "</td>";
+    body << "<td>" << t.stations << "</td><td class=\"l\">" << (t.reference ? "yes" : "") << "</td></tr>";
+  }
+  body << "</table></section>\n<section><h2>Stations</h2><p class=\"note\">Pose: x_part = R x_station + t, R = Rz(rz) Ry(ry) Rx(rx); "
+          "angles in degrees, their U in arcsec; t in m, its U in um.</p><table><tr><th class=\"l\">station</th><th>rx / deg</th><th>ry / deg</th>"
+          "<th>rz / deg</th><th>tx / m</th><th>ty / m</th><th>tz / m</th><th>U(rx, ry, rz) / arcsec</th><th>U(tx, ty, tz) / um</th><th>readings</th></tr>";
+  for (const AdjustedStation& st : result.stations) {
+    body << "<tr><td class=\"l\">" << HtmlEscape(st.name) << (st.datum ? " (datum)" : "") << "</td>";
+    for (int c = 0; c < 3; ++c) body << "<td>" << Fixed(st.pose(c) * 180.0 / std::numbers::pi, 6) << "</td>";
+    for (int c = 3; c < 6; ++c) body << "<td>" << Fixed(st.pose(c), 6) << "</td>";
+    body << "<td>";
+    for (int c = 0; c < 3; ++c) body << (c ? ", " : "") << Fixed(result.k * std::sqrt(st.covariance(c, c)) / kArcsec, 2);
+    body << "</td><td>";
+    for (int c = 3; c < 6; ++c) body << (c > 3 ? ", " : "") << Fixed(result.k * std::sqrt(st.covariance(c, c)) * 1e6, 1);
+    body << "</td><td>" << st.readings << "</td></tr>";
+  }
+  body << "</table></section>\n";
+  if (!distances.empty()) {
+    body << "<section><h2>Distances</h2><p class=\"note\">Between adjusted targets, with the correlation of the two targets through the "
+            "adjustment.</p><table><tr><th class=\"l\">from</th><th class=\"l\">to</th><th>length / m</th><th>u / um</th><th>U / um</th></tr>";
+    for (const DistanceResult& d : distances) {
+      body << "<tr><td class=\"l\">" << HtmlEscape(d.from) << "</td><td class=\"l\">" << HtmlEscape(d.to) << "</td><td>" << Fixed(d.length, 7)
+           << "</td><td>" << Fixed(d.u * 1e6, 2) << "</td><td>" << Fixed(d.U * 1e6, 2) << "</td></tr>";
+    }
+    body << "</table></section>\n";
+  }
+  if (!result.parameters.empty()) {
+    body << "<section><h2>Self-calibrated parameters</h2><p class=\"note\">Estimated by the network with their prior as a pseudo-observation; "
+            "u / prior u near 1: the network does not see the parameter.</p><table><tr><th class=\"l\">input</th><th class=\"l\">unit (SI)</th>"
+            "<th>prior estimate</th><th>prior u</th><th>estimate</th><th>u</th><th>u / prior u</th></tr>";
+    for (const CalibratedParameter& p : result.parameters) {
+      body << "<tr><td class=\"l\">" << HtmlEscape(p.name) << "</td><td class=\"l\">" << HtmlEscape(p.unit) << "</td><td>" << Num(p.prior_estimate)
+           << "</td><td>" << Num(p.prior_u) << "</td><td>" << Num(p.estimate) << "</td><td>" << Num(p.u) << "</td><td>" << Fixed(p.u / p.prior_u, 3)
+           << "</td></tr>";
+    }
+    body << "</table></section>\n";
+  }
+  body << "<section><h2>Flagged readings</h2><p class=\"note\">Baarda's data snooping: w = (residual / u) / sqrt(redundancy); flagged when "
+          "|w| &gt; " << Fixed(job.network.outlier_limit, 2) << ". Every reading's residual is in residuals.csv.</p>";
+  if (result.outliers == 0) {
+    body << "<p>None.</p>";
+  } else {
+    body << "<table><tr><th class=\"l\">station</th><th class=\"l\">target</th><th class=\"l\">face</th><th class=\"l\">reading</th><th>residual</th>"
+            "<th class=\"l\">unit</th><th>redundancy</th><th>w</th><th class=\"l\">where</th></tr>";
+    for (const NetworkResidual& r : result.residuals) {
+      if (!r.outlier) continue;
+      const bool angle = r.unit == "rad";
+      body << "<tr><td class=\"l\">" << HtmlEscape(r.station) << "</td><td class=\"l\">" << HtmlEscape(r.target) << "</td><td class=\"l\">"
+           << FaceName(r.face) << "</td><td class=\"l\">" << r.component << "</td><td>" << Fixed(angle ? r.residual / kArcsec : r.residual * 1e6, 2)
+           << "</td><td class=\"l\">" << (angle ? "arcsec" : "um") << "</td><td>" << Fixed(r.redundancy, 3) << "</td><td class=\"bad\">"
+           << Fixed(r.w, 2) << "</td><td class=\"l\">" << HtmlEscape(r.where) << "</td></tr>";
+    }
+    body << "</table>";
+  }
+  body << "</section>\n";
+  return report::Page("vlt network — " + job.name, job.description.empty() ? "Bundle adjustment of a network of stations" : job.description,
+                      body.str(), script.str());
+}
+
+int TargetIndex(const NetworkResult& result, const std::string& name) {
+  for (std::size_t t = 0; t < result.targets.size(); ++t) {
+    if (result.targets[t].name == name) return static_cast<int>(t);
+  }
+  return -1;
+}
+
+}  // namespace
+
+std::vector<DistanceResult> Distances(const NetworkJob& job, const NetworkResult& result) {
+  std::vector<DistanceResult> out;
+  for (const NetworkDistance& d : job.distances) {
+    const int a = TargetIndex(result, d.from), b = TargetIndex(result, d.to);
+    const Eigen::Vector3d delta = result.targets[b].position - result.targets[a].position;
+    DistanceResult r{d.from, d.to, delta.norm(), 0.0, 0.0};
+    const Eigen::Vector3d n = delta / r.length;
+    Eigen::Matrix<double, 6, 1> g;
+    g << -n, n;
+    Eigen::Matrix<double, 6, 6> c;
+    const int oa = result.target_offset[a], ob = result.target_offset[b];
+    c.block<3, 3>(0, 0) = result.covariance.block<3, 3>(oa, oa);
+    c.block<3, 3>(0, 3) = result.covariance.block<3, 3>(oa, ob);
+    c.block<3, 3>(3, 0) = result.covariance.block<3, 3>(ob, oa);
+    c.block<3, 3>(3, 3) = result.covariance.block<3, 3>(ob, ob);
+    r.u = std::sqrt(std::max(0.0, g.dot(c * g)));
+    r.U = result.k * r.u;
+    out.push_back(r);
+  }
+  return out;
+}
+
+Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std::string& created,
+                   const NetworkMonteCarlo* mc) {
+  Files files;
+  // targets.csv
+  {
+    std::string s = "name,x_m,y_m,z_m,u_x_m,u_y_m,u_z_m,U_x_m,U_y_m,U_z_m,stations,readings,reference\n";
+    for (const AdjustedTarget& t : result.targets) {
+      s += Csv(t.name);
+      for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, t.position(c)); }
+      for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, std::sqrt(t.covariance(c, c))); }
+      for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, result.k * std::sqrt(t.covariance(c, c))); }
+      s += ',';
+      s += std::to_string(t.stations);
+      s += ',';
+      s += std::to_string(t.readings);
+      s += t.reference ? ",true\n" : ",false\n";
+    }
+    files.emplace_back("targets.csv", s);
+  }
+  // stations.csv
+  {
+    std::string s = "name,datum,rx_rad,ry_rad,rz_rad,tx_m,ty_m,tz_m,u_rx_rad,u_ry_rad,u_rz_rad,u_tx_m,u_ty_m,u_tz_m,readings\n";
+    for (const AdjustedStation& st : result.stations) {
+      s += Csv(st.name);
+      s += st.datum ? ",true" : ",false";
+      for (int c = 0; c < 6; ++c) { s += ','; AppendNum(s, st.pose(c)); }
+      for (int c = 0; c < 6; ++c) { s += ','; AppendNum(s, std::sqrt(st.covariance(c, c))); }
+      s += ',';
+      s += std::to_string(st.readings);
+      s += '\n';
+    }
+    files.emplace_back("stations.csv", s);
+  }
+  // residuals.csv
+  {
+    std::string s = "station,target,face,reading,unit,residual,u,normalised,redundancy,w,outlier,where\n";
+    for (const NetworkResidual& r : result.residuals) {
+      s += Csv(r.station) + "," + Csv(r.target) + "," + FaceName(r.face) + "," + r.component + "," + r.unit;
+      for (double v : {r.residual, r.u, r.normalised, r.redundancy, r.w}) { s += ','; AppendNum(s, v); }
+      s += std::string(",") + (r.outlier ? "true" : "false") + "," + Csv(r.where) + "\n";
+    }
+    files.emplace_back("residuals.csv", s);
+  }
+  // covariance.csv: the full matrix, SI (m^2, m rad, rad^2, ...), labelled rows and columns.
+  {
+    std::string s = "unknown";
+    for (const std::string& name : result.unknown_names) {
+      s += ',';
+      s += Csv(name);
+    }
+    s += "\n";
+    for (Eigen::Index r = 0; r < result.covariance.rows(); ++r) {
+      s += Csv(result.unknown_names[r]);
+      for (Eigen::Index c = 0; c < result.covariance.cols(); ++c) { s += ','; AppendNum(s, result.covariance(r, c)); }
+      s += '\n';
+    }
+    files.emplace_back("covariance.csv", s);
+  }
+  const std::vector<DistanceResult> distances = Distances(job, result);
+  if (!distances.empty()) {
+    std::string s = "from,to,length_m,u_m,U_m\n";
+    for (const DistanceResult& d : distances) {
+      s += Csv(d.from) + "," + Csv(d.to);
+      for (double v : {d.length, d.u, d.U}) { s += ','; AppendNum(s, v); }
+      s += '\n';
+    }
+    files.emplace_back("distances.csv", s);
+  }
+  if (mc) {
+    std::string s = "name,u_x_gum_m,u_y_gum_m,u_z_gum_m,u_x_mcm_m,u_y_mcm_m,u_z_mcm_m,bias_x_m,bias_y_m,bias_z_m\n";
+    for (std::size_t t = 0; t < result.targets.size(); ++t) {
+      s += Csv(result.targets[t].name);
+      for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, std::sqrt(result.targets[t].covariance(c, c))); }
+      for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, std::sqrt(mc->covariance[t](c, c))); }
+      for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, mc->bias[t](c)); }
+      s += '\n';
+    }
+    files.emplace_back("mcm.csv", s);
+  }
+  if (!result.parameters.empty()) {
+    // u_over_prior: 1 where the network does not see the parameter, toward 0 where it determines it.
+    std::string s = "name,unit,prior_estimate,prior_u,estimate,u,u_over_prior\n";
+    for (const CalibratedParameter& p : result.parameters) {
+      s += Csv(p.name) + "," + p.unit;
+      for (double v : {p.prior_estimate, p.prior_u, p.estimate, p.u, p.u / p.prior_u}) { s += ','; AppendNum(s, v); }
+      s += '\n';
+    }
+    files.emplace_back("parameters.csv", s);
+  }
+  files.emplace_back("report.html", NetworkReport(job, result, mc, distances));
+  // results.json (schema vlt-network/1, docs/network.md).
+  nlohmann::ordered_json j;
+  j["schema"] = "vlt-network/1";
+  j["created"] = created;
+  j["vlt_version"] = VLT_VERSION;
+  j["vlt_commit"] = VltCommit();
+  // Every number is SI; pose angles rx, ry, rz in rad (R = Rz Ry Rx, x_part = R x_station + t).
+  j["units"] = {{"length", "m"}, {"angle", "rad"}, {"covariance", "SI products (m^2, m rad, rad^2)"}};
+  nlohmann::ordered_json meta;
+  meta["name"] = job.name;
+  meta["description"] = job.description;
+  meta["file"] = job.file;
+  meta["mode"] = job.offline ? "plan" : "readings";
+  meta["model"] = job.network.instrument.model->name;
+  meta["coverage_probability"] = job.network.coverage_probability;
+  meta["self_calibrate"] = job.network.self_calibrate;
+  nlohmann::ordered_json inputs = nlohmann::ordered_json::array();
+  for (const auto& [role, path] : job.input_files) inputs.push_back({{"role", role}, {"path", path}, {"sha256", Sha256File(path)}});
+  meta["input_files"] = inputs;
+  j["job"] = meta;
+  j["summary"] = {{"observations", result.observations}, {"unknowns", result.unknowns}, {"dof", result.dof},
+                  {"chi2", result.chi2}, {"birge_ratio", result.birge_ratio}, {"p_value", result.p_value},
+                  {"outliers", result.outliers}, {"iterations", result.iterations}, {"k", result.k},
+                  {"share_noise", result.share_noise}, {"share_consider", result.share_consider}};
+  nlohmann::ordered_json stations = nlohmann::ordered_json::array();
+  for (const AdjustedStation& st : result.stations) {
+    nlohmann::ordered_json o;
+    o["name"] = st.name;
+    o["datum"] = st.datum;
+    o["readings"] = st.readings;
+    for (int c = 0; c < 6; ++c) o[kPoseNames[c]] = st.pose(c);
+    std::vector<double> u(6);
+    for (int c = 0; c < 6; ++c) u[c] = std::sqrt(st.covariance(c, c));
+    o["u"] = u;
+    stations.push_back(o);
+  }
+  j["stations"] = stations;
+  nlohmann::ordered_json targets = nlohmann::ordered_json::array();
+  for (const AdjustedTarget& t : result.targets) {
+    nlohmann::ordered_json o;
+    o["name"] = t.name;
+    o["position"] = {t.position(0), t.position(1), t.position(2)};
+    nlohmann::ordered_json cov = nlohmann::ordered_json::array();
+    for (int r = 0; r < 3; ++r) cov.push_back({t.covariance(r, 0), t.covariance(r, 1), t.covariance(r, 2)});
+    o["covariance"] = cov;
+    std::vector<double> U(3);
+    for (int c = 0; c < 3; ++c) U[c] = result.k * std::sqrt(t.covariance(c, c));
+    o["U"] = U;
+    o["stations"] = t.stations;
+    o["reference"] = t.reference;
+    targets.push_back(o);
+  }
+  j["targets"] = targets;
+  nlohmann::ordered_json params = nlohmann::ordered_json::array();
+  for (const CalibratedParameter& p : result.parameters) {
+    params.push_back({{"name", p.name}, {"unit", p.unit}, {"prior_estimate", p.prior_estimate}, {"prior_u", p.prior_u},
+                      {"estimate", p.estimate}, {"u", p.u}, {"u_over_prior", p.u / p.prior_u}});
+  }
+  j["parameters"] = params;
+  nlohmann::ordered_json dist = nlohmann::ordered_json::array();
+  for (const DistanceResult& d : distances) dist.push_back({{"from", d.from}, {"to", d.to}, {"length", d.length}, {"u", d.u}, {"U", d.U}});
+  j["distances"] = dist;
+  if (mc) {
+    j["monte_carlo"] = {{"trials", mc->trials}, {"seed", mc->seed}, {"tolerance", mc->tolerance},
+                        {"worst_ratio", mc->worst_ratio}, {"worst", mc->worst}, {"agrees", mc->agrees}};
+  }
+  std::vector<std::string> names;
+  for (const auto& f : files) names.push_back(f.first);
+  names.push_back("results.json");
+  j["files"] = names;
+  files.emplace_back("results.json", j.dump(1) + "\n");
+  return files;
+}
+
+std::string NetworkSummary(const NetworkJob& job, const NetworkResult& result, const NetworkMonteCarlo* mc) {
+  double worst = 0.0;
+  std::string worst_name;
+  for (const AdjustedTarget& t : result.targets) {
+    const double U = result.k * std::sqrt(t.covariance.trace());
+    if (U > worst) {
+      worst = U;
+      worst_name = t.name;
+    }
+  }
+  char line[512];
+  std::snprintf(line, sizeof line,
+                "%s network '%s': %zu stations, %zu targets, %d observations, %d unknowns, dof %d; chi2 %.4g, Birge "
+                "ratio %.3f, %d outlier%s; largest |U| (k = %.2f) %.1f um at %s; variance from reading noise and "
+                "references %.0f %%, from the instrument's parameters %.0f %%",
+                job.offline ? "Planned" : "Measured", job.name.c_str(), result.stations.size(), result.targets.size(),
+                result.observations, result.unknowns, result.dof, result.chi2, result.birge_ratio, result.outliers,
+                result.outliers == 1 ? "" : "s", result.k, worst * 1e6, worst_name.c_str(), 100.0 * result.share_noise,
+                100.0 * result.share_consider);
+  std::string out = std::string(line) + "\n";
+  if (mc) {
+    std::snprintf(line, sizeof line,
+                  "Monte Carlo (%d re-adjusted simulated networks): u_MCM / u_GUM farthest from 1 is %.3f at %s; %s "
+                  "(tolerance +- %.3f)\n",
+                  mc->trials, mc->worst_ratio, mc->worst.c_str(), mc->agrees ? "the GUM agrees" : "the GUM does NOT agree",
+                  mc->tolerance);
+    out += line;
+  }
+  return out;
+}
+
+}  // namespace vlt::network_outputs
+
+namespace vlt::network_outputs {
+
+Files SimulatedNetworkFiles(const NetworkJob& job, const Network& simulated, std::uint64_t seed) {
+  Files files;
+  toml::table root = toml::parse(job.text);
+  root.erase("targets");
+  root.erase("output");
+  if (!root["job"].as_table()) root.insert_or_assign("job", toml::table{});
+  root["job"].as_table()->insert_or_assign("name", job.name + "-simulated-" + std::to_string(seed));
+  // A calibration file named relative to the network file: absolute, since the simulated file
+  // lives in the output directory.
+  if (toml::table* tracker = root["tracker"].as_table()) {
+    if (const auto* cal = tracker->get_as<std::string>("calibration")) {
+      const std::string absolute = std::filesystem::absolute(job.base_dir / cal->get()).lexically_normal().string();
+      tracker->insert_or_assign("calibration", absolute);
+    }
+  }
+  toml::array* stations = root["station"].as_array();
+  for (std::size_t i = 0; i < simulated.stations.size(); ++i) {
+    const NetworkStation& st = simulated.stations[i];
+    const std::string csv = "simulated_" + internal::SafeFileName(st.name) + ".csv";
+    std::string s = "name,range,azimuth,elevation,face\n";
+    for (const TargetReading& r : st.readings) {
+      s += Csv(r.target);
+      for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, r.readings(c)); }
+      s += ',';
+      s += FaceName(r.face);
+      s += '\n';
+    }
+    files.emplace_back(csv, s);
+    if (stations && i < stations->size()) {
+      if (toml::table* t = stations->get(i)->as_table()) {
+        t->erase("sees");
+        t->erase("face");
+        t->insert_or_assign("readings", toml::table{{"csv", csv}});
+      }
+    }
+  }
+  if (toml::array* refs = root["reference"].as_array()) {
+    for (std::size_t r = 0; r < refs->size() && r < simulated.references.size(); ++r) {
+      if (toml::table* t = refs->get(r)->as_table()) {
+        t->insert_or_assign("x", simulated.references[r].position(0));
+        t->insert_or_assign("y", simulated.references[r].position(1));
+        t->insert_or_assign("z", simulated.references[r].position(2));
+      }
+    }
+  }
+  std::ostringstream os;
+  os << "# Simulated measurement of the offline network " << job.file << " (vlt network --simulate " << seed
+     << "): the truth is its [targets] and station poses; the instrument's true parameters are drawn from\n"
+     << "# their uncertainties, every reading carries the reading noise, references their u (docs/network.md).\n"
+     << "# Adjust it with:  vlt network simulated_network.toml\n"
+     << root << "\n";
+  files.emplace_back("simulated_network.toml", os.str());
+  return files;
+}
+
+}  // namespace vlt::network_outputs

@@ -1,0 +1,108 @@
+// network/simulate.cc — planned readings of a network (offline) and simulated measurements with
+// a known truth (vlt/network.h): the exact inverse of the instrument model at each station.
+#include <map>
+
+#include <Eigen/Eigenvalues>
+
+#include "mcm/random.h"
+#include "vlt/error.h"
+#include "vlt/network.h"
+
+namespace vlt {
+
+namespace {
+
+using TargetList = std::vector<std::pair<std::string, Eigen::Vector3d>>;
+
+MeasurementModel InstrumentModel(const Network& network) {
+  MeasurementSetup setup = network.instrument;
+  setup.pose.reset();
+  setup.thermal.reset();
+  return MeasurementModel(setup);
+}
+
+// Readings of the part-frame point `part` from a station at `pose`, by an instrument whose shared
+// inputs are `shared`: m' = f^-1(R^T (x - t); params), then the range the tracker shows is
+// rho = rho' / (n_est / n) (vlt/measurement_model.h: rho' = rho n_est / n).
+Eigen::Vector3d ReadingsAt(const MeasurementModel& model, const Eigen::VectorXd& shared,
+                           const StationPoseVector& pose, const Eigen::Vector3d& part, Face face) {
+  const Eigen::Matrix3d r = PoseRotationMatrix(pose(0), pose(1), pose(2));
+  const Eigen::Vector3d local = r.transpose() * (part - pose.tail<3>());
+  const std::array<double, 3> m =
+      InverseReadings(*model.setup().model, shared.data() + model.params_offset(), {local(0), local(1), local(2)}, face);
+  const double scale = model.PrepareShared(shared.data()).range_scale;
+  return {m[0] / scale, m[1], m[2]};
+}
+
+}  // namespace
+
+void PlanNetworkReadings(Network& network, const TargetList& nominal,
+                         const std::vector<std::vector<PlannedSighting>>& sees) {
+  const MeasurementModel model = InstrumentModel(network);
+  const Eigen::VectorXd s0 = model.shared_estimates();
+  std::map<std::string, Eigen::Vector3d> where_is(nominal.begin(), nominal.end());
+  for (std::size_t i = 0; i < network.stations.size() && i < sees.size(); ++i) {
+    NetworkStation& st = network.stations[i];
+    for (const PlannedSighting& s : sees[i]) {
+      const auto it = where_is.find(s.target);
+      if (it == where_is.end()) throw InputError(s.where + ": unknown target '" + s.target + "' (not in [targets])");
+      TargetReading reading;
+      reading.target = s.target;
+      reading.face = s.face;
+      reading.where = s.where;
+      try {
+        reading.readings = ReadingsAt(model, s0, st.pose, it->second, s.face);
+      } catch (const NumericalError& error) {
+        throw InputError(s.where + ": station '" + st.name + "' cannot read '" + s.target + "': " + error.what());
+      }
+      st.readings.push_back(std::move(reading));
+    }
+  }
+}
+
+Network SimulateNetwork(const Network& network, const TargetList& truth, std::uint64_t seed,
+                        Eigen::VectorXd* shared_true) {
+  const MeasurementModel model = InstrumentModel(network);
+  const int S = model.num_shared();
+  const mcm_internal::KeyedStream stream(seed);
+  // Draw `index` of stream `input`: one standard normal depending on (seed, input, index) only.
+  auto normal = [&](std::uint64_t input, std::uint64_t index) {
+    double z[4];
+    stream.Normals(index / 4, input, z);
+    return z[index % 4];
+  };
+  // True shared inputs: s0 + Sigma^1/2 z (symmetric square root: Sigma may be singular, r = +-1).
+  Eigen::VectorXd u(S);
+  for (int k = 0; k < S; ++k) u(k) = model.shared_inputs()[k].u;
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(model.shared_correlation());
+  const Eigen::MatrixXd root = u.asDiagonal() * eig.eigenvectors() *
+                               eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal() * eig.eigenvectors().transpose();
+  Eigen::VectorXd z(S);
+  for (int k = 0; k < S; ++k) z(k) = normal(0, static_cast<std::uint64_t>(k));
+  const Eigen::VectorXd s_true = model.shared_estimates() + root * z;
+  if (shared_true) *shared_true = s_true;
+
+  std::map<std::string, Eigen::Vector3d> where_is(truth.begin(), truth.end());
+  Network out = network;
+  std::uint64_t counter = 0;
+  for (NetworkStation& st : out.stations) {
+    for (TargetReading& reading : st.readings) {
+      const auto it = where_is.find(reading.target);
+      if (it == where_is.end()) throw InputError(reading.where + ": no true position of '" + reading.target + "'");
+      Eigen::Vector3d m = ReadingsAt(model, s_true, st.pose, it->second, reading.face);
+      const Eigen::Vector3d sigma = model.reading_uncertainty(m(0));
+      for (int c = 0; c < 3; ++c) m(c) += sigma(c) * normal(1, 3 * counter + c);
+      ++counter;
+      reading.readings = m;
+    }
+  }
+  for (std::size_t r = 0; r < out.references.size(); ++r) {
+    NetworkReference& ref = out.references[r];
+    const auto it = where_is.find(ref.target);
+    if (it == where_is.end()) throw InputError(ref.where + ": no true position of '" + ref.target + "'");
+    for (int c = 0; c < 3; ++c) ref.position(c) = it->second(c) + ref.u * normal(2, 3 * r + c);
+  }
+  return out;
+}
+
+}  // namespace vlt

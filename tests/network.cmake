@@ -1,0 +1,53 @@
+# Networks on the command line (docs/network.md): the shipped offline plan runs and writes its
+# simulated measurement, which adjusts as an online network; bad input is one line, exit 2,
+# nothing written.
+if(NOT TARGET vlt)
+  return()
+endif()
+set(_cli ${CMAKE_CURRENT_SOURCE_DIR}/cli)
+set(_ex ${CMAKE_SOURCE_DIR}/examples/network)
+set(_out ${CMAKE_BINARY_DIR}/cli-tests)
+
+add_test(NAME cli_network_plan
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_ex}/wing_network_plan.toml;--simulate;7;-o;${_out}/network_plan"
+          -DOUT=${_out}/network_plan
+          "-DFILES=targets.csv;stations.csv;residuals.csv;covariance.csv;distances.csv;results.json;report.html;simulated_S1.csv;simulated_S2.csv;simulated_S3.csv;simulated_network.toml"
+          "-DEXPECT_STDOUT=Planned network 'wing-network-plan': 3 stations, 18 targets, 159 observations, 72 unknowns, dof 87; chi2 [0-9.e-]+, Birge ratio 0[.]000, 0 outliers; largest \\|U\\| [(]k = 1[.]96[)] [0-9.]+ um at"
+          "-DJSON_KEYS=schema;created;vlt_version;vlt_commit;units;job;summary;stations;targets;distances;files"
+          -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_network_plan PROPERTIES FIXTURES_SETUP vlt_network_plan)
+add_test(NAME cli_network_simulated
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_out}/network_plan/simulated_network.toml;-o;${_out}/network_simulated"
+          -DOUT=${_out}/network_simulated
+          "-DFILES=targets.csv;stations.csv;residuals.csv;covariance.csv;distances.csv;results.json;report.html"
+          "-DEXPECT_STDOUT=Measured network 'wing-network-plan-simulated-7': 3 stations, 18 targets, 159 observations, 72 unknowns, dof 87; chi2 [0-9.]+, Birge ratio [0-9.]+"
+          "-DJSON_KEYS=schema;created;vlt_version;vlt_commit;units;job;summary;stations;targets;distances;files"
+          -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_network_simulated PROPERTIES FIXTURES_REQUIRED vlt_network_plan FIXTURES_SETUP vlt_network_simulated)
+add_test(NAME report_browser_network
+  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/network_simulated/report.html -DPROFILE=${_out}/chromium-profile-network
+          -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
+set_tests_properties(report_browser_network PROPERTIES FIXTURES_REQUIRED vlt_network_simulated TIMEOUT 300)
+
+function(vlt_network_error name file regex)
+  add_test(NAME cli_error_network_${name}
+    COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+            "-DARGS=network;${_cli}/network/${file};${ARGN};-o;${_out}/error_network_${name}"
+            -DOUT=${_out}/error_network_${name} "-DEXPECT=${regex}" -P ${_cli}/expect_error.cmake)
+endfunction()
+vlt_network_error(no_datum no_datum.toml "no_datum\\.toml: datum: the part frame is undetermined")
+vlt_network_error(disconnected disconnected.toml
+                  "disconnected\\.toml: station\\[1\\]: station 'S2' shares fewer than 3 non-collinear targets .*disconnected network")
+vlt_network_error(unknown_target unknown_target.toml "unknown_target\\.toml: station\\[0\\]\\.sees: unknown target 'NOPE'")
+vlt_network_error(mixed mixed.toml "mixed\\.toml: station\\[1\\]: every station gives readings .* not a mix")
+vlt_network_error(collinear collinear.toml "collinear\\.toml: datum: the references do not fix the part frame")
+vlt_network_error(unknown_input unknown_input.toml "unknown_input\\.toml: network\\.self_calibrate: unknown input 'tmv'")
+vlt_network_error(unknown_distance unknown_distance.toml "unknown_distance\\.toml: distance\\[0\\]: no station reads target 'W99'")
+add_test(NAME cli_error_network_simulate_online
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_out}/network_plan/simulated_network.toml;--simulate;3;-o;${_out}/error_network_simulate_online"
+          -DOUT=${_out}/error_network_simulate_online
+          "-DEXPECT=simulated_network\\.toml: station: --simulate needs an offline network" -P ${_cli}/expect_error.cmake)
+set_tests_properties(cli_error_network_simulate_online PROPERTIES FIXTURES_REQUIRED vlt_network_plan)

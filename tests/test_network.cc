@@ -1,0 +1,309 @@
+// Networks of stations (vlt/network.h): the bundle adjustment against independent references —
+// the planned truth, the single-station GUM, finite differences of the adjustment itself, and
+// simulations with a known truth over many seeds (coverage, Birge ratio, self-calibration).
+#include <cmath>
+#include <numbers>
+
+#include <Eigen/Cholesky>
+#include <gtest/gtest.h>
+
+#include "test_calibration_helpers.h"
+#include "vlt/error.h"
+#include "vlt/gum.h"
+#include "vlt/network.h"
+
+namespace vlt {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+using TargetList = std::vector<std::pair<std::string, Eigen::Vector3d>>;
+
+// 12 targets over a 6 m x 3 m x 1.5 m part (a fuselage section's tooling balls).
+TargetList Targets() {
+  TargetList t;
+  int i = 0;
+  for (double x : {0.0, 2.0, 4.0, 6.0})
+    for (double y : {0.0, 3.0})
+      t.emplace_back("T" + std::to_string(i++), Eigen::Vector3d(x, y, 0.2 + 0.5 * std::fmod(x, 4.0) / 2.0));
+  for (double x : {1.0, 3.0, 5.0, 2.5}) t.emplace_back("T" + std::to_string(i++), Eigen::Vector3d(x, 1.5, x == 2.5 ? 1.7 : 1.2));
+  return t;
+}
+
+StationPoseVector Pose(double rz_deg, double tx, double ty, double tz, double rx = 0.0, double ry = 0.0) {
+  StationPoseVector p;
+  p << rx, ry, rz_deg * kDeg, tx, ty, tz;
+  return p;
+}
+
+// Three stations around the part, each reading every target in the front face; 4 reference
+// targets (20 um) fix the part frame unless `datum_station`.
+Network MakeNetwork(bool datum_station, int stations = 3, const TargetList& targets = Targets()) {
+  Network net;
+  net.where = "net.toml";
+  net.instrument = test::SimulatedTracker("head", 0.0, 1);
+  const StationPoseVector poses[3] = {Pose(10, -3.0, 1.0, 0.1, 0.0005, -0.0003), Pose(175, 9.0, 2.0, 0.3),
+                                      Pose(95, 3.0, -5.0, -0.2, -0.0002, 0.0004)};
+  std::vector<std::vector<PlannedSighting>> sees;
+  for (int i = 0; i < stations; ++i) {
+    NetworkStation st;
+    st.name = "S" + std::to_string(i + 1);
+    st.pose = poses[i];
+    st.pose_given = datum_station && i == 0;
+    st.datum = datum_station && i == 0;
+    st.where = "net.toml: station[" + std::to_string(i) + "]";
+    net.stations.push_back(st);
+    sees.emplace_back();
+    for (const auto& [name, x] : targets) sees.back().push_back({name, Face::kFront, st.where + ".sees"});
+  }
+  if (!datum_station) {
+    for (std::size_t r : {0u, 3u, 6u, 9u}) {
+      if (r >= targets.size()) continue;
+      net.references.push_back({targets[r].first, targets[r].second, 20e-6, "net.toml: reference[" + std::to_string(r) + "]"});
+    }
+  }
+  PlanNetworkReadings(net, targets, sees);
+  return net;
+}
+
+const AdjustedTarget& Find(const NetworkResult& r, const std::string& name) {
+  for (const AdjustedTarget& t : r.targets) if (t.name == name) return t;
+  throw std::runtime_error("no target " + name);
+}
+
+// Planned readings reproduce the plan: every target at its nominal position, every pose at its
+// given value, zero residuals.
+TEST(Network, PlannedReadingsGiveTheNominalNetwork) {
+  for (bool datum_station : {false, true}) {
+    const Network net = MakeNetwork(datum_station);
+    const NetworkResult r = AdjustNetwork(net);
+    for (const auto& [name, x] : Targets()) EXPECT_LT((Find(r, name).position - x).norm(), 1e-9) << name;
+    for (std::size_t i = 0; i < net.stations.size(); ++i) {
+      EXPECT_LT((r.stations[i].pose - net.stations[i].pose).norm(), 1e-9) << i;
+    }
+    EXPECT_LT(r.chi2, 1e-12);
+    EXPECT_EQ(r.dof, r.observations - r.unknowns);
+    EXPECT_EQ(r.unknowns, (datum_station ? 12 : 18) + 3 * 12);
+  }
+}
+
+// A one-station network held as the datum is today's single-station GUM, exactly: the
+// adjustment of one reading per target is the identity, and the consider parameters propagate
+// as the shared inputs do (docs/network.md).
+TEST(Network, OneStationIsTheSingleStationGum) {
+  Network net = MakeNetwork(true, 1);
+  auto input = [](const char* name, const char* unit, double estimate, double u) {
+    UncertainInput in;
+    in.name = name;
+    in.unit = unit;
+    in.group = "environment";
+    in.estimate = estimate;
+    in.u = u;
+    return in;
+  };
+  net.instrument.environment = Environment{};
+  net.instrument.environment->temperature = input("environment.temperature", "degC", 20.0, 0.2);
+  net.instrument.environment->pressure = input("environment.pressure", "Pa", 101325.0, 50.0);
+  net.instrument.environment->humidity = input("environment.humidity", "%", 50.0, 5.0);
+  net.instrument.environment->co2 = input("environment.co2", "1", 450e-6, 50e-6);
+  const NetworkResult r = AdjustNetwork(net);
+  // The single-station job: the same instrument and a [station] pose known exactly.
+  MeasurementSetup single = net.instrument;
+  const StationPoseVector& pose = net.stations[0].pose;
+  single.pose = StationPose{};
+  UncertainInput* pose_inputs[6] = {&single.pose->rx, &single.pose->ry, &single.pose->rz,
+                                    &single.pose->tx, &single.pose->ty, &single.pose->tz};
+  for (int c = 0; c < 6; ++c) {
+    pose_inputs[c]->name = std::string("pose.") + kPoseNames[c];
+    pose_inputs[c]->estimate = pose(c);
+  }
+  MeasurementModel model(single);
+  std::vector<PointReadings> points;
+  for (const TargetReading& m : net.stations[0].readings) points.push_back({m.target, m.readings});
+  const std::vector<PointUncertainty> gum = PropagatePoints(model, points);
+  ASSERT_EQ(gum.size(), r.targets.size());
+  for (std::size_t j = 0; j < gum.size(); ++j) {
+    const AdjustedTarget& t = Find(r, gum[j].name);
+    EXPECT_LT((t.position - gum[j].part).norm(), 1e-10);
+    const double scale = gum[j].cov_part.norm();
+    EXPECT_LT((t.covariance - gum[j].cov_part).norm(), 1e-9 * scale) << gum[j].name;
+  }
+  // And the cross-covariance of two targets is the GUM's (the shared inputs correlate them).
+  const int a = r.target_offset[0], b = r.target_offset[5];
+  Eigen::Matrix<double, 3, Eigen::Dynamic> ja(3, model.num_shared()), jb(3, model.num_shared());
+  Eigen::Vector3d y;
+  Eigen::Matrix3d jr;
+  const Eigen::VectorXd s0 = model.shared_estimates();
+  model.EvaluateWithJacobian(points[0].readings.data(), s0.data(), y.data(), jr.data(), ja.data());
+  model.EvaluateWithJacobian(points[5].readings.data(), s0.data(), y.data(), jr.data(), jb.data());
+  Eigen::VectorXd u(model.num_shared());
+  for (int k = 0; k < model.num_shared(); ++k) u(k) = model.shared_inputs()[k].u;
+  const Eigen::Matrix3d cross = ja * model.shared_correlation().cwiseProduct(u * u.transpose()) * jb.transpose();
+  EXPECT_LT((r.covariance.block<3, 3>(a, b) - cross).norm(), 1e-9 * cross.norm());
+}
+
+// The covariance is the linear propagation of every input through the adjustment itself:
+// derivatives of the adjusted targets by central differences of re-adjustments (readings,
+// reference coordinates, the instrument's shared inputs), then sum of (d x / d q u_q)^2 terms.
+TEST(Network, CovarianceIsTheFiniteDifferencePropagation) {
+  const TargetList all = Targets();
+  const TargetList targets(all.begin(), all.begin() + 7);
+  const Network net = MakeNetwork(false, 3, targets);
+  const NetworkResult r = AdjustNetwork(net);
+  const int n = r.unknowns;
+  auto solution = [&](const Network& changed) {
+    const NetworkResult s = AdjustNetwork(changed);
+    Eigen::VectorXd v(3 * s.targets.size());
+    for (std::size_t t = 0; t < s.targets.size(); ++t) v.segment<3>(3 * t) = s.targets[t].position;
+    return v;
+  };
+  const int m = 3 * static_cast<int>(targets.size());
+  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(m, m);
+  MeasurementModel model(net.instrument);
+  // Readings: u from the reading noise at the range.
+  for (std::size_t i = 0; i < net.stations.size(); ++i) {
+    for (std::size_t j = 0; j < net.stations[i].readings.size(); ++j) {
+      const Eigen::Vector3d sigma = model.reading_uncertainty(net.stations[i].readings[j].readings(0));
+      for (int c = 0; c < 3; ++c) {
+        Network plus = net, minus = net;
+        plus.stations[i].readings[j].readings(c) += 0.1 * sigma(c);
+        minus.stations[i].readings[j].readings(c) -= 0.1 * sigma(c);
+        const Eigen::VectorXd d = (solution(plus) - solution(minus)) / 0.2;  // d x / d q * u_q
+        cov += d * d.transpose();
+      }
+    }
+  }
+  for (std::size_t k = 0; k < net.references.size(); ++k) {
+    for (int c = 0; c < 3; ++c) {
+      Network plus = net, minus = net;
+      plus.references[k].position(c) += 0.1 * net.references[k].u;
+      minus.references[k].position(c) -= 0.1 * net.references[k].u;
+      const Eigen::VectorXd d = (solution(plus) - solution(minus)) / 0.2;
+      cov += d * d.transpose();
+    }
+  }
+  // Shared inputs: moving the instrument's estimate at fixed readings.
+  for (std::size_t k = 0; k < net.instrument.params.size(); ++k) {
+    const double u = net.instrument.params[k].u;
+    if (u == 0.0) continue;
+    Network plus = net, minus = net;
+    plus.instrument.params[k].estimate += 0.1 * u;
+    minus.instrument.params[k].estimate -= 0.1 * u;
+    const Eigen::VectorXd d = (solution(plus) - solution(minus)) / 0.2;
+    cov += d * d.transpose();
+  }
+  const int t0 = r.target_offset[0];
+  const Eigen::MatrixXd analytic = r.covariance.block(t0, t0, m, m);
+  EXPECT_LT((analytic - cov).norm(), 2e-5 * cov.norm()) << "analytic\n" << analytic.topLeftCorner(6, 6) << "\nfd\n" << cov.topLeftCorner(6, 6);
+  EXPECT_GT(n, m);
+}
+
+// Known truth, 200 seeds: the true shared inputs drawn from their priors, noisy readings and
+// references. The adjusted coordinates fall within k u of the truth at the coverage
+// probability, the normalised squared errors of the points average 3 (chi-square, 3 dof), and
+// the Birge ratio averages 1.
+TEST(Network, CoverageOfTheAdjustedTargetsWithAKnownTruth) {
+  const TargetList truth = Targets();
+  const Network plan = MakeNetwork(false);
+  const int seeds = 200;
+  int inside = 0, total = 0;
+  double sum_d2 = 0.0, sum_birge2 = 0.0;
+  int points = 0;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    const Network sim = SimulateNetwork(plan, truth, static_cast<std::uint64_t>(seed));
+    const NetworkResult r = AdjustNetwork(sim);
+    for (const auto& [name, x] : truth) {
+      const AdjustedTarget& t = Find(r, name);
+      const Eigen::Vector3d d = t.position - x;
+      for (int c = 0; c < 3; ++c) {
+        inside += std::abs(d(c)) <= r.k * std::sqrt(t.covariance(c, c)) ? 1 : 0;
+        ++total;
+      }
+      sum_d2 += d.dot(t.covariance.ldlt().solve(d));
+      ++points;
+    }
+    sum_birge2 += r.birge_ratio * r.birge_ratio;
+  }
+  const double fraction = static_cast<double>(inside) / total;
+  // The targets of one seed share the instrument's errors: ~ seeds x (a few) independent draws.
+  EXPECT_NEAR(fraction, 0.95, 0.025) << inside << " / " << total;
+  EXPECT_NEAR(sum_d2 / points, 3.0, 0.45);
+  // The instrument's true errors differ from its estimates and the network sees it: chi-square
+  // exceeds its degrees of freedom (the reason to self-calibrate; next test).
+  EXPECT_GT(sum_birge2 / seeds, 1.1);
+}
+
+// Self-calibration: the instrument's parameters estimated from the network with their priors;
+// over 200 seeds the recovered parameters lie within k u of their true values at the coverage
+// probability, and the ranging scale (lam), which the references' 20 um over 6 m see, is
+// sharpened well below its prior.
+TEST(Network, SelfCalibrationRecoversTheTrueParameters) {
+  const TargetList truth = Targets();
+  Network plan = MakeNetwork(false);
+  for (const UncertainInput& p : plan.instrument.params) plan.self_calibrate.push_back(p.name);
+  int inside = 0, total = 0;
+  double sum_d2 = 0.0, sum_birge2 = 0.0;
+  for (int seed = 1; seed <= 200; ++seed) {
+    Eigen::VectorXd s_true;
+    const Network sim = SimulateNetwork(plan, truth, static_cast<std::uint64_t>(seed), &s_true);
+    const NetworkResult r = AdjustNetwork(sim);
+    ASSERT_EQ(r.parameters.size(), plan.instrument.params.size());
+    for (std::size_t k = 0; k < r.parameters.size(); ++k) {
+      const double d = r.parameters[k].estimate - s_true(static_cast<Eigen::Index>(k));
+      inside += std::abs(d) <= r.k * r.parameters[k].u ? 1 : 0;
+      ++total;
+      sum_d2 += d * d / (r.parameters[k].u * r.parameters[k].u);
+    }
+    sum_birge2 += r.birge_ratio * r.birge_ratio;
+  }
+  // Every systematic effect is now estimated: chi-square follows its degrees of freedom.
+  EXPECT_NEAR(sum_birge2 / 200, 1.0, 0.05);
+  EXPECT_NEAR(static_cast<double>(inside) / total, 0.95, 0.02) << inside << " / " << total;
+  EXPECT_NEAR(sum_d2 / total, 1.0, 0.12);
+  const NetworkResult r = AdjustNetwork(plan);
+  bool sharpened = false;
+  for (const CalibratedParameter& p : r.parameters) sharpened |= p.u < 0.5 * p.prior_u;
+  EXPECT_TRUE(sharpened);
+}
+
+TEST(Network, StructureErrorsNameTheProblem) {
+  {
+    Network net = MakeNetwork(false);
+    net.references.resize(2);
+    try {
+      AdjustNetwork(net);
+      FAIL();
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("datum"), std::string::npos) << e.what();
+    }
+  }
+  {
+    // A station reading only 2 targets: disconnected.
+    Network net = MakeNetwork(true);
+    net.stations[2].readings.resize(2);
+    try {
+      AdjustNetwork(net);
+      FAIL();
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("station[2]"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("disconnected"), std::string::npos) << e.what();
+    }
+  }
+  {
+    // Collinear references: the rotation about their line floats.
+    TargetList targets = Targets();
+    for (int i = 0; i < 3; ++i) targets.emplace_back("L" + std::to_string(i), Eigen::Vector3d(1.0 + i, -1.0, 0.5));
+    Network net = MakeNetwork(false, 3, targets);
+    net.references.clear();
+    for (int i = 0; i < 3; ++i) net.references.push_back({"L" + std::to_string(i), targets[12 + i].second, 20e-6, "r"});
+    try {
+      AdjustNetwork(net);
+      FAIL();
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("datum"), std::string::npos) << e.what();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace vlt
