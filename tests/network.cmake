@@ -12,18 +12,18 @@ add_test(NAME cli_network_plan
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
           "-DARGS=network;${_ex}/wing_network_plan.toml;--simulate;7;-o;${_out}/network_plan"
           -DOUT=${_out}/network_plan
-          "-DFILES=targets.csv;stations.csv;residuals.csv;covariance.csv;distances.csv;results.json;report.html;simulated_S1.csv;simulated_S2.csv;simulated_S3.csv;simulated_network.toml"
+          "-DFILES=targets.csv;stations.csv;residuals.csv;covariance.csv;tasks.csv;results.json;report.html;simulated_S1.csv;simulated_S2.csv;simulated_S3.csv;simulated_network.toml"
           "-DEXPECT_STDOUT=Planned network 'wing-network-plan': 3 stations, 18 targets, 159 observations, 72 unknowns, dof 87; chi2 [0-9.e-]+, Birge ratio 0[.]000, 0 outliers; largest \\|U\\| [(]k = 1[.]96[)] [0-9.]+ um at"
-          "-DJSON_KEYS=schema;created;vlt_version;vlt_commit;units;job;summary;stations;targets;distances;files"
+          "-DJSON_KEYS=schema;created;vlt_version;vlt_commit;units;job;summary;stations;targets;tasks;files"
           -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
 set_tests_properties(cli_network_plan PROPERTIES FIXTURES_SETUP vlt_network_plan)
 add_test(NAME cli_network_simulated
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
           "-DARGS=network;${_out}/network_plan/simulated_network.toml;-o;${_out}/network_simulated"
           -DOUT=${_out}/network_simulated
-          "-DFILES=targets.csv;stations.csv;residuals.csv;covariance.csv;distances.csv;results.json;report.html"
+          "-DFILES=targets.csv;stations.csv;residuals.csv;covariance.csv;tasks.csv;results.json;report.html"
           "-DEXPECT_STDOUT=Measured network 'wing-network-plan-simulated-7': 3 stations, 18 targets, 159 observations, 72 unknowns, dof 87; chi2 [0-9.]+, Birge ratio [0-9.]+"
-          "-DJSON_KEYS=schema;created;vlt_version;vlt_commit;units;job;summary;stations;targets;distances;files"
+          "-DJSON_KEYS=schema;created;vlt_version;vlt_commit;units;job;summary;stations;targets;tasks;files"
           -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
 set_tests_properties(cli_network_simulated PROPERTIES FIXTURES_REQUIRED vlt_network_plan FIXTURES_SETUP vlt_network_simulated)
 add_test(NAME report_browser_network
@@ -44,7 +44,8 @@ vlt_network_error(unknown_target unknown_target.toml "unknown_target\\.toml: sta
 vlt_network_error(mixed mixed.toml "mixed\\.toml: station\\[1\\]: every station gives readings .* not a mix")
 vlt_network_error(collinear collinear.toml "collinear\\.toml: datum: the references do not fix the part frame")
 vlt_network_error(unknown_input unknown_input.toml "unknown_input\\.toml: network\\.self_calibrate: unknown input 'tmv'")
-vlt_network_error(unknown_distance unknown_distance.toml "unknown_distance\\.toml: distance\\[0\\]: no station reads target 'W99'")
+vlt_network_error(unknown_task_target unknown_distance.toml
+                  "unknown_distance\\.toml: task\\[0\\]\\.points: task 'd': point 'W99' not measured")
 add_test(NAME cli_error_network_simulate_online
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
           "-DARGS=network;${_out}/network_plan/simulated_network.toml;--simulate;3;-o;${_out}/error_network_simulate_online"

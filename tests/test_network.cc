@@ -140,6 +140,22 @@ TEST(Network, OneStationIsTheSingleStationGum) {
   for (int k = 0; k < model.num_shared(); ++k) u(k) = model.shared_inputs()[k].u;
   const Eigen::Matrix3d cross = ja * model.shared_correlation().cwiseProduct(u * u.transpose()) * jb.transpose();
   EXPECT_LT((r.covariance.block<3, 3>(a, b) - cross).norm(), 1e-9 * cross.norm());
+
+  // Tasks over the targets: the GUM's task propagation of the same readings (PropagateTask).
+  std::vector<TaskSpec> tasks(2);
+  tasks[0].name = "plane";
+  tasks[0].kind = TaskKind::kPlane;
+  tasks[0].points = {"T0", "T2", "T4", "T6", "T9", "T11"};
+  tasks[1].name = "span";
+  tasks[1].kind = TaskKind::kDistance;
+  tasks[1].points = {"T1", "T7"};
+  const std::vector<NetworkTaskResult> network_tasks = NetworkTasks(tasks, r, "net.toml");
+  for (std::size_t i = 0; i < tasks.size(); ++i) {
+    const TaskUncertainty gum_task = PropagateTask(model, points, tasks[i]);
+    ASSERT_EQ(gum_task.value.size(), network_tasks[i].value.size());
+    EXPECT_LT((network_tasks[i].value - gum_task.value).norm(), 1e-10);
+    EXPECT_LT((network_tasks[i].covariance - gum_task.covariance).norm(), 1e-8 * gum_task.covariance.norm()) << tasks[i].name;
+  }
 }
 
 // The covariance is the linear propagation of every input through the adjustment itself:

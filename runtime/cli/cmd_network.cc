@@ -34,7 +34,7 @@ void AddNetworkCommand(CLI::App& app, GlobalOptions& global) {
                       "Threads of the Monte Carlo validation ([network.monte_carlo]; 0: all; results do not depend on it)")
       ->check(CLI::Range(0, 1024));
   command->footer("Exit status: 0 success, 2 bad input or no solution (one line on stderr; no output file is written).\n"
-                  "Outputs: targets.csv, stations.csv, residuals.csv, covariance.csv, distances.csv ([[distance]]),\n"
+                  "Outputs: targets.csv, stations.csv, residuals.csv, covariance.csv, tasks.csv ([[task]]),\n"
                   "parameters.csv (self-calibration), mcm.csv ([network.monte_carlo]), results.json.");
   command->callback([file, output_arg, simulate, threads, &global] {
     const NetworkJob job = LoadNetworkJob(*file);
@@ -51,7 +51,8 @@ void AddNetworkCommand(CLI::App& app, GlobalOptions& global) {
     if (job.monte_carlo_trials > 0) {
       mc = ValidateNetworkByMonteCarlo(job.network, result, job.monte_carlo_trials, job.monte_carlo_seed, *threads);
     }
-    auto files = network_outputs::NetworkFiles(job, result, RunCreatedTime(), mc ? &*mc : nullptr);
+    const std::vector<NetworkTaskResult> tasks = NetworkTasks(job.tasks, result, job.file);
+    auto files = network_outputs::NetworkFiles(job, result, tasks, RunCreatedTime(), mc ? &*mc : nullptr);
     if (*simulate >= 0) {
       const Network simulated = SimulateNetwork(job.network, job.nominal, static_cast<std::uint64_t>(*simulate));
       for (auto& f : network_outputs::SimulatedNetworkFiles(job, simulated, static_cast<std::uint64_t>(*simulate))) {

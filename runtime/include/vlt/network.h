@@ -17,10 +17,14 @@
 #include <string>
 #include <vector>
 
+#include <optional>
+
 #include <Eigen/Core>
 
 #include "vlt/calibration.h"
+#include "vlt/conformity.h"
 #include "vlt/measurement_model.h"
+#include "vlt/tasks.h"
 
 namespace vlt {
 
@@ -165,23 +169,35 @@ struct NetworkMonteCarlo {
 NetworkMonteCarlo ValidateNetworkByMonteCarlo(const Network& network, const NetworkResult& result, int trials,
                                               std::uint64_t seed, int threads = 0);
 
+// Tasks over adjusted targets (distances, planes, circles, spheres, lines, vlt/fits.h), whatever
+// station read them: value = FitTask of the adjusted coordinates, covariance G C Gᵀ with C the
+// joint covariance of the targets involved (their correlation through the adjustment and the
+// consider parameters), G = d value / d coordinates. InputError for an unknown target.
+struct NetworkTaskResult {
+  std::string name;
+  TaskKind kind = TaskKind::kDistance;
+  std::vector<std::string> quantities, units;
+  Eigen::VectorXd value, u, U;                 // SI; u = U = 0 where not differentiable
+  Eigen::MatrixXd covariance;
+  std::vector<bool> differentiable;
+  std::vector<std::optional<ConformityDecision>> conformity;  // per quantity with a tolerance
+  std::vector<std::string> tolerance;          // DescribeTolerance, "" without one
+};
+std::vector<NetworkTaskResult> NetworkTasks(const std::vector<TaskSpec>& tasks, const NetworkResult& result,
+                                            const std::string& where);
+
 // ---------------------------------------------------------------------------------------------
 // The network file (TOML, docs/network.md): [job], [tracker] and [environment] as in a job,
 // [network] settings, [datum], [[reference]], [[station]] with its pose and either its readings
-// (online) or the targets it sees (offline, with [targets] nominal coordinates), [[distance]].
+// (online) or the targets it sees (offline, with [targets] nominal coordinates), [[task]].
 
-// A distance between two adjusted targets (measured from the same or from different stations):
-// its uncertainty carries the targets' correlation through the adjustment.
-struct NetworkDistance {
-  std::string from, to, where;
-};
 
 struct NetworkJob {
   std::string file, name, description;
   Network network;
   bool offline = false;                   // stations `sees` targets of [targets]
   std::vector<std::pair<std::string, Eigen::Vector3d>> nominal;  // offline: [targets], part frame
-  std::vector<NetworkDistance> distances;
+  std::vector<TaskSpec> tasks;            // [[task]] over target names (as in a job)
   std::vector<std::pair<std::string, std::string>> input_files;  // (role, path): the file, CSVs
   std::vector<std::string> warnings;
   std::string output_directory;           // [output] directory, "" = default

@@ -32,7 +32,7 @@ NetworkJob LoadNetworkJob(const std::string& path) {
   const std::string text = ReadTextFile(path, "the network file");
   toml::table root = ParseToml(text, path);
   Section top(root, path, "");
-  top.set_hint("job, tracker, environment, correlations, network, datum, reference, targets, station, distance, output");
+  top.set_hint("job, tracker, environment, correlations, network, datum, reference, targets, station, task, output");
   NetworkJob job;
   job.file = path;
   job.text = text;
@@ -215,19 +215,9 @@ NetworkJob LoadNetworkJob(const std::string& path) {
     if (!(ref.u > 0.0) || !std::isfinite(ref.u)) throw InputError(s.Where("u") + ": must be positive");
     net.references.push_back(ref);
   });
-  ForEachTable(top, path, "distance", [&](Section& s) {
-    s.set_hint("from, to");
-    NetworkDistance d;
-    d.where = s.WhereSelf();
-    d.from = AsString(s.Require("from"), s.Where("from"));
-    d.to = AsString(s.Require("to"), s.Where("to"));
-    if (d.from == d.to) throw InputError(s.Where("to") + ": a distance needs two different targets");
-    job.distances.push_back(d);
-  });
   OutputSettings output;
   ReadOutput(top, output);
   job.output_directory = output.directory;
-  top.Finish();
 
   if (job.offline) {
     for (std::size_t i = 0; i < net.stations.size(); ++i) {
@@ -238,14 +228,18 @@ NetworkJob LoadNetworkJob(const std::string& path) {
     }
     PlanNetworkReadings(net, job.nominal, sees);
   }
+  // [[task]] as in a job, over the targets the stations read (in order of first reading).
+  Job tasks;
+  tasks.file = path;
   std::set<std::string> read;
-  for (const NetworkStation& st : net.stations)
-    for (const TargetReading& r : st.readings) read.insert(r.target);
-  for (const NetworkDistance& d : job.distances) {
-    for (const std::string* name : {&d.from, &d.to}) {
-      if (!read.count(*name)) throw InputError(d.where + ": no station reads target '" + *name + "'");
+  for (const NetworkStation& st : net.stations) {
+    for (const TargetReading& r : st.readings) {
+      if (read.insert(r.target).second) tasks.points.push_back({r.target, Face::kFront, {}, {}, r.where});
     }
   }
+  ReadTasks(top, tasks);
+  job.tasks = tasks.tasks;
+  top.Finish();
   return job;
 }
 

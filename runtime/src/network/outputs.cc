@@ -37,7 +37,7 @@ constexpr double kArcsec = std::numbers::pi / (180.0 * 3600.0);
 // report.html: the network in 3-D (stations, targets coloured by |U|, lines of sight, the axes of
 // every target's coverage ellipsoid, exaggerated), then the tables a metrologist signs.
 std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, const NetworkMonteCarlo* mc,
-                          const std::vector<DistanceResult>& distances) {
+                          const std::vector<NetworkTaskResult>& tasks) {
   using internal::HtmlEscape;
   std::ostringstream body, script;
   body << "<section><h2>Adjustment</h2><table>"
@@ -141,12 +141,22 @@ std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, co
     body << "</td><td>" << st.readings << "</td></tr>";
   }
   body << "</table></section>\n";
-  if (!distances.empty()) {
-    body << "<section><h2>Distances</h2><p class=\"note\">Between adjusted targets, with the correlation of the two targets through the "
-            "adjustment.</p><table><tr><th class=\"l\">from</th><th class=\"l\">to</th><th>length / m</th><th>u / um</th><th>U / um</th></tr>";
-    for (const DistanceResult& d : distances) {
-      body << "<tr><td class=\"l\">" << HtmlEscape(d.from) << "</td><td class=\"l\">" << HtmlEscape(d.to) << "</td><td>" << Fixed(d.length, 7)
-           << "</td><td>" << Fixed(d.u * 1e6, 2) << "</td><td>" << Fixed(d.U * 1e6, 2) << "</td></tr>";
+  if (!tasks.empty()) {
+    body << "<section><h2>Tasks</h2><p class=\"note\">Over adjusted targets, whichever station read them, with their joint covariance "
+            "through the adjustment (G C G<sup>T</sup>); lengths in um, directions dimensionless. n/a: no GUM value (a form quantity of points "
+            "that fit exactly).</p><table><tr><th class=\"l\">task</th><th class=\"l\">quantity</th><th>value</th><th>u</th><th>U</th>"
+            "<th class=\"l\">unit</th><th class=\"l\">tolerance</th><th class=\"l\">decision (ISO 14253-1)</th></tr>";
+    for (const NetworkTaskResult& t : tasks) {
+      for (std::size_t q = 0; q < t.quantities.size(); ++q) {
+        const bool length = t.units[q] == "m";
+        const double f = length ? 1e6 : 1.0;
+        body << "<tr><td class=\"l\">" << HtmlEscape(t.name) << "</td><td class=\"l\">" << HtmlEscape(t.quantities[q]) << "</td><td>"
+             << (length ? Fixed(t.value(q) * 1e6, 1) : Fixed(t.value(q), 8)) << "</td><td>"
+             << (t.differentiable[q] ? internal::Sig(t.u(q) * f, 3) : "n/a") << "</td><td>"
+             << (t.differentiable[q] ? internal::Sig(t.U(q) * f, 3) : "n/a") << "</td><td class=\"l\">" << (length ? "um" : "1")
+             << "</td><td class=\"l\">" << HtmlEscape(t.tolerance[q]) << "</td><td class=\"l\">"
+             << (t.conformity[q] ? HtmlEscape(t.conformity[q]->verdict) : "") << "</td></tr>";
+      }
     }
     body << "</table></section>\n";
   }
@@ -183,39 +193,11 @@ std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, co
                       body.str(), script.str());
 }
 
-int TargetIndex(const NetworkResult& result, const std::string& name) {
-  for (std::size_t t = 0; t < result.targets.size(); ++t) {
-    if (result.targets[t].name == name) return static_cast<int>(t);
-  }
-  return -1;
-}
 
 }  // namespace
 
-std::vector<DistanceResult> Distances(const NetworkJob& job, const NetworkResult& result) {
-  std::vector<DistanceResult> out;
-  for (const NetworkDistance& d : job.distances) {
-    const int a = TargetIndex(result, d.from), b = TargetIndex(result, d.to);
-    const Eigen::Vector3d delta = result.targets[b].position - result.targets[a].position;
-    DistanceResult r{d.from, d.to, delta.norm(), 0.0, 0.0};
-    const Eigen::Vector3d n = delta / r.length;
-    Eigen::Matrix<double, 6, 1> g;
-    g << -n, n;
-    Eigen::Matrix<double, 6, 6> c;
-    const int oa = result.target_offset[a], ob = result.target_offset[b];
-    c.block<3, 3>(0, 0) = result.covariance.block<3, 3>(oa, oa);
-    c.block<3, 3>(0, 3) = result.covariance.block<3, 3>(oa, ob);
-    c.block<3, 3>(3, 0) = result.covariance.block<3, 3>(ob, oa);
-    c.block<3, 3>(3, 3) = result.covariance.block<3, 3>(ob, ob);
-    r.u = std::sqrt(std::max(0.0, g.dot(c * g)));
-    r.U = result.k * r.u;
-    out.push_back(r);
-  }
-  return out;
-}
-
-Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std::string& created,
-                   const NetworkMonteCarlo* mc) {
+Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std::vector<NetworkTaskResult>& tasks,
+                   const std::string& created, const NetworkMonteCarlo* mc) {
   Files files;
   // targets.csv
   {
@@ -272,15 +254,26 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std
     }
     files.emplace_back("covariance.csv", s);
   }
-  const std::vector<DistanceResult> distances = Distances(job, result);
-  if (!distances.empty()) {
-    std::string s = "from,to,length_m,u_m,U_m\n";
-    for (const DistanceResult& d : distances) {
-      s += Csv(d.from) + "," + Csv(d.to);
-      for (double v : {d.length, d.u, d.U}) { s += ','; AppendNum(s, v); }
-      s += '\n';
+  if (!tasks.empty()) {
+    std::string s = "task,kind,quantity,unit,value,u,U,differentiable,tolerance,decision,probability_of_conformity\n";
+    for (const NetworkTaskResult& t : tasks) {
+      for (std::size_t q = 0; q < t.quantities.size(); ++q) {
+        s += Csv(t.name) + "," + std::string(TaskKindName(t.kind)) + "," + t.quantities[q] + "," + t.units[q];
+        for (double v : {t.value(q), t.u(q), t.U(q)}) { s += ','; AppendNum(s, v); }
+        s += t.differentiable[q] ? ",true," : ",false,";
+        s += Csv(t.tolerance[q]);
+        s += ',';
+        if (t.conformity[q]) {
+          s += Csv(t.conformity[q]->verdict);
+          s += ',';
+          if (t.conformity[q]->probability_gum) AppendNum(s, *t.conformity[q]->probability_gum);
+        } else {
+          s += ',';
+        }
+        s += '\n';
+      }
     }
-    files.emplace_back("distances.csv", s);
+    files.emplace_back("tasks.csv", s);
   }
   if (mc) {
     std::string s = "name,u_x_gum_m,u_y_gum_m,u_z_gum_m,u_x_mcm_m,u_y_mcm_m,u_z_mcm_m,bias_x_m,bias_y_m,bias_z_m\n";
@@ -303,7 +296,7 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std
     }
     files.emplace_back("parameters.csv", s);
   }
-  files.emplace_back("report.html", NetworkReport(job, result, mc, distances));
+  files.emplace_back("report.html", NetworkReport(job, result, mc, tasks));
   // results.json (schema vlt-network/1, docs/network.md).
   nlohmann::ordered_json j;
   j["schema"] = "vlt-network/1";
@@ -363,9 +356,26 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std
                       {"estimate", p.estimate}, {"u", p.u}, {"u_over_prior", p.u / p.prior_u}});
   }
   j["parameters"] = params;
-  nlohmann::ordered_json dist = nlohmann::ordered_json::array();
-  for (const DistanceResult& d : distances) dist.push_back({{"from", d.from}, {"to", d.to}, {"length", d.length}, {"u", d.u}, {"U", d.U}});
-  j["distances"] = dist;
+  nlohmann::ordered_json task_json = nlohmann::ordered_json::array();
+  for (const NetworkTaskResult& t : tasks) {
+    nlohmann::ordered_json quantities = nlohmann::ordered_json::array();
+    for (std::size_t q = 0; q < t.quantities.size(); ++q) {
+      nlohmann::ordered_json o = {{"name", t.quantities[q]}, {"unit", t.units[q]}, {"value", t.value(q)},
+                                  {"differentiable", static_cast<bool>(t.differentiable[q])}};
+      if (t.differentiable[q]) {
+        o["u"] = t.u(q);
+        o["U"] = t.U(q);
+      }
+      if (!t.tolerance[q].empty()) o["tolerance"] = t.tolerance[q];
+      if (t.conformity[q]) {
+        o["decision"] = t.conformity[q]->verdict;
+        if (t.conformity[q]->probability_gum) o["probability_of_conformity"] = *t.conformity[q]->probability_gum;
+      }
+      quantities.push_back(o);
+    }
+    task_json.push_back({{"name", t.name}, {"kind", std::string(TaskKindName(t.kind))}, {"quantities", quantities}});
+  }
+  j["tasks"] = task_json;
   if (mc) {
     j["monte_carlo"] = {{"trials", mc->trials}, {"seed", mc->seed}, {"tolerance", mc->tolerance},
                         {"worst_ratio", mc->worst_ratio}, {"worst", mc->worst}, {"agrees", mc->agrees}};

@@ -13,20 +13,11 @@ namespace vlt::network_outputs {
 
 using Files = std::vector<std::pair<std::string, std::string>>;
 
-// A distance between adjusted targets with its GUM uncertainty (vlt/network.h NetworkDistance).
-struct DistanceResult {
-  std::string from, to;
-  double length = 0.0, u = 0.0, U = 0.0;   // [m]
-};
-// d = |x_b - x_a|, u^2 = g^T C g over the 6 coordinates (C from the full covariance: the two
-// targets' correlation through the adjustment), g = (-n, n), n = (x_b - x_a) / d.
-std::vector<DistanceResult> Distances(const NetworkJob& job, const NetworkResult& result);
-
-// targets.csv, stations.csv, residuals.csv, covariance.csv, distances.csv (with [[distance]]),
-// parameters.csv (with self-calibration), results.json.
+// targets.csv, stations.csv, residuals.csv, covariance.csv, tasks.csv (with [[task]]: the
+// results of NetworkTasks), parameters.csv (with self-calibration), results.json, report.html.
 // With a Monte Carlo validation (`mc` not null) also mcm.csv.
-Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std::string& created,
-                   const NetworkMonteCarlo* mc = nullptr);
+Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std::vector<NetworkTaskResult>& tasks,
+                   const std::string& created, const NetworkMonteCarlo* mc = nullptr);
 
 // An offline network's simulated measurement (SimulateNetwork, truth = [targets] and the
 // stations' poses): simulated_<station>.csv per station (the readings, SI: m, rad) and
