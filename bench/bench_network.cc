@@ -31,15 +31,17 @@ BenchNetwork MakeBenchNetwork(int stations, int targets) {
   Network& net = b.network;
   net.where = "bench";
   const ModelInfo* model = FindModel("head");
-  net.instrument.model = model;
+  MeasurementSetup tracker;
+  tracker.model = model;
   for (int k = 0; k < model->num_params; ++k) {
     UncertainInput in;
     in.name = model->params[k].name;
     in.unit = model->params[k].unit;
     in.u = model->params[k].default_u;
-    net.instrument.params.push_back(in);
+    tracker.params.push_back(in);
   }
-  net.instrument.noise = {1.0e-6, 0.4e-6, 2.4e-6, 2.4e-6};
+  tracker.noise = {1.0e-6, 0.4e-6, 2.4e-6, 2.4e-6};
+  net.instruments = {{"tracker", tracker}};
   // Targets: a deterministic low-discrepancy (Halton 2, 3, 5) fill of the part.
   auto halton = [](int i, int base) {
     double f = 1.0, r = 0.0;

@@ -31,6 +31,15 @@ add_test(NAME report_browser_network
           -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
 set_tests_properties(report_browser_network PROPERTIES FIXTURES_REQUIRED vlt_network_simulated TIMEOUT 300)
 
+add_test(NAME cli_network_two_instruments
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_cli}/network/two_instruments.toml;-o;${_out}/network_two_instruments"
+          -DOUT=${_out}/network_two_instruments
+          "-DFILES=targets.csv;stations.csv;residuals.csv;covariance.csv;parameters.csv;results.json;report.html"
+          "-DEXPECT_STDOUT=Planned network 'two-instruments': 3 stations, 18 targets, 164 observations, 68 unknowns, dof 96"
+          "-DJSON_KEYS=schema;created;vlt_version;vlt_commit;units;job;summary;stations;targets;parameters;tasks;files"
+          -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
+
 function(vlt_network_error name file regex)
   add_test(NAME cli_error_network_${name}
     COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
@@ -46,6 +55,8 @@ vlt_network_error(collinear collinear.toml "collinear\\.toml: datum: the referen
 vlt_network_error(unknown_input unknown_input.toml "unknown_input\\.toml: network\\.self_calibrate: unknown input 'tmv'")
 vlt_network_error(unknown_task_target unknown_distance.toml
                   "unknown_distance\\.toml: task\\[0\\]\\.points: task 'd': point 'W99' not measured")
+vlt_network_error(missing_instrument missing_instrument.toml
+                  "missing_instrument\\.toml: station\\[2\\]\\.instrument: required key is missing [(]the network has several instruments[)]")
 add_test(NAME cli_error_network_simulate_online
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
           "-DARGS=network;${_out}/network_plan/simulated_network.toml;--simulate;3;-o;${_out}/error_network_simulate_online"

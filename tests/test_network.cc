@@ -2,6 +2,7 @@
 // the planned truth, the single-station GUM, finite differences of the adjustment itself, and
 // simulations with a known truth over many seeds (coverage, Birge ratio, self-calibration).
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 
 #include <Eigen/Cholesky>
@@ -21,12 +22,13 @@ using TargetList = std::vector<std::pair<std::string, Eigen::Vector3d>>;
 
 // 12 targets over a 6 m x 3 m x 1.5 m part (a fuselage section's tooling balls).
 TargetList Targets() {
-  TargetList t;
-  int i = 0;
+  std::vector<Eigen::Vector3d> positions;
   for (double x : {0.0, 2.0, 4.0, 6.0})
-    for (double y : {0.0, 3.0})
-      t.emplace_back("T" + std::to_string(i++), Eigen::Vector3d(x, y, 0.2 + 0.5 * std::fmod(x, 4.0) / 2.0));
-  for (double x : {1.0, 3.0, 5.0, 2.5}) t.emplace_back("T" + std::to_string(i++), Eigen::Vector3d(x, 1.5, x == 2.5 ? 1.7 : 1.2));
+    for (double y : {0.0, 3.0}) positions.emplace_back(x, y, 0.2 + 0.5 * std::fmod(x, 4.0) / 2.0);
+  for (double x : {1.0, 3.0, 5.0, 2.5}) positions.emplace_back(x, 1.5, x == 2.5 ? 1.7 : 1.2);
+  static const char* const kNames[12] = {"T0", "T1", "T2", "T3", "T4", "T5", "T6", "T7", "T8", "T9", "T10", "T11"};
+  TargetList t;
+  for (std::size_t i = 0; i < positions.size(); ++i) t.emplace_back(kNames[i], positions[i]);
   return t;
 }
 
@@ -41,7 +43,7 @@ StationPoseVector Pose(double rz_deg, double tx, double ty, double tz, double rx
 Network MakeNetwork(bool datum_station, int stations = 3, const TargetList& targets = Targets()) {
   Network net;
   net.where = "net.toml";
-  net.instrument = test::SimulatedTracker("head", 0.0, 1);
+  net.instruments = {{"tracker", test::SimulatedTracker("head", 0.0, 1)}};
   const StationPoseVector poses[3] = {Pose(10, -3.0, 1.0, 0.1, 0.0005, -0.0003), Pose(175, 9.0, 2.0, 0.3),
                                       Pose(95, 3.0, -5.0, -0.2, -0.0002, 0.0004)};
   std::vector<std::vector<PlannedSighting>> sees;
@@ -101,14 +103,14 @@ TEST(Network, OneStationIsTheSingleStationGum) {
     in.u = u;
     return in;
   };
-  net.instrument.environment = Environment{};
-  net.instrument.environment->temperature = input("environment.temperature", "degC", 20.0, 0.2);
-  net.instrument.environment->pressure = input("environment.pressure", "Pa", 101325.0, 50.0);
-  net.instrument.environment->humidity = input("environment.humidity", "%", 50.0, 5.0);
-  net.instrument.environment->co2 = input("environment.co2", "1", 450e-6, 50e-6);
+  net.instruments[0].setup.environment = Environment{};
+  net.instruments[0].setup.environment->temperature = input("environment.temperature", "degC", 20.0, 0.2);
+  net.instruments[0].setup.environment->pressure = input("environment.pressure", "Pa", 101325.0, 50.0);
+  net.instruments[0].setup.environment->humidity = input("environment.humidity", "%", 50.0, 5.0);
+  net.instruments[0].setup.environment->co2 = input("environment.co2", "1", 450e-6, 50e-6);
   const NetworkResult r = AdjustNetwork(net);
   // The single-station job: the same instrument and a [station] pose known exactly.
-  MeasurementSetup single = net.instrument;
+  MeasurementSetup single = net.instruments[0].setup;
   const StationPoseVector& pose = net.stations[0].pose;
   single.pose = StationPose{};
   UncertainInput* pose_inputs[6] = {&single.pose->rx, &single.pose->ry, &single.pose->rz,
@@ -175,7 +177,7 @@ TEST(Network, CovarianceIsTheFiniteDifferencePropagation) {
   };
   const int m = 3 * static_cast<int>(targets.size());
   Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(m, m);
-  MeasurementModel model(net.instrument);
+  MeasurementModel model(net.instruments[0].setup);
   // Readings: u from the reading noise at the range.
   for (std::size_t i = 0; i < net.stations.size(); ++i) {
     for (std::size_t j = 0; j < net.stations[i].readings.size(); ++j) {
@@ -199,12 +201,12 @@ TEST(Network, CovarianceIsTheFiniteDifferencePropagation) {
     }
   }
   // Shared inputs: moving the instrument's estimate at fixed readings.
-  for (std::size_t k = 0; k < net.instrument.params.size(); ++k) {
-    const double u = net.instrument.params[k].u;
+  for (std::size_t k = 0; k < net.instruments[0].setup.params.size(); ++k) {
+    const double u = net.instruments[0].setup.params[k].u;
     if (u == 0.0) continue;
     Network plus = net, minus = net;
-    plus.instrument.params[k].estimate += 0.1 * u;
-    minus.instrument.params[k].estimate -= 0.1 * u;
+    plus.instruments[0].setup.params[k].estimate += 0.1 * u;
+    minus.instruments[0].setup.params[k].estimate -= 0.1 * u;
     const Eigen::VectorXd d = (solution(plus) - solution(minus)) / 0.2;
     cov += d * d.transpose();
   }
@@ -241,6 +243,8 @@ TEST(Network, CoverageOfTheAdjustedTargetsWithAKnownTruth) {
     sum_birge2 += r.birge_ratio * r.birge_ratio;
   }
   const double fraction = static_cast<double>(inside) / total;
+  std::printf("coverage %d / %d = %.4f, mean d2 %.3f, mean Birge^2 %.3f\n", inside, total, fraction, sum_d2 / points,
+              sum_birge2 / seeds);
   // The targets of one seed share the instrument's errors: ~ seeds x (a few) independent draws.
   EXPECT_NEAR(fraction, 0.95, 0.025) << inside << " / " << total;
   EXPECT_NEAR(sum_d2 / points, 3.0, 0.45);
@@ -256,14 +260,14 @@ TEST(Network, CoverageOfTheAdjustedTargetsWithAKnownTruth) {
 TEST(Network, SelfCalibrationRecoversTheTrueParameters) {
   const TargetList truth = Targets();
   Network plan = MakeNetwork(false);
-  for (const UncertainInput& p : plan.instrument.params) plan.self_calibrate.push_back(p.name);
+  for (const UncertainInput& p : plan.instruments[0].setup.params) plan.self_calibrate.push_back(p.name);
   int inside = 0, total = 0;
   double sum_d2 = 0.0, sum_birge2 = 0.0;
   for (int seed = 1; seed <= 200; ++seed) {
     Eigen::VectorXd s_true;
     const Network sim = SimulateNetwork(plan, truth, static_cast<std::uint64_t>(seed), &s_true);
     const NetworkResult r = AdjustNetwork(sim);
-    ASSERT_EQ(r.parameters.size(), plan.instrument.params.size());
+    ASSERT_EQ(r.parameters.size(), plan.instruments[0].setup.params.size());
     for (std::size_t k = 0; k < r.parameters.size(); ++k) {
       const double d = r.parameters[k].estimate - s_true(static_cast<Eigen::Index>(k));
       inside += std::abs(d) <= r.k * r.parameters[k].u ? 1 : 0;
@@ -274,12 +278,51 @@ TEST(Network, SelfCalibrationRecoversTheTrueParameters) {
   }
   // Every systematic effect is now estimated: chi-square follows its degrees of freedom.
   EXPECT_NEAR(sum_birge2 / 200, 1.0, 0.05);
+  std::printf("self-calibration coverage %d / %d = %.4f, mean (d/u)^2 %.3f, mean Birge^2 %.3f\n", inside, total,
+              static_cast<double>(inside) / total, sum_d2 / total, sum_birge2 / 200);
   EXPECT_NEAR(static_cast<double>(inside) / total, 0.95, 0.02) << inside << " / " << total;
   EXPECT_NEAR(sum_d2 / total, 1.0, 0.12);
   const NetworkResult r = AdjustNetwork(plan);
   bool sharpened = false;
   for (const CalibratedParameter& p : r.parameters) sharpened |= p.u < 0.5 * p.prior_u;
   EXPECT_TRUE(sharpened);
+}
+
+// Two instruments (a head-model tracker at S1 and S2, a mirror-model tracker at S3), each with
+// its own error parameters: every instrument's errors are drawn from its own priors, and the
+// adjusted targets cover the truth at the coverage probability over 150 seeds; self-calibration
+// names the inputs "<instrument>.<input>".
+TEST(Network, SeveralInstrumentsCoverTheTruth) {
+  const TargetList truth = Targets();
+  Network plan = MakeNetwork(false);
+  plan.instruments.push_back({"B", test::SimulatedTracker("mirror", 0.0, 2)});
+  plan.instruments[0].name = "A";
+  plan.stations[2].instrument = 1;
+  std::vector<std::vector<PlannedSighting>> sees(3);
+  for (const auto& [name, x] : truth) sees[2].push_back({name, Face::kFront, "s"});
+  plan.stations[2].readings.clear();
+  PlanNetworkReadings(plan, truth, {{}, {}, sees[2]});
+  const std::vector<std::string> names = NetworkSharedInputNames(plan);
+  ASSERT_EQ(names.size(), plan.instruments[0].setup.params.size() + plan.instruments[1].setup.params.size());
+  EXPECT_EQ(names.front(), "A.lam");
+  EXPECT_EQ(names.back().substr(0, 2), "B.");
+  int inside = 0, total = 0;
+  for (int seed = 1; seed <= 150; ++seed) {
+    const NetworkResult r = AdjustNetwork(SimulateNetwork(plan, truth, static_cast<std::uint64_t>(seed)));
+    for (const auto& [name, x] : truth) {
+      const AdjustedTarget& t = Find(r, name);
+      for (int c = 0; c < 3; ++c) {
+        inside += std::abs(t.position(c) - x(c)) <= r.k * std::sqrt(t.covariance(c, c)) ? 1 : 0;
+        ++total;
+      }
+    }
+  }
+  std::printf("two instruments: coverage %d / %d = %.4f\n", inside, total, static_cast<double>(inside) / total);
+  EXPECT_NEAR(static_cast<double>(inside) / total, 0.95, 0.03) << inside << " / " << total;
+  plan.self_calibrate = {"A.lam", "B." + std::string(plan.instruments[1].setup.params[0].name)};
+  const NetworkResult r = AdjustNetwork(plan);
+  ASSERT_EQ(r.parameters.size(), 2u);
+  EXPECT_EQ(r.parameters[0].name, "A.lam");
 }
 
 TEST(Network, StructureErrorsNameTheProblem) {

@@ -34,8 +34,17 @@ inline constexpr std::array<const char*, 6> kPoseNames = {"rx", "ry", "rz", "tx"
 
 // R of a pose: PoseRotationMatrix / PoseRotationDerivatives (vlt/measurement_model.h).
 
+// One instrument: a tracker with its error parameters (estimates = its compensation state, u,
+// correlation, or a calibration file), reading noise and air. Its shared inputs (MeasurementModel
+// order, without pose or thermal) are common to every station it occupies.
+struct NetworkInstrument {
+  std::string name;               // "tracker" for the single [tracker] of a file
+  MeasurementSetup setup;
+};
+
 struct NetworkStation {
   std::string name;
+  int instrument = 0;             // index into Network::instruments
   StationPoseVector pose = StationPoseVector::Zero();  // estimate (starting value, plan value)
   bool pose_given = false;        // false: computed from already placed targets (Umeyama)
   StationPoseVector pose_u = StationPoseVector::Zero();  // > 0: a prior on that component
@@ -55,18 +64,21 @@ struct NetworkReference {
 struct Network {
   std::string where;              // the file, for messages
   std::string name;
-  // One instrument moved from station to station: its model, error parameters (estimates = its
-  // compensation state, u and correlation), reading noise and air. No pose or thermal group.
-  MeasurementSetup instrument;
+  // The instruments (one moved from station to station, or several); at least one.
+  std::vector<NetworkInstrument> instruments;
   std::vector<NetworkStation> stations;
   std::vector<NetworkReference> references;
-  // Shared inputs (MeasurementModel::shared_inputs names) estimated from the network with their
-  // prior as a pseudo-observation; every other shared input is a consider parameter.
+  // Shared inputs (NetworkSharedInputNames) estimated from the network with their prior as a
+  // pseudo-observation; every other shared input is a consider parameter.
   std::vector<std::string> self_calibrate;
   double coverage_probability = 0.95;
   double outlier_limit = 3.29;    // |w| above it flags a reading component (Baarda, alpha 0.001)
   int max_iterations = 100;
 };
+
+// The shared inputs of every instrument, in order: each instrument's MeasurementModel names
+// ("lam", "environment.temperature"), prefixed "<instrument>." when the network has several.
+std::vector<std::string> NetworkSharedInputNames(const Network& network);
 
 struct AdjustedStation {
   std::string name;

@@ -32,7 +32,7 @@ NetworkJob LoadNetworkJob(const std::string& path) {
   const std::string text = ReadTextFile(path, "the network file");
   toml::table root = ParseToml(text, path);
   Section top(root, path, "");
-  top.set_hint("job, tracker, environment, correlations, network, datum, reference, targets, station, task, output");
+  top.set_hint("job, tracker, environment, correlations, instrument, network, datum, reference, targets, station, task, output");
   NetworkJob job;
   job.file = path;
   job.text = text;
@@ -42,15 +42,36 @@ NetworkJob LoadNetworkJob(const std::string& path) {
   Job holder;  // the job readers fill a Job
   holder.file = path;
   holder.base_dir = BaseDirectory(path);
-  ReadTracker(top, holder);
-  ReadEnvironment(top, holder);
-  ReadCorrelations(top, holder);
-  if (holder.calibration) job.input_files.emplace_back("calibration", holder.calibration->file);
   Network& net = job.network;
   net.where = path;
   net.name = job.name;
-  net.instrument = holder.setup;
-  job.warnings = holder.warnings;
+  // The instruments: [[instrument]] tables (each with its own [instrument.tracker],
+  // [instrument.environment], [instrument.correlations] read as a job's), or the file's single
+  // [tracker] (+ [environment], [correlations]) named "tracker".
+  auto read_instrument = [&](Section& s, const std::string& name) {
+    Job instrument = holder;
+    ReadTracker(s, instrument);
+    ReadEnvironment(s, instrument);
+    ReadCorrelations(s, instrument);
+    if (instrument.calibration) job.input_files.emplace_back("calibration", instrument.calibration->file);
+    for (const std::string& w : instrument.warnings) job.warnings.push_back(w);
+    net.instruments.push_back({name, instrument.setup});
+  };
+  if (top.Get("instrument")) {
+    if (top.Get("tracker")) throw InputError(top.Where("tracker") + ": give either [tracker] (one instrument) or [[instrument]] tables, not both");
+    ForEachTable(top, path, "instrument", [&](Section& s) {
+      s.set_hint("name, tracker, environment, correlations");
+      const std::string name = AsString(s.Require("name"), s.Where("name"));
+      if (name.empty() || name.find('.') != std::string::npos) throw InputError(s.Where("name") + ": a non-empty name without '.'");
+      for (const NetworkInstrument& other : net.instruments) {
+        if (other.name == name) throw InputError(s.Where("name") + ": instrument '" + name + "' defined twice");
+      }
+      read_instrument(s, name);
+    });
+  } else {
+    read_instrument(top, "tracker");
+  }
+  const bool several = net.instruments.size() > 1;
 
   Section settings = top.Sub("network", false);
   if (settings.exists()) {
@@ -71,9 +92,13 @@ NetworkJob LoadNetworkJob(const std::string& path) {
     if (const toml::node* n = settings.Get("self_calibrate")) {
       const std::string where = settings.Where("self_calibrate");
       if (n->is_boolean()) {
-        // true: every error parameter of the model with a prior u > 0.
+        // true: every error parameter of every instrument with a prior u > 0.
         if (AsBool(*n, where)) {
-          for (const UncertainInput& p : net.instrument.params) if (p.u > 0.0) net.self_calibrate.push_back(p.name);
+          for (const NetworkInstrument& instrument : net.instruments) {
+            for (const UncertainInput& p : instrument.setup.params) {
+              if (p.u > 0.0) net.self_calibrate.push_back(several ? instrument.name + "." + p.name : p.name);
+            }
+          }
         }
       } else if (n->is_array()) {
         for (const toml::node& e : *n->as_array()) net.self_calibrate.push_back(AsString(e, where));
@@ -118,11 +143,21 @@ NetworkJob LoadNetworkJob(const std::string& path) {
   std::vector<std::vector<PlannedSighting>> sees;
   bool any_online = false, any_offline = false;
   ForEachTable(top, path, "station", [&](Section& s) {
-    s.set_hint("name, rx, ry, rz, tx, ty, tz, readings, sees, face");
+    s.set_hint("name, instrument, rx, ry, rz, tx, ty, tz, readings, sees, face");
     NetworkStation st;
     st.where = s.WhereSelf();
     st.name = AsString(s.Require("name"), s.Where("name"));
     if (st.name.empty()) throw InputError(s.Where("name") + ": empty station name");
+    if (const toml::node* n = s.Get("instrument")) {
+      const std::string name = AsString(*n, s.Where("instrument"));
+      st.instrument = -1;
+      for (std::size_t k = 0; k < net.instruments.size(); ++k) {
+        if (net.instruments[k].name == name) st.instrument = static_cast<int>(k);
+      }
+      if (st.instrument < 0) throw InputError(s.Where("instrument") + ": unknown instrument '" + name + "'");
+    } else if (several) {
+      throw InputError(s.Where("instrument") + ": required key is missing (the network has several instruments)");
+    }
     for (int c = 0; c < 6; ++c) {
       const Dimension dim = c < 3 ? Dimension::kAngle : Dimension::kLength;
       UncertainInput in = MakeInput(std::string("pose.") + kPoseNames[c], "pose", dim, 0.0, 0.0);
@@ -148,7 +183,7 @@ NetworkJob LoadNetworkJob(const std::string& path) {
       Job r;
       r.file = path;
       r.base_dir = holder.base_dir;
-      r.setup = holder.setup;
+      r.setup = net.instruments[st.instrument].setup;
       ReadReadings(readings, r);
       for (const JobPoint& p : r.points) st.readings.push_back({p.name, p.face, p.readings, p.where});
       job.input_files.emplace_back("readings csv", r.readings_file);

@@ -16,6 +16,7 @@
 
 #include "vlt/error.h"
 #include "vlt/gum.h"
+#include "network/instruments.h"
 #include "vlt/network.h"
 
 namespace vlt {
@@ -25,24 +26,35 @@ namespace {
 // One reading of a target by a station, prepared at the prior estimates s0 of the shared inputs.
 struct Observation {
   int station = 0, target = 0, reading = 0;  // reading: index into the station's readings
+  int instrument = 0;
   Eigen::Vector3d readings;
   Eigen::Vector3d y0;              // station-frame point at s0 [m]
   Eigen::Vector3d sigma;           // u of range [m], azimuth, elevation [rad]
   Eigen::Matrix3d whitening;       // W = S^-1/2 J_r^-1 (N-2): W^T W = (J_r S J_r^T)^-1
-  Eigen::Matrix<double, 3, Eigen::Dynamic> b;  // W d y / d s at s0 (3 x S)
 };
 
-// The shared inputs' split: estimated (self-calibration) and consider parameters.
+// The stacked shared inputs' split: estimated (self-calibration) and consider parameters.
 struct SharedSplit {
-  std::vector<int> estimated, consider;  // indices into the shared vector
+  std::vector<int> estimated, consider;  // indices into the stacked shared vector
 };
+
+// y and d y / d s (3 x stacked size, zero outside the reading's instrument) of one reading at
+// the stacked shared values s.
+void EvaluateReading(const network_internal::Instruments& instruments, const Observation& obs, const Eigen::VectorXd& s,
+                     Eigen::Vector3d& y, Eigen::Matrix3d& dy_dr, Eigen::MatrixXd& dy_ds) {
+  const int k = obs.instrument, n = instruments.Size(k);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> local(3, n);
+  instruments.models[k].EvaluateWithJacobian(obs.readings.data(), instruments.Segment(k, s), y.data(), dy_dr.data(),
+                                             local.data());
+  dy_ds.setZero(3, s.size());
+  dy_ds.middleCols(instruments.offset[k], n) = local;
+}
 
 // Residual of one reading (N-3): e = W (y(s) - R^T (x - t)), blocks [pose 6, target 3 (, s_E)].
 class ReadingCost : public ceres::CostFunction {
  public:
-  ReadingCost(const MeasurementModel& model, const Observation& obs, const Eigen::VectorXd& s0,
-              const SharedSplit& split)
-      : model_(model), obs_(obs), s0_(s0), split_(split), e_(static_cast<int>(split.estimated.size())) {
+  ReadingCost(const network_internal::Instruments& instruments, const Observation& obs, const SharedSplit& split)
+      : instruments_(instruments), obs_(obs), split_(split), e_(static_cast<int>(split.estimated.size())) {
     set_num_residuals(3);
     mutable_parameter_block_sizes()->push_back(6);
     mutable_parameter_block_sizes()->push_back(3);
@@ -53,13 +65,12 @@ class ReadingCost : public ceres::CostFunction {
     const double* pose = parameters[0];
     const Eigen::Map<const Eigen::Vector3d> x(parameters[1]);
     Eigen::Vector3d y = obs_.y0;
-    Eigen::Matrix<double, 3, Eigen::Dynamic> dy_ds;
+    Eigen::MatrixXd dy_ds;
     if (e_ > 0) {
-      Eigen::VectorXd s = s0_;
+      Eigen::VectorXd s = instruments_.s0;
       for (int k = 0; k < e_; ++k) s(split_.estimated[k]) = parameters[2][k];
       Eigen::Matrix3d dy_dr;
-      dy_ds.resize(3, s.size());
-      model_.EvaluateWithJacobian(obs_.readings.data(), s.data(), y.data(), dy_dr.data(), dy_ds.data());
+      EvaluateReading(instruments_, obs_, s, y, dy_dr, dy_ds);
     }
     const Eigen::Matrix3d rotation = PoseRotationMatrix(pose[0], pose[1], pose[2]);
     const Eigen::Vector3d d = x - Eigen::Vector3d(pose[3], pose[4], pose[5]);
@@ -86,9 +97,8 @@ class ReadingCost : public ceres::CostFunction {
   }
 
  private:
-  const MeasurementModel& model_;
+  const network_internal::Instruments& instruments_;
   const Observation& obs_;
-  const Eigen::VectorXd& s0_;
   const SharedSplit& split_;
   int e_;
 };
@@ -138,15 +148,11 @@ StationPoseVector PoseFromRotation(const Eigen::Matrix3d& r, const Eigen::Vector
 NetworkResult AdjustNetwork(const Network& network) {
   const std::string& file = network.where;
   if (network.stations.empty()) throw InputError(file + ": station: the network has no station");
-  MeasurementSetup setup = network.instrument;
-  setup.pose.reset();
-  setup.thermal.reset();
-  const MeasurementModel model(setup);
-  const int S = model.num_shared();
-  const Eigen::VectorXd s0 = model.shared_estimates();
-  Eigen::VectorXd u_shared(S);
-  for (int k = 0; k < S; ++k) u_shared(k) = model.shared_inputs()[k].u;
-  const Eigen::MatrixXd sigma_shared = u_shared.asDiagonal() * model.shared_correlation() * u_shared.asDiagonal();
+  const network_internal::Instruments instruments = network_internal::MakeInstruments(network);
+  const int S = instruments.size();
+  const Eigen::VectorXd& s0 = instruments.s0;
+  const Eigen::MatrixXd& sigma_shared = instruments.sigma;
+  Eigen::VectorXd u_shared = sigma_shared.diagonal().cwiseSqrt();
 
   // --- Shared inputs: estimated (self-calibration) or considered (N-6).
   SharedSplit split;
@@ -154,8 +160,11 @@ NetworkResult AdjustNetwork(const Network& network) {
     std::vector<bool> estimated(S, false);
     for (const std::string& name : network.self_calibrate) {
       int k = 0;
-      while (k < S && model.shared_inputs()[k].name != name) ++k;
-      if (k == S) throw InputError(file + ": network.self_calibrate: unknown input '" + name + "' of the instrument");
+      while (k < S && instruments.names[k] != name) ++k;
+      if (k == S) {
+        throw InputError(file + ": network.self_calibrate: unknown input '" + name + "' (the instruments' inputs: " +
+                         (S > 0 ? instruments.names[0] : std::string("none")) + (S > 1 ? ", ..." : "") + ")");
+      }
       if (!(u_shared(k) > 0.0)) {
         throw InputError(file + ": network.self_calibrate: '" + name + "' has u = 0: it is known exactly, nothing to calibrate");
       }
@@ -164,9 +173,9 @@ NetworkResult AdjustNetwork(const Network& network) {
     for (int k = 0; k < S; ++k) (estimated[k] ? split.estimated : split.consider).push_back(k);
     for (int a : split.estimated) {
       for (int c : split.consider) {
-        if (model.shared_correlation()(a, c) != 0.0) {
-          throw InputError(file + ": network.self_calibrate: '" + model.shared_inputs()[a].name + "' is correlated with '" +
-                           model.shared_inputs()[c].name + "', which is not self-calibrated: calibrate both or neither");
+        if (instruments.correlation(a, c) != 0.0) {
+          throw InputError(file + ": network.self_calibrate: '" + instruments.names[a] + "' is correlated with '" +
+                           instruments.names[c] + "', which is not self-calibrated: calibrate both or neither");
         }
       }
     }
@@ -198,17 +207,17 @@ NetworkResult AdjustNetwork(const Network& network) {
       obs.target = it->second;
       obs.reading = r;
       obs.readings = reading.readings;
+      obs.instrument = st.instrument;
       Eigen::Matrix3d dy_dr;
-      Eigen::Matrix<double, 3, Eigen::Dynamic> dy_ds(3, S);
-      model.EvaluateWithJacobian(obs.readings.data(), s0.data(), obs.y0.data(), dy_dr.data(), dy_ds.data());
-      obs.sigma = model.reading_uncertainty(obs.readings(0));
+      Eigen::MatrixXd dy_ds;
+      EvaluateReading(instruments, obs, s0, obs.y0, dy_dr, dy_ds);
+      obs.sigma = instruments.models[obs.instrument].reading_uncertainty(obs.readings(0));
       Eigen::FullPivLU<Eigen::Matrix3d> lu(dy_dr);
       if (!lu.isInvertible() || !(obs.sigma.minCoeff() > 0.0)) {
         throw InputError(reading.where + ": the reading of '" + reading.target + "' carries no weight (singular reading "
                          "Jacobian or zero reading noise: give [tracker.noise])");
       }
       obs.whitening = obs.sigma.cwiseInverse().asDiagonal() * lu.inverse();
-      obs.b = obs.whitening * dy_ds;
       if (!obs.y0.allFinite() || !obs.whitening.allFinite()) throw InputError(reading.where + ": reading gives no finite point");
       target_stations[obs.target].insert(i);
       ++target_readings[obs.target];
@@ -353,7 +362,7 @@ NetworkResult AdjustNetwork(const Network& network) {
   problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
   for (const Observation& obs : observations) {
-    auto* cost = new ReadingCost(model, obs, s0, split);
+    auto* cost = new ReadingCost(instruments, obs, split);
     if (E > 0) problem.AddResidualBlock(cost, nullptr, pose[obs.station].data(), x[obs.target].data(), s_est.data());
     else problem.AddResidualBlock(cost, nullptr, pose[obs.station].data(), x[obs.target].data());
   }
@@ -438,7 +447,7 @@ NetworkResult AdjustNetwork(const Network& network) {
   for (int k = 0; k < E; ++k) s_hat(split.estimated[k]) = s_est(k);
   for (std::size_t o = 0; o < observations.size(); ++o) {
     const Observation& obs = observations[o];
-    ReadingCost cost(model, obs, s0, split);
+    ReadingCost cost(instruments, obs, split);
     const double* params[3] = {pose[obs.station].data(), x[obs.target].data(), s_est.data()};
     Eigen::Matrix<double, 3, 6, Eigen::RowMajor> jp;
     Eigen::Matrix<double, 3, 3, Eigen::RowMajor> jx;
@@ -453,8 +462,8 @@ NetworkResult AdjustNetwork(const Network& network) {
     // Consider columns: W d y / d s_c at the solution's shared values (N-6).
     Eigen::Vector3d y;
     Eigen::Matrix3d dy_dr;
-    Eigen::Matrix<double, 3, Eigen::Dynamic> dy_ds(3, S);
-    model.EvaluateWithJacobian(obs.readings.data(), s_hat.data(), y.data(), dy_dr.data(), dy_ds.data());
+    Eigen::MatrixXd dy_ds;
+    EvaluateReading(instruments, obs, s_hat, y, dy_dr, dy_ds);
     b_consider[o].resize(3, C);
     for (int c = 0; c < C; ++c) b_consider[o].col(c) = obs.whitening * dy_ds.col(split.consider[c]);
     // Scatter into the normal matrix.
@@ -557,7 +566,7 @@ NetworkResult AdjustNetwork(const Network& network) {
     result.target_offset.push_back(target_start + 3 * t);
     for (int c = 0; c < 3; ++c) result.unknown_names[target_start + 3 * t + c] = target_names[t] + "." + kAxis[c];
   }
-  for (int k = 0; k < E; ++k) result.unknown_names[e_start + k] = model.shared_inputs()[split.estimated[k]].name;
+  for (int k = 0; k < E; ++k) result.unknown_names[e_start + k] = instruments.names[split.estimated[k]];
 
   // --- Results.
   result.k = NormalCoverageFactor(network.coverage_probability);
@@ -589,9 +598,13 @@ NetworkResult AdjustNetwork(const Network& network) {
   }
   for (int k = 0; k < E; ++k) {
     const int s = split.estimated[k];
-    const UncertainInput& in = model.shared_inputs()[s];
+    int instrument = 0;
+    while (instrument + 1 < static_cast<int>(instruments.models.size()) && instruments.offset[instrument + 1] <= s) ++instrument;
+    const int in_instrument = s - instruments.offset[instrument];
+    const UncertainInput& in = instruments.models[instrument].shared_inputs()[in_instrument];
+    const ModelInfo& model_info = *instruments.models[instrument].setup().model;
     CalibratedParameter cp;
-    cp.name = in.name;
+    cp.name = instruments.names[s];
     cp.unit = in.unit;
     cp.prior_estimate = in.estimate;
     cp.prior_u = in.u;
@@ -599,7 +612,7 @@ NetworkResult AdjustNetwork(const Network& network) {
     cp.u = std::sqrt(std::max(0.0, result.covariance(e_start + k, e_start + k)));
     cp.u_data = cp.u;
     cp.status = ParameterStatus::kIdentified;
-    if (s < setup.model->num_params) cp.quantity = setup.model->params[s].quantity;
+    if (in_instrument < model_info.num_params) cp.quantity = model_info.params[in_instrument].quantity;
     result.parameters.push_back(cp);
   }
 

@@ -34,6 +34,19 @@ std::string Csv(const std::string& s) { return internal::CsvField(s); }
 
 constexpr double kArcsec = std::numbers::pi / (180.0 * 3600.0);
 
+// "AT1 (head), AT2 (mirror)".
+std::string InstrumentList(const Network& network) {
+  std::string out;
+  for (const NetworkInstrument& in : network.instruments) {
+    if (!out.empty()) out += ", ";
+    out += in.name;
+    out += " (";
+    out += in.setup.model->name;
+    out += ")";
+  }
+  return out;
+}
+
 // report.html: the network in 3-D (stations, targets coloured by |U|, lines of sight, the axes of
 // every target's coverage ellipsoid, exaggerated), then the tables a metrologist signs.
 std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, const NetworkMonteCarlo* mc,
@@ -42,13 +55,13 @@ std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, co
   std::ostringstream body, script;
   body << "<section><h2>Adjustment</h2><table>"
        << "<tr><th class=\"l\">mode</th><td class=\"l\">" << (job.offline ? "plan (predicted uncertainties of planned readings)" : "measured readings") << "</td></tr>"
-       << "<tr><th class=\"l\">instrument model</th><td class=\"l\">" << HtmlEscape(job.network.instrument.model->name) << "</td></tr>"
+       << "<tr><th class=\"l\">instruments (model)</th><td class=\"l\">" << HtmlEscape(InstrumentList(job.network)) << "</td></tr>"
        << "<tr><th class=\"l\">stations / targets</th><td class=\"l\">" << result.stations.size() << " / " << result.targets.size() << "</td></tr>"
        << "<tr><th class=\"l\">observations / unknowns / dof</th><td class=\"l\">" << result.observations << " / " << result.unknowns << " / " << result.dof << "</td></tr>"
        << "<tr><th class=\"l\">chi-square, Birge ratio, p</th><td class=\"l\">" << internal::Sig(result.chi2, 4) << ", " << Fixed(result.birge_ratio, 3) << ", " << Fixed(result.p_value, 3) << "</td></tr>"
        << "<tr><th class=\"l\">outliers (|w| &gt; " << Fixed(job.network.outlier_limit, 2) << ")</th><td class=\"l\">" << result.outliers << "</td></tr>"
        << "<tr><th class=\"l\">self-calibrated inputs</th><td class=\"l\">" << result.parameters.size() << "</td></tr>"
-       << "<tr><th class=\"l\">targets' variance from reading noise and references / from the instrument's parameters</th><td class=\"l\">"
+       << "<tr><th class=\"l\">targets' variance from reading noise and references / from the instruments' parameters</th><td class=\"l\">"
        << Fixed(100.0 * result.share_noise, 1) << " % / " << Fixed(100.0 * result.share_consider, 1) << " %</td></tr>"
        << "<tr><th class=\"l\">coverage factor k (p = " << Num(job.network.coverage_probability) << ", normal)</th><td class=\"l\">" << Fixed(result.k, 3) << "</td></tr>";
   if (mc) {
@@ -310,7 +323,9 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std
   meta["description"] = job.description;
   meta["file"] = job.file;
   meta["mode"] = job.offline ? "plan" : "readings";
-  meta["model"] = job.network.instrument.model->name;
+  nlohmann::ordered_json instruments = nlohmann::ordered_json::array();
+  for (const NetworkInstrument& in : job.network.instruments) instruments.push_back({{"name", in.name}, {"model", in.setup.model->name}});
+  meta["instruments"] = instruments;
   meta["coverage_probability"] = job.network.coverage_probability;
   meta["self_calibrate"] = job.network.self_calibrate;
   nlohmann::ordered_json inputs = nlohmann::ordered_json::array();
@@ -322,9 +337,11 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std
                   {"outliers", result.outliers}, {"iterations", result.iterations}, {"k", result.k},
                   {"share_noise", result.share_noise}, {"share_consider", result.share_consider}};
   nlohmann::ordered_json stations = nlohmann::ordered_json::array();
-  for (const AdjustedStation& st : result.stations) {
+  for (std::size_t i = 0; i < result.stations.size(); ++i) {
+    const AdjustedStation& st = result.stations[i];
     nlohmann::ordered_json o;
     o["name"] = st.name;
+    o["instrument"] = job.network.instruments[job.network.stations[i].instrument].name;
     o["datum"] = st.datum;
     o["readings"] = st.readings;
     for (int c = 0; c < 6; ++c) o[kPoseNames[c]] = st.pose(c);
@@ -402,7 +419,7 @@ std::string NetworkSummary(const NetworkJob& job, const NetworkResult& result, c
   std::snprintf(line, sizeof line,
                 "%s network '%s': %zu stations, %zu targets, %d observations, %d unknowns, dof %d; chi2 %.4g, Birge "
                 "ratio %.3f, %d outlier%s; largest |U| (k = %.2f) %.1f um at %s; variance from reading noise and "
-                "references %.0f %%, from the instrument's parameters %.0f %%",
+                "references %.0f %%, from the instruments' parameters %.0f %%",
                 job.offline ? "Planned" : "Measured", job.name.c_str(), result.stations.size(), result.targets.size(),
                 result.observations, result.unknowns, result.dof, result.chi2, result.birge_ratio, result.outliers,
                 result.outliers == 1 ? "" : "s", result.k, worst * 1e6, worst_name.c_str(), 100.0 * result.share_noise,
@@ -470,7 +487,7 @@ Files SimulatedNetworkFiles(const NetworkJob& job, const Network& simulated, std
   }
   std::ostringstream os;
   os << "# Simulated measurement of the offline network " << job.file << " (vlt network --simulate " << seed
-     << "): the truth is its [targets] and station poses; the instrument's true parameters are drawn from\n"
+     << "): the truth is its [targets] and station poses; the instruments' true parameters are drawn from\n"
      << "# their uncertainties, every reading carries the reading noise, references their u (docs/network.md).\n"
      << "# Adjust it with:  vlt network simulated_network.toml\n"
      << root << "\n";

@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "mcm/random.h"
+#include "network/instruments.h"
 #include "vlt/error.h"
 #include "vlt/network.h"
 
@@ -14,23 +15,16 @@ namespace {
 
 using TargetList = std::vector<std::pair<std::string, Eigen::Vector3d>>;
 
-MeasurementModel InstrumentModel(const Network& network) {
-  MeasurementSetup setup = network.instrument;
-  setup.pose.reset();
-  setup.thermal.reset();
-  return MeasurementModel(setup);
-}
-
 // Readings of the part-frame point `part` from a station at `pose`, by an instrument whose shared
 // inputs are `shared`: m' = f^-1(R^T (x - t); params), then the range the tracker shows is
 // rho = rho' / (n_est / n) (vlt/measurement_model.h: rho' = rho n_est / n).
-Eigen::Vector3d ReadingsAt(const MeasurementModel& model, const Eigen::VectorXd& shared,
+Eigen::Vector3d ReadingsAt(const MeasurementModel& model, const double* shared,
                            const StationPoseVector& pose, const Eigen::Vector3d& part, Face face) {
   const Eigen::Matrix3d r = PoseRotationMatrix(pose(0), pose(1), pose(2));
   const Eigen::Vector3d local = r.transpose() * (part - pose.tail<3>());
   const std::array<double, 3> m =
-      InverseReadings(*model.setup().model, shared.data() + model.params_offset(), {local(0), local(1), local(2)}, face);
-  const double scale = model.PrepareShared(shared.data()).range_scale;
+      InverseReadings(*model.setup().model, shared + model.params_offset(), {local(0), local(1), local(2)}, face);
+  const double scale = model.PrepareShared(shared).range_scale;
   return {m[0] / scale, m[1], m[2]};
 }
 
@@ -38,8 +32,7 @@ Eigen::Vector3d ReadingsAt(const MeasurementModel& model, const Eigen::VectorXd&
 
 void PlanNetworkReadings(Network& network, const TargetList& nominal,
                          const std::vector<std::vector<PlannedSighting>>& sees) {
-  const MeasurementModel model = InstrumentModel(network);
-  const Eigen::VectorXd s0 = model.shared_estimates();
+  const network_internal::Instruments instruments = network_internal::MakeInstruments(network);
   std::map<std::string, Eigen::Vector3d> where_is(nominal.begin(), nominal.end());
   for (std::size_t i = 0; i < network.stations.size() && i < sees.size(); ++i) {
     NetworkStation& st = network.stations[i];
@@ -51,7 +44,8 @@ void PlanNetworkReadings(Network& network, const TargetList& nominal,
       reading.face = s.face;
       reading.where = s.where;
       try {
-        reading.readings = ReadingsAt(model, s0, st.pose, it->second, s.face);
+        reading.readings = ReadingsAt(instruments.models[st.instrument], instruments.Segment(st.instrument, instruments.s0),
+                                      st.pose, it->second, s.face);
       } catch (const NumericalError& error) {
         throw InputError(s.where + ": station '" + st.name + "' cannot read '" + s.target + "': " + error.what());
       }
@@ -62,8 +56,8 @@ void PlanNetworkReadings(Network& network, const TargetList& nominal,
 
 Network SimulateNetwork(const Network& network, const TargetList& truth, std::uint64_t seed,
                         Eigen::VectorXd* shared_true) {
-  const MeasurementModel model = InstrumentModel(network);
-  const int S = model.num_shared();
+  const network_internal::Instruments instruments = network_internal::MakeInstruments(network);
+  const int S = instruments.size();
   const mcm_internal::KeyedStream stream(seed);
   // Draw `index` of stream `input`: one standard normal depending on (seed, input, index) only.
   auto normal = [&](std::uint64_t input, std::uint64_t index) {
@@ -71,15 +65,14 @@ Network SimulateNetwork(const Network& network, const TargetList& truth, std::ui
     stream.Normals(index / 4, input, z);
     return z[index % 4];
   };
-  // True shared inputs: s0 + Sigma^1/2 z (symmetric square root: Sigma may be singular, r = +-1).
-  Eigen::VectorXd u(S);
-  for (int k = 0; k < S; ++k) u(k) = model.shared_inputs()[k].u;
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(model.shared_correlation());
-  const Eigen::MatrixXd root = u.asDiagonal() * eig.eigenvectors() *
+  // True shared inputs of every instrument: s0 + D R^1/2 z (D = diag(u), R the correlation and
+  // R^1/2 its symmetric square root: R may be singular, r = +-1; (D R^1/2)(D R^1/2)^T = Sigma).
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(instruments.correlation);
+  const Eigen::MatrixXd root = instruments.sigma.diagonal().cwiseSqrt().asDiagonal() * eig.eigenvectors() *
                                eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal() * eig.eigenvectors().transpose();
   Eigen::VectorXd z(S);
   for (int k = 0; k < S; ++k) z(k) = normal(0, static_cast<std::uint64_t>(k));
-  const Eigen::VectorXd s_true = model.shared_estimates() + root * z;
+  const Eigen::VectorXd s_true = instruments.s0 + root * z;
   if (shared_true) *shared_true = s_true;
 
   std::map<std::string, Eigen::Vector3d> where_is(truth.begin(), truth.end());
@@ -89,7 +82,8 @@ Network SimulateNetwork(const Network& network, const TargetList& truth, std::ui
     for (TargetReading& reading : st.readings) {
       const auto it = where_is.find(reading.target);
       if (it == where_is.end()) throw InputError(reading.where + ": no true position of '" + reading.target + "'");
-      Eigen::Vector3d m = ReadingsAt(model, s_true, st.pose, it->second, reading.face);
+      const MeasurementModel& model = instruments.models[st.instrument];
+      Eigen::Vector3d m = ReadingsAt(model, instruments.Segment(st.instrument, s_true), st.pose, it->second, reading.face);
       const Eigen::Vector3d sigma = model.reading_uncertainty(m(0));
       for (int c = 0; c < 3; ++c) m(c) += sigma(c) * normal(1, 3 * counter + c);
       ++counter;
