@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <numbers>
 
-#include <Eigen/Cholesky>
+#include <Eigen/Dense>
 #include <gtest/gtest.h>
 
 #include "test_calibration_helpers.h"
@@ -323,6 +323,33 @@ TEST(Network, SeveralInstrumentsCoverTheTruth) {
   const NetworkResult r = AdjustNetwork(plan);
   ASSERT_EQ(r.parameters.size(), 2u);
   EXPECT_EQ(r.parameters[0].name, "A.lam");
+}
+
+// Identifiability: with only `lam` uncertain (no consider parameters) and self-calibrated, the
+// information of the data and of the prior add up: 1 / u_post^2 = 1 / u_data^2 + 1 / u_prior^2,
+// u_data = ratio x u_prior from the identifiability analysis, u_post from the adjustment.
+TEST(Network, IdentifiabilityIsTheDataOnlyInformation) {
+  Network plan = MakeNetwork(false);
+  for (UncertainInput& p : plan.instruments[0].setup.params) {
+    if (p.name != "lam" && p.name != "srr") p.u = 0.0;
+  }
+  plan.self_calibrate = {"lam", "srr"};
+  const NetworkResult r = AdjustNetwork(plan);
+  ASSERT_EQ(r.identifiability.size(), 2u);
+  // Two inputs: check the 2x2 information in prior-scaled coordinates, Z = diag(1/u_p) C diag(1/u_p).
+  Eigen::Matrix2d c_post;
+  const int e = r.unknowns - 2;
+  c_post = r.covariance.block<2, 2>(e, e);
+  const Eigen::Vector2d u_prior(r.parameters[0].prior_u, r.parameters[1].prior_u);
+  const Eigen::Matrix2d z = u_prior.cwiseInverse().asDiagonal() * c_post * u_prior.cwiseInverse().asDiagonal();
+  // Information of the data = Z^-1 - I; its eigenvalues are the squared singular values.
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(z.inverse() - Eigen::Matrix2d::Identity());
+  const double s0 = r.identifiability[0].singular_value, s1 = r.identifiability[1].singular_value;
+  EXPECT_NEAR(std::sqrt(std::max(0.0, eig.eigenvalues()(1))), s0, 1e-6 * s0);
+  EXPECT_NEAR(std::sqrt(std::max(0.0, eig.eigenvalues()(0))), s1, 1e-6 * s0);
+  EXPECT_GE(s0, s1);
+  std::printf("identifiability: %s (ratio %.3g), %s (ratio %.3g)\n", r.identifiability[0].description.c_str(),
+              r.identifiability[0].ratio, r.identifiability[1].description.c_str(), r.identifiability[1].ratio);
 }
 
 TEST(Network, StructureErrorsNameTheProblem) {

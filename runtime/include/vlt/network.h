@@ -111,10 +111,20 @@ struct NetworkResidual {
   bool outlier = false;
 };
 
+// A combination of self-calibrated inputs and how well the network alone determines it
+// (docs/network.md N-9; the analysis of vlt/calibration.h): u(combination) = ratio x its prior u.
+struct NetworkCombination {
+  double singular_value = 0.0;    // of the data's information in prior-scaled coordinates
+  double ratio = 0.0;             // 1 / singular_value: data-only u / prior u (inf: blind)
+  bool determined = false;        // ratio <= 1: the network knows it better than the prior
+  std::string description;        // "+1.000 lam -0.412 srr" (coefficients in each input's prior u)
+};
+
 struct NetworkResult {
   std::vector<AdjustedStation> stations;
   std::vector<AdjustedTarget> targets;        // sorted by first appearance
   std::vector<CalibratedParameter> parameters;  // the self-calibrated shared inputs
+  std::vector<NetworkCombination> identifiability;  // self-calibration: best determined first
   // Full covariance of every unknown [m, rad, SI]: the free station poses (6 each, network
   // order, datum stations left out), then the targets (3 each), then the self-calibrated inputs.
   std::vector<std::string> unknown_names;     // "S2.rx", "T1.x", "tmv"

@@ -3,6 +3,7 @@
 // Equations: docs/network.md (N-1 .. N-9 below refer to it).
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <memory>
@@ -396,6 +397,7 @@ NetworkResult AdjustNetwork(const Network& network) {
     problem.AddResidualBlock(cost, nullptr, pose[i].data());
     priors.push_back({st.name + " pose prior", st.where, "", pose_offset[i], cost, pose[i].data(), rows});
   }
+  Eigen::MatrixXd prior_factor;  // L, Sigma_E = L L^T (self-calibration prior)
   if (E > 0) {
     Eigen::MatrixXd sigma_e(E, E);
     Eigen::VectorXd v0(E);
@@ -407,6 +409,7 @@ NetworkResult AdjustNetwork(const Network& network) {
     if (llt.info() != Eigen::Success) {
       throw InputError(file + ": network.self_calibrate: the prior covariance of the self-calibrated inputs is singular");
     }
+    prior_factor = llt.matrixL();
     const Eigen::MatrixXd w = llt.matrixL().solve(Eigen::MatrixXd::Identity(E, E));
     auto* cost = new PriorCost(v0, w);
     problem.AddResidualBlock(cost, nullptr, s_est.data());
@@ -532,6 +535,44 @@ NetworkResult AdjustNetwork(const Network& network) {
     c_aa = scale.asDiagonal() * eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() *
            eig.eigenvectors().transpose() * scale.asDiagonal();
   }
+  NetworkResult result_identifiability;
+  if (E > 0) {
+    // Identifiability of the self-calibrated inputs (N-9), as `vlt calibrate` reports it: the
+    // information the data alone give on s_E (readings, references, pose priors — not its own
+    // prior), the targets and poses eliminated, in prior-scaled coordinates z = L^-1 (s_E - s0_E):
+    // M = S_EE - S_EP S_PP^-1 S_PE - Sigma_E^-1, M_z = L^T M L = V diag(s^2) V^T. A combination
+    // v_i is determined by the network with u(v_i^T z) = 1 / s_i (prior units).
+    const Eigen::MatrixXd w = prior_factor.triangularView<Eigen::Lower>().solve(Eigen::MatrixXd::Identity(E, E));
+    Eigen::MatrixXd m = schur.block(e_offset, e_offset, E, E) - w.transpose() * w;
+    if (e_offset > 0) {
+      const Eigen::MatrixXd s_pe = schur.block(0, e_offset, e_offset, E);
+      m -= s_pe.transpose() * schur.topLeftCorner(e_offset, e_offset).ldlt().solve(s_pe);
+    }
+    const Eigen::MatrixXd m_z = prior_factor.transpose() * m * prior_factor;
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(0.5 * (m_z + m_z.transpose()));
+    const double s_max = std::sqrt(std::max(0.0, eig.eigenvalues()(E - 1)));
+    for (int i = E - 1; i >= 0; --i) {
+      NetworkCombination c;
+      c.singular_value = std::sqrt(std::max(0.0, eig.eigenvalues()(i)));
+      const bool blind = !(c.singular_value > 1e-9 * s_max) || c.singular_value == 0.0;
+      c.ratio = blind ? std::numeric_limits<double>::infinity() : 1.0 / c.singular_value;
+      c.determined = c.ratio <= 1.0;
+      // In each input's prior u: the shift of s_E per unit of the combination, D^-1 L v.
+      Eigen::VectorXd coefficients = prior_factor * eig.eigenvectors().col(i);
+      for (int k = 0; k < E; ++k) coefficients(k) /= std::sqrt(sigma_shared(split.estimated[k], split.estimated[k]));
+      Eigen::Index big = 0;
+      const double largest = coefficients.cwiseAbs().maxCoeff(&big);
+      if (coefficients(big) < 0.0) coefficients = -coefficients;
+      for (int k = 0; k < E; ++k) {
+        if (std::abs(coefficients(k)) < 0.05 * largest) continue;
+        char term[96];
+        std::snprintf(term, sizeof term, "%s%+.3f %s", c.description.empty() ? "" : " ", coefficients(k) / largest,
+                      instruments.names[split.estimated[k]].c_str());
+        c.description += term;
+      }
+      result_identifiability.identifiability.push_back(std::move(c));
+    }
+  }
   // Order of the result: [free poses | targets | s_E].
   const int target_start = e_offset;          // after the poses
   const int e_start = e_offset + 3 * T;
@@ -569,6 +610,7 @@ NetworkResult AdjustNetwork(const Network& network) {
   for (int k = 0; k < E; ++k) result.unknown_names[e_start + k] = instruments.names[split.estimated[k]];
 
   // --- Results.
+  result.identifiability = std::move(result_identifiability.identifiability);
   result.k = NormalCoverageFactor(network.coverage_probability);
   double trace_noise = 0.0, trace_consider = 0.0;
   for (int t = 0; t < T; ++t) {

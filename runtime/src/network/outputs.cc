@@ -184,6 +184,19 @@ std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, co
     }
     body << "</table></section>\n";
   }
+  if (!result.identifiability.empty()) {
+    body << "<section><h2>Identifiability of the self-calibrated inputs</h2><p class=\"note\">Combinations of the inputs (coefficients in "
+            "each input's prior u), best determined first; data u / prior u is what the network alone would give, in units of the prior "
+            "(above 1: the prior knows it better; inf: the network is blind to it).</p><table><tr><th>#</th><th>singular value</th>"
+            "<th>data u / prior u</th><th class=\"l\">determined</th><th class=\"l\">combination</th></tr>";
+    for (std::size_t i = 0; i < result.identifiability.size(); ++i) {
+      const NetworkCombination& c = result.identifiability[i];
+      body << "<tr><td>" << i + 1 << "</td><td>" << internal::Sig(c.singular_value, 4) << "</td><td>"
+           << (std::isfinite(c.ratio) ? internal::Sig(c.ratio, 3) : std::string("inf")) << "</td><td class=\"l " << (c.determined ? "ok" : "na")
+           << "\">" << (c.determined ? "yes" : "no") << "</td><td class=\"l\">" << HtmlEscape(c.description) << "</td></tr>";
+    }
+    body << "</table></section>\n";
+  }
   body << "<section><h2>Flagged readings</h2><p class=\"note\">Baarda's data snooping: w = (residual / u) / sqrt(redundancy); flagged when "
           "|w| &gt; " << Fixed(job.network.outlier_limit, 2) << ". Every reading's residual is in residuals.csv.</p>";
   if (result.outliers == 0) {
@@ -299,6 +312,21 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std
     }
     files.emplace_back("mcm.csv", s);
   }
+  if (!result.identifiability.empty()) {
+    std::string s = "combination,singular_value,data_u_over_prior_u,determined,inputs\n";
+    for (std::size_t i = 0; i < result.identifiability.size(); ++i) {
+      const NetworkCombination& c = result.identifiability[i];
+      s += std::to_string(i + 1);
+      s += ',';
+      AppendNum(s, c.singular_value);
+      s += ',';
+      if (std::isfinite(c.ratio)) AppendNum(s, c.ratio); else s += "inf";
+      s += c.determined ? ",true," : ",false,";
+      s += Csv(c.description);
+      s += '\n';
+    }
+    files.emplace_back("identifiability.csv", s);
+  }
   if (!result.parameters.empty()) {
     // u_over_prior: 1 where the network does not see the parameter, toward 0 where it determines it.
     std::string s = "name,unit,prior_estimate,prior_u,estimate,u,u_over_prior\n";
@@ -373,6 +401,16 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std
                       {"estimate", p.estimate}, {"u", p.u}, {"u_over_prior", p.u / p.prior_u}});
   }
   j["parameters"] = params;
+  if (!result.identifiability.empty()) {
+    nlohmann::ordered_json ident = nlohmann::ordered_json::array();
+    for (const NetworkCombination& c : result.identifiability) {
+      nlohmann::ordered_json o = {{"singular_value", c.singular_value}, {"determined", c.determined}, {"inputs", c.description}};
+      // Blind combinations have no finite ratio: JSON has no infinity, so null.
+      if (std::isfinite(c.ratio)) o["data_u_over_prior_u"] = c.ratio; else o["data_u_over_prior_u"] = nullptr;
+      ident.push_back(o);
+    }
+    j["identifiability"] = ident;
+  }
   nlohmann::ordered_json task_json = nlohmann::ordered_json::array();
   for (const NetworkTaskResult& t : tasks) {
     nlohmann::ordered_json quantities = nlohmann::ordered_json::array();
@@ -425,6 +463,15 @@ std::string NetworkSummary(const NetworkJob& job, const NetworkResult& result, c
                 result.outliers == 1 ? "" : "s", result.k, worst * 1e6, worst_name.c_str(), 100.0 * result.share_noise,
                 100.0 * result.share_consider);
   std::string out = std::string(line) + "\n";
+  if (!result.identifiability.empty()) {
+    int determined = 0;
+    for (const NetworkCombination& c : result.identifiability) determined += c.determined ? 1 : 0;
+    std::snprintf(line, sizeof line,
+                  "Self-calibration: %d of %zu combinations of the %zu inputs determined by the network alone better than by "
+                  "their priors (identifiability.csv)\n",
+                  determined, result.identifiability.size(), result.parameters.size());
+    out += line;
+  }
   if (mc) {
     std::snprintf(line, sizeof line,
                   "Monte Carlo (%d re-adjusted simulated networks): u_MCM / u_GUM farthest from 1 is %.3f at %s; %s "
