@@ -12,8 +12,18 @@ CXX=clang++ vlt_build "$dir" -DVLT_FUZZ=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo -DV
 
 # Seed corpora: every job file and CSV the project ships.
 rm -rf "$dir/corpus" && mkdir -p "$dir/corpus/job" "$dir/corpus/parsers" "$dir/findings"
-find "$VLT_ROOT/examples" "$VLT_ROOT/tests/cli" -name '*.toml' -type f -exec cp -t "$dir/corpus/job" {} +
-find "$VLT_ROOT/examples" "$VLT_ROOT/tests/cli" -name '*.csv' -type f -size -64k -exec cp -t "$dir/corpus/parsers" {} +
+# Each file is copied under its path with '/' as '_': files of one name in different folders
+# (tests/cli/calibration/unknown_target.toml, tests/cli/network/...) must not collide.
+seed_corpus() {  # seed_corpus DEST FIND-ARGS...
+  local dest=$1 f rel
+  shift
+  while IFS= read -r -d '' f; do
+    rel=${f#"$VLT_ROOT/"}
+    cp "$f" "$dest/${rel//\//_}"
+  done < <(find "$VLT_ROOT/examples" "$VLT_ROOT/tests/cli" "$@" -type f -print0)
+}
+seed_corpus "$dir/corpus/job" -name '*.toml'
+seed_corpus "$dir/corpus/parsers" -name '*.csv' -size -64k
 printf '12 um\nz = 0.5 m\n0,4,-1,1\n' > "$dir/corpus/parsers/map_plane"
 printf '0.8 arcsec\n-1,1,-1,1,0,2\n0.25 m\n' > "$dir/corpus/parsers/map_box"
 

@@ -49,7 +49,7 @@ endfunction()
 vlt_network_error(no_datum no_datum.toml "no_datum\\.toml: datum: the part frame is undetermined")
 vlt_network_error(disconnected disconnected.toml
                   "disconnected\\.toml: station\\[1\\]: station 'S2' shares fewer than 3 non-collinear targets .*disconnected network")
-vlt_network_error(unknown_target unknown_target.toml "unknown_target\\.toml: station\\[0\\]\\.sees: unknown target 'NOPE'")
+vlt_network_error(unknown_sighting unknown_sighting.toml "unknown_sighting\\.toml: station\\[0\\]\\.sees: unknown target 'NOPE'")
 vlt_network_error(mixed mixed.toml "mixed\\.toml: station\\[1\\]: every station gives readings .* not a mix")
 vlt_network_error(collinear collinear.toml "collinear\\.toml: datum: the references do not fix the part frame")
 vlt_network_error(unknown_input unknown_input.toml "unknown_input\\.toml: network\\.self_calibrate: unknown input 'tmv'")
