@@ -153,7 +153,7 @@ NetworkResult AdjustNetwork(const Network& network) {
   const int S = instruments.size();
   const Eigen::VectorXd& s0 = instruments.s0;
   const Eigen::MatrixXd& sigma_shared = instruments.sigma;
-  Eigen::VectorXd u_shared = sigma_shared.diagonal().cwiseSqrt();
+  const Eigen::VectorXd u_shared = sigma_shared.diagonal().cwiseSqrt();
 
   // --- Shared inputs: estimated (self-calibration) or considered (N-6).
   SharedSplit split;
@@ -372,18 +372,16 @@ NetworkResult AdjustNetwork(const Network& network) {
   }
   // Pseudo-observations (N-4): references, pose priors, self-calibration priors.
   struct Prior {
-    std::string label, where, unit;
     int offset;                    // first unknown of the block (internal order)
     const PriorCost* cost;
     const double* block;           // the block's values
-    std::vector<int> components;   // which components of the block have a row
   };
   std::vector<Prior> priors;
   for (const NetworkReference& ref : network.references) {
     const int t = target_index.at(ref.target);
     auto* cost = new PriorCost(ref.position, Eigen::Matrix3d::Identity() / ref.u);
     problem.AddResidualBlock(cost, nullptr, x[t].data());
-    priors.push_back({ref.target + " reference", ref.where, "m", a + 3 * t, cost, x[t].data(), {0, 1, 2}});
+    priors.push_back({a + 3 * t, cost, x[t].data()});
   }
   for (int i = 0; i < P; ++i) {
     const NetworkStation& st = network.stations[i];
@@ -395,7 +393,7 @@ NetworkResult AdjustNetwork(const Network& network) {
     for (std::size_t r = 0; r < rows.size(); ++r) w(static_cast<int>(r), rows[r]) = 1.0 / st.pose_u(rows[r]);
     auto* cost = new PriorCost(st.pose, w);
     problem.AddResidualBlock(cost, nullptr, pose[i].data());
-    priors.push_back({st.name + " pose prior", st.where, "", pose_offset[i], cost, pose[i].data(), rows});
+    priors.push_back({pose_offset[i], cost, pose[i].data()});
   }
   Eigen::MatrixXd prior_factor;  // L, Sigma_E = L L^T (self-calibration prior)
   if (E > 0) {
@@ -413,9 +411,7 @@ NetworkResult AdjustNetwork(const Network& network) {
     const Eigen::MatrixXd w = llt.matrixL().solve(Eigen::MatrixXd::Identity(E, E));
     auto* cost = new PriorCost(v0, w);
     problem.AddResidualBlock(cost, nullptr, s_est.data());
-    std::vector<int> rows(E);
-    for (int p = 0; p < E; ++p) rows[p] = p;
-    priors.push_back({"self-calibration prior", file + ": network.self_calibrate", "", e_offset, cost, s_est.data(), rows});
+    priors.push_back({e_offset, cost, s_est.data()});
   }
 
   ceres::Solver::Options options;
@@ -535,7 +531,7 @@ NetworkResult AdjustNetwork(const Network& network) {
     c_aa = scale.asDiagonal() * eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() *
            eig.eigenvectors().transpose() * scale.asDiagonal();
   }
-  NetworkResult result_identifiability;
+  std::vector<NetworkCombination> identifiability;
   if (E > 0) {
     // Identifiability of the self-calibrated inputs (N-9), as `vlt calibrate` reports it: the
     // information the data alone give on s_E (readings, references, pose priors — not its own
@@ -570,7 +566,7 @@ NetworkResult AdjustNetwork(const Network& network) {
                       instruments.names[split.estimated[k]].c_str());
         c.description += term;
       }
-      result_identifiability.identifiability.push_back(std::move(c));
+      identifiability.push_back(std::move(c));
     }
   }
   // Order of the result: [free poses | targets | s_E].
@@ -610,7 +606,7 @@ NetworkResult AdjustNetwork(const Network& network) {
   for (int k = 0; k < E; ++k) result.unknown_names[e_start + k] = instruments.names[split.estimated[k]];
 
   // --- Results.
-  result.identifiability = std::move(result_identifiability.identifiability);
+  result.identifiability = std::move(identifiability);
   result.k = NormalCoverageFactor(network.coverage_probability);
   double trace_noise = 0.0, trace_consider = 0.0;
   for (int t = 0; t < T; ++t) {
