@@ -51,6 +51,12 @@ vlt_require(OPENSSL_FOUND libssl-dev "OpenSSL (libcrypto)")
 
 find_package(Threads REQUIRED)
 
+# Open MPI (Debian libopenmpi-dev, openmpi-bin): only for -DVLT_MPI=ON (docs/mpi.md).
+if(VLT_MPI)
+  find_package(MPI QUIET COMPONENTS CXX)
+  vlt_require(MPI_CXX_FOUND "libopenmpi-dev openmpi-bin" "MPI (Open MPI)")
+endif()
+
 if(VLT_BUILD_TESTS)
   find_package(GTest QUIET)
   vlt_require(GTest_FOUND "libgtest-dev libgmock-dev" "GoogleTest")

@@ -22,6 +22,9 @@ fi
 VLT_TEST_PACKAGES=(chromium
   poppler-utils)   # pdftotext / pdfinfo / pdfimages: the printed report (tests/cli/report_print.cmake)
 
+# The MPI build (-DVLT_MPI=ON, docs/mpi.md; scripts/test-mpi.sh): Open MPI.
+VLT_MPI_PACKAGES=(libopenmpi-dev openmpi-bin)
+
 vlt_as_root() {
   if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi
 }

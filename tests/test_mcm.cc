@@ -26,6 +26,7 @@
 namespace vlt {
 namespace {
 
+using test::Fixed;
 using test::Input;
 
 const ModelInfo& Additive() {
@@ -34,14 +35,6 @@ const ModelInfo& Additive() {
   return *m;
 }
 
-McmSettings Fixed(std::int64_t trials, std::uint64_t seed = 1, int threads = 0) {
-  McmSettings s;
-  s.trials = trials;
-  s.seed = seed;
-  s.num_threads = threads;
-  s.quiet = true;
-  return s;
-}
 
 // Root of an increasing function by bisection.
 template <typename F>

@@ -90,6 +90,16 @@ inline ModelInfo CustomModel(const char* name, int num_params, int num_outputs,
   return m;
 }
 
+// Settings of a quiet run: M = trials (0: adaptive, JCGM 101 7.9.4), threads 0 = all.
+inline McmSettings Fixed(std::int64_t trials, std::uint64_t seed = 1, int threads = 0) {
+  McmSettings s;
+  s.trials = trials;
+  s.seed = seed;
+  s.num_threads = threads;
+  s.quiet = true;
+  return s;
+}
+
 inline UncertainInput Input(const char* name, double estimate, double u,
                             const char* distribution = "normal", double shape = 0.0) {
   UncertainInput in;

@@ -20,17 +20,10 @@
 namespace vlt {
 namespace {
 
+using test::Fixed;
 using test::Input;
 
 constexpr double kK95 = 1.959963984540054;   // Phi^-1(0.975)
-
-McmSettings Fixed(std::int64_t trials, std::uint64_t seed = 1) {
-  McmSettings s;
-  s.trials = trials;
-  s.seed = seed;
-  s.quiet = true;
-  return s;
-}
 
 // sqrt of the 0.95 quantile of chi-square with 3 degrees of freedom, from its CDF
 // P(x) = erf(sqrt(x/2)) - sqrt(2x/pi) exp(-x/2).

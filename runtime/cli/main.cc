@@ -1,11 +1,13 @@
 // vlt — the Virtual Laser Tracker command line. Each subcommand lives in cmd_<name>.cc.
 // Exit status: 0 success, 2 bad input or a result that cannot be computed (one line on stderr).
+// Under mpirun every rank runs this; rank 0 prints and writes (docs/mpi.md).
 #include <cstdio>
 #include <exception>
 
 #include <CLI/CLI.hpp>
 
 #include "commands.h"
+#include "mpi/ranks.h"
 #include "vlt/error.h"
 #include "vlt/results.h"
 
@@ -47,9 +49,31 @@ void EmitWarnings(const std::vector<std::string>& warnings, const GlobalOptions&
   for (const std::string& w : warnings) std::fprintf(stderr, "vlt: warning: %s\n", ShortenMessage(w).c_str());
 }
 
+// The one error line and the exit status (docs/cli.md): 2 for what the user gave (input, or a
+// result that cannot be computed from it), 3 for an internal error.
+int ReportFailure(const std::exception_ptr& failure) {
+  try {
+    std::rethrow_exception(failure);
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "vlt: error: %s\n", ShortenMessage(e.what()).c_str());
+    return 2;
+  } catch (const NumericalError& e) {
+    std::fprintf(stderr, "vlt: error: %s\n", ShortenMessage(e.what()).c_str());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "vlt: internal error: %s\n", e.what());
+    return 3;
+  } catch (...) {
+    std::fprintf(stderr, "vlt: internal error: unknown exception\n");
+    return 3;
+  }
+}
+
 }  // namespace vlt::cli
 
 int main(int argc, char** argv) {
+  // MPI_Init / MPI_Finalize when built with -DVLT_MPI=ON and started by mpirun (docs/mpi.md).
+  vlt::ranks::Session ranks(&argc, &argv);
   CLI::App app{"vlt — the Virtual Laser Tracker: GUM and Monte Carlo uncertainty of laser "
                "tracker measurements from an explicit model of the instrument"};
   // Version, the commit the build was configured from, and the build type (runtime/CMakeLists.txt).
@@ -73,27 +97,36 @@ int main(int argc, char** argv) {
   vlt::cli::AddModelCommand(app, global);
 
   vlt::InstallOutputSignalHandlers();
+  int status = 0;
   try {
-    app.parse(argc, argv);
-    if (app.get_subcommands().empty()) return vlt::cli::RunDemo(global);
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
-    // One line, like every other error (docs/cli.md): CLI11's text without its second line.
-    std::string message = e.what();
-    for (char& c : message) {
-      if (c == '\n' || c == '\r') c = ' ';
+    try {
+      app.parse(argc, argv);
+      if (app.get_subcommands().empty()) status = vlt::cli::RunDemo(global);
+    } catch (const CLI::ParseError& e) {
+      if (e.get_exit_code() != 0) {
+        // One line, like every other error (docs/cli.md): CLI11's text without its second line.
+        std::string message = e.what();
+        for (char& c : message) {
+          if (c == '\n' || c == '\r') c = ' ';
+        }
+        throw vlt::InputError("command line: " + message + " (vlt --help)");
+      }
+      status = app.exit(e);  // --help, --version
     }
-    std::fprintf(stderr, "vlt: error: command line: %s (vlt --help)\n", vlt::cli::ShortenMessage(message).c_str());
-    return 2;
-  } catch (const vlt::InputError& e) {
-    std::fprintf(stderr, "vlt: error: %s\n", vlt::cli::ShortenMessage(e.what()).c_str());
-    return 2;
-  } catch (const vlt::NumericalError& e) {
-    std::fprintf(stderr, "vlt: error: %s\n", vlt::cli::ShortenMessage(e.what()).c_str());
-    return 2;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "vlt: internal error: %s\n", e.what());
-    return 3;
+    // Under MPI the ranks agree that none failed (vlt/mpi/ranks.h); without MPI nothing happens.
+    vlt::ranks::Agree();
+  } catch (...) {
+    std::exception_ptr failure = std::current_exception();
+    if (!vlt::ranks::FailureAgreed()) {
+      // Meet the other ranks at their next agreement: every rank ends with the failure of the
+      // lowest failed rank, and rank 0 prints it.
+      try {
+        vlt::ranks::Agree(failure);
+      } catch (...) {
+        failure = std::current_exception();
+      }
+    }
+    return vlt::cli::ReportFailure(failure);
   }
-  return 0;
+  return status;
 }

@@ -141,7 +141,8 @@ struct McmResult {
   // (the run stops at <= 1): the convergence plot of the report. Empty for a fixed M.
   std::vector<std::int64_t> convergence_trials;
   std::vector<double> convergence_ratio;
-  int threads = 1;
+  int threads = 1;                // per rank
+  int ranks = 1;                  // MPI ranks that shared the trials (docs/mpi.md); 1 without MPI
   double seconds = 0.0;           // wall time of the trials
   // "order statistics of all M values" or
   // "average of the batch endpoints (memory budget exceeded)".

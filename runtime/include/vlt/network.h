@@ -178,6 +178,7 @@ Network SimulateNetwork(const Network& network, const std::vector<std::pair<std:
 struct NetworkMonteCarlo {
   int trials = 0;
   std::uint64_t seed = 0;
+  int ranks = 1;    // MPI ranks that shared the trials (docs/mpi.md); 1 without MPI
   std::vector<Eigen::Matrix3d> covariance;  // per target (result order): E[(x - x_true)(..)^T]
   std::vector<Eigen::Vector3d> bias;        // per target: mean of x - x_true [m]
   // |u_MCM / u_GUM - 1| within which the two agree at this number of trials: z / sqrt(2 (M - 1))

@@ -6,9 +6,15 @@
 // sequentially, and the chunk sums are added in chunk order, the batch sums in batch order. The
 // values are stored at their trial's position. Nothing depends on which thread ran which chunk,
 // so the result is bit-identical for any number of threads.
+//
+// MPI (docs/mpi.md): the chunks of a batch are shared out over the ranks in contiguous blocks
+// (ranks::Share); after each batch every rank receives every chunk's sums and every trial's values
+// (ranks::AllGather, exact copies), so every rank holds what one process would have held and goes
+// on identically: the result is bit-identical for any number of ranks as well.
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <climits>
 #include <cmath>
 #include <condition_variable>
 #include <cstdio>
@@ -18,6 +24,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include <Eigen/Cholesky>
@@ -26,6 +33,7 @@
 #include "mcm/engine.h"
 #include "mcm/progress.h"
 #include "model/correlation.h"
+#include "mpi/ranks.h"
 #include "vlt/error.h"
 
 namespace vlt::mcm_internal {
@@ -236,6 +244,149 @@ std::vector<const float*> GroupSeries(const float* base, std::int64_t stride, co
   return out;
 }
 
+// The share of this rank in an MPI run (docs/mpi.md). Trials: the chunks of each batch, in
+// contiguous blocks (ranks::Share). Outputs: the order statistics of an output (the per-batch
+// endpoints of 7.9.4, its coverage intervals, its histogram) and the coverage region of a group
+// need every trial of that output, so after each batch the values are exchanged all-to-all and
+// each rank keeps every trial of its own outputs: contiguous blocks of whole groups (a point's
+// x, y, z stay together). Memory for the values and the order statistics are thus divided among
+// the ranks as well as the trials. One rank: everything is its own.
+struct OutputShare {
+  int first = 0, last = 0;               // own outputs [first, last)
+  std::vector<int> groups;               // own groups (their outputs are own outputs)
+  std::vector<int> first_of, last_of;    // every rank's outputs
+
+  OutputShare(int n_out, const std::vector<OutputGroup>& all_groups) {
+    std::vector<int> group_at(static_cast<std::size_t>(n_out), -1);
+    for (int g = 0; g < static_cast<int>(all_groups.size()); ++g) group_at[all_groups[g].first] = g;
+    std::vector<int> block_start;   // a group's outputs form one block, any other output its own
+    for (int o = 0; o < n_out;) {
+      block_start.push_back(o);
+      o += group_at[o] >= 0 ? all_groups[group_at[o]].dim : 1;
+    }
+    block_start.push_back(n_out);
+    // Rank r's outputs start at the first block boundary at or after r n_out / R: shares of
+    // nearly equal numbers of outputs (what the order statistics cost), never splitting a group.
+    const int count = ranks::Count();
+    auto boundary = [&](int r) {
+      const std::int64_t target = (std::int64_t{r} * n_out + count / 2) / count;
+      return *std::lower_bound(block_start.begin(), block_start.end(), static_cast<int>(target));
+    };
+    for (int r = 0; r < count; ++r) {
+      first_of.push_back(boundary(r));
+      last_of.push_back(boundary(r + 1));
+    }
+    first = first_of[ranks::Rank()];
+    last = last_of[ranks::Rank()];
+    for (int g = 0; g < static_cast<int>(all_groups.size()); ++g) {
+      if (all_groups[g].first >= first && all_groups[g].first < last) groups.push_back(g);
+    }
+    // In output order: the ranks' records of their groups, one rank after the other, are then
+    // every group in output order (RunEngine's final exchange).
+    std::stable_sort(groups.begin(), groups.end(),
+                     [&](int a, int b) { return all_groups[a].first < all_groups[b].first; });
+  }
+  int count() const { return last - first; }
+};
+
+// One batch in an MPI run: this rank computes the trials of its chunks for every output
+// (`computed`, [o][trial - trial_first]); afterwards every rank holds the sums of every chunk
+// (`partial`, chunk-major) and every trial of its own outputs (`values`, [o - first][trial]).
+// Buffers are allocated before the batch is computed, so nothing can fail between the ranks'
+// agreement (ranks::Agree) and the exchange. One rank: `computed` becomes `values`.
+struct BatchExchange {
+  int chunk_first = 0, chunk_last = 0;
+  std::int64_t trial_first = 0, trial_count = 0;            // this rank's trials of the batch
+  std::vector<std::int64_t> trials_first_of, trials_of;     // every rank's
+  std::vector<std::size_t> sum_counts, send_counts, receive_counts;
+  std::vector<double> sums_mine;
+  std::vector<float> received;
+
+  BatchExchange(int n_chunks, int stride, std::int64_t bh, int n_out, const OutputShare& share) {
+    std::tie(chunk_first, chunk_last) = ranks::Share(n_chunks);
+    trial_first = std::min<std::int64_t>(bh, std::int64_t{chunk_first} * kChunk);
+    trial_count = std::min<std::int64_t>(bh, std::int64_t{chunk_last} * kChunk) - trial_first;
+    const int count = ranks::Count();
+    if (count == 1) return;
+    // MPI counts are int; checked here, before the ranks agree, by every rank alike.
+    if (static_cast<std::size_t>(n_out) * static_cast<std::size_t>(bh) > static_cast<std::size_t>(INT_MAX)) {
+      throw InputError("Monte Carlo under MPI: a batch of " + std::to_string(bh) + " trials of " +
+                       std::to_string(n_out) + " outputs exceeds one MPI message (2^31 - 1 values); "
+                       "use fewer points per job");
+    }
+    for (int r = 0; r < count; ++r) {
+      const auto [c0, c1] = ranks::ShareOf(n_chunks, r);
+      const std::int64_t t0 = std::min<std::int64_t>(bh, std::int64_t{c0} * kChunk);
+      const std::int64_t t1 = std::min<std::int64_t>(bh, std::int64_t{c1} * kChunk);
+      trials_first_of.push_back(t0);
+      trials_of.push_back(t1 - t0);
+      sum_counts.push_back(static_cast<std::size_t>(c1 - c0) * static_cast<std::size_t>(stride));
+      send_counts.push_back(static_cast<std::size_t>(share.last_of[r] - share.first_of[r]) *
+                            static_cast<std::size_t>(trial_count));
+      receive_counts.push_back(static_cast<std::size_t>(share.count()) * static_cast<std::size_t>(t1 - t0));
+    }
+    sums_mine.resize(sum_counts[ranks::Rank()]);
+    received.resize(static_cast<std::size_t>(share.count()) * static_cast<std::size_t>(bh));
+  }
+
+  void Exchange(std::vector<double>& partial, int stride, std::vector<float>& computed,
+                std::vector<float>& values, std::int64_t bh, int n_own) {
+    if (ranks::Count() == 1) {
+      values.swap(computed);
+      return;
+    }
+    std::copy_n(partial.begin() + static_cast<std::ptrdiff_t>(chunk_first) * stride, sums_mine.size(),
+                sums_mine.begin());
+    ranks::AllGather(std::span<const double>(sums_mine), std::span<double>(partial), sum_counts);
+    // `computed` is output-major, so the block for rank s (its outputs, this rank's trials) is
+    // contiguous; the blocks received come rank after rank, each [own output][that rank's trials].
+    ranks::AllToAll(std::span<const float>(computed), send_counts, std::span<float>(received), receive_counts);
+    std::size_t at = 0;
+    for (int r = 0; r < ranks::Count(); ++r) {
+      for (int o = 0; o < n_own; ++o) {
+        std::copy_n(received.begin() + static_cast<std::ptrdiff_t>(at), trials_of[r],
+                    values.begin() + o * bh + trials_first_of[r]);
+        at += static_cast<std::size_t>(trials_of[r]);
+      }
+    }
+  }
+};
+
+// What each rank computed for its own outputs and groups, shared with every rank at the end:
+// per output the numerical accuracy (7.9.4), both coverage intervals and the histogram; per group
+// the coverage region (7.7.3 of JCGM 102). Plain doubles (counts are exact below 2^53).
+constexpr int kOutputRecord = 12 + kHistogramBins;
+constexpr int kGroupRecord = 2;
+
+void PackOutput(const McmOutputResult& r, double* rec) {
+  const McmOutputResult::Histogram& h = r.histogram;
+  const double head[12] = {r.accuracy.s_mean, r.accuracy.s_u, r.accuracy.s_low, r.accuracy.s_high,
+                           r.symmetric.low, r.symmetric.high, r.shortest.low, r.shortest.high,
+                           h.low, h.width, static_cast<double>(h.below), static_cast<double>(h.above)};
+  std::copy(head, head + 12, rec);
+  for (int b = 0; b < kHistogramBins; ++b) {
+    rec[12 + b] = h.counts.empty() ? -1.0 : static_cast<double>(h.counts[b]);
+  }
+}
+
+void UnpackOutput(const double* rec, McmOutputResult& r) {
+  r.accuracy.s_mean = rec[0];
+  r.accuracy.s_u = rec[1];
+  r.accuracy.s_low = rec[2];
+  r.accuracy.s_high = rec[3];
+  r.symmetric = {rec[4], rec[5]};
+  r.shortest = {rec[6], rec[7]};
+  McmOutputResult::Histogram& h = r.histogram;
+  h.low = rec[8];
+  h.width = rec[9];
+  h.below = static_cast<std::int64_t>(rec[10]);
+  h.above = static_cast<std::int64_t>(rec[11]);
+  h.counts.clear();
+  if (rec[12] >= 0.0) {
+    for (int b = 0; b < kHistogramBins; ++b) h.counts.push_back(static_cast<std::int64_t>(rec[12 + b]));
+  }
+}
+
 std::string FormatStatus(double value, const char* what) {
   char text[96];
   std::snprintf(text, sizeof text, "%s %.3g", what, value);
@@ -299,22 +450,29 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
     buffers[w].assign(static_cast<std::size_t>(n_out) * kSubBatch, 0.0);
   }
   const KeyedStream rng(settings.seed);
+  // This rank's outputs (all of them without MPI): their values are stored here, their order
+  // statistics computed here.
+  const OutputShare share(n_out, spec.groups);
+  const int own_first = share.first;
+  const int n_own = share.count();
 
-  // Storage of every value: series[o][trial], float deviations from y0.
+  // Storage of every value of the own outputs: series[o - own_first][trial], float deviations
+  // from y0. The memory budget applies to the whole run (every output), so that the interval
+  // method does not depend on the number of ranks.
   const std::size_t bytes_per_trial = static_cast<std::size_t>(n_out) * sizeof(float);
   bool keep_all = true;
   if (!adaptive && static_cast<std::size_t>(settings.trials) * bytes_per_trial >
                        settings.memory_budget_bytes) {
     keep_all = false;
   }
-  std::vector<std::vector<float>> series(keep_all ? n_out : 0);
+  std::vector<std::vector<float>> series(keep_all ? n_own : 0);
   if (keep_all && !adaptive) {
     for (auto& s : series) s.reserve(static_cast<std::size_t>(settings.trials));
   }
 
   std::vector<double> total(stride, 0.0);
-  std::vector<BatchStats> stats(n_out);
-  std::vector<std::vector<double>> batch_k(n_groups);   // only when values are not all kept
+  std::vector<BatchStats> stats(n_out);                 // filled for the own outputs
+  std::vector<std::vector<double>> batch_k(n_groups);   // own groups, when values are not all kept
   std::vector<std::vector<float>> sort_space(threads);
 
   ProgressBar progress("Monte Carlo", settings.quiet);
@@ -326,10 +484,10 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
   std::vector<double> convergence_ratio;
 
   // Batch statistics that need every value of a batch (shortest interval, k_p), for the
-  // averaged-endpoint method when not every value is kept.
+  // averaged-endpoint method when not every value is kept. vals: [o - own_first][trial].
   auto batch_extras = [&](std::vector<float>& vals, std::int64_t bh,
                           const std::vector<double>& batch_sums) {
-    for (int gi = 0; gi < n_groups; ++gi) {
+    for (const int gi : share.groups) {
       const OutputGroup& g = spec.groups[gi];
       Eigen::VectorXd mean;
       Eigen::MatrixXd cov;
@@ -337,13 +495,16 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
       Eigen::VectorXd offset(g.dim);
       for (int a = 0; a < g.dim; ++a) offset(a) = mean(a) - y0[g.first + a];
       double k = 0.0;
-      if (RegionFactor(GroupSeries(vals.data(), bh, g), bh, offset, cov, p, &k)) {
+      OutputGroup local = g;
+      local.first -= own_first;
+      if (RegionFactor(GroupSeries(vals.data(), bh, local), bh, offset, cov, p, &k)) {
         batch_k[gi].push_back(k);
       }
     }
-    pool.ParallelFor(n_out, [&](int o, int w) {
+    pool.ParallelFor(n_own, [&](int i, int w) {
+      const int o = own_first + i;
       std::vector<float>& v = sort_space[w];
-      v.assign(vals.begin() + o * bh, vals.begin() + (o + 1) * bh);
+      v.assign(vals.begin() + i * bh, vals.begin() + (i + 1) * bh);
       CoverageInterval sym, shortest;
       CoverageIntervals(v, y0[o], p, &sym, &shortest);
       stats[o].shortest_low.push_back(shortest.low);
@@ -356,117 +517,160 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
     const std::int64_t bh = adaptive ? batch_size : std::min(batch_size, settings.trials - done);
     const int n_chunks = static_cast<int>((bh + kChunk - 1) / kChunk);
     std::vector<double> partial(static_cast<std::size_t>(n_chunks) * stride, 0.0);
-    std::vector<float> vals(static_cast<std::size_t>(n_out) * bh);
-
-    pool.ParallelFor(n_chunks, [&](int c, int w) {
-      double* part = partial.data() + static_cast<std::size_t>(c) * stride;
-      double* out = buffers[w].data();
-      const std::int64_t c0 = static_cast<std::int64_t>(c) * kChunk;
-      const std::int64_t c1 = std::min<std::int64_t>(bh, c0 + kChunk);
-      for (std::int64_t s = c0; s < c1; s += kSubBatch) {
-        const int n = static_cast<int>(std::min<std::int64_t>(kSubBatch, c1 - s));
-        kernel.Run(rng, first + s, n, scratch[w], out);
-        for (int o = 0; o < n_out; ++o) {
-          const double* row = out + static_cast<std::size_t>(o) * kSubBatch;
-          float* dst = vals.data() + static_cast<std::size_t>(o) * bh + s;
-          double s1 = 0.0, s2 = 0.0;
-          for (int i = 0; i < n; ++i) {
-            if (!std::isfinite(row[i])) {
-              throw NumericalError("Monte Carlo trial " + std::to_string(first + s + i) +
-                                   ": output '" + spec.names[o] +
-                                   "' is not finite (a drawn input reached a singular point)");
-            }
-            const double d = row[i] - y0[o];
-            s1 += d;
-            s2 += d * d;
-            dst[i] = static_cast<float>(d);
-          }
-          part[layout.sum(o)] += s1;
-          part[layout.sum2(o)] += s2;
-        }
-        for (int gi = 0; gi < n_groups; ++gi) {
-          AddCrossSums(spec.groups[gi], gi, layout, out, n, y0, part);
-        }
-        for (int t = 0; t < n_tolerances; ++t) {
-          const McmSettings::ToleranceCount& tol = settings.tolerances[t];
-          const double* row = out + static_cast<std::size_t>(tol.output) * kSubBatch;
-          int inside = 0;
-          for (int i = 0; i < n; ++i) inside += (row[i] >= tol.lower && row[i] <= tol.upper) ? 1 : 0;
-          part[layout.count(t)] += inside;
-        }
-      }
-    });
-
-    // Chunk sums in chunk order, then into the run total in batch order.
+    std::vector<float> vals;   // [o - own_first][trial] after the exchange
     std::vector<double> batch_sums(stride, 0.0);
-    for (int c = 0; c < n_chunks; ++c) {
-      for (int k = 0; k < stride; ++k) batch_sums[k] += partial[static_cast<std::size_t>(c) * stride + k];
-    }
-    for (int k = 0; k < stride; ++k) total[k] += batch_sums[k];
-    done += bh;
-    ++batches;
+    double worst = 0.0;        // adaptive: this rank's worst 2 s / delta
 
-    if (keep_all && static_cast<std::size_t>(done) * bytes_per_trial > settings.memory_budget_bytes) {
-      // Adaptive run outgrew the budget: switch to averaged batch endpoints, computing the batch
-      // extras of the batches kept so far, then drop the stored values.
-      keep_all = false;
-      const std::int64_t kept = done - bh;
-      for (std::int64_t b0 = 0; b0 < kept; b0 += batch_size) {
-        std::vector<float> old(static_cast<std::size_t>(n_out) * batch_size);
-        std::vector<double> old_sums(stride, 0.0);
-        for (int o = 0; o < n_out; ++o) {
-          std::copy(series[o].begin() + b0, series[o].begin() + b0 + batch_size,
-                    old.begin() + static_cast<std::size_t>(o) * batch_size);
-          for (std::int64_t i = 0; i < batch_size; ++i) {
-            const double d = old[static_cast<std::size_t>(o) * batch_size + i];
-            old_sums[layout.sum(o)] += d;
-            old_sums[layout.sum2(o)] += d * d;
+    // This rank's chunks, for every output; a failure (a non-finite trial, no memory) is agreed
+    // with the other ranks before any of them waits for this rank's values.
+    std::exception_ptr failure;
+    bool computed_here = false;   // past this rank's chunks: a failure now was agreed or is alike on every rank
+    try {
+      BatchExchange exchange(n_chunks, stride, bh, n_out, share);
+      std::vector<float> computed(static_cast<std::size_t>(n_out) * exchange.trial_count);
+      if (ranks::Count() > 1) vals.resize(static_cast<std::size_t>(n_own) * bh);
+      const std::int64_t mine = exchange.trial_count;
+      pool.ParallelFor(exchange.chunk_last - exchange.chunk_first, [&](int item, int w) {
+        const int c = exchange.chunk_first + item;
+        double* part = partial.data() + static_cast<std::size_t>(c) * stride;
+        double* out = buffers[w].data();
+        const std::int64_t c0 = static_cast<std::int64_t>(c) * kChunk;
+        const std::int64_t c1 = std::min<std::int64_t>(bh, c0 + kChunk);
+        for (std::int64_t s = c0; s < c1; s += kSubBatch) {
+          const int n = static_cast<int>(std::min<std::int64_t>(kSubBatch, c1 - s));
+          kernel.Run(rng, first + s, n, scratch[w], out);
+          for (int o = 0; o < n_out; ++o) {
+            const double* row = out + static_cast<std::size_t>(o) * kSubBatch;
+            float* dst = computed.data() + static_cast<std::size_t>(o) * mine + (s - exchange.trial_first);
+            double s1 = 0.0, s2 = 0.0;
+            for (int i = 0; i < n; ++i) {
+              if (!std::isfinite(row[i])) {
+                throw NumericalError("Monte Carlo trial " + std::to_string(first + s + i) +
+                                     ": output '" + spec.names[o] +
+                                     "' is not finite (a drawn input reached a singular point)");
+              }
+              const double d = row[i] - y0[o];
+              s1 += d;
+              s2 += d * d;
+              dst[i] = static_cast<float>(d);
+            }
+            part[layout.sum(o)] += s1;
+            part[layout.sum2(o)] += s2;
+          }
+          for (int gi = 0; gi < n_groups; ++gi) {
+            AddCrossSums(spec.groups[gi], gi, layout, out, n, y0, part);
+          }
+          for (int t = 0; t < n_tolerances; ++t) {
+            const McmSettings::ToleranceCount& tol = settings.tolerances[t];
+            const double* row = out + static_cast<std::size_t>(tol.output) * kSubBatch;
+            int inside = 0;
+            for (int i = 0; i < n; ++i) inside += (row[i] >= tol.lower && row[i] <= tol.upper) ? 1 : 0;
+            part[layout.count(t)] += inside;
           }
         }
-        for (int gi = 0; gi < n_groups; ++gi) {
-          const OutputGroup& g = spec.groups[gi];
-          for (int a = 0; a < g.dim; ++a) {
-            for (int b = a + 1; b < g.dim; ++b) {
-              double sum = 0.0;
-              for (std::int64_t i = 0; i < batch_size; ++i) {
-                sum += static_cast<double>(old[(g.first + a) * batch_size + i]) *
-                       static_cast<double>(old[(g.first + b) * batch_size + i]);
-              }
-              old_sums[layout.cross(gi, PairIndex(a, b, g.dim))] += sum;
+      });
+      computed_here = true;
+      ranks::Agree();
+      exchange.Exchange(partial, stride, computed, vals, bh, n_own);
+    } catch (...) {
+      if (computed_here) throw;
+      failure = std::current_exception();
+      ranks::Agree(failure);   // throws on every rank
+    }
+
+    // From here every rank holds the sums of every chunk and every value of its own outputs.
+    try {
+      // Chunk sums in chunk order, then into the run total in batch order.
+      for (int c = 0; c < n_chunks; ++c) {
+        for (int k = 0; k < stride; ++k) batch_sums[k] += partial[static_cast<std::size_t>(c) * stride + k];
+      }
+      for (int k = 0; k < stride; ++k) total[k] += batch_sums[k];
+      done += bh;
+      ++batches;
+
+      if (keep_all && static_cast<std::size_t>(done) * bytes_per_trial > settings.memory_budget_bytes) {
+        // Adaptive run outgrew the budget: switch to averaged batch endpoints, computing the batch
+        // extras of the batches kept so far, then drop the stored values.
+        keep_all = false;
+        const std::int64_t kept = done - bh;
+        for (std::int64_t b0 = 0; b0 < kept; b0 += batch_size) {
+          std::vector<float> old(static_cast<std::size_t>(n_own) * batch_size);
+          std::vector<double> old_sums(stride, 0.0);
+          for (int i = 0; i < n_own; ++i) {
+            const int o = own_first + i;
+            std::copy(series[i].begin() + b0, series[i].begin() + b0 + batch_size,
+                      old.begin() + static_cast<std::size_t>(i) * batch_size);
+            for (std::int64_t t = 0; t < batch_size; ++t) {
+              const double d = old[static_cast<std::size_t>(i) * batch_size + t];
+              old_sums[layout.sum(o)] += d;
+              old_sums[layout.sum2(o)] += d * d;
             }
           }
+          for (const int gi : share.groups) {
+            const OutputGroup& g = spec.groups[gi];
+            const int l = g.first - own_first;
+            for (int a = 0; a < g.dim; ++a) {
+              for (int b = a + 1; b < g.dim; ++b) {
+                double sum = 0.0;
+                for (std::int64_t t = 0; t < batch_size; ++t) {
+                  sum += static_cast<double>(old[(l + a) * batch_size + t]) *
+                         static_cast<double>(old[(l + b) * batch_size + t]);
+                }
+                old_sums[layout.cross(gi, PairIndex(a, b, g.dim))] += sum;
+              }
+            }
+          }
+          batch_extras(old, batch_size, old_sums);
         }
-        batch_extras(old, batch_size, old_sums);
+        series.clear();
+        series.shrink_to_fit();
       }
-      series.clear();
-      series.shrink_to_fit();
-    }
-    if (keep_all) {
-      for (int o = 0; o < n_out; ++o) {
-        series[o].insert(series[o].end(), vals.begin() + static_cast<std::size_t>(o) * bh,
-                         vals.begin() + static_cast<std::size_t>(o + 1) * bh);
+      if (keep_all) {
+        for (int i = 0; i < n_own; ++i) {
+          series[i].insert(series[i].end(), vals.begin() + static_cast<std::size_t>(i) * bh,
+                           vals.begin() + static_cast<std::size_t>(i + 1) * bh);
+        }
+      } else if (bh == batch_size) {
+        batch_extras(vals, bh, batch_sums);
       }
-    } else if (bh == batch_size) {
-      batch_extras(vals, bh, batch_sums);
-    }
 
-    // 7.9.4 c), d): the batch's estimate, standard uncertainty and symmetric interval. Only full
-    // batches count: the short last batch of a fixed-M run would weigh as much as a full one.
-    const double dbh = static_cast<double>(bh);
-    if (bh == batch_size) pool.ParallelFor(n_out, [&](int o, int w) {
-      const double s1 = batch_sums[layout.sum(o)], s2 = batch_sums[layout.sum2(o)];
-      stats[o].mean.push_back(y0[o] + s1 / dbh);
-      stats[o].u.push_back(bh > 1 ? std::sqrt(std::max(0.0, (s2 - s1 * s1 / dbh) / (dbh - 1.0))) : 0.0);
-      std::vector<float>& v = sort_space[w];
-      v.assign(vals.begin() + static_cast<std::size_t>(o) * bh,
-               vals.begin() + static_cast<std::size_t>(o + 1) * bh);
-      const std::int64_t q = CoverageCount(bh, p);
-      const std::int64_t r = (bh - q) % 2 == 0 ? (bh - q) / 2 : (bh - q + 1) / 2;
-      std::nth_element(v.begin(), v.begin() + (r - 1), v.end());
-      stats[o].low.push_back(y0[o] + static_cast<double>(v[r - 1]));
-      std::nth_element(v.begin() + r, v.begin() + (r + q - 1), v.end());
-      stats[o].high.push_back(y0[o] + static_cast<double>(v[r + q - 1]));
-    });
+      // 7.9.4 c), d): the batch's estimate, standard uncertainty and symmetric interval. Only full
+      // batches count: the short last batch of a fixed-M run would weigh as much as a full one.
+      const double dbh = static_cast<double>(bh);
+      if (bh == batch_size) pool.ParallelFor(n_own, [&](int i, int w) {
+        const int o = own_first + i;
+        const double s1 = batch_sums[layout.sum(o)], s2 = batch_sums[layout.sum2(o)];
+        stats[o].mean.push_back(y0[o] + s1 / dbh);
+        stats[o].u.push_back(bh > 1 ? std::sqrt(std::max(0.0, (s2 - s1 * s1 / dbh) / (dbh - 1.0))) : 0.0);
+        std::vector<float>& v = sort_space[w];
+        v.assign(vals.begin() + static_cast<std::size_t>(i) * bh,
+                 vals.begin() + static_cast<std::size_t>(i + 1) * bh);
+        const std::int64_t q = CoverageCount(bh, p);
+        const std::int64_t r = (bh - q) % 2 == 0 ? (bh - q) / 2 : (bh - q + 1) / 2;
+        std::nth_element(v.begin(), v.begin() + (r - 1), v.end());
+        stats[o].low.push_back(y0[o] + static_cast<double>(v[r - 1]));
+        std::nth_element(v.begin() + r, v.begin() + (r + q - 1), v.end());
+        stats[o].high.push_back(y0[o] + static_cast<double>(v[r + q - 1]));
+      });
+
+      // 7.9.4 e)-i): stop when 2 s <= delta for the mean, u, y_low and y_high of every output,
+      // delta from u(y) of all h M values (this rank's outputs; the maximum over the ranks below).
+      if (adaptive && batches >= 2) {
+        const double dn = static_cast<double>(done);
+        for (int o = own_first; o < share.last; ++o) {
+          const double s1 = total[layout.sum(o)], s2 = total[layout.sum2(o)];
+          const double u = std::sqrt(std::max(0.0, (s2 - s1 * s1 / dn) / (dn - 1.0)));
+          const double delta = NumericalTolerance(u, settings.significant_digits);
+          const double sd = std::max({StdOfAverage(stats[o].mean), StdOfAverage(stats[o].u),
+                                      StdOfAverage(stats[o].low), StdOfAverage(stats[o].high)});
+          const double ratio = delta > 0.0 ? 2.0 * sd / delta : (sd > 0.0 ? 1e300 : 0.0);
+          worst = std::max(worst, ratio);
+        }
+      }
+    } catch (...) {
+      failure = std::current_exception();
+    }
+    ranks::Agree(failure);
 
     const double dn = static_cast<double>(done);
     auto run_u = [&](int o) {
@@ -475,17 +679,8 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
     };
     std::string status;
     if (adaptive) {
-      // 7.9.4 e)-i): stop when 2 s <= delta for the mean, u, y_low and y_high of every output,
-      // delta from u(y) of all h M values.
-      double worst = 0.0;
       if (batches >= 2) {
-        for (int o = 0; o < n_out; ++o) {
-          const double delta = NumericalTolerance(run_u(o), settings.significant_digits);
-          const double s = std::max({StdOfAverage(stats[o].mean), StdOfAverage(stats[o].u),
-                                     StdOfAverage(stats[o].low), StdOfAverage(stats[o].high)});
-          const double ratio = delta > 0.0 ? 2.0 * s / delta : (s > 0.0 ? 1e300 : 0.0);
-          worst = std::max(worst, ratio);
-        }
+        worst = ranks::Max(worst);   // the largest over every output (exact)
         if (worst <= 1.0) converged = true;
         status = FormatStatus(worst, "worst 2s/delta (stops at <= 1):");
         convergence_trials.push_back(done);
@@ -494,14 +689,14 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
       progress.Update(done, 0, status);
       if (converged || done + batch_size > settings.max_trials) break;
     } else {
-      double worst = 0.0;
+      double largest = 0.0;
       int worst_output = 0;
       for (int o = 0; o < n_out; ++o) {
         const double se = run_u(o) / std::sqrt(dn);
-        if (se > worst) worst = se, worst_output = o;
+        if (se > largest) largest = se, worst_output = o;
       }
       progress.Update(done, settings.trials,
-                      FormatStatus(worst, "largest std. error of a mean:") + " " +
+                      FormatStatus(largest, "largest std. error of a mean:") + " " +
                           spec.units[worst_output] + " (" + spec.names[worst_output] + ")");
       if (done >= settings.trials) break;
     }
@@ -519,6 +714,7 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
   result.convergence_trials = std::move(convergence_trials);
   result.convergence_ratio = std::move(convergence_ratio);
   result.threads = threads;
+  result.ranks = ranks::Count();
   result.interval_method = keep_all ? "order statistics of all M values"
                                     : "average of the batch endpoints (memory budget exceeded)";
   const double dn = static_cast<double>(done);
@@ -534,31 +730,114 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
     for (int t = 0; t < n_tolerances; ++t) {
       if (settings.tolerances[t].output == o) r.conformity_probability = total[layout.count(t)] / dn;
     }
-    r.accuracy = {StdOfAverage(stats[o].mean), StdOfAverage(stats[o].u),
-                  StdOfAverage(stats[o].low), StdOfAverage(stats[o].high),
-                  NumericalTolerance(r.u, settings.significant_digits)};
+    r.accuracy.delta = NumericalTolerance(r.u, settings.significant_digits);
   }
 
+  // Mean and covariance of every group, from the sums every rank holds.
+  std::vector<McmVectorResult> vectors(n_groups);
   for (int gi = 0; gi < n_groups; ++gi) {
     const OutputGroup& g = spec.groups[gi];
-    McmVectorResult r;
+    McmVectorResult& r = vectors[gi];
     r.name = g.name;
     GroupMoments(total, layout, g, gi, y0, done, &r.mean, &r.covariance);
     for (int a = 0; a < g.dim; ++a) r.mean(a) = result.outputs[g.first + a].mean;
     r.correlation = model_internal::CorrelationOfCovariance(r.covariance);
-    if (keep_all) {
-      Eigen::VectorXd offset(g.dim);
-      for (int a = 0; a < g.dim; ++a) offset(a) = r.mean(a) - y0[g.first + a];
-      std::vector<const float*> components;
-      for (int a = 0; a < g.dim; ++a) components.push_back(series[g.first + a].data());
-      double k = 0.0;
-      r.has_region = RegionFactor(components, done, offset, r.covariance, p, &k);
-      r.coverage_factor = r.has_region ? k : 0.0;
-    } else {
-      r.has_region = !batch_k[gi].empty();
-      r.coverage_factor = Average(batch_k[gi]);
+  }
+
+  // The order statistics of the own outputs and groups, then shared with every rank (the
+  // buffers allocated before the ranks agree that none failed).
+  std::vector<double> own_outputs(static_cast<std::size_t>(n_own) * kOutputRecord);
+  std::vector<double> own_groups(share.groups.size() * kGroupRecord);
+  std::vector<std::size_t> output_counts, group_counts;
+  std::vector<double> all_outputs, all_groups;
+  std::exception_ptr failure;
+  try {
+    if (ranks::Count() > 1) {
+      for (int r = 0; r < ranks::Count(); ++r) {
+        output_counts.push_back(static_cast<std::size_t>(share.last_of[r] - share.first_of[r]) * kOutputRecord);
+        std::size_t groups_of_r = 0;
+        for (const OutputGroup& g : spec.groups) groups_of_r += g.first >= share.first_of[r] && g.first < share.last_of[r];
+        group_counts.push_back(groups_of_r * kGroupRecord);
+      }
+      all_outputs.resize(static_cast<std::size_t>(n_out) * kOutputRecord);
+      all_groups.resize(static_cast<std::size_t>(n_groups) * kGroupRecord);
     }
-    if (g.point) {
+    for (std::size_t j = 0; j < share.groups.size(); ++j) {
+      const int gi = share.groups[j];
+      const OutputGroup& g = spec.groups[gi];
+      McmVectorResult& r = vectors[gi];
+      if (keep_all) {
+        Eigen::VectorXd offset(g.dim);
+        for (int a = 0; a < g.dim; ++a) offset(a) = r.mean(a) - y0[g.first + a];
+        std::vector<const float*> components;
+        for (int a = 0; a < g.dim; ++a) components.push_back(series[g.first - own_first + a].data());
+        double k = 0.0;
+        r.has_region = RegionFactor(components, done, offset, r.covariance, p, &k);
+        r.coverage_factor = r.has_region ? k : 0.0;
+      } else {
+        r.has_region = !batch_k[gi].empty();
+        r.coverage_factor = Average(batch_k[gi]);
+      }
+      own_groups[j * kGroupRecord] = r.has_region ? 1.0 : 0.0;
+      own_groups[j * kGroupRecord + 1] = r.coverage_factor;
+    }
+    if (keep_all) {
+      // 7.7 from all M values (reorders the stored series: done last), after the histogram of the
+      // values (McmOutputResult::histogram), which does not depend on their order.
+      pool.ParallelFor(n_own, [&](int i, int) {
+        const int o = own_first + i;
+        McmOutputResult& out = result.outputs[o];
+        if (!(out.u > 0.0) || !std::isfinite(out.u)) return;
+        McmOutputResult::Histogram& h = out.histogram;
+        h.low = out.mean - 5.0 * out.u;
+        h.width = 10.0 * out.u / kHistogramBins;
+        h.counts.assign(kHistogramBins, 0);
+        for (const float v : series[i]) {
+          const double bin = std::floor((y0[o] + static_cast<double>(v) - h.low) / h.width);
+          if (bin < 0.0) ++h.below;
+          else if (bin >= kHistogramBins) ++h.above;
+          else ++h.counts[static_cast<std::size_t>(bin)];
+        }
+      });
+      pool.ParallelFor(n_own, [&](int i, int) {
+        const int o = own_first + i;
+        CoverageIntervals(series[i], y0[o], p, &result.outputs[o].symmetric, &result.outputs[o].shortest);
+      });
+    } else {
+      for (int o = own_first; o < share.last; ++o) {
+        result.outputs[o].symmetric = {Average(stats[o].low), Average(stats[o].high)};
+        result.outputs[o].shortest = {Average(stats[o].shortest_low), Average(stats[o].shortest_high)};
+      }
+    }
+    for (int o = own_first; o < share.last; ++o) {
+      McmNumericalAccuracy& a = result.outputs[o].accuracy;
+      a.s_mean = StdOfAverage(stats[o].mean);
+      a.s_u = StdOfAverage(stats[o].u);
+      a.s_low = StdOfAverage(stats[o].low);
+      a.s_high = StdOfAverage(stats[o].high);
+      PackOutput(result.outputs[o], own_outputs.data() + static_cast<std::size_t>(o - own_first) * kOutputRecord);
+    }
+  } catch (...) {
+    failure = std::current_exception();
+  }
+  ranks::Agree(failure);
+  if (ranks::Count() > 1) {
+    ranks::AllGather(std::span<const double>(own_outputs), std::span<double>(all_outputs), output_counts);
+    ranks::AllGather(std::span<const double>(own_groups), std::span<double>(all_groups), group_counts);
+    for (int o = 0; o < n_out; ++o) UnpackOutput(all_outputs.data() + static_cast<std::size_t>(o) * kOutputRecord, result.outputs[o]);
+    // The gathered group records follow the groups' order of their first output (OutputShare).
+    std::vector<int> order(n_groups);
+    for (int gi = 0; gi < n_groups; ++gi) order[gi] = gi;
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return spec.groups[a].first < spec.groups[b].first; });
+    for (int j = 0; j < n_groups; ++j) {
+      vectors[order[j]].has_region = all_groups[static_cast<std::size_t>(j) * kGroupRecord] != 0.0;
+      vectors[order[j]].coverage_factor = all_groups[static_cast<std::size_t>(j) * kGroupRecord + 1];
+    }
+  }
+
+  for (int gi = 0; gi < n_groups; ++gi) {
+    McmVectorResult& r = vectors[gi];
+    if (spec.groups[gi].point) {
       McmPointResult pt;
       pt.name = r.name;
       pt.mean = r.mean;
@@ -569,35 +848,6 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
       result.points.push_back(std::move(pt));
     } else {
       result.vectors.push_back(std::move(r));
-    }
-  }
-
-  if (keep_all) {
-    // 7.7 from all M values (reorders the stored series: done last), after the histogram of the
-    // values (McmOutputResult::histogram), which does not depend on their order.
-    pool.ParallelFor(n_out, [&](int o, int) {
-      McmOutputResult& out = result.outputs[o];
-      if (!(out.u > 0.0) || !std::isfinite(out.u)) return;
-      McmOutputResult::Histogram& h = out.histogram;
-      h.low = out.mean - 5.0 * out.u;
-      h.width = 10.0 * out.u / kHistogramBins;
-      h.counts.assign(kHistogramBins, 0);
-      for (const float v : series[o]) {
-        const double bin = std::floor((y0[o] + static_cast<double>(v) - h.low) / h.width);
-        if (bin < 0.0) ++h.below;
-        else if (bin >= kHistogramBins) ++h.above;
-        else ++h.counts[static_cast<std::size_t>(bin)];
-      }
-    });
-    pool.ParallelFor(n_out, [&](int o, int) {
-      CoverageIntervals(series[o], y0[o], p, &result.outputs[o].symmetric,
-                        &result.outputs[o].shortest);
-    });
-  } else {
-    for (int o = 0; o < n_out; ++o) {
-      result.outputs[o].symmetric = {Average(stats[o].low), Average(stats[o].high)};
-      result.outputs[o].shortest = {Average(stats[o].shortest_low),
-                                    Average(stats[o].shortest_high)};
     }
   }
   result.seconds =

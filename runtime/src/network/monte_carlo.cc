@@ -1,8 +1,12 @@
 // network/monte_carlo.cc — ValidateNetworkByMonteCarlo (vlt/network.h): the adjustment's GUM
 // checked by re-adjusting simulated measurements of the adjusted network (docs/network.md N-10).
 #include <cmath>
+#include <exception>
+#include <span>
+#include <vector>
 
 #include "gum/internal.h"
+#include "mpi/ranks.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
 #include "vlt/network.h"
@@ -18,28 +22,49 @@ NetworkMonteCarlo ValidateNetworkByMonteCarlo(const Network& network, const Netw
   std::vector<std::pair<std::string, Eigen::Vector3d>> truth;
   for (const AdjustedTarget& t : result.targets) truth.emplace_back(t.name, t.position);
   const std::size_t T = result.targets.size();
-  // Deviations of every trial, stored by trial: the reduction below runs in trial order.
-  std::vector<Eigen::VectorXd> deviation(static_cast<std::size_t>(trials));
-  gum_internal::ParallelChunks(static_cast<std::size_t>(trials), 1, threads,
-                               [&](std::size_t, std::size_t begin, std::size_t end) {
-    for (std::size_t trial = begin; trial < end; ++trial) {
-      // One Philox key per trial (splitmix-style spacing of the user's seed).
-      const std::uint64_t key = seed * 0x9E3779B97F4A7C15ULL + trial + 1;
-      const Network simulated = SimulateNetwork(truth_network, truth, key);
-      const NetworkResult r = AdjustNetwork(simulated);
-      Eigen::VectorXd d(3 * T);
-      for (std::size_t t = 0; t < T; ++t) d.segment<3>(3 * t) = r.targets[t].position - truth[t].second;
-      deviation[trial] = d;
-    }
-  });
+  // Deviations of every trial, stored by trial: the reduction below runs in trial order. Under
+  // MPI (docs/mpi.md) each rank re-adjusts a contiguous block of the trials; every rank then
+  // receives every trial's deviations (exact copies), so the reduction is the one of one process.
+  const std::size_t width = 3 * T;
+  const auto [first, last] = ranks::Share(trials);
+  std::vector<double> mine(static_cast<std::size_t>(last - first) * width);
+  std::exception_ptr failure;
+  try {
+    gum_internal::ParallelChunks(static_cast<std::size_t>(last - first), 1, threads,
+                                 [&](std::size_t, std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i) {
+        const std::size_t trial = static_cast<std::size_t>(first) + i;
+        // One Philox key per trial (splitmix-style spacing of the user's seed).
+        const std::uint64_t key = seed * 0x9E3779B97F4A7C15ULL + trial + 1;
+        const Network simulated = SimulateNetwork(truth_network, truth, key);
+        const NetworkResult r = AdjustNetwork(simulated);
+        for (std::size_t t = 0; t < T; ++t) {
+          const Eigen::Vector3d d = r.targets[t].position - truth[t].second;
+          for (int c = 0; c < 3; ++c) mine[i * width + 3 * t + static_cast<std::size_t>(c)] = d(c);
+        }
+      }
+    });
+  } catch (...) {
+    failure = std::current_exception();
+  }
+  ranks::Agree(failure);
+  std::vector<std::size_t> counts;
+  for (int r = 0; r < ranks::Count(); ++r) {
+    const auto [f, l] = ranks::ShareOf(trials, r);
+    counts.push_back(static_cast<std::size_t>(l - f) * width);
+  }
+  std::vector<double> deviation(static_cast<std::size_t>(trials) * width);
+  ranks::AllGather(std::span<const double>(mine), std::span<double>(deviation), counts);
   NetworkMonteCarlo mc;
   mc.trials = trials;
   mc.seed = seed;
+  mc.ranks = ranks::Count();
   mc.covariance.assign(T, Eigen::Matrix3d::Zero());
   mc.bias.assign(T, Eigen::Vector3d::Zero());
-  for (const Eigen::VectorXd& d : deviation) {
+  for (int trial = 0; trial < trials; ++trial) {
+    const double* d = deviation.data() + static_cast<std::size_t>(trial) * width;
     for (std::size_t t = 0; t < T; ++t) {
-      const Eigen::Vector3d v = d.segment<3>(3 * t);
+      const Eigen::Vector3d v(d[3 * t], d[3 * t + 1], d[3 * t + 2]);
       mc.bias[t] += v / trials;
       mc.covariance[t] += v * v.transpose() / trials;
     }

@@ -432,7 +432,7 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std
   }
   j["tasks"] = task_json;
   if (mc) {
-    j["monte_carlo"] = {{"trials", mc->trials}, {"seed", mc->seed}, {"tolerance", mc->tolerance},
+    j["monte_carlo"] = {{"trials", mc->trials}, {"seed", mc->seed}, {"ranks", mc->ranks}, {"tolerance", mc->tolerance},
                         {"worst_ratio", mc->worst_ratio}, {"worst", mc->worst}, {"agrees", mc->agrees}};
   }
   std::vector<std::string> names;

@@ -324,7 +324,8 @@ json ResultsJsonObject(const CustomResults& r) {
     j["monte_carlo"] = {{"enabled", false}};
   } else {
     j["monte_carlo"] = {{"enabled", true}, {"seed", r.mcm.seed}, {"trials", r.mcm.trials}, {"adaptive", r.mcm.adaptive},
-                        {"converged", r.mcm.converged}, {"threads", r.mcm.threads}, {"n_dig", r.n_dig},
+                        {"converged", r.mcm.converged}, {"threads", r.mcm.threads},
+                        {"ranks", r.mcm.ranks}, {"n_dig", r.n_dig},
                         {"interval_method", r.mcm.interval_method}, {"outcome", r.outcome}};
   }
   return j;

@@ -446,6 +446,7 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
                         {"batch_size", r.mcm.batch_size},
                         {"batches", r.mcm.batches},
                         {"threads", r.mcm.threads},
+                        {"ranks", r.mcm.ranks},
                         {"seconds", r.mcm.seconds},
                         {"interval_method", r.mcm.interval_method},
                         {"n_dig", r.n_dig},

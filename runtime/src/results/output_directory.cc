@@ -21,6 +21,7 @@
 #include <fstream>
 #include <set>
 
+#include "mpi/ranks.h"
 #include "vlt/error.h"
 #include "vlt/results.h"
 
@@ -176,6 +177,10 @@ std::vector<OutputFile> AsOutputFiles(const std::vector<std::pair<std::string, s
 }
 
 void OutputDirectory::Commit(const std::vector<OutputFile>& files) {
+  // Under MPI every rank computed the same results; they agree that none failed, and rank 0
+  // alone writes (docs/mpi.md). Without MPI, Agree does nothing.
+  ranks::Agree();
+  if (!ranks::IsRoot()) return;
   std::error_code ec;
   fs::create_directories(parent_, ec);
   if (ec) throw InputError(target_.string() + ": cannot create '" + parent_.string() + "': " + ec.message());
