@@ -3,6 +3,7 @@
 #include <cmath>
 #include <exception>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "gum/internal.h"
@@ -26,7 +27,9 @@ NetworkMonteCarlo ValidateNetworkByMonteCarlo(const Network& network, const Netw
   // MPI (docs/mpi.md) each rank re-adjusts a contiguous block of the trials; every rank then
   // receives every trial's deviations (exact copies), so the reduction is the one of one process.
   const std::size_t width = 3 * T;
-  const auto [first, last] = ranks::Share(trials);
+  // (Not a structured binding: Clang 14 cannot capture one in the lambda below.)
+  const std::pair<int, int> share = ranks::Share(trials);
+  const int first = share.first, last = share.second;
   std::vector<double> mine(static_cast<std::size_t>(last - first) * width);
   std::exception_ptr failure;
   try {
