@@ -2,6 +2,9 @@
 // batch of plan points, and a task's uncertainty over N points:
 //   gum_engine/evaluate_with_jacobian  the scalar per-point API: MeasurementModel::
 //                                      EvaluateWithJacobian + J U J^T (as bench_common.h)
+//   gum_engine/covariance_field        CovarianceField: the engine's batch path for the full 3x3
+//                                      covariance per point (the same output as the above);
+//                                      _scalar: the same without the model's SIMD kernel
 //   gum_engine/field                   ExpandedUncertaintyField, the engine's lean batch path
 //                                      (what `vlt map` uses: expanded uncertainty per axis),
 //                                      1 and 2 threads, 4096 and 65536 points
@@ -11,6 +14,8 @@
 //   gum_task/plane/N                   plane fit + its GUM uncertainty over N points
 // `env:1` variants add the demo job's weather station (refractive index of the air: 4 more
 // shared inputs and the Ciddor equation in every Jacobian).
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <span>
@@ -74,6 +79,27 @@ void BM_Field(benchmark::State& state, bool env, int threads, std::size_t n) {
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * n));
 }
 
+// The engine's full-covariance batch path (the same output as evaluate_with_jacobian above).
+// simd = false: the same engine path with the model's batched kernel removed (a copy of its
+// ModelInfo with nominal_jacobians_batch = nullptr), so the points go one by one through the
+// scalar kernel: the like-for-like measure of what the SIMD lanes give (the same numbers to rounding, tested).
+void BM_CovarianceField(benchmark::State& state, bool env, int threads, std::size_t n, bool simd) {
+  MeasurementSetup setup = TrackerSetup("mirror", env);
+  static ModelInfo scalar_only;
+  if (!simd) {
+    scalar_only = *setup.model;
+    scalar_only.nominal_jacobians_batch = nullptr;
+    setup.model = &scalar_only;
+  }
+  const MeasurementModel model(setup);
+  const std::vector<Eigen::Vector3d> readings = PanelReadings(model, n);
+  for (auto _ : state) {
+    std::vector<Eigen::Matrix3d> field = CovarianceField(model, readings, threads);
+    benchmark::DoNotOptimize(field.data());
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * n));
+}
+
 void BM_Points(benchmark::State& state, bool env, bool budgets, int threads) {
   GumOptions options;
   options.budgets = budgets;
@@ -124,6 +150,18 @@ const bool kRegistered = [] {
   // work and stays meaningful on a shared machine; two threads: wall-clock time.
   RegisterBenchmark("gum_engine/evaluate_with_jacobian/env:0", BM_EvaluateWithJacobian, false);
   RegisterBenchmark("gum_engine/evaluate_with_jacobian/env:1", BM_EvaluateWithJacobian, true);
+  RegisterBenchmark("gum_engine/covariance_field/env:0/threads:1", BM_CovarianceField, false, 1, kBatch, true);
+  RegisterBenchmark("gum_engine/covariance_field_scalar/env:0/threads:1", BM_CovarianceField, false, 1, kBatch,
+                    false);
+  RegisterBenchmark("gum_engine/covariance_field/env:1/threads:1", BM_CovarianceField, true, 1, kBatch, true);
+  RegisterBenchmark("gum_engine/covariance_field_scalar/env:1/threads:1", BM_CovarianceField, true, 1, kBatch,
+                    false);
+  RegisterBenchmark("gum_engine/covariance_field/env:0/threads:2", BM_CovarianceField, false, 2, kBatch, true)
+      ->UseRealTime();
+  RegisterBenchmark("gum_engine/covariance_field/env:0/N:65536/threads:1", BM_CovarianceField, false, 1, 65536,
+                    true)->UseRealTime();
+  RegisterBenchmark("gum_engine/covariance_field/env:0/N:65536/threads:2", BM_CovarianceField, false, 2, 65536,
+                    true)->UseRealTime();
   RegisterBenchmark("gum_engine/field/env:0/threads:1", BM_Field, false, 1, kBatch);
   RegisterBenchmark("gum_engine/field/env:0/threads:2", BM_Field, false, 2, kBatch)->UseRealTime();
   RegisterBenchmark("gum_engine/field/env:1/threads:1", BM_Field, true, 1, kBatch);

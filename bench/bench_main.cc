@@ -80,7 +80,12 @@ void PrintSummary(const SummaryReporter& r, std::ostream& out) {
   const double fj = r.Rate("gum/generated_forward_jacobians/mirror");
   const double ad = r.Rate("gum/autodiff/mirror");
   const double fd = r.Rate("gum/finite_diff/mirror");
-  const double ewj = r.Rate("gum_engine/evaluate_with_jacobian/env:0");
+  const double ewj1 = r.Rate("gum_engine/evaluate_with_jacobian/env:0");
+  const double cov1 = r.Rate("gum_engine/covariance_field/env:0/threads:1");
+  const double cov_scalar = r.Rate("gum_engine/covariance_field_scalar/env:0/threads:1");
+  const double cov2 = r.Rate("gum_engine/covariance_field/env:0/threads:2");
+  const double cov_big1 = r.Rate("gum_engine/covariance_field/env:0/N:65536/threads:1");
+  const double cov_big2 = r.Rate("gum_engine/covariance_field/env:0/N:65536/threads:2");
   const double field1 = r.Rate("gum_engine/field/env:0/threads:1");
   const double field2 = r.Rate("gum_engine/field/env:0/threads:2");
   const double points = r.Rate("gum_engine/points/env:0/budgets:0/threads:1");
@@ -97,9 +102,12 @@ void PrintSummary(const SummaryReporter& r, std::ostream& out) {
               "parameters + 3 readings)\n");
   Print(out, "GUM per point: value + 3x23 Jacobian + J U J^T\n");
   Line(out, "generated NominalJacobians, tight loop (ceiling)", nominal, "points");
-  Line(out, "generated NominalJacobians, SoA batches of 4 (prototype)", soa, "points");
+  Line(out, "generated NominalJacobians, 4 SIMD lanes, tight loop", soa, "points");
   Line(out, "generated ForwardJacobians, tight loop", fj, "points");
-  Line(out, "engine MeasurementModel::EvaluateWithJacobian + J U J^T", ewj, "points");
+  Line(out, "engine EvaluateWithJacobian (one point per call) + J U J^T", ewj1, "points");
+  Line(out, "engine CovarianceField (4 SIMD lanes), 1 thread", cov1, "points");
+  Line(out, "engine CovarianceField without the SIMD kernel, 1 thread", cov_scalar, "points");
+  Line(out, "engine CovarianceField, 2 threads", cov2, "points");
   // The field computes the 3 variances of each point (what a map needs), not the full 3x3
   // covariance the other rows compute: not compared with them (issue 13: like for like).
   Line(out, "engine ExpandedUncertaintyField, 1 thread (3 variances only)", field1, "points");
@@ -114,16 +122,18 @@ void PrintSummary(const SummaryReporter& r, std::ostream& out) {
   Print(out, "Speed-up of the generated Jacobian (like for like: value + full 3x3 covariance)\n");
   Ratio(out, "tight loop vs autodiff", nominal, ad);
   Ratio(out, "tight loop vs finite differences", nominal, fd);
-  Ratio(out, "engine EvaluateWithJacobian vs autodiff", ewj, ad);
-  Ratio(out, "engine EvaluateWithJacobian vs finite differences", ewj, fd);
+  Ratio(out, "engine CovarianceField vs autodiff", cov1, ad);
+  Ratio(out, "engine CovarianceField vs finite differences", cov1, fd);
+  Ratio(out, "engine CovarianceField, SIMD kernel vs scalar kernel", cov1, cov_scalar);
   Ratio(out, "generated Forward<double> vs GiNaC subs+evalf", forward, ginac);
   Ratio(out, "engine field 4096 points, 2 threads / 1 thread", field2, field1);
   Ratio(out, "engine field 65536 points, 2 threads / 1 thread", big2, big1);
+  Ratio(out, "engine CovarianceField 65536 points, 2 threads / 1 thread", cov_big2, cov_big1);
   Print(out, "Targets\n");
-  Target(out, "GUM engine, full covariance, 1 thread [M points/s]", ewj / 1e6, 10.0);
+  Target(out, "GUM engine (CovarianceField), 1 thread [M points/s]", cov1 / 1e6, 10.0);
   Target(out, "GUM tight loop (generated), 1 thread [M points/s]", nominal / 1e6, 10.0);
-  Target(out, "GUM engine (full covariance) vs autodiff [x]", ad > 0 ? ewj / ad : 0.0, 5.0);
-  Target(out, "GUM engine (full covariance) vs finite differences [x]", fd > 0 ? ewj / fd : 0.0, 20.0);
+  Target(out, "GUM engine (CovarianceField) vs autodiff [x]", ad > 0 ? cov1 / ad : 0.0, 5.0);
+  Target(out, "GUM engine (CovarianceField) vs finite differences [x]", fd > 0 ? cov1 / fd : 0.0, 20.0);
   Target(out, "MCM 1e6 trials, 1 thread [M trials/s]", mcm1 / 1e6, 5.0);
   Target(out, "MCM 1e6 trials, 2 threads / 1 thread [x]", mcm1 > 0 ? mcm2 / mcm1 : 0.0, 1.8);
   out.flush();

@@ -101,6 +101,7 @@ const ModelInfo kModel_gum_h2_impedance = {
     &NominalJacobians,
     &Sensitivity,
     &ForwardBatch,
+    nullptr,  // nominal_jacobians_batch
     7,  // ops_forward
     18,  // ops_forward_jacobians
     4,  // ops_nominal_jacobians

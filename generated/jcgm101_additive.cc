@@ -101,6 +101,7 @@ const ModelInfo kModel_jcgm101_additive = {
     &NominalJacobians,
     &Sensitivity,
     &ForwardBatch,
+    nullptr,  // nominal_jacobians_batch
     3,  // ops_forward
     3,  // ops_forward_jacobians
     0,  // ops_nominal_jacobians

@@ -107,6 +107,7 @@ const ModelInfo kModel_jcgm101_mass = {
     &NominalJacobians,
     &Sensitivity,
     &ForwardBatch,
+    nullptr,  // nominal_jacobians_batch
     9,  // ops_forward
     16,  // ops_forward_jacobians
     1,  // ops_nominal_jacobians

@@ -6,6 +6,8 @@
 #include <cstddef>
 #include <stdexcept>
 
+#include <Eigen/Core>
+
 #include "vlt/model_info.h"
 
 namespace vlt::generated {
@@ -108,6 +110,20 @@ void ForwardBatch(std::size_t n, [[maybe_unused]] const double* const* readings,
     model::Forward<double>(r.data(), p.data(), o.data());
     for (int k = 0; k < model::kNumOutputs; ++k) outputs[k][i] = o[k];
   }
+}
+
+// NominalJacobians for kNominalBatchLanes points at once (vlt/model_info.h): the same template
+// on an Eigen SIMD array, so each lane is the double kernel bit for bit (libm sin/cos per
+// lane, IEEE sqrt, no FMA in the portable build). Quantity q of lane l at [lanes * q + l].
+void NominalJacobiansBatch(const double* readings, double* out, double* d_out_d_readings,
+                           double* d_out_d_params) {
+  using Lanes = Eigen::Array<double, vlt::kNominalBatchLanes, 1>;
+  Lanes r[3], o[3], jr[9], jp[60];
+  for (int j = 0; j < 3; ++j) r[j] = Eigen::Map<const Lanes>(readings + vlt::kNominalBatchLanes * j);
+  model::NominalJacobians<Lanes>(r, o, jr, jp);
+  for (int q = 0; q < 3; ++q) Eigen::Map<Lanes>(out + vlt::kNominalBatchLanes * q) = o[q];
+  for (int q = 0; q < 9; ++q) Eigen::Map<Lanes>(d_out_d_readings + vlt::kNominalBatchLanes * q) = jr[q];
+  for (int q = 0; q < 60; ++q) Eigen::Map<Lanes>(d_out_d_params + vlt::kNominalBatchLanes * q) = jp[q];
 }
 
 const QuantityInfo kReadings[] = {
@@ -216,6 +232,7 @@ const ModelInfo kModel_mirror = {
     &NominalJacobians,
     &Sensitivity,
     &ForwardBatch,
+    &NominalJacobiansBatch,
     126,  // ops_forward
     1292,  // ops_forward_jacobians
     197,  // ops_nominal_jacobians

@@ -183,11 +183,29 @@ GeneratedModel GenerateModel(const ModelSpec& spec) {
   h += "}  // namespace vlt::gen::" + name + "\n";
   gen.header = std::move(h);
 
+  // The SIMD batch of NominalJacobians (vlt/model_info.h NominalJacobiansBatchFn) for tracker
+  // models whose kernel calls only sin, cos and sqrt: Eigen evaluates sin and cos of an Array
+  // lane by lane with libm and sqrt with the correctly rounded packet instruction, so each lane
+  // is the double kernel bit for bit. Eigen's vectorised exp / log / atan are polynomials of
+  // their own, not libm: a kernel calling them gets no batch (nullptr; the runtime loops).
+  const std::string nominal_usings = Usings(nominal.code);
+  const bool nominal_batch =
+      nr > 0 && [&] {
+        std::string rest = nominal_usings;
+        for (const char* f : {"  using std::cos;\n", "  using std::sin;\n", "  using std::sqrt;\n"}) {
+          const std::size_t at = rest.find(f);
+          if (at != std::string::npos) rest.erase(at, std::string(f).size());
+        }
+        return rest.empty();
+      }();
+
   // ----------------------------------------------------------------------------- source
   std::string c = Banner(spec.spec_file);
   c += "// Double instantiations of generated/" + name + ".h and the ModelInfo the runtime uses.\n";
   c += "#include \"generated/" + name + ".h\"\n\n#include <array>\n#include <cstddef>\n"
-       "#include <stdexcept>\n\n#include \"vlt/model_info.h\"\n\n";
+       "#include <stdexcept>\n\n";
+  if (nominal_batch) c += "#include <Eigen/Core>\n\n";
+  c += "#include \"vlt/model_info.h\"\n\n";
   c += "namespace vlt::generated {\nnamespace {\n\nnamespace model = vlt::gen::" + name + ";\n\n";
   c += "void Forward(const double* readings, const double* params, double* out) {\n"
        "  model::Forward<double>(readings, params, out);\n}\n\n";
@@ -216,6 +234,28 @@ GeneratedModel GenerateModel(const ModelSpec& spec) {
   c += "    for (int k = 0; k < model::kNumParams; ++k) p[k] = params[k][i];\n";
   c += "    model::Forward<double>(r.data(), p.data(), o.data());\n";
   c += "    for (int k = 0; k < model::kNumOutputs; ++k) outputs[k][i] = o[k];\n  }\n}\n\n";
+  if (nominal_batch) {
+    const std::string lanes = "vlt::kNominalBatchLanes";
+    c += "// NominalJacobians for kNominalBatchLanes points at once (vlt/model_info.h): the same template\n"
+         "// on an Eigen SIMD array, so each lane is the double kernel bit for bit (libm sin/cos per\n"
+         "// lane, IEEE sqrt, no FMA in the portable build). Quantity q of lane l at [lanes * q + l].\n";
+    c += "void NominalJacobiansBatch(const double* readings, double* out, double* d_out_d_readings,\n"
+         "                           double* d_out_d_params) {\n";
+    c += "  using Lanes = Eigen::Array<double, " + lanes + ", 1>;\n";
+    c += "  Lanes r[" + std::to_string(nr) + "], o[" + std::to_string(no) + "], jr[" +
+         std::to_string(no * nr) + "], jp[" + std::to_string(no * np) + "];\n";
+    c += "  for (int j = 0; j < " + std::to_string(nr) + "; ++j) r[j] = Eigen::Map<const Lanes>(readings + " +
+         lanes + " * j);\n";
+    c += "  model::NominalJacobians<Lanes>(r, o, jr, jp);\n";
+    auto store = [&](const std::string& to, const std::string& from, int n) {
+      c += "  for (int q = 0; q < " + std::to_string(n) + "; ++q) Eigen::Map<Lanes>(" + to + " + " +
+           lanes + " * q) = " + from + "[q];\n";
+    };
+    store("out", "o", no);
+    store("d_out_d_readings", "jr", no * nr);
+    store("d_out_d_params", "jp", no * np);
+    c += "}\n\n";
+  }
   auto table = [&](const char* var, const std::vector<QuantitySpec>& qs) {
     if (qs.empty()) return;
     c += "const QuantityInfo " + std::string(var) + "[] = {\n";
@@ -246,6 +286,7 @@ GeneratedModel GenerateModel(const ModelSpec& spec) {
        ",\n    kOutputs,\n";
   c += "    &Forward,\n    &ForwardJacobians,\n    &NominalJacobians,\n    &Sensitivity,\n"
        "    &ForwardBatch,\n";
+  c += nominal_batch ? "    &NominalJacobiansBatch,\n" : "    nullptr,  // nominal_jacobians_batch\n";
   c += "    " + std::to_string(forward.ops) + ",  // ops_forward\n    " +
        std::to_string(jacobians.ops) + ",  // ops_forward_jacobians\n    " +
        std::to_string(nominal.ops) + ",  // ops_nominal_jacobians\n};\n\n";

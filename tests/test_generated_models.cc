@@ -271,6 +271,43 @@ TEST(GeneratedModels, ForwardBatchEqualsForward) {
   }
 }
 
+// The SIMD batch (the template on Eigen::Array lanes) against the double kernel, bit for bit:
+// tracker models over both faces, short and long ranges, the readings of 4 unrelated points per
+// call; custom models have none (their nominal kernel has no readings).
+TEST(GeneratedModels, NominalJacobiansBatchEqualsNominalJacobiansBitForBit) {
+  constexpr int L = vlt::kNominalBatchLanes;
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> range(0.3, 60.0), azimuth(-3.5, 3.5), elevation(-1.5, 4.6);
+  int trackers = 0;
+  for (const vlt::ModelInfo* m : vlt::AllModels()) {
+    if (std::string(m->kind) != "tracker") {
+      EXPECT_EQ(m->nominal_jacobians_batch, nullptr) << m->name;
+      continue;
+    }
+    ASSERT_NE(m->nominal_jacobians_batch, nullptr) << m->name;
+    ++trackers;
+    const int no = m->num_outputs, np = m->num_params;
+    std::vector<double> r(3 * L), out(no * L), jr(3 * no * L), jp(no * np * L);
+    for (int call = 0; call < 250; ++call) {
+      for (int l = 0; l < L; ++l) {
+        r[l] = range(rng);
+        r[L + l] = azimuth(rng);
+        r[2 * L + l] = elevation(rng);
+      }
+      m->nominal_jacobians_batch(r.data(), out.data(), jr.data(), jp.data());
+      for (int l = 0; l < L; ++l) {
+        const double ri[3] = {r[l], r[L + l], r[2 * L + l]};
+        std::vector<double> o(no), j_r(3 * no), j_p(no * np);
+        m->nominal_jacobians(ri, o.data(), j_r.data(), j_p.data());
+        for (int q = 0; q < no; ++q) ASSERT_EQ(out[L * q + l], o[q]) << m->name << " output " << q;
+        for (int q = 0; q < 3 * no; ++q) ASSERT_EQ(jr[L * q + l], j_r[q]) << m->name << " d/dreadings " << q;
+        for (int q = 0; q < no * np; ++q) ASSERT_EQ(jp[L * q + l], j_p[q]) << m->name << " d/dparams " << q;
+      }
+    }
+  }
+  EXPECT_EQ(trackers, 2);
+}
+
 TEST(GeneratedModels, RegistrySortedAndConsistent) {
   const auto models = vlt::AllModels();
   ASSERT_GE(models.size(), 4u);

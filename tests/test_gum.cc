@@ -13,6 +13,7 @@
 
 #include "test_gum_ideal_tracker.h"
 #include "vlt/error.h"
+#include "vlt/models.h"
 
 namespace vlt {
 namespace {
@@ -426,6 +427,43 @@ TEST(GumField, EqualsFullPropagation) {
   }
 }
 
+// The lean covariance path against the full propagation (an independent summation: Eigen's
+// products there, scalar sums here), with correlated inputs, and with the generated mirror model
+// at its nominal parameters, where the points go through the SIMD lanes (61 points: 15 batches of
+// 4 and one of 1; an invalid point in a batch reports its own index, as one by one).
+TEST(GumCovarianceField, EqualsFullPropagation) {
+  std::vector<MeasurementSetup> setups = {FullSetup(false), FullSetup(true)};
+  MeasurementSetup mirror = FullSetup(false);
+  mirror.model = FindModel("mirror");
+  mirror.params.clear();
+  for (int k = 0; k < mirror.model->num_params; ++k) mirror.params.push_back(In(0.0, mirror.model->params[k].default_u));
+  setups.push_back(mirror);
+  for (const MeasurementSetup& setup : setups) {
+    MeasurementModel m(setup);
+    const auto pts = SomePoints(61);
+    std::vector<Eigen::Vector3d> readings;
+    for (const auto& p : pts) readings.push_back(p.readings);
+    GumOptions lean;
+    lean.budgets = false;
+    const auto full = PropagatePoints(m, pts, lean);
+    for (int threads : {1, 2}) {
+      const auto cov = CovarianceField(m, readings, threads);
+      ASSERT_EQ(cov.size(), pts.size());
+      for (std::size_t i = 0; i < pts.size(); ++i) {
+        EXPECT_LE((cov[i] - full[i].cov_part).norm(), 1e-13 * full[i].cov_part.norm()) << i;
+        EXPECT_EQ(cov[i], cov[i].transpose());
+      }
+    }
+    readings[37](0) = -1.0;
+    try {
+      CovarianceField(m, readings, 1);
+      ADD_FAILURE() << "no error for a negative range";
+    } catch (const NumericalError& e) {
+      EXPECT_NE(std::string(e.what()).find("point #38:"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(GumPlan, ReadingsReproduceTheNominalPoint) {
   // Non-zero parameter estimates: the Newton inverse must account for them.
   MeasurementModel m(FullSetup(false));
@@ -461,7 +499,7 @@ const QuantityInfo kAdditiveInputs[] = {{"x1", "1", "dimensionless", "", 0, 1, "
 const QuantityInfo kAdditiveOutputs[] = {{"y", "1", "dimensionless", "", 0, 0, "normal", 0}};
 const ModelInfo kAdditive = {"additive_test", "custom", "", "", 0, 4, 1, nullptr, kAdditiveInputs,
                              kAdditiveOutputs, &AdditiveForward, &AdditiveJacobians, nullptr,
-                             nullptr, nullptr, 0, 0, 0};
+                             nullptr, nullptr, nullptr, 0, 0, 0};
 
 TEST(GumCustom, Jcgm101AdditiveModel) {
   std::vector<UncertainInput> in = {In(0, 1), In(0, 1), In(0, 1), In(0, 1)};

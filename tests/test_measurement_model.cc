@@ -4,6 +4,7 @@
 #include "vlt/measurement_model.h"
 
 #include <cmath>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -233,6 +234,75 @@ TEST(MeasurementModel, EveryGeneratedTrackerModelJacobian) {
     ++checked;
   }
   SUCCEED() << checked << " generated tracker models checked";
+}
+
+// The SIMD path at the nominal parameters gives the numbers of EvaluateWithJacobian bit for
+// bit, for 1..kLanes points, with every stage (air, pose, thermal) at and away from the estimates:
+// y, d y / d readings, the non-parameter columns of d y / d shared, and linear_map times the lanes'
+// d x_t / d params for the parameters' columns. It declines non-zero parameters.
+TEST(MeasurementModel, EvaluateNominalLanesEqualsEvaluateWithJacobianBitForBit) {
+  constexpr int L = MeasurementModel::kLanes;
+  const double readings[3 * L] = {7.0, 0.4, 0.25, 31.0, -2.9, -0.6, 1.1, 3.05, 1.4, 12.0, 1.7, 2.9};
+  int checked = 0;
+  for (const char* name : {"mirror", "head"}) {
+    for (bool stations : {false, true}) {
+      MeasurementSetup s = IdealSetup(stations, stations, stations);
+      s.model = FindModel(name);
+      ASSERT_NE(s.model, nullptr) << name;
+      const int np = s.model->num_params;
+      s.params.clear();
+      for (int k = 0; k < np; ++k) s.params.push_back(In(0.0, s.model->params[k].default_u));
+      const MeasurementModel m(s);
+      const int shared = m.num_shared();
+      const Eigen::VectorXd at_estimates = m.shared_estimates();
+      Eigen::VectorXd away = at_estimates;  // air and pose off their estimates
+      if (stations) {
+        away(m.environment_offset()) += 1.5;
+        away(m.pose_offset()) += 1e-3;
+        away(m.thermal_offset() + 1) += 0.7;
+      }
+      for (const Eigen::VectorXd* x : {&at_estimates, static_cast<const Eigen::VectorXd*>(&away)}) {
+        for (int count = 1; count <= L; ++count) {
+          std::vector<double> y(3 * L), jr(9 * L), js(3 * shared * L), jp(3 * np * L);
+          Eigen::Matrix3d linear_map;
+          ASSERT_TRUE(m.EvaluateNominalLanes(count, readings, x->data(), y.data(), jr.data(), js.data(),
+                                             jp.data(), linear_map));
+          for (int i = 0; i < count; ++i) {
+            double y1[3], jr1[9];
+            std::vector<double> js1(3 * shared);
+            m.EvaluateWithJacobian(readings + 3 * i, x->data(), y1, jr1, js1.data());
+            SCOPED_TRACE(testing::Message() << name << " stations " << stations << " count " << count << " point " << i);
+            for (int q = 0; q < 3; ++q) ASSERT_EQ(y[3 * i + q], y1[q]);
+            for (int q = 0; q < 9; ++q) ASSERT_EQ(jr[9 * i + q], jr1[q]);
+            for (int q = 3 * np; q < 3 * shared; ++q) ASSERT_EQ(js[3 * shared * i + q], js1[q]) << q;
+            for (int p = 0; p < np; ++p) {
+              Eigen::Vector3d column;
+              for (int r = 0; r < 3; ++r) column(r) = jp[L * (3 * p + r) + i];
+              const Eigen::Vector3d dy = stations ? Eigen::Vector3d(linear_map * column) : column;
+              for (int r = 0; r < 3; ++r) ASSERT_EQ(dy(r), js1[3 * p + r]) << "parameter " << p;
+            }
+            ++checked;
+          }
+        }
+      }
+      Eigen::VectorXd nonzero = at_estimates;
+      nonzero(1) = 3e-6;
+      std::vector<double> y(3 * L), jr(9 * L), js(3 * shared * L), jp(3 * np * L);
+      Eigen::Matrix3d linear_map;
+      EXPECT_FALSE(m.EvaluateNominalLanes(L, readings, nonzero.data(), y.data(), jr.data(), js.data(), jp.data(),
+                                          linear_map));
+    }
+  }
+  EXPECT_EQ(checked, 2 * 2 * 2 * (1 + 2 + 3 + 4));
+  MeasurementModel m(IdealSetup(false, false, false));
+  double y[3 * (L + 1)], jr[9 * (L + 1)], js[12 * (L + 1)], jp[12 * (L + 1)];
+  Eigen::Matrix3d linear_map;
+  EXPECT_THROW(m.EvaluateNominalLanes(0, nullptr, nullptr, y, jr, js, jp, linear_map), std::invalid_argument);
+  EXPECT_THROW(m.EvaluateNominalLanes(L + 1, nullptr, nullptr, y, jr, js, jp, linear_map), std::invalid_argument);
+  // The ideal test tracker has no batch kernel: declined.
+  const Eigen::VectorXd x0 = Eigen::VectorXd::Zero(m.num_shared());
+  const double r[3 * L] = {1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0};
+  EXPECT_FALSE(m.EvaluateNominalLanes(L, r, x0.data(), y, jr, js, jp, linear_map));
 }
 
 TEST(MeasurementModel, RejectsBadSetup) {

@@ -169,6 +169,14 @@ std::vector<Eigen::Vector3d> ExpandedUncertaintyField(const MeasurementModel& mo
                                                       double coverage_probability = 0.95,
                                                       int threads = 0);
 
+// Lean path for the full covariance: U_y (3 x 3, part frame, m^2) of each reading triple at the
+// shared estimates, JCGM 100 5.2.2 in matrix form, as PropagatePoints' cov_part (to rounding:
+// the sums are formed in another order) without the per-point results around it. The points go
+// through the model 4 at a time in SIMD lanes (MeasurementModel::EvaluateWithJacobians).
+std::vector<Eigen::Matrix3d> CovarianceField(const MeasurementModel& model,
+                                             std::span<const Eigen::Vector3d> readings,
+                                             int threads = 0);
+
 // What each source contributes to the map value |U| = k sqrt(trace U_y) (vlt map's per-source
 // layers, docs/gum.md "Sources of a map"). The columns of [J_r U_r^1/2 | J_s F] (F the factor of
 // the shared covariance, gum/internal.h) are grouped into sources: the three readings, each

@@ -177,6 +177,21 @@ class MeasurementModel {
   //   dy/dcte      = -y (T - T_ref) s,  dy/dT = -y cte s
   void EvaluateWithJacobian(const double* readings, const double* shared, double* y,
                             double* d_y_d_readings, double* d_y_d_shared) const;
+  // The GUM engine's SIMD path (CovarianceField): EvaluateWithJacobian of `count` points (1 ..
+  // kLanes) at shared inputs whose error parameters are all 0, with the tracker kernel run on the
+  // points at once in SIMD lanes (vlt/model_info.h NominalJacobiansBatchFn). Returns false, and
+  // computes nothing, when that does not apply (parameters not all 0, or a model without the
+  // batch kernel). Per point, as EvaluateWithJacobian and bit for bit its numbers: y (3 x kLanes),
+  // d_y_d_readings (9 x kLanes) and the columns of d_y_d_shared (3S x kLanes) other than the
+  // parameters'. The parameters' columns stay in the lanes for the caller to reduce with SIMD:
+  // d_x_t_d_params (3P x kLanes, entry q of point l at [kLanes q + l]) holds d x_t / d params,
+  // and d y / d params = linear_map * d x_t / d params (linear_map = s R, the identity without
+  // pose and thermal; EvaluateWithJacobian forms exactly these products). Buffers are sized for
+  // kLanes points whatever the count; lanes beyond it are scratch.
+  static constexpr int kLanes = kNominalBatchLanes;
+  bool EvaluateNominalLanes(int count, const double* readings, const double* shared, double* y,
+                            double* d_y_d_readings, double* d_y_d_shared, double* d_x_t_d_params,
+                            Eigen::Matrix3d& linear_map) const;
 
   // Intermediate stages at a value of the shared inputs (for the GUM engine's tracker-frame
   // results): the tracker-frame point (after the air correction, before pose and thermal), the
@@ -203,6 +218,23 @@ class MeasurementModel {
   // x_t = f(rho range_scale, A, E; params): the air correction and the tracker model.
   void TrackerPoint(double range_scale, const double* readings, const double* shared,
                     double* x_tracker) const;
+  // Stage 1 of EvaluateWithJacobian (the air) at the shared inputs: rho' = rho scale with
+  // scale = n_est / n, and dn/d(t, p, RH, x) for the environment's columns.
+  struct AirStage {
+    double scale = 1.0;
+    double n = 1.0;
+    double dn[4] = {0, 0, 0, 0};
+  };
+  AirStage AirAt(const double* shared) const;
+  // Whether every error parameter is 0 (the symbolically specialised nominal kernels apply).
+  bool NominalParams(const double* shared) const;
+  // Stages 3 and 4 (pose, thermal) and the environment's columns, in place: on entry y holds the
+  // tracker-frame point x_t, d_y_d_readings the generated J_r and, when params_in_place, the
+  // first 3P entries of d_y_d_shared d x_t / d params, all at the air-corrected range. Returns
+  // the linear map s R applied to the tracker-frame columns.
+  Eigen::Matrix3d ChainStation(const double* shared, const AirStage& air, double corrected_range,
+                               double* y, double* d_y_d_readings, double* d_y_d_shared,
+                               bool params_in_place) const;
 
   MeasurementSetup setup_;
   std::vector<UncertainInput> shared_;

@@ -44,6 +44,16 @@ using SensitivityFn = void (*)(int param_index, const double* readings, const do
 // params[k][i] likewise, outputs[o][i] likewise.
 using ForwardBatchFn = void (*)(std::size_t n, const double* const* readings,
                                 const double* const* params, double* const* outputs);
+// NominalJacobiansFn for kNominalBatchLanes points at once, structure of arrays: quantity q of
+// point (lane) l is at [kNominalBatchLanes * q + l] in every array (readings: 3 quantities,
+// outputs: num_outputs, d_outputs_d_readings: 3 * num_outputs, d_outputs_d_params:
+// num_outputs * num_params, each in the column-major order of NominalJacobiansFn). The same
+// templated kernel instantiated on a SIMD lane type: every lane performs exactly the double
+// kernel's operations (libm sin/cos per lane, IEEE sqrt, no FMA contraction in the portable
+// build), so each point is bit for bit NominalJacobiansFn's (tests/test_generated_models.cc).
+inline constexpr int kNominalBatchLanes = 4;
+using NominalJacobiansBatchFn = void (*)(const double* readings, double* outputs,
+                                         double* d_outputs_d_readings, double* d_outputs_d_params);
 
 struct ModelInfo {
   const char* name;         // "mirror", "head", "jcgm101_additive", ...
@@ -61,6 +71,7 @@ struct ModelInfo {
   NominalJacobiansFn nominal_jacobians;
   SensitivityFn sensitivity;
   ForwardBatchFn forward_batch;
+  NominalJacobiansBatchFn nominal_jacobians_batch;  // tracker models; nullptr for custom models
   // Operation counts of the emitted kernels after common-subexpression elimination.
   int ops_forward;
   int ops_forward_jacobians;

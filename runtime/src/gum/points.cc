@@ -92,8 +92,9 @@ std::string CorrelationHandling(const MeasurementModel& model, const SharedFacto
 // Per-thread scratch space, allocated once per chunk, not per point.
 struct Scratch {
   explicit Scratch(int num_shared)
-      : js(3 * num_shared), a(3 * num_shared), instrument(3 * num_shared) {}
+      : js(3 * num_shared), a(3 * num_shared), instrument(3 * num_shared), ones(num_shared, 1.0) {}
   std::vector<double> js, a, instrument;
+  std::vector<double> ones;  // unit weights: the columns of J F are already scaled
 };
 
 // The factors of a job's shared covariance: all of it, and that of the instrument inputs
@@ -250,6 +251,27 @@ std::vector<BudgetRow> BudgetTemplates(const MeasurementModel& model) {
   return {v0, v1, v2};
 }
 
+// acc (the six distinct entries 00, 11, 22, 01, 02, 12) += a a^T for one column a = (a0, a1, a2);
+// T is double or a SIMD lane array (CovarianceField reduces four points at once).
+template <typename T>
+inline void AddOuterProduct(const T& a0, const T& a1, const T& a2, T* acc) {
+  acc[0] += a0 * a0;
+  acc[1] += a1 * a1;
+  acc[2] += a2 * a2;
+  acc[3] += a0 * a1;
+  acc[4] += a0 * a2;
+  acc[5] += a1 * a2;
+}
+
+// The six distinct entries of sum_k (c_k u_k)(c_k u_k)^T for n columns c_k of 3 rows
+// (column-major), added to acc in the order k = 0, 1, ... in six local sums (for the reason
+// AddSharedVariances gives); the matrix is symmetric by construction.
+[[gnu::noinline]] void AddOuterProducts(const double* c, const double* u, int n, double* acc) {
+  double sums[6] = {acc[0], acc[1], acc[2], acc[3], acc[4], acc[5]};
+  for (int k = 0; k < n; ++k, c += 3) AddOuterProduct(c[0] * u[k], c[1] * u[k], c[2] * u[k], sums);
+  for (int e = 0; e < 6; ++e) acc[e] = sums[e];
+}
+
 // Shared inputs of the instrument (parameters, environment) come first in the shared vector.
 int NumInstrument(const MeasurementModel& model) {
   if (model.pose_offset() >= 0) return model.pose_offset();
@@ -339,6 +361,84 @@ std::vector<Eigen::Vector3d> ExpandedUncertaintyField(const MeasurementModel& mo
     field[i] = k * var.cwiseSqrt();
     if (!field[i].allFinite()) throw NumericalError(PointLabel("", i) + "the model gives a non-finite result");
   });
+  return field;
+}
+
+std::vector<Eigen::Matrix3d> CovarianceField(const MeasurementModel& model,
+                                             std::span<const Eigen::Vector3d> readings, int threads) {
+  constexpr int kLanes = MeasurementModel::kLanes;
+  using Lanes = Eigen::Array<double, kLanes, 1>;
+  const SharedFactor factor = gum_internal::MakeSharedFactor(model);
+  const int num_shared = model.num_shared();
+  const int num_params = model.setup().model->num_params;
+  const double* u = factor.u.data();
+  const Eigen::VectorXd x = model.shared_estimates();
+  auto valid = [](const Eigen::Vector3d& r) { return r.allFinite() && r(0) > 0.0; };
+  std::vector<Eigen::Matrix3d> field(readings.size());
+  gum_internal::ParallelChunks(
+      readings.size(), kChunk, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
+        Scratch scratch(num_shared);
+        std::vector<double> js(static_cast<std::size_t>(3 * num_shared * kLanes));
+        std::vector<double> jp(static_cast<std::size_t>(3 * num_params * kLanes));
+        for (std::size_t i = begin; i < end;) {
+          // Up to kLanes points with valid readings; an invalid one is reported by its own index.
+          int count = 0;
+          while (count < kLanes && i + count < end && valid(readings[i + count])) ++count;
+          if (count == 0) CheckReadings(readings[i], "", i);  // throws
+          Eigen::Matrix<double, 3, kLanes> y;
+          Eigen::Matrix<double, 9, kLanes> jr;
+          Eigen::Matrix3d m;
+          // SIMD lanes at the nominal parameters when the inputs are independent (the parameters'
+          // part then separates: sum_p (M c_p u_p)(M c_p u_p)^T = M (sum_p c_p c_p^T u_p^2) M^T).
+          const bool lanes = factor.diagonal &&
+                             model.EvaluateNominalLanes(count, readings[i].data(), x.data(), y.data(),
+                                                        jr.data(), js.data(), jp.data(), m);
+          Lanes params[6];  // the parameters' sum_p c_p c_p^T u_p^2, entries 00 11 22 01 02 12
+          for (Lanes& e : params) e.setZero();
+          if (lanes) {
+            for (int p = 0; p < num_params; ++p) {
+              const double* c = jp.data() + kLanes * 3 * p;  // d x_t / d p, quantity r at c + kLanes r
+              AddOuterProduct<Lanes>(Eigen::Map<const Lanes>(c) * u[p],
+                                     Eigen::Map<const Lanes>(c + kLanes) * u[p],
+                                     Eigen::Map<const Lanes>(c + 2 * kLanes) * u[p], params);
+            }
+          } else {
+            for (int l = 0; l < count; ++l) {
+              model.EvaluateWithJacobian(readings[i + l].data(), x.data(), y.col(l).data(), jr.col(l).data(),
+                                         js.data() + 3 * num_shared * l);
+            }
+          }
+          for (int l = 0; l < count; ++l, ++i) {
+            if (!y.col(l).allFinite()) throw NumericalError(PointLabel("", i) + "the model gives a non-finite result");
+            // U_y = J_r U_r J_r^T + (J_s F)(J_s F)^T, column by column of [J_r U_r^1/2 | J_s F].
+            const Eigen::Vector3d ur = model.reading_uncertainty(readings[i](0));
+            const double* js_l = js.data() + 3 * num_shared * l;
+            double acc[6] = {0, 0, 0, 0, 0, 0};
+            AddOuterProducts(jr.col(l).data(), ur.data(), 3, acc);
+            if (lanes) {
+              Eigen::Matrix3d p;
+              p << params[0](l), params[3](l), params[4](l), params[3](l), params[1](l),
+                  params[5](l), params[4](l), params[5](l), params[2](l);
+              const Eigen::Matrix3d mp = m * p;  // M P M^T, its six entries (symmetric)
+              acc[0] += mp.row(0).dot(m.row(0));
+              acc[1] += mp.row(1).dot(m.row(1));
+              acc[2] += mp.row(2).dot(m.row(2));
+              acc[3] += mp.row(0).dot(m.row(1));
+              acc[4] += mp.row(0).dot(m.row(2));
+              acc[5] += mp.row(1).dot(m.row(2));
+              AddOuterProducts(js_l + 3 * num_params, u + num_params, num_shared - num_params, acc);
+            } else if (factor.diagonal) {
+              AddOuterProducts(js_l, u, num_shared, acc);
+            } else {
+              factor.Apply(js_l, scratch.a.data(), 3);
+              AddOuterProducts(scratch.a.data(), scratch.ones.data(), num_shared, acc);
+            }
+            Eigen::Matrix3d& cov = field[i];
+            cov << acc[0], acc[3], acc[4], acc[3], acc[1], acc[5], acc[4], acc[5], acc[2];
+            if (!cov.allFinite()) throw NumericalError(PointLabel("", i) + "the model gives a non-finite result");
+          }
+        }
+      });
   return field;
 }
 

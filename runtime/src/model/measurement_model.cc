@@ -4,7 +4,9 @@
 // tracker model and the analytic derivatives of the air, pose and thermal stages.
 #include "vlt/measurement_model.h"
 
+#include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -282,43 +284,91 @@ void MeasurementModel::Evaluate(const double* readings, const double* shared, do
   EvaluatePrepared(PrepareShared(shared), readings, y);
 }
 
+MeasurementModel::AirStage MeasurementModel::AirAt(const double* shared) const {
+  AirStage air;
+  if (env_offset_ < 0) return air;
+  const double* env = shared + env_offset_;
+  const double* est = estimates_.data() + env_offset_;
+  if (env[0] == est[0] && env[1] == est[1] && env[2] == est[2] && env[3] == est[3]) {
+    air.n = n_est_;  // at the estimates: cached (the AD evaluation of n is the costly part)
+    for (int k = 0; k < 4; ++k) air.dn[k] = dn_est_[k];
+  } else {
+    air.n = AirIndex(env, air.dn);
+  }
+  air.scale = n_est_ / air.n;
+  return air;
+}
+
+bool MeasurementModel::NominalParams(const double* shared) const {
+  for (int k = 0; k < setup_.model->num_params; ++k) {
+    if (shared[k] != 0.0) return false;
+  }
+  return true;
+}
+
 void MeasurementModel::EvaluateWithJacobian(const double* readings, const double* shared,
                                             double* y, double* d_y_d_readings,
                                             double* d_y_d_shared) const {
   const ModelInfo& model = *setup_.model;
-  const int num_params = model.num_params;
-  const int num_shared = this->num_shared();
-
   // Stage 1: air. rho' = rho * n_est / n.
+  const AirStage air = AirAt(shared);
   double corrected[3] = {readings[0], readings[1], readings[2]};
-  double air_scale = 1.0;
-  double n = 1.0;
-  double dn[4] = {0, 0, 0, 0};
-  if (env_offset_ >= 0) {
-    const double* env = shared + env_offset_;
-    const double* est = estimates_.data() + env_offset_;
-    if (env[0] == est[0] && env[1] == est[1] && env[2] == est[2] && env[3] == est[3]) {
-      n = n_est_;  // at the estimates: cached (the AD evaluation of n is the costly part)
-      for (int k = 0; k < 4; ++k) dn[k] = dn_est_[k];
-    } else {
-      n = AirIndex(env, dn);
-    }
-    air_scale = n_est_ / n;
-    corrected[0] *= air_scale;
-  }
+  if (env_offset_ >= 0) corrected[0] *= air.scale;
 
-  // Stage 2: tracker model, generated Jacobians. d_y_d_shared's first 3*P entries receive
-  // d x_t / d params directly (they are transformed in place below).
-  Eigen::Vector3d x_t;
-  Eigen::Matrix3d j_r;
-  bool all_zero = model.nominal_jacobians != nullptr;
-  for (int k = 0; k < num_params && all_zero; ++k) all_zero = shared[k] == 0.0;
-  if (all_zero) {
-    model.nominal_jacobians(corrected, x_t.data(), j_r.data(), d_y_d_shared);
+  // Stage 2: tracker model, generated Jacobians, written in place (ChainStation transforms them).
+  if (model.nominal_jacobians != nullptr && NominalParams(shared)) {
+    model.nominal_jacobians(corrected, y, d_y_d_readings, d_y_d_shared);
   } else {
-    model.forward_jacobians(corrected, shared, x_t.data(), j_r.data(), d_y_d_shared);
+    model.forward_jacobians(corrected, shared, y, d_y_d_readings, d_y_d_shared);
   }
+  ChainStation(shared, air, corrected[0], y, d_y_d_readings, d_y_d_shared, true);
+}
 
+bool MeasurementModel::EvaluateNominalLanes(int count, const double* readings,
+                                            const double* shared, double* y,
+                                            double* d_y_d_readings, double* d_y_d_shared,
+                                            double* d_x_t_d_params,
+                                            Eigen::Matrix3d& linear_map) const {
+  if (count < 1 || count > kLanes) {
+    throw std::invalid_argument("EvaluateNominalLanes: count " + std::to_string(count) +
+                                " is not in 1.." + std::to_string(kLanes));
+  }
+  const ModelInfo& model = *setup_.model;
+  if (model.nominal_jacobians_batch == nullptr || !NominalParams(shared)) return false;
+  const int num_shared = this->num_shared();
+  const AirStage air = AirAt(shared);
+  // Structure of arrays, quantity q of lane l at [kLanes q + l]; lanes beyond count repeat the
+  // last point (computed, not used).
+  double r[3 * kLanes], x[3 * kLanes], jr[9 * kLanes];
+  for (int l = 0; l < kLanes; ++l) {
+    const double* point = readings + 3 * std::min(l, count - 1);
+    for (int j = 0; j < 3; ++j) r[kLanes * j + l] = point[j];
+    if (env_offset_ >= 0) r[l] *= air.scale;  // as EvaluateWithJacobian: rho' = rho n_est / n
+  }
+  model.nominal_jacobians_batch(r, x, jr, d_x_t_d_params);
+  for (int i = 0; i < count; ++i) {
+    for (int q = 0; q < 3; ++q) y[3 * i + q] = x[kLanes * q + i];
+    for (int q = 0; q < 9; ++q) d_y_d_readings[9 * i + q] = jr[kLanes * q + i];
+    linear_map = ChainStation(shared, air, r[i], y + 3 * i, d_y_d_readings + 9 * i,
+                              d_y_d_shared + 3 * num_shared * i, false);
+  }
+  return true;
+}
+
+Eigen::Matrix3d MeasurementModel::ChainStation(const double* shared, const AirStage& air,
+                                               double corrected_range, double* y,
+                                               double* d_y_d_readings, double* d_y_d_shared,
+                                               bool params_in_place) const {
+  if (env_offset_ < 0 && pose_offset_ < 0 && thermal_offset_ < 0) {
+    // The tracker alone: the general path below computes y = 1 (I x_t + 0), which for finite
+    // x_t is x_t + 0 (x_t, with -0 made +0), and leaves the Jacobians as they are.
+    for (int k = 0; k < 3; ++k) y[k] += 0.0;
+    return Eigen::Matrix3d::Identity();
+  }
+  const int num_params = setup_.model->num_params;
+  const int num_shared = this->num_shared();
+  const Eigen::Vector3d x_t(y[0], y[1], y[2]);
+  const Eigen::Matrix3d j_r = Eigen::Map<const Eigen::Matrix3d>(d_y_d_readings);
   // Stages 3 and 4: pose and thermal, as one linear map M = s R applied to the tracker-frame
   // columns.
   bool pose_at_estimates = pose_offset_ >= 0;
@@ -336,10 +386,10 @@ void MeasurementModel::EvaluateWithJacobian(const double* readings, const double
   // d y / d readings = M J_r diag(n_est / n, 1, 1).
   Eigen::Map<Eigen::Matrix3d> jy_r(d_y_d_readings);
   jy_r = linear_map ? Eigen::Matrix3d(m * j_r) : j_r;
-  jy_r.col(0) *= air_scale;
+  jy_r.col(0) *= air.scale;
 
   // d y / d params = M J_p (in place, column by column).
-  if (linear_map) {
+  if (linear_map && params_in_place) {
     for (int k = 0; k < num_params; ++k) {
       Eigen::Map<Eigen::Vector3d> col(d_y_d_shared + 3 * k);
       col = m * Eigen::Vector3d(col);
@@ -351,7 +401,7 @@ void MeasurementModel::EvaluateWithJacobian(const double* readings, const double
     const Eigen::Vector3d along_range = (linear_map ? Eigen::Vector3d(m * j_r.col(0))
                                                     : Eigen::Vector3d(j_r.col(0)));
     for (int k = 0; k < 4; ++k) {
-      jy_s.col(env_offset_ + k) = along_range * (-corrected[0] / n * dn[k]);
+      jy_s.col(env_offset_ + k) = along_range * (-corrected_range / air.n * air.dn[k]);
     }
   }
   if (pose_offset_ >= 0) {
@@ -372,6 +422,7 @@ void MeasurementModel::EvaluateWithJacobian(const double* readings, const double
     jy_s.col(thermal_offset_ + 0) = -out * (dt * s);
     jy_s.col(thermal_offset_ + 1) = -out * (cte * s);
   }
+  return m;
 }
 
 }  // namespace vlt
