@@ -25,7 +25,11 @@ constexpr std::size_t kChunk = 1024;
 const char* const kReadingNames[3] = {"range", "azimuth", "elevation"};
 const char* const kReadingUnits[3] = {"m", "rad", "rad"};
 
+// What CheckReadings requires of a reading triple: finite, positive range.
+bool ReadingsValid(const Eigen::Vector3d& r) { return r.allFinite() && r(0) > 0.0; }
+
 void CheckReadings(const Eigen::Vector3d& r, const std::string& name, std::size_t index) {
+  if (ReadingsValid(r)) return;
   if (!r.allFinite()) {
     throw NumericalError(PointLabel(name, index) + "readings are not finite");
   }
@@ -92,9 +96,8 @@ std::string CorrelationHandling(const MeasurementModel& model, const SharedFacto
 // Per-thread scratch space, allocated once per chunk, not per point.
 struct Scratch {
   explicit Scratch(int num_shared)
-      : js(3 * num_shared), a(3 * num_shared), instrument(3 * num_shared), ones(num_shared, 1.0) {}
+      : js(3 * num_shared), a(3 * num_shared), instrument(3 * num_shared) {}
   std::vector<double> js, a, instrument;
-  std::vector<double> ones;  // unit weights: the columns of J F are already scaled
 };
 
 // The factors of a job's shared covariance: all of it, and that of the instrument inputs
@@ -373,7 +376,7 @@ std::vector<Eigen::Matrix3d> CovarianceField(const MeasurementModel& model,
   const int num_params = model.setup().model->num_params;
   const double* u = factor.u.data();
   const Eigen::VectorXd x = model.shared_estimates();
-  auto valid = [](const Eigen::Vector3d& r) { return r.allFinite() && r(0) > 0.0; };
+  const std::vector<double> ones(num_shared, 1.0);  // unit weights: the columns of J F are scaled
   std::vector<Eigen::Matrix3d> field(readings.size());
   gum_internal::ParallelChunks(
       readings.size(), kChunk, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
@@ -383,7 +386,7 @@ std::vector<Eigen::Matrix3d> CovarianceField(const MeasurementModel& model,
         for (std::size_t i = begin; i < end;) {
           // Up to kLanes points with valid readings; an invalid one is reported by its own index.
           int count = 0;
-          while (count < kLanes && i + count < end && valid(readings[i + count])) ++count;
+          while (count < kLanes && i + count < end && ReadingsValid(readings[i + count])) ++count;
           if (count == 0) CheckReadings(readings[i], "", i);  // throws
           Eigen::Matrix<double, 3, kLanes> y;
           Eigen::Matrix<double, 9, kLanes> jr;
@@ -431,7 +434,7 @@ std::vector<Eigen::Matrix3d> CovarianceField(const MeasurementModel& model,
               AddOuterProducts(js_l, u, num_shared, acc);
             } else {
               factor.Apply(js_l, scratch.a.data(), 3);
-              AddOuterProducts(scratch.a.data(), scratch.ones.data(), num_shared, acc);
+              AddOuterProducts(scratch.a.data(), ones.data(), num_shared, acc);
             }
             Eigen::Matrix3d& cov = field[i];
             cov << acc[0], acc[3], acc[4], acc[3], acc[1], acc[5], acc[4], acc[5], acc[2];
