@@ -146,7 +146,7 @@ void BM_PlaneTask(benchmark::State& state, std::size_t n) {
 
 const bool kRegistered = [] {
   using benchmark::RegisterBenchmark;
-  // One thread: the engine runs inline (ParallelChunks), CPU time of the benchmark thread is the
+  // One thread: the engine runs inline (parallel::ForEachChunk), CPU time of the benchmark thread is the
   // work and stays meaningful on a shared machine; two threads: wall-clock time.
   RegisterBenchmark("gum_engine/evaluate_with_jacobian/env:0", BM_EvaluateWithJacobian, false);
   RegisterBenchmark("gum_engine/evaluate_with_jacobian/env:1", BM_EvaluateWithJacobian, true);
@@ -165,7 +165,7 @@ const bool kRegistered = [] {
   RegisterBenchmark("gum_engine/field/env:0/threads:1", BM_Field, false, 1, kBatch);
   RegisterBenchmark("gum_engine/field/env:0/threads:2", BM_Field, false, 2, kBatch)->UseRealTime();
   RegisterBenchmark("gum_engine/field/env:1/threads:1", BM_Field, true, 1, kBatch);
-  // A larger map (65536 points) amortises the engine's thread start-up (threads per call).
+  // A larger map (65536 points): 16 times the work per wake-up of the pool's workers.
   RegisterBenchmark("gum_engine/field/env:0/N:65536/threads:1", BM_Field, false, 1, 65536)
       ->UseRealTime();
   RegisterBenchmark("gum_engine/field/env:0/N:65536/threads:2", BM_Field, false, 2, 65536)

@@ -126,6 +126,7 @@ void PrintSummary(const SummaryReporter& r, std::ostream& out) {
   Ratio(out, "engine CovarianceField vs finite differences", cov1, fd);
   Ratio(out, "engine CovarianceField, SIMD kernel vs scalar kernel", cov1, cov_scalar);
   Ratio(out, "generated Forward<double> vs GiNaC subs+evalf", forward, ginac);
+  Ratio(out, "engine CovarianceField 4096 points, 2 threads / 1 thread", cov2, cov1);
   Ratio(out, "engine field 4096 points, 2 threads / 1 thread", field2, field1);
   Ratio(out, "engine field 65536 points, 2 threads / 1 thread", big2, big1);
   Ratio(out, "engine CovarianceField 65536 points, 2 threads / 1 thread", cov_big2, cov_big1);
@@ -136,6 +137,8 @@ void PrintSummary(const SummaryReporter& r, std::ostream& out) {
   Target(out, "GUM engine (CovarianceField) vs finite differences [x]", fd > 0 ? cov1 / fd : 0.0, 20.0);
   Target(out, "MCM 1e6 trials, 1 thread [M trials/s]", mcm1 / 1e6, 5.0);
   Target(out, "MCM 1e6 trials, 2 threads / 1 thread [x]", mcm1 > 0 ? mcm2 / mcm1 : 0.0, 1.8);
+  Target(out, "GUM CovarianceField 4096 points, 2 threads / 1 thread [x]", cov1 > 0 ? cov2 / cov1 : 0.0, 1.8);
+  Target(out, "GUM field 4096 points, 2 threads / 1 thread [x]", field1 > 0 ? field2 / field1 : 0.0, 1.8);
   out.flush();
 }
 

@@ -2,12 +2,10 @@
 // units, the factor of the shared-input covariance and the deterministic chunked thread pool.
 #include <algorithm>
 #include <cmath>
-#include <exception>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <string>
-#include <thread>
 #include <utility>
 #include <vector>
 
@@ -218,43 +216,6 @@ SharedFactor SharedFactor::Marginal(const std::vector<bool>& keep) const {
     AddBlock(f, kept, b.correlation(at, at));
   }
   return f;
-}
-
-void ParallelChunks(std::size_t n, std::size_t chunk, int threads,
-                    const std::function<void(std::size_t, std::size_t, std::size_t)>& body) {
-  const std::size_t num_chunks = (n + chunk - 1) / chunk;
-  std::size_t workers = threads > 0 ? static_cast<std::size_t>(threads)
-                                    : std::max(1u, std::thread::hardware_concurrency());
-  workers = std::min(workers, num_chunks);
-  if (workers <= 1) {
-    for (std::size_t c = 0; c < num_chunks; ++c) body(c, c * chunk, std::min(n, (c + 1) * chunk));
-    return;
-  }
-  std::vector<std::exception_ptr> errors(workers);
-  std::vector<std::size_t> failed_chunk(workers, num_chunks);
-  std::vector<std::thread> pool;
-  pool.reserve(workers);
-  for (std::size_t t = 0; t < workers; ++t) {
-    pool.emplace_back([&, t] {
-      // Each thread takes chunks t, t + workers, ... in increasing order and stops at its first
-      // failure, so the lowest failing chunk over all threads is the globally first one.
-      for (std::size_t c = t; c < num_chunks; c += workers) {
-        try {
-          body(c, c * chunk, std::min(n, (c + 1) * chunk));
-        } catch (...) {
-          errors[t] = std::current_exception();
-          failed_chunk[t] = c;
-          return;
-        }
-      }
-    });
-  }
-  for (std::thread& thread : pool) thread.join();
-  std::size_t first = workers;
-  for (std::size_t t = 0; t < workers; ++t) {
-    if (errors[t] && (first == workers || failed_chunk[t] < failed_chunk[first])) first = t;
-  }
-  if (first < workers) std::rethrow_exception(errors[first]);
 }
 
 std::string PointLabel(const std::string& name, std::size_t index) {

@@ -2,7 +2,6 @@
 #pragma once
 
 #include <cstddef>
-#include <functional>
 #include <string>
 #include <vector>
 
@@ -44,13 +43,6 @@ struct SharedFactor {
 };
 
 SharedFactor MakeSharedFactor(const MeasurementModel& model);
-
-// Runs body(chunk_index, begin, end) over [0, n) in chunks of `chunk` items on up to `threads`
-// threads (0: hardware concurrency). Chunks are fixed by n and chunk alone, so results that are
-// combined per chunk in chunk order do not depend on the thread count. An exception thrown by a
-// body is rethrown after all threads have joined: the one of the lowest chunk index.
-void ParallelChunks(std::size_t n, std::size_t chunk, int threads,
-                    const std::function<void(std::size_t, std::size_t, std::size_t)>& body);
 
 // Horizontal distance [m] below which a point is on the tracker's standing axis (as
 // kVerticalAxisTolerance of vlt/job.h).

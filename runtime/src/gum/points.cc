@@ -11,6 +11,7 @@
 #include <Eigen/Dense>
 
 #include "gum/internal.h"
+#include "parallel/pool.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
 #include "vlt/inverse.h"
@@ -21,7 +22,12 @@ namespace {
 using gum_internal::PointLabel;
 using gum_internal::SharedFactor;
 
-constexpr std::size_t kChunk = 1024;
+// Points per item of the worker pool: ~12 us of work at 10 M points/s, fine enough that two
+// threads stay even (with 1024, a 4096-point map was four items and a worker that started late
+// left three of them to the other: 1.3x instead of 2x; 256: 1.75x; 128: 1.96x, docs/performance.md
+// 5). Per-point results do not depend on it (a multiple of MeasurementModel::kLanes, so the SIMD
+// lanes group alike).
+constexpr std::size_t kChunk = 128;
 const char* const kReadingNames[3] = {"range", "azimuth", "elevation"};
 const char* const kReadingUnits[3] = {"m", "rad", "rad"};
 
@@ -303,7 +309,7 @@ std::vector<PointUncertainty> PropagatePoints(const MeasurementModel& model,
   const std::vector<BudgetRow> templates = BudgetTemplates(model);
   const std::vector<BudgetRow>* budget_templates = options.budgets ? &templates : nullptr;
   std::vector<PointUncertainty> results(points.size());
-  gum_internal::ParallelChunks(
+  parallel::ForEachChunk(
       points.size(), kChunk, options.threads, [&](std::size_t, std::size_t begin, std::size_t end) {
         Scratch scratch(model.num_shared());
         for (std::size_t i = begin; i < end; ++i) {
@@ -323,7 +329,7 @@ void ForEachMapJacobian(const MeasurementModel& model, std::span<const Eigen::Ve
                         Body&& body) {
   const Eigen::VectorXd x = model.shared_estimates();
   const int num_shared = model.num_shared();
-  gum_internal::ParallelChunks(
+  parallel::ForEachChunk(
       readings.size(), kChunk, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
         Scratch scratch(num_shared);
         for (std::size_t i = begin; i < end; ++i) {
@@ -378,7 +384,7 @@ std::vector<Eigen::Matrix3d> CovarianceField(const MeasurementModel& model,
   const Eigen::VectorXd x = model.shared_estimates();
   const std::vector<double> ones(num_shared, 1.0);  // unit weights: the columns of J F are scaled
   std::vector<Eigen::Matrix3d> field(readings.size());
-  gum_internal::ParallelChunks(
+  parallel::ForEachChunk(
       readings.size(), kChunk, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
         Scratch scratch(num_shared);
         std::vector<double> js(static_cast<std::size_t>(3 * num_shared * kLanes));

@@ -9,6 +9,7 @@
 #include <Eigen/Dense>
 
 #include "gum/internal.h"
+#include "parallel/pool.h"
 #include "vlt/error.h"
 #include "vlt/fits.h"
 #include "vlt/gum.h"
@@ -32,7 +33,7 @@ std::vector<Eigen::Vector3d> PointEstimates(const MeasurementModel& model,
                                             std::span<const PointReadings> points, int threads) {
   const Eigen::VectorXd x = model.shared_estimates();
   std::vector<Eigen::Vector3d> y(points.size());
-  gum_internal::ParallelChunks(points.size(), kChunk, threads,
+  parallel::ForEachChunk(points.size(), kChunk, threads,
                                [&](std::size_t, std::size_t begin, std::size_t end) {
                                  for (std::size_t i = begin; i < end; ++i) {
                                    model.Evaluate(points[i].readings.data(), x.data(), y[i].data());
@@ -57,7 +58,7 @@ void PropagateTaskCovariance(const MeasurementModel& model, std::span<const Poin
   const Eigen::VectorXd x = model.shared_estimates();
   const std::size_t num_chunks = (n + kChunk - 1) / kChunk;
   std::vector<Partial> partials(num_chunks);
-  gum_internal::ParallelChunks(
+  parallel::ForEachChunk(
       n, kChunk, options.threads, [&](std::size_t c, std::size_t begin, std::size_t end) {
         Partial& p = partials[c];
         p.g_js = Eigen::MatrixXd::Zero(k, num_shared);

@@ -12,19 +12,18 @@
 // (ranks::AllGather, exact copies), so every rank holds what one process would have held and goes
 // on identically: the result is bit-identical for any number of ranks as well.
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <climits>
 #include <cmath>
-#include <condition_variable>
 #include <cstdio>
 #include <exception>
 #include <functional>
 #include <limits>
-#include <mutex>
+#include <memory>
+#include <span>
 #include <string>
-#include <thread>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Cholesky>
@@ -34,98 +33,12 @@
 #include "mcm/progress.h"
 #include "model/correlation.h"
 #include "mpi/ranks.h"
+#include "parallel/pool.h"
 #include "vlt/error.h"
 
 namespace vlt::mcm_internal {
 
-int ResolveThreads(int requested) {
-  if (requested > 0) return requested;
-  const unsigned hardware = std::thread::hardware_concurrency();
-  return hardware == 0 ? 1 : static_cast<int>(hardware);
-}
-
 namespace {
-
-// A fixed set of worker threads; ParallelFor hands out items through an atomic counter. The
-// calling thread is worker 0.
-class ThreadPool {
- public:
-  explicit ThreadPool(int threads) {
-    for (int w = 1; w < threads; ++w) workers_.emplace_back([this, w] { WorkerLoop(w); });
-  }
-  ~ThreadPool() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stop_ = true;
-    }
-    start_.notify_all();
-    for (std::thread& t : workers_) t.join();
-  }
-  int size() const { return static_cast<int>(workers_.size()) + 1; }
-
-  void ParallelFor(int count, const std::function<void(int, int)>& fn) {
-    if (workers_.empty() || count <= 1) {
-      for (int i = 0; i < count; ++i) fn(i, 0);
-      return;
-    }
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      job_ = &fn;
-      count_ = count;
-      next_ = 0;
-      pending_ = static_cast<int>(workers_.size());
-      error_ = nullptr;
-      ++generation_;
-    }
-    start_.notify_all();
-    RunItems(0);
-    std::unique_lock<std::mutex> lock(mutex_);
-    done_.wait(lock, [this] { return pending_ == 0; });
-    job_ = nullptr;
-    if (error_) std::rethrow_exception(error_);
-  }
-
- private:
-  void WorkerLoop(int worker) {
-    std::uint64_t seen = 0;
-    for (;;) {
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        start_.wait(lock, [&] { return stop_ || generation_ != seen; });
-        if (stop_) return;
-        seen = generation_;
-      }
-      RunItems(worker);
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (--pending_ == 0) done_.notify_one();
-    }
-  }
-
-  void RunItems(int worker) {
-    for (;;) {
-      const int item = next_.fetch_add(1);
-      if (item >= count_) return;
-      try {
-        (*job_)(item, worker);
-      } catch (...) {
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (!error_) error_ = std::current_exception();
-        next_ = count_;  // stop handing out work
-      }
-    }
-  }
-
-  std::vector<std::thread> workers_;
-  std::mutex mutex_;
-  std::condition_variable start_, done_;
-  const std::function<void(int, int)>* job_ = nullptr;
-  int count_ = 0;
-  std::atomic<int> next_{0};
-  int pending_ = 0;
-  std::uint64_t generation_ = 0;
-  bool stop_ = false;
-  std::exception_ptr error_;
-};
 
 // Per-batch values of the four statistics of 7.9.4 for one output.
 struct BatchStats {
@@ -213,24 +126,81 @@ void GroupMoments(const std::vector<double>& sums, const SumLayout& layout, cons
   }
 }
 
+// An allocator whose resize leaves the elements uninitialised. The stored values of a run
+// (4 bytes x M x outputs) and the region's distances are written by the threads that compute them,
+// so their pages are first touched - a page fault each, the dominant cost of storing them - on
+// every thread at once, instead of by one thread zeroing them beforehand.
+template <typename T>
+struct UninitializedAllocator : std::allocator<T> {
+  template <typename U>
+  struct rebind {
+    using other = UninitializedAllocator<U>;
+  };
+  UninitializedAllocator() = default;
+  template <typename U>
+  UninitializedAllocator(const UninitializedAllocator<U>&) noexcept {}
+  template <typename U>
+  void construct(U* at) noexcept {
+    ::new (static_cast<void*>(at)) U;  // default-initialised: no store
+  }
+  template <typename U, typename... Args>
+  void construct(U* at, Args&&... args) {
+    ::new (static_cast<void*>(at)) U(std::forward<Args>(args)...);
+  }
+};
+using ValueSeries = std::vector<float, UninitializedAllocator<float>>;
+
+// Trials per item when a pass over all the stored values of a run is shared over the threads.
+constexpr std::int64_t kPassChunk = std::int64_t{1} << 16;
+
+// d[r] = |L^-1 (y_r - mean)| for the trials r in [begin, end) of one group of `dim` components
+// (series[a]: component a's deviations from y0; rows: L^-1 row-major). kDim > 0 fixes the size at
+// compile time (a point: 3), so that the rows' sums of a trial are computed side by side rather
+// than one loop after another; the arithmetic, and so every bit, is the same as for kDim = 0.
+template <int kDim>
+void RegionDistances(int dim, const float* const* series, const double* mean_minus_y0, const double* rows,
+                     std::size_t begin, std::size_t end, double* d) {
+  const int n = kDim > 0 ? kDim : dim;
+  constexpr int kBuffer = kDim > 0 ? kDim : 64;
+  std::vector<double> heap(kDim > 0 || n <= kBuffer ? 0 : static_cast<std::size_t>(n));
+  double buffer[kBuffer];
+  double* dev = heap.empty() ? buffer : heap.data();
+  for (std::size_t r = begin; r < end; ++r) {
+    for (int a = 0; a < n; ++a) dev[a] = static_cast<double>(series[a][r]) - mean_minus_y0[a];
+    double sum2 = 0.0;
+    for (int a = 0; a < n; ++a) {
+      double w = 0.0;
+      for (int b = 0; b < n; ++b) w += rows[a * n + b] * dev[b];
+      sum2 += w * w;
+    }
+    d[r] = std::sqrt(sum2);
+  }
+}
+
 // k_p of JCGM 102 7.7.3 from the deviations (float, relative to y0) of n trials of one group:
 // the q-th smallest |L^-1 (y_r - mean)|. series[a] holds component a. Returns false when the
-// covariance is not positive definite.
+// covariance is not positive definite. The distances are computed in parallel (each on its own:
+// the same bits for any thread count), the selection on one thread.
 bool RegionFactor(const std::vector<const float*>& series, std::int64_t n,
                   const Eigen::VectorXd& mean_minus_y0, const Eigen::MatrixXd& cov, double p,
-                  double* k) {
+                  int threads, double* k) {
   const int dim = static_cast<int>(series.size());
   Eigen::LLT<Eigen::MatrixXd> llt(cov);
   if (llt.info() != Eigen::Success || !(cov.diagonal().minCoeff() > 0.0)) return false;
   const Eigen::MatrixXd l_inv = Eigen::MatrixXd(llt.matrixL()).inverse();
   if (!l_inv.allFinite()) return false;
-  std::vector<double> d(static_cast<std::size_t>(n));
-  Eigen::VectorXd dev(dim), w(dim);
-  for (std::int64_t r = 0; r < n; ++r) {
-    for (int a = 0; a < dim; ++a) dev(a) = static_cast<double>(series[a][r]) - mean_minus_y0(a);
-    w.noalias() = l_inv * dev;
-    d[r] = w.norm();
-  }
+  // Row-major copy of L^-1; |w| with w_a = sum_b (L^-1)_ab dev_b summed in b order (RegionDistances).
+  const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rows = l_inv;
+  std::vector<double, UninitializedAllocator<double>> d(static_cast<std::size_t>(n));
+  parallel::ForEachChunk(static_cast<std::size_t>(n), kPassChunk, threads,
+                         [&](std::size_t, std::size_t begin, std::size_t end) {
+    const float* const* components = series.data();
+    if (dim == 3) {
+      RegionDistances<3>(3, components, mean_minus_y0.data(), rows.data(), begin, end, d.data());
+    } else {
+      RegionDistances<0>(dim, components, mean_minus_y0.data(), rows.data(), begin, end, d.data());
+    }
+  });
   const std::int64_t q = CoverageCount(n, p);
   std::nth_element(d.begin(), d.begin() + (q - 1), d.end());
   *k = d[q - 1];
@@ -441,8 +411,12 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
     }
   }
 
-  const int threads = ResolveThreads(settings.num_threads);
-  ThreadPool pool(threads);
+  const int threads = parallel::ResolveThreads(settings.num_threads);
+  // Items run on the process's shared workers (parallel/pool.h); `w` picks the per-thread scratch.
+  auto parallel_for = [threads](int count, const std::function<void(int, int)>& fn) {
+    parallel::ForEach(static_cast<std::size_t>(count), threads,
+                      [&fn](std::size_t item, int w) { fn(static_cast<int>(item), w); });
+  };
   std::vector<Scratch> scratch(threads);
   std::vector<std::vector<double>> buffers(threads);
   for (int w = 0; w < threads; ++w) {
@@ -465,8 +439,14 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
                        settings.memory_budget_bytes) {
     keep_all = false;
   }
-  std::vector<std::vector<float>> series(keep_all ? n_own : 0);
-  if (keep_all && !adaptive) {
+  std::vector<ValueSeries> series(keep_all ? n_own : 0);
+  // One process, fixed M, every value kept: the chunks write each value straight to its place in
+  // `series` (sized here, not touched: UninitializedAllocator) instead of into a batch buffer that
+  // one thread then appends.
+  const bool direct = keep_all && !adaptive && ranks::Count() == 1;
+  if (direct) {
+    for (auto& s : series) s.resize(static_cast<std::size_t>(settings.trials));
+  } else if (keep_all && !adaptive) {
     for (auto& s : series) s.reserve(static_cast<std::size_t>(settings.trials));
   }
 
@@ -497,16 +477,15 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
       double k = 0.0;
       OutputGroup local = g;
       local.first -= own_first;
-      if (RegionFactor(GroupSeries(vals.data(), bh, local), bh, offset, cov, p, &k)) {
+      if (RegionFactor(GroupSeries(vals.data(), bh, local), bh, offset, cov, p, threads, &k)) {
         batch_k[gi].push_back(k);
       }
     }
-    pool.ParallelFor(n_own, [&](int i, int w) {
+    parallel_for(n_own, [&](int i, int) {
       const int o = own_first + i;
-      std::vector<float>& v = sort_space[w];
-      v.assign(vals.begin() + i * bh, vals.begin() + (i + 1) * bh);
       CoverageInterval sym, shortest;
-      CoverageIntervals(v, y0[o], p, &sym, &shortest);
+      CoverageIntervals(std::span<const float>(vals.data() + static_cast<std::size_t>(i) * bh, static_cast<std::size_t>(bh)),
+                        y0[o], p, &sym, &shortest);
       stats[o].shortest_low.push_back(shortest.low);
       stats[o].shortest_high.push_back(shortest.high);
     });
@@ -527,10 +506,10 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
     bool computed_here = false;   // past this rank's chunks: a failure now was agreed or is alike on every rank
     try {
       BatchExchange exchange(n_chunks, stride, bh, n_out, share);
-      std::vector<float> computed(static_cast<std::size_t>(n_out) * exchange.trial_count);
+      std::vector<float> computed(direct ? 0 : static_cast<std::size_t>(n_out) * exchange.trial_count);
       if (ranks::Count() > 1) vals.resize(static_cast<std::size_t>(n_own) * bh);
       const std::int64_t mine = exchange.trial_count;
-      pool.ParallelFor(exchange.chunk_last - exchange.chunk_first, [&](int item, int w) {
+      parallel_for(exchange.chunk_last - exchange.chunk_first, [&](int item, int w) {
         const int c = exchange.chunk_first + item;
         double* part = partial.data() + static_cast<std::size_t>(c) * stride;
         double* out = buffers[w].data();
@@ -541,7 +520,8 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
           kernel.Run(rng, first + s, n, scratch[w], out);
           for (int o = 0; o < n_out; ++o) {
             const double* row = out + static_cast<std::size_t>(o) * kSubBatch;
-            float* dst = computed.data() + static_cast<std::size_t>(o) * mine + (s - exchange.trial_first);
+            float* dst = direct ? series[o].data() + (first + s)
+                                : computed.data() + static_cast<std::size_t>(o) * mine + (s - exchange.trial_first);
             double s1 = 0.0, s2 = 0.0;
             for (int i = 0; i < n; ++i) {
               if (!std::isfinite(row[i])) {
@@ -626,7 +606,8 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
         series.shrink_to_fit();
       }
       if (keep_all) {
-        for (int i = 0; i < n_own; ++i) {
+        // (direct: the chunks wrote the values in place)
+        for (int i = 0; !direct && i < n_own; ++i) {
           series[i].insert(series[i].end(), vals.begin() + static_cast<std::size_t>(i) * bh,
                            vals.begin() + static_cast<std::size_t>(i + 1) * bh);
         }
@@ -637,20 +618,26 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
       // 7.9.4 c), d): the batch's estimate, standard uncertainty and symmetric interval. Only full
       // batches count: the short last batch of a fixed-M run would weigh as much as a full one.
       const double dbh = static_cast<double>(bh);
-      if (bh == batch_size) pool.ParallelFor(n_own, [&](int i, int w) {
+      // Two items per output, the lower and the upper endpoint each selected on its own copy of
+      // the batch (the same order statistic as selecting both on one copy), so that two threads
+      // share a single point's three outputs evenly.
+      if (bh == batch_size) parallel_for(2 * n_own, [&](int item, int w) {
+        const int i = item / 2;
+        const bool upper = item % 2 == 1;
         const int o = own_first + i;
-        const double s1 = batch_sums[layout.sum(o)], s2 = batch_sums[layout.sum2(o)];
-        stats[o].mean.push_back(y0[o] + s1 / dbh);
-        stats[o].u.push_back(bh > 1 ? std::sqrt(std::max(0.0, (s2 - s1 * s1 / dbh) / (dbh - 1.0))) : 0.0);
+        if (!upper) {
+          const double s1 = batch_sums[layout.sum(o)], s2 = batch_sums[layout.sum2(o)];
+          stats[o].mean.push_back(y0[o] + s1 / dbh);
+          stats[o].u.push_back(bh > 1 ? std::sqrt(std::max(0.0, (s2 - s1 * s1 / dbh) / (dbh - 1.0))) : 0.0);
+        }
         std::vector<float>& v = sort_space[w];
-        v.assign(vals.begin() + static_cast<std::size_t>(i) * bh,
-                 vals.begin() + static_cast<std::size_t>(i + 1) * bh);
+        const float* batch_values = direct ? series[i].data() + first : vals.data() + static_cast<std::size_t>(i) * bh;
+        v.assign(batch_values, batch_values + bh);
         const std::int64_t q = CoverageCount(bh, p);
         const std::int64_t r = (bh - q) % 2 == 0 ? (bh - q) / 2 : (bh - q + 1) / 2;
-        std::nth_element(v.begin(), v.begin() + (r - 1), v.end());
-        stats[o].low.push_back(y0[o] + static_cast<double>(v[r - 1]));
-        std::nth_element(v.begin() + r, v.begin() + (r + q - 1), v.end());
-        stats[o].high.push_back(y0[o] + static_cast<double>(v[r + q - 1]));
+        const std::int64_t k = upper ? r + q : r;  // y_(r), y_(r+q) of 7.7.1
+        std::nth_element(v.begin(), v.begin() + (k - 1), v.end());
+        (upper ? stats[o].high : stats[o].low).push_back(y0[o] + static_cast<double>(v[k - 1]));
       });
 
       // 7.9.4 e)-i): stop when 2 s <= delta for the mean, u, y_low and y_high of every output,
@@ -762,52 +749,88 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
       all_outputs.resize(static_cast<std::size_t>(n_out) * kOutputRecord);
       all_groups.resize(static_cast<std::size_t>(n_groups) * kGroupRecord);
     }
-    for (std::size_t j = 0; j < share.groups.size(); ++j) {
-      const int gi = share.groups[j];
-      const OutputGroup& g = spec.groups[gi];
-      McmVectorResult& r = vectors[gi];
-      if (keep_all) {
-        Eigen::VectorXd offset(g.dim);
-        for (int a = 0; a < g.dim; ++a) offset(a) = r.mean(a) - y0[g.first + a];
-        std::vector<const float*> components;
-        for (int a = 0; a < g.dim; ++a) components.push_back(series[g.first - own_first + a].data());
-        double k = 0.0;
-        r.has_region = RegionFactor(components, done, offset, r.covariance, p, &k);
-        r.coverage_factor = r.has_region ? k : 0.0;
-      } else {
-        r.has_region = !batch_k[gi].empty();
-        r.coverage_factor = Average(batch_k[gi]);
-      }
-      own_groups[j * kGroupRecord] = r.has_region ? 1.0 : 0.0;
-      own_groups[j * kGroupRecord + 1] = r.coverage_factor;
-    }
     if (keep_all) {
-      // 7.7 from all M values (reorders the stored series: done last), after the histogram of the
-      // values (McmOutputResult::histogram), which does not depend on their order.
-      pool.ParallelFor(n_own, [&](int i, int) {
-        const int o = own_first + i;
-        McmOutputResult& out = result.outputs[o];
-        if (!(out.u > 0.0) || !std::isfinite(out.u)) return;
-        McmOutputResult::Histogram& h = out.histogram;
-        h.low = out.mean - 5.0 * out.u;
-        h.width = 10.0 * out.u / kHistogramBins;
-        h.counts.assign(kHistogramBins, 0);
-        for (const float v : series[i]) {
-          const double bin = std::floor((y0[o] + static_cast<double>(v) - h.low) / h.width);
-          if (bin < 0.0) ++h.below;
-          else if (bin >= kHistogramBins) ++h.above;
-          else ++h.counts[static_cast<std::size_t>(bin)];
+      // One pass over all M stored values, its items shared over the threads and each only
+      // reading the values: the coverage region of every own group (JCGM 102 7.7.3, the largest
+      // items, first), both coverage intervals of every own output (JCGM 101 7.7) and its
+      // histogram (McmOutputResult::histogram) in passes of kPassChunk values, the passes' counts
+      // added up per output afterwards (integers: exact in any order).
+      const std::size_t n_regions = share.groups.size();
+      const std::int64_t passes = (done + kPassChunk - 1) / kPassChunk;
+      constexpr int kCells = kHistogramBins + 2;  // the bins, below, above
+      std::vector<std::int64_t> cells(static_cast<std::size_t>(n_own * passes * kCells), 0);
+      auto histogram_of = [&](int i) -> McmOutputResult::Histogram* {
+        McmOutputResult& out = result.outputs[own_first + i];
+        return out.u > 0.0 && std::isfinite(out.u) ? &out.histogram : nullptr;
+      };
+      for (int i = 0; i < n_own; ++i) {
+        if (McmOutputResult::Histogram* h = histogram_of(i)) {
+          const McmOutputResult& out = result.outputs[own_first + i];
+          h->low = out.mean - 5.0 * out.u;
+          h->width = 10.0 * out.u / kHistogramBins;
+        }
+      }
+      const std::size_t n_items = n_regions + static_cast<std::size_t>(n_own) * static_cast<std::size_t>(1 + passes);
+      parallel::ForEach(n_items, threads, [&](std::size_t item, int) {
+        if (item < n_regions) {
+          const int gi = share.groups[item];
+          const OutputGroup& g = spec.groups[gi];
+          McmVectorResult& r = vectors[gi];
+          Eigen::VectorXd offset(g.dim);
+          for (int a = 0; a < g.dim; ++a) offset(a) = r.mean(a) - y0[g.first + a];
+          std::vector<const float*> components;
+          for (int a = 0; a < g.dim; ++a) components.push_back(series[g.first - own_first + a].data());
+          double k = 0.0;
+          r.has_region = RegionFactor(components, done, offset, r.covariance, p, threads, &k);
+          r.coverage_factor = r.has_region ? k : 0.0;
+          return;
+        }
+        item -= n_regions;
+        if (item < static_cast<std::size_t>(n_own)) {
+          const int o = own_first + static_cast<int>(item);
+          CoverageIntervals(series[item], y0[o], p, &result.outputs[o].symmetric, &result.outputs[o].shortest);
+          return;
+        }
+        item -= static_cast<std::size_t>(n_own);
+        const int i = static_cast<int>(static_cast<std::int64_t>(item) / passes);
+        const std::int64_t pass = static_cast<std::int64_t>(item) % passes;
+        const McmOutputResult::Histogram* h = histogram_of(i);
+        if (h == nullptr) return;
+        const double reference = y0[own_first + i];
+        std::int64_t* cell = cells.data() + static_cast<std::size_t>(item) * kCells;
+        const std::int64_t end = std::min(done, (pass + 1) * kPassChunk);
+        for (std::int64_t t = pass * kPassChunk; t < end; ++t) {
+          const double bin = std::floor((reference + static_cast<double>(series[i][t]) - h->low) / h->width);
+          if (bin < 0.0) ++cell[kHistogramBins];
+          else if (bin >= kHistogramBins) ++cell[kHistogramBins + 1];
+          else ++cell[static_cast<std::size_t>(bin)];
         }
       });
-      pool.ParallelFor(n_own, [&](int i, int) {
-        const int o = own_first + i;
-        CoverageIntervals(series[i], y0[o], p, &result.outputs[o].symmetric, &result.outputs[o].shortest);
-      });
+      for (int i = 0; i < n_own; ++i) {
+        McmOutputResult::Histogram* h = histogram_of(i);
+        if (h == nullptr) continue;
+        h->counts.assign(kHistogramBins, 0);
+        for (std::int64_t pass = 0; pass < passes; ++pass) {
+          const std::int64_t* cell = cells.data() + static_cast<std::size_t>(i * passes + pass) * kCells;
+          for (int b = 0; b < kHistogramBins; ++b) h->counts[b] += cell[b];
+          h->below += cell[kHistogramBins];
+          h->above += cell[kHistogramBins + 1];
+        }
+      }
     } else {
+      for (const int gi : share.groups) {
+        vectors[gi].has_region = !batch_k[gi].empty();
+        vectors[gi].coverage_factor = Average(batch_k[gi]);
+      }
       for (int o = own_first; o < share.last; ++o) {
         result.outputs[o].symmetric = {Average(stats[o].low), Average(stats[o].high)};
         result.outputs[o].shortest = {Average(stats[o].shortest_low), Average(stats[o].shortest_high)};
       }
+    }
+    for (std::size_t j = 0; j < share.groups.size(); ++j) {
+      const McmVectorResult& r = vectors[share.groups[j]];
+      own_groups[j * kGroupRecord] = r.has_region ? 1.0 : 0.0;
+      own_groups[j * kGroupRecord + 1] = r.coverage_factor;
     }
     for (int o = own_first; o < share.last; ++o) {
       McmNumericalAccuracy& a = result.outputs[o].accuracy;

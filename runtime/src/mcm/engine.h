@@ -117,13 +117,11 @@ struct OutputSpec {
 McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
                     const McmSettings& settings);
 
-// Both coverage intervals (JCGM 101 7.7) of the values `reference + values[i]`, reordering
-// `values` (partial sorts of the two tails only: O(M) + O((M - q) log(M - q))).
-template <typename T>
-void CoverageIntervals(std::vector<T>& values, double reference, double p,
-                       CoverageInterval* symmetric, CoverageInterval* shortest);
-
-// Number of threads for a setting (0 = hardware concurrency, at least 1).
-int ResolveThreads(int requested);
+// Both coverage intervals (JCGM 101 7.7) of the values `reference + values[i]` (partial sorts of
+// the two tails only: O(M) + O((M - q) log(M - q))). `values` is only read.
+void CoverageIntervals(std::span<const float> values, double reference, double p, CoverageInterval* symmetric,
+                       CoverageInterval* shortest);
+void CoverageIntervals(std::span<const double> values, double reference, double p, CoverageInterval* symmetric,
+                       CoverageInterval* shortest);
 
 }  // namespace vlt::mcm_internal

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <span>
 #include <string>
+#include <vector>
 
 #include "mcm/engine.h"
 #include "vlt/error.h"
@@ -88,7 +90,7 @@ constexpr std::int64_t kTailPassMin = 20'000;
 // high >= M - q values) sorting their ends gives y_(1..M-q) and y_(q+1..M) exactly, whatever the
 // sample was. Returns false when a count is short (then the caller selects in place).
 template <typename T>
-bool SortedTails(const std::vector<T>& values, std::int64_t tail, std::int64_t q,
+bool SortedTails(std::span<const T> values, std::int64_t tail, std::int64_t q,
                  std::vector<T>* low, std::vector<T>* high) {
   const auto m = static_cast<std::int64_t>(values.size());
   constexpr std::int64_t kSample = 4096;
@@ -121,34 +123,35 @@ bool SortedTails(const std::vector<T>& values, std::int64_t tail, std::int64_t q
   return true;
 }
 
-}  // namespace
-
 template <typename T>
-void CoverageIntervals(std::vector<T>& values, double reference, double p,
-                       CoverageInterval* symmetric, CoverageInterval* shortest) {
+void CoverageIntervalsOf(std::span<const T> values, double reference, double p, CoverageInterval* symmetric,
+                         CoverageInterval* shortest) {
   const auto m = static_cast<std::int64_t>(values.size());
   const std::int64_t q = CoverageCount(m, p);
   const std::int64_t r = SymmetricR(m, q);
   const std::int64_t tail = m - q;  // the shortest interval's r ranges over 1..M-q
   // Only y_(1..M-q) and y_(q+1..M) are needed: the endpoints below are all in these tails.
-  std::vector<T> low, high;
+  std::vector<T> low, high, work;
   const bool from_tails =
-      m >= kTailPassMin && 2 * tail < m && SortedTails(values, tail, q, &low, &high);
+      m >= kTailPassMin && 2 * tail < m && SortedTails<T>(values, tail, q, &low, &high);
   const std::int64_t upper_offset = m - static_cast<std::int64_t>(high.size());
   // The k-th smallest value (1-based) for k <= M - q or k >= q + 1.
   auto order = [&](std::int64_t k) -> T {
-    if (!from_tails) return values[k - 1];
+    if (!from_tails) return work[k - 1];
     return k <= tail ? low[k - 1] : high[k - upper_offset - 1];
   };
   if (!from_tails) {
+    // Selection on a copy: the values stay in place for other readers (the engine's final pass
+    // reads every output's values from several threads at once).
+    work.assign(values.begin(), values.end());
     if (2 * tail >= m) {
-      std::sort(values.begin(), values.end());
+      std::sort(work.begin(), work.end());
     } else {
       // Lower tail y_(1..M-q) and upper tail y_(q+1..M) in order; the middle is only partitioned.
-      std::nth_element(values.begin(), values.begin() + (tail - 1), values.end());
-      std::sort(values.begin(), values.begin() + tail);
-      std::nth_element(values.begin() + tail, values.begin() + q, values.end());
-      std::sort(values.begin() + q, values.end());
+      std::nth_element(work.begin(), work.begin() + (tail - 1), work.end());
+      std::sort(work.begin(), work.begin() + tail);
+      std::nth_element(work.begin() + tail, work.begin() + q, work.end());
+      std::sort(work.begin() + q, work.end());
     }
   }
   auto y = [&](std::int64_t k) { return reference + static_cast<double>(order(k)); };
@@ -165,10 +168,17 @@ void CoverageIntervals(std::vector<T>& values, double reference, double p,
   *shortest = {y(best), y(best + q)};
 }
 
-template void CoverageIntervals<float>(std::vector<float>&, double, double, CoverageInterval*,
-                                       CoverageInterval*);
-template void CoverageIntervals<double>(std::vector<double>&, double, double, CoverageInterval*,
-                                        CoverageInterval*);
+}  // namespace
+
+void CoverageIntervals(std::span<const float> values, double reference, double p, CoverageInterval* symmetric,
+                       CoverageInterval* shortest) {
+  CoverageIntervalsOf(values, reference, p, symmetric, shortest);
+}
+
+void CoverageIntervals(std::span<const double> values, double reference, double p, CoverageInterval* symmetric,
+                       CoverageInterval* shortest) {
+  CoverageIntervalsOf(values, reference, p, symmetric, shortest);
+}
 
 }  // namespace mcm_internal
 }  // namespace vlt

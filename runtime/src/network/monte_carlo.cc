@@ -8,6 +8,7 @@
 
 #include "gum/internal.h"
 #include "mpi/ranks.h"
+#include "parallel/pool.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
 #include "vlt/network.h"
@@ -33,7 +34,7 @@ NetworkMonteCarlo ValidateNetworkByMonteCarlo(const Network& network, const Netw
   std::vector<double> mine(static_cast<std::size_t>(last - first) * width);
   std::exception_ptr failure;
   try {
-    gum_internal::ParallelChunks(static_cast<std::size_t>(last - first), 1, threads,
+    parallel::ForEachChunk(static_cast<std::size_t>(last - first), 1, threads,
                                  [&](std::size_t, std::size_t begin, std::size_t end) {
       for (std::size_t i = begin; i < end; ++i) {
         const std::size_t trial = static_cast<std::size_t>(first) + i;

@@ -9,6 +9,7 @@
 #include <nlopt.hpp>
 
 #include "gum/internal.h"
+#include "parallel/pool.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
 #include "vlt/planning.h"
@@ -324,7 +325,7 @@ StationPlan PlanStation(const Job& job, int threads) {
   map.nodes = grid.Nodes();
   const std::size_t n = map.nodes.size();
   std::vector<StationEvaluation> at(n);
-  gum_internal::ParallelChunks(n, 64, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
+  parallel::ForEachChunk(n, 64, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) at[i] = EvaluateStation(job, map.nodes[i]);
   });
   plan.map_evaluations = static_cast<std::int64_t>(n);

@@ -13,6 +13,7 @@
 #include <ctime>
 
 #include "gum/internal.h"
+#include "parallel/pool.h"
 #include "results/internal.h"
 #include "vlt/error.h"
 #include "vlt/fits.h"
@@ -337,7 +338,7 @@ void internal::WriteInBlocks(OutputText& out, std::size_t n, int threads,
   std::vector<std::string> parts(kParts);
   for (std::size_t block = 0; block < n; block += kPart * kParts) {
     const std::size_t len = std::min(n - block, kPart * kParts);
-    gum_internal::ParallelChunks(len, kPart, threads, [&](std::size_t c, std::size_t b, std::size_t e) {
+    parallel::ForEachChunk(len, kPart, threads, [&](std::size_t c, std::size_t b, std::size_t e) {
       parts[c].clear();
       format(block + b, block + e, parts[c]);
     });
