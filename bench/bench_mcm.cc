@@ -6,8 +6,9 @@
 //   mcm/run/plane36/...                   the demo job's 36 panel points + the plane fit refitted
 //                                         in every trial (items = trials; point_evals/s counter)
 //   mcm/ceiling/*                         a tight loop of the same per-trial work without the
-//                                         engine: 23 Philox4x64 Box-Muller normals + Forward<double>
+//                                         engine: 23 SIMD Box-Muller normals + ForwardLanes
 // Wall-clock time (UseRealTime): the engine runs its own threads.
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -78,8 +79,9 @@ void BM_McmPlane36(benchmark::State& state, std::int64_t trials, int threads) {
       static_cast<double>(state.iterations() * trials * 36), benchmark::Counter::kIsRate);
 }
 
-// 23 standard normals per trial from the engine's generator (Philox4x64-10 + Box-Muller, one
-// counter per 4 trials and input), scaled to the inputs, then Forward<double>.
+// 23 standard normals per trial from the engine's generator (NormalsBulk: Philox4x32-10 in SIMD
+// lanes + Box-Muller, 256 trials of one input per call, as DrawNormals), scaled to the inputs,
+// then the model's ForwardLanes (4 trials per call, as the job kernel).
 template <bool kForward, bool kNormals>
 void BM_McmCeiling(benchmark::State& state) {
   using K = MirrorKernels;
@@ -88,28 +90,35 @@ void BM_McmCeiling(benchmark::State& state) {
   const Eigen::Vector3d estimate = ReadingsForPartPoint(model, Eigen::Vector3d(5.0, 0.25, -0.8));
   const Eigen::Matrix<double, kInputs, 1> u = InputUncertainties<kInputs>(model, estimate(0));
   const mcm_internal::KeyedStream rng(20260101);
+  const ForwardLanesFn lanes = model.setup().model->forward_lanes;
   constexpr std::uint64_t kGroups = 1024;  // 4096 trials per benchmark iteration
+  constexpr int kBulk = mcm_internal::KeyedStream::kBulkGroups;  // 256 trials per block
   std::uint64_t group = 0;
   double sum = 0.0;
+  std::vector<std::array<double, 4 * kBulk>> z(kInputs);
   for (auto _ : state) {
-    for (std::uint64_t g = 0; g < kGroups; ++g, ++group) {
-      double z[kInputs][4];
+    for (std::uint64_t g = 0; g < kGroups; g += kBulk, group += kBulk) {
       if constexpr (kNormals) {
-        for (int k = 0; k < kInputs; ++k) rng.Normals(group, static_cast<std::uint64_t>(k), z[k]);
+        for (int k = 0; k < kInputs; ++k) rng.NormalsBulk(group, kBulk, static_cast<std::uint64_t>(k), z[k].data());
       } else {
         for (int k = 0; k < kInputs; ++k) {
-          for (int t = 0; t < 4; ++t) z[k][t] = 1e-3 * static_cast<double>((group + k + t) & 7);
+          for (int t = 0; t < 4 * kBulk; ++t) z[k][t] = 1e-3 * static_cast<double>((group + k + t) & 7);
         }
       }
-      for (int t = 0; t < 4; ++t) {
-        double x[kInputs];
-        for (int k = 0; k < kInputs; ++k) x[k] = (k < 3 ? estimate(k) : 0.0) + u(k) * z[k][t];
+      // kL trials at a time, structure of arrays, through the model's ForwardLanes (the engine's
+      // path, docs/monte-carlo.md §11); the inputs alone summed without the model.
+      constexpr int kL = kForwardLanes;
+      for (int t0 = 0; t0 < 4 * kBulk; t0 += kL) {
+        double x[kInputs * kL];
+        for (int k = 0; k < kInputs; ++k) {
+          for (int l = 0; l < kL; ++l) x[kL * k + l] = (k < 3 ? estimate(k) : 0.0) + u(k) * z[k][t0 + l];
+        }
         if constexpr (kForward) {
-          double y[3];
-          K::Forward<double>(x, x + 3, y);
-          sum += y[0] + y[1] + y[2];
+          double y[3 * kL];
+          lanes(x, x + 3 * kL, y);
+          for (int q = 0; q < 3 * kL; ++q) sum += y[q];
         } else {
-          for (int k = 0; k < kInputs; ++k) sum += x[k];
+          for (int q = 0; q < kInputs * kL; ++q) sum += x[q];
         }
       }
     }

@@ -114,6 +114,7 @@ const ModelInfo kModel_gum_h1_end_gauge = {
     &Sensitivity,
     &ForwardBatch,
     nullptr,  // nominal_jacobians_batch
+    nullptr,  // forward_lanes
     6,  // ops_forward
     17,  // ops_forward_jacobians
     1,  // ops_nominal_jacobians

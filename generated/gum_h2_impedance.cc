@@ -102,6 +102,7 @@ const ModelInfo kModel_gum_h2_impedance = {
     &Sensitivity,
     &ForwardBatch,
     nullptr,  // nominal_jacobians_batch
+    nullptr,  // forward_lanes
     7,  // ops_forward
     18,  // ops_forward_jacobians
     4,  // ops_nominal_jacobians

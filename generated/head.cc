@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 
+#include "vlt/lanes.h"
 #include "vlt/model_info.h"
 
 namespace vlt::generated {
@@ -126,6 +127,19 @@ void NominalJacobiansBatch(const double* readings, double* out, double* d_out_d_
   for (int q = 0; q < 60; ++q) Eigen::Map<Lanes>(d_out_d_params + vlt::kNominalBatchLanes * q) = jp[q];
 }
 
+// Forward for kForwardLanes trials at once (vlt/model_info.h ForwardLanesFn): the same template
+// on vlt::lanes::Double4, compiled for AVX2 and for the baseline (chosen when the program
+// loads; the same operations, no FMA). Quantity q of lane l at [lanes * q + l].
+VLT_LANES_CLONES
+void ForwardLanes(const double* readings, const double* params, double* out) {
+  using Lanes = vlt::lanes::Double4;
+  Lanes r[3], p[20], o[3];
+  for (int j = 0; j < 3; ++j) r[j] = vlt::lanes::Load(readings + vlt::kForwardLanes * j);
+  for (int k = 0; k < 20; ++k) p[k] = vlt::lanes::Load(params + vlt::kForwardLanes * k);
+  model::Forward<Lanes>(r, p, o);
+  for (int q = 0; q < 3; ++q) vlt::lanes::Store(out + vlt::kForwardLanes * q, o[q]);
+}
+
 const QuantityInfo kReadings[] = {
     {"range", "m", "length",
      "Range reading rho_r: distance the tracker reports to the reflector centre",
@@ -233,6 +247,7 @@ const ModelInfo kModel_head = {
     &Sensitivity,
     &ForwardBatch,
     &NominalJacobiansBatch,
+    &ForwardLanes,
     136,  // ops_forward
     1179,  // ops_forward_jacobians
     115,  // ops_nominal_jacobians

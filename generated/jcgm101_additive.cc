@@ -102,6 +102,7 @@ const ModelInfo kModel_jcgm101_additive = {
     &Sensitivity,
     &ForwardBatch,
     nullptr,  // nominal_jacobians_batch
+    nullptr,  // forward_lanes
     3,  // ops_forward
     3,  // ops_forward_jacobians
     0,  // ops_nominal_jacobians

@@ -108,6 +108,7 @@ const ModelInfo kModel_jcgm101_mass = {
     &Sensitivity,
     &ForwardBatch,
     nullptr,  // nominal_jacobians_batch
+    nullptr,  // forward_lanes
     9,  // ops_forward
     16,  // ops_forward_jacobians
     1,  // ops_nominal_jacobians

@@ -199,12 +199,25 @@ GeneratedModel GenerateModel(const ModelSpec& spec) {
         return rest.empty();
       }();
 
+  // The Monte Carlo lanes of Forward (vlt/model_info.h ForwardLanesFn), under the same condition
+  // on Forward's calls: vlt/lanes.h has sin, cos and sqrt for Double4, nothing else.
+  const bool forward_lanes =
+      nr > 0 && [&] {
+        std::string rest = Usings(forward.code);
+        for (const char* f : {"  using std::cos;\n", "  using std::sin;\n", "  using std::sqrt;\n"}) {
+          const std::size_t at = rest.find(f);
+          if (at != std::string::npos) rest.erase(at, std::string(f).size());
+        }
+        return rest.empty();
+      }();
+
   // ----------------------------------------------------------------------------- source
   std::string c = Banner(spec.spec_file);
   c += "// Double instantiations of generated/" + name + ".h and the ModelInfo the runtime uses.\n";
   c += "#include \"generated/" + name + ".h\"\n\n#include <array>\n#include <cstddef>\n"
        "#include <stdexcept>\n\n";
   if (nominal_batch) c += "#include <Eigen/Core>\n\n";
+  if (forward_lanes) c += "#include \"vlt/lanes.h\"\n";
   c += "#include \"vlt/model_info.h\"\n\n";
   c += "namespace vlt::generated {\nnamespace {\n\nnamespace model = vlt::gen::" + name + ";\n\n";
   c += "void Forward(const double* readings, const double* params, double* out) {\n"
@@ -256,6 +269,27 @@ GeneratedModel GenerateModel(const ModelSpec& spec) {
     store("d_out_d_params", "jp", no * np);
     c += "}\n\n";
   }
+  if (forward_lanes) {
+    const std::string lanes = "vlt::kForwardLanes";
+    c += "// Forward for kForwardLanes trials at once (vlt/model_info.h ForwardLanesFn): the same template\n"
+         "// on vlt::lanes::Double4, compiled for AVX2 and for the baseline (chosen when the program\n"
+         "// loads; the same operations, no FMA). Quantity q of lane l at [lanes * q + l].\n";
+    c += "VLT_LANES_CLONES\n";
+    c += "void ForwardLanes(const double* readings, const double* params, double* out) {\n";
+    c += "  using Lanes = vlt::lanes::Double4;\n";
+    c += "  Lanes r[" + std::to_string(nr) + "], p[" + std::to_string(std::max(np, 1)) + "], o[" +
+         std::to_string(no) + "];\n";
+    c += "  for (int j = 0; j < " + std::to_string(nr) + "; ++j) r[j] = vlt::lanes::Load(readings + " + lanes +
+         " * j);\n";
+    if (np > 0) {
+      c += "  for (int k = 0; k < " + std::to_string(np) + "; ++k) p[k] = vlt::lanes::Load(params + " + lanes +
+           " * k);\n";
+    }
+    c += "  model::Forward<Lanes>(r, p, o);\n";
+    c += "  for (int q = 0; q < " + std::to_string(no) + "; ++q) vlt::lanes::Store(out + " + lanes +
+         " * q, o[q]);\n";
+    c += "}\n\n";
+  }
   auto table = [&](const char* var, const std::vector<QuantitySpec>& qs) {
     if (qs.empty()) return;
     c += "const QuantityInfo " + std::string(var) + "[] = {\n";
@@ -287,6 +321,7 @@ GeneratedModel GenerateModel(const ModelSpec& spec) {
   c += "    &Forward,\n    &ForwardJacobians,\n    &NominalJacobians,\n    &Sensitivity,\n"
        "    &ForwardBatch,\n";
   c += nominal_batch ? "    &NominalJacobiansBatch,\n" : "    nullptr,  // nominal_jacobians_batch\n";
+  c += forward_lanes ? "    &ForwardLanes,\n" : "    nullptr,  // forward_lanes\n";
   c += "    " + std::to_string(forward.ops) + ",  // ops_forward\n    " +
        std::to_string(jacobians.ops) + ",  // ops_forward_jacobians\n    " +
        std::to_string(nominal.ops) + ",  // ops_nominal_jacobians\n};\n\n";

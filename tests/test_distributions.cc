@@ -5,12 +5,16 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <ios>
 #include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include <Random123/philox.h>
+
 #include "mcm/engine.h"
+#include "mcm/random.h"
 #include "vlt/distributions.h"
 #include "vlt/error.h"
 
@@ -360,6 +364,99 @@ TEST(RandomStreams, BulkNormalsAreTheNormalsOfEachGroupBitForBit) {
       ASSERT_EQ(out[i], z[trial % 4]) << "trial " << trial;
     }
   }
+}
+
+TEST(RandomStreams, EveryPhiloxImplementationIsRandom123) {
+  // The words of Philox4x32-10 from the portable loop and the SIMD lanes (those this machine
+  // runs) against Random123's r123::Philox4x32, including a pair index whose low word wraps
+  // inside one register of lanes, and input indices above 2^32.
+  using mcm_internal::PhiloxImplementation;
+  const r123::Philox4x32::key_type key = {{0x89ABCDEFu, 0x01234567u}};
+  int compared = 0;
+  for (PhiloxImplementation which : {PhiloxImplementation::kPortable, PhiloxImplementation::kSse2,
+                                     PhiloxImplementation::kAvx2}) {
+    if (!mcm_internal::PhiloxImplementationRuns(which)) continue;
+    for (std::uint64_t first_pair : {0ull, 77ull, 0xFFFFFFF9ull, (1ull << 45) + 3}) {
+      for (int pairs : {1, 17, 128}) {
+        for (std::uint64_t input : {0ull, 5ull, (1ull << 40) + 9}) {
+          std::vector<std::uint32_t> words(4 * static_cast<std::size_t>(pairs));
+          mcm_internal::PhiloxWordsForTest(which, key[0], key[1], first_pair, pairs, input, words.data());
+          for (int p = 0; p < pairs; ++p) {
+            const std::uint64_t pair = first_pair + static_cast<std::uint64_t>(p);
+            const r123::Philox4x32::ctr_type ctr = {{static_cast<std::uint32_t>(pair),
+                                                     static_cast<std::uint32_t>(pair >> 32),
+                                                     static_cast<std::uint32_t>(input),
+                                                     static_cast<std::uint32_t>(input >> 32)}};
+            const r123::Philox4x32::ctr_type expected = r123::Philox4x32()(ctr, key);
+            for (int j = 0; j < 4; ++j) {
+              ASSERT_EQ(words[4 * static_cast<std::size_t>(p) + j], expected[j])
+                  << static_cast<int>(which) << " pair " << pair << " input " << input;
+            }
+          }
+        }
+      }
+    }
+    ++compared;
+  }
+  EXPECT_GE(compared, 1);
+}
+
+TEST(RandomStreams, LogOpenUnitWithinOneUlpOfLongDouble) {
+  // random.h's ln against long double libm on the uniforms the stream produces and on the
+  // edges of its range reduction (powers of two, both sides of sqrt(2)).
+  double worst = 0.0;
+  auto check = [&worst](double u) {
+    const long double exact = std::log(static_cast<long double>(u));
+    const double got = mcm_internal::KeyedStream::LogOpenUnit(u);
+    const double ulp = std::nextafter(std::fabs(static_cast<double>(exact)), 1e300) -
+                       std::fabs(static_cast<double>(exact));
+    worst = std::max(worst, static_cast<double>(std::fabs(got - exact)) / ulp);
+  };
+  for (std::uint64_t i = 0; i < 2'000'000; ++i) {
+    check(mcm_internal::KeyedStream::ToOpenUnit(i * 0x9E3779B97F4A7C15ull));
+  }
+  for (int e = -53; e < 0; ++e) {
+    for (double m : {1.0, std::nextafter(1.0, 2.0), std::sqrt(2.0), std::nextafter(std::sqrt(2.0), 0.0),
+                     std::nextafter(std::sqrt(2.0), 2.0), std::nextafter(2.0, 0.0)}) {
+      check(std::ldexp(m, e));
+    }
+  }
+  check(1.0 - 0x1.0p-53);
+  EXPECT_LT(worst, 1.0);
+  EXPECT_EQ(mcm_internal::KeyedStream::LogOpenUnit(0.5), -std::log(2.0));
+}
+
+TEST(RandomStreams, NormalsAreBoxMullerOfTheirPhiloxWords) {
+  // An independent evaluation of the stream's definition (random.h) in long double from
+  // Random123's words, then the first normals of one seed pinned bit for bit: a change of the
+  // stream (and so of every Monte Carlo result for a given seed) must be deliberate.
+  const std::uint64_t seed = 0x0123456789ABCDEFull;
+  const mcm_internal::KeyedStream rng(seed);
+  const r123::Philox4x32::key_type key = {{static_cast<std::uint32_t>(seed),
+                                           static_cast<std::uint32_t>(seed >> 32)}};
+  const long double two_pi = 6.283185307179586476925286766559005768L;
+  for (std::uint64_t group : {0ull, 1ull, 999ull, (1ull << 33) + 5}) {
+    double z[4];
+    rng.Normals(group, 11, z);
+    for (int half = 0; half < 2; ++half) {
+      const std::uint64_t pair = 2 * group + static_cast<std::uint64_t>(half);
+      const r123::Philox4x32::ctr_type w = r123::Philox4x32()(
+          {{static_cast<std::uint32_t>(pair), static_cast<std::uint32_t>(pair >> 32), 11u, 0u}}, key);
+      auto unit = [](std::uint32_t hi, std::uint32_t lo) {
+        return (static_cast<long double>((((static_cast<std::uint64_t>(hi) << 32) | lo) >> 12)) + 0.5L) *
+               0x1.0p-52L;
+      };
+      const long double r = std::sqrt(-2.0L * std::log(unit(w[0], w[1])));
+      const long double angle = two_pi * unit(w[2], w[3]);
+      EXPECT_NEAR(z[2 * half], static_cast<double>(r * std::cos(angle)), 4e-15 * (1.0 + std::fabs(z[2 * half])));
+      EXPECT_NEAR(z[2 * half + 1], static_cast<double>(r * std::sin(angle)), 4e-15 * (1.0 + std::fabs(z[2 * half + 1])));
+    }
+  }
+  double first[4];
+  rng.Normals(0, 0, first);
+  const double pinned[4] = {0x1.6ad54d12cffc1p-1, 0x1.9300836837bf5p-2, -0x1.64f47fe6bb003p-1,
+                           0x1.130f09ec5860cp-1};
+  for (int j = 0; j < 4; ++j) EXPECT_EQ(first[j], pinned[j]) << j << ": " << std::hexfloat << first[j];
 }
 
 TEST(RandomStreams, NormalTailsBeyondFourSigma) {

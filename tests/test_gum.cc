@@ -499,7 +499,7 @@ const QuantityInfo kAdditiveInputs[] = {{"x1", "1", "dimensionless", "", 0, 1, "
 const QuantityInfo kAdditiveOutputs[] = {{"y", "1", "dimensionless", "", 0, 0, "normal", 0}};
 const ModelInfo kAdditive = {"additive_test", "custom", "", "", 0, 4, 1, nullptr, kAdditiveInputs,
                              kAdditiveOutputs, &AdditiveForward, &AdditiveJacobians, nullptr,
-                             nullptr, nullptr, nullptr, 0, 0, 0};
+                             nullptr, nullptr, nullptr, nullptr, 0, 0, 0};
 
 TEST(GumCustom, Jcgm101AdditiveModel) {
   std::vector<UncertainInput> in = {In(0, 1), In(0, 1), In(0, 1), In(0, 1)};

@@ -60,6 +60,6 @@ inline const QuantityInfo kIdealOutputs[] = {
 inline const ModelInfo kIdealTracker = {
     "ideal_test", "tracker", "ideal spherical tracker (test scaffolding)", "tests",
     3, 4, 3, kIdealReadings, kIdealParams, kIdealOutputs,
-    &IdealForward, &IdealForwardJacobians, nullptr, nullptr, nullptr, nullptr, 0, 0, 0};
+    &IdealForward, &IdealForwardJacobians, nullptr, nullptr, nullptr, nullptr, nullptr, 0, 0, 0};
 
 }  // namespace vlt::test

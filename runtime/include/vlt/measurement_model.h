@@ -165,6 +165,14 @@ class MeasurementModel {
   // y of one point at the prepared shared inputs, bit for bit Evaluate(readings, shared, y):
   //   rho' = rho (n_est / n),  x_t = f(rho', A, E; params),  y = s (R x_t + t).
   void EvaluatePrepared(const PreparedShared& prepared, const double* readings, double* y) const;
+  // EvaluatePrepared for kForwardLanes trials at once (the Monte Carlo job kernel), the tracker
+  // model run in SIMD lanes (vlt/model_info.h ForwardLanesFn; its sin/cos are vlt's own, so y
+  // may differ from EvaluatePrepared's in the last bits): lane l has prepared[l] and the readings
+  // readings[kForwardLanes j + l], and gets y[kForwardLanes i + l]. The stages before and after
+  // the tracker model are EvaluatePrepared's, lane by lane. Returns false, computing nothing,
+  // when the model has no lanes kernel.
+  bool EvaluatePreparedLanes(const PreparedShared* const* prepared, const double* readings,
+                             double* y) const;
   // Same plus d y / d readings (3x3, column-major) and d y / d shared (3 x S, column-major).
   // Chain rule (docs/gum.md "Measurement model"), with rho' = rho n_est / n(t, p, RH, x):
   //   x_t = f(rho', A, E; params)                       tracker model (generated Jacobians)
@@ -216,6 +224,8 @@ class MeasurementModel {
   // n_est / n at the shared inputs (1 without environment).
   double RangeScale(const double* shared) const;
   // x_t = f(rho range_scale, A, E; params): the air correction and the tracker model.
+  // y = s (R x_t + t) from the tracker-frame point (pose and thermal when enabled).
+  void Place(const PreparedShared& prepared, const Eigen::Vector3d& x_t, double* y) const;
   void TrackerPoint(double range_scale, const double* readings, const double* shared,
                     double* x_tracker) const;
   // Stage 1 of EvaluateWithJacobian (the air) at the shared inputs: rho' = rho scale with

@@ -55,6 +55,17 @@ inline constexpr int kNominalBatchLanes = 4;
 using NominalJacobiansBatchFn = void (*)(const double* readings, double* outputs,
                                          double* d_outputs_d_readings, double* d_outputs_d_params);
 
+// Forward for kForwardLanes trials at once (the Monte Carlo engine's job kernel), structure of
+// arrays: quantity q of lane l at [kForwardLanes * q + l] (readings: num_readings quantities,
+// params: num_params, outputs: num_outputs). The templated kernel instantiated on
+// vlt::lanes::Double4 (vlt/lanes.h), compiled for AVX2 and for the baseline: +, -, *, / and sqrt
+// are ForwardFn's operations lane by lane, sin and cos are vlt's own (within 2.4 ulp, libm's
+// within 1), so a lane may differ from ForwardFn in the last bits, never by more (tests/
+// test_generated_models.cc). Tracker models whose kernel calls only sin, cos and sqrt; nullptr
+// otherwise (the engine then calls ForwardFn per trial).
+inline constexpr int kForwardLanes = 4;
+using ForwardLanesFn = void (*)(const double* readings, const double* params, double* outputs);
+
 struct ModelInfo {
   const char* name;         // "mirror", "head", "jcgm101_additive", ...
   const char* kind;         // "tracker" or "custom"
@@ -72,6 +83,7 @@ struct ModelInfo {
   SensitivityFn sensitivity;
   ForwardBatchFn forward_batch;
   NominalJacobiansBatchFn nominal_jacobians_batch;  // tracker models; nullptr for custom models
+  ForwardLanesFn forward_lanes;                      // tracker models; nullptr for custom models
   // Operation counts of the emitted kernels after common-subexpression elimination.
   int ops_forward;
   int ops_forward_jacobians;

@@ -31,6 +31,7 @@
 
 #include "mcm/engine.h"
 #include "mcm/progress.h"
+#include "mcm/storage.h"
 #include "model/correlation.h"
 #include "mpi/ranks.h"
 #include "parallel/pool.h"
@@ -124,87 +125,6 @@ void GroupMoments(const std::vector<double>& sums, const SumLayout& layout, cons
       (*cov)(a, b) = (sab - s1(a) * s1(b) / dn) / (dn - 1.0);
     }
   }
-}
-
-// An allocator whose resize leaves the elements uninitialised. The stored values of a run
-// (4 bytes x M x outputs) and the region's distances are written by the threads that compute them,
-// so their pages are first touched - a page fault each, the dominant cost of storing them - on
-// every thread at once, instead of by one thread zeroing them beforehand.
-template <typename T>
-struct UninitializedAllocator : std::allocator<T> {
-  template <typename U>
-  struct rebind {
-    using other = UninitializedAllocator<U>;
-  };
-  UninitializedAllocator() = default;
-  template <typename U>
-  UninitializedAllocator(const UninitializedAllocator<U>&) noexcept {}
-  template <typename U>
-  void construct(U* at) noexcept {
-    ::new (static_cast<void*>(at)) U;  // default-initialised: no store
-  }
-  template <typename U, typename... Args>
-  void construct(U* at, Args&&... args) {
-    ::new (static_cast<void*>(at)) U(std::forward<Args>(args)...);
-  }
-};
-using ValueSeries = std::vector<float, UninitializedAllocator<float>>;
-
-// Trials per item when a pass over all the stored values of a run is shared over the threads.
-constexpr std::int64_t kPassChunk = std::int64_t{1} << 16;
-
-// d[r] = |L^-1 (y_r - mean)| for the trials r in [begin, end) of one group of `dim` components
-// (series[a]: component a's deviations from y0; rows: L^-1 row-major). kDim > 0 fixes the size at
-// compile time (a point: 3), so that the rows' sums of a trial are computed side by side rather
-// than one loop after another; the arithmetic, and so every bit, is the same as for kDim = 0.
-template <int kDim>
-void RegionDistances(int dim, const float* const* series, const double* mean_minus_y0, const double* rows,
-                     std::size_t begin, std::size_t end, double* d) {
-  const int n = kDim > 0 ? kDim : dim;
-  constexpr int kBuffer = kDim > 0 ? kDim : 64;
-  std::vector<double> heap(kDim > 0 || n <= kBuffer ? 0 : static_cast<std::size_t>(n));
-  double buffer[kBuffer];
-  double* dev = heap.empty() ? buffer : heap.data();
-  for (std::size_t r = begin; r < end; ++r) {
-    for (int a = 0; a < n; ++a) dev[a] = static_cast<double>(series[a][r]) - mean_minus_y0[a];
-    double sum2 = 0.0;
-    for (int a = 0; a < n; ++a) {
-      double w = 0.0;
-      for (int b = 0; b < n; ++b) w += rows[a * n + b] * dev[b];
-      sum2 += w * w;
-    }
-    d[r] = std::sqrt(sum2);
-  }
-}
-
-// k_p of JCGM 102 7.7.3 from the deviations (float, relative to y0) of n trials of one group:
-// the q-th smallest |L^-1 (y_r - mean)|. series[a] holds component a. Returns false when the
-// covariance is not positive definite. The distances are computed in parallel (each on its own:
-// the same bits for any thread count), the selection on one thread.
-bool RegionFactor(const std::vector<const float*>& series, std::int64_t n,
-                  const Eigen::VectorXd& mean_minus_y0, const Eigen::MatrixXd& cov, double p,
-                  int threads, double* k) {
-  const int dim = static_cast<int>(series.size());
-  Eigen::LLT<Eigen::MatrixXd> llt(cov);
-  if (llt.info() != Eigen::Success || !(cov.diagonal().minCoeff() > 0.0)) return false;
-  const Eigen::MatrixXd l_inv = Eigen::MatrixXd(llt.matrixL()).inverse();
-  if (!l_inv.allFinite()) return false;
-  // Row-major copy of L^-1; |w| with w_a = sum_b (L^-1)_ab dev_b summed in b order (RegionDistances).
-  const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rows = l_inv;
-  std::vector<double, UninitializedAllocator<double>> d(static_cast<std::size_t>(n));
-  parallel::ForEachChunk(static_cast<std::size_t>(n), kPassChunk, threads,
-                         [&](std::size_t, std::size_t begin, std::size_t end) {
-    const float* const* components = series.data();
-    if (dim == 3) {
-      RegionDistances<3>(3, components, mean_minus_y0.data(), rows.data(), begin, end, d.data());
-    } else {
-      RegionDistances<0>(dim, components, mean_minus_y0.data(), rows.data(), begin, end, d.data());
-    }
-  });
-  const std::int64_t q = CoverageCount(n, p);
-  std::nth_element(d.begin(), d.begin() + (q - 1), d.end());
-  *k = d[q - 1];
-  return true;
 }
 
 // The component pointers of group g in a buffer holding `stride` values per output.

@@ -124,4 +124,12 @@ void CoverageIntervals(std::span<const float> values, double reference, double p
 void CoverageIntervals(std::span<const double> values, double reference, double p, CoverageInterval* symmetric,
                        CoverageInterval* shortest);
 
+// k_p of JCGM 102 7.7.3 from the deviations (float, relative to y0) of n trials of one group
+// (mcm/region.cc): the q-th smallest |L^-1 (y_r - mean)|, L L^T = cov; series[a] holds
+// component a, mean_minus_y0 the group's mean less y0. Returns false when the covariance is not
+// positive definite.
+bool RegionFactor(const std::vector<const float*>& series, std::int64_t n,
+                  const Eigen::VectorXd& mean_minus_y0, const Eigen::MatrixXd& cov, double p,
+                  int threads, double* k);
+
 }  // namespace vlt::mcm_internal

@@ -129,7 +129,27 @@ class JobKernel final : public mcm_internal::TrialKernel {
         for (int i = 0; i < n; ++i) row[i] = estimate(j) + u(j) * row[i];
       }
       double* out_x = outputs + 3 * p * kSubBatch;
-      for (int i = 0; i < n; ++i) {
+      // kForwardLanes trials at a time through the model's SIMD kernel (the last group padded
+      // with the sub-batch's last trial, whose extra results are dropped: every lane is computed
+      // on its own, so a trial's value does not depend on its neighbours); the double kernel per
+      // trial for a model without one.
+      int i = 0;
+      constexpr int kL = kForwardLanes;
+      for (bool lanes = true; lanes && i < n; i += kL) {
+        const MeasurementModel::PreparedShared* lane_states[kL];
+        double r[3 * kL], y[3 * kL];
+        for (int l = 0; l < kL; ++l) {
+          const int t = std::min(i + l, n - 1);
+          lane_states[l] = &states[t];
+          for (int j = 0; j < 3; ++j) r[kL * j + l] = readings[j * kSubBatch + t];
+        }
+        lanes = model_.EvaluatePreparedLanes(lane_states, r, y);
+        if (!lanes) break;
+        for (int l = 0; l < std::min(kL, n - i); ++l) {
+          for (int j = 0; j < 3; ++j) out_x[j * kSubBatch + i + l] = y[kL * j + l];
+        }
+      }
+      for (; i < n; ++i) {
         const double r[3] = {readings[i], readings[kSubBatch + i], readings[2 * kSubBatch + i]};
         double y[3];
         model_.EvaluatePrepared(states[i], r, y);

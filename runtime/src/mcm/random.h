@@ -13,32 +13,43 @@
 // from 2^-53 to 1 - 2^-53, symmetric about 1/2, all exactly representable, never 0 or 1. (With 53
 // bits the top midpoint 1 - 2^-54 is not a double and would round to 1.)
 //
-// Normals: Box-Muller (exact transform, JCGM 101 C.4.2): from the uniforms (u0, u1) of trials
-// 4g, 4g+1 and (u2, u3) of trials 4g+2, 4g+3 of the SAME input,
-//     z_{4g}   = sqrt(-2 ln u0) cos(2 pi u1),   z_{4g+1} = sqrt(-2 ln u0) sin(2 pi u1),
-// and likewise for 4g+2, 4g+3. The pair shares one counter, so each z still depends only on
-// (seed, trial, input).
+// Normals: Box-Muller (exact transform, JCGM 101 C.4.2) on a second member of the family,
+// Philox4x32-10 with key = (seed mod 2^32, seed / 2^32), chosen because its 32 x 32 -> 64-bit
+// multiplies run in SIMD lanes (mcm/normals.cc). Trial pair p = (2p, 2p+1) — group g of four
+// trials 4g .. 4g+3 is pairs 2g and 2g+1 — has the counter (p mod 2^32, p / 2^32, input mod
+// 2^32, input / 2^32) and its four 32-bit words (w0, w1, w2, w3) give two uniforms on the open
+// interval from 52 bits each (ToOpenUnit of the 64-bit words w0:w1 and w2:w3):
+//     z_{2p} = sqrt(-2 ln u) cos(2 pi v),   z_{2p+1} = sqrt(-2 ln u) sin(2 pi v).
+// ln and sin/cos are vlt's own (LogOpenUnit, SinCosTwoPi below): additions, multiplications,
+// one division and one square root, each IEEE correctly rounded and never fused, so a normal has
+// the same bits on every x86-64 machine, whichever instruction set the SIMD path uses, with any
+// C library. Each z depends only on (seed, trial, input).
 #pragma once
 
+#include <bit>
 #include <cmath>
 #include <cstdint>
 
 #include <Random123/philox.h>
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
+#include "vlt/lanes.h"
+
 
 namespace vlt::mcm_internal {
 
 class KeyedStream {
  public:
   using Generator = r123::Philox4x64;
+  using NormalGenerator = r123::Philox4x32;
 
   explicit KeyedStream(std::uint64_t seed) {
     key_[0] = seed;
     key_[1] = 0;
+    normal_key_[0] = static_cast<std::uint32_t>(seed);
+    normal_key_[1] = static_cast<std::uint32_t>(seed >> 32);
   }
+
+  const r123::Philox4x32::key_type& normal_key() const { return normal_key_; }
 
   // Four uniforms for trials 4*group .. 4*group+3 of `input` (purpose 0 or 1).
   void Uniforms(std::uint64_t group, std::uint64_t input, std::uint64_t purpose,
@@ -48,78 +59,67 @@ class KeyedStream {
     for (int j = 0; j < 4; ++j) out[j] = ToOpenUnit(r[j]);
   }
 
-  // Four standard normals for trials 4*group .. 4*group+3 of `input` (Box-Muller, see above).
+  // Four standard normals for trials 4*group .. 4*group+3 of `input` (Box-Muller, see above):
+  // the scalar reference of NormalsBulk.
   void Normals(std::uint64_t group, std::uint64_t input, double out[4]) const {
-    double u[4];
-    Uniforms(group, input, 0, u);
-    BoxMuller(u, out);
+    for (int half = 0; half < 2; ++half) {
+      const std::uint64_t pair = 2 * group + static_cast<std::uint64_t>(half);
+      const NormalGenerator::ctr_type ctr = {{static_cast<std::uint32_t>(pair),
+                                              static_cast<std::uint32_t>(pair >> 32),
+                                              static_cast<std::uint32_t>(input),
+                                              static_cast<std::uint32_t>(input >> 32)}};
+      const NormalGenerator::ctr_type w = NormalGenerator()(ctr, normal_key_);
+      const double u = OpenUnitFromHalves(w[0], w[1]);
+      const double v = OpenUnitFromHalves(w[2], w[3]);
+      const double r = std::sqrt(-2.0 * LogOpenUnit(u));
+      double s, c;
+      SinCosTwoPi(v, &s, &c);
+      out[2 * half] = r * c;
+      out[2 * half + 1] = r * s;
+    }
   }
 
   // The normals of `groups` consecutive groups (groups <= kBulkGroups) of `input`:
-  // out[4 g + j] = Normals(first_group + g, input)[j], bit for bit. The same operations as
-  // Normals, reordered into stages over arrays (all Philox calls, then the logarithms and square
-  // roots, then the branch-free quarter-turn sine/cosine) so that independent work overlaps and
-  // the polynomial stage vectorises; every value goes through exactly the same IEEE operations.
+  // out[4 g + j] = Normals(first_group + g, input)[j], bit for bit, computed in SIMD lanes
+  // (mcm/normals.cc: Philox4x32-10 over arrays of counters, then the transform stage by stage).
   static constexpr int kBulkGroups = 64;
-  void NormalsBulk(std::uint64_t first_group, int groups, std::uint64_t input,
-                   double* out) const {
-    double u0[kBulkGroups], u1[kBulkGroups], u2[kBulkGroups], u3[kBulkGroups];
-    for (int g = 0; g < groups; ++g) {
-      Generator::ctr_type ctr = {{first_group + static_cast<std::uint64_t>(g), input, 0, 0}};
-      const Generator::ctr_type r = generator_(ctr, key_);
-      u0[g] = ToOpenUnit(r[0]);
-      u1[g] = ToOpenUnit(r[1]);
-      u2[g] = ToOpenUnit(r[2]);
-      u3[g] = ToOpenUnit(r[3]);
-    }
-    for (int g = 0; g < groups; ++g) {
-      u0[g] = -2.0 * std::log(u0[g]);   // squared radius of trials 4g, 4g+1
-      u2[g] = -2.0 * std::log(u2[g]);   // squared radius of trials 4g+2, 4g+3
-    }
-    SqrtArray(u0, groups);
-    SqrtArray(u2, groups);
-    double s0[kBulkGroups], c0[kBulkGroups], s1[kBulkGroups], c1[kBulkGroups];
-    SinCosTwoPiArray(u1, groups, s0, c0);
-    SinCosTwoPiArray(u3, groups, s1, c1);
-    for (int g = 0; g < groups; ++g) {
-      out[4 * g + 0] = u0[g] * c0[g];
-      out[4 * g + 1] = u0[g] * s0[g];
-      out[4 * g + 2] = u2[g] * c1[g];
-      out[4 * g + 3] = u2[g] * s1[g];
-    }
+  void NormalsBulk(std::uint64_t first_group, int groups, std::uint64_t input, double* out) const;
+
+  // The uniform on the open interval (0, 1) of the 64-bit word hi:lo, equal to ToOpenUnit of it
+  // but written with bit operations only, so that it vectorises: with k the word's 52 high bits,
+  // the double with exponent 0 and mantissa k is 1 + k 2^-52; subtracting 1 and adding 2^-53
+  // are exact.
+  static double OpenUnitFromHalves(std::uint32_t hi, std::uint32_t lo) {
+    const std::uint64_t k = ((static_cast<std::uint64_t>(hi) << 32) | lo) >> 12;
+    return (std::bit_cast<double>(k | 0x3FF0000000000000ull) - 1.0) + 0x1.0p-53;
   }
 
-  // x[i] = sqrt(x[i]) for x[i] > 0 (IEEE correctly rounded either way). std::sqrt keeps an
-  // errno branch that stops the compiler from vectorising; the SSE2 instruction does two at once.
-  static void SqrtArray(double* x, int n) {
-    int i = 0;
-#if defined(__SSE2__)
-    for (; i + 2 <= n; i += 2) _mm_storeu_pd(x + i, _mm_sqrt_pd(_mm_loadu_pd(x + i)));
-#endif
-    for (; i < n; ++i) x[i] = std::sqrt(x[i]);
-  }
-
-  // SinCosTwoPi over an array (same values), written without branches so that it vectorises.
-  static void SinCosTwoPiArray(const double* u, int n, double* sine, double* cosine) {
-    for (int i = 0; i < n; ++i) {
-      double s, c;
-      SinCosTwoPi(u[i], &s, &c);
-      sine[i] = s;
-      cosine[i] = c;
-    }
-  }
-
-  // (u0, u1, u2, u3) -> four standard normals (the transform of Normals).
-  static void BoxMuller(const double u[4], double out[4]) {
-    const double r0 = std::sqrt(-2.0 * std::log(u[0]));
-    const double r1 = std::sqrt(-2.0 * std::log(u[2]));
-    double s0, c0, s1, c1;
-    SinCosTwoPi(u[1], &s0, &c0);
-    SinCosTwoPi(u[3], &s1, &c1);
-    out[0] = r0 * c0;
-    out[1] = r0 * s0;
-    out[2] = r1 * c1;
-    out[3] = r1 * s1;
+  // ln u for a normal double u in (0, 1) (the uniforms above lie in [2^-53, 1 - 2^-53]), without
+  // a branch or a libm call: u = 2^e m with m in [sqrt(2)/2, sqrt(2)), f = m - 1 (exact),
+  // s = f / (2 + f), ln(1 + f) = 2 atanh(s) = f - f^2/2 + s (f^2/2 + R(s^2)) with the minimax
+  // polynomial R of fdlibm's e_log.c (Sun Microsystems, 1993; error below 1 ulp, checked against
+  // long double in tests/test_distributions.cc), and e ln 2 in two parts (e ln2_hi is exact).
+  static double LogOpenUnit(double u) {
+    const std::uint64_t bits = std::bit_cast<std::uint64_t>(u);
+    const std::uint64_t mantissa = bits & 0x000FFFFFFFFFFFFFull;
+    // m >= sqrt(2) (the mantissa field above that of sqrt(2)): halve m, one more in e.
+    const bool high = mantissa > 0x6A09E667F3BCCull;
+    const std::uint64_t biased = (bits >> 52) + (high ? 1u : 0u);  // e + 1023, in [970, 1023]
+    const double m = std::bit_cast<double>(mantissa | (high ? 0x3FE0000000000000ull
+                                                            : 0x3FF0000000000000ull));
+    // e as a double, exactly: 2^52 + biased has `biased` in its mantissa field.
+    const double e = std::bit_cast<double>(0x4330000000000000ull | biased) - (0x1.0p52 + 1023.0);
+    const double f = m - 1.0;
+    const double s = f / (2.0 + f);
+    const double z = s * s;
+    const double w = z * z;
+    const double t1 = w * (0x1.999999997fa04p-2 + w * (0x1.c71c51d8e78afp-3 + w * 0x1.39a09d078c69fp-3));
+    const double t2 = z * (0x1.5555555555593p-1 +
+                           w * (0x1.2492494229359p-2 + w * (0x1.7466496cb03dep-3 + w * 0x1.2f112df3e5244p-3)));
+    const double r = t2 + t1;
+    const double hfsq = 0.5 * f * f;
+    constexpr double kLn2Hi = 0x1.62e42feep-1, kLn2Lo = 0x1.a39ef35793c76p-33;
+    return e * kLn2Hi - ((hfsq - (s * (hfsq + r) + e * kLn2Lo)) - f);
   }
 
   // sin and cos of 2 pi u for u in [0, 1], accurate to ~1 ulp, without a libm call (the
@@ -134,26 +134,8 @@ class KeyedStream {
     // needs no libm call on baseline x86-64 (no SSE4.1 roundsd) and vectorises.
     const double q = (t + 0x1.8p52) - 0x1.8p52;
     const double x = (t - q) * 1.5707963267948966192313216916397514;
-    const double x2 = x * x;
-    // Horner in x^2 with coefficients (-1)^k / (2k+1)! and (-1)^k / (2k)!.
-    double sp = 1.0 / 355687428096000.0;            // 1/17!
-    sp = sp * x2 - 1.0 / 1307674368000.0;           // 1/15!
-    sp = sp * x2 + 1.0 / 6227020800.0;              // 1/13!
-    sp = sp * x2 - 1.0 / 39916800.0;                // 1/11!
-    sp = sp * x2 + 1.0 / 362880.0;                  // 1/9!
-    sp = sp * x2 - 1.0 / 5040.0;                    // 1/7!
-    sp = sp * x2 + 1.0 / 120.0;                     // 1/5!
-    sp = sp * x2 - 1.0 / 6.0;                       // 1/3!
-    const double sin_x = x + x * x2 * sp;
-    double cp = 1.0 / 20922789888000.0;             // 1/16!
-    cp = cp * x2 - 1.0 / 87178291200.0;             // 1/14!
-    cp = cp * x2 + 1.0 / 479001600.0;               // 1/12!
-    cp = cp * x2 - 1.0 / 3628800.0;                 // 1/10!
-    cp = cp * x2 + 1.0 / 40320.0;                   // 1/8!
-    cp = cp * x2 - 1.0 / 720.0;                     // 1/6!
-    cp = cp * x2 + 1.0 / 24.0;                      // 1/4!
-    cp = cp * x2 - 0.5;                             // 1/2!
-    const double cos_x = 1.0 + x2 * cp;
+    double sin_x, cos_x;
+    lanes::SinCosTaylor(x, &sin_x, &cos_x);
     // Quarter turn q: (sin, cos) = (s, c), (c, -s), (-s, -c), (-c, s) for q mod 4 = 0, 1, 2, 3;
     // selects and sign flips only (exact), no branch.
     const int quarter = static_cast<int>(q);
@@ -181,6 +163,17 @@ class KeyedStream {
  private:
   Generator generator_;
   Generator::key_type key_;
+  NormalGenerator::key_type normal_key_;
 };
+
+// Test hooks (tests/test_distributions.cc): each Philox4x32-10 implementation that NormalsBulk may
+// use — the portable loop, SSE2 and AVX2 lanes (GCC on x86-64) — writes the four words of pairs
+// first_pair .. first_pair + pairs - 1 (pairs <= 2 kBulkGroups) to words[4 p + j], to be compared
+// with Random123 on this machine.
+enum class PhiloxImplementation { kPortable, kSse2, kAvx2 };
+bool PhiloxImplementationRuns(PhiloxImplementation which);
+void PhiloxWordsForTest(PhiloxImplementation which, std::uint32_t key0, std::uint32_t key1,
+                        std::uint64_t first_pair, int pairs, std::uint64_t input,
+                        std::uint32_t* words);
 
 }  // namespace vlt::mcm_internal

@@ -268,16 +268,43 @@ MeasurementModel::PreparedShared MeasurementModel::PrepareShared(const double* s
 }
 
 // The one implementation of the composition y = s (R x_t + t) (Evaluate goes through here).
-void MeasurementModel::EvaluatePrepared(const PreparedShared& prepared, const double* readings,
-                                        double* y) const {
-  Eigen::Vector3d x_t;
-  TrackerPoint(prepared.range_scale, readings, prepared.shared, x_t.data());
+void MeasurementModel::Place(const PreparedShared& prepared, const Eigen::Vector3d& x_t, double* y) const {
   Eigen::Vector3d x = x_t;
   if (pose_offset_ >= 0) x = prepared.rotation * x_t + prepared.translation;
   if (thermal_offset_ >= 0) x *= prepared.thermal_scale;
   y[0] = x(0);
   y[1] = x(1);
   y[2] = x(2);
+}
+
+void MeasurementModel::EvaluatePrepared(const PreparedShared& prepared, const double* readings,
+                                        double* y) const {
+  Eigen::Vector3d x_t;
+  TrackerPoint(prepared.range_scale, readings, prepared.shared, x_t.data());
+  Place(prepared, x_t, y);
+}
+
+bool MeasurementModel::EvaluatePreparedLanes(const PreparedShared* const* prepared,
+                                             const double* readings, double* y) const {
+  const ModelInfo& model = *setup_.model;
+  constexpr int kL = kForwardLanes;
+  constexpr int kMaxParams = 64;  // stack buffers; no tracker model comes near
+  if (model.forward_lanes == nullptr || model.num_params > kMaxParams) return false;
+  double r[3 * kL], params[kMaxParams * kL], x[3 * kL];
+  for (int l = 0; l < kL; ++l) {
+    // TrackerPoint's air correction, lane by lane.
+    r[l] = env_offset_ >= 0 ? readings[l] * prepared[l]->range_scale : readings[l];
+    r[kL + l] = readings[kL + l];
+    r[2 * kL + l] = readings[2 * kL + l];
+    for (int k = 0; k < model.num_params; ++k) params[kL * k + l] = prepared[l]->shared[k];
+  }
+  model.forward_lanes(r, params, x);
+  for (int l = 0; l < kL; ++l) {
+    double y_l[3];
+    Place(*prepared[l], Eigen::Vector3d(x[l], x[kL + l], x[2 * kL + l]), y_l);
+    for (int i = 0; i < 3; ++i) y[kL * i + l] = y_l[i];
+  }
+  return true;
 }
 
 void MeasurementModel::Evaluate(const double* readings, const double* shared, double* y) const {
