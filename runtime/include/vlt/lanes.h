@@ -24,10 +24,13 @@
 #endif
 
 // 32-byte vectors cross inline functions here; with AVX2 off GCC notes that the ABI for passing
-// them differs from an AVX2 build's. The kernels instantiated on Double4 are inline, so no call
+// them differs from an AVX2 build's (Clang likewise). The kernels instantiated on Double4 are inline, so no call
 // crosses that boundary; the note comes when the includer's functions are compiled, after this
 // header, so it stays off for the rest of the includer.
-#if defined(__GNUC__) && !defined(__clang__)
+#if defined(__clang__)
+#pragma clang diagnostic ignored "-Wunknown-warning-option"
+#pragma clang diagnostic ignored "-Wpsabi"
+#elif defined(__GNUC__)
 #pragma GCC diagnostic ignored "-Wpsabi"
 #endif
 
