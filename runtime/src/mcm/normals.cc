@@ -4,11 +4,12 @@
 // Every stage is a loop over arrays of independent lanes that the compiler vectorises:
 // Philox4x32-10 (Salmon et al., SC'11: ten rounds of two 32 x 32 -> 64-bit multiplies, xors and a
 // Weyl key schedule; the multiplies map to (v)pmuludq), the uniforms from bit operations, then
-// LogOpenUnit, the square root and SinCosTwoPi. The function is compiled twice (GCC/Clang
+// LogOpenUnit, the square root and SinCosTwoPi. The transform is compiled twice (GCC
 // target_clones: AVX2 and the x86-64 baseline, chosen when the program loads). The integer stages
-// give the same words on both; the floating-point stages are single IEEE operations in program
-// order (the project compiles with -ffp-contract=off: no fused multiply-add; CMakeLists.txt), so both clones —
-// and the scalar reference KeyedStream::Normals — give the same bits (tests/test_distributions.cc).
+// give the same words on every path; the floating-point stages are single IEEE operations in
+// program order (the project compiles with -ffp-contract=off: no fused multiply-add), so both
+// clones — and the scalar reference KeyedStream::Normals — give the same bits
+// (tests/test_distributions.cc).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -29,14 +30,8 @@ namespace {
 
 constexpr int kPairs = 2 * KeyedStream::kBulkGroups;  // one Philox4x32 call per pair of trials
 
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#define VLT_NORMALS_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define VLT_NORMALS_CLONES
-#endif
-
-// Philox4x32-10 (Random123 philox.h) on counters (first_pair + p, input) for p < lanes (a multiple
-// of kLanes): round (x0, x1, x2, x3) -> (hi(M1 x2) ^ x1 ^ k0, lo(M1 x2), hi(M0 x0) ^ x3 ^ k1,
+// Philox4x32-10 (Random123 philox.h) on counters (first_pair + p, input) for p < lanes (SIMD: a
+// multiple of two registers' lanes): round (x0, x1, x2, x3) -> (hi(M1 x2) ^ x1 ^ k0, lo(M1 x2), hi(M0 x0) ^ x3 ^ k1,
 // lo(M0 x0)), key bumped by the Weyl constants before rounds 2..10. The SIMD versions keep eight
 // (AVX2) or four (SSE2) counters per register; the 32 x 32 -> 64-bit multiply (pmuludq) takes the
 // even lanes, so the odd lanes are shifted down, multiplied, and the halves blended back.
@@ -47,8 +42,7 @@ struct PhiloxWords {
   alignas(64) std::uint32_t w0[kPairs], w1[kPairs], w2[kPairs], w3[kPairs];
 };
 
-void PhiloxPortable(std::uint32_t key0, std::uint32_t key1, std::uint64_t first_pair,
-                                     int lanes,
+void PhiloxPortable(std::uint32_t key0, std::uint32_t key1, std::uint64_t first_pair, int lanes,
                     std::uint64_t input, PhiloxWords& out) {
   for (int p = 0; p < lanes; ++p) {
     const std::uint64_t pair = first_pair + static_cast<std::uint64_t>(p);
@@ -186,7 +180,7 @@ void Philox(std::uint32_t key0, std::uint32_t key1, std::uint64_t first_pair, in
 
 // out[2 p + j] = z_{2 (first_pair + p) + j} of random.h for p < pairs: the transform in lanes,
 // compiled for AVX2 and the baseline.
-VLT_NORMALS_CLONES
+VLT_LANES_CLONES  // vlt/lanes.h (through random.h): AVX2 and baseline clones
 void BoxMuller(const PhiloxWords& words, int pairs, double* out) {
   const std::uint32_t *x0 = words.w0, *x1 = words.w1, *x2 = words.w2, *x3 = words.w3;
   // Box-Muller (random.h), stage by stage.
