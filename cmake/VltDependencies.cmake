@@ -49,6 +49,11 @@ vlt_require(NLOPT_CXX_FOUND libnlopt-cxx-dev "NLopt (C++)")
 find_package(OpenSSL QUIET COMPONENTS Crypto)
 vlt_require(OPENSSL_FOUND libssl-dev "OpenSSL (libcrypto)")
 
+# Highway's vectorised quicksort (hwy::Sorter, libhwy_contrib): the order statistics of Monte
+# Carlo runs (runtime/src/mcm/order.cc).
+find_package(hwy QUIET)
+vlt_require(hwy_FOUND libhwy-dev "Highway (libhwy_contrib)")
+
 find_package(Threads REQUIRED)
 
 # Open MPI (Debian libopenmpi-dev, openmpi-bin): only for -DVLT_MPI=ON (docs/mpi.md).

@@ -9,6 +9,7 @@ VLT_BUILD_PACKAGES=(g++ cmake make pkg-config git
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev librandom123-dev libceres-dev
   libnlopt-cxx-dev          # station planning (runtime/src/planning/)
   libssl-dev
+  libhwy-dev                # Highway's vectorised sort: Monte Carlo order statistics (runtime/src/mcm/order.cc)
   pybind11-dev python3-dev  # the Python module (python/)
   python3-numpy             # the Python module's arrays; bench/numpy_baseline.py
   python3-pytest)           # tests/python, run by CTest

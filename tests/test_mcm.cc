@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 
 #include "mcm/engine.h"
+#include "mcm/order.h"
 #include "test_mcm_helpers.h"
 #include "vlt/distributions.h"
 #include "vlt/error.h"
@@ -423,10 +424,10 @@ TEST(CoverageIntervalRoutines, HandMadeSamples) {
 }
 
 TEST(CoverageIntervalRoutines, LargeRunsThroughTheTailPassMatchFullSort) {
-  // M >= 20000 takes the one-pass tail extraction (mcm_intervals.cc SortedTails): against a full
-  // sort, with many ties (values rounded to 1/64), a skewed distribution, and runs whose strided
-  // sample sees only zeros, the smallest value (useless thresholds: the counts check must send
-  // the large-tail cases back to selection in place, the small-tail ones stay exact).
+  // Large M takes the one-pass tail gathering (mcm/order.cc SortedTails): against a full sort,
+  // with many ties (values rounded to 1/64), a skewed distribution, and runs with a regular
+  // stride of zeros (a sample may see mostly ties at one value; SortedTails itself is checked
+  // against its fallback in OrderStatistics.SortedTailsEqualFullSort).
   std::mt19937_64 gen(8);
   std::lognormal_distribution<double> skewed(0.0, 0.9);
   for (int m : {20'000, 100'003, 250'000}) {
@@ -454,6 +455,64 @@ TEST(CoverageIntervalRoutines, LargeRunsThroughTheTailPassMatchFullSort) {
       }
     }
   }
+}
+
+// mcm/order.h SortedTails against a full std::sort: the `low` smallest and `high` largest values
+// in order, exactly, through both of its paths (gathering beyond sample thresholds for large M with
+// short tails; sorting a copy otherwise) and the fallback when the sample misleads: ties (values
+// rounded to 1/64), a skewed distribution, and runs whose strided sample sees only the smallest
+// value (thresholds useless: a short count must send it back to the full sort).
+template <typename T>
+void CheckSortedTails(std::uint64_t seed) {
+  std::mt19937_64 gen(seed);
+  std::lognormal_distribution<double> skewed(0.0, 0.9);
+  for (int m : {1, 100, 4095, 4096, 10'000, 10'007, 100'003}) {
+    for (int variant = 0; variant < 3; ++variant) {
+      std::vector<T> v(static_cast<std::size_t>(m));
+      for (T& x : v) x = static_cast<T>(skewed(gen));
+      if (variant == 1) {
+        for (T& x : v) x = std::round(x * T{64}) / T{64};
+      } else if (variant == 2 && m >= 4096) {
+        // The values order.cc samples (1 in 16, 256 to 4096 of them) all made the minimum: the
+        // low threshold then gathers only them (short of a longer tail: the full sort must take
+        // over) and the high one every value (the buffers must grow).
+        const std::int64_t s = std::clamp<std::int64_t>(m / 16, 256, 4096), step = m / s;
+        for (std::int64_t i = 0; i < s; ++i) v[static_cast<std::size_t>(i * step + step / 2)] = T{-1};
+      }
+      std::vector<T> sorted = v;
+      std::sort(sorted.begin(), sorted.end());
+      const std::int64_t sizes[] = {0, 1, 250, m / 40, m / 9, m / 2};
+      for (std::int64_t low : sizes) {
+        for (std::int64_t high : sizes) {
+          if (low + high > m) continue;
+          mcm_internal::Tails<T> tails;
+          mcm_internal::SortedTails(std::span<const T>(v), low, high, &tails);
+          ASSERT_EQ(static_cast<std::int64_t>(tails.low_values.size()), low);
+          ASSERT_EQ(static_cast<std::int64_t>(tails.high_values.size()), high);
+          for (std::int64_t k = 0; k < low; ++k) {
+            ASSERT_EQ(tails.low_values[k], sorted[k]) << m << " " << variant << " " << low << " " << k;
+          }
+          for (std::int64_t j = 0; j < high; ++j) {
+            ASSERT_EQ(tails.high_values[j], sorted[m - high + j]) << m << " " << variant << " " << high << " " << j;
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST(OrderStatistics, SortedTailsEqualFullSort) {
+  CheckSortedTails<float>(11);
+  CheckSortedTails<double>(12);
+  // Highway's sort, directly: ascending, every value kept.
+  std::mt19937_64 gen(13);
+  std::normal_distribution<double> normal;
+  std::vector<double> d(30'001);
+  for (double& x : d) x = normal(gen);
+  std::vector<double> expected = d;
+  std::sort(expected.begin(), expected.end());
+  mcm_internal::SortAscending(std::span<double>(d));
+  EXPECT_EQ(d, expected);
 }
 
 TEST(NumericalToleranceRule, Jcgm101Clause792) {
@@ -621,13 +680,15 @@ TEST(McmPreparedShared, SameAsEvaluateBitForBit) {
     for (int t0 = 0; t0 + kL <= trials; t0 += kL) {
       const MeasurementModel::PreparedShared* lane_states[kL];
       double r[3 * kL], y[3 * kL];
+      std::vector<double> params(static_cast<std::size_t>(kL) * model.setup().model->num_params);
       for (int l = 0; l < kL; ++l) {
         lane_states[l] = &states[t0 + l];
+        for (int k = 0; k < model.setup().model->num_params; ++k) params[kL * k + l] = states[t0 + l].shared[k];
         r[l] = 0.5 + 0.3 * (t0 + l);
         r[kL + l] = -3.1 + 0.031 * (t0 + l);
         r[2 * kL + l] = -0.6 + 0.011 * (t0 + l);
       }
-      ASSERT_TRUE(model.EvaluatePreparedLanes(lane_states, r, y));
+      ASSERT_TRUE(model.EvaluatePreparedLanes(lane_states, r, params.data(), y));
       for (int l = 0; l < kL; ++l) {
         const double readings[3] = {r[l], r[kL + l], r[2 * kL + l]};
         double expected[3];

@@ -167,12 +167,16 @@ class MeasurementModel {
   void EvaluatePrepared(const PreparedShared& prepared, const double* readings, double* y) const;
   // EvaluatePrepared for kForwardLanes trials at once (the Monte Carlo job kernel), the tracker
   // model run in SIMD lanes (vlt/model_info.h ForwardLanesFn; its sin/cos are vlt's own, so y
-  // may differ from EvaluatePrepared's in the last bits): lane l has prepared[l] and the readings
-  // readings[kForwardLanes j + l], and gets y[kForwardLanes i + l]. The stages before and after
-  // the tracker model are EvaluatePrepared's, lane by lane. Returns false, computing nothing,
-  // when the model has no lanes kernel.
+  // may differ from EvaluatePrepared's in the last bits): lane l has prepared[l], the readings
+  // readings[kForwardLanes j + l] and the tracker model's error parameters (the first
+  // setup().model->num_params entries of its shared vector) params[kForwardLanes k + l], already in the
+  // kernel's layout (the job kernel copies them from its structure-of-arrays draws, and
+  // prepared[l].shared need not hold them); it gets y[kForwardLanes i + l]. The stages before and
+  // after the tracker model are EvaluatePrepared's, lane by lane. Returns false, computing
+  // nothing, when the model has no lanes kernel (has_forward_lanes()).
   bool EvaluatePreparedLanes(const PreparedShared* const* prepared, const double* readings,
-                             double* y) const;
+                             const double* params, double* y) const;
+  bool has_forward_lanes() const { return setup_.model->forward_lanes != nullptr; }
   // Same plus d y / d readings (3x3, column-major) and d y / d shared (3 x S, column-major).
   // Chain rule (docs/gum.md "Measurement model"), with rho' = rho n_est / n(t, p, RH, x):
   //   x_t = f(rho', A, E; params)                       tracker model (generated Jacobians)

@@ -30,6 +30,7 @@
 #include <Eigen/LU>
 
 #include "mcm/engine.h"
+#include "mcm/order.h"
 #include "mcm/progress.h"
 #include "mcm/storage.h"
 #include "model/correlation.h"
@@ -105,6 +106,54 @@ void AddCrossSums(const OutputGroup& g, int gi, const SumLayout& layout, const d
       part[layout.cross(gi, PairIndex(a, b, g.dim))] += s;
     }
   }
+}
+
+[[noreturn]] void NotFinite(std::int64_t trial, const std::string& output) {
+  throw NumericalError("Monte Carlo trial " + std::to_string(trial) + ": output '" + output +
+                       "' is not finite (a drawn input reached a singular point)");
+}
+
+// The sums of a point (a group of three outputs from `o`) over the n trials of a sub-batch: per
+// component the sum and the sum of squares of d = y - y(estimates), the three cross sums, and d
+// stored as float. The nine running sums advance side by side, each still adding its trials in
+// order from zero (the bits of one sum after another, as AddCrossSums does), so that they overlap
+// instead of each waiting for the previous addition.
+void AccumulatePoint(int o, int gi, const SumLayout& layout, const double* out, int n,
+                     const std::vector<double>& y0, float* const dst[3], double* part,
+                     std::int64_t first_trial, const std::vector<std::string>& names) {
+  const double* x = out + static_cast<std::size_t>(o) * kSubBatch;
+  const double* y = x + kSubBatch;
+  const double* z = y + kSubBatch;
+  const double x0 = y0[o], y0_ = y0[o + 1], z0 = y0[o + 2];
+  double sx = 0.0, sy = 0.0, sz = 0.0, sxx = 0.0, syy = 0.0, szz = 0.0, sxy = 0.0, sxz = 0.0, syz = 0.0;
+  for (int i = 0; i < n; ++i) {
+    if (!std::isfinite(x[i]) || !std::isfinite(y[i]) || !std::isfinite(z[i])) {
+      const int bad = !std::isfinite(x[i]) ? 0 : (!std::isfinite(y[i]) ? 1 : 2);
+      NotFinite(first_trial + i, names[o + bad]);
+    }
+    const double dx = x[i] - x0, dy = y[i] - y0_, dz = z[i] - z0;
+    sx += dx;
+    sy += dy;
+    sz += dz;
+    sxx += dx * dx;
+    syy += dy * dy;
+    szz += dz * dz;
+    sxy += dx * dy;
+    sxz += dx * dz;
+    syz += dy * dz;
+    dst[0][i] = static_cast<float>(dx);
+    dst[1][i] = static_cast<float>(dy);
+    dst[2][i] = static_cast<float>(dz);
+  }
+  part[layout.sum(o)] += sx;
+  part[layout.sum2(o)] += sxx;
+  part[layout.sum(o + 1)] += sy;
+  part[layout.sum2(o + 1)] += syy;
+  part[layout.sum(o + 2)] += sz;
+  part[layout.sum2(o + 2)] += szz;
+  part[layout.cross(gi, PairIndex(0, 1, 3))] += sxy;
+  part[layout.cross(gi, PairIndex(0, 2, 3))] += sxz;
+  part[layout.cross(gi, PairIndex(1, 2, 3))] += syz;
 }
 
 // Mean and covariance of group g (dim outputs from g.first) from the sums of n trials.
@@ -373,7 +422,25 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
   std::vector<double> total(stride, 0.0);
   std::vector<BatchStats> stats(n_out);                 // filled for the own outputs
   std::vector<std::vector<double>> batch_k(n_groups);   // own groups, when values are not all kept
-  std::vector<std::vector<float>> sort_space(threads);
+  std::vector<Tails<float>> batch_tails(threads);   // per-thread buffers of the batch endpoints
+  // Sums of a sub-batch: the points' three outputs together (AccumulatePoint), every other output
+  // and group on its own.
+  std::vector<int> fused_groups, other_groups, single_outputs;
+  {
+    std::vector<bool> fused(static_cast<std::size_t>(n_out), false);
+    for (int gi = 0; gi < n_groups; ++gi) {
+      const OutputGroup& g = spec.groups[gi];
+      if (g.dim == 3) {
+        fused_groups.push_back(gi);
+        for (int a = 0; a < 3; ++a) fused[g.first + a] = true;
+      } else {
+        other_groups.push_back(gi);
+      }
+    }
+    for (int o = 0; o < n_out; ++o) {
+      if (!fused[o]) single_outputs.push_back(o);
+    }
+  }
 
   ProgressBar progress("Monte Carlo", settings.quiet);
   const auto t_start = std::chrono::steady_clock::now();
@@ -438,17 +505,21 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
         for (std::int64_t s = c0; s < c1; s += kSubBatch) {
           const int n = static_cast<int>(std::min<std::int64_t>(kSubBatch, c1 - s));
           kernel.Run(rng, first + s, n, scratch[w], out);
-          for (int o = 0; o < n_out; ++o) {
+          auto destination = [&](int o) {
+            return direct ? series[o].data() + (first + s)
+                          : computed.data() + static_cast<std::size_t>(o) * mine + (s - exchange.trial_first);
+          };
+          for (const int gi : fused_groups) {
+            const int o = spec.groups[gi].first;
+            float* const dst[3] = {destination(o), destination(o + 1), destination(o + 2)};
+            AccumulatePoint(o, gi, layout, out, n, y0, dst, part, first + s, spec.names);
+          }
+          for (const int o : single_outputs) {
             const double* row = out + static_cast<std::size_t>(o) * kSubBatch;
-            float* dst = direct ? series[o].data() + (first + s)
-                                : computed.data() + static_cast<std::size_t>(o) * mine + (s - exchange.trial_first);
+            float* dst = destination(o);
             double s1 = 0.0, s2 = 0.0;
             for (int i = 0; i < n; ++i) {
-              if (!std::isfinite(row[i])) {
-                throw NumericalError("Monte Carlo trial " + std::to_string(first + s + i) +
-                                     ": output '" + spec.names[o] +
-                                     "' is not finite (a drawn input reached a singular point)");
-              }
+              if (!std::isfinite(row[i])) NotFinite(first + s + i, spec.names[o]);
               const double d = row[i] - y0[o];
               s1 += d;
               s2 += d * d;
@@ -457,7 +528,7 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
             part[layout.sum(o)] += s1;
             part[layout.sum2(o)] += s2;
           }
-          for (int gi = 0; gi < n_groups; ++gi) {
+          for (const int gi : other_groups) {
             AddCrossSums(spec.groups[gi], gi, layout, out, n, y0, part);
           }
           for (int t = 0; t < n_tolerances; ++t) {
@@ -538,26 +609,20 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
       // 7.9.4 c), d): the batch's estimate, standard uncertainty and symmetric interval. Only full
       // batches count: the short last batch of a fixed-M run would weigh as much as a full one.
       const double dbh = static_cast<double>(bh);
-      // Two items per output, the lower and the upper endpoint each selected on its own copy of
-      // the batch (the same order statistic as selecting both on one copy), so that two threads
-      // share a single point's three outputs evenly.
-      if (bh == batch_size) parallel_for(2 * n_own, [&](int item, int w) {
-        const int i = item / 2;
-        const bool upper = item % 2 == 1;
+      if (bh == batch_size) parallel_for(n_own, [&](int i, int w) {
         const int o = own_first + i;
-        if (!upper) {
-          const double s1 = batch_sums[layout.sum(o)], s2 = batch_sums[layout.sum2(o)];
-          stats[o].mean.push_back(y0[o] + s1 / dbh);
-          stats[o].u.push_back(bh > 1 ? std::sqrt(std::max(0.0, (s2 - s1 * s1 / dbh) / (dbh - 1.0))) : 0.0);
-        }
-        std::vector<float>& v = sort_space[w];
+        const double s1 = batch_sums[layout.sum(o)], s2 = batch_sums[layout.sum2(o)];
+        stats[o].mean.push_back(y0[o] + s1 / dbh);
+        stats[o].u.push_back(bh > 1 ? std::sqrt(std::max(0.0, (s2 - s1 * s1 / dbh) / (dbh - 1.0))) : 0.0);
+        // y_(r) and y_(r+q) of 7.7.1: the largest of the r smallest values and the smallest of
+        // the bh - r - q + 1 largest (mcm/order.h: one pass over the batch, then short sorts).
         const float* batch_values = direct ? series[i].data() + first : vals.data() + static_cast<std::size_t>(i) * bh;
-        v.assign(batch_values, batch_values + bh);
         const std::int64_t q = CoverageCount(bh, p);
         const std::int64_t r = (bh - q) % 2 == 0 ? (bh - q) / 2 : (bh - q + 1) / 2;
-        const std::int64_t k = upper ? r + q : r;  // y_(r), y_(r+q) of 7.7.1
-        std::nth_element(v.begin(), v.begin() + (k - 1), v.end());
-        (upper ? stats[o].high : stats[o].low).push_back(y0[o] + static_cast<double>(v[k - 1]));
+        Tails<float>& tails = batch_tails[w];
+        SortedTails(std::span<const float>(batch_values, static_cast<std::size_t>(bh)), r, bh - r - q + 1, &tails);
+        stats[o].low.push_back(y0[o] + static_cast<double>(tails.low_values.back()));
+        stats[o].high.push_back(y0[o] + static_cast<double>(tails.high_values.front()));
       });
 
       // 7.9.4 e)-i): stop when 2 s <= delta for the mean, u, y_low and y_high of every output,
@@ -720,10 +785,12 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
         std::int64_t* cell = cells.data() + static_cast<std::size_t>(item) * kCells;
         const std::int64_t end = std::min(done, (pass + 1) * kPassChunk);
         for (std::int64_t t = pass * kPassChunk; t < end; ++t) {
-          const double bin = std::floor((reference + static_cast<double>(series[i][t]) - h->low) / h->width);
-          if (bin < 0.0) ++cell[kHistogramBins];
-          else if (bin >= kHistogramBins) ++cell[kHistogramBins + 1];
-          else ++cell[static_cast<std::size_t>(bin)];
+          // Bin floor(b): below for b < 0, above for b >= kHistogramBins, else the truncation of
+          // b (= its floor for b >= 0; no libm floor call on baseline x86-64).
+          const double b = (reference + static_cast<double>(series[i][t]) - h->low) / h->width;
+          if (!(b >= 0.0)) ++cell[kHistogramBins];
+          else if (b >= kHistogramBins) ++cell[kHistogramBins + 1];
+          else ++cell[static_cast<std::size_t>(b)];
         }
       });
       for (int i = 0; i < n_own; ++i) {

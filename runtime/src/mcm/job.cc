@@ -40,7 +40,8 @@ class JobKernel final : public mcm_internal::TrialKernel {
         job_(job),
         shared_(SharedDistributions(model_), SharedNames(model_), model_.shared_correlation(), 0,
                 "measurement setup: correlation of the shared inputs"),
-        num_shared_(model_.num_shared()) {
+        num_shared_(model_.num_shared()),
+        lanes_params_(model_.has_forward_lanes() ? model_.setup().model->num_params : 0) {
     n_out_ = 3 * static_cast<int>(job.points.size());
     for (const McmPoint& point : job.points) {
       const Eigen::Vector3d u = model_.reading_uncertainty(point.readings(0));
@@ -72,9 +73,10 @@ class JobKernel final : public mcm_internal::TrialKernel {
 
   void InitScratch(Scratch& scratch) const override {
     const std::size_t s = static_cast<std::size_t>(num_shared_);
-    // shared SoA | shared AoS | copula scratch | readings SoA (3)
+    // shared SoA | shared AoS | copula scratch | readings SoA (3) | parameters in lanes
     scratch.doubles.assign(2 * s * kSubBatch + shared_.scratch_size(kSubBatch) +
-                               3 * static_cast<std::size_t>(kSubBatch),
+                               3 * static_cast<std::size_t>(kSubBatch) +
+                               static_cast<std::size_t>(lanes_params_) * kForwardLanes,
                            0.0);
     scratch.trial_states.assign(kSubBatch, MeasurementModel::PreparedShared{});
     scratch.points.assign(std::max<std::size_t>(max_task_points_, 1), Eigen::Vector3d::Zero());
@@ -107,13 +109,17 @@ class JobKernel final : public mcm_internal::TrialKernel {
     double* shared_aos = shared_soa + static_cast<std::size_t>(s_count) * kSubBatch;
     double* copula = shared_aos + static_cast<std::size_t>(s_count) * kSubBatch;
     double* readings = copula + shared_.scratch_size(kSubBatch);
+    double* params_lanes = readings + 3 * kSubBatch;
     MeasurementModel::PreparedShared* states = scratch.trial_states.data();
 
-    // Shared inputs: drawn once per trial, common to every point.
+    // Shared inputs: drawn once per trial, common to every point. Each trial's vector of them is
+    // copied out of the draws' structure of arrays for PrepareShared and the scalar kernel; with
+    // the lanes kernel, which takes the tracker model's parameters from the draws directly
+    // (below), only the inputs after them (air, pose, thermal).
     shared_.Draw(rng, first, n, shared_soa, kSubBatch, copula);
     for (int i = 0; i < n; ++i) {
       double* aos = shared_aos + static_cast<std::size_t>(i) * s_count;
-      for (int k = 0; k < s_count; ++k) aos[k] = shared_soa[static_cast<std::size_t>(k) * kSubBatch + i];
+      for (int k = lanes_params_; k < s_count; ++k) aos[k] = shared_soa[static_cast<std::size_t>(k) * kSubBatch + i];
       // Air index, pose and thermal scale depend on the shared inputs only: once per trial,
       // not once per point (states[i] refers to aos, which stays put until the sub-batch ends).
       states[i] = model_.PrepareShared(aos);
@@ -133,29 +139,35 @@ class JobKernel final : public mcm_internal::TrialKernel {
       // with the sub-batch's last trial, whose extra results are dropped: every lane is computed
       // on its own, so a trial's value does not depend on its neighbours); the double kernel per
       // trial for a model without one.
-      int i = 0;
       constexpr int kL = kForwardLanes;
-      for (bool lanes = true; lanes && i < n; i += kL) {
-        const MeasurementModel::PreparedShared* lane_states[kL];
-        double r[3 * kL], y[3 * kL];
-        for (int l = 0; l < kL; ++l) {
-          const int t = std::min(i + l, n - 1);
-          lane_states[l] = &states[t];
-          for (int j = 0; j < 3; ++j) r[kL * j + l] = readings[j * kSubBatch + t];
+      if (lanes_params_ > 0) {
+        for (int i = 0; i < n; i += kL) {
+          const MeasurementModel::PreparedShared* lane_states[kL];
+          double r[3 * kL], y[3 * kL];
+          int trial[kL];
+          for (int l = 0; l < kL; ++l) {
+            trial[l] = std::min(i + l, n - 1);
+            lane_states[l] = &states[trial[l]];
+            for (int j = 0; j < 3; ++j) r[kL * j + l] = readings[j * kSubBatch + trial[l]];
+          }
+          for (int k = 0; k < lanes_params_; ++k) {
+            const double* row = shared_soa + static_cast<std::size_t>(k) * kSubBatch;
+            for (int l = 0; l < kL; ++l) params_lanes[kL * k + l] = row[trial[l]];
+          }
+          model_.EvaluatePreparedLanes(lane_states, r, params_lanes, y);
+          for (int l = 0; l < std::min(kL, n - i); ++l) {
+            for (int j = 0; j < 3; ++j) out_x[j * kSubBatch + i + l] = y[kL * j + l];
+          }
         }
-        lanes = model_.EvaluatePreparedLanes(lane_states, r, y);
-        if (!lanes) break;
-        for (int l = 0; l < std::min(kL, n - i); ++l) {
-          for (int j = 0; j < 3; ++j) out_x[j * kSubBatch + i + l] = y[kL * j + l];
+      } else {
+        for (int i = 0; i < n; ++i) {
+          const double r[3] = {readings[i], readings[kSubBatch + i], readings[2 * kSubBatch + i]};
+          double y[3];
+          model_.EvaluatePrepared(states[i], r, y);
+          out_x[i] = y[0];
+          out_x[kSubBatch + i] = y[1];
+          out_x[2 * kSubBatch + i] = y[2];
         }
-      }
-      for (; i < n; ++i) {
-        const double r[3] = {readings[i], readings[kSubBatch + i], readings[2 * kSubBatch + i]};
-        double y[3];
-        model_.EvaluatePrepared(states[i], r, y);
-        out_x[i] = y[0];
-        out_x[kSubBatch + i] = y[1];
-        out_x[2 * kSubBatch + i] = y[2];
       }
     }
 
@@ -182,6 +194,7 @@ class JobKernel final : public mcm_internal::TrialKernel {
   const McmJob& job_;
   InputSampler shared_;
   int num_shared_;
+  int lanes_params_;   // the tracker model's parameters when it has a lanes kernel, else 0
   int n_out_ = 0;
   std::vector<Eigen::Vector3d> reading_u_;
   std::vector<int> task_first_output_;

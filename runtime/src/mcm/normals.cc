@@ -188,7 +188,7 @@ void BoxMuller(const PhiloxWords& words, int pairs, double* out) {
   for (int p = 0; p < pairs; ++p) {
     radius[p] = -2.0 * KeyedStream::LogOpenUnit(KeyedStream::OpenUnitFromHalves(x0[p], x1[p]));
   }
-  // (-fno-math-errno for this file: std::sqrt without its errno branch, which would stop
+  // (-fno-math-errno, project-wide: std::sqrt without its errno branch, which would stop
   // vectorisation; radius > 0, where it is the same correctly rounded square root.)
   for (int p = 0; p < pairs; ++p) radius[p] = std::sqrt(radius[p]);
   for (int p = 0; p < pairs; ++p) {

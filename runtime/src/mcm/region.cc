@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 
 #include "mcm/engine.h"
+#include "mcm/order.h"
 #include "mcm/storage.h"
 #include "parallel/pool.h"
 
@@ -44,7 +46,7 @@ void RegionDistances(int dim, const float* const* series, const double* mean_min
 // k_p of JCGM 102 7.7.3 from the deviations (float, relative to y0) of n trials of one group:
 // the q-th smallest |L^-1 (y_r - mean)|. series[a] holds component a. Returns false when the
 // covariance is not positive definite. The distances are computed in parallel (each on its own:
-// the same bits for any thread count), the selection on one thread.
+// the same bits for any thread count), the order statistic on one thread (mcm/order.h).
 bool RegionFactor(const std::vector<const float*>& series, std::int64_t n,
                   const Eigen::VectorXd& mean_minus_y0, const Eigen::MatrixXd& cov, double p,
                   int threads, double* k) {
@@ -65,9 +67,11 @@ bool RegionFactor(const std::vector<const float*>& series, std::int64_t n,
       RegionDistances<0>(dim, components, mean_minus_y0.data(), rows.data(), begin, end, d.data());
     }
   });
+  // The q-th smallest distance is the smallest of the n - q + 1 largest.
   const std::int64_t q = CoverageCount(n, p);
-  std::nth_element(d.begin(), d.begin() + (q - 1), d.end());
-  *k = d[q - 1];
+  Tails<double> tails;
+  SortedTails(std::span<const double>(d.data(), d.size()), 0, n - q + 1, &tails);
+  *k = tails.high_values.front();
   return true;
 }
 

@@ -285,18 +285,17 @@ void MeasurementModel::EvaluatePrepared(const PreparedShared& prepared, const do
 }
 
 bool MeasurementModel::EvaluatePreparedLanes(const PreparedShared* const* prepared,
-                                             const double* readings, double* y) const {
+                                             const double* readings, const double* params,
+                                             double* y) const {
   const ModelInfo& model = *setup_.model;
   constexpr int kL = kForwardLanes;
-  constexpr int kMaxParams = 64;  // stack buffers; no tracker model comes near
-  if (model.forward_lanes == nullptr || model.num_params > kMaxParams) return false;
-  double r[3 * kL], params[kMaxParams * kL], x[3 * kL];
+  if (model.forward_lanes == nullptr) return false;
+  double r[3 * kL], x[3 * kL];
   for (int l = 0; l < kL; ++l) {
     // TrackerPoint's air correction, lane by lane.
     r[l] = env_offset_ >= 0 ? readings[l] * prepared[l]->range_scale : readings[l];
     r[kL + l] = readings[kL + l];
     r[2 * kL + l] = readings[2 * kL + l];
-    for (int k = 0; k < model.num_params; ++k) params[kL * k + l] = prepared[l]->shared[k];
   }
   model.forward_lanes(r, params, x);
   for (int l = 0; l < kL; ++l) {

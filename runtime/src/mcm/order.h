@@ -1,0 +1,35 @@
+// mcm/order.h — order statistics of the stored values of a Monte Carlo run (internal): the
+// endpoints of the coverage intervals (JCGM 101 7.7), the per-batch endpoints of the adaptive
+// procedure (7.9.4) and the coverage factor of the region (JCGM 102 7.7.3) are all order
+// statistics in a tail of M values. Exact: the same values as a full sort, whatever the algorithm
+// (and so the same for any number of threads).
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace vlt::mcm_internal {
+
+// Sorts ascending with Highway's vectorised quicksort (hwy::Sorter, Debian libhwy-dev; one
+// sorter per thread). Values must not be NaN.
+void SortAscending(std::span<float> values);
+void SortAscending(std::span<double> values);
+
+// The `low` smallest and the `high` largest of a set of values, each in ascending order:
+// low_values[k - 1] is y_(k) (k <= low) and high_values[j] is y_(M - high + 1 + j).
+template <typename T>
+struct Tails {
+  std::vector<T> low_values, high_values;
+  std::vector<T> sample, work;   // reused between calls
+};
+
+// Fills tails->low_values / high_values for `values` (finite; low + high <= M). For a large M
+// with short tails it reads the values once: thresholds from a strided sample, chosen a wide
+// margin beyond the tail fractions, and every value beyond a threshold gathered (branch-free);
+// then only the gathered values are sorted. A count short of its tail (a sample that misled)
+// falls back to sorting a copy of every value, so the result is exact in every case.
+template <typename T>
+void SortedTails(std::span<const T> values, std::int64_t low, std::int64_t high, Tails<T>* tails);
+
+}  // namespace vlt::mcm_internal
