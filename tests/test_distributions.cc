@@ -374,7 +374,7 @@ TEST(RandomStreams, EveryPhiloxImplementationIsRandom123) {
   const r123::Philox4x32::key_type key = {{0x89ABCDEFu, 0x01234567u}};
   int compared = 0;
   for (PhiloxImplementation which : {PhiloxImplementation::kPortable, PhiloxImplementation::kSse2,
-                                     PhiloxImplementation::kAvx2}) {
+                                     PhiloxImplementation::kAvx2, PhiloxImplementation::kAvx512}) {
     if (!mcm_internal::PhiloxImplementationRuns(which)) continue;
     for (std::uint64_t first_pair : {0ull, 77ull, 0xFFFFFFF9ull, (1ull << 45) + 3}) {
       for (int pairs : {1, 17, 128}) {

@@ -4,12 +4,12 @@
 // Every stage is a loop over arrays of independent lanes that the compiler vectorises:
 // Philox4x32-10 (Salmon et al., SC'11: ten rounds of two 32 x 32 -> 64-bit multiplies, xors and a
 // Weyl key schedule; the multiplies map to (v)pmuludq), the uniforms from bit operations, then
-// LogOpenUnit, the square root and SinCosTwoPi. The transform is compiled twice (GCC
-// target_clones: AVX2 and the x86-64 baseline, chosen when the program loads). The integer stages
-// give the same words on every path; the floating-point stages are single IEEE operations in
-// program order (the project compiles with -ffp-contract=off: no fused multiply-add), so both
-// clones — and the scalar reference KeyedStream::Normals — give the same bits
-// (tests/test_distributions.cc).
+// LogOpenUnit, the square root and SinCosTwoPi. Philox has AVX-512, AVX2 and SSE2 versions, the
+// transform is compiled three times (GCC target_clones: AVX-512, AVX2 and the x86-64 baseline);
+// the processor's best is chosen when the program loads. The integer stages give the same words
+// on every path; the floating-point stages are single IEEE operations in program order (the
+// project compiles with -ffp-contract=off: no fused multiply-add), so every clone — and the
+// scalar reference KeyedStream::Normals — gives the same bits (tests/test_distributions.cc).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -32,9 +32,10 @@ constexpr int kPairs = 2 * KeyedStream::kBulkGroups;  // one Philox4x32 call per
 
 // Philox4x32-10 (Random123 philox.h) on counters (first_pair + p, input) for p < lanes (SIMD: a
 // multiple of two registers' lanes): round (x0, x1, x2, x3) -> (hi(M1 x2) ^ x1 ^ k0, lo(M1 x2), hi(M0 x0) ^ x3 ^ k1,
-// lo(M0 x0)), key bumped by the Weyl constants before rounds 2..10. The SIMD versions keep eight
-// (AVX2) or four (SSE2) counters per register; the 32 x 32 -> 64-bit multiply (pmuludq) takes the
-// even lanes, so the odd lanes are shifted down, multiplied, and the halves blended back.
+// lo(M0 x0)), key bumped by the Weyl constants before rounds 2..10. The SIMD versions keep
+// sixteen (AVX-512), eight (AVX2) or four (SSE2) counters per register; the 32 x 32 -> 64-bit
+// multiply (pmuludq) takes the even lanes, so the odd lanes are shifted down, multiplied, and the
+// halves blended back.
 constexpr std::uint32_t kM0 = 0xD2511F53u, kM1 = 0xCD9E8D57u;
 constexpr std::uint32_t kW0 = 0x9E3779B9u, kW1 = 0xBB67AE85u;
 
@@ -82,6 +83,7 @@ struct Sse2Lanes {
   static __m128i ShiftDown(__m128i a) { return _mm_srli_epi64(a, 32); }
   static __m128i ShiftUp(__m128i a) { return _mm_slli_epi64(a, 32); }
   static __m128i Xor(__m128i a, __m128i b) { return _mm_xor_si128(a, b); }
+  static __m128i Xor3(__m128i a, __m128i b, __m128i c) { return Xor(Xor(a, b), c); }
   // Even 32-bit lanes from a, odd lanes from b (SSE2 has no blend instruction).
   static __m128i Blend(__m128i a, __m128i b) {
     const __m128i odd = _mm_set_epi32(-1, 0, -1, 0);
@@ -100,8 +102,32 @@ struct Avx2Lanes {
   __attribute__((target("avx2"))) static __m256i ShiftDown(__m256i a) { return _mm256_srli_epi64(a, 32); }
   __attribute__((target("avx2"))) static __m256i ShiftUp(__m256i a) { return _mm256_slli_epi64(a, 32); }
   __attribute__((target("avx2"))) static __m256i Xor(__m256i a, __m256i b) { return _mm256_xor_si256(a, b); }
+  __attribute__((target("avx2"))) static __m256i Xor3(__m256i a, __m256i b, __m256i c) { return Xor(Xor(a, b), c); }
   __attribute__((target("avx2"))) static __m256i Blend(__m256i a, __m256i b) { return _mm256_blend_epi32(a, b, 0xAA); }
 };
+
+// AVX-512 (F): sixteen lanes per register, the three-way xor in one instruction (vpternlogd,
+// truth table 0x96 = a ^ b ^ c) and the blend by a lane mask. GCC 12's AVX-512 headers
+// initialise some intrinsics' results from themselves, which -Wmaybe-uninitialized reports when
+// they are inlined here; the values are all defined.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+struct Avx512Lanes {
+  using V = __m512i;
+  static constexpr int kWidth = 16;
+  __attribute__((target("avx512f"))) static __m512i Load(const std::uint32_t* p) { return _mm512_load_si512(p); }
+  __attribute__((target("avx512f"))) static void Store(std::uint32_t* p, __m512i v) { _mm512_store_si512(p, v); }
+  __attribute__((target("avx512f"))) static __m512i Splat32(std::uint32_t x) { return _mm512_set1_epi32(static_cast<int>(x)); }
+  __attribute__((target("avx512f"))) static __m512i Splat64(std::uint64_t x) { return _mm512_set1_epi64(static_cast<long long>(x)); }
+  __attribute__((target("avx512f"))) static __m512i MulEven(__m512i a, __m512i b) { return _mm512_mul_epu32(a, b); }
+  __attribute__((target("avx512f"))) static __m512i ShiftDown(__m512i a) { return _mm512_srli_epi64(a, 32); }
+  __attribute__((target("avx512f"))) static __m512i ShiftUp(__m512i a) { return _mm512_slli_epi64(a, 32); }
+  __attribute__((target("avx512f"))) static __m512i Xor(__m512i a, __m512i b) { return _mm512_xor_si512(a, b); }
+  __attribute__((target("avx512f"))) static __m512i Xor3(__m512i a, __m512i b, __m512i c) { return _mm512_ternarylogic_epi32(a, b, c, 0x96); }
+  __attribute__((target("avx512f"))) static __m512i Blend(__m512i a, __m512i b) { return _mm512_mask_blend_epi32(0xAAAA, a, b); }
+};
+#pragma GCC diagnostic pop
 
 // PhiloxLanes<Avx2Lanes> is only ever inlined into PhiloxAvx2 (AVX2), so the warning that an AVX
 // value crosses a function without AVX does not apply.
@@ -138,8 +164,8 @@ __attribute__((always_inline)) inline void PhiloxLanes(std::uint32_t key0, std::
         const V p1e = L::MulEven(x2[b], m1), p1o = L::MulEven(L::ShiftDown(x2[b]), m1);
         const V hi0 = L::Blend(L::ShiftDown(p0e), p0o), lo0 = L::Blend(p0e, L::ShiftUp(p0o));
         const V hi1 = L::Blend(L::ShiftDown(p1e), p1o), lo1 = L::Blend(p1e, L::ShiftUp(p1o));
-        x0[b] = L::Xor(L::Xor(hi1, x1[b]), key_a);
-        x2[b] = L::Xor(L::Xor(hi0, x3[b]), key_b);
+        x0[b] = L::Xor3(hi1, x1[b], key_a);
+        x2[b] = L::Xor3(hi0, x3[b], key_b);
         x1[b] = lo1;
         x3[b] = lo0;
       }
@@ -165,13 +191,26 @@ void PhiloxSse2(std::uint32_t key0, std::uint32_t key1, std::uint64_t first_pair
                 std::uint64_t input, PhiloxWords& out) {
   PhiloxLanes<Sse2Lanes>(key0, key1, first_pair, lanes, input, out);
 }
+
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+__attribute__((target("avx512f"))) void PhiloxAvx512(std::uint32_t key0, std::uint32_t key1,
+                                                     std::uint64_t first_pair, int lanes,
+                                                     std::uint64_t input, PhiloxWords& out) {
+  PhiloxLanes<Avx512Lanes>(key0, key1, first_pair, lanes, input, out);
+}
+#pragma GCC diagnostic pop
 #endif
 
 void Philox(std::uint32_t key0, std::uint32_t key1, std::uint64_t first_pair, int pairs,
             std::uint64_t input, PhiloxWords& out) {
 #if VLT_PHILOX_SIMD
-  static const auto path = __builtin_cpu_supports("avx2") ? PhiloxAvx2 : PhiloxSse2;
-  const int lanes = (pairs + 15) & ~15;  // whole steps of two registers; kPairs is a multiple of 16
+  static const auto path = __builtin_cpu_supports("avx512f") ? PhiloxAvx512
+                           : __builtin_cpu_supports("avx2")  ? PhiloxAvx2
+                                                             : PhiloxSse2;
+  // Whole steps of two registers (32 lanes with AVX-512); kPairs is a multiple of 32.
+  const int lanes = (pairs + 31) & ~31;
   path(key0, key1, first_pair, lanes, input, out);
 #else
   PhiloxPortable(key0, key1, first_pair, pairs, input, out);
@@ -179,8 +218,8 @@ void Philox(std::uint32_t key0, std::uint32_t key1, std::uint64_t first_pair, in
 }
 
 // out[2 p + j] = z_{2 (first_pair + p) + j} of random.h for p < pairs: the transform in lanes,
-// compiled for AVX2 and the baseline.
-VLT_LANES_CLONES  // vlt/lanes.h (through random.h): AVX2 and baseline clones
+// compiled for AVX-512, AVX2 and the baseline.
+VLT_ARRAY_CLONES  // vlt/lanes.h (through random.h): AVX-512, AVX2 and baseline clones
 void BoxMuller(const PhiloxWords& words, int pairs, double* out) {
   const std::uint32_t *x0 = words.w0, *x1 = words.w1, *x2 = words.w2, *x3 = words.w3;
   // Box-Muller (random.h), stage by stage.
@@ -211,6 +250,7 @@ bool PhiloxImplementationRuns(PhiloxImplementation which) {
 #if VLT_PHILOX_SIMD
     case PhiloxImplementation::kSse2: return true;
     case PhiloxImplementation::kAvx2: return __builtin_cpu_supports("avx2");
+    case PhiloxImplementation::kAvx512: return __builtin_cpu_supports("avx512f");
 #endif
     default: return false;
   }
@@ -220,11 +260,12 @@ void PhiloxWordsForTest(PhiloxImplementation which, std::uint32_t key0, std::uin
                         std::uint64_t first_pair, int pairs, std::uint64_t input,
                         std::uint32_t* words) {
   PhiloxWords w;
-  const int lanes = (std::min(pairs, kPairs) + 15) & ~15;
+  const int lanes = (std::min(pairs, kPairs) + 31) & ~31;
   switch (which) {
 #if VLT_PHILOX_SIMD
     case PhiloxImplementation::kSse2: PhiloxSse2(key0, key1, first_pair, lanes, input, w); break;
     case PhiloxImplementation::kAvx2: PhiloxAvx2(key0, key1, first_pair, lanes, input, w); break;
+    case PhiloxImplementation::kAvx512: PhiloxAvx512(key0, key1, first_pair, lanes, input, w); break;
 #endif
     default: PhiloxPortable(key0, key1, first_pair, lanes, input, w); break;
   }

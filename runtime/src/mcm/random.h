@@ -170,7 +170,7 @@ class KeyedStream {
 // use — the portable loop, SSE2 and AVX2 lanes (GCC on x86-64) — writes the four words of pairs
 // first_pair .. first_pair + pairs - 1 (pairs <= 2 kBulkGroups) to words[4 p + j], to be compared
 // with Random123 on this machine.
-enum class PhiloxImplementation { kPortable, kSse2, kAvx2 };
+enum class PhiloxImplementation { kPortable, kSse2, kAvx2, kAvx512 };
 bool PhiloxImplementationRuns(PhiloxImplementation which);
 void PhiloxWordsForTest(PhiloxImplementation which, std::uint32_t key0, std::uint32_t key1,
                         std::uint64_t first_pair, int pairs, std::uint64_t input,
