@@ -32,6 +32,7 @@
 #include "mcm/engine.h"
 #include "mcm/order.h"
 #include "mcm/progress.h"
+#include "mcm/sums.h"
 #include "mcm/storage.h"
 #include "model/correlation.h"
 #include "mpi/ranks.h"
@@ -64,116 +65,6 @@ double Average(const std::vector<double>& v) {
   double s = 0.0;
   for (double x : v) s += x;
   return v.empty() ? 0.0 : s / static_cast<double>(v.size());
-}
-
-// Layout of the partial sums of one chunk / batch / run: per output sum d and sum d^2, then per
-// output group (a point's x, y, z; a custom model's output vector) the cross sums of every pair
-// (a < b, in the order (0,1), (0,2), ..., (1,2), ...) of the deviations d = y - y(estimates).
-struct SumLayout {
-  int outputs;
-  std::vector<int> cross_offset;   // first cross sum of each group
-  int cross_total = 0;
-  int tolerances = 0;              // then one count per tolerance (McmSettings::tolerances)
-  SumLayout(int num_outputs, const std::vector<OutputGroup>& groups, int num_tolerances)
-      : outputs(num_outputs), tolerances(num_tolerances) {
-    for (const OutputGroup& g : groups) {
-      cross_offset.push_back(2 * outputs + cross_total);
-      cross_total += g.dim * (g.dim - 1) / 2;
-    }
-  }
-  int stride() const { return 2 * outputs + cross_total + tolerances; }
-  int count(int t) const { return 2 * outputs + cross_total + t; }
-  int sum(int o) const { return 2 * o; }
-  int sum2(int o) const { return 2 * o + 1; }
-  int cross(int g, int pair) const { return cross_offset[g] + pair; }
-};
-
-// Index of the pair (a, b), a < b, among the pairs of a group of dimension dim.
-int PairIndex(int a, int b, int dim) {
-  if (a > b) std::swap(a, b);
-  return a * dim - a * (a + 1) / 2 + (b - a - 1);
-}
-
-// Adds the cross sums of group g over n trials (out: outputs[o * kSubBatch + i]) to part.
-void AddCrossSums(const OutputGroup& g, int gi, const SumLayout& layout, const double* out, int n,
-                  const std::vector<double>& y0, double* part) {
-  for (int a = 0; a < g.dim; ++a) {
-    const double* xa = out + static_cast<std::size_t>(g.first + a) * kSubBatch;
-    for (int b = a + 1; b < g.dim; ++b) {
-      const double* xb = out + static_cast<std::size_t>(g.first + b) * kSubBatch;
-      double s = 0.0;
-      for (int i = 0; i < n; ++i) s += (xa[i] - y0[g.first + a]) * (xb[i] - y0[g.first + b]);
-      part[layout.cross(gi, PairIndex(a, b, g.dim))] += s;
-    }
-  }
-}
-
-[[noreturn]] void NotFinite(std::int64_t trial, const std::string& output) {
-  throw NumericalError("Monte Carlo trial " + std::to_string(trial) + ": output '" + output +
-                       "' is not finite (a drawn input reached a singular point)");
-}
-
-// The sums of a point (a group of three outputs from `o`) over the n trials of a sub-batch: per
-// component the sum and the sum of squares of d = y - y(estimates), the three cross sums, and d
-// stored as float. The nine running sums advance side by side, each still adding its trials in
-// order from zero (the bits of one sum after another, as AddCrossSums does), so that they overlap
-// instead of each waiting for the previous addition.
-void AccumulatePoint(int o, int gi, const SumLayout& layout, const double* out, int n,
-                     const std::vector<double>& y0, float* const dst[3], double* part,
-                     std::int64_t first_trial, const std::vector<std::string>& names) {
-  const double* x = out + static_cast<std::size_t>(o) * kSubBatch;
-  const double* y = x + kSubBatch;
-  const double* z = y + kSubBatch;
-  const double x0 = y0[o], y0_ = y0[o + 1], z0 = y0[o + 2];
-  double sx = 0.0, sy = 0.0, sz = 0.0, sxx = 0.0, syy = 0.0, szz = 0.0, sxy = 0.0, sxz = 0.0, syz = 0.0;
-  for (int i = 0; i < n; ++i) {
-    if (!std::isfinite(x[i]) || !std::isfinite(y[i]) || !std::isfinite(z[i])) {
-      const int bad = !std::isfinite(x[i]) ? 0 : (!std::isfinite(y[i]) ? 1 : 2);
-      NotFinite(first_trial + i, names[o + bad]);
-    }
-    const double dx = x[i] - x0, dy = y[i] - y0_, dz = z[i] - z0;
-    sx += dx;
-    sy += dy;
-    sz += dz;
-    sxx += dx * dx;
-    syy += dy * dy;
-    szz += dz * dz;
-    sxy += dx * dy;
-    sxz += dx * dz;
-    syz += dy * dz;
-    dst[0][i] = static_cast<float>(dx);
-    dst[1][i] = static_cast<float>(dy);
-    dst[2][i] = static_cast<float>(dz);
-  }
-  part[layout.sum(o)] += sx;
-  part[layout.sum2(o)] += sxx;
-  part[layout.sum(o + 1)] += sy;
-  part[layout.sum2(o + 1)] += syy;
-  part[layout.sum(o + 2)] += sz;
-  part[layout.sum2(o + 2)] += szz;
-  part[layout.cross(gi, PairIndex(0, 1, 3))] += sxy;
-  part[layout.cross(gi, PairIndex(0, 2, 3))] += sxz;
-  part[layout.cross(gi, PairIndex(1, 2, 3))] += syz;
-}
-
-// Mean and covariance of group g (dim outputs from g.first) from the sums of n trials.
-void GroupMoments(const std::vector<double>& sums, const SumLayout& layout, const OutputGroup& g,
-                  int gi, const std::vector<double>& y0, std::int64_t n, Eigen::VectorXd* mean,
-                  Eigen::MatrixXd* cov) {
-  const double dn = static_cast<double>(n);
-  const int d = g.dim;
-  Eigen::VectorXd s1(d);
-  for (int a = 0; a < d; ++a) s1(a) = sums[layout.sum(g.first + a)];
-  mean->resize(d);
-  cov->resize(d, d);
-  for (int a = 0; a < d; ++a) (*mean)(a) = y0[g.first + a] + s1(a) / dn;
-  for (int a = 0; a < d; ++a) {
-    for (int b = 0; b < d; ++b) {
-      const double sab = a == b ? sums[layout.sum2(g.first + a)]
-                                : sums[layout.cross(gi, PairIndex(a, b, d))];
-      (*cov)(a, b) = (sab - s1(a) * s1(b) / dn) / (dn - 1.0);
-    }
-  }
 }
 
 // The component pointers of group g in a buffer holding `stride` values per output.
