@@ -2,7 +2,7 @@
 #
 # The version is pinned in package.json / package-lock.json at the top of the repository (npm
 # registry package `plotly.js-dist-min`, integrity hash in the lock file). At configure time
-# `npm ci` installs it into <build>/npm/node_modules; runtime/src/report/plotly.cc then compiles
+# `npm ci` installs it into <build>/npm/node_modules; runtime/src/output/plotly.cc then compiles
 # the minified script INTO libvlt_runtime (assembler .incbin), so the `vlt` binary needs no file at
 # run time and every report.html it writes opens offline.
 #

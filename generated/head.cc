@@ -8,7 +8,7 @@
 
 #include <Eigen/Core>
 
-#include "vlt/lanes.h"
+#include "base/lanes.h"
 #include "vlt/model_info.h"
 
 namespace vlt::generated {

@@ -25,6 +25,8 @@ VLT_TEST_PACKAGES=(chromium
 
 # The MPI build (-DVLT_MPI=ON, docs/mpi.md; scripts/test-mpi.sh): Open MPI.
 VLT_MPI_PACKAGES=(libopenmpi-dev openmpi-bin)
+# The sanitizer and fuzzing build (scripts/test-sanitizers.sh, scripts/test-fuzz.sh): Clang, libFuzzer.
+VLT_FUZZ_PACKAGES=(clang libfuzzer-14-dev)
 
 vlt_as_root() {
   if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi
@@ -51,4 +53,15 @@ vlt_build() {
   local dir=$1; shift
   cmake -S "$VLT_ROOT" -B "$dir" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
   cmake --build "$dir" -j2 >&2
+}
+
+# vlt_build_sanitize : the one Clang build that CI's sanitizer and fuzzing stages share
+# (build-sanitize/): every target built with AddressSanitizer + UndefinedBehaviorSanitizer
+# (+ float-cast-overflow) and libFuzzer's coverage instrumentation, and the fuzz harnesses.
+# -O1 with line tables: the optimisation ASan's authors recommend for speed of the instrumented
+# code, file:line in every report (docs/testing.md).
+vlt_build_sanitize() {
+  vlt_install_packages "${VLT_BUILD_PACKAGES[@]}" "${VLT_TEST_PACKAGES[@]}" "${VLT_FUZZ_PACKAGES[@]}"
+  vlt_build "$VLT_ROOT/build-sanitize" -DCMAKE_CXX_COMPILER=clang++ -DVLT_SANITIZE=ON -DVLT_FUZZ=ON -DVLT_BUILD_BENCH=OFF \
+    -DCMAKE_CXX_FLAGS_RELEASE="-O1 -gline-tables-only -DNDEBUG"
 }

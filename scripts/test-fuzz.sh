@@ -1,14 +1,16 @@
 #!/usr/bin/env bash
 # CI stage 3: libFuzzer on the job parser, job + GUM, and the CSV / quantity / map parsers
-# (tests/fuzz/, docs/testing.md "Fuzzing"). Clang with ASan + UBSan + float-cast-overflow; each
-# harness runs VLT_FUZZ_SECONDS (default 60) from a seed corpus of the examples and test jobs.
-# Long runs: VLT_FUZZ_SECONDS=3600 bash scripts/test-fuzz.sh (findings go to build-fuzz/findings/).
+# (tests/fuzz/, docs/testing.md "Fuzzing"). Clang with ASan + UBSan + float-cast-overflow, the
+# build of stage 2 (build-sanitize/, scripts/test-sanitizers.sh); each harness runs
+# VLT_FUZZ_SECONDS (default 60) from a seed corpus of the examples and test jobs, as many harnesses
+# at once as the machine has cores. Long runs: VLT_FUZZ_SECONDS=3600 bash scripts/test-fuzz.sh
+# (findings go to build-sanitize/fuzz/findings/).
 set -euo pipefail
 source "$(dirname "$0")/lib.sh"
-vlt_install_packages "${VLT_BUILD_PACKAGES[@]}" clang libfuzzer-14-dev
 seconds=${VLT_FUZZ_SECONDS:-60}
-dir="$VLT_ROOT/build-fuzz"
-CXX=clang++ vlt_build "$dir" -DVLT_FUZZ=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo -DVLT_BUILD_BENCH=OFF -DVLT_BUILD_TESTS=OFF
+vlt_build_sanitize
+harnesses="$VLT_ROOT/build-sanitize/tests/fuzz"
+dir="$VLT_ROOT/build-sanitize/fuzz"
 
 # Seed corpora: every job file and CSV the project ships.
 rm -rf "$dir/corpus" && mkdir -p "$dir/corpus/job" "$dir/corpus/parsers" "$dir/findings"
@@ -30,21 +32,40 @@ printf '0.8 arcsec\n-1,1,-1,1,0,2\n0.25 m\n' > "$dir/corpus/parsers/map_box"
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 export LSAN_OPTIONS=suppressions=$VLT_ROOT/scripts/lsan.supp:print_suppressions=0
-status=0
-for harness in fuzz_job:job fuzz_job_gum:job fuzz_custom_job:job fuzz_parsers:parsers; do
-  name=${harness%%:*}
-  corpus=${harness##*:}
-  echo "== $name: ${seconds} s"
+# fuzz_one NAME CORPUS : one harness for $seconds; its log in $dir/work/NAME.log.
+fuzz_one() {
+  local name=$1 corpus=$2
   mkdir -p "$dir/work/$name"
-  if ! "$dir/tests/fuzz/$name" -max_total_time="$seconds" -max_len=65536 -timeout=20 -rss_limit_mb=4096 \
-        -artifact_prefix="$dir/findings/$name-" -print_final_stats=1 \
-        "$dir/work/$name" "$dir/corpus/$corpus" 2>"$dir/work/$name.log"; then
-    echo "FAILED: $name found a problem; the input is in $dir/findings/ (log: $dir/work/$name.log)"
-    tail -40 "$dir/work/$name.log"
-    status=1
-  else
-    grep -E "stat::number_of_executed_units|Done [0-9]+ runs" "$dir/work/$name.log" | tail -2
-  fi
+  "$harnesses/$name" -max_total_time="$seconds" -max_len=65536 -timeout=20 -rss_limit_mb=4096 \
+      -artifact_prefix="$dir/findings/$name-" -print_final_stats=1 \
+      "$dir/work/$name" "$dir/corpus/$corpus" 2>"$dir/work/$name.log"
+}
+# The harnesses run side by side, one per core (each is one process, one thread).
+all=(fuzz_job:job fuzz_job_gum:job fuzz_custom_job:job fuzz_parsers:parsers)
+cores=$(nproc)
+declare -A pid_of
+status=0
+passed=0
+for ((first = 0; first < ${#all[@]}; first += cores)); do
+  names=()
+  for harness in "${all[@]:first:cores}"; do
+    name=${harness%%:*}
+    echo "== $name: ${seconds} s"
+    fuzz_one "$name" "${harness##*:}" &
+    pid_of[$name]=$!
+    names+=("$name")
+  done
+  for name in "${names[@]}"; do
+    if ! wait "${pid_of[$name]}"; then
+      echo "FAILED: $name found a problem; the input is in $dir/findings/ (log: $dir/work/$name.log)"
+      tail -40 "$dir/work/$name.log"
+      status=1
+    else
+      echo "$name:"
+      grep -E "stat::number_of_executed_units|Done [0-9]+ runs" "$dir/work/$name.log" | tail -2
+      passed=$((passed + 1))
+    fi
+  done
 done
-echo "fuzz: $([ $status -eq 0 ] && echo 4 passed, 0 failed || echo see above)"
+echo "fuzz: $passed passed, $((${#all[@]} - passed)) failed"
 exit $status

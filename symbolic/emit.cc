@@ -60,16 +60,53 @@ std::string Usings(const std::string& body) {
   return out;
 }
 
-}  // namespace
+// Does a kernel call only sin, cos and sqrt (its `using std::f;` lines, Usings)? Those are the
+// calls whose SIMD versions give each lane the double kernel's bits.
+bool CallsOnlySinCosSqrt(const std::string& usings) {
+  std::string rest = usings;
+  for (const char* f : {"  using std::cos;\n", "  using std::sin;\n", "  using std::sqrt;\n"}) {
+    const std::size_t at = rest.find(f);
+    if (at != std::string::npos) rest.erase(at, std::string(f).size());
+  }
+  return rest.empty();
+}
 
-GeneratedModel GenerateModel(const ModelSpec& spec) {
-  BuiltModel m = BuildModel(spec);
-  const std::string& name = spec.name;
-  const int nr = static_cast<int>(m.readings.size());
-  const int np = static_cast<int>(m.params.size());
-  const int no = static_cast<int>(m.graph.outputs.size());
+// The generation of one model: the built model, the names of the kernels' inputs and outputs,
+// the emitted kernel bodies, then the header and the source written from them.
+struct ModelEmitter {
+  const ModelSpec& spec;
+  BuiltModel m;
+  int nr = 0, np = 0, no = 0;          // readings, parameters, outputs
+  std::vector<InputVar> readings, all;  // the readings; the readings then the parameters
+  std::vector<GiNaC::ex> wrt;           // the symbols the Jacobians differentiate by
+  std::vector<std::string> out_lhs, jac_lhs;
+  FunctionBody forward, jacobians, nominal;
+  std::vector<FunctionBody> sensitivity;  // one per parameter
+  bool nominal_batch = false, forward_lanes = false;
+  std::string h, c;  // the header and the source being written
 
-  std::vector<InputVar> readings, all;
+  explicit ModelEmitter(const ModelSpec& spec);
+  void NameInputsAndOutputs();
+  void EmitKernels();
+  void ChooseBatchKernels();
+  void ListQuantities(const char* title, const std::vector<QuantitySpec>& qs, bool with_u);
+  void HeaderFunction(const std::string& comment, const std::string& signature, const FunctionBody& body);
+  std::string Header();
+  void SourceWrappers();
+  void SourceNominalBatch();
+  void SourceForwardLanes();
+  void SourceQuantityTable(const char* var, const std::vector<QuantitySpec>& qs);
+  void SourceModelInfo();
+  std::string Source();
+};
+
+ModelEmitter::ModelEmitter(const ModelSpec& spec) : spec(spec), m(BuildModel(spec)) {
+  nr = static_cast<int>(m.readings.size());
+  np = static_cast<int>(m.params.size());
+  no = static_cast<int>(m.graph.outputs.size());
+}
+
+void ModelEmitter::NameInputsAndOutputs() {
   for (int j = 0; j < nr; ++j) {
     readings.push_back({m.readings[j], m.reading_info[j].name, "readings[" + std::to_string(j) + "]"});
   }
@@ -77,10 +114,9 @@ GeneratedModel GenerateModel(const ModelSpec& spec) {
   for (int k = 0; k < np; ++k) {
     all.push_back({m.params[k], spec.params[k].name, "params[param::" + spec.params[k].name + "]"});
   }
-  std::vector<GiNaC::ex> wrt = m.readings;
+  wrt = m.readings;
   wrt.insert(wrt.end(), m.params.begin(), m.params.end());
 
-  std::vector<std::string> out_lhs, jac_lhs;
   for (int i = 0; i < no; ++i) out_lhs.push_back("out[" + std::to_string(i) + "]");
   jac_lhs = out_lhs;
   for (int k = 0; k < nr; ++k) {
@@ -89,11 +125,11 @@ GeneratedModel GenerateModel(const ModelSpec& spec) {
   for (int k = 0; k < np; ++k) {
     for (int i = 0; i < no; ++i) jac_lhs.push_back("d_out_d_params[" + std::to_string(no * k + i) + "]");
   }
+}
 
-  GeneratedModel gen;
-  gen.name = name;
-  const FunctionBody forward = EmitBody(ForwardProgram(m.graph), all, out_lhs);
-  const FunctionBody jacobians = EmitBody(JacobianProgram(m.graph, wrt, {}, true), all, jac_lhs);
+void ModelEmitter::EmitKernels() {
+  forward = EmitBody(ForwardProgram(m.graph), all, out_lhs);
+  jacobians = EmitBody(JacobianProgram(m.graph, wrt, {}, true), all, jac_lhs);
   // Nominal: after differentiation every parameter is substituted by its nominal value and the
   // result simplified. Tracker models: 0 (a compensated tracker). Custom models: the spec's
   // estimates — natural expressions such as v/i or 1/rho_w have no value at 0. An expression
@@ -102,45 +138,60 @@ GeneratedModel GenerateModel(const ModelSpec& spec) {
   for (std::size_t k = 0; k < m.params.size(); ++k) {
     nominal_values[m.params[k]] = spec.kind == "custom" ? GiNaC::ex(GiNaC::numeric(spec.params[k].estimate)) : GiNaC::ex(0);
   }
-  FunctionBody nominal;
   try {
     nominal = EmitBody(JacobianProgram(m.graph, wrt, nominal_values, true), readings, jac_lhs);
   } catch (const std::exception& e) {
     throw SpecError(spec.spec_file + ": the model or its Jacobian is singular at the inputs' estimates (" +
                     e.what() + "); give estimates where the expression is defined");
   }
-  std::vector<FunctionBody> sensitivity;
   for (int k = 0; k < np; ++k) {
     std::vector<std::string> col;
     for (int i = 0; i < no; ++i) col.push_back("column[" + std::to_string(i) + "]");
     sensitivity.push_back(EmitBody(JacobianProgram(m.graph, {m.params[k]}, {}, false), all, col));
   }
-  gen.ops.forward = forward.ops;
-  gen.ops.forward_jacobians = jacobians.ops;
-  gen.ops.nominal_jacobians = nominal.ops;
-  for (const auto& s : sensitivity) gen.ops.sensitivity.push_back(s.ops);
+}
 
-  // ----------------------------------------------------------------------------- header
-  std::string h = Banner(spec.spec_file);
+void ModelEmitter::ChooseBatchKernels() {
+  // The SIMD batch of NominalJacobians (vlt/model_info.h NominalJacobiansBatchFn) for tracker
+  // models whose kernel calls only sin, cos and sqrt: Eigen evaluates sin and cos of an Array
+  // lane by lane with libm and sqrt with the correctly rounded packet instruction, so each lane
+  // is the double kernel bit for bit. Eigen's vectorised exp / log / atan are polynomials of
+  // their own, not libm: a kernel calling them gets no batch (nullptr; the runtime loops).
+  nominal_batch = nr > 0 && CallsOnlySinCosSqrt(Usings(nominal.code));
+  // The Monte Carlo lanes of Forward (vlt/model_info.h ForwardLanesFn), under the same condition
+  // on Forward's calls: base/lanes.h has sin, cos and sqrt for Double4, nothing else.
+  forward_lanes = nr > 0 && CallsOnlySinCosSqrt(Usings(forward.code));
+}
+
+void ModelEmitter::ListQuantities(const char* title, const std::vector<QuantitySpec>& qs, bool with_u) {
+  h += "// " + std::string(title) + ":\n";
+  if (qs.empty()) h += "//   (none)\n";
+  for (std::size_t i = 0; i < qs.size(); ++i) {
+    std::string line = "//   " + Pad(std::to_string(i) + " ", 3) + Pad(qs[i].name + " ", 10) +
+                       Pad("[" + qs[i].unit + "]", 8);
+    if (with_u) {
+      line += "estimate " + Literal(qs[i].estimate) + ", u " + Literal(qs[i].u) + " (" +
+              qs[i].distribution + ") ";
+    }
+    h += line + "— " + qs[i].description + "\n";
+  }
+}
+
+void ModelEmitter::HeaderFunction(const std::string& comment, const std::string& signature,
+                                  const FunctionBody& body) {
+  h += comment + "template <typename Scalar>\nvoid " + signature + " {\n" + Usings(body.code) +
+       body.code + "}\n\n";
+}
+
+std::string ModelEmitter::Header() {
+  const std::string& name = spec.name;
+  h = Banner(spec.spec_file);
   h += "//\n// Model \"" + name + "\" (" + spec.kind +
        (spec.kind == "tracker" ? ", architecture " + spec.architecture : std::string()) + "): " +
        spec.description + "\n//\n";
-  auto list = [&](const char* title, const std::vector<QuantitySpec>& qs, bool with_u) {
-    h += "// " + std::string(title) + ":\n";
-    if (qs.empty()) h += "//   (none)\n";
-    for (std::size_t i = 0; i < qs.size(); ++i) {
-      std::string line = "//   " + Pad(std::to_string(i) + " ", 3) + Pad(qs[i].name + " ", 10) +
-                         Pad("[" + qs[i].unit + "]", 8);
-      if (with_u) {
-        line += "estimate " + Literal(qs[i].estimate) + ", u " + Literal(qs[i].u) + " (" +
-                qs[i].distribution + ") ";
-      }
-      h += line + "— " + qs[i].description + "\n";
-    }
-  };
-  list("Readings", m.reading_info, false);
-  list(spec.kind == "tracker" ? "Error parameters (active)" : "Inputs", spec.params, true);
-  list("Outputs", m.output_info, false);
+  ListQuantities("Readings", m.reading_info, false);
+  ListQuantities(spec.kind == "tracker" ? "Error parameters (active)" : "Inputs", spec.params, true);
+  ListQuantities("Outputs", m.output_info, false);
   h += "//\n// Operations after common-subexpression elimination (+ - * / unary minus, calls):\n";
   h += "//   Forward           " + std::to_string(forward.ops) + "\n";
   h += "//   ForwardJacobians  " + std::to_string(jacobians.ops) + "\n";
@@ -159,67 +210,29 @@ GeneratedModel GenerateModel(const ModelSpec& spec) {
   h += "};\n}  // namespace param\n\n";
   const std::string sig_in =
       "[[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params";
-  auto function = [&](const std::string& comment, const std::string& signature,
-                      const FunctionBody& body) {
-    h += comment + "template <typename Scalar>\nvoid " + signature + " {\n" + Usings(body.code) +
-         body.code + "}\n\n";
-  };
-  function("// Outputs from readings and parameters.\n",
-           "Forward(" + sig_in + ", Scalar* out)", forward);
-  function("// Outputs and both Jacobians (one CSE pass).\n",
-           "ForwardJacobians(" + sig_in +
-               ", Scalar* out,\n                      [[maybe_unused]] Scalar* d_out_d_readings, "
-               "[[maybe_unused]] Scalar* d_out_d_params)",
-           jacobians);
-  function("// Outputs and both Jacobians with every parameter at 0 (substituted symbolically).\n",
-           "NominalJacobians([[maybe_unused]] const Scalar* readings, Scalar* out,\n"
-           "                      [[maybe_unused]] Scalar* d_out_d_readings, "
-           "[[maybe_unused]] Scalar* d_out_d_params)",
-           nominal);
+  HeaderFunction("// Outputs from readings and parameters.\n",
+                 "Forward(" + sig_in + ", Scalar* out)", forward);
+  HeaderFunction("// Outputs and both Jacobians (one CSE pass).\n",
+                 "ForwardJacobians(" + sig_in +
+                     ", Scalar* out,\n                      [[maybe_unused]] Scalar* d_out_d_readings, "
+                     "[[maybe_unused]] Scalar* d_out_d_params)",
+                 jacobians);
+  HeaderFunction("// Outputs and both Jacobians with every parameter at 0 (substituted symbolically).\n",
+                 "NominalJacobians([[maybe_unused]] const Scalar* readings, Scalar* out,\n"
+                 "                      [[maybe_unused]] Scalar* d_out_d_readings, "
+                 "[[maybe_unused]] Scalar* d_out_d_params)",
+                 nominal);
   for (int k = 0; k < np; ++k) {
-    function("// Column " + std::to_string(k) + " of d_out_d_params: d out / d " + spec.params[k].name + ".\n",
-             "Sensitivity_" + spec.params[k].name + "(" + sig_in + ", Scalar* column)", sensitivity[k]);
+    HeaderFunction("// Column " + std::to_string(k) + " of d_out_d_params: d out / d " + spec.params[k].name + ".\n",
+                   "Sensitivity_" + spec.params[k].name + "(" + sig_in + ", Scalar* column)", sensitivity[k]);
   }
   h += "}  // namespace vlt::gen::" + name + "\n";
-  gen.header = std::move(h);
+  return std::move(h);
+}
 
-  // The SIMD batch of NominalJacobians (vlt/model_info.h NominalJacobiansBatchFn) for tracker
-  // models whose kernel calls only sin, cos and sqrt: Eigen evaluates sin and cos of an Array
-  // lane by lane with libm and sqrt with the correctly rounded packet instruction, so each lane
-  // is the double kernel bit for bit. Eigen's vectorised exp / log / atan are polynomials of
-  // their own, not libm: a kernel calling them gets no batch (nullptr; the runtime loops).
-  const std::string nominal_usings = Usings(nominal.code);
-  const bool nominal_batch =
-      nr > 0 && [&] {
-        std::string rest = nominal_usings;
-        for (const char* f : {"  using std::cos;\n", "  using std::sin;\n", "  using std::sqrt;\n"}) {
-          const std::size_t at = rest.find(f);
-          if (at != std::string::npos) rest.erase(at, std::string(f).size());
-        }
-        return rest.empty();
-      }();
-
-  // The Monte Carlo lanes of Forward (vlt/model_info.h ForwardLanesFn), under the same condition
-  // on Forward's calls: vlt/lanes.h has sin, cos and sqrt for Double4, nothing else.
-  const bool forward_lanes =
-      nr > 0 && [&] {
-        std::string rest = Usings(forward.code);
-        for (const char* f : {"  using std::cos;\n", "  using std::sin;\n", "  using std::sqrt;\n"}) {
-          const std::size_t at = rest.find(f);
-          if (at != std::string::npos) rest.erase(at, std::string(f).size());
-        }
-        return rest.empty();
-      }();
-
-  // ----------------------------------------------------------------------------- source
-  std::string c = Banner(spec.spec_file);
-  c += "// Double instantiations of generated/" + name + ".h and the ModelInfo the runtime uses.\n";
-  c += "#include \"generated/" + name + ".h\"\n\n#include <array>\n#include <cstddef>\n"
-       "#include <stdexcept>\n\n";
-  if (nominal_batch) c += "#include <Eigen/Core>\n\n";
-  if (forward_lanes) c += "#include \"vlt/lanes.h\"\n";
-  c += "#include \"vlt/model_info.h\"\n\n";
-  c += "namespace vlt::generated {\nnamespace {\n\nnamespace model = vlt::gen::" + name + ";\n\n";
+// The double instantiations of the header's templates: Forward, ForwardJacobians,
+// NominalJacobians, Sensitivity (a switch over the parameters) and ForwardBatch.
+void ModelEmitter::SourceWrappers() {
   c += "void Forward(const double* readings, const double* params, double* out) {\n"
        "  model::Forward<double>(readings, params, out);\n}\n\n";
   c += "void ForwardJacobians(const double* readings, const double* params, double* out,\n"
@@ -234,7 +247,7 @@ GeneratedModel GenerateModel(const ModelSpec& spec) {
     c += "    case model::param::" + spec.params[k].name + ":\n      model::Sensitivity_" +
          spec.params[k].name + "<double>(readings, params, column);\n      return;\n";
   }
-  c += "    default:\n      break;\n  }\n  throw std::out_of_range(\"" + name +
+  c += "    default:\n      break;\n  }\n  throw std::out_of_range(\"" + spec.name +
        ": sensitivity: parameter index out of range\");\n}\n\n";
   c += "// Structure-of-arrays batch: gathers item i, runs the inlined Forward, scatters.\n";
   c += "void ForwardBatch(std::size_t n, [[maybe_unused]] const double* const* readings,\n"
@@ -247,70 +260,62 @@ GeneratedModel GenerateModel(const ModelSpec& spec) {
   c += "    for (int k = 0; k < model::kNumParams; ++k) p[k] = params[k][i];\n";
   c += "    model::Forward<double>(r.data(), p.data(), o.data());\n";
   c += "    for (int k = 0; k < model::kNumOutputs; ++k) outputs[k][i] = o[k];\n  }\n}\n\n";
-  if (nominal_batch) {
-    const std::string lanes = "vlt::kNominalBatchLanes";
-    c += "// NominalJacobians for kNominalBatchLanes points at once (vlt/model_info.h): the same template\n"
-         "// on an Eigen SIMD array, so each lane is the double kernel bit for bit (libm sin/cos per\n"
-         "// lane, IEEE sqrt, no FMA in the portable build). Quantity q of lane l at [lanes * q + l].\n";
-    c += "void NominalJacobiansBatch(const double* readings, double* out, double* d_out_d_readings,\n"
-         "                           double* d_out_d_params) {\n";
-    c += "  using Lanes = Eigen::Array<double, " + lanes + ", 1>;\n";
-    c += "  Lanes r[" + std::to_string(nr) + "], o[" + std::to_string(no) + "], jr[" +
-         std::to_string(no * nr) + "], jp[" + std::to_string(no * np) + "];\n";
-    c += "  for (int j = 0; j < " + std::to_string(nr) + "; ++j) r[j] = Eigen::Map<const Lanes>(readings + " +
-         lanes + " * j);\n";
-    c += "  model::NominalJacobians<Lanes>(r, o, jr, jp);\n";
-    auto store = [&](const std::string& to, const std::string& from, int n) {
-      c += "  for (int q = 0; q < " + std::to_string(n) + "; ++q) Eigen::Map<Lanes>(" + to + " + " +
-           lanes + " * q) = " + from + "[q];\n";
-    };
-    store("out", "o", no);
-    store("d_out_d_readings", "jr", no * nr);
-    store("d_out_d_params", "jp", no * np);
-    c += "}\n\n";
-  }
-  if (forward_lanes) {
-    const std::string lanes = "vlt::kForwardLanes";
-    c += "// Forward for kForwardLanes trials at once (vlt/model_info.h ForwardLanesFn): the same template\n"
-         "// on vlt::lanes::Double4, compiled for AVX2 and for the baseline (chosen when the program\n"
-         "// loads; the same operations, no FMA). Quantity q of lane l at [lanes * q + l].\n";
-    c += "VLT_LANES_CLONES\n";
-    c += "void ForwardLanes(const double* readings, const double* params, double* out) {\n";
-    c += "  using Lanes = vlt::lanes::Double4;\n";
-    c += "  Lanes r[" + std::to_string(nr) + "], p[" + std::to_string(std::max(np, 1)) + "], o[" +
-         std::to_string(no) + "];\n";
-    c += "  for (int j = 0; j < " + std::to_string(nr) + "; ++j) r[j] = vlt::lanes::Load(readings + " + lanes +
-         " * j);\n";
-    if (np > 0) {
-      c += "  for (int k = 0; k < " + std::to_string(np) + "; ++k) p[k] = vlt::lanes::Load(params + " + lanes +
-           " * k);\n";
-    }
-    c += "  model::Forward<Lanes>(r, p, o);\n";
-    c += "  for (int q = 0; q < " + std::to_string(no) + "; ++q) vlt::lanes::Store(out + " + lanes +
-         " * q, o[q]);\n";
-    c += "}\n\n";
-  }
-  auto table = [&](const char* var, const std::vector<QuantitySpec>& qs) {
-    if (qs.empty()) return;
-    c += "const QuantityInfo " + std::string(var) + "[] = {\n";
-    for (const auto& q : qs) c += "    " + Quantity(q) + ",\n";
-    c += "};\n\n";
+}
+
+void ModelEmitter::SourceNominalBatch() {
+  const std::string lanes = "vlt::kNominalBatchLanes";
+  c += "// NominalJacobians for kNominalBatchLanes points at once (vlt/model_info.h): the same template\n"
+       "// on an Eigen SIMD array, so each lane is the double kernel bit for bit (libm sin/cos per\n"
+       "// lane, IEEE sqrt, no FMA in the portable build). Quantity q of lane l at [lanes * q + l].\n";
+  c += "void NominalJacobiansBatch(const double* readings, double* out, double* d_out_d_readings,\n"
+       "                           double* d_out_d_params) {\n";
+  c += "  using Lanes = Eigen::Array<double, " + lanes + ", 1>;\n";
+  c += "  Lanes r[" + std::to_string(nr) + "], o[" + std::to_string(no) + "], jr[" +
+       std::to_string(no * nr) + "], jp[" + std::to_string(no * np) + "];\n";
+  c += "  for (int j = 0; j < " + std::to_string(nr) + "; ++j) r[j] = Eigen::Map<const Lanes>(readings + " +
+       lanes + " * j);\n";
+  c += "  model::NominalJacobians<Lanes>(r, o, jr, jp);\n";
+  auto store = [&](const std::string& to, const std::string& from, int n) {
+    c += "  for (int q = 0; q < " + std::to_string(n) + "; ++q) Eigen::Map<Lanes>(" + to + " + " +
+         lanes + " * q) = " + from + "[q];\n";
   };
-  std::vector<QuantitySpec> reading_info = m.reading_info;
-  for (auto& r : reading_info) {
-    r.u = 0.0;  // reading noise is set per job (ReadingNoise), not by the model
+  store("out", "o", no);
+  store("d_out_d_readings", "jr", no * nr);
+  store("d_out_d_params", "jp", no * np);
+  c += "}\n\n";
+}
+
+void ModelEmitter::SourceForwardLanes() {
+  const std::string lanes = "vlt::kForwardLanes";
+  c += "// Forward for kForwardLanes trials at once (vlt/model_info.h ForwardLanesFn): the same template\n"
+       "// on vlt::lanes::Double4, compiled for AVX2 and for the baseline (chosen when the program\n"
+       "// loads; the same operations, no FMA). Quantity q of lane l at [lanes * q + l].\n";
+  c += "VLT_LANES_CLONES\n";
+  c += "void ForwardLanes(const double* readings, const double* params, double* out) {\n";
+  c += "  using Lanes = vlt::lanes::Double4;\n";
+  c += "  Lanes r[" + std::to_string(nr) + "], p[" + std::to_string(std::max(np, 1)) + "], o[" +
+       std::to_string(no) + "];\n";
+  c += "  for (int j = 0; j < " + std::to_string(nr) + "; ++j) r[j] = vlt::lanes::Load(readings + " + lanes +
+       " * j);\n";
+  if (np > 0) {
+    c += "  for (int k = 0; k < " + std::to_string(np) + "; ++k) p[k] = vlt::lanes::Load(params + " + lanes +
+         " * k);\n";
   }
-  table("kReadings", reading_info);
-  table("kParams", spec.params);
-  std::vector<QuantitySpec> outputs = m.output_info;
-  for (auto& o : outputs) {
-    o.u = 0.0;
-    o.estimate = 0.0;
-    if (o.quantity.empty()) o.quantity = "dimensionless";
-    o.distribution = "normal";
-  }
-  table("kOutputs", outputs);
-  c += "}  // namespace\n\n";
+  c += "  model::Forward<Lanes>(r, p, o);\n";
+  c += "  for (int q = 0; q < " + std::to_string(no) + "; ++q) vlt::lanes::Store(out + " + lanes +
+       " * q, o[q]);\n";
+  c += "}\n\n";
+}
+
+void ModelEmitter::SourceQuantityTable(const char* var, const std::vector<QuantitySpec>& qs) {
+  if (qs.empty()) return;
+  c += "const QuantityInfo " + std::string(var) + "[] = {\n";
+  for (const auto& q : qs) c += "    " + Quantity(q) + ",\n";
+  c += "};\n\n";
+}
+
+void ModelEmitter::SourceModelInfo() {
+  const std::string& name = spec.name;
   c += "extern const ModelInfo kModel_" + name + ";\n";
   c += "const ModelInfo kModel_" + name + " = {\n";
   c += "    \"" + name + "\",\n    \"" + spec.kind + "\",\n    \"" + Escape(spec.description) +
@@ -325,8 +330,56 @@ GeneratedModel GenerateModel(const ModelSpec& spec) {
   c += "    " + std::to_string(forward.ops) + ",  // ops_forward\n    " +
        std::to_string(jacobians.ops) + ",  // ops_forward_jacobians\n    " +
        std::to_string(nominal.ops) + ",  // ops_nominal_jacobians\n};\n\n";
+}
+
+std::string ModelEmitter::Source() {
+  const std::string& name = spec.name;
+  c = Banner(spec.spec_file);
+  c += "// Double instantiations of generated/" + name + ".h and the ModelInfo the runtime uses.\n";
+  c += "#include \"generated/" + name + ".h\"\n\n#include <array>\n#include <cstddef>\n"
+       "#include <stdexcept>\n\n";
+  if (nominal_batch) c += "#include <Eigen/Core>\n\n";
+  if (forward_lanes) c += "#include \"base/lanes.h\"\n";
+  c += "#include \"vlt/model_info.h\"\n\n";
+  c += "namespace vlt::generated {\nnamespace {\n\nnamespace model = vlt::gen::" + name + ";\n\n";
+  SourceWrappers();
+  if (nominal_batch) SourceNominalBatch();
+  if (forward_lanes) SourceForwardLanes();
+  std::vector<QuantitySpec> reading_info = m.reading_info;
+  for (auto& r : reading_info) {
+    r.u = 0.0;  // reading noise is set per job (ReadingNoise), not by the model
+  }
+  SourceQuantityTable("kReadings", reading_info);
+  SourceQuantityTable("kParams", spec.params);
+  std::vector<QuantitySpec> outputs = m.output_info;
+  for (auto& o : outputs) {
+    o.u = 0.0;
+    o.estimate = 0.0;
+    if (o.quantity.empty()) o.quantity = "dimensionless";
+    o.distribution = "normal";
+  }
+  SourceQuantityTable("kOutputs", outputs);
+  c += "}  // namespace\n\n";
+  SourceModelInfo();
   c += "}  // namespace vlt::generated\n";
-  gen.source = std::move(c);
+  return std::move(c);
+}
+
+}  // namespace
+
+GeneratedModel GenerateModel(const ModelSpec& spec) {
+  ModelEmitter emitter(spec);
+  emitter.NameInputsAndOutputs();
+  GeneratedModel gen;
+  gen.name = spec.name;
+  emitter.EmitKernels();
+  gen.ops.forward = emitter.forward.ops;
+  gen.ops.forward_jacobians = emitter.jacobians.ops;
+  gen.ops.nominal_jacobians = emitter.nominal.ops;
+  for (const auto& s : emitter.sensitivity) gen.ops.sensitivity.push_back(s.ops);
+  gen.header = emitter.Header();
+  emitter.ChooseBatchKernels();
+  gen.source = emitter.Source();
   return gen;
 }
 

@@ -241,7 +241,7 @@ endforeach()
 # vlt as a library (docs/library.md): install, then build and run examples/consumer with
 # find_package(vlt) and with pkg-config, and its Python twin against the installed module. Not in the sanitizer build (its libvlt.a needs the
 # sanitizer runtime, which a consumer does not link).
-if(NOT VLT_SANITIZE)
+if(NOT VLT_SANITIZE AND NOT VLT_FUZZ)
   add_test(NAME cli_consumer_install
     COMMAND ${CMAKE_COMMAND} -DBUILD_DIR=${CMAKE_BINARY_DIR} -DSOURCE_DIR=${CMAKE_SOURCE_DIR}
             -DOUT=${_out}/consumer -DCXX=${CMAKE_CXX_COMPILER}

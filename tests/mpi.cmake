@@ -3,7 +3,7 @@
 # only: --oversubscribe lets 3 ranks share 2 cores, --allow-run-as-root lets CI run as root,
 # --quiet keeps mpirun's own banner off standard error, --bind-to none lets a rank's threads use
 # both cores, mpi_yield_when_idle stops a waiting rank from spinning on a core another rank needs.
-if(NOT VLT_MPI OR NOT TARGET vlt)
+if(NOT VLT_MPI OR NOT TARGET vlt_mpi)
   return()
 endif()
 set(_mpi ${CMAKE_CURRENT_SOURCE_DIR}/mpi)
@@ -14,7 +14,7 @@ set(_online ${CMAKE_SOURCE_DIR}/examples/online_readings.toml)
 
 # The engine: every number of fixed, adaptive, over-budget and custom-model runs.
 add_executable(mcm_ranks ${_mpi}/mcm_ranks.cc)
-target_link_libraries(mcm_ranks PRIVATE vlt_runtime GTest::gtest)
+target_link_libraries(mcm_ranks PRIVATE vlt_runtime_mpi GTest::gtest)
 target_include_directories(mcm_ranks PRIVATE ${CMAKE_SOURCE_DIR}/runtime/src ${CMAKE_CURRENT_SOURCE_DIR})
 vlt_target_warnings(mcm_ranks)
 add_test(NAME mpi_engine_same_bits
@@ -24,7 +24,7 @@ add_test(NAME mpi_engine_same_bits
 # The command line: every output file of `vlt run` / `vlt map` with 1, 2, 3 ranks.
 function(vlt_mpi_same_files name runs section)
   add_test(NAME ${name}
-    COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> -DMPIEXEC=${MPIEXEC_EXECUTABLE} "-DMPIEXEC_FLAGS=${_flags}"
+    COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt_mpi> -DMPIEXEC=${MPIEXEC_EXECUTABLE} "-DMPIEXEC_FLAGS=${_flags}"
             "-DARGS=${ARGN}" -DOUT=${_out}/${name} "-DRUNS=${runs}" -DSECTION=${section} -P ${_cli}/mpi_ranks.cmake)
 endfunction()
 vlt_mpi_same_files(mpi_run_fixed "1:2;2:1;3:1" monte_carlo run ${_online} --trials 25000)
@@ -44,7 +44,7 @@ function(vlt_mpi_error name expect)
     COMMAND ${CMAKE_COMMAND} -DMPIEXEC=${MPIEXEC_EXECUTABLE} "-DMPIEXEC_FLAGS=${_flags}" "-DCOMMAND=${ARGN}"
             -DOUT=${_out}/${name} "-DEXPECT=${expect}" -P ${_mpi}/expect_error.cmake)
 endfunction()
-set(_vlt $<TARGET_FILE:vlt>)
+set(_vlt $<TARGET_FILE:vlt_mpi>)
 set(_missing ${_out}/no_such_job.toml)
 vlt_mpi_error(mpi_error_rank1_unreadable "no_such_job\\.toml: cannot read the job file"
   -np 1 ${_vlt} run ${_online} --trials 25000 -o ${_out}/mpi_error_rank1_unreadable

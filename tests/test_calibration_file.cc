@@ -14,7 +14,6 @@
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
 
-#include "calibration/outputs.h"
 #include "test_calibration_helpers.h"
 #include "vlt/calibration.h"
 #include "vlt/error.h"

@@ -13,7 +13,7 @@
 
 #include <gtest/gtest.h>
 
-#include "job/csv.h"
+#include "base/csv.h"
 #include "vlt/error.h"
 #include "vlt/models.h"
 

@@ -1,4 +1,4 @@
-// vlt/lanes.h — the SIMD lane type of the generated Monte Carlo kernel: its arithmetic is the
+// base/lanes.h — the SIMD lane type of the generated Monte Carlo kernel: its arithmetic is the
 // scalar arithmetic lane by lane, its sin/cos within a few ulp of the exact values (long double).
 #include <cmath>
 #include <cstdint>
@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "vlt/lanes.h"
+#include "base/lanes.h"
 
 namespace vlt {
 namespace {

@@ -673,7 +673,7 @@ TEST(McmPreparedShared, SameAsEvaluateBitForBit) {
     EXPECT_EQ(changed_by_thermal, c.thermal ? trials : 0);
 
     // The job kernel's SIMD path (EvaluatePreparedLanes: the stages lane by lane, the tracker
-    // model through ForwardLanes with vlt's own sin/cos, vlt/lanes.h) against EvaluatePrepared
+    // model through ForwardLanes with vlt's own sin/cos, base/lanes.h) against EvaluatePrepared
     // per trial: coordinates up to 60 m agree to 1e-13 m (the sin/cos differ by a few ulp).
     constexpr int kL = kForwardLanes;
     double worst = 0.0;

@@ -5,9 +5,7 @@
 #include <cstdio>
 #include <exception>
 
-#include <vlt/error.h>
-#include <vlt/job.h>
-#include <vlt/results.h>
+#include <vlt/vlt.h>  // the whole API; <vlt/job.h> and <vlt/results.h> alone would do here
 
 int main() {
   try {

@@ -3,8 +3,6 @@
 // the calibration file a job loads with `[tracker] calibration = "..."`. docs/calibration.md.
 #include <cstdio>
 
-#include "calibration/outputs.h"
-#include "results/internal.h"
 #include "run_job.h"
 #include "vlt/calibration.h"
 #include "vlt/results.h"
@@ -29,7 +27,7 @@ void AddCalibrateCommand(CLI::App& app, GlobalOptions& global) {
     RunCliOptions where;
     where.output_dir = *output_arg;
     OutputDirectory output(OutputPath(OutputSettings{job.output_directory}, std::filesystem::path(*file).parent_path(), where,
-                                      std::filesystem::path("vlt-out") / internal::SafeFileName(job.name)));
+                                      std::filesystem::path("vlt-out") / SafeFileName(job.name)));
     const std::filesystem::path& dir = output.path();
     const CalibrationResult result = Calibrate(job.data, job.options);
     CalibrationProvenance provenance;

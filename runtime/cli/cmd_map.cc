@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cstdio>
 
-#include "results/internal.h"
 #include "run_job.h"
 #include "vlt/error.h"
 
@@ -61,7 +60,7 @@ void AddMapCommand(CLI::App& app, GlobalOptions& global) {
     }
     RunCliOptions ro;
     ro.output_dir = o->output_dir;
-    OutputDirectory output(OutputPath(job.output, job.base_dir, ro, std::filesystem::path("vlt-out") / vlt::internal::SafeFileName(job.name)));
+    OutputDirectory output(OutputPath(job.output, job.base_dir, ro, std::filesystem::path("vlt-out") / SafeFileName(job.name)));
     MeasurementModel model(job.setup);
     int threads = o->threads >= 0 ? o->threads : job.monte_carlo.threads;
     MapResult map = ComputeMap(model, settings, job.monte_carlo.coverage_probability, threads);

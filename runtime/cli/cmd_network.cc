@@ -6,8 +6,6 @@
 #include <cstdio>
 #include <optional>
 
-#include "network/outputs.h"
-#include "results/internal.h"
 #include "run_job.h"
 #include "vlt/error.h"
 #include "vlt/network.h"
@@ -45,7 +43,7 @@ void AddNetworkCommand(CLI::App& app, GlobalOptions& global) {
     RunCliOptions where;
     where.output_dir = *output_arg;
     OutputDirectory output(OutputPath(OutputSettings{job.output_directory}, std::filesystem::path(*file).parent_path(), where,
-                                      std::filesystem::path("vlt-out") / internal::SafeFileName(job.name)));
+                                      std::filesystem::path("vlt-out") / SafeFileName(job.name)));
     const NetworkResult result = AdjustNetwork(job.network);
     std::optional<NetworkMonteCarlo> mc;
     if (job.monte_carlo_trials > 0) {

@@ -2,7 +2,6 @@
 // of its [optimize] section (vlt/planning.h, docs/planning.md).
 #include <cstdio>
 
-#include "results/internal.h"
 #include "run_job.h"
 #include "vlt/error.h"
 #include "vlt/planning.h"
@@ -32,7 +31,7 @@ void AddPlanCommand(CLI::App& app, GlobalOptions& global) {
     RunCliOptions ro;
     ro.output_dir = o->output_dir;
     OutputDirectory output(OutputPath(OutputSettings{}, job.base_dir, ro,
-                                      std::filesystem::path("vlt-out") / (vlt::internal::SafeFileName(job.name) + "-plan")));
+                                      std::filesystem::path("vlt-out") / (SafeFileName(job.name) + "-plan")));
     const int threads = o->threads >= 0 ? o->threads : job.monte_carlo.threads;
     const StationPlan plan = PlanStation(job, threads);
     const auto files = PlanFiles(plan);

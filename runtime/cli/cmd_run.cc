@@ -6,8 +6,6 @@
 #include <cstdio>
 #include <iostream>
 
-#include "job/job_detail.h"
-#include "results/internal.h"
 #include "run_job.h"
 #include "vlt/custom_job.h"
 #include "vlt/error.h"
@@ -150,7 +148,7 @@ int RunCustomAndWrite(const CustomJob& job, const RunCliOptions& options, const 
   EmitWarnings(job.warnings, global);
   RunOptions run = RunOptionsFrom(options, job.monte_carlo, global);
   OutputDirectory output(OutputPath(job.output, job.base_dir, options,
-                                    std::filesystem::path("vlt-out") / vlt::internal::SafeFileName(job.name)));
+                                    std::filesystem::path("vlt-out") / SafeFileName(job.name)));
   CustomResults results = RunCustomJob(job, run);
   auto files = ResultFiles(results);
   output.Commit(AsOutputFiles(files));
@@ -171,12 +169,12 @@ void AddRunCommand(CLI::App& app, GlobalOptions& global) {
   command->footer("Exit status: 0 success, 2 bad input or a result that cannot be computed (one line on stderr;\n"
                   "no output file is written). Outputs: docs/results.md.");
   command->callback([job_file, options, &global] {
-    if (IsCustomModelJob(job_detail::ReadTextFile(*job_file, "the job file"))) {
+    if (IsCustomModelJobFile(*job_file)) {
       RunCustomAndWrite(LoadCustomJob(*job_file), *options, global);
       return;
     }
     Job job = LoadJob(*job_file);
-    std::filesystem::path fallback = std::filesystem::path("vlt-out") / vlt::internal::SafeFileName(job.name);
+    std::filesystem::path fallback = std::filesystem::path("vlt-out") / SafeFileName(job.name);
     RunAndWrite(job, *options, global, fallback);
   });
 }

@@ -13,7 +13,6 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
-#include "job/job_detail.h"
 #include "vlt/error.h"
 #include "vlt/inverse.h"
 #include "vlt/models.h"
@@ -31,11 +30,11 @@ struct SimulateOptions {
   std::vector<std::string> assignments;
 };
 
-// The kind's dimension where vlt/units.h knows it (job_detail::DimensionOfQuantity); a plain
+// The kind's dimension where vlt/units.h knows it (vlt::DimensionOfQuantity); a plain
 // number in the spec's unit otherwise (a custom model's "voltage").
 Dimension DimensionOf(const QuantityInfo& q) {
   try {
-    return job_detail::DimensionOfQuantity(q.quantity, "");
+    return vlt::DimensionOfQuantity(q.quantity, "");
   } catch (const InputError&) {
     return Dimension::kDimensionless;
   }

@@ -4,8 +4,6 @@
 // `vlt calibrate`. docs/calibration.md.
 #include <cstdio>
 
-#include "calibration/outputs.h"
-#include "results/internal.h"
 #include "run_job.h"
 #include "vlt/calibration.h"
 
@@ -25,7 +23,7 @@ void AddTestCommand(CLI::App& app, GlobalOptions& global) {
     const TestJob job = LoadTestJob(*file);
     EmitWarnings(job.warnings, global);
     OutputDirectory output(output_arg->empty()
-        ? std::filesystem::path("vlt-out") / internal::SafeFileName(job.name + "-tests")
+        ? std::filesystem::path("vlt-out") / SafeFileName(job.name + "-tests")
         : std::filesystem::path(*output_arg));
     const std::filesystem::path& dir = output.path();
     const std::vector<TestResult> results = SimulateTests(job.tracker, job.layout, job.settings);

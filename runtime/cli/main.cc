@@ -7,7 +7,7 @@
 #include <CLI/CLI.hpp>
 
 #include "commands.h"
-#include "mpi/ranks.h"
+#include "vlt/mpi.h"
 #include "vlt/error.h"
 #include "vlt/results.h"
 

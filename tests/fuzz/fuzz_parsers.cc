@@ -6,7 +6,7 @@
 #include <string>
 #include <string_view>
 
-#include "job/csv.h"
+#include "base/csv.h"
 #include "vlt/error.h"
 #include "vlt/job.h"
 #include "vlt/units.h"

@@ -259,7 +259,7 @@ CalibrationData SimulateCalibrationData(const MeasurementSetup& tracker, const T
                                         std::uint64_t seed);
 
 // ---------------------------------------------------------------------------------------------
-// Files (runtime/src/job/calibration.cc; every key in docs/calibration.md). Errors: InputError
+// Files (runtime/src/calibration/reader.cc; every key in docs/calibration.md). Errors: InputError
 // "<file>: <key or line>: <problem>".
 
 // A test layout (e.g. examples/layouts/b89_4_19_2006.toml): [layout], [[bar]], [[length]],
@@ -324,3 +324,29 @@ std::string Sha256File(const std::string& path);
 std::string Sha256Bytes(std::string_view bytes);
 
 }  // namespace vlt
+
+// The files of `vlt test` and `vlt calibrate` (docs/calibration.md "Outputs"), each a (file name,
+// content) pair for an all-or-none write (calibration/outputs.cc).
+namespace vlt::calibration_outputs {
+
+using Files = std::vector<std::pair<std::string, std::string>>;
+
+// tests.csv, sensitivity.csv, results.json, report.html; with simulated data also
+// simulated_readings.csv and simulated_calibration.toml (a `vlt calibrate` input).
+Files TestFiles(const TestJob& job, const std::vector<TestResult>& results,
+                const CalibrationData* simulated);
+
+// calibration.toml (the calibration file), parameters.csv, correlation.csv,
+// identifiability.csv, targets.csv, residuals.csv, results.json, report.html.
+Files CalibrationFiles(const CalibrationJob& job, const CalibrationResult& result,
+                       const CalibrationProvenance& provenance);
+
+// The parameter's display unit and the factor from SI: length -> um (1e6), angle -> arcsec,
+// ratio -> ppm (1e6); anything else keeps its SI unit.
+std::pair<std::string, double> DisplayUnit(const std::string& quantity, const std::string& si_unit);
+
+// One-line terminal summaries.
+std::string TestSummary(const TestJob& job, const std::vector<TestResult>& results);
+std::string CalibrationSummary(const CalibrationJob& job, const CalibrationResult& result);
+
+}  // namespace vlt::calibration_outputs

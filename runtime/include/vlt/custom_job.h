@@ -64,6 +64,8 @@ struct CustomJob {
 // True when the TOML text has a top-level [model] table (a custom-model job). Syntax errors are
 // left to the parser that follows.
 bool IsCustomModelJob(std::string_view text);
+// The same for the job file at `path`; InputError "<path>: cannot read the job file".
+bool IsCustomModelJobFile(const std::string& path);
 
 // Reads and checks a custom-model job (one-line InputError "<file>: <key>: <problem>").
 CustomJob ParseCustomJob(std::string_view text, const std::string& file,

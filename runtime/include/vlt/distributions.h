@@ -2,7 +2,7 @@
 // 6.4), each parameterised by the estimate (its expectation) and the standard uncertainty (its
 // standard deviation), plus one shape parameter where the family has one. This is the ONE place
 // a distribution is added: name, parser, sampling, CDF and quantile live in
-// runtime/src/mcm/distributions.cc. docs/monte-carlo.md lists the parametrisations.
+// runtime/src/stats/distributions.cc. docs/monte-carlo.md lists the parametrisations.
 //
 //   kind                    names accepted                     shape                  clause
 //   normal                  "normal", "gaussian"               none (0)               6.4.7

@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <optional>
@@ -232,3 +233,26 @@ struct NetworkJob {
 NetworkJob LoadNetworkJob(const std::string& path);
 
 }  // namespace vlt
+
+// The files of `vlt network` (docs/network.md "Outputs"), each a (file name, content) pair for an
+// all-or-none write (network/outputs.cc).
+namespace vlt::network_outputs {
+
+using Files = std::vector<std::pair<std::string, std::string>>;
+
+// targets.csv, stations.csv, residuals.csv, covariance.csv, tasks.csv (with [[task]]: the
+// results of NetworkTasks), parameters.csv (with self-calibration), results.json, report.html.
+// With a Monte Carlo validation (`mc` not null) also mcm.csv.
+Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std::vector<NetworkTaskResult>& tasks,
+                   const std::string& created, const NetworkMonteCarlo* mc = nullptr);
+
+// An offline network's simulated measurement (SimulateNetwork, truth = [targets] and the
+// stations' poses): simulated_<station>.csv per station (the readings, SI: m, rad) and
+// simulated_network.toml, the same file made online (stations read their CSVs, references at
+// their simulated coordinates): `vlt network simulated_network.toml` adjusts it.
+Files SimulatedNetworkFiles(const NetworkJob& job, const Network& simulated, std::uint64_t seed);
+
+// The terminal summary.
+std::string NetworkSummary(const NetworkJob& job, const NetworkResult& result, const NetworkMonteCarlo* mc = nullptr);
+
+}  // namespace vlt::network_outputs

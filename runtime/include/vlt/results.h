@@ -340,4 +340,8 @@ void InstallOutputSignalHandlers();
 // A short human summary of the results (units in the headers) for the terminal.
 std::string SummaryText(const Results& results);
 
+// A name safe as a file or directory name: [A-Za-z0-9._-] kept, anything else '_' ("job" for an
+// empty name, "." or ".."). A job's default output directory is vlt-out/<SafeFileName(name)>.
+std::string SafeFileName(const std::string& name);
+
 }  // namespace vlt

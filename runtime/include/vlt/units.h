@@ -78,4 +78,9 @@ std::string FormatReadable(double si, Dimension dimension);
 // after the number, trimmed. For showing a value back in the user's unit.
 std::string TypedUnit(std::string_view text);
 
+// The dimension named by a model's quantity kind (QuantityInfo::quantity: "length", "angle",
+// "ratio", ... as DimensionName spells them). Throws InputError "<where>: the model declares an
+// unknown quantity kind '<kind>'".
+Dimension DimensionOfQuantity(std::string_view quantity, const std::string& where);
+
 }  // namespace vlt

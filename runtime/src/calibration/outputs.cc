@@ -1,8 +1,7 @@
 // calibration/outputs.cc — the files of `vlt test` and `vlt calibrate` (outputs.h). CSVs and
 // results.json are SI with the unit in every column name; the reports show display units
 // (um, arcsec, ppm) and say so. Schema: docs/calibration.md "Outputs".
-#include "calibration/outputs.h"
-#include "calibration/toml_text.h"
+#include "base/toml_text.h"
 
 #include <algorithm>
 #include <cmath>
@@ -13,9 +12,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "report/assets.h"
-#include "report/page.h"
-#include "results/internal.h"
+#include "output/assets.h"
+#include "output/page.h"
+#include "vlt/calibration.h"
+#include "base/format.h"
 
 namespace vlt::calibration_outputs {
 
@@ -47,57 +47,62 @@ nlohmann::json JsonMatrix(const Eigen::MatrixXd& m) {
   return rows;
 }
 
-}  // namespace
-
-std::pair<std::string, double> DisplayUnit(const std::string& quantity, const std::string& si_unit) {
-  if (quantity == "length") return {"um", 1e6};
-  if (quantity == "angle") return {"arcsec", 1.0 / kArcsec};
-  if (quantity == "ratio") return {"ppm", 1e6};
-  return {si_unit, 1.0};
+std::string TestsCsv(const std::vector<TestResult>& results) {
+  std::ostringstream os;
+  os << "test,kind,reference_m,range_max_m,error_m,u_m,U_m,k,u_parameters_m,mpe_m,verdict,"
+        "two_face_x_m,two_face_y_m,two_face_z_m,two_face_radial_m,two_face_transverse_m\n";
+  for (const TestResult& r : results) {
+    os << Csv(r.name) << ',' << TestKindName(r.kind) << ',' << Num(r.reference) << ',' << Num(r.range_max) << ','
+       << Num(r.error) << ',' << Num(r.u) << ',' << Num(r.U) << ',' << Num(r.k) << ',' << Num(r.u_parameters) << ','
+       << (r.verdict.empty() ? "" : Num(r.mpe)) << ',' << r.verdict;
+    if (r.kind == TestKind::kTwoFace) {
+      os << ',' << Num(r.two_face.x()) << ',' << Num(r.two_face.y()) << ',' << Num(r.two_face.z()) << ','
+         << Num(r.two_face_radial) << ',' << Num(r.two_face_transverse) << '\n';
+    } else {
+      os << ",,,,,\n";
+    }
+  }
+  return os.str();
 }
 
-// ------------------------------------------------------------------------------------------------
-// vlt test
-
-Files TestFiles(const TestJob& job, const std::vector<TestResult>& results, const CalibrationData* simulated) {
-  const ModelInfo& model = *job.tracker.model;
+// Sensitivity table: test error per unit of each parameter, in um per display unit.
+std::string SensitivityCsv(const ModelInfo& model, const std::vector<TestResult>& results) {
   const int P = model.num_params;
-  Files files;
-  {
-    std::ostringstream os;
-    os << "test,kind,reference_m,range_max_m,error_m,u_m,U_m,k,u_parameters_m,mpe_m,verdict,"
-          "two_face_x_m,two_face_y_m,two_face_z_m,two_face_radial_m,two_face_transverse_m\n";
-    for (const TestResult& r : results) {
-      os << Csv(r.name) << ',' << TestKindName(r.kind) << ',' << Num(r.reference) << ',' << Num(r.range_max) << ','
-         << Num(r.error) << ',' << Num(r.u) << ',' << Num(r.U) << ',' << Num(r.k) << ',' << Num(r.u_parameters) << ','
-         << (r.verdict.empty() ? "" : Num(r.mpe)) << ',' << r.verdict;
-      if (r.kind == TestKind::kTwoFace) {
-        os << ',' << Num(r.two_face.x()) << ',' << Num(r.two_face.y()) << ',' << Num(r.two_face.z()) << ','
-           << Num(r.two_face_radial) << ',' << Num(r.two_face_transverse) << '\n';
-      } else {
-        os << ",,,,,\n";
-      }
-    }
-    files.emplace_back("tests.csv", os.str());
+  std::ostringstream os;
+  os << "test,kind";
+  for (int k = 0; k < P; ++k) {
+    os << ',' << model.params[k].name << '_' << PerUnit(model.params[k].quantity, model.params[k].unit);
   }
-  {
-    // Sensitivity table: test error per unit of each parameter, in um per display unit.
-    std::ostringstream os;
-    os << "test,kind";
+  os << '\n';
+  for (const TestResult& r : results) {
+    os << Csv(r.name) << ',' << TestKindName(r.kind);
     for (int k = 0; k < P; ++k) {
-      os << ',' << model.params[k].name << '_' << PerUnit(model.params[k].quantity, model.params[k].unit);
+      const double per = DisplayUnit(model.params[k].quantity, model.params[k].unit).second;
+      os << ',' << Num(r.sensitivity(k) * 1e6 / per);
     }
     os << '\n';
-    for (const TestResult& r : results) {
-      os << Csv(r.name) << ',' << TestKindName(r.kind);
-      for (int k = 0; k < P; ++k) {
-        const double per = DisplayUnit(model.params[k].quantity, model.params[k].unit).second;
-        os << ',' << Num(r.sensitivity(k) * 1e6 / per);
-      }
-      os << '\n';
-    }
-    files.emplace_back("sensitivity.csv", os.str());
   }
+  return os.str();
+}
+
+// Parameters no test sees: the largest effect of one prior u on any test below 1 nm.
+nlohmann::json ParametersNoTestSees(const TestJob& job, const std::vector<TestResult>& results) {
+  const ModelInfo& model = *job.tracker.model;
+  const int P = model.num_params;
+  std::vector<double> never_seen(P, 0.0);
+  for (const TestResult& r : results) {
+    for (int k = 0; k < P; ++k) never_seen[k] = std::max(never_seen[k], std::abs(r.sensitivity(k)) * job.tracker.params[k].u);
+  }
+  nlohmann::json unseen = nlohmann::json::array();
+  for (int k = 0; k < P; ++k) {
+    if (never_seen[k] < 1e-9) unseen.push_back(model.params[k].name);
+  }
+  return unseen;
+}
+
+std::string TestResultsJson(const TestJob& job, const std::vector<TestResult>& results, const nlohmann::json& unseen) {
+  const ModelInfo& model = *job.tracker.model;
+  const int P = model.num_params;
   nlohmann::json j;
   j["schema"] = "vlt-test/1";
   j["vlt_version"] = VLT_VERSION;
@@ -111,7 +116,6 @@ Files TestFiles(const TestJob& job, const std::vector<TestResult>& results, cons
   }
   j["parameters"] = params;
   nlohmann::json tests = nlohmann::json::array();
-  std::vector<double> never_seen(P, 0.0);
   for (const TestResult& r : results) {
     nlohmann::json t = {{"name", r.name}, {"kind", TestKindName(r.kind)}, {"reference", r.reference},
                         {"range_max", r.range_max}, {"error", r.error}, {"u", r.u}, {"U", r.U}, {"k", r.k},
@@ -124,19 +128,17 @@ Files TestFiles(const TestJob& job, const std::vector<TestResult>& results, cons
     }
     t["sensitivity"] = std::vector<double>(r.sensitivity.data(), r.sensitivity.data() + P);
     tests.push_back(t);
-    for (int k = 0; k < P; ++k) never_seen[k] = std::max(never_seen[k], std::abs(r.sensitivity(k)) * job.tracker.params[k].u);
   }
   j["tests"] = tests;
-  // Parameters no test sees: the largest effect of one prior u on any test below 1 nm.
-  nlohmann::json unseen = nlohmann::json::array();
-  for (int k = 0; k < P; ++k) {
-    if (never_seen[k] < 1e-9) unseen.push_back(model.params[k].name);
-  }
   j["parameters_no_test_sees"] = unseen;
-  files.emplace_back("results.json", j.dump(1) + "\n");
+  return j.dump(1) + "\n";
+}
 
-  // report.html
-  std::ostringstream body, script;
+// The tracker's error state and u, the layout, and the count of passes and failures.
+void TrackerAndLayoutSection(std::ostringstream& body, const TestJob& job, const std::vector<TestResult>& results,
+                             const nlohmann::json& unseen) {
+  const ModelInfo& model = *job.tracker.model;
+  const int P = model.num_params;
   int pass = 0, fail = 0;
   for (const TestResult& r : results) {
     pass += r.verdict == "pass";
@@ -161,7 +163,11 @@ Files TestFiles(const TestJob& job, const std::vector<TestResult>& results, cons
     body << "<tr><td class=\"l\">" << HtmlEscape(model.params[k].name) << "</td><td>" << Fixed(job.tracker.params[k].estimate * per, 3)
          << "</td><td>" << Fixed(job.tracker.params[k].u * per, 3) << "</td><td class=\"l\">" << unit << "</td></tr>";
   }
-  body << "</table></section>\n<section><h2>Tests</h2><table><tr><th class=\"l\">test</th><th class=\"l\">kind</th><th>reference / mm</th>"
+  body << "</table></section>\n";
+}
+
+void TestsTable(std::ostringstream& body, const std::vector<TestResult>& results) {
+  body << "<section><h2>Tests</h2><table><tr><th class=\"l\">test</th><th class=\"l\">kind</th><th>reference / mm</th>"
           "<th>R max / m</th><th>error / um</th><th>U / um</th><th>u(params) / um</th><th>MPE / um</th><th class=\"l\">verdict</th>"
           "<th>two-face radial / um</th><th>transverse / um</th></tr>";
   for (const TestResult& r : results) {
@@ -172,7 +178,14 @@ Files TestFiles(const TestJob& job, const std::vector<TestResult>& results, cons
          << r.verdict << "</td><td>" << (r.kind == TestKind::kTwoFace ? Fixed(r.two_face_radial * 1e6, 2) : "") << "</td><td>"
          << (r.kind == TestKind::kTwoFace ? Fixed(r.two_face_transverse * 1e6, 2) : "") << "</td></tr>";
   }
-  body << "</table></section>\n<section><h2>Sensitivity: which test sees which parameter</h2><p class=\"note\">|d error / d parameter| "
+  body << "</table></section>\n";
+}
+
+// Which test sees which parameter: |d error / d parameter| as a heatmap.
+void SensitivityHeatmap(std::ostringstream& body, std::ostringstream& script, const ModelInfo& model,
+                        const std::vector<TestResult>& results) {
+  const int P = model.num_params;
+  body << "<section><h2>Sensitivity: which test sees which parameter</h2><p class=\"note\">|d error / d parameter| "
           "in um per um, um per arcsec, um per ppm (sensitivity.csv has the signs of length and ranging tests; two-face rows are magnitudes). A column without colour is a parameter "
           "that no test of this layout sees.</p><div id=\"sens\" class=\"plot\"></div></section>\n";
   nlohmann::json z = nlohmann::json::array(), x = nlohmann::json::array(), y = nlohmann::json::array();
@@ -188,127 +201,112 @@ Files TestFiles(const TestJob& job, const std::vector<TestResult>& results, cons
   script << "Plotly.newPlot('sens',[{type:'heatmap',colorscale:'Viridis',x:" << x.dump() << ",y:" << y.dump() << ",z:" << z.dump()
          << ",hovertemplate:'%{y}<br>%{x}: %{z:.4g}<extra></extra>'}],{margin:{l:140,b:140},yaxis:{autorange:'reversed'}},"
             "{responsive:true}).then(done);";
-  files.emplace_back("report.html", Page("vlt test — " + job.name, "Standard tests on a virtual tracker", body.str(), script.str()));
-
-  if (simulated) {
-    std::ostringstream csv;
-    csv << "target,range,azimuth,elevation,face\n";
-    for (const TargetReading& r : simulated->readings) {
-      csv << Csv(r.target) << ',' << Num(r.readings(0)) << ',' << Num(r.readings(1)) << ',' << Num(r.readings(2)) << ','
-          << FaceName(r.face) << '\n';
-    }
-    files.emplace_back("simulated_readings.csv", csv.str());
-    std::ostringstream t;
-    t << "# Simulated calibration data written by `vlt test` from " << std::filesystem::path(job.file).filename().string()
-      << " (seed " << job.seed << ").\n"
-      << "# Run it with:  vlt calibrate simulated_calibration.toml\n"
-      << "# The true error state of the simulated tracker (SI), to compare with the calibration:\n";
-    for (int k = 0; k < P; ++k) t << "#   " << model.params[k].name << " = " << Num(job.tracker.params[k].estimate) << " " << model.params[k].unit << "\n";
-    using calibration_internal::TomlQuoted;
-    t << "# Values without a unit are SI (m, rad). Every key: docs/calibration.md.\n\n[job]\nname = "
-      << TomlQuoted(job.name + "-calibration") << "\n\n[calibration]\ninstrument = "
-      << TomlQuoted("simulated " + std::string(model.name) + " tracker (vlt test, seed " + std::to_string(job.seed) + ")")
-      << "\n\n[tracker]\nmodel = " << TomlQuoted(model.name) << "   # priors: the model's defaults\n\n[tracker.noise]\n"
-      << "range_a = " << Num(simulated->noise.range_a) << "\nrange_b = " << Num(simulated->noise.range_b)
-      << "\nazimuth = " << Num(simulated->noise.azimuth) << "\nelevation = " << Num(simulated->noise.elevation)
-      << "\n\n[readings]\ncsv = \"simulated_readings.csv\"\ncolumns = { name = \"target\" }\n";
-    for (const ReferenceBar& bar : simulated->bars) {
-      t << "\n[[bar]]\nname = " << TomlQuoted(bar.name) << "\nlength = " << Num(bar.length) << "   # calibrated value, m\nu = "
-        << Num(bar.u) << "\nu_position = " << Num(bar.u_position) << "\npositions = [\n";
-      for (const auto& [a, b] : bar.positions) t << "  [" << TomlQuoted(a) << ", " << TomlQuoted(b) << "],\n";
-      t << "]\n";
-    }
-    for (const ReferenceDistance& d : simulated->distances) {
-      t << "\n[[reference]]\nfrom = " << TomlQuoted(d.from) << "\nto = " << TomlQuoted(d.to) << "\nlength = " << Num(d.length)
-        << "\nu = " << Num(d.u) << "\n";
-    }
-    files.emplace_back("simulated_calibration.toml", t.str());
-  }
-  return files;
 }
 
-std::string TestSummary(const TestJob& job, const std::vector<TestResult>& results) {
-  std::ostringstream os;
-  int pass = 0, fail = 0;
-  double worst = 0.0;
-  std::string worst_name;
-  for (const TestResult& r : results) {
-    if (r.verdict == "pass") ++pass;
-    if (r.verdict == "fail") ++fail;
-    if (std::abs(r.error) > worst) {
-      worst = std::abs(r.error);
-      worst_name = r.name;
-    }
+std::string SimulatedReadingsCsv(const CalibrationData& simulated) {
+  std::ostringstream csv;
+  csv << "target,range,azimuth,elevation,face\n";
+  for (const TargetReading& r : simulated.readings) {
+    csv << Csv(r.target) << ',' << Num(r.readings(0)) << ',' << Num(r.readings(1)) << ',' << Num(r.readings(2)) << ','
+        << FaceName(r.face) << '\n';
   }
-  os << job.name << ": " << results.size() << " tests of layout '" << job.layout.name << "' on a " << job.tracker.model->name
-     << " tracker; largest |error| " << Fixed(worst * 1e6, 2) << " um (" << worst_name << ")";
-  if (pass + fail) os << "; " << pass << " pass, " << fail << " fail against the MPE";
-  os << "\n";
+  return csv.str();
+}
+
+// simulated_calibration.toml: the simulated tracker's test data, ready for `vlt calibrate`.
+std::string SimulatedCalibrationToml(const TestJob& job, const CalibrationData& simulated) {
+  const ModelInfo& model = *job.tracker.model;
+  const int P = model.num_params;
+  std::ostringstream t;
+  t << "# Simulated calibration data written by `vlt test` from " << std::filesystem::path(job.file).filename().string()
+    << " (seed " << job.seed << ").\n"
+    << "# Run it with:  vlt calibrate simulated_calibration.toml\n"
+    << "# The true error state of the simulated tracker (SI), to compare with the calibration:\n";
+  for (int k = 0; k < P; ++k) t << "#   " << model.params[k].name << " = " << Num(job.tracker.params[k].estimate) << " " << model.params[k].unit << "\n";
+  using calibration_internal::TomlQuoted;
+  t << "# Values without a unit are SI (m, rad). Every key: docs/calibration.md.\n\n[job]\nname = "
+    << TomlQuoted(job.name + "-calibration") << "\n\n[calibration]\ninstrument = "
+    << TomlQuoted("simulated " + std::string(model.name) + " tracker (vlt test, seed " + std::to_string(job.seed) + ")")
+    << "\n\n[tracker]\nmodel = " << TomlQuoted(model.name) << "   # priors: the model's defaults\n\n[tracker.noise]\n"
+    << "range_a = " << Num(simulated.noise.range_a) << "\nrange_b = " << Num(simulated.noise.range_b)
+    << "\nazimuth = " << Num(simulated.noise.azimuth) << "\nelevation = " << Num(simulated.noise.elevation)
+    << "\n\n[readings]\ncsv = \"simulated_readings.csv\"\ncolumns = { name = \"target\" }\n";
+  for (const ReferenceBar& bar : simulated.bars) {
+    t << "\n[[bar]]\nname = " << TomlQuoted(bar.name) << "\nlength = " << Num(bar.length) << "   # calibrated value, m\nu = "
+      << Num(bar.u) << "\nu_position = " << Num(bar.u_position) << "\npositions = [\n";
+    for (const auto& [a, b] : bar.positions) t << "  [" << TomlQuoted(a) << ", " << TomlQuoted(b) << "],\n";
+    t << "]\n";
+  }
+  for (const ReferenceDistance& d : simulated.distances) {
+    t << "\n[[reference]]\nfrom = " << TomlQuoted(d.from) << "\nto = " << TomlQuoted(d.to) << "\nlength = " << Num(d.length)
+      << "\nu = " << Num(d.u) << "\n";
+  }
+  return t.str();
+}
+
+std::string ParametersCsv(const CalibrationResult& result) {
+  std::ostringstream os;
+  os << "parameter,unit,status,estimate,u,U,k,u_data,prior_estimate,prior_u,display_unit,estimate_display,U_display\n";
+  for (const CalibratedParameter& p : result.parameters) {
+    const auto [unit, per] = DisplayUnit(p.quantity, p.unit);
+    os << p.name << ',' << p.unit << ',' << ParameterStatusName(p.status) << ',' << Num(p.estimate) << ',' << Num(p.u) << ','
+       << Num(result.k * p.u) << ',' << Num(result.k) << ',' << Num(p.u_data) << ',' << Num(p.prior_estimate) << ','
+       << Num(p.prior_u) << ',' << unit << ',' << Num(p.estimate * per) << ',' << Num(result.k * p.u * per) << '\n';
+  }
   return os.str();
 }
 
-// ------------------------------------------------------------------------------------------------
-// vlt calibrate
-
-Files CalibrationFiles(const CalibrationJob& job, const CalibrationResult& result, const CalibrationProvenance& provenance) {
-  Files files;
-  files.emplace_back("calibration.toml", CalibrationFileToml(result, provenance));
+std::string CorrelationCsv(const CalibrationResult& result) {
   const int P = static_cast<int>(result.parameters.size());
-  {
-    std::ostringstream os;
-    os << "parameter,unit,status,estimate,u,U,k,u_data,prior_estimate,prior_u,display_unit,estimate_display,U_display\n";
-    for (const CalibratedParameter& p : result.parameters) {
-      const auto [unit, per] = DisplayUnit(p.quantity, p.unit);
-      os << p.name << ',' << p.unit << ',' << ParameterStatusName(p.status) << ',' << Num(p.estimate) << ',' << Num(p.u) << ','
-         << Num(result.k * p.u) << ',' << Num(result.k) << ',' << Num(p.u_data) << ',' << Num(p.prior_estimate) << ','
-         << Num(p.prior_u) << ',' << unit << ',' << Num(p.estimate * per) << ',' << Num(result.k * p.u * per) << '\n';
-    }
-    files.emplace_back("parameters.csv", os.str());
-  }
-  {
-    std::ostringstream os;
-    os << "parameter";
-    for (const CalibratedParameter& p : result.parameters) os << ',' << p.name;
+  std::ostringstream os;
+  os << "parameter";
+  for (const CalibratedParameter& p : result.parameters) os << ',' << p.name;
+  os << '\n';
+  for (int i = 0; i < P; ++i) {
+    os << result.parameters[i].name;
+    for (int k = 0; k < P; ++k) os << ',' << Num(result.correlation(i, k));
     os << '\n';
-    for (int i = 0; i < P; ++i) {
-      os << result.parameters[i].name;
-      for (int k = 0; k < P; ++k) os << ',' << Num(result.correlation(i, k));
-      os << '\n';
-    }
-    files.emplace_back("correlation.csv", os.str());
   }
-  {
-    std::ostringstream os;
-    os << "index,singular_value,data_u_over_prior_u";
-    for (const std::string& name : result.free_parameters) os << ',' << name;
+  return os.str();
+}
+
+std::string IdentifiabilityCsv(const CalibrationResult& result) {
+  std::ostringstream os;
+  os << "index,singular_value,data_u_over_prior_u";
+  for (const std::string& name : result.free_parameters) os << ',' << name;
+  os << '\n';
+  for (Eigen::Index i = 0; i < result.singular_values.size(); ++i) {
+    const double s = result.singular_values(i);
+    os << i + 1 << ',' << Num(s) << ',' << (s > 0 ? Num(1.0 / s) : "inf");
+    for (Eigen::Index f = 0; f < result.singular_vectors.rows(); ++f) os << ',' << Num(result.singular_vectors(f, i));
     os << '\n';
-    for (Eigen::Index i = 0; i < result.singular_values.size(); ++i) {
-      const double s = result.singular_values(i);
-      os << i + 1 << ',' << Num(s) << ',' << (s > 0 ? Num(1.0 / s) : "inf");
-      for (Eigen::Index f = 0; f < result.singular_vectors.rows(); ++f) os << ',' << Num(result.singular_vectors(f, i));
-      os << '\n';
-    }
-    files.emplace_back("identifiability.csv", os.str());
   }
-  {
-    std::ostringstream os;
-    os << "target,readings,x_m,y_m,z_m,u_x_m,u_y_m,u_z_m\n";
-    for (const CalibratedTarget& t : result.targets) {
-      os << Csv(t.name) << ',' << t.readings << ',' << Num(t.position.x()) << ',' << Num(t.position.y()) << ',' << Num(t.position.z());
-      for (int a = 0; a < 3; ++a) os << ',' << Num(std::sqrt(std::max(0.0, t.covariance(a, a))));
-      os << '\n';
-    }
-    files.emplace_back("targets.csv", os.str());
+  return os.str();
+}
+
+std::string TargetsCsv(const CalibrationResult& result) {
+  std::ostringstream os;
+  os << "target,readings,x_m,y_m,z_m,u_x_m,u_y_m,u_z_m\n";
+  for (const CalibratedTarget& t : result.targets) {
+    os << Csv(t.name) << ',' << t.readings << ',' << Num(t.position.x()) << ',' << Num(t.position.y()) << ',' << Num(t.position.z());
+    for (int a = 0; a < 3; ++a) os << ',' << Num(std::sqrt(std::max(0.0, t.covariance(a, a))));
+    os << '\n';
   }
-  {
-    std::ostringstream os;
-    os << "observation,where,unit,residual,u,normalised,redundancy,w,outlier\n";
-    for (const CalibrationResidual& r : result.residuals) {
-      os << Csv(r.observation) << ',' << Csv(r.where) << ',' << r.unit << ',' << Num(r.residual) << ',' << Num(r.u) << ','
-         << Num(r.normalised) << ',' << Num(r.redundancy) << ',' << Num(r.w) << ',' << (r.outlier ? "yes" : "no") << '\n';
-    }
-    files.emplace_back("residuals.csv", os.str());
+  return os.str();
+}
+
+std::string ResidualsCsv(const CalibrationResult& result) {
+  std::ostringstream os;
+  os << "observation,where,unit,residual,u,normalised,redundancy,w,outlier\n";
+  for (const CalibrationResidual& r : result.residuals) {
+    os << Csv(r.observation) << ',' << Csv(r.where) << ',' << r.unit << ',' << Num(r.residual) << ',' << Num(r.u) << ','
+       << Num(r.normalised) << ',' << Num(r.redundancy) << ',' << Num(r.w) << ',' << (r.outlier ? "yes" : "no") << '\n';
   }
+  return os.str();
+}
+
+std::string CalibrationResultsJson(const CalibrationJob& job, const CalibrationResult& result,
+                                   const CalibrationProvenance& provenance) {
   nlohmann::json j;
   j["schema"] = "vlt-calibration/1";
   j["vlt_version"] = VLT_VERSION;
@@ -340,9 +338,11 @@ Files CalibrationFiles(const CalibrationJob& job, const CalibrationResult& resul
   j["fit"] = {{"observations", result.observations}, {"unknowns", result.unknowns}, {"dof", result.dof}, {"chi2", result.chi2},
               {"birge_ratio", result.birge_ratio}, {"p_value", result.p_value}, {"outliers", result.outliers},
               {"iterations", result.iterations}, {"k", result.k}};
-  files.emplace_back("results.json", j.dump(1) + "\n");
+  return j.dump(1) + "\n";
+}
 
-  std::ostringstream body, script;
+// What was calibrated from which data (with their SHA-256), and how well the fit closes.
+void ProvenanceSection(std::ostringstream& body, const CalibrationResult& result, const CalibrationProvenance& provenance) {
   body << "<section><h2>Calibration</h2><p>Model <b>" << HtmlEscape(result.model) << "</b>, instrument <b>"
        << HtmlEscape(provenance.instrument.empty() ? "(not named)" : provenance.instrument) << "</b>, computed "
        << HtmlEscape(provenance.created) << ".</p><table><tr><th class=\"l\">data file</th><th class=\"l\">SHA-256</th></tr>";
@@ -351,6 +351,11 @@ Files CalibrationFiles(const CalibrationJob& job, const CalibrationResult& resul
        << " degrees of freedom; χ² = " << Fixed(result.chi2, 1) << ", Birge ratio " << Fixed(result.birge_ratio, 3)
        << " (p = " << Fixed(result.p_value, 3) << "); <span class=\"" << (result.outliers ? "bad" : "ok") << "\">" << result.outliers
        << " outliers</span> (|w| above the limit).</p></section>\n";
+}
+
+// The error parameters: table and plot of estimate and prior with their U.
+void ParametersSection(std::ostringstream& body, std::ostringstream& script, const CalibrationResult& result) {
+  const int P = static_cast<int>(result.parameters.size());
   body << "<section><h2>Error parameters</h2><p class=\"note\">U = k·u with k = " << Fixed(result.k, 2)
        << ". identified: determined by the data; held: not determined by the data, prior kept; partly: mixes both; fixed: prior kept "
           "on purpose. u(data): the part the data determine.</p><table><tr><th class=\"l\">parameter</th><th class=\"l\">status</th>"
@@ -368,13 +373,26 @@ Files CalibrationFiles(const CalibrationJob& job, const CalibrationResult& resul
     err.push_back(result.k * p.u * per);
     prior.push_back(result.k * p.prior_u * per);
   }
-  body << "</table><div id=\"params\" class=\"plot\"></div></section>\n<section><h2>Identifiability</h2><p>Condition number of the "
+  body << "</table><div id=\"params\" class=\"plot\"></div></section>\n";
+  script << "Plotly.newPlot('params',[{type:'bar',name:'prior ±U',x:" << names.dump() << ",y:" << nlohmann::json(std::vector<double>(P, 0.0)).dump()
+         << ",error_y:{type:'data',array:" << prior.dump() << ",color:'#aaa'},marker:{color:'rgba(0,0,0,0)'}},{type:'scatter',mode:'markers',"
+            "name:'estimate ±U',x:" << names.dump() << ",y:" << est.dump() << ",error_y:{type:'data',array:" << err.dump()
+         << "}}],{margin:{b:140},yaxis:{title:'um, arcsec, ppm'}},{responsive:true}).then(done);";
+}
+
+void IdentifiabilitySection(std::ostringstream& body, const CalibrationResult& result) {
+  body << "<section><h2>Identifiability</h2><p>Condition number of the "
           "prior-scaled, reduced Jacobian: "
        << (std::isinf(result.condition_number) ? std::string("infinite") : Fixed(result.condition_number, 1))
        << ". Combinations the data do not determine (held at their prior; coefficients of p/u<sub>prior</sub>):</p><ul>";
   if (result.held.empty()) body << "<li>none: the data determine every fitted parameter</li>";
   for (const HeldCombination& h : result.held) body << "<li>" << HtmlEscape(h.description) << "</li>";
-  body << "</ul></section>\n<section><h2>Largest residuals</h2><table><tr><th class=\"l\">observation</th><th class=\"l\">where</th>"
+  body << "</ul></section>\n";
+}
+
+// The 25 largest residuals by |w|.
+void LargestResiduals(std::ostringstream& body, const CalibrationResult& result) {
+  body << "<section><h2>Largest residuals</h2><table><tr><th class=\"l\">observation</th><th class=\"l\">where</th>"
           "<th>residual</th><th class=\"l\">unit</th><th>w</th><th>redundancy</th><th class=\"l\">outlier</th></tr>";
   std::vector<const CalibrationResidual*> sorted;
   for (const CalibrationResidual& r : result.residuals) sorted.push_back(&r);
@@ -388,10 +406,80 @@ Files CalibrationFiles(const CalibrationJob& job, const CalibrationResult& resul
          << (r.outlier ? "yes" : "") << "</td></tr>";
   }
   body << "</table><p class=\"note\">All residuals: residuals.csv.</p></section>\n";
-  script << "Plotly.newPlot('params',[{type:'bar',name:'prior ±U',x:" << names.dump() << ",y:" << nlohmann::json(std::vector<double>(P, 0.0)).dump()
-         << ",error_y:{type:'data',array:" << prior.dump() << ",color:'#aaa'},marker:{color:'rgba(0,0,0,0)'}},{type:'scatter',mode:'markers',"
-            "name:'estimate ±U',x:" << names.dump() << ",y:" << est.dump() << ",error_y:{type:'data',array:" << err.dump()
-         << "}}],{margin:{b:140},yaxis:{title:'um, arcsec, ppm'}},{responsive:true}).then(done);";
+}
+
+}  // namespace
+
+std::pair<std::string, double> DisplayUnit(const std::string& quantity, const std::string& si_unit) {
+  if (quantity == "length") return {"um", 1e6};
+  if (quantity == "angle") return {"arcsec", 1.0 / kArcsec};
+  if (quantity == "ratio") return {"ppm", 1e6};
+  return {si_unit, 1.0};
+}
+
+// ------------------------------------------------------------------------------------------------
+// vlt test
+
+Files TestFiles(const TestJob& job, const std::vector<TestResult>& results, const CalibrationData* simulated) {
+  const ModelInfo& model = *job.tracker.model;
+  Files files;
+  files.emplace_back("tests.csv", TestsCsv(results));
+  files.emplace_back("sensitivity.csv", SensitivityCsv(model, results));
+  const nlohmann::json unseen = ParametersNoTestSees(job, results);
+  files.emplace_back("results.json", TestResultsJson(job, results, unseen));
+
+  // report.html
+  std::ostringstream body, script;
+  TrackerAndLayoutSection(body, job, results, unseen);
+  TestsTable(body, results);
+  SensitivityHeatmap(body, script, model, results);
+  files.emplace_back("report.html", Page("vlt test — " + job.name, "Standard tests on a virtual tracker", body.str(), script.str()));
+
+  if (simulated) {
+    files.emplace_back("simulated_readings.csv", SimulatedReadingsCsv(*simulated));
+    files.emplace_back("simulated_calibration.toml", SimulatedCalibrationToml(job, *simulated));
+  }
+  return files;
+}
+
+std::string TestSummary(const TestJob& job, const std::vector<TestResult>& results) {
+  std::ostringstream os;
+  int pass = 0, fail = 0;
+  double worst = 0.0;
+  std::string worst_name;
+  for (const TestResult& r : results) {
+    if (r.verdict == "pass") ++pass;
+    if (r.verdict == "fail") ++fail;
+    if (std::abs(r.error) > worst) {
+      worst = std::abs(r.error);
+      worst_name = r.name;
+    }
+  }
+  os << job.name << ": " << results.size() << " tests of layout '" << job.layout.name << "' on a " << job.tracker.model->name
+     << " tracker; largest |error| " << Fixed(worst * 1e6, 2) << " um (" << worst_name << ")";
+  if (pass + fail) os << "; " << pass << " pass, " << fail << " fail against the MPE";
+  os << "\n";
+  return os.str();
+}
+
+// ------------------------------------------------------------------------------------------------
+// vlt calibrate
+
+Files CalibrationFiles(const CalibrationJob& job, const CalibrationResult& result, const CalibrationProvenance& provenance) {
+  Files files;
+  files.emplace_back("calibration.toml", CalibrationFileToml(result, provenance));
+  files.emplace_back("parameters.csv", ParametersCsv(result));
+  files.emplace_back("correlation.csv", CorrelationCsv(result));
+  files.emplace_back("identifiability.csv", IdentifiabilityCsv(result));
+  files.emplace_back("targets.csv", TargetsCsv(result));
+  files.emplace_back("residuals.csv", ResidualsCsv(result));
+  files.emplace_back("results.json", CalibrationResultsJson(job, result, provenance));
+
+  std::ostringstream body, script;
+  ProvenanceSection(body, result, provenance);
+  ParametersSection(body, script, result);
+  IdentifiabilitySection(body, result);
+  LargestResiduals(body, result);
   files.emplace_back("report.html", Page("vlt calibrate — " + job.name, "Error parameters identified from test data",
                                          body.str(), script.str()));
   return files;

@@ -45,21 +45,6 @@ Eigen::Vector3d PartToTrackerNominal(const MeasurementSetup& setup, const Eigen:
   return x;
 }
 
-void job_detail::ReadJobMeta(Section& top, std::string& name, std::string* description,
-                             const std::string& default_name) {
-  name = default_name;
-  Section meta = top.Sub("job", false);
-  if (!meta.exists()) return;
-  meta.set_hint("name, description");
-  if (const toml::node* n = meta.Get("name")) name = AsString(*n, meta.Where("name"));
-  if (const toml::node* n = meta.Get("description")) {
-    const std::string text = AsString(*n, meta.Where("description"));
-    if (description) *description = text;
-  }
-  if (name.empty()) throw InputError(meta.Where("name") + ": empty job name");
-  meta.Finish();
-}
-
 Job ParseJob(std::string_view text, const std::string& file, const std::filesystem::path& base_dir) {
   toml::table root = ParseToml(text, file);
   Job job;

@@ -6,7 +6,7 @@
 #include <charconv>
 #include <cstdlib>
 
-#include "job/csv.h"
+#include "base/csv.h"
 #include <toml++/toml.h>
 
 #include "job/job_detail.h"
@@ -17,24 +17,6 @@
 #include "vlt/units.h"
 
 namespace vlt::job_detail {
-
-double CsvQuantity(const std::string& field, std::optional<Dimension> dim, double unit_scale, double unit_offset,
-                   const std::string& where) {
-  if (field.empty()) throw InputError(where + ": empty field");
-  // A bare decimal number in the column's unit (docs/units.md: decimal literals only — no hex
-  // floats, no inf/nan, which strtod would take); anything else must carry its own unit.
-  std::string_view digits = field;
-  if (!digits.empty() && digits.front() == '+') digits.remove_prefix(1);
-  double v = 0.0;
-  const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), v, std::chars_format::general);
-  if (ec == std::errc() && end == digits.data() + digits.size()) {
-    if (!std::isfinite(v)) throw InputError(where + ": '" + field + "' is not a finite number");
-    return v * unit_scale + unit_offset;
-  }
-  if (ec == std::errc::result_out_of_range) throw InputError(where + ": '" + field + "' is out of the range of finite numbers");
-  if (!dim) throw InputError(where + ": '" + field + "' is not a decimal number");
-  return ParseQuantity(field, *dim, where);  // a field with its own unit
-}
 
 namespace {
 

@@ -1,10 +1,12 @@
 // job/settings.cc — the run settings of a job file: [monte_carlo], [map], [output].
 // Keys: docs/job-file.md.
+#include <cmath>
 #include <sstream>
 
 #include <toml++/toml.h>
 
 #include "job/job_detail.h"
+#include "base/shared_settings.h"
 #include "vlt/error.h"
 #include "vlt/job.h"
 #include "vlt/units.h"
@@ -17,38 +19,20 @@ void ReadMonteCarlo(Section& top, MonteCarloSettings& mc) {
   s.set_hint("enabled, trials, adaptive, n_dig, seed, coverage_probability, threads");
   if (const toml::node* n = s.Get("enabled")) mc.enabled = AsBool(*n, s.Where("enabled"));
   if (const toml::node* n = s.Get("adaptive")) mc.adaptive = AsBool(*n, s.Where("adaptive"));
-  if (const toml::node* n = s.Get("coverage_probability")) {
-    mc.coverage_probability = AsQuantity(*n, Dimension::kRatio, s.Where("coverage_probability"));
-    if (!(mc.coverage_probability > 0.0 && mc.coverage_probability < 1.0)) {
-      throw InputError(s.Where("coverage_probability") + ": must be between 0 and 1 (e.g. 0.95 or \"95 %\")");
-    }
-  }
-  if (const toml::node* n = s.Get("trials")) {
-    mc.trials = AsInteger(*n, s.Where("trials"));
-    // JCGM 101 7.2.2: M should be large compared with 1/(1-p); at least 100/(1-p).
-    double minimum = std::ceil(100.0 / (1.0 - mc.coverage_probability));
-    if (mc.trials < minimum) {
-      throw InputError(s.Where("trials") + ": at least " + std::to_string(static_cast<long long>(minimum)) +
-                       " trials for coverage probability " + std::to_string(mc.coverage_probability) +
-                       " (JCGM 101 7.2.2: M >= 100/(1-p))");
-    }
-    if (mc.trials > 1000000000LL) throw InputError(s.Where("trials") + ": more than 1e9 trials");
-  }
+  ReadCoverageProbability(s, "coverage_probability", mc.coverage_probability);
+  // JCGM 101 7.2.2: M should be large compared with 1/(1-p); at least 100/(1-p).
+  const double minimum = std::ceil(100.0 / (1.0 - mc.coverage_probability));
+  ReadTrials(s, "trials", static_cast<std::int64_t>(minimum), 1000000000LL,
+             " for coverage probability " + std::to_string(mc.coverage_probability) +
+                 " (JCGM 101 7.2.2: M >= 100/(1-p))",
+             mc.trials);
   if (const toml::node* n = s.Get("n_dig")) {
     std::int64_t v = AsInteger(*n, s.Where("n_dig"));
     if (v != 1 && v != 2) throw InputError(s.Where("n_dig") + ": must be 1 or 2 (JCGM 101 7.9.2)");
     mc.n_dig = static_cast<int>(v);
   }
-  if (const toml::node* n = s.Get("seed")) {
-    std::int64_t v = AsInteger(*n, s.Where("seed"));
-    if (v < 0) throw InputError(s.Where("seed") + ": must be a non-negative integer");
-    mc.seed = static_cast<std::uint64_t>(v);
-  }
-  if (const toml::node* n = s.Get("threads")) {
-    std::int64_t v = AsInteger(*n, s.Where("threads"));
-    if (v < 0 || v > 1024) throw InputError(s.Where("threads") + ": must be 0 (all) .. 1024");
-    mc.threads = static_cast<int>(v);
-  }
+  ReadSeed(s, "seed", mc.seed);
+  ReadThreads(s, "threads", mc.threads);
   s.Finish();
 }
 

@@ -223,10 +223,9 @@ std::string FormatStatus(double value, const char* what) {
   return text;
 }
 
-}  // namespace
 
-McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
-                    const McmSettings& settings) {
+// The checks of the settings, before anything is computed.
+void CheckSettings(const TrialKernel& kernel, const McmSettings& settings) {
   const double p = settings.coverage_probability;
   if (!(p > 0.0 && p < 1.0)) {
     throw InputError("Monte Carlo: coverage probability must be in (0, 1), got " +
@@ -240,19 +239,16 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
     throw InputError("Monte Carlo: number of trials must be >= 0 (0 = adaptive), got " +
                      std::to_string(settings.trials));
   }
-  const int n_out = kernel.num_outputs();
-  const int n_groups = static_cast<int>(spec.groups.size());
   for (const McmSettings::ToleranceCount& t : settings.tolerances) {
     if (t.output < 0 || t.output >= kernel.num_outputs() || !(t.lower <= t.upper)) {
       throw InputError("Monte Carlo: a tolerance needs an existing output and lower <= upper");
     }
   }
-  const int n_tolerances = static_cast<int>(settings.tolerances.size());
-  const SumLayout layout(n_out, spec.groups, n_tolerances);
-  const int stride = layout.stride();
-  const bool adaptive = settings.trials == 0;
+}
 
-  // 7.9.4 a): M = max(J, 10^4), J the smallest integer >= 100 / (1 - p).
+// 7.9.4 a): M = max(J, 10^4), J the smallest integer >= 100 / (1 - p).
+std::int64_t BatchSize(const McmSettings& settings, bool adaptive) {
+  const double p = settings.coverage_probability;
   const auto j_min = static_cast<std::int64_t>(std::ceil(100.0 / (1.0 - p) - 1e-9));
   std::int64_t batch_size = std::max<std::int64_t>(j_min, 10000);
   if (!adaptive) {
@@ -262,62 +258,53 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
     throw InputError("Monte Carlo: max_trials " + std::to_string(settings.max_trials) +
                      " is below two batches of " + std::to_string(batch_size) + " trials");
   }
+  return batch_size;
+}
 
-  const std::vector<double> y0 = kernel.AtEstimates();
-  for (int o = 0; o < n_out; ++o) {
+// The outputs at the input estimates: the reference y0 of the stored deviations.
+std::vector<double> OutputsAtEstimates(const TrialKernel& kernel, const OutputSpec& spec) {
+  std::vector<double> y0 = kernel.AtEstimates();
+  for (int o = 0; o < kernel.num_outputs(); ++o) {
     if (!std::isfinite(y0[o])) {
       throw NumericalError("Monte Carlo: output '" + spec.names[o] +
                            "' is not finite at the input estimates");
     }
   }
+  return y0;
+}
 
-  const int threads = parallel::ResolveThreads(settings.num_threads);
-  // Items run on the process's shared workers (parallel/pool.h); `w` picks the per-thread scratch.
-  auto parallel_for = [threads](int count, const std::function<void(int, int)>& fn) {
-    parallel::ForEach(static_cast<std::size_t>(count), threads,
-                      [&fn](std::size_t item, int w) { fn(static_cast<int>(item), w); });
-  };
+std::vector<Scratch> ThreadScratch(const TrialKernel& kernel, int threads) {
   std::vector<Scratch> scratch(threads);
-  std::vector<std::vector<double>> buffers(threads);
-  for (int w = 0; w < threads; ++w) {
-    kernel.InitScratch(scratch[w]);
-    buffers[w].assign(static_cast<std::size_t>(n_out) * kSubBatch, 0.0);
-  }
-  const KeyedStream rng(settings.seed);
-  // This rank's outputs (all of them without MPI): their values are stored here, their order
-  // statistics computed here.
-  const OutputShare share(n_out, spec.groups);
-  const int own_first = share.first;
-  const int n_own = share.count();
+  for (int w = 0; w < threads; ++w) kernel.InitScratch(scratch[w]);
+  return scratch;
+}
 
-  // Storage of every value of the own outputs: series[o - own_first][trial], float deviations
-  // from y0. The memory budget applies to the whole run (every output), so that the interval
-  // method does not depend on the number of ranks.
-  const std::size_t bytes_per_trial = static_cast<std::size_t>(n_out) * sizeof(float);
-  bool keep_all = true;
-  if (!adaptive && static_cast<std::size_t>(settings.trials) * bytes_per_trial >
-                       settings.memory_budget_bytes) {
-    keep_all = false;
-  }
+// Storage of every value of the own outputs: series[o - own_first][trial], float deviations
+// from y0. The memory budget applies to the whole run (every output), so that the interval
+// method does not depend on the number of ranks.
+bool KeepsAllValues(const McmSettings& settings, bool adaptive, std::size_t bytes_per_trial) {
+  return adaptive ||
+         !(static_cast<std::size_t>(settings.trials) * bytes_per_trial > settings.memory_budget_bytes);
+}
+
+std::vector<ValueSeries> ValueStorage(int n_own, bool keep_all, bool direct, bool adaptive,
+                                      std::int64_t trials) {
   std::vector<ValueSeries> series(keep_all ? n_own : 0);
-  // One process, fixed M, every value kept: the chunks write each value straight to its place in
-  // `series` (sized here, not touched: UninitializedAllocator) instead of into a batch buffer that
-  // one thread then appends.
-  const bool direct = keep_all && !adaptive && ranks::Count() == 1;
   if (direct) {
-    for (auto& s : series) s.resize(static_cast<std::size_t>(settings.trials));
+    for (auto& s : series) s.resize(static_cast<std::size_t>(trials));
   } else if (keep_all && !adaptive) {
-    for (auto& s : series) s.reserve(static_cast<std::size_t>(settings.trials));
+    for (auto& s : series) s.reserve(static_cast<std::size_t>(trials));
   }
+  return series;
+}
 
-  std::vector<double> total(stride, 0.0);
-  std::vector<BatchStats> stats(n_out);                 // filled for the own outputs
-  std::vector<std::vector<double>> batch_k(n_groups);   // own groups, when values are not all kept
-  std::vector<Tails<float>> batch_tails(threads);   // per-thread buffers of the batch endpoints
-  // Sums of a sub-batch: the points' three outputs together (AccumulatePoint), every other output
-  // and group on its own.
+// Sums of a sub-batch: the points' three outputs together (AccumulatePoint), every other output
+// and group on its own.
+struct SumPlan {
   std::vector<int> fused_groups, other_groups, single_outputs;
-  {
+
+  SumPlan(const OutputSpec& spec, int n_out) {
+    const int n_groups = static_cast<int>(spec.groups.size());
     std::vector<bool> fused(static_cast<std::size_t>(n_out), false);
     for (int gi = 0; gi < n_groups; ++gi) {
       const OutputGroup& g = spec.groups[gi];
@@ -332,240 +319,421 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
       if (!fused[o]) single_outputs.push_back(o);
     }
   }
+};
 
-  ProgressBar progress("Monte Carlo", settings.quiet);
-  const auto t_start = std::chrono::steady_clock::now();
+// One batch of trials [first, first + bh), split into n_chunks chunks.
+struct Batch {
+  std::int64_t first = 0, bh = 0;
+  int n_chunks = 0;
+  std::vector<double> partial;      // the sums of each chunk, chunk-major
+  std::vector<float> vals;          // [o - own_first][trial] after the exchange
+  std::vector<double> batch_sums;
+  double worst = 0.0;               // adaptive: this rank's worst 2 s / delta
+};
+
+// The records of the final pass that every rank shares: its own, then everybody's.
+struct FinalRecords {
+  std::vector<double> own_outputs, own_groups;
+  std::vector<std::size_t> output_counts, group_counts;
+  std::vector<double> all_outputs, all_groups;
+};
+
+// A histogram pass's counts: the bins, below, above.
+constexpr int kCells = kHistogramBins + 2;
+
+// The state of one Monte Carlo run: the settings resolved, the values kept, the running sums and
+// the per-batch statistics of 7.9.4, advanced batch by batch (RunBatches), then the final pass
+// over the results (Result). Members are initialised in the order declared.
+struct MonteCarloRun {
+  const TrialKernel& kernel;
+  const OutputSpec& spec;
+  const McmSettings& settings;
+  const double p;
+  const int n_out, n_groups, n_tolerances;
+  const SumLayout layout;
+  const int stride;
+  const bool adaptive;
+  const std::int64_t batch_size;
+  const std::vector<double> y0;
+  const int threads;
+  std::vector<Scratch> scratch;
+  std::vector<std::vector<double>> buffers;
+  const KeyedStream rng;
+  // This rank's outputs (all of them without MPI): their values are stored here, their order
+  // statistics computed here.
+  const OutputShare share;
+  const int own_first, n_own;
+  const std::size_t bytes_per_trial;
+  bool keep_all;
+  // One process, fixed M, every value kept: the chunks write each value straight to its place in
+  // `series` (sized here, not touched: UninitializedAllocator) instead of into a batch buffer that
+  // one thread then appends.
+  const bool direct;
+  std::vector<ValueSeries> series;
+  std::vector<double> total;
+  std::vector<BatchStats> stats;                 // filled for the own outputs
+  std::vector<std::vector<double>> batch_k;      // own groups, when values are not all kept
+  std::vector<Tails<float>> batch_tails;         // per-thread buffers of the batch endpoints
+  const SumPlan sums;
+  ProgressBar progress;
+  const std::chrono::steady_clock::time_point t_start;
   std::int64_t done = 0;
   std::int64_t batches = 0;
-  bool converged = !adaptive;
+  bool converged;
   std::vector<std::int64_t> convergence_trials;  // McmResult::convergence_*
   std::vector<double> convergence_ratio;
 
-  // Batch statistics that need every value of a batch (shortest interval, k_p), for the
-  // averaged-endpoint method when not every value is kept. vals: [o - own_first][trial].
-  auto batch_extras = [&](std::vector<float>& vals, std::int64_t bh,
-                          const std::vector<double>& batch_sums) {
-    for (const int gi : share.groups) {
-      const OutputGroup& g = spec.groups[gi];
-      Eigen::VectorXd mean;
-      Eigen::MatrixXd cov;
-      GroupMoments(batch_sums, layout, g, gi, y0, bh, &mean, &cov);
-      Eigen::VectorXd offset(g.dim);
-      for (int a = 0; a < g.dim; ++a) offset(a) = mean(a) - y0[g.first + a];
-      double k = 0.0;
-      OutputGroup local = g;
-      local.first -= own_first;
-      if (RegionFactor(GroupSeries(vals.data(), bh, local), bh, offset, cov, p, threads, &k)) {
-        batch_k[gi].push_back(k);
-      }
-    }
-    parallel_for(n_own, [&](int i, int) {
-      const int o = own_first + i;
-      CoverageInterval sym, shortest;
-      CoverageIntervals(std::span<const float>(vals.data() + static_cast<std::size_t>(i) * bh, static_cast<std::size_t>(bh)),
-                        y0[o], p, &sym, &shortest);
-      stats[o].shortest_low.push_back(shortest.low);
-      stats[o].shortest_high.push_back(shortest.high);
-    });
-  };
+  MonteCarloRun(const TrialKernel& kernel, const OutputSpec& spec, const McmSettings& settings)
+      : kernel(kernel), spec(spec), settings(settings), p(settings.coverage_probability),
+        n_out(kernel.num_outputs()), n_groups(static_cast<int>(spec.groups.size())),
+        n_tolerances(static_cast<int>(settings.tolerances.size())),
+        layout(n_out, spec.groups, n_tolerances), stride(layout.stride()), adaptive(settings.trials == 0),
+        batch_size(BatchSize(settings, adaptive)), y0(OutputsAtEstimates(kernel, spec)),
+        threads(parallel::ResolveThreads(settings.num_threads)), scratch(ThreadScratch(kernel, threads)),
+        buffers(threads, std::vector<double>(static_cast<std::size_t>(n_out) * kSubBatch, 0.0)),
+        rng(settings.seed), share(n_out, spec.groups), own_first(share.first), n_own(share.count()),
+        bytes_per_trial(static_cast<std::size_t>(n_out) * sizeof(float)),
+        keep_all(KeepsAllValues(settings, adaptive, bytes_per_trial)),
+        direct(keep_all && !adaptive && ranks::Count() == 1),
+        series(ValueStorage(n_own, keep_all, direct, adaptive, settings.trials)), total(stride, 0.0),
+        stats(n_out), batch_k(n_groups), batch_tails(threads), sums(spec, n_out),
+        progress("Monte Carlo", settings.quiet), t_start(std::chrono::steady_clock::now()),
+        converged(!adaptive) {}
 
+  // Items run on the process's shared workers (parallel/pool.h); `w` picks the per-thread scratch.
+  void ParallelFor(int count, const std::function<void(int, int)>& fn) const {
+    parallel::ForEach(static_cast<std::size_t>(count), threads,
+                      [&fn](std::size_t item, int w) { fn(static_cast<int>(item), w); });
+  }
+
+  void RunBatches();
+  Batch NextBatch() const;
+  void ComputeBatch(Batch& batch);
+  void RunChunk(int c, int w, Batch& batch, const BatchExchange& exchange, std::vector<float>& computed);
+  template <class Destination>
+  void AccumulateSubBatch(const double* out, int n, std::int64_t trial, const Destination& destination,
+                          double* part) const;
+  void AccumulateBatch(Batch& batch);
+  void AddBatchSums(Batch& batch);
+  void SwitchToBatchEndpoints(std::int64_t bh);
+  void KeptBatchSums(std::int64_t b0, std::vector<float>& old, std::vector<double>& old_sums) const;
+  void BatchExtras(std::vector<float>& vals, std::int64_t bh, const std::vector<double>& batch_sums);
+  void BatchStatistics(const Batch& batch);
+  double WorstRatio() const;
+  bool Finished(double worst);
+
+  McmResult Result();
+  McmResult Summary() const;
+  std::vector<McmVectorResult> GroupResults(const McmResult& result) const;
+  void FinalPass(McmResult& result, std::vector<McmVectorResult>& vectors);
+  void SizeFinalExchange(FinalRecords& records) const;
+  McmOutputResult::Histogram* HistogramOf(McmResult& result, int i) const;
+  void AllValuesPass(McmResult& result, std::vector<McmVectorResult>& vectors);
+  void CoverageRegion(int gi, McmVectorResult& r) const;
+  void CountHistogramPass(McmResult& result, std::size_t item, std::int64_t passes,
+                          std::vector<std::int64_t>& cells) const;
+  void AddHistogramPasses(McmResult& result, std::int64_t passes,
+                          const std::vector<std::int64_t>& cells) const;
+  void AveragedEndpoints(McmResult& result, std::vector<McmVectorResult>& vectors) const;
+  void PackOwnRecords(McmResult& result, const std::vector<McmVectorResult>& vectors,
+                      FinalRecords& records) const;
+  void ShareRecords(FinalRecords& records, McmResult& result, std::vector<McmVectorResult>& vectors) const;
+  void SplitPointsAndVectors(McmResult& result, std::vector<McmVectorResult>& vectors) const;
+};
+
+void MonteCarloRun::RunBatches() {
   for (;;) {
-    const std::int64_t first = done;
-    const std::int64_t bh = adaptive ? batch_size : std::min(batch_size, settings.trials - done);
-    const int n_chunks = static_cast<int>((bh + kChunk - 1) / kChunk);
-    std::vector<double> partial(static_cast<std::size_t>(n_chunks) * stride, 0.0);
-    std::vector<float> vals;   // [o - own_first][trial] after the exchange
-    std::vector<double> batch_sums(stride, 0.0);
-    double worst = 0.0;        // adaptive: this rank's worst 2 s / delta
-
-    // This rank's chunks, for every output; a failure (a non-finite trial, no memory) is agreed
-    // with the other ranks before any of them waits for this rank's values.
+    Batch batch = NextBatch();
+    ComputeBatch(batch);
     std::exception_ptr failure;
-    bool computed_here = false;   // past this rank's chunks: a failure now was agreed or is alike on every rank
     try {
-      BatchExchange exchange(n_chunks, stride, bh, n_out, share);
-      std::vector<float> computed(direct ? 0 : static_cast<std::size_t>(n_out) * exchange.trial_count);
-      if (ranks::Count() > 1) vals.resize(static_cast<std::size_t>(n_own) * bh);
-      const std::int64_t mine = exchange.trial_count;
-      parallel_for(exchange.chunk_last - exchange.chunk_first, [&](int item, int w) {
-        const int c = exchange.chunk_first + item;
-        double* part = partial.data() + static_cast<std::size_t>(c) * stride;
-        double* out = buffers[w].data();
-        const std::int64_t c0 = static_cast<std::int64_t>(c) * kChunk;
-        const std::int64_t c1 = std::min<std::int64_t>(bh, c0 + kChunk);
-        for (std::int64_t s = c0; s < c1; s += kSubBatch) {
-          const int n = static_cast<int>(std::min<std::int64_t>(kSubBatch, c1 - s));
-          kernel.Run(rng, first + s, n, scratch[w], out);
-          auto destination = [&](int o) {
-            return direct ? series[o].data() + (first + s)
-                          : computed.data() + static_cast<std::size_t>(o) * mine + (s - exchange.trial_first);
-          };
-          for (const int gi : fused_groups) {
-            const int o = spec.groups[gi].first;
-            float* const dst[3] = {destination(o), destination(o + 1), destination(o + 2)};
-            AccumulatePoint(o, gi, layout, out, n, y0, dst, part, first + s, spec.names);
-          }
-          for (const int o : single_outputs) {
-            const double* row = out + static_cast<std::size_t>(o) * kSubBatch;
-            float* dst = destination(o);
-            double s1 = 0.0, s2 = 0.0;
-            for (int i = 0; i < n; ++i) {
-              if (!std::isfinite(row[i])) NotFinite(first + s + i, spec.names[o]);
-              const double d = row[i] - y0[o];
-              s1 += d;
-              s2 += d * d;
-              dst[i] = static_cast<float>(d);
-            }
-            part[layout.sum(o)] += s1;
-            part[layout.sum2(o)] += s2;
-          }
-          for (const int gi : other_groups) {
-            AddCrossSums(spec.groups[gi], gi, layout, out, n, y0, part);
-          }
-          for (int t = 0; t < n_tolerances; ++t) {
-            const McmSettings::ToleranceCount& tol = settings.tolerances[t];
-            const double* row = out + static_cast<std::size_t>(tol.output) * kSubBatch;
-            int inside = 0;
-            for (int i = 0; i < n; ++i) inside += (row[i] >= tol.lower && row[i] <= tol.upper) ? 1 : 0;
-            part[layout.count(t)] += inside;
-          }
-        }
-      });
-      computed_here = true;
-      ranks::Agree();
-      exchange.Exchange(partial, stride, computed, vals, bh, n_own);
-    } catch (...) {
-      if (computed_here) throw;
-      failure = std::current_exception();
-      ranks::Agree(failure);   // throws on every rank
-    }
-
-    // From here every rank holds the sums of every chunk and every value of its own outputs.
-    try {
-      // Chunk sums in chunk order, then into the run total in batch order.
-      for (int c = 0; c < n_chunks; ++c) {
-        for (int k = 0; k < stride; ++k) batch_sums[k] += partial[static_cast<std::size_t>(c) * stride + k];
-      }
-      for (int k = 0; k < stride; ++k) total[k] += batch_sums[k];
-      done += bh;
-      ++batches;
-
-      if (keep_all && static_cast<std::size_t>(done) * bytes_per_trial > settings.memory_budget_bytes) {
-        // Adaptive run outgrew the budget: switch to averaged batch endpoints, computing the batch
-        // extras of the batches kept so far, then drop the stored values.
-        keep_all = false;
-        const std::int64_t kept = done - bh;
-        for (std::int64_t b0 = 0; b0 < kept; b0 += batch_size) {
-          std::vector<float> old(static_cast<std::size_t>(n_own) * batch_size);
-          std::vector<double> old_sums(stride, 0.0);
-          for (int i = 0; i < n_own; ++i) {
-            const int o = own_first + i;
-            std::copy(series[i].begin() + b0, series[i].begin() + b0 + batch_size,
-                      old.begin() + static_cast<std::size_t>(i) * batch_size);
-            for (std::int64_t t = 0; t < batch_size; ++t) {
-              const double d = old[static_cast<std::size_t>(i) * batch_size + t];
-              old_sums[layout.sum(o)] += d;
-              old_sums[layout.sum2(o)] += d * d;
-            }
-          }
-          for (const int gi : share.groups) {
-            const OutputGroup& g = spec.groups[gi];
-            const int l = g.first - own_first;
-            for (int a = 0; a < g.dim; ++a) {
-              for (int b = a + 1; b < g.dim; ++b) {
-                double sum = 0.0;
-                for (std::int64_t t = 0; t < batch_size; ++t) {
-                  sum += static_cast<double>(old[(l + a) * batch_size + t]) *
-                         static_cast<double>(old[(l + b) * batch_size + t]);
-                }
-                old_sums[layout.cross(gi, PairIndex(a, b, g.dim))] += sum;
-              }
-            }
-          }
-          batch_extras(old, batch_size, old_sums);
-        }
-        series.clear();
-        series.shrink_to_fit();
-      }
-      if (keep_all) {
-        // (direct: the chunks wrote the values in place)
-        for (int i = 0; !direct && i < n_own; ++i) {
-          series[i].insert(series[i].end(), vals.begin() + static_cast<std::size_t>(i) * bh,
-                           vals.begin() + static_cast<std::size_t>(i + 1) * bh);
-        }
-      } else if (bh == batch_size) {
-        batch_extras(vals, bh, batch_sums);
-      }
-
-      // 7.9.4 c), d): the batch's estimate, standard uncertainty and symmetric interval. Only full
-      // batches count: the short last batch of a fixed-M run would weigh as much as a full one.
-      const double dbh = static_cast<double>(bh);
-      if (bh == batch_size) parallel_for(n_own, [&](int i, int w) {
-        const int o = own_first + i;
-        const double s1 = batch_sums[layout.sum(o)], s2 = batch_sums[layout.sum2(o)];
-        stats[o].mean.push_back(y0[o] + s1 / dbh);
-        stats[o].u.push_back(bh > 1 ? std::sqrt(std::max(0.0, (s2 - s1 * s1 / dbh) / (dbh - 1.0))) : 0.0);
-        // y_(r) and y_(r+q) of 7.7.1: the largest of the r smallest values and the smallest of
-        // the bh - r - q + 1 largest (mcm/order.h: one pass over the batch, then short sorts).
-        const float* batch_values = direct ? series[i].data() + first : vals.data() + static_cast<std::size_t>(i) * bh;
-        const std::int64_t q = CoverageCount(bh, p);
-        const std::int64_t r = (bh - q) % 2 == 0 ? (bh - q) / 2 : (bh - q + 1) / 2;
-        Tails<float>& tails = batch_tails[w];
-        SortedTails(std::span<const float>(batch_values, static_cast<std::size_t>(bh)), r, bh - r - q + 1, &tails);
-        stats[o].low.push_back(y0[o] + static_cast<double>(tails.low_values.back()));
-        stats[o].high.push_back(y0[o] + static_cast<double>(tails.high_values.front()));
-      });
-
-      // 7.9.4 e)-i): stop when 2 s <= delta for the mean, u, y_low and y_high of every output,
-      // delta from u(y) of all h M values (this rank's outputs; the maximum over the ranks below).
-      if (adaptive && batches >= 2) {
-        const double dn = static_cast<double>(done);
-        for (int o = own_first; o < share.last; ++o) {
-          const double s1 = total[layout.sum(o)], s2 = total[layout.sum2(o)];
-          const double u = std::sqrt(std::max(0.0, (s2 - s1 * s1 / dn) / (dn - 1.0)));
-          const double delta = NumericalTolerance(u, settings.significant_digits);
-          const double sd = std::max({StdOfAverage(stats[o].mean), StdOfAverage(stats[o].u),
-                                      StdOfAverage(stats[o].low), StdOfAverage(stats[o].high)});
-          const double ratio = delta > 0.0 ? 2.0 * sd / delta : (sd > 0.0 ? 1e300 : 0.0);
-          worst = std::max(worst, ratio);
-        }
-      }
+      AccumulateBatch(batch);
     } catch (...) {
       failure = std::current_exception();
     }
     ranks::Agree(failure);
-
-    const double dn = static_cast<double>(done);
-    auto run_u = [&](int o) {
-      const double s1 = total[layout.sum(o)], s2 = total[layout.sum2(o)];
-      return done > 1 ? std::sqrt(std::max(0.0, (s2 - s1 * s1 / dn) / (dn - 1.0))) : 0.0;
-    };
-    std::string status;
-    if (adaptive) {
-      if (batches >= 2) {
-        worst = ranks::Max(worst);   // the largest over every output (exact)
-        if (worst <= 1.0) converged = true;
-        status = FormatStatus(worst, "worst 2s/delta (stops at <= 1):");
-        convergence_trials.push_back(done);
-        convergence_ratio.push_back(worst);
-      }
-      progress.Update(done, 0, status);
-      if (converged || done + batch_size > settings.max_trials) break;
-    } else {
-      double largest = 0.0;
-      int worst_output = 0;
-      for (int o = 0; o < n_out; ++o) {
-        const double se = run_u(o) / std::sqrt(dn);
-        if (se > largest) largest = se, worst_output = o;
-      }
-      progress.Update(done, settings.trials,
-                      FormatStatus(largest, "largest std. error of a mean:") + " " +
-                          spec.units[worst_output] + " (" + spec.names[worst_output] + ")");
-      if (done >= settings.trials) break;
-    }
+    if (Finished(batch.worst)) break;
   }
   progress.Finish();
+}
 
+Batch MonteCarloRun::NextBatch() const {
+  Batch batch;
+  batch.first = done;
+  batch.bh = adaptive ? batch_size : std::min(batch_size, settings.trials - done);
+  batch.n_chunks = static_cast<int>((batch.bh + kChunk - 1) / kChunk);
+  batch.partial.assign(static_cast<std::size_t>(batch.n_chunks) * stride, 0.0);
+  batch.batch_sums.assign(stride, 0.0);
+  return batch;
+}
+
+// This rank's chunks, for every output; a failure (a non-finite trial, no memory) is agreed
+// with the other ranks before any of them waits for this rank's values.
+void MonteCarloRun::ComputeBatch(Batch& batch) {
+  std::exception_ptr failure;
+  bool computed_here = false;   // past this rank's chunks: a failure now was agreed or is alike on every rank
+  try {
+    BatchExchange exchange(batch.n_chunks, stride, batch.bh, n_out, share);
+    std::vector<float> computed(direct ? 0 : static_cast<std::size_t>(n_out) * exchange.trial_count);
+    if (ranks::Count() > 1) batch.vals.resize(static_cast<std::size_t>(n_own) * batch.bh);
+    ParallelFor(exchange.chunk_last - exchange.chunk_first, [&](int item, int w) {
+      RunChunk(exchange.chunk_first + item, w, batch, exchange, computed);
+    });
+    computed_here = true;
+    ranks::Agree();
+    exchange.Exchange(batch.partial, stride, computed, batch.vals, batch.bh, n_own);
+  } catch (...) {
+    if (computed_here) throw;
+    failure = std::current_exception();
+    ranks::Agree(failure);   // throws on every rank
+  }
+}
+
+// Chunk c of the batch, on worker w: its sub-batches of trials in order, into the chunk's own sums.
+void MonteCarloRun::RunChunk(int c, int w, Batch& batch, const BatchExchange& exchange,
+                             std::vector<float>& computed) {
+  const std::int64_t first = batch.first;
+  const std::int64_t mine = exchange.trial_count;
+  double* part = batch.partial.data() + static_cast<std::size_t>(c) * stride;
+  double* out = buffers[w].data();
+  const std::int64_t c0 = static_cast<std::int64_t>(c) * kChunk;
+  const std::int64_t c1 = std::min<std::int64_t>(batch.bh, c0 + kChunk);
+  for (std::int64_t s = c0; s < c1; s += kSubBatch) {
+    const int n = static_cast<int>(std::min<std::int64_t>(kSubBatch, c1 - s));
+    kernel.Run(rng, first + s, n, scratch[w], out);
+    auto destination = [&](int o) {
+      return direct ? series[o].data() + (first + s)
+                    : computed.data() + static_cast<std::size_t>(o) * mine + (s - exchange.trial_first);
+    };
+    AccumulateSubBatch(out, n, first + s, destination, part);
+  }
+}
+
+// The n trials of a sub-batch from `trial` (out[o * kSubBatch + i]): their deviations stored at
+// destination(o), their sums added to the chunk's (`part`).
+template <class Destination>
+void MonteCarloRun::AccumulateSubBatch(const double* out, int n, std::int64_t trial,
+                                       const Destination& destination, double* part) const {
+  for (const int gi : sums.fused_groups) {
+    const int o = spec.groups[gi].first;
+    float* const dst[3] = {destination(o), destination(o + 1), destination(o + 2)};
+    AccumulatePoint(o, gi, layout, out, n, y0, dst, part, trial, spec.names);
+  }
+  for (const int o : sums.single_outputs) {
+    const double* row = out + static_cast<std::size_t>(o) * kSubBatch;
+    float* dst = destination(o);
+    double s1 = 0.0, s2 = 0.0;
+    for (int i = 0; i < n; ++i) {
+      if (!std::isfinite(row[i])) NotFinite(trial + i, spec.names[o]);
+      const double d = row[i] - y0[o];
+      s1 += d;
+      s2 += d * d;
+      dst[i] = static_cast<float>(d);
+    }
+    part[layout.sum(o)] += s1;
+    part[layout.sum2(o)] += s2;
+  }
+  for (const int gi : sums.other_groups) {
+    AddCrossSums(spec.groups[gi], gi, layout, out, n, y0, part);
+  }
+  for (int t = 0; t < n_tolerances; ++t) {
+    const McmSettings::ToleranceCount& tol = settings.tolerances[t];
+    const double* row = out + static_cast<std::size_t>(tol.output) * kSubBatch;
+    int inside = 0;
+    for (int i = 0; i < n; ++i) inside += (row[i] >= tol.lower && row[i] <= tol.upper) ? 1 : 0;
+    part[layout.count(t)] += inside;
+  }
+}
+
+// From here every rank holds the sums of every chunk and every value of its own outputs.
+void MonteCarloRun::AccumulateBatch(Batch& batch) {
+  AddBatchSums(batch);
+  if (keep_all && static_cast<std::size_t>(done) * bytes_per_trial > settings.memory_budget_bytes) {
+    SwitchToBatchEndpoints(batch.bh);
+  }
+  if (keep_all) {
+    // (direct: the chunks wrote the values in place)
+    for (int i = 0; !direct && i < n_own; ++i) {
+      series[i].insert(series[i].end(), batch.vals.begin() + static_cast<std::size_t>(i) * batch.bh,
+                       batch.vals.begin() + static_cast<std::size_t>(i + 1) * batch.bh);
+    }
+  } else if (batch.bh == batch_size) {
+    BatchExtras(batch.vals, batch.bh, batch.batch_sums);
+  }
+  // Only full batches count: the short last batch of a fixed-M run would weigh as much as a full one.
+  if (batch.bh == batch_size) BatchStatistics(batch);
+  // 7.9.4 e)-i): stop when 2 s <= delta for the mean, u, y_low and y_high of every output,
+  // delta from u(y) of all h M values (this rank's outputs; the maximum over the ranks in Finished).
+  if (adaptive && batches >= 2) batch.worst = WorstRatio();
+}
+
+// Chunk sums in chunk order, then into the run total in batch order.
+void MonteCarloRun::AddBatchSums(Batch& batch) {
+  for (int c = 0; c < batch.n_chunks; ++c) {
+    for (int k = 0; k < stride; ++k) {
+      batch.batch_sums[k] += batch.partial[static_cast<std::size_t>(c) * stride + k];
+    }
+  }
+  for (int k = 0; k < stride; ++k) total[k] += batch.batch_sums[k];
+  done += batch.bh;
+  ++batches;
+}
+
+// Adaptive run outgrew the budget: switch to averaged batch endpoints, computing the batch
+// extras of the batches kept so far, then drop the stored values.
+void MonteCarloRun::SwitchToBatchEndpoints(std::int64_t bh) {
+  keep_all = false;
+  const std::int64_t kept = done - bh;
+  for (std::int64_t b0 = 0; b0 < kept; b0 += batch_size) {
+    std::vector<float> old(static_cast<std::size_t>(n_own) * batch_size);
+    std::vector<double> old_sums(stride, 0.0);
+    KeptBatchSums(b0, old, old_sums);
+    BatchExtras(old, batch_size, old_sums);
+  }
+  series.clear();
+  series.shrink_to_fit();
+}
+
+// The kept values of the batch from trial b0 copied to `old` ([o - own_first][trial]) and their
+// sums (own outputs and groups) from the stored floats.
+void MonteCarloRun::KeptBatchSums(std::int64_t b0, std::vector<float>& old,
+                                  std::vector<double>& old_sums) const {
+  for (int i = 0; i < n_own; ++i) {
+    const int o = own_first + i;
+    std::copy(series[i].begin() + b0, series[i].begin() + b0 + batch_size,
+              old.begin() + static_cast<std::size_t>(i) * batch_size);
+    for (std::int64_t t = 0; t < batch_size; ++t) {
+      const double d = old[static_cast<std::size_t>(i) * batch_size + t];
+      old_sums[layout.sum(o)] += d;
+      old_sums[layout.sum2(o)] += d * d;
+    }
+  }
+  for (const int gi : share.groups) {
+    const OutputGroup& g = spec.groups[gi];
+    const int l = g.first - own_first;
+    for (int a = 0; a < g.dim; ++a) {
+      for (int b = a + 1; b < g.dim; ++b) {
+        double sum = 0.0;
+        for (std::int64_t t = 0; t < batch_size; ++t) {
+          sum += static_cast<double>(old[(l + a) * batch_size + t]) *
+                 static_cast<double>(old[(l + b) * batch_size + t]);
+        }
+        old_sums[layout.cross(gi, PairIndex(a, b, g.dim))] += sum;
+      }
+    }
+  }
+}
+
+// Batch statistics that need every value of a batch (shortest interval, k_p), for the
+// averaged-endpoint method when not every value is kept. vals: [o - own_first][trial].
+void MonteCarloRun::BatchExtras(std::vector<float>& vals, std::int64_t bh,
+                                const std::vector<double>& batch_sums) {
+  for (const int gi : share.groups) {
+    const OutputGroup& g = spec.groups[gi];
+    Eigen::VectorXd mean;
+    Eigen::MatrixXd cov;
+    GroupMoments(batch_sums, layout, g, gi, y0, bh, &mean, &cov);
+    Eigen::VectorXd offset(g.dim);
+    for (int a = 0; a < g.dim; ++a) offset(a) = mean(a) - y0[g.first + a];
+    double k = 0.0;
+    OutputGroup local = g;
+    local.first -= own_first;
+    if (RegionFactor(GroupSeries(vals.data(), bh, local), bh, offset, cov, p, threads, &k)) {
+      batch_k[gi].push_back(k);
+    }
+  }
+  ParallelFor(n_own, [&](int i, int) {
+    const int o = own_first + i;
+    CoverageInterval sym, shortest;
+    CoverageIntervals(std::span<const float>(vals.data() + static_cast<std::size_t>(i) * bh, static_cast<std::size_t>(bh)),
+                      y0[o], p, &sym, &shortest);
+    stats[o].shortest_low.push_back(shortest.low);
+    stats[o].shortest_high.push_back(shortest.high);
+  });
+}
+
+// 7.9.4 c), d): the batch's estimate, standard uncertainty and symmetric interval.
+void MonteCarloRun::BatchStatistics(const Batch& batch) {
+  const std::int64_t bh = batch.bh;
+  const double dbh = static_cast<double>(bh);
+  ParallelFor(n_own, [&](int i, int w) {
+    const int o = own_first + i;
+    const double s1 = batch.batch_sums[layout.sum(o)], s2 = batch.batch_sums[layout.sum2(o)];
+    stats[o].mean.push_back(y0[o] + s1 / dbh);
+    stats[o].u.push_back(bh > 1 ? std::sqrt(std::max(0.0, (s2 - s1 * s1 / dbh) / (dbh - 1.0))) : 0.0);
+    // y_(r) and y_(r+q) of 7.7.1: the largest of the r smallest values and the smallest of
+    // the bh - r - q + 1 largest (mcm/order.h: one pass over the batch, then short sorts).
+    const float* batch_values =
+        direct ? series[i].data() + batch.first : batch.vals.data() + static_cast<std::size_t>(i) * bh;
+    const std::int64_t q = CoverageCount(bh, p);
+    const std::int64_t r = (bh - q) % 2 == 0 ? (bh - q) / 2 : (bh - q + 1) / 2;
+    Tails<float>& tails = batch_tails[w];
+    SortedTails(std::span<const float>(batch_values, static_cast<std::size_t>(bh)), r, bh - r - q + 1, &tails);
+    stats[o].low.push_back(y0[o] + static_cast<double>(tails.low_values.back()));
+    stats[o].high.push_back(y0[o] + static_cast<double>(tails.high_values.front()));
+  });
+}
+
+// The largest 2 s / delta of 7.9.4 g) over this rank's outputs.
+double MonteCarloRun::WorstRatio() const {
+  double worst = 0.0;
+  const double dn = static_cast<double>(done);
+  for (int o = own_first; o < share.last; ++o) {
+    const double s1 = total[layout.sum(o)], s2 = total[layout.sum2(o)];
+    const double u = std::sqrt(std::max(0.0, (s2 - s1 * s1 / dn) / (dn - 1.0)));
+    const double delta = NumericalTolerance(u, settings.significant_digits);
+    const double sd = std::max({StdOfAverage(stats[o].mean), StdOfAverage(stats[o].u),
+                                StdOfAverage(stats[o].low), StdOfAverage(stats[o].high)});
+    const double ratio = delta > 0.0 ? 2.0 * sd / delta : (sd > 0.0 ? 1e300 : 0.0);
+    worst = std::max(worst, ratio);
+  }
+  return worst;
+}
+
+// Whether the run ends after this batch (adaptive: converged or the next batch would pass
+// max_trials; fixed: M trials done); the progress shown either way.
+bool MonteCarloRun::Finished(double worst) {
+  const double dn = static_cast<double>(done);
+  auto run_u = [&](int o) {
+    const double s1 = total[layout.sum(o)], s2 = total[layout.sum2(o)];
+    return done > 1 ? std::sqrt(std::max(0.0, (s2 - s1 * s1 / dn) / (dn - 1.0))) : 0.0;
+  };
+  std::string status;
+  if (adaptive) {
+    if (batches >= 2) {
+      worst = ranks::Max(worst);   // the largest over every output (exact)
+      if (worst <= 1.0) converged = true;
+      status = FormatStatus(worst, "worst 2s/delta (stops at <= 1):");
+      convergence_trials.push_back(done);
+      convergence_ratio.push_back(worst);
+    }
+    progress.Update(done, 0, status);
+    return converged || done + batch_size > settings.max_trials;
+  }
+  double largest = 0.0;
+  int worst_output = 0;
+  for (int o = 0; o < n_out; ++o) {
+    const double se = run_u(o) / std::sqrt(dn);
+    if (se > largest) largest = se, worst_output = o;
+  }
+  progress.Update(done, settings.trials,
+                  FormatStatus(largest, "largest std. error of a mean:") + " " +
+                      spec.units[worst_output] + " (" + spec.names[worst_output] + ")");
+  return done >= settings.trials;
+}
+
+McmResult MonteCarloRun::Result() {
+  McmResult result = Summary();
+  std::vector<McmVectorResult> vectors = GroupResults(result);
+  FinalPass(result, vectors);
+  SplitPointsAndVectors(result, vectors);
+  result.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  return result;
+}
+
+// The run and the summary statistics of every output (7.6), from the sums every rank holds.
+McmResult MonteCarloRun::Summary() const {
   McmResult result;
   result.seed = settings.seed;
   result.coverage_probability = p;
@@ -574,8 +742,8 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
   result.converged = converged;
   result.batch_size = batch_size;
   result.batches = batches;
-  result.convergence_trials = std::move(convergence_trials);
-  result.convergence_ratio = std::move(convergence_ratio);
+  result.convergence_trials = convergence_trials;
+  result.convergence_ratio = convergence_ratio;
   result.threads = threads;
   result.ranks = ranks::Count();
   result.interval_method = keep_all ? "order statistics of all M values"
@@ -595,8 +763,11 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
     }
     r.accuracy.delta = NumericalTolerance(r.u, settings.significant_digits);
   }
+  return result;
+}
 
-  // Mean and covariance of every group, from the sums every rank holds.
+// Mean and covariance of every group, from the sums every rank holds.
+std::vector<McmVectorResult> MonteCarloRun::GroupResults(const McmResult& result) const {
   std::vector<McmVectorResult> vectors(n_groups);
   for (int gi = 0; gi < n_groups; ++gi) {
     const OutputGroup& g = spec.groups[gi];
@@ -606,136 +777,182 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
     for (int a = 0; a < g.dim; ++a) r.mean(a) = result.outputs[g.first + a].mean;
     r.correlation = model_internal::CorrelationOfCovariance(r.covariance);
   }
+  return vectors;
+}
 
-  // The order statistics of the own outputs and groups, then shared with every rank (the
-  // buffers allocated before the ranks agree that none failed).
-  std::vector<double> own_outputs(static_cast<std::size_t>(n_own) * kOutputRecord);
-  std::vector<double> own_groups(share.groups.size() * kGroupRecord);
-  std::vector<std::size_t> output_counts, group_counts;
-  std::vector<double> all_outputs, all_groups;
+// The order statistics of the own outputs and groups, then shared with every rank (the
+// buffers allocated before the ranks agree that none failed).
+void MonteCarloRun::FinalPass(McmResult& result, std::vector<McmVectorResult>& vectors) {
+  FinalRecords records;
+  records.own_outputs.resize(static_cast<std::size_t>(n_own) * kOutputRecord);
+  records.own_groups.resize(share.groups.size() * kGroupRecord);
   std::exception_ptr failure;
   try {
-    if (ranks::Count() > 1) {
-      for (int r = 0; r < ranks::Count(); ++r) {
-        output_counts.push_back(static_cast<std::size_t>(share.last_of[r] - share.first_of[r]) * kOutputRecord);
-        std::size_t groups_of_r = 0;
-        for (const OutputGroup& g : spec.groups) groups_of_r += g.first >= share.first_of[r] && g.first < share.last_of[r];
-        group_counts.push_back(groups_of_r * kGroupRecord);
-      }
-      all_outputs.resize(static_cast<std::size_t>(n_out) * kOutputRecord);
-      all_groups.resize(static_cast<std::size_t>(n_groups) * kGroupRecord);
-    }
+    if (ranks::Count() > 1) SizeFinalExchange(records);
     if (keep_all) {
-      // One pass over all M stored values, its items shared over the threads and each only
-      // reading the values: the coverage region of every own group (JCGM 102 7.7.3, the largest
-      // items, first), both coverage intervals of every own output (JCGM 101 7.7) and its
-      // histogram (McmOutputResult::histogram) in passes of kPassChunk values, the passes' counts
-      // added up per output afterwards (integers: exact in any order).
-      const std::size_t n_regions = share.groups.size();
-      const std::int64_t passes = (done + kPassChunk - 1) / kPassChunk;
-      constexpr int kCells = kHistogramBins + 2;  // the bins, below, above
-      std::vector<std::int64_t> cells(static_cast<std::size_t>(n_own * passes * kCells), 0);
-      auto histogram_of = [&](int i) -> McmOutputResult::Histogram* {
-        McmOutputResult& out = result.outputs[own_first + i];
-        return out.u > 0.0 && std::isfinite(out.u) ? &out.histogram : nullptr;
-      };
-      for (int i = 0; i < n_own; ++i) {
-        if (McmOutputResult::Histogram* h = histogram_of(i)) {
-          const McmOutputResult& out = result.outputs[own_first + i];
-          h->low = out.mean - 5.0 * out.u;
-          h->width = 10.0 * out.u / kHistogramBins;
-        }
-      }
-      const std::size_t n_items = n_regions + static_cast<std::size_t>(n_own) * static_cast<std::size_t>(1 + passes);
-      parallel::ForEach(n_items, threads, [&](std::size_t item, int) {
-        if (item < n_regions) {
-          const int gi = share.groups[item];
-          const OutputGroup& g = spec.groups[gi];
-          McmVectorResult& r = vectors[gi];
-          Eigen::VectorXd offset(g.dim);
-          for (int a = 0; a < g.dim; ++a) offset(a) = r.mean(a) - y0[g.first + a];
-          std::vector<const float*> components;
-          for (int a = 0; a < g.dim; ++a) components.push_back(series[g.first - own_first + a].data());
-          double k = 0.0;
-          r.has_region = RegionFactor(components, done, offset, r.covariance, p, threads, &k);
-          r.coverage_factor = r.has_region ? k : 0.0;
-          return;
-        }
-        item -= n_regions;
-        if (item < static_cast<std::size_t>(n_own)) {
-          const int o = own_first + static_cast<int>(item);
-          CoverageIntervals(series[item], y0[o], p, &result.outputs[o].symmetric, &result.outputs[o].shortest);
-          return;
-        }
-        item -= static_cast<std::size_t>(n_own);
-        const int i = static_cast<int>(static_cast<std::int64_t>(item) / passes);
-        const std::int64_t pass = static_cast<std::int64_t>(item) % passes;
-        const McmOutputResult::Histogram* h = histogram_of(i);
-        if (h == nullptr) return;
-        const double reference = y0[own_first + i];
-        std::int64_t* cell = cells.data() + static_cast<std::size_t>(item) * kCells;
-        const std::int64_t end = std::min(done, (pass + 1) * kPassChunk);
-        for (std::int64_t t = pass * kPassChunk; t < end; ++t) {
-          // Bin floor(b): below for b < 0, above for b >= kHistogramBins, else the truncation of
-          // b (= its floor for b >= 0; no libm floor call on baseline x86-64).
-          const double b = (reference + static_cast<double>(series[i][t]) - h->low) / h->width;
-          if (!(b >= 0.0)) ++cell[kHistogramBins];
-          else if (b >= kHistogramBins) ++cell[kHistogramBins + 1];
-          else ++cell[static_cast<std::size_t>(b)];
-        }
-      });
-      for (int i = 0; i < n_own; ++i) {
-        McmOutputResult::Histogram* h = histogram_of(i);
-        if (h == nullptr) continue;
-        h->counts.assign(kHistogramBins, 0);
-        for (std::int64_t pass = 0; pass < passes; ++pass) {
-          const std::int64_t* cell = cells.data() + static_cast<std::size_t>(i * passes + pass) * kCells;
-          for (int b = 0; b < kHistogramBins; ++b) h->counts[b] += cell[b];
-          h->below += cell[kHistogramBins];
-          h->above += cell[kHistogramBins + 1];
-        }
-      }
+      AllValuesPass(result, vectors);
     } else {
-      for (const int gi : share.groups) {
-        vectors[gi].has_region = !batch_k[gi].empty();
-        vectors[gi].coverage_factor = Average(batch_k[gi]);
-      }
-      for (int o = own_first; o < share.last; ++o) {
-        result.outputs[o].symmetric = {Average(stats[o].low), Average(stats[o].high)};
-        result.outputs[o].shortest = {Average(stats[o].shortest_low), Average(stats[o].shortest_high)};
-      }
+      AveragedEndpoints(result, vectors);
     }
-    for (std::size_t j = 0; j < share.groups.size(); ++j) {
-      const McmVectorResult& r = vectors[share.groups[j]];
-      own_groups[j * kGroupRecord] = r.has_region ? 1.0 : 0.0;
-      own_groups[j * kGroupRecord + 1] = r.coverage_factor;
-    }
-    for (int o = own_first; o < share.last; ++o) {
-      McmNumericalAccuracy& a = result.outputs[o].accuracy;
-      a.s_mean = StdOfAverage(stats[o].mean);
-      a.s_u = StdOfAverage(stats[o].u);
-      a.s_low = StdOfAverage(stats[o].low);
-      a.s_high = StdOfAverage(stats[o].high);
-      PackOutput(result.outputs[o], own_outputs.data() + static_cast<std::size_t>(o - own_first) * kOutputRecord);
-    }
+    PackOwnRecords(result, vectors, records);
   } catch (...) {
     failure = std::current_exception();
   }
   ranks::Agree(failure);
-  if (ranks::Count() > 1) {
-    ranks::AllGather(std::span<const double>(own_outputs), std::span<double>(all_outputs), output_counts);
-    ranks::AllGather(std::span<const double>(own_groups), std::span<double>(all_groups), group_counts);
-    for (int o = 0; o < n_out; ++o) UnpackOutput(all_outputs.data() + static_cast<std::size_t>(o) * kOutputRecord, result.outputs[o]);
-    // The gathered group records follow the groups' order of their first output (OutputShare).
-    std::vector<int> order(n_groups);
-    for (int gi = 0; gi < n_groups; ++gi) order[gi] = gi;
-    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return spec.groups[a].first < spec.groups[b].first; });
-    for (int j = 0; j < n_groups; ++j) {
-      vectors[order[j]].has_region = all_groups[static_cast<std::size_t>(j) * kGroupRecord] != 0.0;
-      vectors[order[j]].coverage_factor = all_groups[static_cast<std::size_t>(j) * kGroupRecord + 1];
+  if (ranks::Count() > 1) ShareRecords(records, result, vectors);
+}
+
+void MonteCarloRun::SizeFinalExchange(FinalRecords& records) const {
+  for (int r = 0; r < ranks::Count(); ++r) {
+    records.output_counts.push_back(static_cast<std::size_t>(share.last_of[r] - share.first_of[r]) *
+                                    kOutputRecord);
+    std::size_t groups_of_r = 0;
+    for (const OutputGroup& g : spec.groups) groups_of_r += g.first >= share.first_of[r] && g.first < share.last_of[r];
+    records.group_counts.push_back(groups_of_r * kGroupRecord);
+  }
+  records.all_outputs.resize(static_cast<std::size_t>(n_out) * kOutputRecord);
+  records.all_groups.resize(static_cast<std::size_t>(n_groups) * kGroupRecord);
+}
+
+McmOutputResult::Histogram* MonteCarloRun::HistogramOf(McmResult& result, int i) const {
+  McmOutputResult& out = result.outputs[own_first + i];
+  return out.u > 0.0 && std::isfinite(out.u) ? &out.histogram : nullptr;
+}
+
+// One pass over all M stored values, its items shared over the threads and each only
+// reading the values: the coverage region of every own group (JCGM 102 7.7.3, the largest
+// items, first), both coverage intervals of every own output (JCGM 101 7.7) and its
+// histogram (McmOutputResult::histogram) in passes of kPassChunk values, the passes' counts
+// added up per output afterwards (integers: exact in any order).
+void MonteCarloRun::AllValuesPass(McmResult& result, std::vector<McmVectorResult>& vectors) {
+  const std::size_t n_regions = share.groups.size();
+  const std::int64_t passes = (done + kPassChunk - 1) / kPassChunk;
+  std::vector<std::int64_t> cells(static_cast<std::size_t>(n_own * passes * kCells), 0);
+  for (int i = 0; i < n_own; ++i) {
+    if (McmOutputResult::Histogram* h = HistogramOf(result, i)) {
+      const McmOutputResult& out = result.outputs[own_first + i];
+      h->low = out.mean - 5.0 * out.u;
+      h->width = 10.0 * out.u / kHistogramBins;
     }
   }
+  const std::size_t n_items = n_regions + static_cast<std::size_t>(n_own) * static_cast<std::size_t>(1 + passes);
+  parallel::ForEach(n_items, threads, [&](std::size_t item, int) {
+    if (item < n_regions) {
+      const int gi = share.groups[item];
+      CoverageRegion(gi, vectors[gi]);
+      return;
+    }
+    item -= n_regions;
+    if (item < static_cast<std::size_t>(n_own)) {
+      const int o = own_first + static_cast<int>(item);
+      CoverageIntervals(series[item], y0[o], p, &result.outputs[o].symmetric, &result.outputs[o].shortest);
+      return;
+    }
+    item -= static_cast<std::size_t>(n_own);
+    CountHistogramPass(result, item, passes, cells);
+  });
+  AddHistogramPasses(result, passes, cells);
+}
 
+// k_p of the coverage region of group gi (JCGM 102 7.7.3) from all its stored values.
+void MonteCarloRun::CoverageRegion(int gi, McmVectorResult& r) const {
+  const OutputGroup& g = spec.groups[gi];
+  Eigen::VectorXd offset(g.dim);
+  for (int a = 0; a < g.dim; ++a) offset(a) = r.mean(a) - y0[g.first + a];
+  std::vector<const float*> components;
+  for (int a = 0; a < g.dim; ++a) components.push_back(series[g.first - own_first + a].data());
+  double k = 0.0;
+  r.has_region = RegionFactor(components, done, offset, r.covariance, p, threads, &k);
+  r.coverage_factor = r.has_region ? k : 0.0;
+}
+
+// The histogram counts of one pass (item = own output i times passes + pass) into its cells.
+void MonteCarloRun::CountHistogramPass(McmResult& result, std::size_t item, std::int64_t passes,
+                                       std::vector<std::int64_t>& cells) const {
+  const int i = static_cast<int>(static_cast<std::int64_t>(item) / passes);
+  const std::int64_t pass = static_cast<std::int64_t>(item) % passes;
+  const McmOutputResult::Histogram* h = HistogramOf(result, i);
+  if (h == nullptr) return;
+  const double reference = y0[own_first + i];
+  std::int64_t* cell = cells.data() + static_cast<std::size_t>(item) * kCells;
+  const std::int64_t end = std::min(done, (pass + 1) * kPassChunk);
+  for (std::int64_t t = pass * kPassChunk; t < end; ++t) {
+    // Bin floor(b): below for b < 0, above for b >= kHistogramBins, else the truncation of
+    // b (= its floor for b >= 0; no libm floor call on baseline x86-64).
+    const double b = (reference + static_cast<double>(series[i][t]) - h->low) / h->width;
+    if (!(b >= 0.0)) ++cell[kHistogramBins];
+    else if (b >= kHistogramBins) ++cell[kHistogramBins + 1];
+    else ++cell[static_cast<std::size_t>(b)];
+  }
+}
+
+void MonteCarloRun::AddHistogramPasses(McmResult& result, std::int64_t passes,
+                                       const std::vector<std::int64_t>& cells) const {
+  for (int i = 0; i < n_own; ++i) {
+    McmOutputResult::Histogram* h = HistogramOf(result, i);
+    if (h == nullptr) continue;
+    h->counts.assign(kHistogramBins, 0);
+    for (std::int64_t pass = 0; pass < passes; ++pass) {
+      const std::int64_t* cell = cells.data() + static_cast<std::size_t>(i * passes + pass) * kCells;
+      for (int b = 0; b < kHistogramBins; ++b) h->counts[b] += cell[b];
+      h->below += cell[kHistogramBins];
+      h->above += cell[kHistogramBins + 1];
+    }
+  }
+}
+
+// Not every value kept: the averages of the batch endpoints and of the batches' k_p.
+void MonteCarloRun::AveragedEndpoints(McmResult& result, std::vector<McmVectorResult>& vectors) const {
+  for (const int gi : share.groups) {
+    vectors[gi].has_region = !batch_k[gi].empty();
+    vectors[gi].coverage_factor = Average(batch_k[gi]);
+  }
+  for (int o = own_first; o < share.last; ++o) {
+    result.outputs[o].symmetric = {Average(stats[o].low), Average(stats[o].high)};
+    result.outputs[o].shortest = {Average(stats[o].shortest_low), Average(stats[o].shortest_high)};
+  }
+}
+
+// The own groups' regions and the own outputs' numerical accuracy (7.9.4), intervals and
+// histograms into the records shared with the other ranks.
+void MonteCarloRun::PackOwnRecords(McmResult& result, const std::vector<McmVectorResult>& vectors,
+                                   FinalRecords& records) const {
+  for (std::size_t j = 0; j < share.groups.size(); ++j) {
+    const McmVectorResult& r = vectors[share.groups[j]];
+    records.own_groups[j * kGroupRecord] = r.has_region ? 1.0 : 0.0;
+    records.own_groups[j * kGroupRecord + 1] = r.coverage_factor;
+  }
+  for (int o = own_first; o < share.last; ++o) {
+    McmNumericalAccuracy& a = result.outputs[o].accuracy;
+    a.s_mean = StdOfAverage(stats[o].mean);
+    a.s_u = StdOfAverage(stats[o].u);
+    a.s_low = StdOfAverage(stats[o].low);
+    a.s_high = StdOfAverage(stats[o].high);
+    PackOutput(result.outputs[o],
+               records.own_outputs.data() + static_cast<std::size_t>(o - own_first) * kOutputRecord);
+  }
+}
+
+void MonteCarloRun::ShareRecords(FinalRecords& records, McmResult& result,
+                                 std::vector<McmVectorResult>& vectors) const {
+  ranks::AllGather(std::span<const double>(records.own_outputs), std::span<double>(records.all_outputs),
+                   records.output_counts);
+  ranks::AllGather(std::span<const double>(records.own_groups), std::span<double>(records.all_groups),
+                   records.group_counts);
+  for (int o = 0; o < n_out; ++o) {
+    UnpackOutput(records.all_outputs.data() + static_cast<std::size_t>(o) * kOutputRecord, result.outputs[o]);
+  }
+  // The gathered group records follow the groups' order of their first output (OutputShare).
+  std::vector<int> order(n_groups);
+  for (int gi = 0; gi < n_groups; ++gi) order[gi] = gi;
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return spec.groups[a].first < spec.groups[b].first; });
+  for (int j = 0; j < n_groups; ++j) {
+    vectors[order[j]].has_region = records.all_groups[static_cast<std::size_t>(j) * kGroupRecord] != 0.0;
+    vectors[order[j]].coverage_factor = records.all_groups[static_cast<std::size_t>(j) * kGroupRecord + 1];
+  }
+}
+
+void MonteCarloRun::SplitPointsAndVectors(McmResult& result, std::vector<McmVectorResult>& vectors) const {
   for (int gi = 0; gi < n_groups; ++gi) {
     McmVectorResult& r = vectors[gi];
     if (spec.groups[gi].point) {
@@ -751,9 +968,16 @@ McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
       result.vectors.push_back(std::move(r));
     }
   }
-  result.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-  return result;
+}
+
+}  // namespace
+
+McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
+                    const McmSettings& settings) {
+  CheckSettings(kernel, settings);
+  MonteCarloRun run(kernel, spec, settings);
+  run.RunBatches();
+  return run.Result();
 }
 
 }  // namespace vlt::mcm_internal

@@ -219,7 +219,7 @@ void Philox(std::uint32_t key0, std::uint32_t key1, std::uint64_t first_pair, in
 
 // out[2 p + j] = z_{2 (first_pair + p) + j} of random.h for p < pairs: the transform in lanes,
 // compiled for AVX-512, AVX2 and the baseline.
-VLT_ARRAY_CLONES  // vlt/lanes.h (through random.h): AVX-512, AVX2 and baseline clones
+VLT_ARRAY_CLONES  // base/lanes.h (through random.h): AVX-512, AVX2 and baseline clones
 void BoxMuller(const PhiloxWords& words, int pairs, double* out) {
   const std::uint32_t *x0 = words.w0, *x1 = words.w1, *x2 = words.w2, *x3 = words.w3;
   // Box-Muller (random.h), stage by stage.

@@ -32,7 +32,7 @@
 
 #include <Random123/philox.h>
 
-#include "vlt/lanes.h"
+#include "base/lanes.h"
 
 
 namespace vlt::mcm_internal {

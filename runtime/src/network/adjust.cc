@@ -144,52 +144,83 @@ StationPoseVector PoseFromRotation(const Eigen::Matrix3d& r, const Eigen::Vector
   return pose;
 }
 
-}  // namespace
 
-NetworkResult AdjustNetwork(const Network& network) {
+// Rigid transform dst ~ R src + t from >= 3 non-collinear point pairs; false when degenerate.
+bool FitRigid(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& dst, Eigen::Matrix4d& transform) {
+  if (src.cols() < 3) return false;
+  const Eigen::Matrix3Xd centred = src.colwise() - src.rowwise().mean();
+  Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(centred);
+  if (!(svd.singularValues()(1) > 1e-6 * std::max(1.0, svd.singularValues()(0)))) return false;
+  transform = Eigen::umeyama(src, dst, false);
+  return true;
+}
+
+// --- Shared inputs: estimated (self-calibration) or considered (N-6).
+SharedSplit SplitSharedInputs(const Network& network, const network_internal::Instruments& instruments,
+                              const Eigen::VectorXd& u_shared) {
   const std::string& file = network.where;
-  if (network.stations.empty()) throw InputError(file + ": station: the network has no station");
-  const network_internal::Instruments instruments = network_internal::MakeInstruments(network);
   const int S = instruments.size();
-  const Eigen::VectorXd& s0 = instruments.s0;
-  const Eigen::MatrixXd& sigma_shared = instruments.sigma;
-  const Eigen::VectorXd u_shared = sigma_shared.diagonal().cwiseSqrt();
-
-  // --- Shared inputs: estimated (self-calibration) or considered (N-6).
   SharedSplit split;
-  {
-    std::vector<bool> estimated(S, false);
-    for (const std::string& name : network.self_calibrate) {
-      int k = 0;
-      while (k < S && instruments.names[k] != name) ++k;
-      if (k == S) {
-        throw InputError(file + ": network.self_calibrate: unknown input '" + name + "' (the instruments' inputs: " +
-                         (S > 0 ? instruments.names[0] : std::string("none")) + (S > 1 ? ", ..." : "") + ")");
-      }
-      if (!(u_shared(k) > 0.0)) {
-        throw InputError(file + ": network.self_calibrate: '" + name + "' has u = 0: it is known exactly, nothing to calibrate");
-      }
-      estimated[k] = true;
+  std::vector<bool> estimated(S, false);
+  for (const std::string& name : network.self_calibrate) {
+    int k = 0;
+    while (k < S && instruments.names[k] != name) ++k;
+    if (k == S) {
+      throw InputError(file + ": network.self_calibrate: unknown input '" + name + "' (the instruments' inputs: " +
+                       (S > 0 ? instruments.names[0] : std::string("none")) + (S > 1 ? ", ..." : "") + ")");
     }
-    for (int k = 0; k < S; ++k) (estimated[k] ? split.estimated : split.consider).push_back(k);
-    for (int a : split.estimated) {
-      for (int c : split.consider) {
-        if (instruments.correlation(a, c) != 0.0) {
-          throw InputError(file + ": network.self_calibrate: '" + instruments.names[a] + "' is correlated with '" +
-                           instruments.names[c] + "', which is not self-calibrated: calibrate both or neither");
-        }
+    if (!(u_shared(k) > 0.0)) {
+      throw InputError(file + ": network.self_calibrate: '" + name + "' has u = 0: it is known exactly, nothing to calibrate");
+    }
+    estimated[k] = true;
+  }
+  for (int k = 0; k < S; ++k) (estimated[k] ? split.estimated : split.consider).push_back(k);
+  for (int a : split.estimated) {
+    for (int c : split.consider) {
+      if (instruments.correlation(a, c) != 0.0) {
+        throw InputError(file + ": network.self_calibrate: '" + instruments.names[a] + "' is correlated with '" +
+                         instruments.names[c] + "', which is not self-calibrated: calibrate both or neither");
       }
     }
   }
-  const int E = static_cast<int>(split.estimated.size());
-  const int C = static_cast<int>(split.consider.size());
+  return split;
+}
 
-  // --- Targets, in order of first appearance; observations prepared at s0 (N-2).
+// Reading r of station i prepared at s0 (N-2): its station-frame point y0 and its whitening W.
+Observation PrepareObservation(const network_internal::Instruments& instruments, const NetworkStation& st, int i,
+                               int r, int target) {
+  const TargetReading& reading = st.readings[r];
+  Observation obs;
+  obs.station = i;
+  obs.target = target;
+  obs.reading = r;
+  obs.readings = reading.readings;
+  obs.instrument = st.instrument;
+  Eigen::Matrix3d dy_dr;
+  Eigen::MatrixXd dy_ds;
+  EvaluateReading(instruments, obs, instruments.s0, obs.y0, dy_dr, dy_ds);
+  obs.sigma = instruments.models[obs.instrument].reading_uncertainty(obs.readings(0));
+  Eigen::FullPivLU<Eigen::Matrix3d> lu(dy_dr);
+  if (!lu.isInvertible() || !(obs.sigma.minCoeff() > 0.0)) {
+    throw InputError(reading.where + ": the reading of '" + reading.target + "' carries no weight (singular reading "
+                     "Jacobian or zero reading noise: give [tracker.noise])");
+  }
+  obs.whitening = obs.sigma.cwiseInverse().asDiagonal() * lu.inverse();
+  if (!obs.y0.allFinite() || !obs.whitening.allFinite()) throw InputError(reading.where + ": reading gives no finite point");
+  return obs;
+}
+
+// --- Targets, in order of first appearance; observations prepared at s0 (N-2).
+struct PreparedReadings {
   std::map<std::string, int> target_index;
   std::vector<std::string> target_names;
   std::vector<std::set<int>> target_stations;
   std::vector<int> target_readings;
   std::vector<Observation> observations;
+};
+
+PreparedReadings PrepareReadings(const Network& network, const network_internal::Instruments& instruments) {
+  PreparedReadings prepared;
   std::set<std::string> station_names;
   for (int i = 0; i < static_cast<int>(network.stations.size()); ++i) {
     const NetworkStation& st = network.stations[i];
@@ -197,40 +228,25 @@ NetworkResult AdjustNetwork(const Network& network) {
     if (st.readings.empty()) throw InputError(st.where + ": station '" + st.name + "' has no readings");
     for (int r = 0; r < static_cast<int>(st.readings.size()); ++r) {
       const TargetReading& reading = st.readings[r];
-      auto [it, inserted] = target_index.emplace(reading.target, static_cast<int>(target_names.size()));
+      auto [it, inserted] = prepared.target_index.emplace(reading.target, static_cast<int>(prepared.target_names.size()));
       if (inserted) {
-        target_names.push_back(reading.target);
-        target_stations.emplace_back();
-        target_readings.push_back(0);
+        prepared.target_names.push_back(reading.target);
+        prepared.target_stations.emplace_back();
+        prepared.target_readings.push_back(0);
       }
-      Observation obs;
-      obs.station = i;
-      obs.target = it->second;
-      obs.reading = r;
-      obs.readings = reading.readings;
-      obs.instrument = st.instrument;
-      Eigen::Matrix3d dy_dr;
-      Eigen::MatrixXd dy_ds;
-      EvaluateReading(instruments, obs, s0, obs.y0, dy_dr, dy_ds);
-      obs.sigma = instruments.models[obs.instrument].reading_uncertainty(obs.readings(0));
-      Eigen::FullPivLU<Eigen::Matrix3d> lu(dy_dr);
-      if (!lu.isInvertible() || !(obs.sigma.minCoeff() > 0.0)) {
-        throw InputError(reading.where + ": the reading of '" + reading.target + "' carries no weight (singular reading "
-                         "Jacobian or zero reading noise: give [tracker.noise])");
-      }
-      obs.whitening = obs.sigma.cwiseInverse().asDiagonal() * lu.inverse();
-      if (!obs.y0.allFinite() || !obs.whitening.allFinite()) throw InputError(reading.where + ": reading gives no finite point");
-      target_stations[obs.target].insert(i);
-      ++target_readings[obs.target];
-      observations.push_back(std::move(obs));
+      Observation obs = PrepareObservation(instruments, st, i, r, it->second);
+      prepared.target_stations[obs.target].insert(i);
+      ++prepared.target_readings[obs.target];
+      prepared.observations.push_back(std::move(obs));
     }
   }
-  const int T = static_cast<int>(target_names.size());
-  const int P = static_cast<int>(network.stations.size());
+  return prepared;
+}
 
-  // --- Datum and structure (N-1).
-  bool any_datum_station = false;
-  for (const NetworkStation& st : network.stations) any_datum_station |= st.datum;
+// --- Datum and structure (N-1): a held station, or at least 3 references (each read, given once,
+// with u > 0). Returns the names of the reference targets.
+std::set<std::string> CheckDatum(const Network& network, const std::map<std::string, int>& target_index,
+                                 bool any_datum_station) {
   std::set<std::string> reference_names;
   for (const NetworkReference& ref : network.references) {
     if (!target_index.count(ref.target)) throw InputError(ref.where + ".target: no station reads reference target '" + ref.target + "'");
@@ -238,23 +254,34 @@ NetworkResult AdjustNetwork(const Network& network) {
     if (!(ref.u > 0.0)) throw InputError(ref.where + ".u: must be positive (hold a station as the datum for an exact frame)");
   }
   if (!any_datum_station && network.references.size() < 3) {
-    throw InputError(file + ": datum: the part frame is undetermined: hold one station as the datum ([datum] station = "
+    throw InputError(network.where + ": datum: the part frame is undetermined: hold one station as the datum ([datum] station = "
                      "\"<name>\") or give at least 3 [[reference]] targets with known coordinates");
   }
+  return reference_names;
+}
 
-  // --- Structure and starting values (N-1). The stations are chained through common targets:
-  // from the held stations (or, without one, from the first station as a provisional frame), a
-  // station is placed by >= 3 non-collinear targets already placed (Umeyama's closed form,
-  // Eigen::umeyama) and then places the targets it reads. A station never placed is not tied to
-  // the network. Without a held station, the references (>= 3, not collinear) then carry the
-  // provisional frame into the part frame.
-  std::vector<Eigen::Vector3d> x(T, Eigen::Vector3d::Zero());
-  std::vector<bool> placed_target(T, false);
-  std::vector<StationPoseVector> pose(P, StationPoseVector::Zero());
-  std::vector<bool> placed_station(P, false);
-  std::vector<std::vector<const Observation*>> by_station(P);
-  for (const Observation& obs : observations) by_station[obs.station].push_back(&obs);
-  auto place_targets_of = [&](int i) {
+// --- Structure and starting values (N-1). The stations are chained through common targets:
+// from the held stations (or, without one, from the first station as a provisional frame), a
+// station is placed by >= 3 non-collinear targets already placed (Umeyama's closed form,
+// Eigen::umeyama) and then places the targets it reads. A station never placed is not tied to
+// the network. Without a held station, the references (>= 3, not collinear) then carry the
+// provisional frame into the part frame.
+struct StartingValues {
+  const Network& network;
+  const std::vector<std::vector<const Observation*>>& by_station;
+  const int P;
+  std::vector<Eigen::Vector3d> x;
+  std::vector<bool> placed_target;
+  std::vector<StationPoseVector> pose;
+  std::vector<bool> placed_station;
+
+  StartingValues(const Network& network, const std::vector<std::vector<const Observation*>>& by_station, int T)
+      : network(network), by_station(by_station), P(static_cast<int>(network.stations.size())),
+        x(T, Eigen::Vector3d::Zero()), placed_target(T, false), pose(P, StationPoseVector::Zero()),
+        placed_station(P, false) {}
+
+  // The targets of station i not placed yet, each at the mean of its readings in the part frame.
+  void PlaceTargetsOf(int i) {
     std::map<int, std::pair<Eigen::Vector3d, int>> sum;
     const Eigen::Matrix3d r = PoseRotationMatrix(pose[i](0), pose[i](1), pose[i](2));
     for (const Observation* obs : by_station[i]) {
@@ -268,66 +295,70 @@ NetworkResult AdjustNetwork(const Network& network) {
       x[t] = acc_count.first / acc_count.second;
       placed_target[t] = true;
     }
-  };
-  // Rigid transform dst ~ R src + t from >= 3 non-collinear point pairs; false when degenerate.
-  auto fit_rigid = [](const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& dst, Eigen::Matrix4d& transform) {
-    if (src.cols() < 3) return false;
-    const Eigen::Matrix3Xd centred = src.colwise() - src.rowwise().mean();
-    Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(centred);
-    if (!(svd.singularValues()(1) > 1e-6 * std::max(1.0, svd.singularValues()(0)))) return false;
-    transform = Eigen::umeyama(src, dst, false);
-    return true;
-  };
-  for (int i = 0; i < P; ++i) {
-    if (network.stations[i].datum) {
-      pose[i] = network.stations[i].pose;
-      placed_station[i] = true;
-    }
   }
-  if (!any_datum_station) placed_station[0] = true;  // provisional frame: station 0's
-  for (int i = 0; i < P; ++i) if (placed_station[i]) place_targets_of(i);
-  for (bool progress = true; progress;) {
-    progress = false;
+
+  void StartFromHeldStations(bool any_datum_station) {
     for (int i = 0; i < P; ++i) {
-      if (placed_station[i]) continue;
-      std::map<int, std::pair<Eigen::Vector3d, int>> local;  // station-frame mean per placed target
-      for (const Observation* obs : by_station[i]) {
-        if (!placed_target[obs->target]) continue;
-        auto& [acc, count] = local[obs->target];
-        if (count == 0) acc.setZero();
-        acc += obs->y0;
-        ++count;
+      if (network.stations[i].datum) {
+        pose[i] = network.stations[i].pose;
+        placed_station[i] = true;
       }
-      Eigen::Matrix3Xd src(3, local.size()), dst(3, local.size());
-      int c = 0;
-      for (auto& [t, acc_count] : local) {
-        src.col(c) = acc_count.first / acc_count.second;
-        dst.col(c++) = x[t];
+    }
+    if (!any_datum_station) placed_station[0] = true;  // provisional frame: station 0's
+    for (int i = 0; i < P; ++i) if (placed_station[i]) PlaceTargetsOf(i);
+  }
+
+  // Station i from the targets already placed; false while it shares too few of them.
+  bool PlaceStation(int i) {
+    std::map<int, std::pair<Eigen::Vector3d, int>> local;  // station-frame mean per placed target
+    for (const Observation* obs : by_station[i]) {
+      if (!placed_target[obs->target]) continue;
+      auto& [acc, count] = local[obs->target];
+      if (count == 0) acc.setZero();
+      acc += obs->y0;
+      ++count;
+    }
+    Eigen::Matrix3Xd src(3, local.size()), dst(3, local.size());
+    int c = 0;
+    for (auto& [t, acc_count] : local) {
+      src.col(c) = acc_count.first / acc_count.second;
+      dst.col(c++) = x[t];
+    }
+    Eigen::Matrix4d transform;
+    if (!FitRigid(src, dst, transform)) return false;
+    pose[i] = PoseFromRotation(transform.topLeftCorner<3, 3>(), transform.topRightCorner<3, 1>());
+    placed_station[i] = true;
+    PlaceTargetsOf(i);
+    return true;
+  }
+
+  void ChainStations() {
+    for (bool progress = true; progress;) {
+      progress = false;
+      for (int i = 0; i < P; ++i) {
+        if (placed_station[i]) continue;
+        if (PlaceStation(i)) progress = true;
       }
-      Eigen::Matrix4d transform;
-      if (!fit_rigid(src, dst, transform)) continue;
-      pose[i] = PoseFromRotation(transform.topLeftCorner<3, 3>(), transform.topRightCorner<3, 1>());
-      placed_station[i] = true;
-      place_targets_of(i);
-      progress = true;
+    }
+    for (int i = 0; i < P; ++i) {
+      if (!placed_station[i]) {
+        throw InputError(network.stations[i].where + ": station '" + network.stations[i].name +
+                         "' shares fewer than 3 non-collinear targets with the rest of the network (disconnected "
+                         "network; give it more common targets)");
+      }
     }
   }
-  for (int i = 0; i < P; ++i) {
-    if (!placed_station[i]) {
-      throw InputError(network.stations[i].where + ": station '" + network.stations[i].name +
-                       "' shares fewer than 3 non-collinear targets with the rest of the network (disconnected "
-                       "network; give it more common targets)");
-    }
-  }
-  if (!any_datum_station) {
+
+  // The provisional frame (station 0's) carried into the part frame by the references.
+  void CarryIntoPartFrame(const std::map<std::string, int>& target_index) {
     Eigen::Matrix3Xd src(3, network.references.size()), dst(3, network.references.size());
     for (std::size_t r = 0; r < network.references.size(); ++r) {
       src.col(static_cast<Eigen::Index>(r)) = x[target_index.at(network.references[r].target)];
       dst.col(static_cast<Eigen::Index>(r)) = network.references[r].position;
     }
     Eigen::Matrix4d transform;
-    if (!fit_rigid(src, dst, transform)) {
-      throw InputError(file + ": datum: the references do not fix the part frame: they are collinear (give at least "
+    if (!FitRigid(src, dst, transform)) {
+      throw InputError(network.where + ": datum: the references do not fix the part frame: they are collinear (give at least "
                        "3 references not on one line, or hold one station as the datum)");
     }
     const Eigen::Matrix3d r = transform.topLeftCorner<3, 3>();
@@ -336,67 +367,128 @@ NetworkResult AdjustNetwork(const Network& network) {
       pose[i] = PoseFromRotation(r * PoseRotationMatrix(pose[i](0), pose[i](1), pose[i](2)), r * pose[i].tail<3>() + t);
     }
   }
+
   // Starting values: a given pose where the file gives one (the plan's, or the user's better
   // guess), then every target from its readings.
-  for (int i = 0; i < P; ++i) if (network.stations[i].pose_given) pose[i] = network.stations[i].pose;
-  std::fill(placed_target.begin(), placed_target.end(), false);
-  for (int i = 0; i < P; ++i) place_targets_of(i);
+  void FromGivenPoses() {
+    for (int i = 0; i < P; ++i) if (network.stations[i].pose_given) pose[i] = network.stations[i].pose;
+    std::fill(placed_target.begin(), placed_target.end(), false);
+    for (int i = 0; i < P; ++i) PlaceTargetsOf(i);
+  }
+};
+
+// A pseudo-observation (N-4) as the normal matrix sees it.
+struct Prior {
+  int offset;                    // first unknown of the block (internal order)
+  const PriorCost* cost;
+  const double* block;           // the block's values
+};
+
+// One bundle adjustment (docs/network.md), its state from the prepared readings to the result.
+struct Adjustment {
+  const Network& network;
+  const std::string& file;
+  const network_internal::Instruments instruments;
+  const Eigen::VectorXd& s0;
+  const Eigen::MatrixXd& sigma_shared;
+  const Eigen::VectorXd u_shared;
+  const SharedSplit split;
+  const int E, C;
+  const PreparedReadings readings;
+  const std::vector<Observation>& observations;
+  const int T, P;
+  bool any_datum_station = false;
+  std::set<std::string> reference_names;
+  std::vector<std::vector<const Observation*>> by_station;
+  std::vector<Eigen::Vector3d> x;
+  std::vector<StationPoseVector> pose;
+  // Unknowns, internal order [free poses | s_E | targets].
+  std::vector<int> pose_offset;
+  int a = 0, e_offset = 0, n = 0;
+  Eigen::VectorXd s_est;
+  // The solve: the problem owns the costs the priors point to.
+  std::unique_ptr<ceres::Problem> problem;
+  std::vector<Prior> priors;
+  Eigen::MatrixXd prior_factor;  // L, Sigma_E = L L^T (self-calibration prior)
+  // Normal matrix, blockwise, and what the residuals need of it.
+  Eigen::MatrixXd n_aa, n_at, g;
+  std::vector<Eigen::Matrix3d> n_tt;
+  Eigen::VectorXd e;
+  int local = 0;
+  std::vector<Eigen::MatrixXd> j_local;
+  std::vector<Eigen::Matrix<double, 3, Eigen::Dynamic>> b_consider;
+  double chi2 = 0.0;
+  // Inverse by the Schur complement.
+  std::vector<Eigen::Matrix3d> n_tt_inv;
+  Eigen::MatrixXd h, schur, c_aa;
+  // Covariance, internal order, and the result's order.
+  Eigen::MatrixXd cov_internal, consider_part;
+  int target_start = 0, e_start = 0;
+  NetworkResult result;
+
+  explicit Adjustment(const Network& net)
+      : network(net), file(net.where), instruments(network_internal::MakeInstruments(net)), s0(instruments.s0),
+        sigma_shared(instruments.sigma), u_shared(sigma_shared.diagonal().cwiseSqrt()),
+        split(SplitSharedInputs(net, instruments, u_shared)), E(static_cast<int>(split.estimated.size())),
+        C(static_cast<int>(split.consider.size())), readings(PrepareReadings(net, instruments)),
+        observations(readings.observations), T(static_cast<int>(readings.target_names.size())),
+        P(static_cast<int>(net.stations.size())) {}
+
+  void FindStartingValues() {
+    for (const NetworkStation& st : network.stations) any_datum_station |= st.datum;
+    reference_names = CheckDatum(network, readings.target_index, any_datum_station);
+    by_station.resize(P);
+    for (const Observation& obs : observations) by_station[obs.station].push_back(&obs);
+    StartingValues start(network, by_station, T);
+    start.StartFromHeldStations(any_datum_station);
+    start.ChainStations();
+    if (!any_datum_station) start.CarryIntoPartFrame(readings.target_index);
+    start.FromGivenPoses();
+    x = std::move(start.x);
+    pose = std::move(start.pose);
+  }
 
   // --- Unknowns: free poses (6 each), self-calibrated inputs (E), targets (3 each): the
   // order of the normal matrix (targets last, eliminated by the Schur complement, N-5).
-  std::vector<int> pose_offset(P, -1);
-  int a = 0;
-  for (int i = 0; i < P; ++i) {
-    if (!network.stations[i].datum) {
-      pose_offset[i] = a;
-      a += 6;
+  void NumberUnknowns() {
+    pose_offset.assign(P, -1);
+    for (int i = 0; i < P; ++i) {
+      if (!network.stations[i].datum) {
+        pose_offset[i] = a;
+        a += 6;
+      }
     }
+    e_offset = a;
+    a += E;
+    n = a + 3 * T;
+    s_est.resize(std::max(E, 1));
+    for (int k = 0; k < E; ++k) s_est(k) = s0(split.estimated[k]);
   }
-  const int e_offset = a;
-  a += E;
-  const int n = a + 3 * T;
-  Eigen::VectorXd s_est(std::max(E, 1));
-  for (int k = 0; k < E; ++k) s_est(k) = s0(split.estimated[k]);
 
-  // --- The solve.
-  ceres::Problem::Options problem_options;
-  problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
-  for (const Observation& obs : observations) {
-    auto* cost = new ReadingCost(instruments, obs, split);
-    if (E > 0) problem.AddResidualBlock(cost, nullptr, pose[obs.station].data(), x[obs.target].data(), s_est.data());
-    else problem.AddResidualBlock(cost, nullptr, pose[obs.station].data(), x[obs.target].data());
-  }
-  for (int i = 0; i < P; ++i) {
-    if (network.stations[i].datum) problem.SetParameterBlockConstant(pose[i].data());
-  }
   // Pseudo-observations (N-4): references, pose priors, self-calibration priors.
-  struct Prior {
-    int offset;                    // first unknown of the block (internal order)
-    const PriorCost* cost;
-    const double* block;           // the block's values
-  };
-  std::vector<Prior> priors;
-  for (const NetworkReference& ref : network.references) {
-    const int t = target_index.at(ref.target);
-    auto* cost = new PriorCost(ref.position, Eigen::Matrix3d::Identity() / ref.u);
-    problem.AddResidualBlock(cost, nullptr, x[t].data());
-    priors.push_back({a + 3 * t, cost, x[t].data()});
+  void AddPriors() {
+    for (const NetworkReference& ref : network.references) {
+      const int t = readings.target_index.at(ref.target);
+      auto* cost = new PriorCost(ref.position, Eigen::Matrix3d::Identity() / ref.u);
+      problem->AddResidualBlock(cost, nullptr, x[t].data());
+      priors.push_back({a + 3 * t, cost, x[t].data()});
+    }
+    for (int i = 0; i < P; ++i) {
+      const NetworkStation& st = network.stations[i];
+      if (st.datum) continue;
+      std::vector<int> rows;
+      for (int c = 0; c < 6; ++c) if (st.pose_u(c) > 0.0) rows.push_back(c);
+      if (rows.empty()) continue;
+      Eigen::MatrixXd w = Eigen::MatrixXd::Zero(static_cast<int>(rows.size()), 6);
+      for (std::size_t r = 0; r < rows.size(); ++r) w(static_cast<int>(r), rows[r]) = 1.0 / st.pose_u(rows[r]);
+      auto* cost = new PriorCost(st.pose, w);
+      problem->AddResidualBlock(cost, nullptr, pose[i].data());
+      priors.push_back({pose_offset[i], cost, pose[i].data()});
+    }
+    if (E > 0) AddSelfCalibrationPrior();
   }
-  for (int i = 0; i < P; ++i) {
-    const NetworkStation& st = network.stations[i];
-    if (st.datum) continue;
-    std::vector<int> rows;
-    for (int c = 0; c < 6; ++c) if (st.pose_u(c) > 0.0) rows.push_back(c);
-    if (rows.empty()) continue;
-    Eigen::MatrixXd w = Eigen::MatrixXd::Zero(static_cast<int>(rows.size()), 6);
-    for (std::size_t r = 0; r < rows.size(); ++r) w(static_cast<int>(r), rows[r]) = 1.0 / st.pose_u(rows[r]);
-    auto* cost = new PriorCost(st.pose, w);
-    problem.AddResidualBlock(cost, nullptr, pose[i].data());
-    priors.push_back({pose_offset[i], cost, pose[i].data()});
-  }
-  Eigen::MatrixXd prior_factor;  // L, Sigma_E = L L^T (self-calibration prior)
-  if (E > 0) {
+
+  void AddSelfCalibrationPrior() {
     Eigen::MatrixXd sigma_e(E, E);
     Eigen::VectorXd v0(E);
     for (int p = 0; p < E; ++p) {
@@ -410,41 +502,70 @@ NetworkResult AdjustNetwork(const Network& network) {
     prior_factor = llt.matrixL();
     const Eigen::MatrixXd w = llt.matrixL().solve(Eigen::MatrixXd::Identity(E, E));
     auto* cost = new PriorCost(v0, w);
-    problem.AddResidualBlock(cost, nullptr, s_est.data());
+    problem->AddResidualBlock(cost, nullptr, s_est.data());
     priors.push_back({e_offset, cost, s_est.data()});
   }
 
-  ceres::Solver::Options options;
-  // Schur elimination of the targets needs something left to reduce to (free poses or s_E).
-  options.linear_solver_type = a > 0 ? ceres::DENSE_SCHUR : ceres::DENSE_QR;
-  options.max_num_iterations = network.max_iterations;
-  options.function_tolerance = 1e-14;
-  options.gradient_tolerance = 1e-14;
-  options.parameter_tolerance = 1e-13;
-  options.num_threads = 1;
-  options.logging_type = ceres::SILENT;
-  ceres::Solver::Summary summary;
-  ceres::Solve(options, &problem, &summary);
-  NetworkResult result;
-  result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
-  if (summary.termination_type != ceres::CONVERGENCE) {
-    throw NumericalError(file + ": the bundle adjustment did not converge: " + summary.message);
+  // --- The solve.
+  void Solve() {
+    ceres::Problem::Options problem_options;
+    problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+    problem = std::make_unique<ceres::Problem>(problem_options);
+    for (const Observation& obs : observations) {
+      auto* cost = new ReadingCost(instruments, obs, split);
+      if (E > 0) problem->AddResidualBlock(cost, nullptr, pose[obs.station].data(), x[obs.target].data(), s_est.data());
+      else problem->AddResidualBlock(cost, nullptr, pose[obs.station].data(), x[obs.target].data());
+    }
+    for (int i = 0; i < P; ++i) {
+      if (network.stations[i].datum) problem->SetParameterBlockConstant(pose[i].data());
+    }
+    AddPriors();
+    ceres::Solver::Options options;
+    // Schur elimination of the targets needs something left to reduce to (free poses or s_E).
+    options.linear_solver_type = a > 0 ? ceres::DENSE_SCHUR : ceres::DENSE_QR;
+    options.max_num_iterations = network.max_iterations;
+    options.function_tolerance = 1e-14;
+    options.gradient_tolerance = 1e-14;
+    options.parameter_tolerance = 1e-13;
+    options.num_threads = 1;
+    options.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    ceres::Solve(options, problem.get(), &summary);
+    result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
+    if (summary.termination_type != ceres::CONVERGENCE) {
+      throw NumericalError(file + ": the bundle adjustment did not converge: " + summary.message);
+    }
+  }
+
+  // Global index of each column of a reading's local Jacobian [pose 6 | s_E | target 3], -1 absent.
+  std::vector<int> LocalIndex(const Observation& obs) const {
+    std::vector<int> index;
+    for (int c = 0; c < 6; ++c) index.push_back(pose_offset[obs.station] >= 0 ? pose_offset[obs.station] + c : -1);
+    for (int c = 0; c < E; ++c) index.push_back(e_offset + c);
+    for (int c = 0; c < 3; ++c) index.push_back(a + 3 * obs.target + c);
+    return index;
   }
 
   // --- Normal matrix and consider cross terms, blockwise (N-5, N-6): unknown order
   // [poses | s_E | targets]; the target block is 3x3 block-diagonal.
-  Eigen::MatrixXd n_aa = Eigen::MatrixXd::Zero(a, a);
-  Eigen::MatrixXd n_at = Eigen::MatrixXd::Zero(a, 3 * T);
-  std::vector<Eigen::Matrix3d> n_tt(T, Eigen::Matrix3d::Zero());
-  Eigen::MatrixXd g = Eigen::MatrixXd::Zero(n, C);  // J^T B_c
-  Eigen::VectorXd e(3 * observations.size());
-  // Local Jacobian of one reading: columns [pose 6 | s_E | target 3].
-  const int local = 6 + E + 3;
-  std::vector<Eigen::MatrixXd> j_local(observations.size());
-  std::vector<Eigen::Matrix<double, 3, Eigen::Dynamic>> b_consider(observations.size());
-  Eigen::VectorXd s_hat = s0;
-  for (int k = 0; k < E; ++k) s_hat(split.estimated[k]) = s_est(k);
-  for (std::size_t o = 0; o < observations.size(); ++o) {
+  void AssembleNormals() {
+    n_aa = Eigen::MatrixXd::Zero(a, a);
+    n_at = Eigen::MatrixXd::Zero(a, 3 * T);
+    n_tt.assign(T, Eigen::Matrix3d::Zero());
+    g = Eigen::MatrixXd::Zero(n, C);  // J^T B_c
+    e.resize(3 * observations.size());
+    // Local Jacobian of one reading: columns [pose 6 | s_E | target 3].
+    local = 6 + E + 3;
+    j_local.resize(observations.size());
+    b_consider.resize(observations.size());
+    Eigen::VectorXd s_hat = s0;
+    for (int k = 0; k < E; ++k) s_hat(split.estimated[k]) = s_est(k);
+    for (std::size_t o = 0; o < observations.size(); ++o) AddReading(o, s_hat);
+    chi2 = e.squaredNorm();
+    for (const Prior& prior : priors) AddPrior(prior);
+  }
+
+  void AddReading(std::size_t o, const Eigen::VectorXd& s_hat) {
     const Observation& obs = observations[o];
     ReadingCost cost(instruments, obs, split);
     const double* params[3] = {pose[obs.station].data(), x[obs.target].data(), s_est.data()};
@@ -466,10 +587,7 @@ NetworkResult AdjustNetwork(const Network& network) {
     b_consider[o].resize(3, C);
     for (int c = 0; c < C; ++c) b_consider[o].col(c) = obs.whitening * dy_ds.col(split.consider[c]);
     // Scatter into the normal matrix.
-    std::vector<int> index;  // global index of each local column, -1 absent
-    for (int c = 0; c < 6; ++c) index.push_back(pose_offset[obs.station] >= 0 ? pose_offset[obs.station] + c : -1);
-    for (int c = 0; c < E; ++c) index.push_back(e_offset + c);
-    for (int c = 0; c < 3; ++c) index.push_back(a + 3 * obs.target + c);
+    const std::vector<int> index = LocalIndex(obs);
     const Eigen::MatrixXd jtj = j.transpose() * j;
     const Eigen::MatrixXd jtb = j.transpose() * b_consider[o];
     for (int r = 0; r < local; ++r) {
@@ -483,9 +601,8 @@ NetworkResult AdjustNetwork(const Network& network) {
       }
     }
   }
-  double chi2 = e.squaredNorm();
-  Eigen::VectorXd prior_residuals_all;
-  for (const Prior& prior : priors) {
+
+  void AddPrior(const Prior& prior) {
     const Eigen::MatrixXd& w = prior.cost->whitening();
     const int width = static_cast<int>(w.cols());
     const Eigen::Map<const Eigen::VectorXd> v(prior.block, width);
@@ -501,43 +618,47 @@ NetworkResult AdjustNetwork(const Network& network) {
   }
 
   // --- Inverse by the Schur complement of the targets (N-5).
-  std::vector<Eigen::Matrix3d> n_tt_inv(T);
-  for (int t = 0; t < T; ++t) {
-    Eigen::LLT<Eigen::Matrix3d> llt(n_tt[t]);
-    if (llt.info() != Eigen::Success) throw NumericalError(file + ": target '" + target_names[t] + "' is not determined");
-    n_tt_inv[t] = llt.solve(Eigen::Matrix3d::Identity());
-  }
-  Eigen::MatrixXd h(3 * T, a);  // N_tt^-1 N_ta
-  for (int t = 0; t < T; ++t) h.middleRows<3>(3 * t) = n_tt_inv[t] * n_at.middleCols<3>(3 * t).transpose();
-  Eigen::MatrixXd schur = n_aa - n_at * h;
-  Eigen::MatrixXd c_aa(a, a);
-  if (a > 0) {
-    // Scale to unit diagonal before judging the rank: poses mix radians and metres.
-    const Eigen::VectorXd scale = schur.diagonal().cwiseMax(std::numeric_limits<double>::min()).cwiseSqrt().cwiseInverse();
-    const Eigen::MatrixXd scaled = scale.asDiagonal() * schur * scale.asDiagonal();
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled);
-    if (!(eig.eigenvalues()(0) > 1e-10 * eig.eigenvalues()(a - 1))) {
-      // The weakest direction names the station that floats.
-      const Eigen::VectorXd v = eig.eigenvectors().col(0);
-      Eigen::Index worst = 0;
-      v.cwiseAbs().maxCoeff(&worst);
-      std::string what = "the self-calibrated inputs";
-      for (int i = 0; i < P; ++i) {
-        if (pose_offset[i] >= 0 && worst >= pose_offset[i] && worst < pose_offset[i] + 6) what = "station '" + network.stations[i].name + "'";
-      }
-      throw InputError(file + ": datum: the network does not determine " + what +
-                       " (collinear references or common targets, or a datum that leaves a rotation free)");
+  void InvertBySchurComplement() {
+    n_tt_inv.resize(T);
+    for (int t = 0; t < T; ++t) {
+      Eigen::LLT<Eigen::Matrix3d> llt(n_tt[t]);
+      if (llt.info() != Eigen::Success) throw NumericalError(file + ": target '" + readings.target_names[t] + "' is not determined");
+      n_tt_inv[t] = llt.solve(Eigen::Matrix3d::Identity());
     }
-    c_aa = scale.asDiagonal() * eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() *
-           eig.eigenvectors().transpose() * scale.asDiagonal();
+    h.resize(3 * T, a);  // N_tt^-1 N_ta
+    for (int t = 0; t < T; ++t) h.middleRows<3>(3 * t) = n_tt_inv[t] * n_at.middleCols<3>(3 * t).transpose();
+    schur = n_aa - n_at * h;
+    c_aa.resize(a, a);
+    if (a > 0) {
+      // Scale to unit diagonal before judging the rank: poses mix radians and metres.
+      const Eigen::VectorXd scale = schur.diagonal().cwiseMax(std::numeric_limits<double>::min()).cwiseSqrt().cwiseInverse();
+      const Eigen::MatrixXd scaled = scale.asDiagonal() * schur * scale.asDiagonal();
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled);
+      if (!(eig.eigenvalues()(0) > 1e-10 * eig.eigenvalues()(a - 1))) ThrowUndetermined(eig.eigenvectors().col(0));
+      c_aa = scale.asDiagonal() * eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() *
+             eig.eigenvectors().transpose() * scale.asDiagonal();
+    }
   }
-  std::vector<NetworkCombination> identifiability;
-  if (E > 0) {
-    // Identifiability of the self-calibrated inputs (N-9), as `vlt calibrate` reports it: the
-    // information the data alone give on s_E (readings, references, pose priors — not its own
-    // prior), the targets and poses eliminated, in prior-scaled coordinates z = L^-1 (s_E - s0_E):
-    // M = S_EE - S_EP S_PP^-1 S_PE - Sigma_E^-1, M_z = L^T M L = V diag(s^2) V^T. A combination
-    // v_i is determined by the network with u(v_i^T z) = 1 / s_i (prior units).
+
+  // The weakest direction names the station that floats.
+  [[noreturn]] void ThrowUndetermined(const Eigen::VectorXd& v) const {
+    Eigen::Index worst = 0;
+    v.cwiseAbs().maxCoeff(&worst);
+    std::string what = "the self-calibrated inputs";
+    for (int i = 0; i < P; ++i) {
+      if (pose_offset[i] >= 0 && worst >= pose_offset[i] && worst < pose_offset[i] + 6) what = "station '" + network.stations[i].name + "'";
+    }
+    throw InputError(file + ": datum: the network does not determine " + what +
+                     " (collinear references or common targets, or a datum that leaves a rotation free)");
+  }
+
+  // Identifiability of the self-calibrated inputs (N-9), as `vlt calibrate` reports it: the
+  // information the data alone give on s_E (readings, references, pose priors — not its own
+  // prior), the targets and poses eliminated, in prior-scaled coordinates z = L^-1 (s_E - s0_E):
+  // M = S_EE - S_EP S_PP^-1 S_PE - Sigma_E^-1, M_z = L^T M L = V diag(s^2) V^T. A combination
+  // v_i is determined by the network with u(v_i^T z) = 1 / s_i (prior units).
+  std::vector<NetworkCombination> Identifiability() const {
+    std::vector<NetworkCombination> identifiability;
     const Eigen::MatrixXd w = prior_factor.triangularView<Eigen::Lower>().solve(Eigen::MatrixXd::Identity(E, E));
     Eigen::MatrixXd m = schur.block(e_offset, e_offset, E, E) - w.transpose() * w;
     if (e_offset > 0) {
@@ -553,123 +674,143 @@ NetworkResult AdjustNetwork(const Network& network) {
       const bool blind = !(c.singular_value > 1e-9 * s_max) || c.singular_value == 0.0;
       c.ratio = blind ? std::numeric_limits<double>::infinity() : 1.0 / c.singular_value;
       c.determined = c.ratio <= 1.0;
-      // In each input's prior u: the shift of s_E per unit of the combination, D^-1 L v.
-      Eigen::VectorXd coefficients = prior_factor * eig.eigenvectors().col(i);
-      for (int k = 0; k < E; ++k) coefficients(k) /= std::sqrt(sigma_shared(split.estimated[k], split.estimated[k]));
-      Eigen::Index big = 0;
-      const double largest = coefficients.cwiseAbs().maxCoeff(&big);
-      if (coefficients(big) < 0.0) coefficients = -coefficients;
-      for (int k = 0; k < E; ++k) {
-        if (std::abs(coefficients(k)) < 0.05 * largest) continue;
-        char term[96];
-        std::snprintf(term, sizeof term, "%s%+.3f %s", c.description.empty() ? "" : " ", coefficients(k) / largest,
-                      instruments.names[split.estimated[k]].c_str());
-        c.description += term;
-      }
+      c.description = DescribeCombination(eig.eigenvectors().col(i));
       identifiability.push_back(std::move(c));
     }
+    return identifiability;
   }
+
+  // In each input's prior u: the shift of s_E per unit of the combination, D^-1 L v.
+  std::string DescribeCombination(const Eigen::VectorXd& v) const {
+    std::string description;
+    Eigen::VectorXd coefficients = prior_factor * v;
+    for (int k = 0; k < E; ++k) coefficients(k) /= std::sqrt(sigma_shared(split.estimated[k], split.estimated[k]));
+    Eigen::Index big = 0;
+    const double largest = coefficients.cwiseAbs().maxCoeff(&big);
+    if (coefficients(big) < 0.0) coefficients = -coefficients;
+    for (int k = 0; k < E; ++k) {
+      if (std::abs(coefficients(k)) < 0.05 * largest) continue;
+      char term[96];
+      std::snprintf(term, sizeof term, "%s%+.3f %s", description.empty() ? "" : " ", coefficients(k) / largest,
+                    instruments.names[split.estimated[k]].c_str());
+      description += term;
+    }
+    return description;
+  }
+
   // Order of the result: [free poses | targets | s_E].
-  const int target_start = e_offset;          // after the poses
-  const int e_start = e_offset + 3 * T;
-  auto out_index = [&](int gi) { return gi < e_offset ? gi : (gi < a ? e_start + (gi - e_offset) : target_start + (gi - a)); };
-  Eigen::MatrixXd cov_internal(n, n);          // internal order [poses | s_E | targets]
-  cov_internal.topLeftCorner(a, a) = c_aa;
-  const Eigen::MatrixXd c_ta = -h * c_aa;
-  cov_internal.bottomLeftCorner(3 * T, a) = c_ta;
-  cov_internal.topRightCorner(a, 3 * T) = c_ta.transpose();
-  cov_internal.bottomRightCorner(3 * T, 3 * T) = h * c_aa * h.transpose();
-  for (int t = 0; t < T; ++t) cov_internal.block<3, 3>(a + 3 * t, a + 3 * t) += n_tt_inv[t];
-  // Consider parameters: K = -N^-1 J^T B_c moves the estimate by K delta_c (N-7).
-  const Eigen::MatrixXd gain = -cov_internal * g;
-  Eigen::MatrixXd sigma_c(C, C);
-  for (int p = 0; p < C; ++p)
-    for (int q = 0; q < C; ++q) sigma_c(p, q) = sigma_shared(split.consider[p], split.consider[q]);
-  const Eigen::MatrixXd consider_part = gain * sigma_c * gain.transpose();
+  int OutIndex(int gi) const { return gi < e_offset ? gi : (gi < a ? e_start + (gi - e_offset) : target_start + (gi - a)); }
 
-  std::vector<int> perm(n);
-  for (int gi = 0; gi < n; ++gi) perm[gi] = out_index(gi);
-  result.covariance.resize(n, n);
-  for (int r = 0; r < n; ++r)
-    for (int c = 0; c < n; ++c) result.covariance(perm[r], perm[c]) = cov_internal(r, c) + consider_part(r, c);
-  result.unknown_names.assign(n, "");
-  result.station_offset = pose_offset;
-  for (int i = 0; i < P; ++i) {
-    if (pose_offset[i] < 0) continue;
-    for (int c = 0; c < 6; ++c) result.unknown_names[pose_offset[i] + c] = network.stations[i].name + "." + kPoseNames[c];
-  }
-  static const char* kAxis[3] = {"x", "y", "z"};
-  for (int t = 0; t < T; ++t) {
-    result.target_offset.push_back(target_start + 3 * t);
-    for (int c = 0; c < 3; ++c) result.unknown_names[target_start + 3 * t + c] = target_names[t] + "." + kAxis[c];
-  }
-  for (int k = 0; k < E; ++k) result.unknown_names[e_start + k] = instruments.names[split.estimated[k]];
+  void Covariance() {
+    target_start = e_offset;          // after the poses
+    e_start = e_offset + 3 * T;
+    cov_internal.resize(n, n);          // internal order [poses | s_E | targets]
+    cov_internal.topLeftCorner(a, a) = c_aa;
+    const Eigen::MatrixXd c_ta = -h * c_aa;
+    cov_internal.bottomLeftCorner(3 * T, a) = c_ta;
+    cov_internal.topRightCorner(a, 3 * T) = c_ta.transpose();
+    cov_internal.bottomRightCorner(3 * T, 3 * T) = h * c_aa * h.transpose();
+    for (int t = 0; t < T; ++t) cov_internal.block<3, 3>(a + 3 * t, a + 3 * t) += n_tt_inv[t];
+    // Consider parameters: K = -N^-1 J^T B_c moves the estimate by K delta_c (N-7).
+    const Eigen::MatrixXd gain = -cov_internal * g;
+    Eigen::MatrixXd sigma_c(C, C);
+    for (int p = 0; p < C; ++p)
+      for (int q = 0; q < C; ++q) sigma_c(p, q) = sigma_shared(split.consider[p], split.consider[q]);
+    consider_part = gain * sigma_c * gain.transpose();
 
-  // --- Results.
-  result.identifiability = std::move(identifiability);
-  result.k = NormalCoverageFactor(network.coverage_probability);
-  double trace_noise = 0.0, trace_consider = 0.0;
-  for (int t = 0; t < T; ++t) {
-    AdjustedTarget at;
-    at.name = target_names[t];
-    at.position = x[t];
-    at.covariance = result.covariance.block<3, 3>(target_start + 3 * t, target_start + 3 * t);
-    at.stations = static_cast<int>(target_stations[t].size());
-    at.readings = target_readings[t];
-    at.reference = reference_names.count(at.name) > 0;
-    trace_noise += cov_internal.block<3, 3>(a + 3 * t, a + 3 * t).trace();
-    trace_consider += consider_part.block<3, 3>(a + 3 * t, a + 3 * t).trace();
-    if (!at.position.allFinite() || !at.covariance.allFinite()) throw NumericalError(file + ": target '" + at.name + "' came out non-finite");
-    result.targets.push_back(at);
+    std::vector<int> perm(n);
+    for (int gi = 0; gi < n; ++gi) perm[gi] = OutIndex(gi);
+    result.covariance.resize(n, n);
+    for (int r = 0; r < n; ++r)
+      for (int c = 0; c < n; ++c) result.covariance(perm[r], perm[c]) = cov_internal(r, c) + consider_part(r, c);
   }
-  const double total = trace_noise + trace_consider;
-  result.share_noise = total > 0.0 ? trace_noise / total : 0.0;
-  result.share_consider = total > 0.0 ? trace_consider / total : 0.0;
-  for (int i = 0; i < P; ++i) {
-    AdjustedStation as;
-    as.name = network.stations[i].name;
-    as.pose = pose[i];
-    as.datum = network.stations[i].datum;
-    as.readings = static_cast<int>(by_station[i].size());
-    if (pose_offset[i] >= 0) as.covariance = result.covariance.block<6, 6>(pose_offset[i], pose_offset[i]);
-    result.stations.push_back(as);
+
+  void NameUnknowns() {
+    result.unknown_names.assign(n, "");
+    result.station_offset = pose_offset;
+    for (int i = 0; i < P; ++i) {
+      if (pose_offset[i] < 0) continue;
+      for (int c = 0; c < 6; ++c) result.unknown_names[pose_offset[i] + c] = network.stations[i].name + "." + kPoseNames[c];
+    }
+    static const char* kAxis[3] = {"x", "y", "z"};
+    for (int t = 0; t < T; ++t) {
+      result.target_offset.push_back(target_start + 3 * t);
+      for (int c = 0; c < 3; ++c) result.unknown_names[target_start + 3 * t + c] = readings.target_names[t] + "." + kAxis[c];
+    }
+    for (int k = 0; k < E; ++k) result.unknown_names[e_start + k] = instruments.names[split.estimated[k]];
   }
-  for (int k = 0; k < E; ++k) {
-    const int s = split.estimated[k];
-    int instrument = 0;
-    while (instrument + 1 < static_cast<int>(instruments.models.size()) && instruments.offset[instrument + 1] <= s) ++instrument;
-    const int in_instrument = s - instruments.offset[instrument];
-    const UncertainInput& in = instruments.models[instrument].shared_inputs()[in_instrument];
-    const ModelInfo& model_info = *instruments.models[instrument].setup().model;
-    CalibratedParameter cp;
-    cp.name = instruments.names[s];
-    cp.unit = in.unit;
-    cp.prior_estimate = in.estimate;
-    cp.prior_u = in.u;
-    cp.estimate = s_est(k);
-    cp.u = std::sqrt(std::max(0.0, result.covariance(e_start + k, e_start + k)));
-    cp.u_data = cp.u;
-    cp.status = ParameterStatus::kIdentified;
-    if (in_instrument < model_info.num_params) cp.quantity = model_info.params[in_instrument].quantity;
-    result.parameters.push_back(cp);
+
+  void Targets() {
+    double trace_noise = 0.0, trace_consider = 0.0;
+    for (int t = 0; t < T; ++t) {
+      AdjustedTarget at;
+      at.name = readings.target_names[t];
+      at.position = x[t];
+      at.covariance = result.covariance.block<3, 3>(target_start + 3 * t, target_start + 3 * t);
+      at.stations = static_cast<int>(readings.target_stations[t].size());
+      at.readings = readings.target_readings[t];
+      at.reference = reference_names.count(at.name) > 0;
+      trace_noise += cov_internal.block<3, 3>(a + 3 * t, a + 3 * t).trace();
+      trace_consider += consider_part.block<3, 3>(a + 3 * t, a + 3 * t).trace();
+      if (!at.position.allFinite() || !at.covariance.allFinite()) throw NumericalError(file + ": target '" + at.name + "' came out non-finite");
+      result.targets.push_back(at);
+    }
+    const double total = trace_noise + trace_consider;
+    result.share_noise = total > 0.0 ? trace_noise / total : 0.0;
+    result.share_consider = total > 0.0 ? trace_consider / total : 0.0;
+  }
+
+  void Stations() {
+    for (int i = 0; i < P; ++i) {
+      AdjustedStation as;
+      as.name = network.stations[i].name;
+      as.pose = pose[i];
+      as.datum = network.stations[i].datum;
+      as.readings = static_cast<int>(by_station[i].size());
+      if (pose_offset[i] >= 0) as.covariance = result.covariance.block<6, 6>(pose_offset[i], pose_offset[i]);
+      result.stations.push_back(as);
+    }
+  }
+
+  void SelfCalibratedParameters() {
+    for (int k = 0; k < E; ++k) {
+      const int s = split.estimated[k];
+      int instrument = 0;
+      while (instrument + 1 < static_cast<int>(instruments.models.size()) && instruments.offset[instrument + 1] <= s) ++instrument;
+      const int in_instrument = s - instruments.offset[instrument];
+      const UncertainInput& in = instruments.models[instrument].shared_inputs()[in_instrument];
+      const ModelInfo& model_info = *instruments.models[instrument].setup().model;
+      CalibratedParameter cp;
+      cp.name = instruments.names[s];
+      cp.unit = in.unit;
+      cp.prior_estimate = in.estimate;
+      cp.prior_u = in.u;
+      cp.estimate = s_est(k);
+      cp.u = std::sqrt(std::max(0.0, result.covariance(e_start + k, e_start + k)));
+      cp.u_data = cp.u;
+      cp.status = ParameterStatus::kIdentified;
+      if (in_instrument < model_info.num_params) cp.quantity = model_info.params[in_instrument].quantity;
+      result.parameters.push_back(cp);
+    }
   }
 
   // --- Residuals: redundancy numbers r_ii = 1 - (J N^-1 J^T)_ii and data snooping (N-8).
-  int observations_count = static_cast<int>(e.size());
-  for (const Prior& prior : priors) observations_count += static_cast<int>(prior.cost->whitening().rows());
-  result.observations = observations_count;
-  result.unknowns = n;
-  result.dof = observations_count - n;
-  result.chi2 = chi2;
-  result.birge_ratio = result.dof > 0 ? std::sqrt(chi2 / result.dof) : 0.0;
-  result.p_value = ChiSquareUpperTail(chi2, result.dof);
-  static const char* kReading[3] = {"range", "azimuth", "elevation"};
-  for (std::size_t o = 0; o < observations.size(); ++o) {
+  void Residuals() {
+    int observations_count = static_cast<int>(e.size());
+    for (const Prior& prior : priors) observations_count += static_cast<int>(prior.cost->whitening().rows());
+    result.observations = observations_count;
+    result.unknowns = n;
+    result.dof = observations_count - n;
+    result.chi2 = chi2;
+    result.birge_ratio = result.dof > 0 ? std::sqrt(chi2 / result.dof) : 0.0;
+    result.p_value = ChiSquareUpperTail(chi2, result.dof);
+    for (std::size_t o = 0; o < observations.size(); ++o) ReadingResiduals(o);
+  }
+
+  void ReadingResiduals(std::size_t o) {
+    static const char* kReading[3] = {"range", "azimuth", "elevation"};
     const Observation& obs = observations[o];
-    std::vector<int> index;
-    for (int c = 0; c < 6; ++c) index.push_back(pose_offset[obs.station] >= 0 ? pose_offset[obs.station] + c : -1);
-    for (int c = 0; c < E; ++c) index.push_back(e_offset + c);
-    for (int c = 0; c < 3; ++c) index.push_back(a + 3 * obs.target + c);
+    const std::vector<int> index = LocalIndex(obs);
     Eigen::MatrixXd c_local = Eigen::MatrixXd::Zero(local, local);
     for (int r = 0; r < local; ++r)
       for (int c = 0; c < local; ++c)
@@ -679,7 +820,7 @@ NetworkResult AdjustNetwork(const Network& network) {
     for (int c = 0; c < 3; ++c) {
       NetworkResidual res;
       res.station = network.stations[obs.station].name;
-      res.target = target_names[obs.target];
+      res.target = readings.target_names[obs.target];
       res.component = kReading[c];
       res.face = src.face;
       res.where = src.where;
@@ -694,7 +835,30 @@ NetworkResult AdjustNetwork(const Network& network) {
       result.residuals.push_back(std::move(res));
     }
   }
-  return result;
+};
+
+}  // namespace
+
+NetworkResult AdjustNetwork(const Network& network) {
+  if (network.stations.empty()) throw InputError(network.where + ": station: the network has no station");
+  Adjustment adjustment(network);
+  adjustment.FindStartingValues();
+  adjustment.NumberUnknowns();
+  adjustment.Solve();
+  adjustment.AssembleNormals();
+  adjustment.InvertBySchurComplement();
+  std::vector<NetworkCombination> identifiability;
+  if (adjustment.E > 0) identifiability = adjustment.Identifiability();
+  adjustment.Covariance();
+  adjustment.NameUnknowns();
+  NetworkResult& result = adjustment.result;
+  result.identifiability = std::move(identifiability);
+  result.k = NormalCoverageFactor(network.coverage_probability);
+  adjustment.Targets();
+  adjustment.Stations();
+  adjustment.SelfCalibratedParameters();
+  adjustment.Residuals();
+  return std::move(result);
 }
 
 }  // namespace vlt

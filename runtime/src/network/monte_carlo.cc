@@ -6,7 +6,6 @@
 #include <utility>
 #include <vector>
 
-#include "gum/internal.h"
 #include "mpi/ranks.h"
 #include "parallel/pool.h"
 #include "vlt/error.h"

@@ -1,6 +1,5 @@
 // network/outputs.cc — the files of `vlt network` (outputs.h). CSVs and results.json are SI with
 // the unit in every column name; the summary prints um and arcsec and says so.
-#include "network/outputs.h"
 
 #include <cmath>
 #include <cstdio>
@@ -15,8 +14,9 @@
 #include <nlohmann/json.hpp>
 #include <toml++/toml.h>
 
-#include "report/page.h"
-#include "results/internal.h"
+#include "output/page.h"
+#include "vlt/network.h"
+#include "base/format.h"
 #include "vlt/calibration.h"
 #include "vlt/results.h"
 
@@ -25,6 +25,7 @@ namespace vlt::network_outputs {
 namespace {
 
 using internal::AppendNum;
+using internal::HtmlEscape;
 using internal::Num;
 using internal::Fixed;
 std::string Csv(const std::string& s) { return internal::CsvField(s); }
@@ -47,12 +48,11 @@ std::string InstrumentList(const Network& network) {
   return out;
 }
 
-// report.html: the network in 3-D (stations, targets coloured by |U|, lines of sight, the axes of
-// every target's coverage ellipsoid, exaggerated), then the tables a metrologist signs.
-std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, const NetworkMonteCarlo* mc,
-                          const std::vector<NetworkTaskResult>& tasks) {
-  using internal::HtmlEscape;
-  std::ostringstream body, script;
+
+// The adjustment at a glance: mode, instruments, redundancy, chi-square, variance shares, and the
+// Monte Carlo check where it ran.
+void AdjustmentSection(std::ostringstream& body, const NetworkJob& job, const NetworkResult& result,
+                       const NetworkMonteCarlo* mc) {
   body << "<section><h2>Adjustment</h2><table>"
        << "<tr><th class=\"l\">mode</th><td class=\"l\">" << (job.offline ? "plan (predicted uncertainties of planned readings)" : "measured readings") << "</td></tr>"
        << "<tr><th class=\"l\">instruments (model)</th><td class=\"l\">" << HtmlEscape(InstrumentList(job.network)) << "</td></tr>"
@@ -70,7 +70,22 @@ std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, co
          << Fixed(mc->tolerance, 3) << "): " << (mc->agrees ? "the GUM agrees" : "the GUM does not agree") << "</td></tr>";
   }
   body << "</table></section>\n";
-  // 3-D view.
+}
+
+// The x, y, z arrays of one Plotly 3-D trace; a null point breaks a line.
+struct Trace3d {
+  nlohmann::json x = nlohmann::json::array(), y = nlohmann::json::array(), z = nlohmann::json::array();
+  void Add(const Eigen::Vector3d& p) {
+    x.push_back(p(0)); y.push_back(p(1)); z.push_back(p(2));
+  }
+  void Break() {
+    x.push_back(nullptr); y.push_back(nullptr); z.push_back(nullptr);
+  }
+  std::string Xyz() const { return "x:" + x.dump() + ",y:" + y.dump() + ",z:" + z.dump(); }
+};
+
+// Enlargement of the coverage ellipsoids: the largest axis drawn at 4 % of the network's extent.
+double EllipsoidScale(const NetworkResult& result) {
   double extent = 0.0;
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = Eigen::Vector3d::Constant(-1e300);
   for (const AdjustedTarget& t : result.targets) { lo = lo.cwiseMin(t.position); hi = hi.cwiseMax(t.position); }
@@ -81,21 +96,12 @@ std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, co
     largest_axis = std::max(largest_axis, result.k * std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(t.covariance).eigenvalues().maxCoeff())));
   }
   const double scale = largest_axis > 0.0 ? 0.04 * extent / largest_axis : 1.0;
-  body << "<section><h2>The network</h2><p class=\"note\">Part frame, m. Targets coloured by |U| = k sqrt(trace C) in um; grey lines: lines of "
-          "sight; the three principal axes of each target's coverage ellipsoid (k sqrt(eigenvalues)) drawn " << Num(scale)
-       << " times enlarged.</p><div id=\"net\" class=\"plot\"></div></section>\n";
-  nlohmann::json tx = nlohmann::json::array(), ty = nlohmann::json::array(), tz = nlohmann::json::array(), tc = nlohmann::json::array(),
-                 tn = nlohmann::json::array();
-  for (const AdjustedTarget& t : result.targets) {
-    tx.push_back(t.position(0)); ty.push_back(t.position(1)); tz.push_back(t.position(2));
-    tc.push_back(result.k * std::sqrt(t.covariance.trace()) * 1e6);
-    tn.push_back(t.name);
-  }
-  nlohmann::json sx = nlohmann::json::array(), sy = nlohmann::json::array(), sz = nlohmann::json::array(), sn = nlohmann::json::array();
-  for (const AdjustedStation& st : result.stations) {
-    sx.push_back(st.pose(3)); sy.push_back(st.pose(4)); sz.push_back(st.pose(5)); sn.push_back(st.name + (st.datum ? " (datum)" : ""));
-  }
-  nlohmann::json lx = nlohmann::json::array(), ly = nlohmann::json::array(), lz = nlohmann::json::array();
+  return scale;
+}
+
+// One line from each station to every target it reads.
+Trace3d LinesOfSight(const NetworkJob& job, const NetworkResult& result) {
+  Trace3d lines;
   std::map<std::string, int> target_of;
   for (std::size_t t = 0; t < result.targets.size(); ++t) target_of[result.targets[t].name] = static_cast<int>(t);
   for (std::size_t i = 0; i < job.network.stations.size(); ++i) {
@@ -104,33 +110,60 @@ std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, co
       if (!seen.insert(r.target).second) continue;
       const Eigen::Vector3d& p = result.targets[target_of.at(r.target)].position;
       const Eigen::Vector3d o = result.stations[i].pose.tail<3>();
-      lx.push_back(o(0)); ly.push_back(o(1)); lz.push_back(o(2));
-      lx.push_back(p(0)); ly.push_back(p(1)); lz.push_back(p(2));
-      lx.push_back(nullptr); ly.push_back(nullptr); lz.push_back(nullptr);
+      lines.Add(o);
+      lines.Add(p);
+      lines.Break();
     }
   }
-  nlohmann::json ex = nlohmann::json::array(), ey = nlohmann::json::array(), ez = nlohmann::json::array();
+  return lines;
+}
+
+// The three principal axes of every target's coverage ellipsoid, `scale` times enlarged.
+Trace3d EllipsoidAxes(const NetworkResult& result, double scale) {
+  Trace3d axes;
   for (const AdjustedTarget& t : result.targets) {
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(t.covariance);
     for (int c = 0; c < 3; ++c) {
       const Eigen::Vector3d axis = eig.eigenvectors().col(c) * result.k * std::sqrt(std::max(0.0, eig.eigenvalues()(c))) * scale;
-      for (const Eigen::Vector3d& p : {Eigen::Vector3d(t.position - axis), Eigen::Vector3d(t.position + axis)}) {
-        ex.push_back(p(0)); ey.push_back(p(1)); ez.push_back(p(2));
-      }
-      ex.push_back(nullptr); ey.push_back(nullptr); ez.push_back(nullptr);
+      for (const Eigen::Vector3d& p : {Eigen::Vector3d(t.position - axis), Eigen::Vector3d(t.position + axis)}) axes.Add(p);
+      axes.Break();
     }
   }
+  return axes;
+}
+
+// The network in 3-D: stations, targets coloured by |U|, lines of sight, ellipsoid axes.
+void NetworkView(std::ostringstream& body, std::ostringstream& script, const NetworkJob& job, const NetworkResult& result) {
+  const double scale = EllipsoidScale(result);
+  body << "<section><h2>The network</h2><p class=\"note\">Part frame, m. Targets coloured by |U| = k sqrt(trace C) in um; grey lines: lines of "
+          "sight; the three principal axes of each target's coverage ellipsoid (k sqrt(eigenvalues)) drawn " << Num(scale)
+       << " times enlarged.</p><div id=\"net\" class=\"plot\"></div></section>\n";
+  Trace3d targets;
+  nlohmann::json tc = nlohmann::json::array(), tn = nlohmann::json::array();
+  for (const AdjustedTarget& t : result.targets) {
+    targets.Add(t.position);
+    tc.push_back(result.k * std::sqrt(t.covariance.trace()) * 1e6);
+    tn.push_back(t.name);
+  }
+  Trace3d stations;
+  nlohmann::json sn = nlohmann::json::array();
+  for (const AdjustedStation& st : result.stations) {
+    stations.Add(st.pose.tail<3>());
+    sn.push_back(st.name + (st.datum ? " (datum)" : ""));
+  }
   script << "Plotly.newPlot('net',["
-         << "{type:'scatter3d',mode:'lines',name:'lines of sight',hoverinfo:'skip',line:{color:'rgba(120,120,120,0.35)',width:1},x:" << lx.dump()
-         << ",y:" << ly.dump() << ",z:" << lz.dump() << "},"
-         << "{type:'scatter3d',mode:'lines',name:'coverage ellipsoid axes',hoverinfo:'skip',line:{color:'#b42318',width:3},x:" << ex.dump()
-         << ",y:" << ey.dump() << ",z:" << ez.dump() << "},"
-         << "{type:'scatter3d',mode:'markers',name:'targets',text:" << tn.dump() << ",x:" << tx.dump() << ",y:" << ty.dump() << ",z:" << tz.dump()
+         << "{type:'scatter3d',mode:'lines',name:'lines of sight',hoverinfo:'skip',line:{color:'rgba(120,120,120,0.35)',width:1},"
+         << LinesOfSight(job, result).Xyz() << "},"
+         << "{type:'scatter3d',mode:'lines',name:'coverage ellipsoid axes',hoverinfo:'skip',line:{color:'#b42318',width:3},"
+         << EllipsoidAxes(result, scale).Xyz() << "},"
+         << "{type:'scatter3d',mode:'markers',name:'targets',text:" << tn.dump() << "," << targets.Xyz()
          << ",marker:{size:4,color:" << tc.dump() << ",colorscale:'Viridis',colorbar:{title:'|U| / um',x:1.02}},hovertemplate:'%{text}<br>|U| %{marker.color:.1f} um<extra></extra>'},"
-         << "{type:'scatter3d',mode:'markers+text',name:'stations',text:" << sn.dump() << ",x:" << sx.dump() << ",y:" << sy.dump() << ",z:" << sz.dump()
+         << "{type:'scatter3d',mode:'markers+text',name:'stations',text:" << sn.dump() << "," << stations.Xyz()
          << ",marker:{size:7,symbol:'diamond',color:'#1f3a5f'}}"
          << "],{margin:{l:0,r:0,t:10,b:0},legend:{x:0,y:1},scene:{aspectmode:'data',xaxis:{title:'x / m'},yaxis:{title:'y / m'},zaxis:{title:'z / m'}}},{responsive:true}).then(done);";
-  // Tables.
+}
+
+void TargetsTable(std::ostringstream& body, const NetworkResult& result) {
   body << "<section><h2>Targets</h2><p class=\"note\">Part frame. U = k u per coordinate, um; the full covariance (targets with each "
           "other and with the stations) is in covariance.csv.</p><table><tr><th class=\"l\">target</th><th>x / m</th><th>y / m</th><th>z / m</th>"
           "<th>U<sub>x</sub> / um</th><th>U<sub>y</sub> / um</th><th>U<sub>z</sub> / um</th><th>stations</th><th class=\"l\">reference</th></tr>";
@@ -140,7 +173,11 @@ std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, co
     for (int c = 0; c < 3; ++c) body << "<td>" << Fixed(result.k * std::sqrt(t.covariance(c, c)) * 1e6, 1) << "</td>";
     body << "<td>" << t.stations << "</td><td class=\"l\">" << (t.reference ? "yes" : "") << "</td></tr>";
   }
-  body << "</table></section>\n<section><h2>Stations</h2><p class=\"note\">Pose: x_part = R x_station + t, R = Rz(rz) Ry(ry) Rx(rx); "
+  body << "</table></section>\n";
+}
+
+void StationsTable(std::ostringstream& body, const NetworkResult& result) {
+  body << "<section><h2>Stations</h2><p class=\"note\">Pose: x_part = R x_station + t, R = Rz(rz) Ry(ry) Rx(rx); "
           "angles in degrees, their U in arcsec; t in m, its U in um.</p><table><tr><th class=\"l\">station</th><th>rx / deg</th><th>ry / deg</th>"
           "<th>rz / deg</th><th>tx / m</th><th>ty / m</th><th>tz / m</th><th>U(rx, ry, rz) / arcsec</th><th>U(tx, ty, tz) / um</th><th>readings</th></tr>";
   for (const AdjustedStation& st : result.stations) {
@@ -154,49 +191,57 @@ std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, co
     body << "</td><td>" << st.readings << "</td></tr>";
   }
   body << "</table></section>\n";
-  if (!tasks.empty()) {
-    body << "<section><h2>Tasks</h2><p class=\"note\">Over adjusted targets, whichever station read them, with their joint covariance "
-            "through the adjustment (G C G<sup>T</sup>); lengths in um, directions dimensionless. n/a: no GUM value (a form quantity of points "
-            "that fit exactly).</p><table><tr><th class=\"l\">task</th><th class=\"l\">quantity</th><th>value</th><th>u</th><th>U</th>"
-            "<th class=\"l\">unit</th><th class=\"l\">tolerance</th><th class=\"l\">decision (ISO 14253-1)</th></tr>";
-    for (const NetworkTaskResult& t : tasks) {
-      for (std::size_t q = 0; q < t.quantities.size(); ++q) {
-        const bool length = t.units[q] == "m";
-        const double f = length ? 1e6 : 1.0;
-        body << "<tr><td class=\"l\">" << HtmlEscape(t.name) << "</td><td class=\"l\">" << HtmlEscape(t.quantities[q]) << "</td><td>"
-             << (length ? Fixed(t.value(q) * 1e6, 1) : Fixed(t.value(q), 8)) << "</td><td>"
-             << (t.differentiable[q] ? internal::Sig(t.u(q) * f, 3) : "n/a") << "</td><td>"
-             << (t.differentiable[q] ? internal::Sig(t.U(q) * f, 3) : "n/a") << "</td><td class=\"l\">" << (length ? "um" : "1")
-             << "</td><td class=\"l\">" << HtmlEscape(t.tolerance[q]) << "</td><td class=\"l\">"
-             << (t.conformity[q] ? HtmlEscape(t.conformity[q]->verdict) : "") << "</td></tr>";
-      }
+}
+
+// Tasks over adjusted targets, with the ISO 14253-1 decision where a tolerance is given.
+void TasksTable(std::ostringstream& body, const std::vector<NetworkTaskResult>& tasks) {
+  body << "<section><h2>Tasks</h2><p class=\"note\">Over adjusted targets, whichever station read them, with their joint covariance "
+          "through the adjustment (G C G<sup>T</sup>); lengths in um, directions dimensionless. n/a: no GUM value (a form quantity of points "
+          "that fit exactly).</p><table><tr><th class=\"l\">task</th><th class=\"l\">quantity</th><th>value</th><th>u</th><th>U</th>"
+          "<th class=\"l\">unit</th><th class=\"l\">tolerance</th><th class=\"l\">decision (ISO 14253-1)</th></tr>";
+  for (const NetworkTaskResult& t : tasks) {
+    for (std::size_t q = 0; q < t.quantities.size(); ++q) {
+      const bool length = t.units[q] == "m";
+      const double f = length ? 1e6 : 1.0;
+      body << "<tr><td class=\"l\">" << HtmlEscape(t.name) << "</td><td class=\"l\">" << HtmlEscape(t.quantities[q]) << "</td><td>"
+           << (length ? Fixed(t.value(q) * 1e6, 1) : Fixed(t.value(q), 8)) << "</td><td>"
+           << (t.differentiable[q] ? internal::Sig(t.u(q) * f, 3) : "n/a") << "</td><td>"
+           << (t.differentiable[q] ? internal::Sig(t.U(q) * f, 3) : "n/a") << "</td><td class=\"l\">" << (length ? "um" : "1")
+           << "</td><td class=\"l\">" << HtmlEscape(t.tolerance[q]) << "</td><td class=\"l\">"
+           << (t.conformity[q] ? HtmlEscape(t.conformity[q]->verdict) : "") << "</td></tr>";
     }
-    body << "</table></section>\n";
   }
-  if (!result.parameters.empty()) {
-    body << "<section><h2>Self-calibrated parameters</h2><p class=\"note\">Estimated by the network with their prior as a pseudo-observation; "
-            "u / prior u near 1: the network does not see the parameter.</p><table><tr><th class=\"l\">input</th><th class=\"l\">unit (SI)</th>"
-            "<th>prior estimate</th><th>prior u</th><th>estimate</th><th>u</th><th>u / prior u</th></tr>";
-    for (const CalibratedParameter& p : result.parameters) {
-      body << "<tr><td class=\"l\">" << HtmlEscape(p.name) << "</td><td class=\"l\">" << HtmlEscape(p.unit) << "</td><td>" << Num(p.prior_estimate)
-           << "</td><td>" << Num(p.prior_u) << "</td><td>" << Num(p.estimate) << "</td><td>" << Num(p.u) << "</td><td>" << Fixed(p.u / p.prior_u, 3)
-           << "</td></tr>";
-    }
-    body << "</table></section>\n";
+  body << "</table></section>\n";
+}
+
+void SelfCalibratedTable(std::ostringstream& body, const NetworkResult& result) {
+  body << "<section><h2>Self-calibrated parameters</h2><p class=\"note\">Estimated by the network with their prior as a pseudo-observation; "
+          "u / prior u near 1: the network does not see the parameter.</p><table><tr><th class=\"l\">input</th><th class=\"l\">unit (SI)</th>"
+          "<th>prior estimate</th><th>prior u</th><th>estimate</th><th>u</th><th>u / prior u</th></tr>";
+  for (const CalibratedParameter& p : result.parameters) {
+    body << "<tr><td class=\"l\">" << HtmlEscape(p.name) << "</td><td class=\"l\">" << HtmlEscape(p.unit) << "</td><td>" << Num(p.prior_estimate)
+         << "</td><td>" << Num(p.prior_u) << "</td><td>" << Num(p.estimate) << "</td><td>" << Num(p.u) << "</td><td>" << Fixed(p.u / p.prior_u, 3)
+         << "</td></tr>";
   }
-  if (!result.identifiability.empty()) {
-    body << "<section><h2>Identifiability of the self-calibrated inputs</h2><p class=\"note\">Combinations of the inputs (coefficients in "
-            "each input's prior u), best determined first; data u / prior u is what the network alone would give, in units of the prior "
-            "(above 1: the prior knows it better; inf: the network is blind to it).</p><table><tr><th>#</th><th>singular value</th>"
-            "<th>data u / prior u</th><th class=\"l\">determined</th><th class=\"l\">combination</th></tr>";
-    for (std::size_t i = 0; i < result.identifiability.size(); ++i) {
-      const NetworkCombination& c = result.identifiability[i];
-      body << "<tr><td>" << i + 1 << "</td><td>" << internal::Sig(c.singular_value, 4) << "</td><td>"
-           << (std::isfinite(c.ratio) ? internal::Sig(c.ratio, 3) : std::string("inf")) << "</td><td class=\"l " << (c.determined ? "ok" : "na")
-           << "\">" << (c.determined ? "yes" : "no") << "</td><td class=\"l\">" << HtmlEscape(c.description) << "</td></tr>";
-    }
-    body << "</table></section>\n";
+  body << "</table></section>\n";
+}
+
+void IdentifiabilityTable(std::ostringstream& body, const NetworkResult& result) {
+  body << "<section><h2>Identifiability of the self-calibrated inputs</h2><p class=\"note\">Combinations of the inputs (coefficients in "
+          "each input's prior u), best determined first; data u / prior u is what the network alone would give, in units of the prior "
+          "(above 1: the prior knows it better; inf: the network is blind to it).</p><table><tr><th>#</th><th>singular value</th>"
+          "<th>data u / prior u</th><th class=\"l\">determined</th><th class=\"l\">combination</th></tr>";
+  for (std::size_t i = 0; i < result.identifiability.size(); ++i) {
+    const NetworkCombination& c = result.identifiability[i];
+    body << "<tr><td>" << i + 1 << "</td><td>" << internal::Sig(c.singular_value, 4) << "</td><td>"
+         << (std::isfinite(c.ratio) ? internal::Sig(c.ratio, 3) : std::string("inf")) << "</td><td class=\"l " << (c.determined ? "ok" : "na")
+         << "\">" << (c.determined ? "yes" : "no") << "</td><td class=\"l\">" << HtmlEscape(c.description) << "</td></tr>";
   }
+  body << "</table></section>\n";
+}
+
+// Baarda's data snooping: the readings flagged as outliers.
+void FlaggedReadings(std::ostringstream& body, const NetworkJob& job, const NetworkResult& result) {
   body << "<section><h2>Flagged readings</h2><p class=\"note\">Baarda's data snooping: w = (residual / u) / sqrt(redundancy); flagged when "
           "|w| &gt; " << Fixed(job.network.outlier_limit, 2) << ". Every reading's residual is in residuals.csv.</p>";
   if (result.outliers == 0) {
@@ -215,137 +260,145 @@ std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, co
     body << "</table>";
   }
   body << "</section>\n";
+}
+
+// report.html: the network in 3-D (stations, targets coloured by |U|, lines of sight, the axes of
+// every target's coverage ellipsoid, exaggerated), then the tables a metrologist signs.
+std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, const NetworkMonteCarlo* mc,
+                          const std::vector<NetworkTaskResult>& tasks) {
+  std::ostringstream body, script;
+  AdjustmentSection(body, job, result, mc);
+  NetworkView(body, script, job, result);
+  // Tables.
+  TargetsTable(body, result);
+  StationsTable(body, result);
+  if (!tasks.empty()) TasksTable(body, tasks);
+  if (!result.parameters.empty()) SelfCalibratedTable(body, result);
+  if (!result.identifiability.empty()) IdentifiabilityTable(body, result);
+  FlaggedReadings(body, job, result);
   return report::Page("vlt network — " + job.name, job.description.empty() ? "Bundle adjustment of a network of stations" : job.description,
                       body.str(), script.str());
 }
 
+std::string TargetsCsv(const NetworkResult& result) {
+  std::string s = "name,x_m,y_m,z_m,u_x_m,u_y_m,u_z_m,U_x_m,U_y_m,U_z_m,stations,readings,reference\n";
+  for (const AdjustedTarget& t : result.targets) {
+    s += Csv(t.name);
+    for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, t.position(c)); }
+    for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, std::sqrt(t.covariance(c, c))); }
+    for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, result.k * std::sqrt(t.covariance(c, c))); }
+    s += ',';
+    s += std::to_string(t.stations);
+    s += ',';
+    s += std::to_string(t.readings);
+    s += t.reference ? ",true\n" : ",false\n";
+  }
+  return s;
+}
 
-}  // namespace
+std::string StationsCsv(const NetworkResult& result) {
+  std::string s = "name,datum,rx_rad,ry_rad,rz_rad,tx_m,ty_m,tz_m,u_rx_rad,u_ry_rad,u_rz_rad,u_tx_m,u_ty_m,u_tz_m,readings\n";
+  for (const AdjustedStation& st : result.stations) {
+    s += Csv(st.name);
+    s += st.datum ? ",true" : ",false";
+    for (int c = 0; c < 6; ++c) { s += ','; AppendNum(s, st.pose(c)); }
+    for (int c = 0; c < 6; ++c) { s += ','; AppendNum(s, std::sqrt(st.covariance(c, c))); }
+    s += ',';
+    s += std::to_string(st.readings);
+    s += '\n';
+  }
+  return s;
+}
 
-Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std::vector<NetworkTaskResult>& tasks,
-                   const std::string& created, const NetworkMonteCarlo* mc) {
-  Files files;
-  // targets.csv
-  {
-    std::string s = "name,x_m,y_m,z_m,u_x_m,u_y_m,u_z_m,U_x_m,U_y_m,U_z_m,stations,readings,reference\n";
-    for (const AdjustedTarget& t : result.targets) {
-      s += Csv(t.name);
-      for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, t.position(c)); }
-      for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, std::sqrt(t.covariance(c, c))); }
-      for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, result.k * std::sqrt(t.covariance(c, c))); }
-      s += ',';
-      s += std::to_string(t.stations);
-      s += ',';
-      s += std::to_string(t.readings);
-      s += t.reference ? ",true\n" : ",false\n";
-    }
-    files.emplace_back("targets.csv", s);
+std::string ResidualsCsv(const NetworkResult& result) {
+  std::string s = "station,target,face,reading,unit,residual,u,normalised,redundancy,w,outlier,where\n";
+  for (const NetworkResidual& r : result.residuals) {
+    s += Csv(r.station) + "," + Csv(r.target) + "," + FaceName(r.face) + "," + r.component + "," + r.unit;
+    for (double v : {r.residual, r.u, r.normalised, r.redundancy, r.w}) { s += ','; AppendNum(s, v); }
+    s += std::string(",") + (r.outlier ? "true" : "false") + "," + Csv(r.where) + "\n";
   }
-  // stations.csv
-  {
-    std::string s = "name,datum,rx_rad,ry_rad,rz_rad,tx_m,ty_m,tz_m,u_rx_rad,u_ry_rad,u_rz_rad,u_tx_m,u_ty_m,u_tz_m,readings\n";
-    for (const AdjustedStation& st : result.stations) {
-      s += Csv(st.name);
-      s += st.datum ? ",true" : ",false";
-      for (int c = 0; c < 6; ++c) { s += ','; AppendNum(s, st.pose(c)); }
-      for (int c = 0; c < 6; ++c) { s += ','; AppendNum(s, std::sqrt(st.covariance(c, c))); }
+  return s;
+}
+
+// covariance.csv: the full matrix, SI (m^2, m rad, rad^2, ...), labelled rows and columns.
+std::string CovarianceCsv(const NetworkResult& result) {
+  std::string s = "unknown";
+  for (const std::string& name : result.unknown_names) {
+    s += ',';
+    s += Csv(name);
+  }
+  s += "\n";
+  for (Eigen::Index r = 0; r < result.covariance.rows(); ++r) {
+    s += Csv(result.unknown_names[r]);
+    for (Eigen::Index c = 0; c < result.covariance.cols(); ++c) { s += ','; AppendNum(s, result.covariance(r, c)); }
+    s += '\n';
+  }
+  return s;
+}
+
+std::string TasksCsv(const std::vector<NetworkTaskResult>& tasks) {
+  std::string s = "task,kind,quantity,unit,value,u,U,differentiable,tolerance,decision,probability_of_conformity\n";
+  for (const NetworkTaskResult& t : tasks) {
+    for (std::size_t q = 0; q < t.quantities.size(); ++q) {
+      s += Csv(t.name) + "," + std::string(TaskKindName(t.kind)) + "," + t.quantities[q] + "," + t.units[q];
+      for (double v : {t.value(q), t.u(q), t.U(q)}) { s += ','; AppendNum(s, v); }
+      s += t.differentiable[q] ? ",true," : ",false,";
+      s += Csv(t.tolerance[q]);
       s += ',';
-      s += std::to_string(st.readings);
-      s += '\n';
-    }
-    files.emplace_back("stations.csv", s);
-  }
-  // residuals.csv
-  {
-    std::string s = "station,target,face,reading,unit,residual,u,normalised,redundancy,w,outlier,where\n";
-    for (const NetworkResidual& r : result.residuals) {
-      s += Csv(r.station) + "," + Csv(r.target) + "," + FaceName(r.face) + "," + r.component + "," + r.unit;
-      for (double v : {r.residual, r.u, r.normalised, r.redundancy, r.w}) { s += ','; AppendNum(s, v); }
-      s += std::string(",") + (r.outlier ? "true" : "false") + "," + Csv(r.where) + "\n";
-    }
-    files.emplace_back("residuals.csv", s);
-  }
-  // covariance.csv: the full matrix, SI (m^2, m rad, rad^2, ...), labelled rows and columns.
-  {
-    std::string s = "unknown";
-    for (const std::string& name : result.unknown_names) {
-      s += ',';
-      s += Csv(name);
-    }
-    s += "\n";
-    for (Eigen::Index r = 0; r < result.covariance.rows(); ++r) {
-      s += Csv(result.unknown_names[r]);
-      for (Eigen::Index c = 0; c < result.covariance.cols(); ++c) { s += ','; AppendNum(s, result.covariance(r, c)); }
-      s += '\n';
-    }
-    files.emplace_back("covariance.csv", s);
-  }
-  if (!tasks.empty()) {
-    std::string s = "task,kind,quantity,unit,value,u,U,differentiable,tolerance,decision,probability_of_conformity\n";
-    for (const NetworkTaskResult& t : tasks) {
-      for (std::size_t q = 0; q < t.quantities.size(); ++q) {
-        s += Csv(t.name) + "," + std::string(TaskKindName(t.kind)) + "," + t.quantities[q] + "," + t.units[q];
-        for (double v : {t.value(q), t.u(q), t.U(q)}) { s += ','; AppendNum(s, v); }
-        s += t.differentiable[q] ? ",true," : ",false,";
-        s += Csv(t.tolerance[q]);
+      if (t.conformity[q]) {
+        s += Csv(t.conformity[q]->verdict);
         s += ',';
-        if (t.conformity[q]) {
-          s += Csv(t.conformity[q]->verdict);
-          s += ',';
-          if (t.conformity[q]->probability_gum) AppendNum(s, *t.conformity[q]->probability_gum);
-        } else {
-          s += ',';
-        }
-        s += '\n';
+        if (t.conformity[q]->probability_gum) AppendNum(s, *t.conformity[q]->probability_gum);
+      } else {
+        s += ',';
       }
-    }
-    files.emplace_back("tasks.csv", s);
-  }
-  if (mc) {
-    std::string s = "name,u_x_gum_m,u_y_gum_m,u_z_gum_m,u_x_mcm_m,u_y_mcm_m,u_z_mcm_m,bias_x_m,bias_y_m,bias_z_m\n";
-    for (std::size_t t = 0; t < result.targets.size(); ++t) {
-      s += Csv(result.targets[t].name);
-      for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, std::sqrt(result.targets[t].covariance(c, c))); }
-      for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, std::sqrt(mc->covariance[t](c, c))); }
-      for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, mc->bias[t](c)); }
       s += '\n';
     }
-    files.emplace_back("mcm.csv", s);
   }
-  if (!result.identifiability.empty()) {
-    std::string s = "combination,singular_value,data_u_over_prior_u,determined,inputs\n";
-    for (std::size_t i = 0; i < result.identifiability.size(); ++i) {
-      const NetworkCombination& c = result.identifiability[i];
-      s += std::to_string(i + 1);
-      s += ',';
-      AppendNum(s, c.singular_value);
-      s += ',';
-      if (std::isfinite(c.ratio)) AppendNum(s, c.ratio); else s += "inf";
-      s += c.determined ? ",true," : ",false,";
-      s += Csv(c.description);
-      s += '\n';
-    }
-    files.emplace_back("identifiability.csv", s);
+  return s;
+}
+
+// GUM and Monte Carlo standard uncertainties side by side, and the Monte Carlo bias.
+std::string McmCsv(const NetworkResult& result, const NetworkMonteCarlo& mc) {
+  std::string s = "name,u_x_gum_m,u_y_gum_m,u_z_gum_m,u_x_mcm_m,u_y_mcm_m,u_z_mcm_m,bias_x_m,bias_y_m,bias_z_m\n";
+  for (std::size_t t = 0; t < result.targets.size(); ++t) {
+    s += Csv(result.targets[t].name);
+    for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, std::sqrt(result.targets[t].covariance(c, c))); }
+    for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, std::sqrt(mc.covariance[t](c, c))); }
+    for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, mc.bias[t](c)); }
+    s += '\n';
   }
-  if (!result.parameters.empty()) {
-    // u_over_prior: 1 where the network does not see the parameter, toward 0 where it determines it.
-    std::string s = "name,unit,prior_estimate,prior_u,estimate,u,u_over_prior\n";
-    for (const CalibratedParameter& p : result.parameters) {
-      s += Csv(p.name) + "," + p.unit;
-      for (double v : {p.prior_estimate, p.prior_u, p.estimate, p.u, p.u / p.prior_u}) { s += ','; AppendNum(s, v); }
-      s += '\n';
-    }
-    files.emplace_back("parameters.csv", s);
+  return s;
+}
+
+std::string IdentifiabilityCsv(const NetworkResult& result) {
+  std::string s = "combination,singular_value,data_u_over_prior_u,determined,inputs\n";
+  for (std::size_t i = 0; i < result.identifiability.size(); ++i) {
+    const NetworkCombination& c = result.identifiability[i];
+    s += std::to_string(i + 1);
+    s += ',';
+    AppendNum(s, c.singular_value);
+    s += ',';
+    if (std::isfinite(c.ratio)) AppendNum(s, c.ratio); else s += "inf";
+    s += c.determined ? ",true," : ",false,";
+    s += Csv(c.description);
+    s += '\n';
   }
-  files.emplace_back("report.html", NetworkReport(job, result, mc, tasks));
-  // results.json (schema vlt-network/1, docs/network.md).
-  nlohmann::ordered_json j;
-  j["schema"] = "vlt-network/1";
-  j["created"] = created;
-  j["vlt_version"] = VLT_VERSION;
-  j["vlt_commit"] = VltCommit();
-  // Every number is SI; pose angles rx, ry, rz in rad (R = Rz Ry Rx, x_part = R x_station + t).
-  j["units"] = {{"length", "m"}, {"angle", "rad"}, {"covariance", "SI products (m^2, m rad, rad^2)"}};
+  return s;
+}
+
+std::string ParametersCsv(const NetworkResult& result) {
+  // u_over_prior: 1 where the network does not see the parameter, toward 0 where it determines it.
+  std::string s = "name,unit,prior_estimate,prior_u,estimate,u,u_over_prior\n";
+  for (const CalibratedParameter& p : result.parameters) {
+    s += Csv(p.name) + "," + p.unit;
+    for (double v : {p.prior_estimate, p.prior_u, p.estimate, p.u, p.u / p.prior_u}) { s += ','; AppendNum(s, v); }
+    s += '\n';
+  }
+  return s;
+}
+
+nlohmann::ordered_json JobJson(const NetworkJob& job) {
   nlohmann::ordered_json meta;
   meta["name"] = job.name;
   meta["description"] = job.description;
@@ -359,11 +412,10 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std
   nlohmann::ordered_json inputs = nlohmann::ordered_json::array();
   for (const auto& [role, path] : job.input_files) inputs.push_back({{"role", role}, {"path", path}, {"sha256", Sha256File(path)}});
   meta["input_files"] = inputs;
-  j["job"] = meta;
-  j["summary"] = {{"observations", result.observations}, {"unknowns", result.unknowns}, {"dof", result.dof},
-                  {"chi2", result.chi2}, {"birge_ratio", result.birge_ratio}, {"p_value", result.p_value},
-                  {"outliers", result.outliers}, {"iterations", result.iterations}, {"k", result.k},
-                  {"share_noise", result.share_noise}, {"share_consider", result.share_consider}};
+  return meta;
+}
+
+nlohmann::ordered_json StationsJson(const NetworkJob& job, const NetworkResult& result) {
   nlohmann::ordered_json stations = nlohmann::ordered_json::array();
   for (std::size_t i = 0; i < result.stations.size(); ++i) {
     const AdjustedStation& st = result.stations[i];
@@ -378,7 +430,10 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std
     o["u"] = u;
     stations.push_back(o);
   }
-  j["stations"] = stations;
+  return stations;
+}
+
+nlohmann::ordered_json TargetsJson(const NetworkResult& result) {
   nlohmann::ordered_json targets = nlohmann::ordered_json::array();
   for (const AdjustedTarget& t : result.targets) {
     nlohmann::ordered_json o;
@@ -394,23 +449,30 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std
     o["reference"] = t.reference;
     targets.push_back(o);
   }
-  j["targets"] = targets;
+  return targets;
+}
+
+nlohmann::ordered_json ParametersJson(const NetworkResult& result) {
   nlohmann::ordered_json params = nlohmann::ordered_json::array();
   for (const CalibratedParameter& p : result.parameters) {
     params.push_back({{"name", p.name}, {"unit", p.unit}, {"prior_estimate", p.prior_estimate}, {"prior_u", p.prior_u},
                       {"estimate", p.estimate}, {"u", p.u}, {"u_over_prior", p.u / p.prior_u}});
   }
-  j["parameters"] = params;
-  if (!result.identifiability.empty()) {
-    nlohmann::ordered_json ident = nlohmann::ordered_json::array();
-    for (const NetworkCombination& c : result.identifiability) {
-      nlohmann::ordered_json o = {{"singular_value", c.singular_value}, {"determined", c.determined}, {"inputs", c.description}};
-      // Blind combinations have no finite ratio: JSON has no infinity, so null.
-      if (std::isfinite(c.ratio)) o["data_u_over_prior_u"] = c.ratio; else o["data_u_over_prior_u"] = nullptr;
-      ident.push_back(o);
-    }
-    j["identifiability"] = ident;
+  return params;
+}
+
+nlohmann::ordered_json IdentifiabilityJson(const NetworkResult& result) {
+  nlohmann::ordered_json ident = nlohmann::ordered_json::array();
+  for (const NetworkCombination& c : result.identifiability) {
+    nlohmann::ordered_json o = {{"singular_value", c.singular_value}, {"determined", c.determined}, {"inputs", c.description}};
+    // Blind combinations have no finite ratio: JSON has no infinity, so null.
+    if (std::isfinite(c.ratio)) o["data_u_over_prior_u"] = c.ratio; else o["data_u_over_prior_u"] = nullptr;
+    ident.push_back(o);
   }
+  return ident;
+}
+
+nlohmann::ordered_json TasksJson(const std::vector<NetworkTaskResult>& tasks) {
   nlohmann::ordered_json task_json = nlohmann::ordered_json::array();
   for (const NetworkTaskResult& t : tasks) {
     nlohmann::ordered_json quantities = nlohmann::ordered_json::array();
@@ -430,7 +492,29 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std
     }
     task_json.push_back({{"name", t.name}, {"kind", std::string(TaskKindName(t.kind))}, {"quantities", quantities}});
   }
-  j["tasks"] = task_json;
+  return task_json;
+}
+
+// results.json (schema vlt-network/1, docs/network.md); `files` are the files written before it.
+std::string ResultsJson(const NetworkJob& job, const NetworkResult& result, const std::vector<NetworkTaskResult>& tasks,
+                        const std::string& created, const NetworkMonteCarlo* mc, const Files& files) {
+  nlohmann::ordered_json j;
+  j["schema"] = "vlt-network/1";
+  j["created"] = created;
+  j["vlt_version"] = VLT_VERSION;
+  j["vlt_commit"] = VltCommit();
+  // Every number is SI; pose angles rx, ry, rz in rad (R = Rz Ry Rx, x_part = R x_station + t).
+  j["units"] = {{"length", "m"}, {"angle", "rad"}, {"covariance", "SI products (m^2, m rad, rad^2)"}};
+  j["job"] = JobJson(job);
+  j["summary"] = {{"observations", result.observations}, {"unknowns", result.unknowns}, {"dof", result.dof},
+                  {"chi2", result.chi2}, {"birge_ratio", result.birge_ratio}, {"p_value", result.p_value},
+                  {"outliers", result.outliers}, {"iterations", result.iterations}, {"k", result.k},
+                  {"share_noise", result.share_noise}, {"share_consider", result.share_consider}};
+  j["stations"] = StationsJson(job, result);
+  j["targets"] = TargetsJson(result);
+  j["parameters"] = ParametersJson(result);
+  if (!result.identifiability.empty()) j["identifiability"] = IdentifiabilityJson(result);
+  j["tasks"] = TasksJson(tasks);
   if (mc) {
     j["monte_carlo"] = {{"trials", mc->trials}, {"seed", mc->seed}, {"ranks", mc->ranks}, {"tolerance", mc->tolerance},
                         {"worst_ratio", mc->worst_ratio}, {"worst", mc->worst}, {"agrees", mc->agrees}};
@@ -439,7 +523,24 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std
   for (const auto& f : files) names.push_back(f.first);
   names.push_back("results.json");
   j["files"] = names;
-  files.emplace_back("results.json", j.dump(1) + "\n");
+  return j.dump(1) + "\n";
+}
+
+}  // namespace
+
+Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std::vector<NetworkTaskResult>& tasks,
+                   const std::string& created, const NetworkMonteCarlo* mc) {
+  Files files;
+  files.emplace_back("targets.csv", TargetsCsv(result));
+  files.emplace_back("stations.csv", StationsCsv(result));
+  files.emplace_back("residuals.csv", ResidualsCsv(result));
+  files.emplace_back("covariance.csv", CovarianceCsv(result));
+  if (!tasks.empty()) files.emplace_back("tasks.csv", TasksCsv(tasks));
+  if (mc) files.emplace_back("mcm.csv", McmCsv(result, *mc));
+  if (!result.identifiability.empty()) files.emplace_back("identifiability.csv", IdentifiabilityCsv(result));
+  if (!result.parameters.empty()) files.emplace_back("parameters.csv", ParametersCsv(result));
+  files.emplace_back("report.html", NetworkReport(job, result, mc, tasks));
+  files.emplace_back("results.json", ResultsJson(job, result, tasks, created, mc, files));
   return files;
 }
 

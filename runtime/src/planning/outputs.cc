@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <toml++/toml.h>
 
-#include "results/internal.h"
+#include "base/format.h"
 #include "vlt/error.h"
 #include "vlt/planning.h"
 

@@ -8,7 +8,6 @@
 
 #include <nlopt.hpp>
 
-#include "gum/internal.h"
 #include "parallel/pool.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
@@ -214,96 +213,116 @@ Eigen::Vector3d RoundToMicrometre(const Eigen::Vector3d& v) {
   return r;
 }
 
-}  // namespace
+std::string NloptVersion() {
+  int major = 0, minor = 0, bugfix = 0;
+  nlopt::version(major, minor, bugfix);
+  return std::to_string(major) + "." + std::to_string(minor) + "." + std::to_string(bugfix);
+}
 
-StationPlan PlanStation(const Job& job, int threads) {
-  if (!job.optimize) throw InputError(job.file + ": optimize: the job has no [optimize] section (docs/planning.md)");
-  const auto start = std::chrono::steady_clock::now();
-  const OptimizeSettings& o = *job.optimize;
-  StationPlan plan;
-  plan.job = &job;
-  plan.settings = o;
-  {
-    int major = 0, minor = 0, bugfix = 0;
-    nlopt::version(major, minor, bugfix);
-    plan.nlopt_version = std::to_string(major) + "." + std::to_string(minor) + "." + std::to_string(bugfix);
+// The search for the station: the region's bounding box, the best position evaluated so far
+// (by the searches and the station map) and the count of evaluations of the current phase.
+struct StationSearch {
+  const Job& job;
+  const OptimizeSettings& o;
+  StationPlan& plan;
+  Eigen::Vector2d lo, hi;  // bounding box of the floor
+  bool fixed_height = false;
+  unsigned dims = 3;
+  std::vector<double> lower, upper;
+  StationEvaluation best;
+  double best_score = std::numeric_limits<double>::infinity();
+  std::int64_t* counter = nullptr;
+
+  StationSearch(const Job& job, StationPlan& plan);
+  Eigen::Vector3d Position(const std::vector<double>& x) const {
+    return Eigen::Vector3d(x[0], x[1], fixed_height ? o.z_min : x[2]);
   }
-  Eigen::Vector2d lo = o.floor.front(), hi = o.floor.front();
+  double Objective(const std::vector<double>& x);
+  static double Trampoline(const std::vector<double>& x, std::vector<double>&, void* data) {
+    return static_cast<StationSearch*>(data)->Objective(x);
+  }
+  void SearchGlobally();
+  void RefineLocally();
+  std::vector<StationEvaluation> MapStations(int threads);
+  std::string ObjectiveText() const;
+  void KeepFeasibleNodes(const std::vector<StationEvaluation>& at);
+  void Recommend(std::size_t map_nodes);
+};
+
+StationSearch::StationSearch(const Job& job, StationPlan& plan) : job(job), o(*job.optimize), plan(plan) {
+  lo = o.floor.front();
+  hi = o.floor.front();
   for (const Eigen::Vector2d& p : o.floor) {
     lo = lo.cwiseMin(p);
     hi = hi.cwiseMax(p);
   }
-  const bool fixed_height = o.z_max == o.z_min;
-  const unsigned dims = fixed_height ? 2 : 3;
-  auto position = [&](const std::vector<double>& x) {
-    return Eigen::Vector3d(x[0], x[1], fixed_height ? o.z_min : x[2]);
-  };
-  StationEvaluation best;
-  double best_score = std::numeric_limits<double>::infinity();
-  std::int64_t* counter = nullptr;
-  auto objective = [&](const std::vector<double>& x) {
-    const StationEvaluation e = EvaluateStation(job, position(x));
-    ++*counter;
-    const double s = Score(e);
-    if (s < best_score) {
-      best_score = s;
-      best = e;
-    }
-    return s;
-  };
-  using Objective = decltype(objective);
-  auto trampoline = [](const std::vector<double>& x, std::vector<double>&, void* data) {
-    return (*static_cast<Objective*>(data))(x);
-  };
-  std::vector<double> lower = {lo.x(), lo.y()}, upper = {hi.x(), hi.y()};
+  fixed_height = o.z_max == o.z_min;
+  dims = fixed_height ? 2 : 3;
+  lower = {lo.x(), lo.y()};
+  upper = {hi.x(), hi.y()};
   if (!fixed_height) {
     lower.push_back(o.z_min);
     upper.push_back(o.z_max);
   }
+}
 
-  // Global: controlled random search with local mutation (Kaelo & Ali 2006), NLopt's generator
-  // seeded for a reproducible search.
+double StationSearch::Objective(const std::vector<double>& x) {
+  const StationEvaluation e = EvaluateStation(job, Position(x));
+  ++*counter;
+  const double s = Score(e);
+  if (s < best_score) {
+    best_score = s;
+    best = e;
+  }
+  return s;
+}
+
+// Global: controlled random search with local mutation (Kaelo & Ali 2006), NLopt's generator
+// seeded for a reproducible search.
+void StationSearch::SearchGlobally() {
   nlopt::srand(o.seed);
   counter = &plan.global_evaluations;
-  {
-    nlopt::opt global(nlopt::GN_CRS2_LM, dims);
-    global.set_lower_bounds(lower);
-    global.set_upper_bounds(upper);
-    global.set_min_objective(trampoline, &objective);
-    global.set_maxeval(static_cast<int>(o.evaluations));
-    std::vector<double> x(dims);
-    for (unsigned k = 0; k < dims; ++k) x[k] = 0.5 * (lower[k] + upper[k]);
-    double f = 0.0;
-    try {
-      global.optimize(x, f);
-    } catch (const nlopt::roundoff_limited&) {
-      // The best point so far is kept in `best`.
-    } catch (const std::runtime_error&) {
-      // NLopt's generic failure: the best point so far is kept in `best`.
-    }
+  nlopt::opt global(nlopt::GN_CRS2_LM, dims);
+  global.set_lower_bounds(lower);
+  global.set_upper_bounds(upper);
+  global.set_min_objective(&StationSearch::Trampoline, this);
+  global.set_maxeval(static_cast<int>(o.evaluations));
+  std::vector<double> x(dims);
+  for (unsigned k = 0; k < dims; ++k) x[k] = 0.5 * (lower[k] + upper[k]);
+  double f = 0.0;
+  try {
+    global.optimize(x, f);
+  } catch (const nlopt::roundoff_limited&) {
+    // The best point so far is kept in `best`.
+  } catch (const std::runtime_error&) {
+    // NLopt's generic failure: the best point so far is kept in `best`.
   }
-  // Local: Subplex (Rowan 1990) from the best point, to 1 um.
-  counter = &plan.local_evaluations;
-  if (best.feasible) {
-    nlopt::opt local(nlopt::LN_SBPLX, dims);
-    local.set_lower_bounds(lower);
-    local.set_upper_bounds(upper);
-    local.set_min_objective(trampoline, &objective);
-    local.set_xtol_abs(1e-6);
-    local.set_maxeval(2000);
-    std::vector<double> x = {best.station.x(), best.station.y()};
-    if (!fixed_height) x.push_back(best.station.z());
-    std::vector<double> step(dims, std::max(o.step, 1e-3));
-    local.set_initial_step(step);
-    double f = 0.0;
-    try {
-      local.optimize(x, f);
-    } catch (const nlopt::roundoff_limited&) {
-    } catch (const std::runtime_error&) {
-    }
-  }
+}
 
-  // The station map at the best height: the objective over the floor (infeasible nodes skipped).
+// Local: Subplex (Rowan 1990) from the best point, to 1 um.
+void StationSearch::RefineLocally() {
+  counter = &plan.local_evaluations;
+  if (!best.feasible) return;
+  nlopt::opt local(nlopt::LN_SBPLX, dims);
+  local.set_lower_bounds(lower);
+  local.set_upper_bounds(upper);
+  local.set_min_objective(&StationSearch::Trampoline, this);
+  local.set_xtol_abs(1e-6);
+  local.set_maxeval(2000);
+  std::vector<double> x = {best.station.x(), best.station.y()};
+  if (!fixed_height) x.push_back(best.station.z());
+  std::vector<double> step(dims, std::max(o.step, 1e-3));
+  local.set_initial_step(step);
+  double f = 0.0;
+  try {
+    local.optimize(x, f);
+  } catch (const nlopt::roundoff_limited&) {
+  } catch (const std::runtime_error&) {
+  }
+}
+
+// The station map at the best height: the objective over the floor (infeasible nodes skipped).
+std::vector<StationEvaluation> StationSearch::MapStations(int threads) {
   MapSettings grid;
   grid.kind = MapSettings::Kind::kPlane;
   grid.fixed_axis = 2;
@@ -329,15 +348,25 @@ StationPlan PlanStation(const Job& job, int threads) {
     for (std::size_t i = begin; i < end; ++i) at[i] = EvaluateStation(job, map.nodes[i]);
   });
   plan.map_evaluations = static_cast<std::int64_t>(n);
-  map.computed.assign(n, 0);
-  map.U.assign(n, Eigen::Vector3d::Zero());
-  map.U_norm.assign(n, 0.0);
+  return at;
+}
+
+std::string StationSearch::ObjectiveText() const {
   std::string objective_text;
   for (const ObjectiveTerm& t : o.objective) {
     objective_text += (objective_text.empty() ? "" : " + ") + (t.weight == 1.0 ? "" : Fmt("%g * ", t.weight)) +
                       (t.task < 0 ? std::string("max |U| of the points") : "U(" + t.quantity + ")");
   }
-  map.quantity = "Objective " + objective_text + " [m] with the station at each node (k = " + Fmt("%.4g", map.k) +
+  return objective_text;
+}
+
+void StationSearch::KeepFeasibleNodes(const std::vector<StationEvaluation>& at) {
+  MapResult& map = plan.map;
+  const std::size_t n = at.size();
+  map.computed.assign(n, 0);
+  map.U.assign(n, Eigen::Vector3d::Zero());
+  map.U_norm.assign(n, 0.0);
+  map.quantity = "Objective " + ObjectiveText() + " [m] with the station at each node (k = " + Fmt("%.4g", map.k) +
                  ", p = " + Fmt("%g", map.coverage_probability) + ")";
   for (std::size_t i = 0; i < n; ++i) {
     if (at[i].feasible) {
@@ -353,9 +382,12 @@ StationPlan PlanStation(const Job& job, int threads) {
       map.skipped.push_back(node + at[i].reason);
     }
   }
+}
+
+void StationSearch::Recommend(std::size_t map_nodes) {
   if (!best.feasible) {
     throw InputError(o.where + ": no feasible station in the region (" + std::to_string(plan.global_evaluations) +
-                     " positions searched and " + std::to_string(n) + " map nodes; e.g. " +
+                     " positions searched and " + std::to_string(map_nodes) + " map nodes; e.g. " +
                      (best.reason.empty() ? std::string("none evaluated") : best.reason) + ")");
   }
   // The recommendation as it is written (1 um): evaluated there, so that `vlt run` on the planned
@@ -366,8 +398,25 @@ StationPlan PlanStation(const Job& job, int threads) {
                                                                job.setup.pose->tz.estimate)
                                              : Eigen::Vector3d::Zero();
   plan.job_station = EvaluateStation(job, own);
-  map.markers.push_back({"recommended", plan.recommended.station});
-  map.markers.push_back({"job's station", own});
+  plan.map.markers.push_back({"recommended", plan.recommended.station});
+  plan.map.markers.push_back({"job's station", own});
+}
+
+}  // namespace
+
+StationPlan PlanStation(const Job& job, int threads) {
+  if (!job.optimize) throw InputError(job.file + ": optimize: the job has no [optimize] section (docs/planning.md)");
+  const auto start = std::chrono::steady_clock::now();
+  StationPlan plan;
+  plan.job = &job;
+  plan.settings = *job.optimize;
+  plan.nlopt_version = NloptVersion();
+  StationSearch search(job, plan);
+  search.SearchGlobally();
+  search.RefineLocally();
+  const std::vector<StationEvaluation> at = search.MapStations(threads);
+  search.KeepFeasibleNodes(at);
+  search.Recommend(at.size());
   plan.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return plan;
 }

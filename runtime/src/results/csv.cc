@@ -129,24 +129,6 @@ void WritePointsCsv(const Results& r, OutputText& text) {
 
 namespace internal {
 
-std::string CsvField(const std::string& field) {
-  if (field.find_first_of(",\"\n\r") == std::string::npos) return field;
-  std::string out = "\"";
-  for (char c : field) {
-    if (c == '"') out += '"';
-    out += c;
-  }
-  return out + "\"";
-}
-
-std::string Fixed(double v, int decimals) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.*f", decimals, v);
-  std::string s = buffer;
-  if (s.find_first_not_of("-0.") == std::string::npos && s[0] == '-') s.erase(0, 1);  // no "-0.00"
-  return s;
-}
-
 std::pair<std::string, double> PracticalSensitivity(const std::string& input_unit) {
   constexpr double kArcsec = 3.14159265358979323846 / (180.0 * 3600.0);
   if (input_unit == "m") return {"um/um", 1e6 * 1e-6};

@@ -1,4 +1,4 @@
-// results/internal.h — shared by results/*.cc and report/html.cc.
+// results/internal.h — internal to results/: running a job and writing its files.
 #pragma once
 
 #include <chrono>
@@ -9,39 +9,21 @@
 
 #include <Eigen/Core>
 
+#include "base/format.h"
+#include "results/run_options.h"
 #include "vlt/mcm.h"
 #include "vlt/results.h"
 
 namespace vlt::internal {
 
-// Wall time since `since`, s.
-double Seconds(std::chrono::steady_clock::time_point since);
-
-// The Monte Carlo settings of a run: the job's [monte_carlo] with the command line's overrides.
-McmSettings McmSettingsFor(const MonteCarloSettings& job, const RunOptions& options, int threads);
-
-// "(x, y, z) m" with 6 significant digits, for messages about grid nodes.
-std::string FormatNode(const Eigen::Vector3d& node);
-
 // The Monte Carlo version of a task: refits the drawn points every trial with the same function
 // (vlt/fits.h) the GUM engine linearises. Outputs: "<task>.<output>" for every TaskOutputs(kind).
 McmTask MakeMcmTask(const TaskSpec& spec, const std::vector<int>& point_indices, const TaskUncertainty& gum);
-
-// Number formatting for CSV/JSON/HTML: shortest round-trip representation ("%.17g" trimmed).
-std::string Num(double v);
-// Appends Num(v) to out without allocating a string per number (the per-point files).
-void AppendNum(std::string& out, double v);
 
 // Sensitivity of a coordinate (m) to an input, in the units people read (docs/results.md):
 // um/um, um/arcsec, um/ppm, um/K, um/hPa, um/%, um/(ppm/K), chosen from the input's SI unit
 // ("m", "rad", "1", "degC"/"K", "Pa", "%", "1/K"). Returns {unit, factor}: practical = SI * factor.
 std::pair<std::string, double> PracticalSensitivity(const std::string& input_unit);
-// Fixed number of significant digits.
-std::string Sig(double v, int digits);
-// Fixed number of decimals, never "-0.00" (tables of reports).
-std::string Fixed(double v, int decimals);
-// A CSV field quoted when it holds a comma, quote or line break (RFC 4180).
-std::string CsvField(const std::string& field);
 
 // report.html of a job with more points than kReportDetailedPoints embeds those with the largest
 // |U| in full and an overview (x, y, z, |U|) of at most kReportOverviewPoints points, so that the
@@ -77,8 +59,5 @@ void WriteInBlocks(OutputText& out, std::size_t n, int threads,
 void WritePointBudgets(const Results& results, OutputText& out,
                        const std::function<void(std::size_t, std::span<const PointUncertainty>, std::string&)>& format);
 
-std::string HtmlEscape(const std::string& text);
-// Safe directory name from a job name ([A-Za-z0-9._-], others -> '_').
-std::string SafeFileName(const std::string& name);
 
 }  // namespace vlt::internal

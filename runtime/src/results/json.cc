@@ -383,19 +383,8 @@ json Map(const MapResult& m) {
   return j;
 }
 
-}  // namespace
-
-std::string internal::ResultsJsonText(const Results& r, int indent, bool for_html) {
-  json j;
-  j["schema"] = "vlt-results/2";
-  j["vlt_version"] = r.vlt_version;
-  j["vlt_commit"] = r.vlt_commit;
-  j["created"] = r.created;
-  j["units"] = {{"length", "m"},          {"angle", "rad"},          {"temperature", "degC"},
-                {"pressure", "Pa"},       {"humidity", "%"},         {"ratio", "1"},
-                {"expansion_coefficient", "1/K"}, {"time", "s"}};
-  const MeasurementSetup& s = r.setup;
-  j["job"] = {{"name", r.job_name},
+json JobJson(const Results& r) {
+  json job = {{"name", r.job_name},
               {"description", r.job_description},
               {"file", r.job_file},
               {"mode", r.mode == JobMode::kPlan ? "plan" : "readings"},
@@ -408,72 +397,85 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
               {"tasks", r.tasks.size()}};
   json files = json::array();
   for (const InputFile& f : r.input_files) files.push_back({{"role", f.role}, {"path", f.path}, {"sha256", f.sha256}});
-  j["job"]["input_files"] = files;
+  job["input_files"] = files;
   // Where the tracker's error parameters came from (docs/calibration.md): null = the model's
   // defaults and the job's [tracker.parameters].
-  j["job"]["calibration"] = nullptr;
+  job["calibration"] = nullptr;
   if (r.calibration) {
-    j["job"]["calibration"] = {{"file", r.calibration->file},
-                               {"sha256", r.calibration->sha256},
-                               {"instrument", r.calibration->instrument},
-                               {"created", r.calibration->created}};
+    job["calibration"] = {{"file", r.calibration->file},
+                          {"sha256", r.calibration->sha256},
+                          {"instrument", r.calibration->instrument},
+                          {"created", r.calibration->created}};
   }
+  return job;
+}
+
+json InputsJson(const Results& r) {
+  const MeasurementSetup& s = r.setup;
   json shared = json::array();
   for (const UncertainInput& in : r.shared_inputs) {
     json j_in = Input(in);
     j_in["description"] = InputDescription(s, in);
     shared.push_back(std::move(j_in));
   }
-  j["inputs"] = {{"noise",
-                  {{"range_a", s.noise.range_a},
-                   {"range_b", s.noise.range_b},
-                   {"azimuth", s.noise.azimuth},
-                   {"elevation", s.noise.elevation}}},
-                 {"shared", shared},
-                 {"parameter_correlation", ParameterCorrelationJson(s)},
-                 {"correlations", CorrelationGroupsJson(s)},
-                 {"environment_equation",
-                  s.environment ? json(std::string(AirEquationName(EquationOf(*s.environment)))) : json(nullptr)},
-                 {"vacuum_wavelength", s.environment ? json(s.environment->vacuum_wavelength) : json(nullptr)},
-                 {"air", AirJson(s)},
-                 {"part_reference_temperature", s.thermal ? json(s.thermal->reference) : json(nullptr)}};
-  if (r.has_mcm) {
-    j["monte_carlo"] = {{"enabled", true},
-                        {"seed", r.mcm.seed},
-                        {"trials", r.mcm.trials},
-                        {"adaptive", r.mcm.adaptive},
-                        {"converged", r.mcm.converged},
-                        {"batch_size", r.mcm.batch_size},
-                        {"batches", r.mcm.batches},
-                        {"threads", r.mcm.threads},
-                        {"ranks", r.mcm.ranks},
-                        {"seconds", r.mcm.seconds},
-                        {"interval_method", r.mcm.interval_method},
-                        {"n_dig", r.n_dig},
-                        {"convergence", r.mcm.convergence_trials.empty()
-                                            ? json(nullptr)
-                                            : json{{"trials", r.mcm.convergence_trials},
-                                                   {"worst_ratio", r.mcm.convergence_ratio}}}};
-  } else {
-    j["monte_carlo"] = {{"enabled", false}};
-  }
-  // The points are serialised one at a time into the text below (never one document of every
-  // point: its DOM was most of a scan's memory); here a placeholder holds their place.
+  return {{"noise",
+           {{"range_a", s.noise.range_a},
+            {"range_b", s.noise.range_b},
+            {"azimuth", s.noise.azimuth},
+            {"elevation", s.noise.elevation}}},
+          {"shared", shared},
+          {"parameter_correlation", ParameterCorrelationJson(s)},
+          {"correlations", CorrelationGroupsJson(s)},
+          {"environment_equation",
+           s.environment ? json(std::string(AirEquationName(EquationOf(*s.environment)))) : json(nullptr)},
+          {"vacuum_wavelength", s.environment ? json(s.environment->vacuum_wavelength) : json(nullptr)},
+          {"air", AirJson(s)},
+          {"part_reference_temperature", s.thermal ? json(s.thermal->reference) : json(nullptr)}};
+}
+
+json MonteCarloJson(const Results& r) {
+  if (!r.has_mcm) return {{"enabled", false}};
+  return {{"enabled", true},
+          {"seed", r.mcm.seed},
+          {"trials", r.mcm.trials},
+          {"adaptive", r.mcm.adaptive},
+          {"converged", r.mcm.converged},
+          {"batch_size", r.mcm.batch_size},
+          {"batches", r.mcm.batches},
+          {"threads", r.mcm.threads},
+          {"ranks", r.mcm.ranks},
+          {"seconds", r.mcm.seconds},
+          {"interval_method", r.mcm.interval_method},
+          {"n_dig", r.n_dig},
+          {"convergence", r.mcm.convergence_trials.empty()
+                              ? json(nullptr)
+                              : json{{"trials", r.mcm.convergence_trials},
+                                     {"worst_ratio", r.mcm.convergence_ratio}}}};
+}
+
+// The points of a scan that report.html shows in full: the kReportDetailedPoints with the largest
+// |U|, in job order.
+std::vector<std::size_t> LargestPoints(const Results& r) {
+  std::vector<std::size_t> order(r.points.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::partial_sort(order.begin(), order.begin() + internal::kReportDetailedPoints, order.end(),
+                    [&](std::size_t a, std::size_t b) {
+                      const double ua = r.points[a].gum.U_part.norm(), ub = r.points[b].gum.U_part.norm();
+                      return ua != ub ? ua > ub : a < b;
+                    });
+  order.resize(internal::kReportDetailedPoints);
+  std::sort(order.begin(), order.end());
+  return order;
+}
+
+// The points serialised into the document, and for a scan in report.html its overview.
+std::vector<std::size_t> PointsShown(const Results& r, bool for_html, json& j) {
   std::vector<std::size_t> point_indices;
   if (for_html && r.points.size() > internal::kReportDetailedPoints) {
     // A scan in report.html (docs/results.md "report.html"): the points with the largest |U| in
     // full (table, budgets, ellipsoids), an overview of at most kReportOverviewPoints points
     // (every s-th, in job order) for the 3-D plot; every point stays in points.csv / budget.csv.
-    std::vector<std::size_t> order(r.points.size());
-    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-    std::partial_sort(order.begin(), order.begin() + internal::kReportDetailedPoints, order.end(),
-                      [&](std::size_t a, std::size_t b) {
-                        const double ua = r.points[a].gum.U_part.norm(), ub = r.points[b].gum.U_part.norm();
-                        return ua != ub ? ua > ub : a < b;
-                      });
-    order.resize(internal::kReportDetailedPoints);
-    std::sort(order.begin(), order.end());
-    point_indices = std::move(order);
+    point_indices = LargestPoints(r);
     const std::size_t stride = (r.points.size() + internal::kReportOverviewPoints - 1) / internal::kReportOverviewPoints;
     json ox = json::array(), oy = json::array(), oz = json::array(), ou = json::array();
     for (std::size_t i = 0; i < r.points.size(); i += stride) {
@@ -489,16 +491,10 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
     point_indices.resize(r.points.size());
     for (std::size_t i = 0; i < point_indices.size(); ++i) point_indices[i] = i;
   }
-  static constexpr const char* kPointsPlaceholder = "@@vlt-points@@";
-  if (for_html) {
-    j["points"] = kPointsPlaceholder;
-  } else {
-    j["points_file"] = "points.jsonl";  // vlt-results/2: one line per point, in job order
-  }
-  json tasks = json::array();
-  for (const TaskResult& t : r.tasks) tasks.push_back(Task(t));
-  j["tasks"] = tasks;
-  j["map"] = r.map ? Map(*r.map) : json(nullptr);
+  return point_indices;
+}
+
+json SummaryJson(const Results& r) {
   double max_u = 0.0, max_U_norm = 0.0, max_axis = 0.0;
   std::string worst;
   for (const PointResult& p : r.points) {
@@ -509,71 +505,92 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
       worst = p.input.name;
     }
   }
-  j["summary"] = {{"max_u_axis", max_u},
-                  {"max_U_axis", max_axis},
-                  {"max_U_norm", max_U_norm},
-                  {"worst_point", worst},
-                  {"validated_points", r.has_mcm ? json(r.validated_points) : json(nullptr)},
-                  {"validated_tasks", r.has_mcm ? json(r.validated_tasks) : json(nullptr)},
-                  {"gum_seconds", r.gum_seconds},
-                  {"mcm_seconds", r.mcm_seconds}};
-  if (for_html) j["report"] = {{"ellipsoid_scale", r.ellipsoid_scale}};
+  return {{"max_u_axis", max_u},
+          {"max_U_axis", max_axis},
+          {"max_U_norm", max_U_norm},
+          {"worst_point", worst},
+          {"validated_points", r.has_mcm ? json(r.validated_points) : json(nullptr)},
+          {"validated_tasks", r.has_mcm ? json(r.validated_tasks) : json(nullptr)},
+          {"gum_seconds", r.gum_seconds},
+          {"mcm_seconds", r.mcm_seconds}};
+}
+
+constexpr const char* kPointsPlaceholder = "@@vlt-points@@";
+
+// The document for report.html with the points shown (and their budgets) serialised one at a
+// time in place of the placeholder.
+std::string WithPoints(const Results& r, const json& j, int indent,
+                       const std::vector<std::size_t>& point_indices) {
+  // The points' budgets are not held in Results: recomputed for the points drawn.
+  std::vector<std::vector<BudgetRow>> budgets(point_indices.size());
+  internal::ForEachPointBudget(r, point_indices, [&](std::size_t n, const PointUncertainty& g) {
+    budgets[n] = g.budget;
+  });
+  const std::string outer = j.dump(indent, ' ', false, json::error_handler_t::replace);
+  const std::string quoted = std::string("\"") + kPointsPlaceholder + "\"";
+  const std::size_t at = outer.find(quoted);
+  if (at == std::string::npos) throw std::logic_error("results.json: points placeholder missing");
+  // "points" is a member of the top-level object: its elements sit two levels deep.
+  const std::string pad = indent >= 0 ? std::string(static_cast<std::size_t>(2 * indent), ' ') : "";
+  const std::string close_pad = indent >= 0 ? std::string(static_cast<std::size_t>(indent), ' ') : "";
   std::string text;
-  if (!for_html) {
-    text = j.dump(indent, ' ', false, json::error_handler_t::replace);
+  text.reserve(outer.size() + point_indices.size() * 4096);
+  text.append(outer, 0, at);
+  if (point_indices.empty()) {
+    text += "[]";
   } else {
-    // The points' budgets are not held in Results: recomputed for the points drawn.
-    std::vector<std::vector<BudgetRow>> budgets(point_indices.size());
-    internal::ForEachPointBudget(r, point_indices, [&](std::size_t n, const PointUncertainty& g) {
-      budgets[n] = g.budget;
-    });
-    const std::string outer = j.dump(indent, ' ', false, json::error_handler_t::replace);
-    const std::string quoted = std::string("\"") + kPointsPlaceholder + "\"";
-    const std::size_t at = outer.find(quoted);
-    if (at == std::string::npos) throw std::logic_error("results.json: points placeholder missing");
-    // "points" is a member of the top-level object: its elements sit two levels deep.
-    const std::string pad = indent >= 0 ? std::string(static_cast<std::size_t>(2 * indent), ' ') : "";
-    const std::string close_pad = indent >= 0 ? std::string(static_cast<std::size_t>(indent), ' ') : "";
-    text.reserve(outer.size() + point_indices.size() * 4096);
-    text.append(outer, 0, at);
-    if (point_indices.empty()) {
-      text += "[]";
-    } else {
-      text += indent >= 0 ? "[\n" : "[";
-      for (std::size_t n = 0; n < point_indices.size(); ++n) {
-        std::string one = Point(r, r.points[point_indices[n]], &budgets[n])
-                              .dump(indent, ' ', false, json::error_handler_t::replace);
-        if (indent >= 0) {
-          text += pad;
-          for (char c : one) {
-            text += c;
-            if (c == '\n') text += pad;
-          }
-          text += n + 1 < point_indices.size() ? ",\n" : "\n";
-        } else {
-          text += one;
-          if (n + 1 < point_indices.size()) text += ',';
+    text += indent >= 0 ? "[\n" : "[";
+    for (std::size_t n = 0; n < point_indices.size(); ++n) {
+      std::string one = Point(r, r.points[point_indices[n]], &budgets[n])
+                            .dump(indent, ' ', false, json::error_handler_t::replace);
+      if (indent >= 0) {
+        text += pad;
+        for (char c : one) {
+          text += c;
+          if (c == '\n') text += pad;
         }
-      }
-      text += indent >= 0 ? close_pad + "]" : "]";
-    }
-    text.append(outer, at + quoted.size(), std::string::npos);
-  }
-  if (for_html) {
-    // Inside <script> the sequence "</" could close the element: "<\/" is the same JSON string.
-    std::string safe;
-    safe.reserve(text.size());
-    for (std::size_t i = 0; i < text.size(); ++i) {
-      if (text[i] == '<' && i + 1 < text.size() && text[i + 1] == '/') {
-        safe += "<\\/";
-        ++i;
+        text += n + 1 < point_indices.size() ? ",\n" : "\n";
       } else {
-        safe += text[i];
+        text += one;
+        if (n + 1 < point_indices.size()) text += ',';
       }
     }
-    return safe;
+    text += indent >= 0 ? close_pad + "]" : "]";
   }
-  return text + "\n";
+  text.append(outer, at + quoted.size(), std::string::npos);
+  return text;
+}
+
+}  // namespace
+
+std::string internal::ResultsJsonText(const Results& r, int indent, bool for_html) {
+  json j;
+  j["schema"] = "vlt-results/2";
+  j["vlt_version"] = r.vlt_version;
+  j["vlt_commit"] = r.vlt_commit;
+  j["created"] = r.created;
+  j["units"] = {{"length", "m"},          {"angle", "rad"},          {"temperature", "degC"},
+                {"pressure", "Pa"},       {"humidity", "%"},         {"ratio", "1"},
+                {"expansion_coefficient", "1/K"}, {"time", "s"}};
+  j["job"] = JobJson(r);
+  j["inputs"] = InputsJson(r);
+  j["monte_carlo"] = MonteCarloJson(r);
+  // The points are serialised one at a time into the text below (never one document of every
+  // point: its DOM was most of a scan's memory); here a placeholder holds their place.
+  const std::vector<std::size_t> point_indices = PointsShown(r, for_html, j);
+  if (for_html) {
+    j["points"] = kPointsPlaceholder;
+  } else {
+    j["points_file"] = "points.jsonl";  // vlt-results/2: one line per point, in job order
+  }
+  json tasks = json::array();
+  for (const TaskResult& t : r.tasks) tasks.push_back(Task(t));
+  j["tasks"] = tasks;
+  j["map"] = r.map ? Map(*r.map) : json(nullptr);
+  j["summary"] = SummaryJson(r);
+  if (for_html) j["report"] = {{"ellipsoid_scale", r.ellipsoid_scale}};
+  if (!for_html) return j.dump(indent, ' ', false, json::error_handler_t::replace) + "\n";
+  return ScriptSafe(WithPoints(r, j, indent, point_indices));
 }
 
 std::string ResultsJson(const Results& r, int indent) { return internal::ResultsJsonText(r, indent, false); }

@@ -12,7 +12,6 @@
 #include <cstdlib>
 #include <ctime>
 
-#include "gum/internal.h"
 #include "parallel/pool.h"
 #include "results/internal.h"
 #include "vlt/error.h"
@@ -46,9 +45,6 @@ McmSettings internal::McmSettingsFor(const MonteCarloSettings& job, const RunOpt
   settings.num_threads = threads;
   settings.quiet = !options.progress;
   return settings;
-}
-double internal::Seconds(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
 
 std::vector<PointReadings> JobReadings(const Job& job, const MeasurementModel& model) {
@@ -383,7 +379,8 @@ Results RunJob(const Job& job, const RunOptions& options) {
 
 namespace {
 
-Results RunJobUnplaced(const Job& job, const RunOptions& options) {
+// What the run is: the program, the job and the settings its results are given for.
+Results RunHeader(const Job& job) {
   Results results;
   results.vlt_version = VLT_VERSION;
   results.vlt_commit = VltCommit();
@@ -399,6 +396,165 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
   results.coverage_probability = job.monte_carlo.coverage_probability;
   results.n_dig = job.monte_carlo.n_dig;
   results.ellipsoid_scale = job.output.ellipsoid_scale;
+  return results;
+}
+
+// The GUM uncertainty of every point of the job.
+void PropagateJobPoints(const Job& job, const MeasurementModel& model,
+                        const std::vector<PointReadings>& readings, const GumOptions& gum_options,
+                        Results& results) {
+  // In blocks moved into the results as they are done: a scan never holds two copies of its
+  // points (point names are never empty, so messages name the point, not a block position).
+  results.points.resize(job.points.size());
+  constexpr std::size_t kGumBlock = 65536;
+  for (std::size_t begin = 0; begin < readings.size(); begin += kGumBlock) {
+    const std::span<const PointReadings> block(readings.data() + begin, std::min(kGumBlock, readings.size() - begin));
+    std::vector<PointUncertainty> gum_points = PropagatePoints(model, block, gum_options);
+    // Where the linearisation is not reliable, said without Monte Carlo (JCGM 100 5.1.2 note).
+    CheckSecondOrder(model, block, gum_points, kSecondOrderThreshold, gum_options.threads);
+    for (std::size_t i = 0; i < block.size(); ++i) {
+      results.points[begin + i].input = job.points[begin + i];
+      results.points[begin + i].gum = std::move(gum_points[i]);
+    }
+  }
+}
+
+// The GUM uncertainty of every task of the job.
+void PropagateJobTasks(const Job& job, const MeasurementModel& model,
+                       const std::vector<PointReadings>& readings, const GumOptions& gum_options,
+                       Results& results) {
+  results.tasks.resize(job.tasks.size());
+  for (std::size_t t = 0; t < job.tasks.size(); ++t) {
+    results.tasks[t].spec = job.tasks[t];
+    results.tasks[t].point_indices = job.task_points[t];
+    try {
+      results.tasks[t].gum = PropagateTask(model, readings, job.tasks[t], gum_options);
+    } catch (const NumericalError& e) {
+      throw NumericalError(job.file + ": task[" + std::to_string(t) + "]: " + e.what());
+    }
+  }
+}
+
+// Task outputs follow the points (3 each), task by task, in MakeMcmTask's order: the index
+// of each task's first Monte Carlo output.
+std::vector<std::size_t> TaskFirstOutputs(const McmJob& mcm_job, std::size_t points) {
+  std::vector<std::size_t> task_first_output(mcm_job.tasks.size());
+  std::size_t offset = 3 * points;
+  for (std::size_t t = 0; t < mcm_job.tasks.size(); ++t) {
+    task_first_output[t] = offset;
+    offset += mcm_job.tasks[t].output_names.size();
+  }
+  return task_first_output;
+}
+
+// Task tolerances: count the trials inside them (JCGM 106 7.2.1).
+void AddTaskTolerances(const Results& results, const McmJob& mcm_job,
+                       const std::vector<std::size_t>& task_first_output, McmSettings& settings) {
+  for (std::size_t t = 0; t < results.tasks.size(); ++t) {
+    const McmTask& mt = mcm_job.tasks[t];
+    for (const auto& [quantity, tol] : results.tasks[t].spec.tolerances) {
+      const std::string wanted = results.tasks[t].spec.name + "." + quantity;
+      for (std::size_t j = 0; j < mt.output_names.size(); ++j) {
+        if (mt.output_names[j] == wanted) {
+          settings.tolerances.push_back({static_cast<int>(task_first_output[t] + j), tol.lower, tol.upper});
+        }
+      }
+    }
+  }
+}
+
+// The GUM results of point i validated by Monte Carlo (JCGM 101 8): per axis, and its region.
+void ValidatePointResult(const McmResult& mcm, std::size_t i, Results& results) {
+  PointResult& pr = results.points[i];
+  pr.has_mcm = true;
+  auto m = std::make_shared<PointMcm>();
+  m->mcm = mcm.points[i];
+  std::vector<std::string> outcomes;
+  for (int a = 0; a < 3; ++a) {
+    m->axes[a] = mcm.outputs[3 * i + a];
+    m->axis_validation[a] = ValidateScalar(m->axes[a].name, "m", pr.gum.part[a], pr.gum.u_part[a],
+                                           pr.gum.U_part[a], m->axes[a].symmetric, results.n_dig,
+                                           mcm.trials, m->axes[a].u, results.coverage_probability);
+    outcomes.push_back(m->axis_validation[a].outcome);
+  }
+  try {
+    m->region_validation = ValidatePoint(pr.gum.name, pr.gum.part, pr.gum.cov_part, pr.gum.ellipsoid.k,
+                                         m->mcm, results.n_dig, mcm.trials, results.coverage_probability);
+    outcomes.push_back(m->region_validation.outcome);
+  } catch (const NumericalError& e) {
+    m->region_validation = PointValidation{};
+    m->region_validation.name = pr.gum.name;
+    m->region_validation.outcome = "not validated";
+    m->region_validation.verdict = std::string("no coverage region: ") + e.what();
+    outcomes.push_back("not validated");
+  }
+  pr.monte_carlo = std::move(m);
+  pr.outcome = CombinedOutcome(outcomes);
+  pr.validated = pr.outcome == "validated";
+  results.validated_points += pr.validated ? 1 : 0;
+  results.inconclusive_points += pr.outcome == "inconclusive" ? 1 : 0;
+}
+
+// Task outputs (task_first_output) are matched to the GUM quantities by name.
+void ValidateTaskResult(const McmResult& mcm, const McmTask& mt, std::size_t offset, TaskResult& task,
+                        Results& results) {
+  if (offset + mt.output_names.size() > mcm.outputs.size()) {
+    throw std::logic_error("Monte Carlo result has too few task outputs");
+  }
+  task.has_mcm = true;
+  std::vector<std::string> outcomes;
+  for (std::size_t q = 0; q < task.gum.quantities.size(); ++q) {
+    const std::string wanted = task.spec.name + "." + task.gum.quantities[q];
+    std::size_t j = 0;
+    while (j < mt.output_names.size() && mt.output_names[j] != wanted) ++j;
+    if (j == mt.output_names.size()) {
+      throw std::logic_error("Monte Carlo task output '" + wanted + "' missing");
+    }
+    task.mcm.push_back(mcm.outputs[offset + j]);
+    const bool differentiable = q >= task.gum.differentiable.size() || task.gum.differentiable[q];
+    task.validation.push_back(ValidateScalar(wanted, task.gum.units[q], task.gum.value[q], task.gum.u[q],
+                                             task.gum.U[q], task.mcm.back().symmetric, results.n_dig,
+                                             mcm.trials, task.mcm.back().u, results.coverage_probability,
+                                             differentiable));
+    outcomes.push_back(task.validation.back().outcome);
+  }
+  task.outcome = CombinedOutcome(outcomes);
+  task.validated = task.outcome == "validated";
+  results.validated_tasks += task.validated ? 1 : 0;
+}
+
+// Monte Carlo (JCGM 101 / 102) on the same model, and the validation of JCGM 101 8.
+void RunMonteCarlo(const Job& job, const RunOptions& options, const MeasurementModel& model,
+                   const std::vector<PointReadings>& readings, int threads, Results& results) {
+  McmJob mcm_job;
+  mcm_job.model = &model;
+  for (const PointReadings& r : readings) mcm_job.points.push_back(McmPoint{r.name, r.readings});
+  for (const TaskResult& task : results.tasks) {
+    mcm_job.tasks.push_back(internal::MakeMcmTask(task.spec, task.point_indices, task.gum));
+  }
+  const std::vector<std::size_t> task_first_output = TaskFirstOutputs(mcm_job, readings.size());
+  McmSettings settings = internal::McmSettingsFor(job.monte_carlo, options, threads);
+  AddTaskTolerances(results, mcm_job, task_first_output, settings);
+  auto mcm_start = std::chrono::steady_clock::now();
+  McmResult mcm = RunMcm(mcm_job, settings);
+  results.mcm_seconds = internal::Seconds(mcm_start);
+  results.has_mcm = true;
+
+  const std::size_t np = results.points.size();
+  if (mcm.points.size() != np || mcm.outputs.size() < 3 * np) {
+    throw std::logic_error("Monte Carlo result does not match the job's points");
+  }
+  for (std::size_t i = 0; i < np; ++i) ValidatePointResult(mcm, i, results);
+  for (std::size_t t = 0; t < results.tasks.size(); ++t) {
+    ValidateTaskResult(mcm, mcm_job.tasks[t], task_first_output[t], results.tasks[t], results);
+  }
+  mcm.outputs.clear();
+  mcm.points.clear();
+  results.mcm = std::move(mcm);
+}
+
+Results RunJobUnplaced(const Job& job, const RunOptions& options) {
+  Results results = RunHeader(job);
   const int threads = options.threads.value_or(job.monte_carlo.threads);
 
   MeasurementModel model(job.setup);
@@ -415,134 +571,12 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
   gum_options.budgets = false;
   gum_options.threads = threads;
   results.threads = threads;
-  // In blocks moved into the results as they are done: a scan never holds two copies of its
-  // points (point names are never empty, so messages name the point, not a block position).
-  results.points.resize(job.points.size());
-  constexpr std::size_t kGumBlock = 65536;
-  for (std::size_t begin = 0; begin < readings.size(); begin += kGumBlock) {
-    const std::span<const PointReadings> block(readings.data() + begin, std::min(kGumBlock, readings.size() - begin));
-    std::vector<PointUncertainty> gum_points = PropagatePoints(model, block, gum_options);
-    // Where the linearisation is not reliable, said without Monte Carlo (JCGM 100 5.1.2 note).
-    CheckSecondOrder(model, block, gum_points, kSecondOrderThreshold, threads);
-    for (std::size_t i = 0; i < block.size(); ++i) {
-      results.points[begin + i].input = job.points[begin + i];
-      results.points[begin + i].gum = std::move(gum_points[i]);
-    }
-  }
-  results.tasks.resize(job.tasks.size());
-  for (std::size_t t = 0; t < job.tasks.size(); ++t) {
-    results.tasks[t].spec = job.tasks[t];
-    results.tasks[t].point_indices = job.task_points[t];
-    try {
-      results.tasks[t].gum = PropagateTask(model, readings, job.tasks[t], gum_options);
-    } catch (const NumericalError& e) {
-      throw NumericalError(job.file + ": task[" + std::to_string(t) + "]: " + e.what());
-    }
-  }
+  PropagateJobPoints(job, model, readings, gum_options, results);
+  PropagateJobTasks(job, model, readings, gum_options, results);
   results.gum_seconds = internal::Seconds(gum_start);
 
-  // Monte Carlo (JCGM 101 / 102) on the same model, and the validation of JCGM 101 8.
   if (options.monte_carlo && job.monte_carlo.enabled) {
-    McmJob mcm_job;
-    mcm_job.model = &model;
-    for (const PointReadings& r : readings) mcm_job.points.push_back(McmPoint{r.name, r.readings});
-    for (const TaskResult& task : results.tasks) {
-      mcm_job.tasks.push_back(internal::MakeMcmTask(task.spec, task.point_indices, task.gum));
-    }
-    // Task outputs follow the points (3 each), task by task, in MakeMcmTask's order: the index
-    // of each task's first Monte Carlo output.
-    std::vector<std::size_t> task_first_output(results.tasks.size());
-    {
-      std::size_t offset = 3 * readings.size();
-      for (std::size_t t = 0; t < results.tasks.size(); ++t) {
-        task_first_output[t] = offset;
-        offset += mcm_job.tasks[t].output_names.size();
-      }
-    }
-    McmSettings settings = internal::McmSettingsFor(job.monte_carlo, options, threads);
-    // Task tolerances: count the trials inside them (JCGM 106 7.2.1).
-    for (std::size_t t = 0; t < results.tasks.size(); ++t) {
-      const McmTask& mt = mcm_job.tasks[t];
-      for (const auto& [quantity, tol] : results.tasks[t].spec.tolerances) {
-        const std::string wanted = results.tasks[t].spec.name + "." + quantity;
-        for (std::size_t j = 0; j < mt.output_names.size(); ++j) {
-          if (mt.output_names[j] == wanted) {
-            settings.tolerances.push_back({static_cast<int>(task_first_output[t] + j), tol.lower, tol.upper});
-          }
-        }
-      }
-    }
-    auto mcm_start = std::chrono::steady_clock::now();
-    McmResult mcm = RunMcm(mcm_job, settings);
-    results.mcm_seconds = internal::Seconds(mcm_start);
-    results.has_mcm = true;
-
-    const std::size_t np = results.points.size();
-    if (mcm.points.size() != np || mcm.outputs.size() < 3 * np) {
-      throw std::logic_error("Monte Carlo result does not match the job's points");
-    }
-    for (std::size_t i = 0; i < np; ++i) {
-      PointResult& pr = results.points[i];
-      pr.has_mcm = true;
-      auto m = std::make_shared<PointMcm>();
-      m->mcm = mcm.points[i];
-      std::vector<std::string> outcomes;
-      for (int a = 0; a < 3; ++a) {
-        m->axes[a] = mcm.outputs[3 * i + a];
-        m->axis_validation[a] = ValidateScalar(m->axes[a].name, "m", pr.gum.part[a], pr.gum.u_part[a],
-                                               pr.gum.U_part[a], m->axes[a].symmetric, results.n_dig,
-                                               mcm.trials, m->axes[a].u, results.coverage_probability);
-        outcomes.push_back(m->axis_validation[a].outcome);
-      }
-      try {
-        m->region_validation = ValidatePoint(pr.gum.name, pr.gum.part, pr.gum.cov_part, pr.gum.ellipsoid.k,
-                                             m->mcm, results.n_dig, mcm.trials, results.coverage_probability);
-        outcomes.push_back(m->region_validation.outcome);
-      } catch (const NumericalError& e) {
-        m->region_validation = PointValidation{};
-        m->region_validation.name = pr.gum.name;
-        m->region_validation.outcome = "not validated";
-        m->region_validation.verdict = std::string("no coverage region: ") + e.what();
-        outcomes.push_back("not validated");
-      }
-      pr.monte_carlo = std::move(m);
-      pr.outcome = CombinedOutcome(outcomes);
-      pr.validated = pr.outcome == "validated";
-      results.validated_points += pr.validated ? 1 : 0;
-      results.inconclusive_points += pr.outcome == "inconclusive" ? 1 : 0;
-    }
-    // Task outputs (task_first_output) are matched to the GUM quantities by name.
-    for (std::size_t t = 0; t < results.tasks.size(); ++t) {
-      TaskResult& task = results.tasks[t];
-      const McmTask& mt = mcm_job.tasks[t];
-      const std::size_t offset = task_first_output[t];
-      if (offset + mt.output_names.size() > mcm.outputs.size()) {
-        throw std::logic_error("Monte Carlo result has too few task outputs");
-      }
-      task.has_mcm = true;
-      std::vector<std::string> outcomes;
-      for (std::size_t q = 0; q < task.gum.quantities.size(); ++q) {
-        const std::string wanted = task.spec.name + "." + task.gum.quantities[q];
-        std::size_t j = 0;
-        while (j < mt.output_names.size() && mt.output_names[j] != wanted) ++j;
-        if (j == mt.output_names.size()) {
-          throw std::logic_error("Monte Carlo task output '" + wanted + "' missing");
-        }
-        task.mcm.push_back(mcm.outputs[offset + j]);
-        const bool differentiable = q >= task.gum.differentiable.size() || task.gum.differentiable[q];
-        task.validation.push_back(ValidateScalar(wanted, task.gum.units[q], task.gum.value[q], task.gum.u[q],
-                                                 task.gum.U[q], task.mcm.back().symmetric, results.n_dig,
-                                                 mcm.trials, task.mcm.back().u, results.coverage_probability,
-                                                 differentiable));
-        outcomes.push_back(task.validation.back().outcome);
-      }
-      task.outcome = CombinedOutcome(outcomes);
-      task.validated = task.outcome == "validated";
-      results.validated_tasks += task.validated ? 1 : 0;
-    }
-    mcm.outputs.clear();
-    mcm.points.clear();
-    results.mcm = std::move(mcm);
+    RunMonteCarlo(job, options, model, readings, threads, results);
   }
 
   for (TaskResult& task : results.tasks) DecideTaskConformity(task);

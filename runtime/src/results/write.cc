@@ -45,8 +45,9 @@ std::vector<OutputFile> ResultFiles(const Results& results) {
   return files;
 }
 
-std::string SummaryText(const Results& r) {
-  std::ostringstream out;
+namespace {
+
+void RunHeaderLines(const Results& r, std::ostringstream& out) {
   char line[512];
   out << "vlt " << r.vlt_version << " — job '" << r.job_name << "' (" << r.job_file << "), model " << r.model_name
       << ", " << (r.mode == JobMode::kPlan ? "offline plan" : "online readings") << ", " << r.points.size()
@@ -60,6 +61,22 @@ std::string SummaryText(const Results& r) {
                 "coverage ellipsoid k = %.3f\n\n",
                 r.coverage_probability, r.k_axis, r.k_region);
   out << line;
+}
+
+// The verdict column of a point: its validation by Monte Carlo, and whether the GUM is reliable.
+std::string PointVerdict(const PointResult& p) {
+  const PointUncertainty& g = p.gum;
+  std::string verdict = !p.has_mcm ? "not run" : p.outcome == "not validated" ? "NOT validated" : p.outcome;
+  if (!g.gum_reliable) {
+    // JCGM 100 5.1.2 note, computed without Monte Carlo: said with --no-mcm too.
+    char flag[96];
+    std::snprintf(flag, sizeof flag, "GUM NOT RELIABLE (2nd order %.3g x u^2); ", g.second_order_ratio.maxCoeff());
+    verdict = flag + verdict;
+  }
+  return verdict;
+}
+
+void PointTable(const Results& r, std::ostringstream& out) {
   const std::size_t max_rows = 40;
   // Point names are shown whole (SpatialAnalyzer-style "Group::Collection::Point" included): the
   // column is as wide as the longest name shown.
@@ -76,64 +93,73 @@ std::string SummaryText(const Results& r) {
     }
     const PointResult& p = r.points[i];
     const PointUncertainty& g = p.gum;
-    std::string verdict = !p.has_mcm ? "not run" : p.outcome == "not validated" ? "NOT validated" : p.outcome;
-    if (!g.gum_reliable) {
-      // JCGM 100 5.1.2 note, computed without Monte Carlo: said with --no-mcm too.
-      char flag[96];
-      std::snprintf(flag, sizeof flag, "GUM NOT RELIABLE (2nd order %.3g x u^2); ", g.second_order_ratio.maxCoeff());
-      verdict = flag + verdict;
-    }
+    const std::string verdict = PointVerdict(p);
     out << FormatLine("%-*s %9.3f %10.3f %10.3f %10.3f %8.1f %8.1f %8.1f %8.1f %8.1f  %s\n", name_width,
                   p.input.name.c_str(), g.readings[0], g.part.x() * 1e3, g.part.y() * 1e3, g.part.z() * 1e3,
                   g.U_part.x() * 1e6, g.U_part.y() * 1e6, g.U_part.z() * 1e6, g.U_part.norm() * 1e6,
                   g.ellipsoid.semi_axes[0] * 1e6, verdict.c_str());
-    
   }
-  if (!r.tasks.empty()) {
-    out << "\n";
-    std::snprintf(line, sizeof line, "%-18s %-9s %-13s %16s %11s %24s  %s\n", "task", "kind", "quantity", "value",
-                  "U (GUM)", "MCM interval - value", "GUM vs MCM");
-    out << line;
-    for (const TaskResult& t : r.tasks) {
-      for (std::size_t q = 0; q < t.gum.quantities.size(); ++q) {
-        const std::string& quantity = t.gum.quantities[q];
-        // The headline quantities only; every component is in tasks.csv.
-        bool headline = quantity == "distance" || quantity == "radius" || quantity == "flatness" ||
-                        quantity == "straightness" || quantity == "normal_x" || quantity == "normal_y" ||
-                        quantity.rfind("centre_", 0) == 0 || t.spec.kind == TaskKind::kTwoFace;
-        if (!headline) continue;
-        const Eigen::Index i = static_cast<Eigen::Index>(q);
-        bool length = t.gum.units[q] == "m";
-        double vs = length ? 1e3 : 1.0, us = length ? 1e6 : 1.0;
-        char value_text[64];
-        // A value that rounds to zero is printed as 0, not -0.0000 (two_face of nominal points).
-        if (length) {
-          const double shown = std::abs(t.gum.value[i] * vs) < 5e-5 ? 0.0 : t.gum.value[i] * vs;
-          std::snprintf(value_text, sizeof value_text, "%.4f mm", shown);
-        } else {
-          std::snprintf(value_text, sizeof value_text, "%.6g",
-                        std::abs(t.gum.value[i]) < 1e-12 ? 0.0 : t.gum.value[i]);
-        }
-        std::string value = value_text;
-        std::string big_u = internal::Sig(t.gum.U[i] * us, 3) + (length ? " um" : "");
-        std::string interval = "-", verdict = "not run";
-        if (t.has_mcm && q < t.validation.size()) {
-          char buffer[96];
-          std::snprintf(buffer, sizeof buffer, "[%.3g, %.3g]%s", (t.mcm[q].symmetric.low - t.gum.value[i]) * us,
-                        (t.mcm[q].symmetric.high - t.gum.value[i]) * us, length ? " um" : "");
-          interval = buffer;
-          const std::string& outcome = t.validation[q].outcome;
-          verdict = outcome == "not validated" ? "NOT validated"
-                    : outcome == "not applicable" ? "GUM n/a (not differentiable): MCM interval" : outcome;
-        }
-        std::snprintf(line, sizeof line, "%-18s %-9s %-13s %16s %11s %24s  %s\n", t.spec.name.c_str(),
-                      std::string(TaskKindName(t.spec.kind)).c_str(), quantity.c_str(), value.c_str(), big_u.c_str(),
-                      interval.c_str(), verdict.c_str());
-        out << line;
-      }
+}
+
+// The headline quantities only; every component is in tasks.csv.
+bool IsHeadline(const TaskResult& t, const std::string& quantity) {
+  return quantity == "distance" || quantity == "radius" || quantity == "flatness" ||
+         quantity == "straightness" || quantity == "normal_x" || quantity == "normal_y" ||
+         quantity.rfind("centre_", 0) == 0 || t.spec.kind == TaskKind::kTwoFace;
+}
+
+// One row of the task table: quantity q of task t, its GUM value and U and the Monte Carlo interval.
+std::string TaskRow(const TaskResult& t, std::size_t q) {
+  char line[512];
+  const std::string& quantity = t.gum.quantities[q];
+  const Eigen::Index i = static_cast<Eigen::Index>(q);
+  bool length = t.gum.units[q] == "m";
+  double vs = length ? 1e3 : 1.0, us = length ? 1e6 : 1.0;
+  char value_text[64];
+  // A value that rounds to zero is printed as 0, not -0.0000 (two_face of nominal points).
+  if (length) {
+    const double shown = std::abs(t.gum.value[i] * vs) < 5e-5 ? 0.0 : t.gum.value[i] * vs;
+    std::snprintf(value_text, sizeof value_text, "%.4f mm", shown);
+  } else {
+    std::snprintf(value_text, sizeof value_text, "%.6g",
+                  std::abs(t.gum.value[i]) < 1e-12 ? 0.0 : t.gum.value[i]);
+  }
+  std::string value = value_text;
+  std::string big_u = internal::Sig(t.gum.U[i] * us, 3) + (length ? " um" : "");
+  std::string interval = "-", verdict = "not run";
+  if (t.has_mcm && q < t.validation.size()) {
+    char buffer[96];
+    std::snprintf(buffer, sizeof buffer, "[%.3g, %.3g]%s", (t.mcm[q].symmetric.low - t.gum.value[i]) * us,
+                  (t.mcm[q].symmetric.high - t.gum.value[i]) * us, length ? " um" : "");
+    interval = buffer;
+    const std::string& outcome = t.validation[q].outcome;
+    verdict = outcome == "not validated" ? "NOT validated"
+              : outcome == "not applicable" ? "GUM n/a (not differentiable): MCM interval" : outcome;
+  }
+  std::snprintf(line, sizeof line, "%-18s %-9s %-13s %16s %11s %24s  %s\n", t.spec.name.c_str(),
+                std::string(TaskKindName(t.spec.kind)).c_str(), quantity.c_str(), value.c_str(), big_u.c_str(),
+                interval.c_str(), verdict.c_str());
+  return line;
+}
+
+void TaskTable(const Results& r, std::ostringstream& out) {
+  if (r.tasks.empty()) return;
+  char line[512];
+  out << "\n";
+  std::snprintf(line, sizeof line, "%-18s %-9s %-13s %16s %11s %24s  %s\n", "task", "kind", "quantity", "value",
+                "U (GUM)", "MCM interval - value", "GUM vs MCM");
+  out << line;
+  for (const TaskResult& t : r.tasks) {
+    for (std::size_t q = 0; q < t.gum.quantities.size(); ++q) {
+      if (!IsHeadline(t, t.gum.quantities[q])) continue;
+      out << TaskRow(t, q);
     }
   }
-  // Conformity of the task quantities with a tolerance (ISO 14253-1, JCGM 106).
+}
+
+// Conformity of the task quantities with a tolerance (ISO 14253-1, JCGM 106).
+void ConformityLines(const Results& r, std::ostringstream& out) {
+  char line[512];
   bool first_conformity = true;
   for (const TaskResult& t : r.tasks) {
     for (std::size_t q = 0; q < t.conformity.size(); ++q) {
@@ -161,55 +187,73 @@ std::string SummaryText(const Results& r) {
       out << ")\n";
     }
   }
-  out << "\n";
-  if (r.has_mcm) {
-    // Task results are counted per quantity: one output the GUM cannot linearise (e.g. the
-    // flatness of nominal points) must not hide that the others are validated.
-    std::size_t quantities = 0, validated = 0, inconclusive = 0;
-    std::string failed;
-    int listed = 0;
-    for (const TaskResult& t : r.tasks) {
-      for (const ScalarValidation& v : t.validation) {
-        if (v.outcome == "not applicable") continue;  // no GUM value to validate
-        ++quantities;
-        if (v.validated) {
-          ++validated;
-        } else if (v.outcome == "inconclusive") {
-          ++inconclusive;
-        } else if (listed++ < 6) {
-          failed += (failed.empty() ? "" : ", ") + v.name;
-        } else if (listed == 7) {
-          failed += ", ...";
-        }
+}
+
+void MonteCarloLines(const Results& r, std::ostringstream& out) {
+  char line[512];
+  if (!r.has_mcm) {
+    out << "Monte Carlo: not run (GUM only).\n";
+    return;
+  }
+  // Task results are counted per quantity: one output the GUM cannot linearise (e.g. the
+  // flatness of nominal points) must not hide that the others are validated.
+  std::size_t quantities = 0, validated = 0, inconclusive = 0;
+  std::string failed;
+  int listed = 0;
+  for (const TaskResult& t : r.tasks) {
+    for (const ScalarValidation& v : t.validation) {
+      if (v.outcome == "not applicable") continue;  // no GUM value to validate
+      ++quantities;
+      if (v.validated) {
+        ++validated;
+      } else if (v.outcome == "inconclusive") {
+        ++inconclusive;
+      } else if (listed++ < 6) {
+        failed += (failed.empty() ? "" : ", ") + v.name;
+      } else if (listed == 7) {
+        failed += ", ...";
       }
     }
-    std::snprintf(line, sizeof line,
-                  "Monte Carlo: %lld trials%s, seed %llu, %d thread(s), %.1f s. GUM validated by MCM (JCGM 101 8): "
-                  "%d/%zu points, %zu/%zu task quantities.\n",
-                  static_cast<long long>(r.mcm.trials), r.mcm.adaptive ? (r.mcm.converged ? " (adaptive, converged)" : " (adaptive, NOT converged)") : "",
-                  static_cast<unsigned long long>(r.mcm.seed), r.mcm.threads, r.mcm.seconds, r.validated_points,
-                  r.points.size(), validated, quantities);
-    out << line;
-    if (r.inconclusive_points > 0 || inconclusive > 0) {
-      out << "Inconclusive (Monte Carlo tolerance larger than delta; more trials or --adaptive): " << r.inconclusive_points
-          << " points, " << inconclusive << " task quantities.\n";
-    }
-    if (!failed.empty()) out << "Not validated: " << failed << " (tasks.csv, report.html).\n";
-  } else {
-    out << "Monte Carlo: not run (GUM only).\n";
   }
-  if (r.map) {
-    double max_u = 0, min_u = 1e300;
-    for (std::size_t i = 0; i < r.map->nodes.size(); ++i) {
-      if (!r.map->computed[i]) continue;
-      max_u = std::max(max_u, r.map->U_norm[i]);
-      min_u = std::min(min_u, r.map->U_norm[i]);
-    }
-    std::snprintf(line, sizeof line, "Map: %s: |U| %.1f .. %.1f um over %zu nodes (%zu skipped near the vertical axis).\n",
-                  r.map->settings.description.c_str(), min_u * 1e6, max_u * 1e6, r.map->nodes.size(),
-                  r.map->skipped.size());
-    out << line;
+  std::snprintf(line, sizeof line,
+                "Monte Carlo: %lld trials%s, seed %llu, %d thread(s), %.1f s. GUM validated by MCM (JCGM 101 8): "
+                "%d/%zu points, %zu/%zu task quantities.\n",
+                static_cast<long long>(r.mcm.trials), r.mcm.adaptive ? (r.mcm.converged ? " (adaptive, converged)" : " (adaptive, NOT converged)") : "",
+                static_cast<unsigned long long>(r.mcm.seed), r.mcm.threads, r.mcm.seconds, r.validated_points,
+                r.points.size(), validated, quantities);
+  out << line;
+  if (r.inconclusive_points > 0 || inconclusive > 0) {
+    out << "Inconclusive (Monte Carlo tolerance larger than delta; more trials or --adaptive): " << r.inconclusive_points
+        << " points, " << inconclusive << " task quantities.\n";
   }
+  if (!failed.empty()) out << "Not validated: " << failed << " (tasks.csv, report.html).\n";
+}
+
+void MapLine(const MapResult& map, std::ostringstream& out) {
+  char line[512];
+  double max_u = 0, min_u = 1e300;
+  for (std::size_t i = 0; i < map.nodes.size(); ++i) {
+    if (!map.computed[i]) continue;
+    max_u = std::max(max_u, map.U_norm[i]);
+    min_u = std::min(min_u, map.U_norm[i]);
+  }
+  std::snprintf(line, sizeof line, "Map: %s: |U| %.1f .. %.1f um over %zu nodes (%zu skipped near the vertical axis).\n",
+                map.settings.description.c_str(), min_u * 1e6, max_u * 1e6, map.nodes.size(),
+                map.skipped.size());
+  out << line;
+}
+
+}  // namespace
+
+std::string SummaryText(const Results& r) {
+  std::ostringstream out;
+  RunHeaderLines(r, out);
+  PointTable(r, out);
+  TaskTable(r, out);
+  ConformityLines(r, out);
+  out << "\n";
+  MonteCarloLines(r, out);
+  if (r.map) MapLine(*r.map, out);
   return out.str();
 }
 

@@ -234,96 +234,117 @@ RadialResidual<D> Radial(const Eigen::Matrix<double, D, 1>& a, const Eigen::Matr
   return r;
 }
 
-// get(i) returns point i as Eigen::Matrix<double, D, 1>.
+// A least-squares hypersphere fit under way: centre c and radius in normalised coordinates
+// q = (a - mean) / scale, so that every tolerance is relative. get(i) returns point i as
+// Eigen::Matrix<double, D, 1>.
 template <int D, class Get>
-HypersphereFit<D> FitHypersphere(long n, const Get& get, TaskKind kind, std::string_view where) {
+struct HypersphereSolver {
   using Vec = Eigen::Matrix<double, D, 1>;
   using Theta = Eigen::Matrix<double, D + 1, 1>;
   using Hessian = Eigen::Matrix<double, D + 1, D + 1>;
-  const char* degenerate = D == 3 ? "points are coplanar, the sphere is undefined"
-                                  : "projected points are collinear, the circle is undefined";
+
+  const long n;
+  const Get& get;
+  const TaskKind kind;
+  const std::string_view where;
+  const char* const degenerate = D == 3 ? "points are coplanar, the sphere is undefined"
+                                        : "projected points are collinear, the circle is undefined";
+  Vec mean = Vec::Zero();
+  double scale = 0.0;
+  Vec c;
+  double radius = 0.0;
+  int iterations = 0;
+
+  HypersphereSolver(long n, const Get& get, TaskKind kind, std::string_view where)
+      : n(n), get(get), kind(kind), where(where) {}
+
+  Vec q(long i) const { return (get(i) - mean) / scale; }
 
   // Work in normalised coordinates q = (a - mean) / scale so that every tolerance is relative.
-  Vec mean = Vec::Zero();
-  for (long i = 0; i < n; ++i) mean += get(i);
-  mean /= static_cast<double>(n);
-  double scale = 0.0;
-  for (long i = 0; i < n; ++i) scale += (get(i) - mean).squaredNorm();
-  scale = std::sqrt(scale / static_cast<double>(n));
-  if (!(scale > 0.0)) Fail(where, kind, "all points coincide");
-  const auto q = [&](long i) -> Vec { return (get(i) - mean) / scale; };
+  void Normalise() {
+    for (long i = 0; i < n; ++i) mean += get(i);
+    mean /= static_cast<double>(n);
+    for (long i = 0; i < n; ++i) scale += (get(i) - mean).squaredNorm();
+    scale = std::sqrt(scale / static_cast<double>(n));
+    if (!(scale > 0.0)) Fail(where, kind, "all points coincide");
+  }
 
   // Algebraic start (Kåsa): |q|^2 = 2 c.q + k, linear least squares in (c, k), k = R^2 - |c|^2.
-  Hessian ata = Hessian::Zero();
-  Theta atb = Theta::Zero();
-  for (long i = 0; i < n; ++i) {
-    Theta row;
-    row.template head<D>() = 2.0 * q(i);
-    row(D) = 1.0;
-    ata.noalias() += row * row.transpose();
-    atb += row * q(i).squaredNorm();
+  void AlgebraicStart() {
+    Hessian ata = Hessian::Zero();
+    Theta atb = Theta::Zero();
+    for (long i = 0; i < n; ++i) {
+      Theta row;
+      row.template head<D>() = 2.0 * q(i);
+      row(D) = 1.0;
+      ata.noalias() += row * row.transpose();
+      atb += row * q(i).squaredNorm();
+    }
+    const Eigen::SelfAdjointEigenSolver<Hessian> conditioning(ata);
+    if (conditioning.eigenvalues()(0) <= 1e-12 * conditioning.eigenvalues()(D)) {
+      Fail(where, kind, degenerate);
+    }
+    const Theta x = ata.ldlt().solve(atb);
+    c = x.template head<D>();
+    const double r2 = x(D) + c.squaredNorm();
+    if (!(r2 > 0.0)) Fail(where, kind, degenerate);
+    radius = std::sqrt(r2);
   }
-  const Eigen::SelfAdjointEigenSolver<Hessian> conditioning(ata);
-  if (conditioning.eigenvalues()(0) <= 1e-12 * conditioning.eigenvalues()(D)) {
-    Fail(where, kind, degenerate);
-  }
-  const Theta x = ata.ldlt().solve(atb);
-  Vec c = x.template head<D>();
-  const double r2 = x(D) + c.squaredNorm();
-  if (!(r2 > 0.0)) Fail(where, kind, degenerate);
-  double radius = std::sqrt(r2);
 
-  // Levenberg-Marquardt on e_i = |q_i - c| - R (Gauss-Newton steps, damped when they fail).
-  const auto cost = [&](const Vec& cc, double rr) {
+  double Cost(const Vec& cc, double rr) const {
     double s = 0.0;
     for (long i = 0; i < n; ++i) s += Eigen::numext::abs2((q(i) - cc).norm() - rr);
     return s;
-  };
-  double current = cost(c, radius);
-  double damping = 1e-6;
-  int iterations = 0;
-  bool converged = false;
-  for (; iterations < 200; ++iterations) {
-    Hessian jtj = Hessian::Zero();
-    Theta jte = Theta::Zero();
-    for (long i = 0; i < n; ++i) {
-      const RadialResidual<D> r = Radial<D>(q(i), c, radius);
-      Theta row;
-      row.template head<D>() = -r.u;
-      row(D) = -1.0;
-      jtj.noalias() += row * row.transpose();
-      jte += row * r.e;
-    }
-    bool accepted = false;
-    Theta step = Theta::Zero();
-    while (damping < 1e12) {
-      Hessian damped = jtj;
-      damped.diagonal() *= 1.0 + damping;
-      step = -damped.ldlt().solve(jte);
-      const Vec c_try = c + step.template head<D>();
-      const double r_try = radius + step(D);
-      const double trial = cost(c_try, r_try);
-      if (std::isfinite(trial) && trial <= current) {
-        c = c_try;
-        radius = r_try;
-        current = trial;
-        damping = std::max(damping * 0.1, 1e-12);
-        accepted = true;
+  }
+
+  // Levenberg-Marquardt on e_i = |q_i - c| - R (Gauss-Newton steps, damped when they fail).
+  void LevenbergMarquardt() {
+    double current = Cost(c, radius);
+    double damping = 1e-6;
+    bool converged = false;
+    for (; iterations < 200; ++iterations) {
+      Hessian jtj = Hessian::Zero();
+      Theta jte = Theta::Zero();
+      for (long i = 0; i < n; ++i) {
+        const RadialResidual<D> r = Radial<D>(q(i), c, radius);
+        Theta row;
+        row.template head<D>() = -r.u;
+        row(D) = -1.0;
+        jtj.noalias() += row * row.transpose();
+        jte += row * r.e;
+      }
+      bool accepted = false;
+      Theta step = Theta::Zero();
+      while (damping < 1e12) {
+        Hessian damped = jtj;
+        damped.diagonal() *= 1.0 + damping;
+        step = -damped.ldlt().solve(jte);
+        const Vec c_try = c + step.template head<D>();
+        const double r_try = radius + step(D);
+        const double trial = Cost(c_try, r_try);
+        if (std::isfinite(trial) && trial <= current) {
+          c = c_try;
+          radius = r_try;
+          current = trial;
+          damping = std::max(damping * 0.1, 1e-12);
+          accepted = true;
+          break;
+        }
+        damping *= 10.0;
+      }
+      // Stop when the accepted step is at rounding level, or no step can lower the cost (the
+      // cost is already at its minimum to rounding).
+      if (!accepted || step.norm() <= 1e-14 * (1.0 + c.norm() + std::abs(radius))) {
+        converged = true;
+        ++iterations;
         break;
       }
-      damping *= 10.0;
     }
-    // Stop when the accepted step is at rounding level, or no step can lower the cost (the
-    // cost is already at its minimum to rounding).
-    if (!accepted || step.norm() <= 1e-14 * (1.0 + c.norm() + std::abs(radius))) {
-      converged = true;
-      ++iterations;
-      break;
+    if (!converged || !std::isfinite(radius) || !c.allFinite()) {
+      Fail(where, kind, "least-squares fit did not converge");
     }
   }
-  if (!converged || !std::isfinite(radius) || !c.allFinite()) {
-    Fail(where, kind, "least-squares fit did not converge");
-  }
+
   // Near the minimum the cost cannot resolve steps below ~sqrt(eps) (its changes drop under its
   // rounding), so where LM stops depends on its path, to ~1e-8 relative. Finish with Newton
   // steps on the stationarity condition g = 0 with the FULL Hessian of F = 1/2 sum e^2
@@ -333,72 +354,89 @@ HypersphereFit<D> FitHypersphere(long n, const Get& get, TaskKind kind, std::str
   // sum adds ~sqrt(N) eps sum |e_i|), the step computed there is still applied and the loop
   // ends, so the estimate is the stationary point to rounding whatever path LM took and the
   // fitted values are a smooth function of the points, as the Jacobian assumes.
-  constexpr double kEps = std::numeric_limits<double>::epsilon();
-  constexpr int kMaxNewton = 12;
-  bool stationary = false;
-  for (int newton = 0; newton < kMaxNewton; ++newton) {
-    ++iterations;
-    Hessian h = Hessian::Zero();
-    Theta g = Theta::Zero();
-    double terms = 0.0, residuals = 0.0;
-    for (long i = 0; i < n; ++i) {
-      const RadialResidual<D> r = Radial<D>(q(i), c, radius);
-      if (!(r.rho > 0.0)) Fail(where, kind, "a point lies at the fitted centre");
-      const Eigen::Matrix<double, D, D> uu = r.u * r.u.transpose();
-      h.template topLeftCorner<D, D>() +=
-          uu + r.e * (Eigen::Matrix<double, D, D>::Identity() - uu) / r.rho;
-      h.template topRightCorner<D, 1>() += r.u;
-      g.template head<D>() -= r.e * r.u;
-      g(D) -= r.e;
-      terms += r.rho + std::abs(radius);
-      residuals += std::abs(r.e);
+  void NewtonSteps() {
+    constexpr double kEps = std::numeric_limits<double>::epsilon();
+    constexpr int kMaxNewton = 12;
+    bool stationary = false;
+    for (int newton = 0; newton < kMaxNewton; ++newton) {
+      ++iterations;
+      Hessian h = Hessian::Zero();
+      Theta g = Theta::Zero();
+      double terms = 0.0, residuals = 0.0;
+      for (long i = 0; i < n; ++i) {
+        const RadialResidual<D> r = Radial<D>(q(i), c, radius);
+        if (!(r.rho > 0.0)) Fail(where, kind, "a point lies at the fitted centre");
+        AddRadialCurvature(r, h);
+        g.template head<D>() -= r.e * r.u;
+        g(D) -= r.e;
+        terms += r.rho + std::abs(radius);
+        residuals += std::abs(r.e);
+      }
+      h.template bottomLeftCorner<1, D>() = h.template topRightCorner<D, 1>().transpose();
+      h(D, D) = static_cast<double>(n);
+      const double tolerance = 16.0 * kEps * (terms + std::sqrt(static_cast<double>(n)) * residuals);
+      const bool at_rounding = g.template lpNorm<Eigen::Infinity>() <= tolerance;
+      const Eigen::LDLT<Hessian> ldlt(h);
+      const Theta step = -ldlt.solve(g);
+      if (ldlt.info() != Eigen::Success || !step.allFinite()) break;
+      c += step.template head<D>();
+      radius += step(D);
+      if (at_rounding) {
+        stationary = true;
+        break;
+      }
     }
-    h.template bottomLeftCorner<1, D>() = h.template topRightCorner<D, 1>().transpose();
-    h(D, D) = static_cast<double>(n);
-    const double tolerance = 16.0 * kEps * (terms + std::sqrt(static_cast<double>(n)) * residuals);
-    const bool at_rounding = g.template lpNorm<Eigen::Infinity>() <= tolerance;
-    const Eigen::LDLT<Hessian> ldlt(h);
-    const Theta step = -ldlt.solve(g);
-    if (ldlt.info() != Eigen::Success || !step.allFinite()) break;
-    c += step.template head<D>();
-    radius += step(D);
-    if (at_rounding) {
-      stationary = true;
-      break;
+    if (!stationary || !std::isfinite(radius) || !c.allFinite()) {
+      Fail(where, kind,
+           "least-squares fit did not converge (gradient not at rounding level after " +
+               std::to_string(kMaxNewton) + " Newton steps)");
     }
-  }
-  if (!stationary || !std::isfinite(radius) || !c.allFinite()) {
-    Fail(where, kind,
-         "least-squares fit did not converge (gradient not at rounding level after " +
-             std::to_string(kMaxNewton) + " Newton steps)");
   }
 
-  HypersphereFit<D> fit;
-  fit.centre = mean + scale * c;
-  fit.radius = scale * radius;
-  fit.iterations = iterations;
-  // Full Hessian of 1/2 sum e^2 in original coordinates: H_cc = sum u u^T + e (I - u u^T)/rho,
-  // H_cR = sum u, H_RR = N.
-  Hessian h = Hessian::Zero();
-  double sum_sq = 0.0;
-  for (long i = 0; i < n; ++i) {
-    const RadialResidual<D> r = Radial<D>(get(i), fit.centre, fit.radius);
-    if (!(r.rho > 1e-12 * fit.radius)) Fail(where, kind, "a point lies at the fitted centre");
+  // H_cc += u u^T + e (I - u u^T)/rho and H_cR += u for one point.
+  static void AddRadialCurvature(const RadialResidual<D>& r, Hessian& h) {
     const Eigen::Matrix<double, D, D> uu = r.u * r.u.transpose();
     h.template topLeftCorner<D, D>() +=
         uu + r.e * (Eigen::Matrix<double, D, D>::Identity() - uu) / r.rho;
     h.template topRightCorner<D, 1>() += r.u;
-    sum_sq += r.e * r.e;
   }
-  h.template bottomLeftCorner<1, D>() = h.template topRightCorner<D, 1>().transpose();
-  h(D, D) = static_cast<double>(n);
-  const Eigen::SelfAdjointEigenSolver<Hessian> curvature(h, Eigen::EigenvaluesOnly);
-  if (!(curvature.eigenvalues()(0) > 1e-10 * curvature.eigenvalues()(D))) {
-    Fail(where, kind, "the fit is not a strict minimum (ill-conditioned point set)");
+
+  // The fit in original coordinates, with its full Hessian there.
+  HypersphereFit<D> Fit() const {
+    HypersphereFit<D> fit;
+    fit.centre = mean + scale * c;
+    fit.radius = scale * radius;
+    fit.iterations = iterations;
+    // Full Hessian of 1/2 sum e^2 in original coordinates: H_cc = sum u u^T + e (I - u u^T)/rho,
+    // H_cR = sum u, H_RR = N.
+    Hessian h = Hessian::Zero();
+    double sum_sq = 0.0;
+    for (long i = 0; i < n; ++i) {
+      const RadialResidual<D> r = Radial<D>(get(i), fit.centre, fit.radius);
+      if (!(r.rho > 1e-12 * fit.radius)) Fail(where, kind, "a point lies at the fitted centre");
+      AddRadialCurvature(r, h);
+      sum_sq += r.e * r.e;
+    }
+    h.template bottomLeftCorner<1, D>() = h.template topRightCorner<D, 1>().transpose();
+    h(D, D) = static_cast<double>(n);
+    const Eigen::SelfAdjointEigenSolver<Hessian> curvature(h, Eigen::EigenvaluesOnly);
+    if (!(curvature.eigenvalues()(0) > 1e-10 * curvature.eigenvalues()(D))) {
+      Fail(where, kind, "the fit is not a strict minimum (ill-conditioned point set)");
+    }
+    fit.hessian.compute(h);
+    fit.sum_sq = sum_sq;
+    return fit;
   }
-  fit.hessian.compute(h);
-  fit.sum_sq = sum_sq;
-  return fit;
+};
+
+template <int D, class Get>
+HypersphereFit<D> FitHypersphere(long n, const Get& get, TaskKind kind, std::string_view where) {
+  HypersphereSolver<D, Get> solver(n, get, kind, where);
+  solver.Normalise();
+  solver.AlgebraicStart();
+  solver.LevenbergMarquardt();
+  solver.NewtonSteps();
+  return solver.Fit();
 }
 
 // d(centre, radius)/d a_j = H^-1 [ (u_j; 1) u_j^T + e_j ((I - u_j u_j^T)/rho_j; 0) ].

@@ -1,0 +1,198 @@
+#include "base/csv.h"
+
+#include <charconv>
+#include <cmath>
+
+#include <cctype>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "vlt/error.h"
+#include "vlt/units.h"
+
+namespace vlt {
+namespace {
+
+std::string Trim(std::string_view s) {
+  std::size_t b = 0, e = s.size();
+  while (b < e && (s[b] == ' ' || s[b] == '\t')) ++b;
+  while (e > b && (s[e - 1] == ' ' || s[e - 1] == '\t' || s[e - 1] == '\r')) --e;
+  return std::string(s.substr(b, e - b));
+}
+
+// Splits one physical line into fields. Quoted fields may not span lines (plan and readings
+// files never need that, and it keeps line numbers exact).
+std::vector<std::string> SplitLine(std::string_view line, const std::string& where, char delimiter) {
+  std::vector<std::string> fields;
+  std::size_t i = 0;
+  while (true) {
+    while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
+    std::string field;
+    if (i < line.size() && line[i] == '"') {
+      ++i;
+      bool closed = false;
+      while (i < line.size()) {
+        if (line[i] == '"') {
+          if (i + 1 < line.size() && line[i + 1] == '"') {
+            field += '"';
+            i += 2;
+            continue;
+          }
+          closed = true;
+          ++i;
+          break;
+        }
+        field += line[i++];
+      }
+      if (!closed) throw InputError(where + ": unterminated quoted field");
+      while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
+      if (i < line.size() && line[i] != delimiter) {
+        throw InputError(where + ": unexpected text after a quoted field");
+      }
+    } else {
+      std::size_t start = i;
+      while (i < line.size() && line[i] != delimiter) ++i;
+      field = Trim(line.substr(start, i - start));
+    }
+    fields.push_back(std::move(field));
+    if (i >= line.size()) break;
+    ++i;  // the delimiter
+  }
+  return fields;
+}
+
+// The separator of a file, from its header line: ';' (spreadsheets in locales with a decimal
+// comma) or a tab when the header has one outside quotes, else ','.
+char DetectDelimiter(std::string_view header) {
+  bool quoted = false, tab = false;
+  for (char c : header) {
+    if (c == '"') quoted = !quoted;
+    if (quoted) continue;
+    if (c == ';') return ';';
+    tab = tab || c == '\t';
+  }
+  return tab ? '\t' : ',';
+}
+
+// With ';' or tab separators, "12,5", "-0,25e-3", "1,5 mm" are numbers with a decimal comma: the
+// comma becomes a point. Anything else (a name such as "A,B") is left as it is.
+void DecimalCommaToPoint(std::string& field) {
+  std::size_t i = 0;
+  if (i < field.size() && (field[i] == '+' || field[i] == '-')) ++i;
+  const std::size_t int_start = i;
+  while (i < field.size() && std::isdigit(static_cast<unsigned char>(field[i]))) ++i;
+  if (i == int_start || i >= field.size() || field[i] != ',') return;
+  const std::size_t comma = i++;
+  const std::size_t frac_start = i;
+  while (i < field.size() && std::isdigit(static_cast<unsigned char>(field[i]))) ++i;
+  if (i == frac_start) return;
+  if (i < field.size() && (field[i] == 'e' || field[i] == 'E')) {
+    std::size_t j = i + 1;
+    if (j < field.size() && (field[j] == '+' || field[j] == '-')) ++j;
+    const std::size_t exp_start = j;
+    while (j < field.size() && std::isdigit(static_cast<unsigned char>(field[j]))) ++j;
+    if (j == exp_start) return;
+    i = j;
+  }
+  if (i < field.size() && field[i] != ' ' && field[i] != '\t') return;  // a unit follows after a blank
+  if (field.find(',', i) != std::string::npos) return;
+  field[comma] = '.';
+}
+
+}  // namespace
+
+int CsvTable::Column(std::string_view name) const {
+  for (std::size_t k = 0; k < header.size(); ++k) {
+    if (header[k] == name) return static_cast<int>(k);
+  }
+  return -1;
+}
+
+std::string CsvTable::Where(const CsvRow& row) const {
+  return file + ": line " + std::to_string(row.line);
+}
+
+CsvTable ParseCsv(std::string_view text, const std::string& file) {
+  CsvTable table;
+  table.file = file;
+  int line_number = 0;
+  std::size_t pos = 0;
+  // Skip a UTF-8 byte order mark (spreadsheets write one).
+  if (text.substr(0, 3) == "\xEF\xBB\xBF") pos = 3;
+  while (pos <= text.size()) {
+    // A line ends at LF, CRLF or a lone CR (old spreadsheet exports on macOS).
+    std::size_t end = text.find_first_of("\r\n", pos);
+    if (end == std::string_view::npos) end = text.size();
+    std::string_view line = text.substr(pos, end - pos);
+    ++line_number;
+    pos = end + 1;
+    if (end < text.size() && text[end] == '\r' && pos < text.size() && text[pos] == '\n') ++pos;
+    std::string trimmed = Trim(line);
+    if (trimmed.empty() || trimmed[0] == '#') {
+      if (end >= text.size()) break;
+      continue;
+    }
+    std::string where = file + ": line " + std::to_string(line_number);
+    if (table.header.empty()) table.delimiter = DetectDelimiter(line);
+    std::vector<std::string> fields = SplitLine(line, where, table.delimiter);
+    if (table.delimiter != ',' && !table.header.empty()) {
+      for (std::string& field : fields) DecimalCommaToPoint(field);
+    }
+    if (table.header.empty()) {
+      for (const std::string& name : fields) {
+        if (name.empty()) throw InputError(where + ": empty column name in the header");
+        for (const std::string& other : table.header) {
+          if (other == name) throw InputError(where + ": column '" + name + "' appears twice");
+        }
+        table.header.push_back(name);
+      }
+      table.header_line = line_number;
+    } else {
+      if (fields.size() != table.header.size()) {
+        throw InputError(where + ": " + std::to_string(fields.size()) + " fields, the header has " +
+                         std::to_string(table.header.size()) + " (separator '" +
+                         (table.delimiter == '\t' ? std::string("tab") : std::string(1, table.delimiter)) +
+                         "', taken from the header line)");
+      }
+      table.rows.push_back(CsvRow{line_number, std::move(fields)});
+    }
+    if (end >= text.size()) break;
+  }
+  if (table.header.empty()) throw InputError(file + ": empty CSV file (no header line)");
+  return table;
+}
+
+CsvTable ReadCsvFile(const std::string& path, const std::string& label) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw InputError(label + ": is a directory, not a CSV file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(label + ": cannot read CSV file '" + path + "'");
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  return ParseCsv(buffer.str(), label);
+}
+
+}  // namespace vlt
+
+namespace vlt::job_detail {
+
+double CsvQuantity(const std::string& field, std::optional<Dimension> dim, double unit_scale, double unit_offset,
+                   const std::string& where) {
+  if (field.empty()) throw InputError(where + ": empty field");
+  // A bare decimal number in the column's unit (docs/units.md: decimal literals only — no hex
+  // floats, no inf/nan, which strtod would take); anything else must carry its own unit.
+  std::string_view digits = field;
+  if (!digits.empty() && digits.front() == '+') digits.remove_prefix(1);
+  double v = 0.0;
+  const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), v, std::chars_format::general);
+  if (ec == std::errc() && end == digits.data() + digits.size()) {
+    if (!std::isfinite(v)) throw InputError(where + ": '" + field + "' is not a finite number");
+    return v * unit_scale + unit_offset;
+  }
+  if (ec == std::errc::result_out_of_range) throw InputError(where + ": '" + field + "' is out of the range of finite numbers");
+  if (!dim) throw InputError(where + ": '" + field + "' is not a decimal number");
+  return ParseQuantity(field, *dim, where);  // a field with its own unit
+}
+
+}  // namespace vlt::job_detail

@@ -1,0 +1,55 @@
+// base/csv.h — reading the small CSV files a job refers to (plan points, tracker readings), keeping
+// the line number of every row so that an error names "<file>: line N: <problem>".
+//
+// Dialect (RFC 4180 subset): the first non-blank, non-comment line is the header and sets the
+// separator: ';' or a tab when it has one (outside quotes), else ','. With ';' or tab, a field that
+// is a number with a decimal comma ("12,5", "-0,25e-3", "1,5 mm") is read with a decimal point
+// (spreadsheet exports in such locales). Fields may be enclosed in double quotes ("" is a quote
+// inside); blanks around fields are ignored; lines that are blank or start with '#' are skipped;
+// CRLF and CR line ends and a UTF-8 byte order mark are accepted.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "vlt/units.h"
+
+namespace vlt {
+
+struct CsvRow {
+  int line = 0;                     // 1-based line number in the file
+  std::vector<std::string> fields;  // trimmed, unquoted
+};
+
+struct CsvTable {
+  std::string file;                 // path as used in messages
+  int header_line = 0;
+  char delimiter = ',';              // ',', ';' or '\t' (from the header line)
+  std::vector<std::string> header;  // column names, trimmed
+  std::vector<CsvRow> rows;         // every row has exactly header.size() fields
+
+  // Index of column `name` (exact match), or -1.
+  int Column(std::string_view name) const;
+  // "<file>: line N" for messages about a row.
+  std::string Where(const CsvRow& row) const;
+};
+
+// Parses CSV text. `file` is used in messages only. Throws InputError for an empty file, an
+// unterminated quote, a duplicate or empty column name, or a row with the wrong number of fields.
+CsvTable ParseCsv(std::string_view text, const std::string& file);
+
+// Reads and parses `path`; `label` names it in messages (InputError if it cannot be read).
+CsvTable ReadCsvFile(const std::string& path, const std::string& label);
+
+}  // namespace vlt
+
+namespace vlt::job_detail {
+
+// A CSV field: a bare decimal number (in the column's unit: value * unit_scale + unit_offset; no
+// hex floats, inf or nan) or, when `dim` is given, a quantity with its own unit.
+double CsvQuantity(const std::string& field, std::optional<Dimension> dim, double unit_scale,
+                   double unit_offset, const std::string& where);
+
+}  // namespace vlt::job_detail

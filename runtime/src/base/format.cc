@@ -1,0 +1,152 @@
+// base/format.cc — numbers and text as vlt's files print them (base/format.h).
+#include "base/format.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+
+#include "vlt/results.h"
+
+namespace vlt::internal {
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+std::string FormatNode(const Eigen::Vector3d& node) {
+  char buffer[96];
+  std::snprintf(buffer, sizeof buffer, "(%.6g, %.6g, %.6g) m", node.x(), node.y(), node.z());
+  return buffer;
+}
+
+// The old definition, kept as the specification: the first of "%.6g" ... "%.17g" that reads back
+// as v. Computed directly: the shortest round-trip representation (std::to_chars, Ryu) has d
+// significant digits, no p < d round-trips, so the answer is "%.{max(6, d)}g" unless that rounding
+// falls outside v's rounding interval (possible next to a power of two), then one more digit.
+// std::to_chars(general, p) is specified as printf's %.pg ([charconv.to.chars]).
+void AppendNum(std::string& out, double v) {
+  char buffer[40];
+  if (!std::isfinite(v)) {
+    std::snprintf(buffer, sizeof buffer, "%g", v);
+    out += buffer;
+    return;
+  }
+  auto shortest = std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::scientific);
+  int digits = 0;
+  const char* e = buffer;
+  for (; e < shortest.ptr && *e != 'e'; ++e) digits += (*e >= '0' && *e <= '9') ? 1 : 0;
+  int exponent = 0;
+  std::from_chars(e + 1 + (e[1] == '+' ? 1 : 0), shortest.ptr, exponent);
+  // Away from a power of two the rounding interval is symmetric about v, and the closest
+  // p-digit decimal (%.pg, p >= d) is then the shortest one padded with zeros, which %g strips:
+  // "%.{max(6, d)}g" is the shortest digits laid out as %g lays them out (scientific when the
+  // exponent is < -4 or >= the precision, else fixed). At a power of two (fraction bits all zero)
+  // the interval below is half as wide, and subnormals are coarser: there %.pg is formatted and
+  // read back for p = max(6, d) ... 17.
+  std::uint64_t bits = 0;
+  std::memcpy(&bits, &v, sizeof bits);
+  const bool power_of_two = (bits & ((std::uint64_t{1} << 52) - 1)) == 0;
+  // Subnormals have fewer significant bits: their interval can hold several 6-digit decimals.
+  const bool subnormal = (bits & (std::uint64_t{0x7ff} << 52)) == 0;
+  const int precision = std::max(6, digits);
+  if (!power_of_two && !subnormal) {
+    if (exponent < -4 || exponent >= precision) {
+      out.append(buffer, shortest.ptr);
+    } else {
+      auto fixed = std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::fixed);
+      out.append(buffer, fixed.ptr);
+    }
+    return;
+  }
+  for (int p = precision; p <= 17; ++p) {
+    auto end = std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::general, p).ptr;
+    double back = 0.0;
+    std::from_chars(buffer, end, back);
+    if (back == v || p == 17) {
+      out.append(buffer, end);
+      return;
+    }
+  }
+}
+
+std::string Num(double v) {
+  std::string out;
+  AppendNum(out, v);
+  return out;
+}
+
+std::string Sig(double v, int digits) {
+  char buffer[40];
+  std::snprintf(buffer, sizeof buffer, "%.*g", digits, v);
+  return buffer;
+}
+
+std::string HtmlEscape(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (char c : text) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      case '\'': out += "&#39;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+
+std::string CsvField(const std::string& field) {
+  if (field.find_first_of(",\"\n\r") == std::string::npos) return field;
+  std::string out = "\"";
+  for (char c : field) {
+    if (c == '"') out += '"';
+    out += c;
+  }
+  return out + "\"";
+}
+
+std::string Fixed(double v, int decimals) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*f", decimals, v);
+  std::string s = buffer;
+  if (s.find_first_not_of("-0.") == std::string::npos && s[0] == '-') s.erase(0, 1);  // no "-0.00"
+  return s;
+}
+
+std::string ScriptSafe(const std::string& text) {
+  std::string safe;
+  safe.reserve(text.size());
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i] == '<' && i + 1 < text.size() && text[i + 1] == '/') {
+      safe += "<\\/";
+      ++i;
+    } else {
+      safe += text[i];
+    }
+  }
+  return safe;
+}
+
+}  // namespace vlt::internal
+
+namespace vlt {
+
+// The public name (vlt/results.h): the default output directory of a job is named after it.
+std::string SafeFileName(const std::string& name) {
+  std::string out;
+  for (char c : name) {
+    bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' ||
+              c == '_' || c == '-';
+    out += ok ? c : '_';
+  }
+  if (out.empty() || out == "." || out == "..") out = "job";
+  return out;
+}
+
+}  // namespace vlt

@@ -1,0 +1,42 @@
+// base/format.h — numbers and text as vlt's files print them: the shortest digits that read back,
+// fixed decimals, CSV fields (RFC 4180), HTML escaping, safe file names. Used by every folder that
+// writes files (results/, custom/, calibration/, network/, planning/, output/).
+#pragma once
+
+#include <chrono>
+#include <string>
+
+#include <Eigen/Core>
+
+namespace vlt {
+
+// Safe directory name from a job name ([A-Za-z0-9._-], others -> '_'); public in vlt/results.h.
+std::string SafeFileName(const std::string& name);
+
+namespace internal {
+
+using vlt::SafeFileName;
+
+// Wall time since `since`, s.
+double Seconds(std::chrono::steady_clock::time_point since);
+
+// "(x, y, z) m" with 6 significant digits, for messages about grid nodes.
+std::string FormatNode(const Eigen::Vector3d& node);
+
+// Number formatting for CSV/JSON/HTML: shortest round-trip representation ("%.17g" trimmed).
+std::string Num(double v);
+// Appends Num(v) to out without allocating a string per number (the per-point files).
+void AppendNum(std::string& out, double v);
+// Fixed number of significant digits.
+std::string Sig(double v, int digits);
+// Fixed number of decimals, never "-0.00" (tables of reports).
+std::string Fixed(double v, int decimals);
+// A CSV field quoted when it holds a comma, quote or line break (RFC 4180).
+std::string CsvField(const std::string& field);
+// Text for HTML: & < > " ' escaped.
+std::string HtmlEscape(const std::string& text);
+// JSON for a <script> element: "</", which could close the element, as "<\/" (the same JSON string).
+std::string ScriptSafe(const std::string& text);
+
+}  // namespace internal
+}  // namespace vlt

@@ -1,0 +1,264 @@
+// base/section.cc — reading TOML tables strictly (base/section.h): the Section that rejects unknown
+// keys, typed getters with unit strings, and the uncertain-input table shared by every section.
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <toml++/toml.h>
+
+#include "base/section.h"
+#include "vlt/distributions.h"
+#include "vlt/error.h"
+#include "vlt/units.h"
+
+namespace vlt {
+
+Dimension DimensionOfQuantity(std::string_view quantity, const std::string& where) {
+  for (Dimension d : {Dimension::kLength, Dimension::kAngle, Dimension::kRatio,
+                      Dimension::kTemperature, Dimension::kTemperatureDifference,
+                      Dimension::kPressure, Dimension::kHumidity, Dimension::kFraction,
+                      Dimension::kPerKelvin, Dimension::kDimensionless, Dimension::kTime}) {
+    if (DimensionName(d) == quantity) return d;
+  }
+  throw InputError(where + ": the model declares an unknown quantity kind '" +
+                   std::string(quantity) + "'");
+}
+
+namespace job_detail {
+
+std::string Section::Where(std::string_view key) const {
+  if (path_.empty()) return file_ + ": " + std::string(key);
+  return file_ + ": " + path_ + "." + std::string(key);
+}
+
+std::string Section::WhereSelf() const { return file_ + ": " + (path_.empty() ? "(top)" : path_); }
+
+const toml::node* Section::Get(std::string_view key) {
+  used_.insert(std::string(key));
+  return table_->get(key);
+}
+
+const toml::node& Section::Require(std::string_view key) {
+  const toml::node* node = Get(key);
+  if (!node) throw InputError(Where(key) + ": required key is missing");
+  return *node;
+}
+
+void Section::Finish() const {
+  for (auto&& [key, node] : *table_) {
+    (void)node;
+    if (!used_.count(std::string(key.str()))) {
+      throw InputError(Where(key.str()) + ": unknown key" +
+                       (allowed_hint_.empty() ? "" : " (expected one of: " + allowed_hint_ + ")"));
+    }
+  }
+}
+
+Section Section::Sub(std::string_view key, bool required) {
+  const toml::node* node = required ? &Require(key) : Get(key);
+  std::string sub_path = path_.empty() ? std::string(key) : path_ + "." + std::string(key);
+  if (!node) return Section(file_, sub_path);
+  if (!node->is_table()) throw InputError(Where(key) + ": expected a table");
+  return Section(*node->as_table(), file_, sub_path);
+}
+
+std::string AsString(const toml::node& node, const std::string& where) {
+  if (!node.is_string()) throw InputError(where + ": expected a string");
+  return std::string(node.value<std::string>().value());
+}
+
+bool AsBool(const toml::node& node, const std::string& where) {
+  if (!node.is_boolean()) throw InputError(where + ": expected true or false");
+  return *node.value<bool>();
+}
+
+std::int64_t AsInteger(const toml::node& node, const std::string& where) {
+  if (node.is_integer()) return *node.value<std::int64_t>();
+  if (node.is_floating_point()) {
+    double v = *node.value<double>();
+    if (std::isfinite(v) && v == std::floor(v) && std::abs(v) < 9e15) {
+      return static_cast<std::int64_t>(v);
+    }
+  }
+  throw InputError(where + ": expected an integer");
+}
+
+double AsNumber(const toml::node& node, const std::string& where) {
+  if (!node.is_number()) throw InputError(where + ": expected a number");
+  double v = *node.value<double>();
+  if (!std::isfinite(v)) throw InputError(where + ": not a finite number");
+  return v;
+}
+
+double AsQuantity(const toml::node& node, Dimension dimension, const std::string& where) {
+  if (node.is_string()) return ParseQuantity(*node.value<std::string>(), dimension, where);
+  if (node.is_number()) return AsNumber(node, where);
+  throw InputError(where + ": expected a " + std::string(DimensionName(dimension)) +
+                   " (a string with a unit, e.g. \"12 um\", or a number in " +
+                   std::string(SiUnit(dimension)) + ")");
+}
+
+
+
+// The distribution name is parsed by the Monte Carlo engine's parser (vlt/distributions.h) and
+// stored in its canonical spelling; the Distribution constructor checks the shape parameter.
+void CheckDistribution(UncertainInput& input, const std::string& where_distribution,
+                       const std::string& where_shape) {
+  DistributionKind kind = ParseDistribution(input.distribution, where_distribution);
+  input.distribution = std::string(DistributionName(kind));
+  if (!HasShape(kind) && input.shape != 0.0) {
+    throw InputError(where_shape + ": distribution '" + input.distribution + "' has no shape parameter");
+  }
+  (void)Distribution(kind, input.estimate, input.u, input.shape, where_shape);
+}
+
+void CheckUncertainty(double u, const std::string& where) {
+  if (!std::isfinite(u)) throw InputError(where + ": uncertainty is not finite");
+  if (u < 0.0) throw InputError(where + ": negative uncertainty");
+  if (u > kMaxMagnitude) throw InputError(where + ": uncertainty beyond what vlt computes with (at most 1e12 in SI units)");
+}
+
+// An uncertain input: either a table {estimate, u, distribution, shape} (omitted keys keep the
+// defaults in `input`) or a bare quantity (the estimate; u keeps its default).
+void ReadUncertain(Section& parent, std::string_view key, Dimension value_dim, Dimension u_dim,
+                   UncertainInput& input) {
+  const toml::node* node = parent.Get(key);
+  if (!node) return;
+  // The units the user typed, to show the values back in them (UncertainInput::display_*).
+  auto typed = [](const toml::node& n, double si, Dimension dim) {
+    if (!n.is_string()) return std::string();
+    const std::string unit = TypedUnit(*n.value<std::string>());
+    return unit.empty() ? std::string() : FormatQuantity(si, dim, unit, 8);
+  };
+  if (!node->is_table()) {
+    input.estimate = AsQuantity(*node, value_dim, parent.Where(key));
+    input.display_estimate = typed(*node, input.estimate, value_dim);
+    if (std::abs(input.estimate) > kMaxMagnitude) {
+      throw InputError(parent.Where(key) + ": beyond what vlt computes with (at most 1e12 in SI units)");
+    }
+    return;
+  }
+  Section s = parent.Sub(key, false);
+  s.set_hint("estimate, u, distribution, shape");
+  if (const toml::node* n = s.Get("estimate")) {
+    input.estimate = AsQuantity(*n, value_dim, s.Where("estimate"));
+    input.display_estimate = typed(*n, input.estimate, value_dim);
+  }
+  if (std::abs(input.estimate) > kMaxMagnitude) {
+    throw InputError(s.Where("estimate") + ": beyond what vlt computes with (at most 1e12 in SI units)");
+  }
+  if (const toml::node* n = s.Get("u")) {
+    input.u = AsQuantity(*n, u_dim, s.Where("u"));
+    CheckUncertainty(input.u, s.Where("u"));
+    input.display_u = typed(*n, input.u, u_dim);
+  }
+  if (const toml::node* n = s.Get("distribution")) input.distribution = AsString(*n, s.Where("distribution"));
+  if (const toml::node* n = s.Get("shape")) input.shape = AsNumber(*n, s.Where("shape"));
+  CheckDistribution(input, s.Where("distribution"), s.Where("shape"));
+  s.Finish();
+}
+
+UncertainInput MakeInput(std::string name, std::string group, Dimension dim, double estimate, double u) {
+  UncertainInput input;
+  input.name = std::move(name);
+  input.unit = std::string(SiUnit(dim));
+  input.group = std::move(group);
+  input.estimate = estimate;
+  input.u = u;
+  return input;
+}
+
+
+namespace {
+
+// TOML allows non-ASCII bytes only inside strings and comments. Debian's toml++ 3.3.0 has
+// undefined behaviour on some of them elsewhere (a bare "5 µm" or "20 °C"), so vlt refuses them
+// itself, before the parser sees them, with the fix in the message.
+void CheckBytesOutsideStrings(std::string_view text, const std::string& file) {
+  int line = 1, column = 0;
+  std::size_t i = 0;
+  auto starts = [&](std::string_view token) { return text.substr(i, token.size()) == token; };
+  auto advance = [&](std::size_t n) {
+    for (std::size_t k = 0; k < n && i < text.size(); ++k, ++i) {
+      if (text[i] == '\n') {
+        ++line;
+        column = 0;
+      } else {
+        ++column;
+      }
+    }
+  };
+  while (i < text.size()) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    if (c == '#') {
+      while (i < text.size() && text[i] != '\n') advance(1);
+    } else if (starts("\"\"\"") || starts("'''")) {
+      const std::string_view close = text.substr(i, 3);
+      advance(3);
+      while (i < text.size() && !starts(close)) advance(text[i] == '\\' && close[0] == '"' ? 2 : 1);
+      advance(3);
+    } else if (c == '"' || c == '\'') {
+      advance(1);
+      while (i < text.size() && text[i] != static_cast<char>(c) && text[i] != '\n') {
+        advance(text[i] == '\\' && c == '"' ? 2 : 1);
+      }
+      advance(1);
+    } else if (c >= 0x80) {
+      throw InputError(file + ": line " + std::to_string(line) + ", column " + std::to_string(column + 1) +
+                       ": a non-ASCII character outside a quoted string; values with units go in quotes, "
+                       "e.g. \"5 um\", \"20 degC\"");
+    } else {
+      advance(1);
+    }
+  }
+}
+
+}  // namespace
+
+toml::table ParseToml(std::string_view text, const std::string& file) {
+  CheckBytesOutsideStrings(text, file);
+  try {
+    return toml::parse(text, file);
+  } catch (const toml::parse_error& e) {
+    std::string desc(e.description());
+    std::replace(desc.begin(), desc.end(), '\n', ' ');
+    throw InputError(file + ": line " + std::to_string(e.source().begin.line) + ", column " +
+                     std::to_string(e.source().begin.column) + ": TOML syntax error: " + desc);
+  }
+}
+
+std::string ReadTextFile(const std::string& path, const std::string& what) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw InputError(path + ": is a directory, not " + what);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot read " + what);
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+std::filesystem::path BaseDirectory(const std::string& path) {
+  std::filesystem::path base = std::filesystem::path(path).parent_path();
+  return base.empty() ? std::filesystem::path(".") : base;
+}
+
+void ReadJobMeta(Section& top, std::string& name, std::string* description,
+                 const std::string& default_name) {
+  name = default_name;
+  Section meta = top.Sub("job", false);
+  if (!meta.exists()) return;
+  meta.set_hint("name, description");
+  if (const toml::node* n = meta.Get("name")) name = AsString(*n, meta.Where("name"));
+  if (const toml::node* n = meta.Get("description")) {
+    const std::string text = AsString(*n, meta.Where("description"));
+    if (description) *description = text;
+  }
+  if (name.empty()) throw InputError(meta.Where("name") + ": empty job name");
+  meta.Finish();
+}
+
+}  // namespace job_detail
+
+}  // namespace vlt

@@ -1,0 +1,25 @@
+// instrument/readers.h — the instrument of a job file: [tracker] (with its calibration file),
+// [environment], [station], [part] and [correlations], read alike by the readers of jobs, networks
+// and calibrations (instrument/readers.cc).
+#pragma once
+
+#include <string>
+
+#include "base/section.h"
+#include "vlt/job.h"
+
+namespace vlt::job_detail {
+
+void ReadTracker(Section& top, Job& job);      //  [tracker]
+void ReadEnvironment(Section& top, Job& job);  //  [environment]
+void ReadStation(Section& top, Job& job);      //  [station]
+void ReadPart(Section& top, Job& job);         //  [part]
+void ReadCorrelations(Section& top, Job& job); //  [correlations] (after the above)
+
+// One [<...>.correlations.<name>] table: `<inputs_key>` = [names] and matrix = [[...]]; the
+// meaning is checked by SharedCorrelation (vlt/measurement_model.h) with the other groups.
+CorrelationGroup ReadCorrelationGroup(Section& parent, const std::string& name, const std::string& inputs_key);
+// "5 um + 0.5 um/m" -> (a [m], b [m/m]); either term may be absent.
+void ParseLengthPlusRatio(const std::string& text, const std::string& where, double& a, double& b);
+
+}  // namespace vlt::job_detail

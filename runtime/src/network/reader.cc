@@ -1,0 +1,353 @@
+// network/reader.cc — the network file of `vlt network` (vlt/network.h): several stations of one
+// instrument. It reuses the job's readers for [tracker], [environment], [correlations], the
+// readings CSV of each station ([readings] keys) and the nominal targets ([plan] keys), so a
+// tracker, its readings and a plan are written the same way everywhere. Keys: docs/network.md.
+#include <cmath>
+#include <map>
+#include <set>
+
+#include <toml++/toml.h>
+
+#include "job/job_detail.h"
+#include "base/shared_settings.h"
+#include "vlt/error.h"
+#include "vlt/network.h"
+#include "vlt/units.h"
+
+namespace vlt {
+
+using namespace job_detail;
+
+namespace {
+
+// A length [m] of a table (number in m or a quantity string).
+double Length(Section& s, std::string_view key) {
+  const double v = AsQuantity(s.Require(key), Dimension::kLength, s.Where(key));
+  if (!std::isfinite(v) || std::abs(v) > kMaxRange) throw InputError(s.Where(key) + ": not a plausible coordinate");
+  return v;
+}
+
+// The reading of one network file: the job being filled and what the sections read later need
+// from the earlier ones (the instruments of the stations, the targets the offline ones see).
+struct NetworkFileReader {
+  const std::string& path;
+  Section& top;
+  NetworkJob& job;
+  Network& net;
+  Job holder;  // the job readers fill a Job
+  bool several = false;  // several instruments: every station names its own
+  bool has_targets = false;
+  std::vector<std::vector<PlannedSighting>> sees;
+  bool any_online = false, any_offline = false;
+
+  NetworkFileReader(const std::string& path, Section& top, NetworkJob& job)
+      : path(path), top(top), job(job), net(job.network) {
+    holder.file = path;
+    holder.base_dir = BaseDirectory(path);
+  }
+
+  void ReadInstrument(Section& s, const std::string& name);
+  void ReadInstruments();
+  void ReadValidation(Section& settings);
+  void ReadSelfCalibration(Section& settings);
+  void ReadSettings();
+  void ReadTargets();
+  int InstrumentOf(Section& s);
+  void ReadPose(Section& s, NetworkStation& st);
+  void ReadOnlineReadings(Section& s, NetworkStation& st);
+  void ReadSightings(Section& s, const toml::node& see);
+  void ReadStation(Section& s);
+  void ReadStations();
+  void ReadDatum();
+  void ReadReferences();
+  void PlanOfflineReadings();
+  void ReadNetworkTasks();
+};
+
+// The instruments: [[instrument]] tables (each with its own [instrument.tracker],
+// [instrument.environment], [instrument.correlations] read as a job's), or the file's single
+// [tracker] (+ [environment], [correlations]) named "tracker".
+void NetworkFileReader::ReadInstrument(Section& s, const std::string& name) {
+  Job instrument = holder;
+  ReadTracker(s, instrument);
+  ReadEnvironment(s, instrument);
+  ReadCorrelations(s, instrument);
+  if (instrument.calibration) job.input_files.emplace_back("calibration", instrument.calibration->file);
+  for (const std::string& w : instrument.warnings) job.warnings.push_back(w);
+  net.instruments.push_back({name, instrument.setup});
+}
+
+void NetworkFileReader::ReadInstruments() {
+  if (top.Get("instrument")) {
+    if (top.Get("tracker")) throw InputError(top.Where("tracker") + ": give either [tracker] (one instrument) or [[instrument]] tables, not both");
+    ForEachTable(top, path, "instrument", [&](Section& s) {
+      s.set_hint("name, tracker, environment, correlations");
+      const std::string name = AsString(s.Require("name"), s.Where("name"));
+      if (name.empty() || name.find('.') != std::string::npos) throw InputError(s.Where("name") + ": a non-empty name without '.'");
+      for (const NetworkInstrument& other : net.instruments) {
+        if (other.name == name) throw InputError(s.Where("name") + ": instrument '" + name + "' defined twice");
+      }
+      ReadInstrument(s, name);
+    });
+  } else {
+    ReadInstrument(top, "tracker");
+  }
+  several = net.instruments.size() > 1;
+}
+
+// [network.monte_carlo]: the validation by re-adjusted simulated networks.
+void NetworkFileReader::ReadValidation(Section& settings) {
+  Section mc = settings.Sub("monte_carlo", false);
+  if (!mc.exists()) return;
+  mc.set_hint("trials, seed");
+  mc.Require("trials");
+  std::int64_t trials = 0;
+  ReadTrials(mc, "trials", 2, 1000000, "", trials);
+  job.monte_carlo_trials = static_cast<int>(trials);
+  ReadSeed(mc, "seed", job.monte_carlo_seed);
+  mc.Finish();
+}
+
+void NetworkFileReader::ReadSelfCalibration(Section& settings) {
+  const toml::node* n = settings.Get("self_calibrate");
+  if (!n) return;
+  const std::string where = settings.Where("self_calibrate");
+  if (n->is_boolean()) {
+    // true: every error parameter of every instrument with a prior u > 0.
+    if (AsBool(*n, where)) {
+      for (const NetworkInstrument& instrument : net.instruments) {
+        for (const UncertainInput& p : instrument.setup.params) {
+          if (p.u > 0.0) net.self_calibrate.push_back(several ? instrument.name + "." + p.name : p.name);
+        }
+      }
+    }
+  } else if (n->is_array()) {
+    for (const toml::node& e : *n->as_array()) net.self_calibrate.push_back(AsString(e, where));
+  } else {
+    throw InputError(where + ": expected true, false or an array of input names");
+  }
+}
+
+void NetworkFileReader::ReadSettings() {
+  Section settings = top.Sub("network", false);
+  if (!settings.exists()) return;
+  settings.set_hint("self_calibrate, coverage_probability, outlier_limit, max_iterations, monte_carlo");
+  ReadValidation(settings);
+  ReadSelfCalibration(settings);
+  ReadCoverageProbability(settings, "coverage_probability", net.coverage_probability);
+  ReadOutlierLimit(settings, "outlier_limit", net.outlier_limit);
+  ReadIterationLimit(settings, "max_iterations", net.max_iterations);
+  settings.Finish();
+}
+
+// Offline targets: [targets] with the keys of [plan] (csv or [[targets.point]]).
+void NetworkFileReader::ReadTargets() {
+  Section targets = top.Sub("targets", false);
+  has_targets = targets.exists();
+  if (!has_targets) return;
+  Job points;
+  points.file = path;
+  points.base_dir = holder.base_dir;
+  ReadPlan(targets, points, false);
+  std::set<std::string> names;
+  for (const JobPoint& p : points.points) {
+    if (!names.insert(p.name).second) throw InputError(p.where + ": target '" + p.name + "' defined twice");
+    job.nominal.emplace_back(p.name, p.nominal);
+  }
+  for (const InputFile& f : points.input_files) job.input_files.emplace_back("targets csv", f.path);
+}
+
+// The index of the station's instrument (the first when it names none and the network has one).
+int NetworkFileReader::InstrumentOf(Section& s) {
+  if (const toml::node* n = s.Get("instrument")) {
+    const std::string name = AsString(*n, s.Where("instrument"));
+    int instrument = -1;
+    for (std::size_t k = 0; k < net.instruments.size(); ++k) {
+      if (net.instruments[k].name == name) instrument = static_cast<int>(k);
+    }
+    if (instrument < 0) throw InputError(s.Where("instrument") + ": unknown instrument '" + name + "'");
+    return instrument;
+  }
+  if (several) {
+    throw InputError(s.Where("instrument") + ": required key is missing (the network has several instruments)");
+  }
+  return 0;
+}
+
+void NetworkFileReader::ReadPose(Section& s, NetworkStation& st) {
+  for (int c = 0; c < 6; ++c) {
+    const Dimension dim = c < 3 ? Dimension::kAngle : Dimension::kLength;
+    UncertainInput in = MakeInput(std::string("pose.") + kPoseNames[c], "pose", dim, 0.0, 0.0);
+    if (s.Get(kPoseNames[c])) {
+      ReadUncertain(s, kPoseNames[c], dim, dim, in);
+      st.pose_given = true;
+    }
+    st.pose(c) = in.estimate;
+    st.pose_u(c) = in.u;
+  }
+}
+
+// Online: the CSV of what the station read, with its instrument's reading noise.
+void NetworkFileReader::ReadOnlineReadings(Section& s, NetworkStation& st) {
+  any_online = true;
+  Section readings = s.Sub("readings", true);
+  Job r;
+  r.file = path;
+  r.base_dir = holder.base_dir;
+  r.setup = net.instruments[st.instrument].setup;
+  ReadReadings(readings, r);
+  for (const JobPoint& p : r.points) st.readings.push_back({p.name, p.face, p.readings, p.where});
+  job.input_files.emplace_back("readings csv", r.readings_file);
+  for (const std::string& w : r.warnings) job.warnings.push_back(w);
+  sees.emplace_back();
+}
+
+// Offline: the targets of [targets] the station will read, in one face or both.
+void NetworkFileReader::ReadSightings(Section& s, const toml::node& see) {
+  any_offline = true;
+  std::vector<Face> faces = {Face::kFront};
+  if (const toml::node* f = s.Get("face")) {
+    const std::string text = AsString(*f, s.Where("face"));
+    if (text == "both") faces = {Face::kFront, Face::kBack};
+    else faces = {ParseFace(text.c_str(), s.Where("face").c_str())};
+  }
+  std::vector<std::string> names;
+  const std::string where = s.Where("sees");
+  if (see.is_string() && AsString(see, where) == "all") {
+    for (const auto& [name, x] : job.nominal) names.push_back(name);
+  } else if (see.is_array()) {
+    for (const toml::node& e : *see.as_array()) names.push_back(AsString(e, where));
+  } else {
+    throw InputError(where + ": expected \"all\" or an array of target names");
+  }
+  if (names.empty()) throw InputError(where + ": the station sees no target");
+  sees.emplace_back();
+  for (const std::string& name : names) {
+    for (Face face : faces) sees.back().push_back({name, face, where});
+  }
+}
+
+void NetworkFileReader::ReadStation(Section& s) {
+  s.set_hint("name, instrument, rx, ry, rz, tx, ty, tz, readings, sees, face");
+  NetworkStation st;
+  st.where = s.WhereSelf();
+  st.name = AsString(s.Require("name"), s.Where("name"));
+  if (st.name.empty()) throw InputError(s.Where("name") + ": empty station name");
+  st.instrument = InstrumentOf(s);
+  ReadPose(s, st);
+  const bool has_readings = s.Get("readings") != nullptr;
+  const toml::node* see = s.Get("sees");
+  if (has_readings == (see != nullptr)) {
+    throw InputError(st.where + ": give either readings (online: a CSV of what the station read) or sees (offline: the "
+                     "targets it will read), not " + std::string(has_readings ? "both" : "neither"));
+  }
+  if ((has_readings && any_offline) || (!has_readings && any_online)) {
+    throw InputError(st.where + ": every station gives readings (online) or every station gives sees (offline), not a mix");
+  }
+  if (has_readings) {
+    ReadOnlineReadings(s, st);
+  } else {
+    ReadSightings(s, *see);
+  }
+  net.stations.push_back(std::move(st));
+}
+
+void NetworkFileReader::ReadStations() {
+  ForEachTable(top, path, "station", [&](Section& s) { ReadStation(s); });
+  if (net.stations.empty()) throw InputError(path + ": station: required key is missing (give [[station]] tables)");
+  job.offline = any_offline;
+  if (job.offline && job.nominal.empty()) {
+    throw InputError(path + ": targets: required key is missing (offline stations see targets of [targets])");
+  }
+  if (!job.offline && has_targets) {
+    throw InputError(path + ": targets: nominal targets are for offline networks (stations with sees); online stations "
+                     "give their readings");
+  }
+}
+
+void NetworkFileReader::ReadDatum() {
+  Section datum = top.Sub("datum", false);
+  if (!datum.exists()) return;
+  datum.set_hint("station");
+  const std::string name = AsString(datum.Require("station"), datum.Where("station"));
+  bool found = false;
+  for (NetworkStation& st : net.stations) {
+    if (st.name == name) {
+      st.datum = true;
+      st.pose_given = true;
+      found = true;
+    }
+  }
+  if (!found) throw InputError(datum.Where("station") + ": unknown station '" + name + "'");
+  datum.Finish();
+}
+
+void NetworkFileReader::ReadReferences() {
+  ForEachTable(top, path, "reference", [&](Section& s) {
+    s.set_hint("target, x, y, z, u");
+    NetworkReference ref;
+    ref.where = s.WhereSelf();
+    ref.target = AsString(s.Require("target"), s.Where("target"));
+    ref.position = {Length(s, "x"), Length(s, "y"), Length(s, "z")};
+    ref.u = AsQuantity(s.Require("u"), Dimension::kLength, s.Where("u"));
+    if (!(ref.u > 0.0) || !std::isfinite(ref.u)) throw InputError(s.Where("u") + ": must be positive");
+    net.references.push_back(ref);
+  });
+}
+
+void NetworkFileReader::PlanOfflineReadings() {
+  for (std::size_t i = 0; i < net.stations.size(); ++i) {
+    if (!net.stations[i].pose_given) {
+      throw InputError(net.stations[i].where + ": an offline network needs every station's pose (rx, ry, rz, tx, ty, tz; "
+                       "omitted ones are 0)");
+    }
+  }
+  PlanNetworkReadings(net, job.nominal, sees);
+}
+
+// [[task]] as in a job, over the targets the stations read (in order of first reading).
+void NetworkFileReader::ReadNetworkTasks() {
+  Job tasks;
+  tasks.file = path;
+  std::set<std::string> read;
+  for (const NetworkStation& st : net.stations) {
+    for (const TargetReading& r : st.readings) {
+      if (read.insert(r.target).second) tasks.points.push_back({r.target, Face::kFront, {}, {}, r.where});
+    }
+  }
+  ReadTasks(top, tasks);
+  job.tasks = tasks.tasks;
+}
+
+}  // namespace
+
+NetworkJob LoadNetworkJob(const std::string& path) {
+  const std::string text = ReadTextFile(path, "the network file");
+  toml::table root = ParseToml(text, path);
+  Section top(root, path, "");
+  top.set_hint("job, tracker, environment, correlations, instrument, network, datum, reference, targets, station, task, output");
+  NetworkJob job;
+  job.file = path;
+  job.text = text;
+  job.base_dir = BaseDirectory(path);
+  job.input_files.emplace_back("network", path);
+  ReadJobMeta(top, job.name, &job.description, std::filesystem::path(path).stem().string());
+  NetworkFileReader reader(path, top, job);
+  job.network.where = path;
+  job.network.name = job.name;
+  reader.ReadInstruments();
+  reader.ReadSettings();
+  reader.ReadTargets();
+  reader.ReadStations();
+  reader.ReadDatum();
+  reader.ReadReferences();
+  OutputSettings output;
+  ReadOutput(top, output);
+  job.output_directory = output.directory;
+  if (job.offline) reader.PlanOfflineReadings();
+  reader.ReadNetworkTasks();
+  top.Finish();
+  return job;
+}
+
+}  // namespace vlt

@@ -1,0 +1,253 @@
+// output/output_directory.cc — an output directory replaced as one transaction (vlt/results.h
+// OutputDirectory; docs/cli.md "Outputs").
+//
+// The complete new set of files is written into a staging directory beside the target
+// (".<name>.vlt-new-<pid>"), then swapped in with renameat2(RENAME_EXCHANGE) — one atomic step on
+// Linux: a reader sees the old set or the new set, never a mixture — and the old set is removed.
+// Where the file system cannot exchange, two renames (the target is absent for an instant).
+// A directory vlt did not write is never emptied: the check runs before anything is computed.
+// SIGINT/SIGTERM while the staging directory exists remove it (async-signal-safe unlink/rmdir on
+// paths prepared beforehand) and then end the process as the signal would.
+#include <fcntl.h>
+#include <signal.h>
+#include <stdio.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <set>
+
+#include "mpi/ranks.h"
+#include "vlt/error.h"
+#include "vlt/results.h"
+
+namespace vlt {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// What the signal handler removes: fixed buffers, filled before the staging directory exists.
+constexpr int kMaxStaged = 64;
+constexpr std::size_t kMaxPath = 4096;
+char g_staged_files[kMaxStaged][kMaxPath];
+char g_staging_dir[kMaxPath];
+volatile std::sig_atomic_t g_staged_count = 0;
+volatile std::sig_atomic_t g_staging_active = 0;
+
+extern "C" void RemoveStagingOnSignal(int signal_number) {
+  if (g_staging_active) {
+    for (int i = 0; i < g_staged_count; ++i) ::unlink(g_staged_files[i]);
+    ::rmdir(g_staging_dir);
+  }
+  std::signal(signal_number, SIG_DFL);
+  std::raise(signal_number);
+}
+
+bool CopyPath(char* buffer, const fs::path& p) {
+  const std::string s = p.string();
+  if (s.size() + 1 > kMaxPath) return false;
+  std::memcpy(buffer, s.c_str(), s.size() + 1);
+  return true;
+}
+
+// The names every vlt command writes: a directory holding only these (and the marker) was
+// written by vlt, also by versions before the marker existed.
+const std::set<std::string>& KnownOutputNames() {
+  static const std::set<std::string> names = {
+      kOutputMarker, "points.csv", "points.jsonl", "outputs.csv", "budget.csv", "tasks.csv", "results.json", "report.html", "map.csv", "map.html",
+      "tests.csv", "sensitivity.csv", "simulated_readings.csv", "simulated_calibration.toml", "calibration.toml",
+      "parameters.csv", "correlation.csv", "identifiability.csv", "targets.csv", "residuals.csv",
+      "plan.json", "station_map.csv", "station_map.html", "planned_job.toml"};
+  return names;
+}
+
+fs::path Normalised(const fs::path& p) {
+  fs::path n = p.lexically_normal();
+  if (n.has_filename()) return n;
+  return n.parent_path();  // "out/" -> "out"
+}
+
+void RemoveQuietly(const fs::path& p) {
+  std::error_code ec;
+  fs::remove_all(p, ec);
+}
+
+}  // namespace
+
+void InstallOutputSignalHandlers() {
+  struct sigaction action {};
+  action.sa_handler = RemoveStagingOnSignal;
+  sigemptyset(&action.sa_mask);
+  action.sa_flags = SA_RESETHAND;
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+}
+
+OutputDirectory::OutputDirectory(const fs::path& target) : target_(Normalised(target)) {
+  if (target_.empty() || target_ == "." || target_ == "..") {
+    throw InputError(target.string() + ": the output directory may not be the current directory or its parent (vlt replaces it as a whole)");
+  }
+  std::error_code ec;
+  const fs::file_status status = fs::symlink_status(target_, ec);
+  if (fs::exists(status)) {
+    if (!fs::is_directory(status)) {
+      throw InputError(target_.string() + ": the output path exists and is not a directory");
+    }
+    for (const fs::directory_entry& e : fs::directory_iterator(target_, ec)) {
+      const std::string name = e.path().filename().string();
+      if (name == kOutputMarker) continue;
+      if (!KnownOutputNames().count(name)) {
+        throw InputError(target_.string() + ": the output directory holds '" + name +
+                         "', which vlt did not write; vlt replaces its output directory as a whole, so "
+                         "choose another directory (-o) or empty this one");
+      }
+    }
+    if (ec) throw InputError(target_.string() + ": cannot read the output directory: " + ec.message());
+  }
+  // The directory the staging directory goes into must exist (or be creatable) and be writable.
+  fs::path parent = target_.parent_path();
+  if (parent.empty()) parent = ".";
+  fs::path existing = parent;
+  while (!existing.empty() && !fs::exists(existing, ec)) existing = existing.parent_path();
+  if (existing.empty()) existing = ".";
+  if (!fs::is_directory(existing, ec)) {
+    throw InputError(target_.string() + ": '" + existing.string() + "' is not a directory");
+  }
+  if (::access(existing.c_str(), W_OK | X_OK) != 0) {
+    throw InputError(target_.string() + ": cannot write into '" + existing.string() + "'");
+  }
+  parent_ = parent;
+}
+
+OutputDirectory::~OutputDirectory() {
+  if (!staging_.empty()) {
+    g_staging_active = 0;
+    RemoveQuietly(staging_);
+  }
+}
+
+OutputFile::OutputFile(std::string file_name, std::string content)
+    : name(std::move(file_name)),
+      write([text = std::move(content)](OutputText& out) { out.Write(text); }) {}
+
+OutputFile::OutputFile(std::string file_name, std::function<void(OutputText&)> writer)
+    : name(std::move(file_name)), write(std::move(writer)) {}
+
+namespace {
+
+// A staging file, written through a 1 MiB stdio buffer; a write error is reported once at the end.
+class FileText final : public OutputText {
+ public:
+  explicit FileText(const fs::path& path) : file_(std::fopen(path.c_str(), "wb")) {
+    if (file_ != nullptr) std::setvbuf(file_, nullptr, _IOFBF, std::size_t{1} << 20);
+  }
+  ~FileText() override {
+    if (file_ != nullptr) std::fclose(file_);
+  }
+  FileText(const FileText&) = delete;
+  FileText& operator=(const FileText&) = delete;
+  void Write(std::string_view text) override {
+    if (file_ != nullptr && !text.empty()) std::fwrite(text.data(), 1, text.size(), file_);
+  }
+  // Flushes and closes; false on any error since opening.
+  bool Close() {
+    if (file_ == nullptr) return false;
+    const bool ok = std::fflush(file_) == 0 && std::ferror(file_) == 0;
+    const bool closed = std::fclose(file_) == 0;
+    file_ = nullptr;
+    return ok && closed;
+  }
+
+ private:
+  std::FILE* file_;
+};
+
+}  // namespace
+
+std::vector<OutputFile> AsOutputFiles(const std::vector<std::pair<std::string, std::string>>& files) {
+  std::vector<OutputFile> all;
+  all.reserve(files.size());
+  for (const auto& [name, content] : files) all.emplace_back(name, content);
+  return all;
+}
+
+void OutputDirectory::Commit(const std::vector<OutputFile>& files) {
+  // Under MPI every rank computed the same results; they agree that none failed, and rank 0
+  // alone writes (docs/mpi.md). Without MPI, Agree does nothing.
+  ranks::Agree();
+  if (!ranks::IsRoot()) return;
+  std::error_code ec;
+  fs::create_directories(parent_, ec);
+  if (ec) throw InputError(target_.string() + ": cannot create '" + parent_.string() + "': " + ec.message());
+  const std::string name = target_.filename().string();
+  // Staging directories of earlier runs that were killed (SIGKILL, power loss) are ours by name.
+  for (const fs::directory_entry& e : fs::directory_iterator(parent_, ec)) {
+    const std::string other = e.path().filename().string();
+    if (other.rfind("." + name + ".vlt-new-", 0) == 0 || other.rfind("." + name + ".vlt-old-", 0) == 0) {
+      RemoveQuietly(e.path());
+    }
+  }
+  const std::string pid = std::to_string(::getpid());
+  staging_ = parent_ / ("." + name + ".vlt-new-" + pid);
+  RemoveQuietly(staging_);
+  // Prepare the signal handler's list before anything exists on disk.
+  std::vector<OutputFile> all = files;
+  all.emplace_back(kOutputMarker, std::string("written by vlt ") + VLT_VERSION +
+                                      "; vlt replaces this directory as a whole on its next run into it\n");
+  g_staging_active = 0;
+  int count = 0;
+  bool registered = CopyPath(g_staging_dir, staging_) && all.size() <= static_cast<std::size_t>(kMaxStaged);
+  for (std::size_t i = 0; registered && i < all.size(); ++i) {
+    registered = CopyPath(g_staged_files[count++], staging_ / all[i].name);
+  }
+  g_staged_count = registered ? count : 0;
+  g_staging_active = registered ? 1 : 0;
+
+  if (!fs::create_directory(staging_, ec) || ec) {
+    throw InputError(target_.string() + ": cannot create the staging directory '" + staging_.string() + "'");
+  }
+  for (const OutputFile& file : all) {
+    if (file.name.find('/') != std::string::npos) {
+      throw InputError(file.name + ": an output file name may not contain '/'");
+    }
+    FileText out(staging_ / file.name);
+    file.write(out);
+    if (!out.Close()) throw InputError((target_ / file.name).string() + ": cannot write the output file (disk full?)");
+  }
+  // Swap in.
+  const bool exists = fs::exists(fs::symlink_status(target_, ec));
+  if (exists) {
+    if (::renameat2(AT_FDCWD, staging_.c_str(), AT_FDCWD, target_.c_str(), RENAME_EXCHANGE) == 0) {
+      // staging_ now holds the old set.
+      g_staging_active = 0;
+      RemoveQuietly(staging_);
+      staging_.clear();
+      return;
+    }
+    // No exchange on this file system: move the old set aside, then the new one in.
+    const fs::path old = parent_ / ("." + name + ".vlt-old-" + pid);
+    fs::rename(target_, old, ec);
+    if (ec) throw InputError(target_.string() + ": cannot replace the output directory: " + ec.message());
+    fs::rename(staging_, target_, ec);
+    if (ec) {
+      std::error_code ignore;
+      fs::rename(old, target_, ignore);  // put the old set back
+      throw InputError(target_.string() + ": cannot replace the output directory: " + ec.message());
+    }
+    g_staging_active = 0;
+    staging_.clear();
+    RemoveQuietly(old);
+    return;
+  }
+  fs::rename(staging_, target_, ec);
+  if (ec) throw InputError(target_.string() + ": cannot create the output directory: " + ec.message());
+  g_staging_active = 0;
+  staging_.clear();
+}
+
+}  // namespace vlt
