@@ -33,7 +33,8 @@ MeasurementSetup Tracker(const char* name) {
 }
 
 const TestLayout& Layout() {
-  static const TestLayout layout = LoadTestLayout(std::string(VLT_SOURCE_DIR) + "/examples/layouts/b89_4_19_2006.toml");
+  static const TestLayout layout =
+      LoadTestLayout(std::string(VLT_SOURCE_DIR) + "/examples/layouts/b89_4_19_2006.toml");
   return layout;
 }
 

@@ -22,8 +22,7 @@ std::vector<Eigen::Vector3d> PanelPoints(std::size_t n) {
   for (std::size_t i = 0; i < n; ++i) {
     const std::size_t ix = i % nx, iy = i / nx;
     const double x = nx > 1 ? 3.0 + 4.0 * static_cast<double>(ix) / static_cast<double>(nx - 1) : 5.0;
-    const double y =
-        ny > 1 ? -0.75 + 1.5 * static_cast<double>(iy) / static_cast<double>(ny - 1) : 0.0;
+    const double y = ny > 1 ? -0.75 + 1.5 * static_cast<double>(iy) / static_cast<double>(ny - 1) : 0.0;
     points.emplace_back(x, y, -0.8);
   }
   return points;

@@ -22,8 +22,7 @@
 namespace vlt::bench {
 namespace {
 
-double Evaluate(const gen::BuiltModel& m, const double* readings, const double* params,
-                double* out) {
+double Evaluate(const gen::BuiltModel& m, const double* readings, const double* params, double* out) {
   GiNaC::exmap values;
   for (std::size_t k = 0; k < m.readings.size(); ++k) values[m.readings[k]] = readings[k];
   for (std::size_t k = 0; k < m.params.size(); ++k) values[m.params[k]] = params[k];

@@ -54,8 +54,7 @@ void BM_EvaluateWithJacobian(benchmark::State& state, bool env) {
   for (auto _ : state) {
     for (std::size_t i = 0; i < kBatch; ++i) {
       Eigen::Vector3d y;
-      model.EvaluateWithJacobian(readings[i].data(), x.data(), y.data(), j.data(),
-                                 j.data() + 9);
+      model.EvaluateWithJacobian(readings[i].data(), x.data(), y.data(), j.data(), j.data() + 9);
       u.head<3>() = model.reading_uncertainty(readings[i](0));
       a.noalias() = j * u.asDiagonal();
       Eigen::Matrix3d& c = cov[i];  // U_y = a a^T, the six distinct entries
@@ -126,8 +125,7 @@ void BM_PlaneTask(benchmark::State& state, std::size_t n) {
   double u_normal_x = 0.0;
   for (auto _ : state) {
     const std::vector<Eigen::Vector3d> y = PointEstimates(model, points, 1);
-    const Eigen::Map<const Eigen::Matrix3Xd> coordinates(y.data()->data(), 3,
-                                                         static_cast<Eigen::Index>(n));
+    const Eigen::Map<const Eigen::Matrix3Xd> coordinates(y.data()->data(), 3, static_cast<Eigen::Index>(n));
     FitOptions fit_options;
     fit_options.jacobian = true;
     const FitResult fit = FitPlane(coordinates, fit_options);
@@ -150,29 +148,29 @@ const bool kRegistered = [] {
   // work and stays meaningful on a shared machine; two threads: wall-clock time.
   RegisterBenchmark("gum_engine/evaluate_with_jacobian/env:0", BM_EvaluateWithJacobian, false);
   RegisterBenchmark("gum_engine/evaluate_with_jacobian/env:1", BM_EvaluateWithJacobian, true);
-  RegisterBenchmark("gum_engine/covariance_field/env:0/threads:1", BM_CovarianceField, false, 1, kBatch, true);
-  RegisterBenchmark("gum_engine/covariance_field_scalar/env:0/threads:1", BM_CovarianceField, false, 1, kBatch,
-                    false);
+  RegisterBenchmark("gum_engine/covariance_field/env:0/threads:1", BM_CovarianceField, false, 1, kBatch,
+                    true);
+  RegisterBenchmark("gum_engine/covariance_field_scalar/env:0/threads:1", BM_CovarianceField, false, 1,
+                    kBatch, false);
   RegisterBenchmark("gum_engine/covariance_field/env:1/threads:1", BM_CovarianceField, true, 1, kBatch, true);
   RegisterBenchmark("gum_engine/covariance_field_scalar/env:1/threads:1", BM_CovarianceField, true, 1, kBatch,
                     false);
   RegisterBenchmark("gum_engine/covariance_field/env:0/threads:2", BM_CovarianceField, false, 2, kBatch, true)
       ->UseRealTime();
-  RegisterBenchmark("gum_engine/covariance_field/env:0/N:65536/threads:1", BM_CovarianceField, false, 1, 65536,
-                    true)->UseRealTime();
-  RegisterBenchmark("gum_engine/covariance_field/env:0/N:65536/threads:2", BM_CovarianceField, false, 2, 65536,
-                    true)->UseRealTime();
+  RegisterBenchmark("gum_engine/covariance_field/env:0/N:65536/threads:1", BM_CovarianceField, false, 1,
+                    65536, true)
+      ->UseRealTime();
+  RegisterBenchmark("gum_engine/covariance_field/env:0/N:65536/threads:2", BM_CovarianceField, false, 2,
+                    65536, true)
+      ->UseRealTime();
   RegisterBenchmark("gum_engine/field/env:0/threads:1", BM_Field, false, 1, kBatch);
   RegisterBenchmark("gum_engine/field/env:0/threads:2", BM_Field, false, 2, kBatch)->UseRealTime();
   RegisterBenchmark("gum_engine/field/env:1/threads:1", BM_Field, true, 1, kBatch);
   // A larger map (65536 points): 16 times the work per wake-up of the pool's workers.
-  RegisterBenchmark("gum_engine/field/env:0/N:65536/threads:1", BM_Field, false, 1, 65536)
-      ->UseRealTime();
-  RegisterBenchmark("gum_engine/field/env:0/N:65536/threads:2", BM_Field, false, 2, 65536)
-      ->UseRealTime();
+  RegisterBenchmark("gum_engine/field/env:0/N:65536/threads:1", BM_Field, false, 1, 65536)->UseRealTime();
+  RegisterBenchmark("gum_engine/field/env:0/N:65536/threads:2", BM_Field, false, 2, 65536)->UseRealTime();
   RegisterBenchmark("gum_engine/points/env:0/budgets:0/threads:1", BM_Points, false, false, 1);
-  RegisterBenchmark("gum_engine/points/env:0/budgets:0/threads:2", BM_Points, false, false, 2)
-      ->UseRealTime();
+  RegisterBenchmark("gum_engine/points/env:0/budgets:0/threads:2", BM_Points, false, false, 2)->UseRealTime();
   RegisterBenchmark("gum_engine/points/env:0/budgets:1/threads:1", BM_Points, false, true, 1);
   RegisterBenchmark("gum_engine/points/env:1/budgets:1/threads:1", BM_Points, true, true, 1);
   for (std::size_t n : {10, 100, 1000, 10000, 100000, 1000000}) {

@@ -150,8 +150,8 @@ void BM_Propagate(benchmark::State& state) {
 
 void SetOps(benchmark::State& state, int ops) {
   state.counters["ops"] = ops;
-  state.counters["ops/s"] = benchmark::Counter(static_cast<double>(ops) * state.iterations() * kBatch,
-                                               benchmark::Counter::kIsRate);
+  state.counters["ops/s"] =
+      benchmark::Counter(static_cast<double>(ops) * state.iterations() * kBatch, benchmark::Counter::kIsRate);
 }
 
 template <class K>
@@ -161,8 +161,7 @@ void BM_NominalJacobians(benchmark::State& state) {
   Eigen::Matrix<double, 3, N> j;
   for (auto _ : state) {
     for (std::size_t i = 0; i < kBatch; ++i) {
-      K::template NominalJacobians<double>(b.readings[i].data(), b.y[i].data(), j.data(),
-                                           j.data() + 9);
+      K::template NominalJacobians<double>(b.readings[i].data(), b.y[i].data(), j.data(), j.data() + 9);
       benchmark::DoNotOptimize(j.data());
     }
     benchmark::ClobberMemory();
@@ -178,8 +177,8 @@ void BM_ForwardJacobians(benchmark::State& state) {
   Eigen::Matrix<double, 3, N> j;
   for (auto _ : state) {
     for (std::size_t i = 0; i < kBatch; ++i) {
-      K::template ForwardJacobians<double>(b.readings[i].data(), b.params.data(), b.y[i].data(),
-                                           j.data(), j.data() + 9);
+      K::template ForwardJacobians<double>(b.readings[i].data(), b.params.data(), b.y[i].data(), j.data(),
+                                           j.data() + 9);
       benchmark::DoNotOptimize(j.data());
     }
     benchmark::ClobberMemory();
@@ -306,13 +305,10 @@ const bool kRegistered = [] {
   RegisterBenchmark("gum/generated_forward_jacobians/mirror",
                     BM_Propagate<MirrorKernels, GeneratedForwardJacobians<MirrorKernels>>);
   RegisterBenchmark("gum/autodiff/mirror", BM_Propagate<MirrorKernels, AutoDiff<MirrorKernels>>);
-  RegisterBenchmark("gum/finite_diff/mirror",
-                    BM_Propagate<MirrorKernels, FiniteDifferences<MirrorKernels>>);
-  RegisterBenchmark("gum/generated_nominal/head",
-                    BM_Propagate<HeadKernels, GeneratedNominal<HeadKernels>>);
+  RegisterBenchmark("gum/finite_diff/mirror", BM_Propagate<MirrorKernels, FiniteDifferences<MirrorKernels>>);
+  RegisterBenchmark("gum/generated_nominal/head", BM_Propagate<HeadKernels, GeneratedNominal<HeadKernels>>);
   RegisterBenchmark("gum/autodiff/head", BM_Propagate<HeadKernels, AutoDiff<HeadKernels>>);
-  RegisterBenchmark("gum/finite_diff/head",
-                    BM_Propagate<HeadKernels, FiniteDifferences<HeadKernels>>);
+  RegisterBenchmark("gum/finite_diff/head", BM_Propagate<HeadKernels, FiniteDifferences<HeadKernels>>);
 
   RegisterBenchmark("jacobian/nominal/mirror", BM_NominalJacobians<MirrorKernels>);
   RegisterBenchmark("jacobian/nominal/head", BM_NominalJacobians<HeadKernels>);

@@ -98,8 +98,9 @@ void PrintSummary(const SummaryReporter& r, std::ostream& out) {
   const double forward = r.Rate("forward/mirror");
   const double ginac = r.Rate("forward_ginac/mirror");
 
-  Print(out, "\nvlt_bench summary (ratios from this run; mirror model, 20 error "
-              "parameters + 3 readings)\n");
+  Print(out,
+        "\nvlt_bench summary (ratios from this run; mirror model, 20 error "
+        "parameters + 3 readings)\n");
   Print(out, "GUM per point: value + 3x23 Jacobian + J U J^T\n");
   Line(out, "generated NominalJacobians, tight loop (ceiling)", nominal, "points");
   Line(out, "generated NominalJacobians, 4 SIMD lanes, tight loop", soa, "points");
@@ -163,8 +164,7 @@ int main(int argc, char** argv) {
     return 0;
   } else {
     inner = std::make_unique<benchmark::ConsoleReporter>(
-        isatty(STDOUT_FILENO) ? benchmark::ConsoleReporter::OO_Color
-                              : benchmark::ConsoleReporter::OO_None);
+        isatty(STDOUT_FILENO) ? benchmark::ConsoleReporter::OO_Color : benchmark::ConsoleReporter::OO_None);
   }
   SummaryReporter reporter(inner.get());
   benchmark::RunSpecifiedBenchmarks(&reporter);

@@ -75,8 +75,8 @@ void BM_McmPlane36(benchmark::State& state, std::int64_t trials, int threads) {
     benchmark::DoNotOptimize(result.outputs.data());
   }
   state.SetItemsProcessed(state.iterations() * trials);
-  state.counters["point_evals/s"] = benchmark::Counter(
-      static_cast<double>(state.iterations() * trials * 36), benchmark::Counter::kIsRate);
+  state.counters["point_evals/s"] =
+      benchmark::Counter(static_cast<double>(state.iterations() * trials * 36), benchmark::Counter::kIsRate);
 }
 
 // 23 standard normals per trial from the engine's generator (NormalsBulk: Philox4x32-10 in SIMD
@@ -91,7 +91,7 @@ void BM_McmCeiling(benchmark::State& state) {
   const Eigen::Matrix<double, kInputs, 1> u = InputUncertainties<kInputs>(model, estimate(0));
   const mcm_internal::KeyedStream rng(20260101);
   const ForwardLanesFn lanes = model.setup().model->forward_lanes;
-  constexpr std::uint64_t kGroups = 1024;  // 4096 trials per benchmark iteration
+  constexpr std::uint64_t kGroups = 1024;                        // 4096 trials per benchmark iteration
   constexpr int kBulk = mcm_internal::KeyedStream::kBulkGroups;  // 256 trials per block
   std::uint64_t group = 0;
   double sum = 0.0;
@@ -99,7 +99,8 @@ void BM_McmCeiling(benchmark::State& state) {
   for (auto _ : state) {
     for (std::uint64_t g = 0; g < kGroups; g += kBulk, group += kBulk) {
       if constexpr (kNormals) {
-        for (int k = 0; k < kInputs; ++k) rng.NormalsBulk(group, kBulk, static_cast<std::uint64_t>(k), z[k].data());
+        for (int k = 0; k < kInputs; ++k)
+          rng.NormalsBulk(group, kBulk, static_cast<std::uint64_t>(k), z[k].data());
       } else {
         for (int k = 0; k < kInputs; ++k) {
           for (int t = 0; t < 4 * kBulk; ++t) z[k][t] = 1e-3 * static_cast<double>((group + k + t) & 7);
@@ -135,8 +136,7 @@ const bool kRegistered = [] {
     RegisterBenchmark(("mcm/run/point/M:10000" + t).c_str(), BM_McmPoint, 10000, threads)
         ->UseRealTime()
         ->Unit(benchmark::kMillisecond);
-    RegisterBenchmark(("mcm/run/point/M:1000000" + t).c_str(), BM_McmPoint, 1000000,
-                      threads)
+    RegisterBenchmark(("mcm/run/point/M:1000000" + t).c_str(), BM_McmPoint, 1000000, threads)
         ->UseRealTime()
         ->Iterations(3)
         ->Unit(benchmark::kMillisecond);

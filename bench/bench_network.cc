@@ -52,23 +52,27 @@ BenchNetwork MakeBenchNetwork(int stations, int targets) {
     return r;
   };
   for (int j = 0; j < targets; ++j) {
-    b.targets.emplace_back("T" + std::to_string(j),
-                           Eigen::Vector3d(10.0 * halton(j + 1, 2), 10.0 * halton(j + 1, 3), 2.0 * halton(j + 1, 5)));
+    b.targets.emplace_back(
+        "T" + std::to_string(j),
+        Eigen::Vector3d(10.0 * halton(j + 1, 2), 10.0 * halton(j + 1, 3), 2.0 * halton(j + 1, 5)));
   }
   std::vector<std::vector<PlannedSighting>> sees(stations);
   for (int i = 0; i < stations; ++i) {
     const double angle = 2.0 * std::numbers::pi * i / stations;
     NetworkStation st;
     st.name = "S" + std::to_string(i + 1);
-    st.pose << 0.0, 0.0, angle + std::numbers::pi, 5.0 + 14.0 * std::cos(angle), 5.0 + 14.0 * std::sin(angle), 0.5;
+    st.pose << 0.0, 0.0, angle + std::numbers::pi, 5.0 + 14.0 * std::cos(angle), 5.0 + 14.0 * std::sin(angle),
+        0.5;
     st.pose_given = true;
     st.where = "bench: station " + st.name;
     net.stations.push_back(st);
   }
   for (int j = 0; j < targets; ++j) {
-    for (int offset : {0, 3, 7}) sees[(j + offset) % stations].push_back({b.targets[j].first, Face::kFront, "bench"});
+    for (int offset : {0, 3, 7})
+      sees[(j + offset) % stations].push_back({b.targets[j].first, Face::kFront, "bench"});
   }
-  for (int r = 0; r < 4; ++r) net.references.push_back({b.targets[r].first, b.targets[r].second, 20e-6, "bench"});
+  for (int r = 0; r < 4; ++r)
+    net.references.push_back({b.targets[r].first, b.targets[r].second, 20e-6, "bench"});
   PlanNetworkReadings(net, b.targets, sees);
   net = SimulateNetwork(net, b.targets, 1);
   return b;
@@ -90,7 +94,11 @@ void BM_AdjustNetwork(benchmark::State& state) {
   state.counters["peak_rss_MB"] = static_cast<double>(usage.ru_maxrss) / 1024.0;
 }
 
-BENCHMARK(BM_AdjustNetwork)->Name("network/adjust")->Args({3, 50})->Args({10, 500})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_AdjustNetwork)
+    ->Name("network/adjust")
+    ->Args({3, 50})
+    ->Args({10, 500})
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace vlt::bench

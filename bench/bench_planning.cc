@@ -29,7 +29,8 @@ void BM_PlanStation(benchmark::State& state) {
     plan = PlanStation(job, 1);
     benchmark::DoNotOptimize(plan.map.U_norm.data());
   }
-  state.counters["evaluations"] = static_cast<double>(plan.global_evaluations + plan.local_evaluations + plan.map_evaluations);
+  state.counters["evaluations"] =
+      static_cast<double>(plan.global_evaluations + plan.local_evaluations + plan.map_evaluations);
   state.counters["objective_um"] = plan.recommended.objective * 1e6;
 }
 

@@ -39,25 +39,39 @@ toml::array ArrayOf(const py::sequence& s, const std::string& where) {
   for (std::size_t i = 0; i < s.size(); ++i) {
     const py::handle v = s[i];
     const std::string at = where + "[" + std::to_string(i) + "]";
-    if (py::isinstance<py::dict>(v)) a.push_back(TableOf(v.cast<py::dict>(), at));
-    else if (py::isinstance<py::bool_>(v)) a.push_back(v.cast<bool>());
-    else if (py::isinstance<py::int_>(v)) a.push_back(v.cast<std::int64_t>());
-    else if (py::isinstance<py::float_>(v)) a.push_back(v.cast<double>());
-    else if (py::isinstance<py::str>(v)) a.push_back(v.cast<std::string>());
-    else if (py::isinstance<py::list>(v) || py::isinstance<py::tuple>(v)) a.push_back(ArrayOf(v.cast<py::sequence>(), at));
-    else throw vlt::InputError(at + ": a job value must be a dict, list, str, bool, int or float");
+    if (py::isinstance<py::dict>(v))
+      a.push_back(TableOf(v.cast<py::dict>(), at));
+    else if (py::isinstance<py::bool_>(v))
+      a.push_back(v.cast<bool>());
+    else if (py::isinstance<py::int_>(v))
+      a.push_back(v.cast<std::int64_t>());
+    else if (py::isinstance<py::float_>(v))
+      a.push_back(v.cast<double>());
+    else if (py::isinstance<py::str>(v))
+      a.push_back(v.cast<std::string>());
+    else if (py::isinstance<py::list>(v) || py::isinstance<py::tuple>(v))
+      a.push_back(ArrayOf(v.cast<py::sequence>(), at));
+    else
+      throw vlt::InputError(at + ": a job value must be a dict, list, str, bool, int or float");
   }
   return a;
 }
 
 void Insert(toml::table& t, const std::string& key, const py::handle& v, const std::string& where) {
-  if (py::isinstance<py::dict>(v)) t.insert(key, TableOf(v.cast<py::dict>(), where));
-  else if (py::isinstance<py::bool_>(v)) t.insert(key, v.cast<bool>());
-  else if (py::isinstance<py::int_>(v)) t.insert(key, v.cast<std::int64_t>());
-  else if (py::isinstance<py::float_>(v)) t.insert(key, v.cast<double>());
-  else if (py::isinstance<py::str>(v)) t.insert(key, v.cast<std::string>());
-  else if (py::isinstance<py::list>(v) || py::isinstance<py::tuple>(v)) t.insert(key, ArrayOf(v.cast<py::sequence>(), where));
-  else throw vlt::InputError(where + ": a job value must be a dict, list, str, bool, int or float");
+  if (py::isinstance<py::dict>(v))
+    t.insert(key, TableOf(v.cast<py::dict>(), where));
+  else if (py::isinstance<py::bool_>(v))
+    t.insert(key, v.cast<bool>());
+  else if (py::isinstance<py::int_>(v))
+    t.insert(key, v.cast<std::int64_t>());
+  else if (py::isinstance<py::float_>(v))
+    t.insert(key, v.cast<double>());
+  else if (py::isinstance<py::str>(v))
+    t.insert(key, v.cast<std::string>());
+  else if (py::isinstance<py::list>(v) || py::isinstance<py::tuple>(v))
+    t.insert(key, ArrayOf(v.cast<py::sequence>(), where));
+  else
+    throw vlt::InputError(where + ": a job value must be a dict, list, str, bool, int or float");
 }
 
 toml::table TableOf(const py::dict& d, const std::string& where) {
@@ -107,7 +121,8 @@ vlt::Job JobOf(const py::object& job, const std::string& base_dir) {
 py::object JsonLoads(const std::string& text) { return py::module_::import("json").attr("loads")(text); }
 
 // "estimate" (N, 3) m, "covariance" (N, 3, 3) m^2, "U" (N, 3) m of N GUM results (part frame).
-void AddGumArrays(py::dict& out, std::size_t count, const std::function<const vlt::PointUncertainty&(std::size_t)>& at) {
+void AddGumArrays(py::dict& out, std::size_t count,
+                  const std::function<const vlt::PointUncertainty&(std::size_t)>& at) {
   const auto n = static_cast<py::ssize_t>(count);
   py::array_t<double> estimate({n, py::ssize_t{3}}), covariance({n, py::ssize_t{3}, py::ssize_t{3}}),
       expanded({n, py::ssize_t{3}});
@@ -138,7 +153,8 @@ py::dict ResultsDict(const vlt::Results& r) {
   py::list names;
   for (const vlt::PointResult& p : r.points) names.append(p.input.name);
   out["names"] = names;
-  AddGumArrays(out, r.points.size(), [&](std::size_t i) -> const vlt::PointUncertainty& { return r.points[i].gum; });
+  AddGumArrays(out, r.points.size(),
+               [&](std::size_t i) -> const vlt::PointUncertainty& { return r.points[i].gum; });
   return out;
 }
 
@@ -175,7 +191,8 @@ PYBIND11_MODULE(vlt, m) {
           d["kind"] = info->kind;
           d["description"] = info->description;
           py::list readings, params, outputs;
-          for (int i = 0; i < info->num_readings; ++i) readings.append(QuantityDict(info->readings[i], false));
+          for (int i = 0; i < info->num_readings; ++i)
+            readings.append(QuantityDict(info->readings[i], false));
           for (int i = 0; i < info->num_params; ++i) params.append(QuantityDict(info->params[i], true));
           for (int i = 0; i < info->num_outputs; ++i) outputs.append(QuantityDict(info->outputs[i], false));
           d["readings"] = readings;
@@ -219,16 +236,19 @@ PYBIND11_MODULE(vlt, m) {
         }
         return ResultsDict(results);
       },
-      py::arg("job"), py::arg("monte_carlo") = true, py::arg("trials") = py::none(), py::arg("seed") = py::none(),
-      py::arg("threads") = py::none(), py::arg("base_dir") = ".",
+      py::arg("job"), py::arg("monte_carlo") = true, py::arg("trials") = py::none(),
+      py::arg("seed") = py::none(), py::arg("threads") = py::none(), py::arg("base_dir") = ".",
       "Runs a job (a path to a job file, or the job as a dict) like `vlt run`, without writing files.\n"
-      "A custom-model job ([model]) returns its results.json as a dict (\"schema\": \"vlt-custom-results/1\"). A tracker job:\n"
-      "Returns results.json as a dict (docs/results.md) with 'points' (the objects of points.jsonl) and numpy\n"
+      "A custom-model job ([model]) returns its results.json as a dict (\"schema\": "
+      "\"vlt-custom-results/1\"). A tracker job:\n"
+      "Returns results.json as a dict (docs/results.md) with 'points' (the objects of points.jsonl) and "
+      "numpy\n"
       "arrays 'estimate' (N, 3) m, 'covariance' (N, 3, 3) m^2, 'U' (N, 3) m, part frame, and 'names'.");
 
   m.def(
       "simulate",
-      [](const std::string& model_name, const py::array_t<double, py::array::c_style | py::array::forcecast>& points,
+      [](const std::string& model_name,
+         const py::array_t<double, py::array::c_style | py::array::forcecast>& points,
          const std::map<std::string, double>& params, const std::string& face_name) {
         const vlt::ModelInfo* model = vlt::FindModel(model_name);
         if (model == nullptr || std::string(model->kind) != "tracker") {
@@ -241,7 +261,8 @@ PYBIND11_MODULE(vlt, m) {
         for (const auto& [name, value] : params) {
           int k = 0;
           while (k < model->num_params && name != model->params[k].name) ++k;
-          if (k == model->num_params) throw vlt::InputError("params: '" + name + "' is not a parameter of " + model_name);
+          if (k == model->num_params)
+            throw vlt::InputError("params: '" + name + "' is not a parameter of " + model_name);
           x[static_cast<std::size_t>(k)] = value;
         }
         const vlt::Face face = vlt::ParseFace(face_name.c_str(), "face");
@@ -256,7 +277,8 @@ PYBIND11_MODULE(vlt, m) {
           for (py::ssize_t i = 0; i < n; ++i) {
             // What the tracker reads at the true point with this error state, and what its nominal
             // model (every parameter 0) reports from those readings: `vlt simulate`.
-            const std::array<double, 3> r = vlt::InverseReadings(*model, x.data(), {p(i, 0), p(i, 1), p(i, 2)}, face);
+            const std::array<double, 3> r =
+                vlt::InverseReadings(*model, x.data(), {p(i, 0), p(i, 1), p(i, 2)}, face);
             double y[3];
             model->forward(r.data(), zero.data(), y);
             for (int a = 0; a < 3; ++a) {
@@ -270,17 +292,20 @@ PYBIND11_MODULE(vlt, m) {
         out["reported"] = reported;
         return out;
       },
-      py::arg("model"), py::arg("points"), py::arg("params") = std::map<std::string, double>{}, py::arg("face") = "front",
+      py::arg("model"), py::arg("points"), py::arg("params") = std::map<std::string, double>{},
+      py::arg("face") = "front",
       "What a tracker with an error state reads and reports (`vlt simulate`): points (N, 3) true reflector\n"
       "centres, tracker frame, m; params {name: value in SI} (others 0) -> dict of 'readings' (N, 3) =\n"
       "range [m], azimuth [rad], elevation [rad] and 'reported' (N, 3) m, the nominal model's coordinates.");
 
   m.def(
       "gum",
-      [](const py::object& job, const py::array_t<double, py::array::c_style | py::array::forcecast>& readings,
+      [](const py::object& job,
+         const py::array_t<double, py::array::c_style | py::array::forcecast>& readings,
          std::optional<int> threads, const std::string& base_dir) {
         if (readings.ndim() != 2 || readings.shape(1) != 3) {
-          throw vlt::InputError("readings: expected an array of shape (N, 3): range [m], azimuth [rad], elevation [rad]");
+          throw vlt::InputError(
+              "readings: expected an array of shape (N, 3): range [m], azimuth [rad], elevation [rad]");
         }
         const vlt::Job parsed = JobOf(job, base_dir);
         const auto n = static_cast<std::size_t>(readings.shape(0));

@@ -10,18 +10,15 @@ using GiNaC::ex;
 using V3 = std::array<ex, 3>;
 
 const std::vector<KnownParam> kReflectorParams = {
-    {"srr", "m", "length"}, {"srh", "m", "length"}, {"srv", "m", "length"},
-    {"sdh", "rad", "angle"}};
+    {"srr", "m", "length"}, {"srh", "m", "length"}, {"srv", "m", "length"}, {"sdh", "rad", "angle"}};
 
 const std::vector<KnownParam>& MirrorParams() {
   static const std::vector<KnownParam> kParams = [] {
     std::vector<KnownParam> p = {
-        {"a0", "rad", "angle"},  {"eac", "rad", "angle"}, {"eas", "rad", "angle"},
-        {"e0", "rad", "angle"},  {"eec", "rad", "angle"}, {"ees", "rad", "angle"},
-        {"thv", "m", "length"},  {"rhv", "rad", "angle"}, {"rmv", "rad", "angle"},
-        {"tmv", "m", "length"},  {"tbw", "m", "length"},  {"tbv", "m", "length"},
-        {"rbh", "rad", "angle"}, {"rbv", "rad", "angle"}, {"R0", "m", "length"},
-        {"mu", "1", "ratio"}};
+        {"a0", "rad", "angle"},  {"eac", "rad", "angle"}, {"eas", "rad", "angle"}, {"e0", "rad", "angle"},
+        {"eec", "rad", "angle"}, {"ees", "rad", "angle"}, {"thv", "m", "length"},  {"rhv", "rad", "angle"},
+        {"rmv", "rad", "angle"}, {"tmv", "m", "length"},  {"tbw", "m", "length"},  {"tbv", "m", "length"},
+        {"rbh", "rad", "angle"}, {"rbv", "rad", "angle"}, {"R0", "m", "length"},   {"mu", "1", "ratio"}};
     p.insert(p.end(), kReflectorParams.begin(), kReflectorParams.end());
     return p;
   }();
@@ -31,11 +28,11 @@ const std::vector<KnownParam>& MirrorParams() {
 const std::vector<KnownParam>& HeadParams() {
   static const std::vector<KnownParam> kParams = [] {
     std::vector<KnownParam> p = {
-        {"lam", "m", "length"},  {"mu", "1", "ratio"},      {"ex", "m", "length"},
-        {"by", "m", "length"},   {"bz", "m", "length"},     {"alpha", "rad", "angle"},
+        {"lam", "m", "length"},    {"mu", "1", "ratio"},    {"ex", "m", "length"},
+        {"by", "m", "length"},     {"bz", "m", "length"},   {"alpha", "rad", "angle"},
         {"gamma", "rad", "angle"}, {"ae0", "rad", "angle"}, {"aa1", "rad", "angle"},
-        {"ba1", "rad", "angle"}, {"aa2", "rad", "angle"},   {"ba2", "rad", "angle"},
-        {"ae1", "rad", "angle"}, {"be1", "rad", "angle"},   {"ae2", "rad", "angle"},
+        {"ba1", "rad", "angle"},   {"aa2", "rad", "angle"}, {"ba2", "rad", "angle"},
+        {"ae1", "rad", "angle"},   {"be1", "rad", "angle"}, {"ae2", "rad", "angle"},
         {"be2", "rad", "angle"}};
     p.insert(p.end(), kReflectorParams.begin(), kReflectorParams.end());
     return p;
@@ -44,15 +41,9 @@ const std::vector<KnownParam>& HeadParams() {
 }
 
 // Rotations of a column vector (right-handed, angle counter-clockwise about the axis).
-V3 RotX(const ex& c, const ex& s, const V3& v) {
-  return {v[0], c * v[1] - s * v[2], s * v[1] + c * v[2]};
-}
-V3 RotY(const ex& c, const ex& s, const V3& v) {
-  return {c * v[0] + s * v[2], v[1], -s * v[0] + c * v[2]};
-}
-V3 RotZ(const ex& c, const ex& s, const V3& v) {
-  return {c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]};
-}
+V3 RotX(const ex& c, const ex& s, const V3& v) { return {v[0], c * v[1] - s * v[2], s * v[1] + c * v[2]}; }
+V3 RotY(const ex& c, const ex& s, const V3& v) { return {c * v[0] + s * v[2], v[1], -s * v[0] + c * v[2]}; }
+V3 RotZ(const ex& c, const ex& s, const V3& v) { return {c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]}; }
 ex Dot(const V3& a, const V3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 V3 Add(const V3& a, const V3& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
 V3 Sub(const V3& a, const V3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
@@ -125,8 +116,8 @@ void BuildMirror(BuiltModel& m, const ParamSet& p) {
   const V3 n = DefV(g, RotZ(ca, sa, RotX(ch, sh, nt)));
   // Incident beam through b0 = (tbw, tbv, 0), direction Ry(rbh) Rx(rbv) e_z.
   const ex rbh = p("rbh"), rbv = p("rbv");
-  const V3 ei = DefV(g, {GiNaC::sin(rbh) * GiNaC::cos(rbv), -GiNaC::sin(rbv),
-                         GiNaC::cos(rbh) * GiNaC::cos(rbv)});
+  const V3 ei =
+      DefV(g, {GiNaC::sin(rbh) * GiNaC::cos(rbv), -GiNaC::sin(rbv), GiNaC::cos(rbh) * GiNaC::cos(rbv)});
   const V3 b0 = {p("tbw"), p("tbv"), 0};
   // Line-plane intersection with the mirror plane {X : n.(X - q) = tmv}.
   const ex nei = g.Def(Dot(n, ei));
@@ -156,9 +147,7 @@ void BuildHead(BuiltModel& m, const ParamSet& p) {
   const ex alpha = p("alpha"), gamma = p("gamma");
   const ex ca = g.Def(GiNaC::cos(alpha)), sa = g.Def(GiNaC::sin(alpha));
   // M v = Rz(H') Rx(alpha) Ry(Z' - pi/2) Rx(-alpha) v
-  auto rot = [&](const V3& v) {
-    return RotZ(ch, sh, RotX(ca, sa, RotY(cy, sy, RotX(ca, -sa, v))));
-  };
+  auto rot = [&](const V3& v) { return RotZ(ch, sh, RotX(ca, sa, RotY(cy, sy, RotX(ca, -sa, v)))); };
   const ex ex_ = p("ex");
   const V3 b = DefV(g, Add(RotZ(ch, sh, {ex_, 0, 0}), rot({-ex_, p("by"), p("bz")})));
   const V3 n = DefV(g, rot({GiNaC::cos(gamma), GiNaC::sin(gamma), 0}));
@@ -166,8 +155,7 @@ void BuildHead(BuiltModel& m, const ParamSet& p) {
   m.graph.outputs = {c[0], c[1], c[2]};
 }
 
-QuantitySpec Named(const char* name, const char* unit, const char* quantity,
-                   const char* description) {
+QuantitySpec Named(const char* name, const char* unit, const char* quantity, const char* description) {
   QuantitySpec q;
   q.name = name;
   q.unit = unit;
@@ -179,10 +167,8 @@ QuantitySpec Named(const char* name, const char* unit, const char* quantity,
 std::vector<QuantitySpec> TrackerReadings() {
   return {Named("range", "m", "length",
                 "Range reading rho_r: distance the tracker reports to the reflector centre"),
-          Named("azimuth", "rad", "angle",
-                "Azimuth reading A_r, counter-clockwise from +x seen from above"),
-          Named("elevation", "rad", "angle",
-                "Elevation reading E_r from the horizontal plane, positive up")};
+          Named("azimuth", "rad", "angle", "Azimuth reading A_r, counter-clockwise from +x seen from above"),
+          Named("elevation", "rad", "angle", "Elevation reading E_r from the horizontal plane, positive up")};
 }
 
 std::vector<QuantitySpec> TrackerOutputs() {
@@ -223,12 +209,11 @@ BuiltModel BuildModel(const ModelSpec& spec) {
                         "' (known: " + list + ")");
       }
       if (q.unit != k->unit) {
-        throw SpecError(where + ".unit: must be \"" + std::string(k->unit) + "\", not \"" +
-                        q.unit + "\"");
+        throw SpecError(where + ".unit: must be \"" + std::string(k->unit) + "\", not \"" + q.unit + "\"");
       }
       if (q.quantity != k->quantity) {
-        throw SpecError(where + ".quantity: must be \"" + std::string(k->quantity) +
-                        "\", not \"" + q.quantity + "\"");
+        throw SpecError(where + ".quantity: must be \"" + std::string(k->quantity) + "\", not \"" +
+                        q.quantity + "\"");
       }
       GiNaC::realsymbol s(q.name);
       m.params.push_back(s);

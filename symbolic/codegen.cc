@@ -23,9 +23,9 @@ enum class Op { kNum, kSym, kAdd, kMul, kDiv, kNeg, kPow, kSqrt, kCall };
 
 struct Node {
   Op op = Op::kNum;
-  double value = 0.0;   // kNum: the value; kMul: the numeric coefficient (> 0)
-  int n = 0;            // kPow: the integer exponent (>= 2)
-  std::string name;     // kSym: input name; kCall: function name
+  double value = 0.0;  // kNum: the value; kMul: the numeric coefficient (> 0)
+  int n = 0;           // kPow: the integer exponent (>= 2)
+  std::string name;    // kSym: input name; kCall: function name
   std::vector<int> args;
   std::uint64_t hash = 0;  // structural: from names, values and operand hashes only
 };
@@ -137,7 +137,7 @@ class Ir {
       result = rest[0];
     } else {
       Node n;
-    n.op = Op::kMul;
+      n.op = Op::kMul;
       n.value = coef;
       n.args = std::move(rest);
       result = Intern(std::move(n));
@@ -264,8 +264,7 @@ class Converter {
       if (def != defs_.end()) return Convert(def->second);
       auto in = inputs_.find(e);
       if (in != inputs_.end()) return ir_.Sym(in->second);
-      throw std::runtime_error("unknown symbol '" + ex_to<symbol>(e).get_name() +
-                               "' in a model expression");
+      throw std::runtime_error("unknown symbol '" + ex_to<symbol>(e).get_name() + "' in a model expression");
     }
     if (is_a<add>(e)) {
       std::vector<int> terms;
@@ -279,8 +278,7 @@ class Converter {
         const ex f = e.op(i);
         if (is_a<numeric>(f)) {
           coef *= ex_to<numeric>(f).to_double();
-        } else if (is_a<power>(f) && is_a<numeric>(f.op(1)) &&
-                   ex_to<numeric>(f.op(1)).is_negative()) {
+        } else if (is_a<power>(f) && is_a<numeric>(f.op(1)) && ex_to<numeric>(f.op(1)).is_negative()) {
           den.push_back(ConvertPower(f.op(0), -f.op(1)));
         } else {
           num.push_back(Convert(f));
@@ -292,8 +290,8 @@ class Converter {
     if (is_a<power>(e)) return ConvertPower(e.op(0), e.op(1));
     if (is_a<function>(e)) {
       const std::string name = ex_to<function>(e).get_name();
-      static const std::vector<std::string> kKnown = {"sin", "cos", "tan", "atan2", "exp", "log",
-                                                      "atan", "sinh", "cosh", "tanh"};
+      static const std::vector<std::string> kKnown = {"sin", "cos",  "tan",  "atan2", "exp",
+                                                      "log", "atan", "sinh", "cosh",  "tanh"};
       if (std::find(kKnown.begin(), kKnown.end(), name) == kKnown.end()) {
         throw std::runtime_error("function '" + name + "' is not supported by vlt-gen");
       }
@@ -352,8 +350,12 @@ namespace {
 
 class Printer {
  public:
-  Printer(const Ir& ir) : ir_(ir), uses_(ir.size(), 0), temp_(ir.size(), -1),
-                          is_temp_(ir.size(), false), seen_(ir.size(), false) {}
+  Printer(const Ir& ir)
+      : ir_(ir),
+        uses_(ir.size(), 0),
+        temp_(ir.size(), -1),
+        is_temp_(ir.size(), false),
+        seen_(ir.size(), false) {}
 
   void CountUses(int id) {
     ++uses_[id];
@@ -390,9 +392,7 @@ class Printer {
 
  private:
   bool Leaf(int id) const { return ir_[id].op == Op::kNum || ir_[id].op == Op::kSym; }
-  bool Cheap(int id) const {
-    return Leaf(id) || (ir_[id].op == Op::kNeg && Leaf(ir_[id].args[0]));
-  }
+  bool Cheap(int id) const { return Leaf(id) || (ir_[id].op == Op::kNeg && Leaf(ir_[id].args[0])); }
 
   // Operands in print order: sums and products sorted by structural hash (positive terms of a
   // sum first), everything else in its natural order.
@@ -415,7 +415,10 @@ class Printer {
     if (!definition && temp_[id] >= 0) return 3;
     switch (ir_[id].op) {
       case Op::kAdd: return 1;
-      case Op::kMul: case Op::kDiv: case Op::kNeg: case Op::kPow: return 2;
+      case Op::kMul:
+      case Op::kDiv:
+      case Op::kNeg:
+      case Op::kPow: return 2;
       default: return 3;
     }
   }

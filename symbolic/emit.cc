@@ -30,16 +30,16 @@ std::string Pad(std::string s, std::size_t width) {
 }
 
 std::string Quantity(const QuantitySpec& q) {
-  return "{\"" + Escape(q.name) + "\", \"" + Escape(q.unit) + "\", \"" + Escape(q.quantity) +
-         "\",\n     \"" + Escape(q.description) + "\",\n     " + Literal(q.estimate) + ", " +
-         Literal(q.u) + ", \"" + Escape(q.distribution) + "\", " + Literal(q.shape) + "}";
+  return "{\"" + Escape(q.name) + "\", \"" + Escape(q.unit) + "\", \"" + Escape(q.quantity) + "\",\n     \"" +
+         Escape(q.description) + "\",\n     " + Literal(q.estimate) + ", " + Literal(q.u) + ", \"" +
+         Escape(q.distribution) + "\", " + Literal(q.shape) + "}";
 }
 
 // `using std::f;` for the functions a body calls, so that unqualified calls also find
 // Eigen::AutoDiffScalar and SIMD overloads by argument-dependent lookup.
 std::string Usings(const std::string& body) {
-  static const char* kFunctions[] = {"atan", "atan2", "cos", "cosh", "exp", "log", "pow",
-                                     "sin", "sinh", "sqrt", "tan", "tanh"};
+  static const char* kFunctions[] = {"atan", "atan2", "cos",  "cosh", "exp", "log",
+                                     "pow",  "sin",   "sinh", "sqrt", "tan", "tanh"};
   std::string out;
   for (const char* f : kFunctions) {
     const std::string call = std::string(f) + "(";
@@ -76,7 +76,7 @@ bool CallsOnlySinCosSqrt(const std::string& usings) {
 struct ModelEmitter {
   const ModelSpec& spec;
   BuiltModel m;
-  int nr = 0, np = 0, no = 0;          // readings, parameters, outputs
+  int nr = 0, np = 0, no = 0;           // readings, parameters, outputs
   std::vector<InputVar> readings, all;  // the readings; the readings then the parameters
   std::vector<GiNaC::ex> wrt;           // the symbols the Jacobians differentiate by
   std::vector<std::string> out_lhs, jac_lhs;
@@ -136,7 +136,8 @@ void ModelEmitter::EmitKernels() {
   // that is singular at the estimates is a spec error (one line, exit 2), not an internal one.
   GiNaC::exmap nominal_values;
   for (std::size_t k = 0; k < m.params.size(); ++k) {
-    nominal_values[m.params[k]] = spec.kind == "custom" ? GiNaC::ex(GiNaC::numeric(spec.params[k].estimate)) : GiNaC::ex(0);
+    nominal_values[m.params[k]] =
+        spec.kind == "custom" ? GiNaC::ex(GiNaC::numeric(spec.params[k].estimate)) : GiNaC::ex(0);
   }
   try {
     nominal = EmitBody(JacobianProgram(m.graph, wrt, nominal_values, true), readings, jac_lhs);
@@ -170,8 +171,8 @@ void ModelEmitter::ListQuantities(const char* title, const std::vector<QuantityS
     std::string line = "//   " + Pad(std::to_string(i) + " ", 3) + Pad(qs[i].name + " ", 10) +
                        Pad("[" + qs[i].unit + "]", 8);
     if (with_u) {
-      line += "estimate " + Literal(qs[i].estimate) + ", u " + Literal(qs[i].u) + " (" +
-              qs[i].distribution + ") ";
+      line += "estimate " + Literal(qs[i].estimate) + ", u " + Literal(qs[i].u) + " (" + qs[i].distribution +
+              ") ";
     }
     h += line + "— " + qs[i].description + "\n";
   }
@@ -179,16 +180,16 @@ void ModelEmitter::ListQuantities(const char* title, const std::vector<QuantityS
 
 void ModelEmitter::HeaderFunction(const std::string& comment, const std::string& signature,
                                   const FunctionBody& body) {
-  h += comment + "template <typename Scalar>\nvoid " + signature + " {\n" + Usings(body.code) +
-       body.code + "}\n\n";
+  h += comment + "template <typename Scalar>\nvoid " + signature + " {\n" + Usings(body.code) + body.code +
+       "}\n\n";
 }
 
 std::string ModelEmitter::Header() {
   const std::string& name = spec.name;
   h = Banner(spec.spec_file);
   h += "//\n// Model \"" + name + "\" (" + spec.kind +
-       (spec.kind == "tracker" ? ", architecture " + spec.architecture : std::string()) + "): " +
-       spec.description + "\n//\n";
+       (spec.kind == "tracker" ? ", architecture " + spec.architecture : std::string()) +
+       "): " + spec.description + "\n//\n";
   ListQuantities("Readings", m.reading_info, false);
   ListQuantities(spec.kind == "tracker" ? "Error parameters (active)" : "Inputs", spec.params, true);
   ListQuantities("Outputs", m.output_info, false);
@@ -197,7 +198,8 @@ std::string ModelEmitter::Header() {
   h += "//   ForwardJacobians  " + std::to_string(jacobians.ops) + "\n";
   h += "//   NominalJacobians  " + std::to_string(nominal.ops) + "\n";
   for (int k = 0; k < np; ++k) {
-    h += "//   " + Pad("Sensitivity_" + spec.params[k].name + " ", 18) + std::to_string(sensitivity[k].ops) + "\n";
+    h += "//   " + Pad("Sensitivity_" + spec.params[k].name + " ", 18) + std::to_string(sensitivity[k].ops) +
+         "\n";
   }
   h += "//\n// Jacobians are column-major: J[rows * k + i] = d out_i / d input_k.\n";
   h += "#pragma once\n\n#include <cmath>\n\nnamespace vlt::gen::" + name + " {\n\n";
@@ -208,10 +210,9 @@ std::string ModelEmitter::Header() {
   h += "namespace param {\nenum Index : int {\n";
   for (int k = 0; k < np; ++k) h += "  " + spec.params[k].name + " = " + std::to_string(k) + ",\n";
   h += "};\n}  // namespace param\n\n";
-  const std::string sig_in =
-      "[[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params";
-  HeaderFunction("// Outputs from readings and parameters.\n",
-                 "Forward(" + sig_in + ", Scalar* out)", forward);
+  const std::string sig_in = "[[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params";
+  HeaderFunction("// Outputs from readings and parameters.\n", "Forward(" + sig_in + ", Scalar* out)",
+                 forward);
   HeaderFunction("// Outputs and both Jacobians (one CSE pass).\n",
                  "ForwardJacobians(" + sig_in +
                      ", Scalar* out,\n                      [[maybe_unused]] Scalar* d_out_d_readings, "
@@ -223,8 +224,9 @@ std::string ModelEmitter::Header() {
                  "[[maybe_unused]] Scalar* d_out_d_params)",
                  nominal);
   for (int k = 0; k < np; ++k) {
-    HeaderFunction("// Column " + std::to_string(k) + " of d_out_d_params: d out / d " + spec.params[k].name + ".\n",
-                   "Sensitivity_" + spec.params[k].name + "(" + sig_in + ", Scalar* column)", sensitivity[k]);
+    HeaderFunction(
+        "// Column " + std::to_string(k) + " of d_out_d_params: d out / d " + spec.params[k].name + ".\n",
+        "Sensitivity_" + spec.params[k].name + "(" + sig_in + ", Scalar* column)", sensitivity[k]);
   }
   h += "}  // namespace vlt::gen::" + name + "\n";
   return std::move(h);
@@ -270,14 +272,14 @@ void ModelEmitter::SourceNominalBatch() {
   c += "void NominalJacobiansBatch(const double* readings, double* out, double* d_out_d_readings,\n"
        "                           double* d_out_d_params) {\n";
   c += "  using Lanes = Eigen::Array<double, " + lanes + ", 1>;\n";
-  c += "  Lanes r[" + std::to_string(nr) + "], o[" + std::to_string(no) + "], jr[" +
-       std::to_string(no * nr) + "], jp[" + std::to_string(no * np) + "];\n";
+  c += "  Lanes r[" + std::to_string(nr) + "], o[" + std::to_string(no) + "], jr[" + std::to_string(no * nr) +
+       "], jp[" + std::to_string(no * np) + "];\n";
   c += "  for (int j = 0; j < " + std::to_string(nr) + "; ++j) r[j] = Eigen::Map<const Lanes>(readings + " +
        lanes + " * j);\n";
   c += "  model::NominalJacobians<Lanes>(r, o, jr, jp);\n";
   auto store = [&](const std::string& to, const std::string& from, int n) {
-    c += "  for (int q = 0; q < " + std::to_string(n) + "; ++q) Eigen::Map<Lanes>(" + to + " + " +
-         lanes + " * q) = " + from + "[q];\n";
+    c += "  for (int q = 0; q < " + std::to_string(n) + "; ++q) Eigen::Map<Lanes>(" + to + " + " + lanes +
+         " * q) = " + from + "[q];\n";
   };
   store("out", "o", no);
   store("d_out_d_readings", "jr", no * nr);
@@ -327,16 +329,17 @@ void ModelEmitter::SourceModelInfo() {
        "    &ForwardBatch,\n";
   c += nominal_batch ? "    &NominalJacobiansBatch,\n" : "    nullptr,  // nominal_jacobians_batch\n";
   c += forward_lanes ? "    &ForwardLanes,\n" : "    nullptr,  // forward_lanes\n";
-  c += "    " + std::to_string(forward.ops) + ",  // ops_forward\n    " +
-       std::to_string(jacobians.ops) + ",  // ops_forward_jacobians\n    " +
-       std::to_string(nominal.ops) + ",  // ops_nominal_jacobians\n};\n\n";
+  c += "    " + std::to_string(forward.ops) + ",  // ops_forward\n    " + std::to_string(jacobians.ops) +
+       ",  // ops_forward_jacobians\n    " + std::to_string(nominal.ops) +
+       ",  // ops_nominal_jacobians\n};\n\n";
 }
 
 std::string ModelEmitter::Source() {
   const std::string& name = spec.name;
   c = Banner(spec.spec_file);
   c += "// Double instantiations of generated/" + name + ".h and the ModelInfo the runtime uses.\n";
-  c += "#include \"generated/" + name + ".h\"\n\n#include <array>\n#include <cstddef>\n"
+  c += "#include \"generated/" + name +
+       ".h\"\n\n#include <array>\n#include <cstddef>\n"
        "#include <stdexcept>\n\n";
   if (nominal_batch) c += "#include <Eigen/Core>\n\n";
   if (forward_lanes) c += "#include \"base/lanes.h\"\n";
@@ -384,7 +387,8 @@ GeneratedModel GenerateModel(const ModelSpec& spec) {
 }
 
 std::string GenerateRegistry(const std::vector<std::string>& names, const std::string& spec_prefix) {
-  std::string c = "// Generated by vlt-gen from " + spec_prefix + "*.toml — DO NOT EDIT; regenerate with "
+  std::string c = "// Generated by vlt-gen from " + spec_prefix +
+                  "*.toml — DO NOT EDIT; regenerate with "
                   "`cmake --build build --target regenerate`\n";
   c += "// Every model in " + spec_prefix + ", sorted by name (vlt/model_info.h: vlt::generated::kModels).\n";
   c += "#include <cstddef>\n\n#include \"vlt/model_info.h\"\n\nnamespace vlt::generated {\n\n";

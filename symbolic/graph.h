@@ -20,8 +20,8 @@
 namespace vlt::gen {
 
 struct Graph {
-  std::vector<GiNaC::ex> nodes;  // realsymbols v_j
-  std::vector<GiNaC::ex> defs;   // f_j
+  std::vector<GiNaC::ex> nodes;                       // realsymbols v_j
+  std::vector<GiNaC::ex> defs;                        // f_j
   std::map<GiNaC::ex, int, GiNaC::ex_is_less> index;  // v_j -> j
   std::vector<GiNaC::ex> outputs;
 
@@ -43,7 +43,7 @@ Program ForwardProgram(const Graph& graph);
 // definition and every partial derivative AFTER differentiation (e.g. all parameters -> 0 for
 // the nominal Jacobians); GiNaC then simplifies, and nodes that become numbers or symbols are
 // propagated into later nodes.
-Program JacobianProgram(const Graph& graph, const std::vector<GiNaC::ex>& wrt,
-                        const GiNaC::exmap& at, bool with_values);
+Program JacobianProgram(const Graph& graph, const std::vector<GiNaC::ex>& wrt, const GiNaC::exmap& at,
+                        bool with_values);
 
 }  // namespace vlt::gen

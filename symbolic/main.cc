@@ -82,14 +82,13 @@ int Generate(const fs::path& models, const fs::path& out, const std::string& pre
 int Summary(const std::string& path) {
   const vlt::gen::ModelSpec spec = vlt::gen::ReadSpec(path, "");
   const vlt::gen::GeneratedModel gen = vlt::gen::GenerateModel(spec);
-  std::printf("model       %s\nkind        %s%s\ndescription %s\n", spec.name.c_str(),
-              spec.kind.c_str(),
+  std::printf("model       %s\nkind        %s%s\ndescription %s\n", spec.name.c_str(), spec.kind.c_str(),
               spec.kind == "tracker" ? (" (architecture " + spec.architecture + ")").c_str() : "",
               spec.description.c_str());
   std::printf("%s (%zu):\n", spec.kind == "tracker" ? "active error parameters" : "inputs",
               spec.params.size());
-  std::printf("  %-3s %-10s %-6s %-10s %-14s %-12s %s\n", "#", "name", "unit", "quantity",
-              "estimate", "u", "distribution");
+  std::printf("  %-3s %-10s %-6s %-10s %-14s %-12s %s\n", "#", "name", "unit", "quantity", "estimate", "u",
+              "distribution");
   for (std::size_t k = 0; k < spec.params.size(); ++k) {
     const auto& p = spec.params[k];
     std::printf("  %-3zu %-10s %-6s %-10s %-14.6g %-12.4g %s\n", k, p.name.c_str(), p.unit.c_str(),
@@ -101,9 +100,10 @@ int Summary(const std::string& path) {
       std::printf("  %-10s [%s] = %s\n", o.name.c_str(), o.unit.c_str(), o.expression.c_str());
     }
   }
-  std::printf("operations after CSE:\n  Forward           %d\n  ForwardJacobians  %d\n"
-              "  NominalJacobians  %d\n",
-              gen.ops.forward, gen.ops.forward_jacobians, gen.ops.nominal_jacobians);
+  std::printf(
+      "operations after CSE:\n  Forward           %d\n  ForwardJacobians  %d\n"
+      "  NominalJacobians  %d\n",
+      gen.ops.forward, gen.ops.forward_jacobians, gen.ops.nominal_jacobians);
   for (std::size_t k = 0; k < spec.params.size(); ++k) {
     std::printf("  Sensitivity_%-5s %d\n", spec.params[k].name.c_str(), gen.ops.sensitivity[k]);
   }

@@ -13,16 +13,87 @@ namespace {
 const std::set<std::string>& ReservedNames() {
   // Names the generated code itself uses (function arguments, locals, functions it calls,
   // C++ keywords that a metrologist might pick).
-  static const std::set<std::string> kReserved = {
-      "Scalar", "readings", "params", "out", "column", "d_out_d_readings", "d_out_d_params",
-      "param", "range", "azimuth", "elevation", "sin", "cos", "tan", "atan2", "sqrt", "exp",
-      "log", "pow", "abs", "std", "vlt", "auto", "bool", "break", "case", "char", "class",
-      "const", "default", "delete", "do", "double", "else", "enum", "extern", "float", "for",
-      "friend", "goto", "if", "inline", "int", "long", "new", "operator", "private",
-      "protected", "public", "register", "return", "short", "signed", "sizeof", "static",
-      "struct", "switch", "template", "this", "throw", "try", "typedef", "typename", "union",
-      "unsigned", "using", "virtual", "void", "volatile", "while", "and", "or", "not", "xor",
-      "Pi", "I", "Euler", "Catalan", "kNumReadings", "kNumParams", "kNumOutputs"};
+  static const std::set<std::string> kReserved = {"Scalar",
+                                                  "readings",
+                                                  "params",
+                                                  "out",
+                                                  "column",
+                                                  "d_out_d_readings",
+                                                  "d_out_d_params",
+                                                  "param",
+                                                  "range",
+                                                  "azimuth",
+                                                  "elevation",
+                                                  "sin",
+                                                  "cos",
+                                                  "tan",
+                                                  "atan2",
+                                                  "sqrt",
+                                                  "exp",
+                                                  "log",
+                                                  "pow",
+                                                  "abs",
+                                                  "std",
+                                                  "vlt",
+                                                  "auto",
+                                                  "bool",
+                                                  "break",
+                                                  "case",
+                                                  "char",
+                                                  "class",
+                                                  "const",
+                                                  "default",
+                                                  "delete",
+                                                  "do",
+                                                  "double",
+                                                  "else",
+                                                  "enum",
+                                                  "extern",
+                                                  "float",
+                                                  "for",
+                                                  "friend",
+                                                  "goto",
+                                                  "if",
+                                                  "inline",
+                                                  "int",
+                                                  "long",
+                                                  "new",
+                                                  "operator",
+                                                  "private",
+                                                  "protected",
+                                                  "public",
+                                                  "register",
+                                                  "return",
+                                                  "short",
+                                                  "signed",
+                                                  "sizeof",
+                                                  "static",
+                                                  "struct",
+                                                  "switch",
+                                                  "template",
+                                                  "this",
+                                                  "throw",
+                                                  "try",
+                                                  "typedef",
+                                                  "typename",
+                                                  "union",
+                                                  "unsigned",
+                                                  "using",
+                                                  "virtual",
+                                                  "void",
+                                                  "volatile",
+                                                  "while",
+                                                  "and",
+                                                  "or",
+                                                  "not",
+                                                  "xor",
+                                                  "Pi",
+                                                  "I",
+                                                  "Euler",
+                                                  "Catalan",
+                                                  "kNumReadings",
+                                                  "kNumParams",
+                                                  "kNumOutputs"};
   return kReserved;
 }
 
@@ -30,14 +101,15 @@ const std::set<std::string>& ReservedNames() {
 // of this kind.
 const std::set<std::string>& QuantityKinds() {
   static const std::set<std::string> kKinds = {
-      "length", "angle", "ratio", "temperature", "temperature difference", "pressure",
-      "humidity", "fraction", "expansion coefficient", "dimensionless", "time"};
+      "length",   "angle",    "ratio",    "temperature",           "temperature difference",
+      "pressure", "humidity", "fraction", "expansion coefficient", "dimensionless",
+      "time"};
   return kKinds;
 }
 
 const std::set<std::string>& Distributions() {
-  static const std::set<std::string> kDistributions = {
-      "normal", "rectangular", "triangular", "arcsine", "student_t", "curvilinear_trapezoid"};
+  static const std::set<std::string> kDistributions = {"normal",  "rectangular", "triangular",
+                                                       "arcsine", "student_t",   "curvilinear_trapezoid"};
   return kDistributions;
 }
 
@@ -75,8 +147,8 @@ class Reader {
     return *value;
   }
 
-  double Number(const toml::table& table, const std::string& where, const std::string& key,
-                bool required, double fallback = 0.0) const {
+  double Number(const toml::table& table, const std::string& where, const std::string& key, bool required,
+                double fallback = 0.0) const {
     const toml::node* node = table.get(key);
     if (!node) {
       if (required) Fail(where + "." + key, "missing (a number is required)");
@@ -94,11 +166,11 @@ class Reader {
     if (is_output) {
       CheckKeys(table, where, {"name", "unit", "quantity", "description", "expression"});
     } else if (is_custom) {
-      CheckKeys(table, where, {"name", "unit", "quantity", "description", "estimate", "u",
-                               "distribution", "shape"});
+      CheckKeys(table, where,
+                {"name", "unit", "quantity", "description", "estimate", "u", "distribution", "shape"});
     } else {
-      CheckKeys(table, where, {"name", "unit", "quantity", "description", "estimate", "u",
-                               "distribution", "shape"});
+      CheckKeys(table, where,
+                {"name", "unit", "quantity", "description", "estimate", "u", "distribution", "shape"});
     }
     q.name = String(table, where, "name", true);
     if (!IsValidIdentifier(q.name)) {
@@ -112,7 +184,7 @@ class Reader {
     // Tracker models use the kinds whose units vlt reads; a custom model may name any quantity
     // ("voltage", "mass"): its job values are then plain numbers in the spec's unit.
     const bool plain_words = !q.quantity.empty() &&
-        q.quantity.find_first_not_of("abcdefghijklmnopqrstuvwxyz ") == std::string::npos;
+                             q.quantity.find_first_not_of("abcdefghijklmnopqrstuvwxyz ") == std::string::npos;
     if (!q.quantity.empty() && !QuantityKinds().count(q.quantity) && !(is_custom && plain_words)) {
       std::string list;
       for (const auto& k : QuantityKinds()) list += (list.empty() ? "" : ", ") + k;
@@ -150,8 +222,7 @@ bool IsValidIdentifier(const std::string& name) {
   if (name.empty() || name.size() > 64) return false;
   if (!(name[0] >= 'a' && name[0] <= 'z') && !(name[0] >= 'A' && name[0] <= 'Z')) return false;
   for (char c : name) {
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-                    c == '_';
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
     if (!ok) return false;
   }
   if (name.find("__") != std::string::npos) return false;
@@ -165,8 +236,8 @@ ModelSpec ReadSpec(const std::string& path, const std::string& spec_prefix) {
   try {
     root = toml::parse_file(path);
   } catch (const toml::parse_error& e) {
-    throw SpecError(path + ":" + std::to_string(e.source().begin.line) + ": TOML syntax: " +
-                    std::string(e.description()));
+    throw SpecError(path + ":" + std::to_string(e.source().begin.line) +
+                    ": TOML syntax: " + std::string(e.description()));
   }
   ModelSpec spec;
   spec.path = path;
@@ -186,8 +257,7 @@ ModelSpec ReadSpec(const std::string& path, const std::string& spec_prefix) {
   if (spec.kind == "tracker") {
     spec.architecture = r.String(*model, "model", "architecture", true);
     if (spec.architecture != "mirror" && spec.architecture != "head") {
-      r.Fail("model.architecture", "unknown architecture '" + spec.architecture +
-                                       "' (mirror, head)");
+      r.Fail("model.architecture", "unknown architecture '" + spec.architecture + "' (mirror, head)");
     }
     if (root.contains("input")) r.Fail("[[input]]", "only custom models have [[input]]");
     if (root.contains("output")) r.Fail("[[output]]", "tracker outputs are fixed (x, y, z)");

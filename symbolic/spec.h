@@ -27,8 +27,8 @@ struct QuantitySpec {
 };
 
 struct ModelSpec {
-  std::string path;          // as given on the command line (error messages)
-  std::string spec_file;     // spec prefix + file name, e.g. "models/mirror.toml" (banner, metadata)
+  std::string path;       // as given on the command line (error messages)
+  std::string spec_file;  // spec prefix + file name, e.g. "models/mirror.toml" (banner, metadata)
   std::string name;
   std::string kind;          // "tracker" | "custom"
   std::string architecture;  // trackers: "mirror" | "head"

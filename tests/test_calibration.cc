@@ -63,8 +63,10 @@ TEST(CalibrationTests, SensitivityMatchesFiniteDifferencesOfTheSimulatedTests) {
       const std::vector<TestResult> rm = SimulateTests(minus, layout, {});
       for (std::size_t t = 0; t < base.size(); ++t) {
         double fd;
-        if (base[t].kind == TestKind::kTwoFace) fd = (rp[t].two_face - rm[t].two_face).norm() / (2 * h);
-        else fd = (rp[t].error - rm[t].error) / (2 * h);
+        if (base[t].kind == TestKind::kTwoFace)
+          fd = (rp[t].two_face - rm[t].two_face).norm() / (2 * h);
+        else
+          fd = (rp[t].error - rm[t].error) / (2 * h);
         const double scale = std::max(std::abs(fd), 1e-3 * base[t].sensitivity.cwiseAbs().maxCoeff() + 1e-12);
         EXPECT_NEAR(base[t].sensitivity(k), fd, 1e-4 * scale + 1e-9)
             << name << " test " << base[t].name << " parameter " << tracker.model->params[k].name;
@@ -96,9 +98,12 @@ TEST(CalibrationTests, RangeOffsetAndSmrRadialOffsetAppearOnlyAsTheirDifference)
     if (!std::isinf(h.ratio)) continue;
     double c_lam = 0, c_srr = 0, other = 0;
     for (const auto& [name, c] : h.terms) {
-      if (name == "lam") c_lam = c;
-      else if (name == "srr") c_srr = c;
-      else other = std::max(other, std::abs(c));
+      if (name == "lam")
+        c_lam = c;
+      else if (name == "srr")
+        c_srr = c;
+      else
+        other = std::max(other, std::abs(c));
     }
     if (c_lam != 0 && c_srr != 0) {
       found = true;
@@ -120,7 +125,8 @@ TEST(CalibrationTests, TwoFaceDataAloneAreBlindToRangeOffsetAndScale) {
   for (const char* name : {"lam", "mu", "srr"}) {
     EXPECT_EQ(r.parameters[Index(r, name)].status, ParameterStatus::kHeld) << name;
     // Held at the prior estimate 0 (to what the tiny data information along it moves, << u).
-    EXPECT_NEAR(r.parameters[Index(r, name)].estimate, 0.0, 1e-3 * r.parameters[Index(r, name)].prior_u) << name;
+    EXPECT_NEAR(r.parameters[Index(r, name)].estimate, 0.0, 1e-3 * r.parameters[Index(r, name)].prior_u)
+        << name;
   }
   // ... but they do see the transit-axis offset and the beam offsets (two-face sensitive).
   for (const char* name : {"ex", "gamma"}) {
@@ -211,7 +217,8 @@ TEST(CalibrationTests, CoverageWithExcludedParametersCarriesTheirPriors) {
     EXPECT_EQ(r.parameters[Index(r, "ex")].status, ParameterStatus::kFixed);
   }
   const double fraction = static_cast<double>(inside) / total;
-  std::printf("head, ex and gamma excluded: %d fitted estimates (%d partly), %.4f within k = 2 U\n", total, partly, fraction);
+  std::printf("head, ex and gamma excluded: %d fitted estimates (%d partly), %.4f within k = 2 U\n", total,
+              partly, fraction);
   EXPECT_GT(partly, 100);  // the coupled parameters are no longer called identified
   EXPECT_GE(fraction, 0.90);
   EXPECT_LE(fraction, 0.99);

@@ -128,7 +128,9 @@ TEST(CalibrationFile, RefusesAFileThatIsNotOne) {
     LoadCalibrationFile((dir / "x.toml").string());
     FAIL() << "accepted a negative u";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("x.toml: parameter[0].u: expected a finite number >= 0"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("x.toml: parameter[0].u: expected a finite number >= 0"),
+              std::string::npos)
+        << e.what();
   }
 }
 
@@ -208,7 +210,8 @@ TEST(CalibrationFile, AwkwardNamesSurviveTheSimulatedCalibrationFile) {
   job.simulate = true;
   const CalibrationData data = SimulateCalibrationData(job.tracker, layout, 4);
   const std::filesystem::path dir = TempDir("awkward");
-  for (const auto& [name, content] : calibration_outputs::TestFiles(job, SimulateTests(job.tracker, layout, {}), &data)) {
+  for (const auto& [name, content] :
+       calibration_outputs::TestFiles(job, SimulateTests(job.tracker, layout, {}), &data)) {
     std::ofstream(dir / name, std::ios::binary) << content;
   }
   const CalibrationJob loaded = LoadCalibrationJob((dir / "simulated_calibration.toml").string());

@@ -15,7 +15,8 @@ inline const std::string kB89Layout = std::string(VLT_SOURCE_DIR) + "/examples/l
 
 // Parameter estimates = state_scale * u * N(0, 1) (seeded), u = the model's default; reading
 // noise 1 um + 0.2 um/m, 0.1 arcsec.
-inline MeasurementSetup SimulatedTracker(const std::string& model_name, double state_scale, std::uint64_t seed) {
+inline MeasurementSetup SimulatedTracker(const std::string& model_name, double state_scale,
+                                         std::uint64_t seed) {
   const ModelInfo* model = FindModel(model_name);
   MeasurementSetup s;
   s.model = model;

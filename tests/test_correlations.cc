@@ -53,7 +53,8 @@ cte = "1.5 ppm/K"
 temperature = { estimate = "22 degC", u = "0.5 K" }
 [correlations.thermometer]
 inputs = ["environment.temperature", "thermal.temperature", "tmv"]
-)" + matrix + R"(
+)" + matrix +
+         R"(
 [plan]
 unit = "m"
 point = [{name = "A", x = 2, y = 0, z = 0}, {name = "B", x = 10, y = 0, z = 0}]
@@ -113,9 +114,11 @@ TEST(GumCorrelations, SameThermometerForAirAndPartMatchesTheClosedForm) {
     const double expected = closed_form(c1, c2);
     const std::vector<PointUncertainty> gum = PropagatePoints(model, points, GumOptions{});
     const double obtained = gum[1].cov_part(0, 0);
-    std::printf("r = %+.1f  point B: c_air = %.6e m/K, c_part = %.6e m/K, u_x expected %.6e m, GUM %.6e m "
-                "(uncorrelated %.6e m)\n",
-                r, c1, c2, std::sqrt(expected), std::sqrt(obtained), std::sqrt(closed_form(c1, c2) - 2 * r * c1 * c2 * kU * kU));
+    std::printf(
+        "r = %+.1f  point B: c_air = %.6e m/K, c_part = %.6e m/K, u_x expected %.6e m, GUM %.6e m "
+        "(uncorrelated %.6e m)\n",
+        r, c1, c2, std::sqrt(expected), std::sqrt(obtained),
+        std::sqrt(closed_form(c1, c2) - 2 * r * c1 * c2 * kU * kU));
     EXPECT_NEAR(obtained, expected, 1e-6 * expected);
     if (r == 1.0) {
       // The partial cancellation is what is tested: ignoring the correlation would be far off.
@@ -143,7 +146,8 @@ TEST(GumCorrelations, SameThermometerForAirAndPartMatchesTheClosedForm) {
     const double d2 = Derivative(model, t_part, h, distance);
     const double expected_d = closed_form(d1, d2);
     const TaskUncertainty task = PropagateTask(model, points, job.tasks[0], GumOptions{});
-    std::printf("r = %+.1f  distance AB: u expected %.6e m, GUM %.6e m\n", r, std::sqrt(expected_d), task.u(0));
+    std::printf("r = %+.1f  distance AB: u expected %.6e m, GUM %.6e m\n", r, std::sqrt(expected_d),
+                task.u(0));
     EXPECT_NEAR(task.u(0) * task.u(0), expected_d, 1e-6 * expected_d);
     // Budget by group: environment and thermal alone, the cross term in "correlation"; they add up.
     double sum = 0.0, cross = 0.0;
@@ -158,8 +162,9 @@ TEST(GumCorrelations, SameThermometerForAirAndPartMatchesTheClosedForm) {
 
 TEST(McmCorrelations, SingularCorrelationBetweenGroupsAgreesWithGum) {
   // r = 1: the copula factor of a singular matrix (model/correlation.h), reading noise on.
-  const Job job = ParseJob(ThermometerJob(1.0, "range = \"0.5 um\"\nazimuth = \"0.2 arcsec\"\nelevation = \"0.2 arcsec\"\n"),
-                           "job.toml", std::filesystem::temp_directory_path());
+  const Job job = ParseJob(
+      ThermometerJob(1.0, "range = \"0.5 um\"\nazimuth = \"0.2 arcsec\"\nelevation = \"0.2 arcsec\"\n"),
+      "job.toml", std::filesystem::temp_directory_path());
   const MeasurementModel model(job.setup);
   const std::vector<PointReadings> points = Readings(job, model);
   const std::vector<PointUncertainty> gum = PropagatePoints(model, points, GumOptions{});
@@ -187,8 +192,9 @@ TEST(McmCorrelations, SingularCorrelationBetweenGroupsAgreesWithGum) {
     EXPECT_GT(std::abs(u_uncorrelated - u_gum), 20.0 * u_gum / std::sqrt(2.0 * (m - 1.0)));
   };
   // The GUM without the correlation, for scale: the same job with r = 0.
-  const Job independent = ParseJob(ThermometerJob(0.0, "range = \"0.5 um\"\nazimuth = \"0.2 arcsec\"\nelevation = \"0.2 arcsec\"\n"),
-                                   "job.toml", std::filesystem::temp_directory_path());
+  const Job independent = ParseJob(
+      ThermometerJob(0.0, "range = \"0.5 um\"\nazimuth = \"0.2 arcsec\"\nelevation = \"0.2 arcsec\"\n"),
+      "job.toml", std::filesystem::temp_directory_path());
   const MeasurementModel model0(independent.setup);
   const std::vector<PointUncertainty> gum0 = PropagatePoints(model0, points, GumOptions{});
   const TaskUncertainty task0 = PropagateTask(model0, points, independent.tasks[0], GumOptions{});

@@ -62,8 +62,8 @@ TEST(StudentTCoverageFactor, TableG2) {
   EXPECT_NEAR(StudentTCoverageFactor(0.95, 1e6), NormalCoverageFactor(0.95), 1e-5);
   // Heavy tails, closed forms: nu = 1 (Cauchy) tan(pi p / 2); nu = 2 p sqrt(2 / (1 - p^2)).
   EXPECT_NEAR(StudentTCoverageFactor(0.99999, 1), std::tan(0.5 * M_PI * 0.99999), 1e-6);
-  EXPECT_NEAR(StudentTCoverageFactor(0.95, 2), 4.303, 0.0005);           // table G.2
-  EXPECT_NEAR(StudentTCoverageFactor(0.95, 2.000001), 4.303, 0.0005);    // the numerical path agrees
+  EXPECT_NEAR(StudentTCoverageFactor(0.95, 2), 4.303, 0.0005);         // table G.2
+  EXPECT_NEAR(StudentTCoverageFactor(0.95, 2.000001), 4.303, 0.0005);  // the numerical path agrees
   // Non-integer nu lies between its neighbours.
   const double k = StudentTCoverageFactor(0.95, 4.5);
   EXPECT_LT(k, StudentTCoverageFactor(0.95, 4));
@@ -72,7 +72,8 @@ TEST(StudentTCoverageFactor, TableG2) {
 
 TEST(WelchSatterthwaite, ClosedForm) {
   // Two components, u1^2 = 4, u2^2 = 1 with nu = 3 and 8: nu_eff = 25 / (16/3 + 1/8).
-  EXPECT_NEAR(WelchSatterthwaite(std::sqrt(5.0), {4.0, 1.0}, {3.0, 8.0}), 25.0 / (16.0 / 3.0 + 1.0 / 8.0), 1e-12);
+  EXPECT_NEAR(WelchSatterthwaite(std::sqrt(5.0), {4.0, 1.0}, {3.0, 8.0}), 25.0 / (16.0 / 3.0 + 1.0 / 8.0),
+              1e-12);
   // Only infinite degrees of freedom: infinite.
   EXPECT_TRUE(std::isinf(WelchSatterthwaite(1.0, {1.0}, {std::numeric_limits<double>::infinity()})));
   // One component carries everything: its own nu.
@@ -127,9 +128,11 @@ TEST(CustomJob, GumH2MonteCarloNeedsMoreObservations) {
     (void)RunCustomJob(job, Trials(10000));
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("gum_h2_impedance.toml: observations: Monte Carlo needs at least N + 3 "
-                                         "simultaneous observations of N inputs"),
-              std::string::npos) << e.what();
+    EXPECT_NE(
+        std::string(e.what()).find("gum_h2_impedance.toml: observations: Monte Carlo needs at least N + 3 "
+                                   "simultaneous observations of N inputs"),
+        std::string::npos)
+        << e.what();
   }
 }
 
@@ -157,7 +160,8 @@ simultaneous = true
 observations = "a"
 [inputs.x2]
 observations = "b"
-)", "job.toml", dir);
+)",
+                                       "job.toml", dir);
   double m1 = 0, m2 = 0;
   for (int k = 0; k < 9; ++k) m1 += q1[k] / 9, m2 += q2[k] / 9;
   double q11 = 0, q22 = 0, q12 = 0;
@@ -222,7 +226,8 @@ TEST(CustomJob, GumH1EffectiveDegreesOfFreedom) {
   ASSERT_TRUE(r.outputs[0].conformity.has_value());
   EXPECT_EQ(r.outputs[0].conformity->verdict, "undetermined");
   // With nu_eff = 16 the t distribution function (JCGM 106 7.3.3, as U = t_99(16) u).
-  const double expected = StudentTCdf((0.0500009 - l.estimate) / l.u, 16) - StudentTCdf((0.05 - l.estimate) / l.u, 16);
+  const double expected =
+      StudentTCdf((0.0500009 - l.estimate) / l.u, 16) - StudentTCdf((0.05 - l.estimate) / l.u, 16);
   EXPECT_NEAR(*r.outputs[0].conformity->probability_gum, expected, 1e-12);
   EXPECT_NEAR(expected, 0.966, 0.005);
 }
@@ -256,7 +261,7 @@ TEST(CustomJob, Jcgm101MassCalibration) {
   const CustomOutputResult& o = r.outputs[0];
   EXPECT_NEAR(o.gum.estimate, 1.2340, 0.00005);
   EXPECT_NEAR(o.gum.u, 0.0539, 0.00005);
-  EXPECT_NEAR(o.mcm.mean, 1.2341, 0.0003);   // ~3 standard errors of the mean (u / sqrt(M))
+  EXPECT_NEAR(o.mcm.mean, 1.2341, 0.0003);  // ~3 standard errors of the mean (u / sqrt(M))
   EXPECT_NEAR(o.mcm.u, 0.0754, 0.0003);
   EXPECT_NEAR(o.mcm.shortest.low, 1.0834, 0.0015);
   EXPECT_NEAR(o.mcm.shortest.high, 1.3825, 0.0015);
@@ -266,11 +271,13 @@ TEST(CustomJob, Jcgm101MassCalibration) {
 // JCGM 101 9.2.3 and 9.2.4 (tables 3 and 4): the MCM 95 % intervals of sums with rectangular
 // inputs, [-3.88, 3.88] and [-17.0, 17.0], against the GUM's +-3.92 and +-19.89.
 TEST(CustomJob, Jcgm101AdditiveCases) {
-  const CustomResults rect = RunCustomJob(LoadCustomJob(kExamples + "jcgm101_additive_rectangular.toml"), Trials(1000000));
+  const CustomResults rect =
+      RunCustomJob(LoadCustomJob(kExamples + "jcgm101_additive_rectangular.toml"), Trials(1000000));
   EXPECT_NEAR(rect.outputs[0].gum.U, 3.92, 0.005);
   EXPECT_NEAR(rect.outputs[0].mcm.symmetric.low, -3.88, 0.01);
   EXPECT_NEAR(rect.outputs[0].mcm.symmetric.high, 3.88, 0.01);
-  const CustomResults dom = RunCustomJob(LoadCustomJob(kExamples + "jcgm101_additive_dominant.toml"), Trials(1000000));
+  const CustomResults dom =
+      RunCustomJob(LoadCustomJob(kExamples + "jcgm101_additive_dominant.toml"), Trials(1000000));
   EXPECT_NEAR(dom.outputs[0].gum.u, 10.15, 0.005);
   EXPECT_NEAR(dom.outputs[0].gum.U, 19.89, 0.005);
   EXPECT_NEAR(dom.outputs[0].mcm.u, 10.15, 0.02);
@@ -344,9 +351,9 @@ upper = 3.0
 TEST(Conformity, DecisionRule) {
   Tolerance t{-1.0, 1.0};
   EXPECT_EQ(DecideConformity(t, 0.0, 0.1, 0.2).verdict, "conforms");
-  EXPECT_EQ(DecideConformity(t, 0.8, 0.1, 0.2).verdict, "conforms");       // 0.8 = 1 - U
+  EXPECT_EQ(DecideConformity(t, 0.8, 0.1, 0.2).verdict, "conforms");  // 0.8 = 1 - U
   EXPECT_EQ(DecideConformity(t, 0.9, 0.1, 0.2).verdict, "undetermined");
-  EXPECT_EQ(DecideConformity(t, 1.2, 0.1, 0.2).verdict, "undetermined");   // 1.2 = 1 + U
+  EXPECT_EQ(DecideConformity(t, 1.2, 0.1, 0.2).verdict, "undetermined");  // 1.2 = 1 + U
   EXPECT_EQ(DecideConformity(t, 1.3, 0.1, 0.2).verdict, "does not conform");
   EXPECT_EQ(DecideConformity(t, -1.3, 0.1, 0.2).verdict, "does not conform");
   // One-sided (a form tolerance): only the upper limit.
@@ -371,7 +378,8 @@ void ExpectError(const std::string& text, const std::string& fragment) {
 TEST(CustomJob, BadInputNamesFileAndKey) {
   ExpectError("[model]\nname = \"nope\"\n", "job.toml: model.name: 'nope' is not a compiled model");
   ExpectError("[model]\nname = \"mirror\"\n", "job.toml: model.name: 'mirror' is a tracker model");
-  ExpectError("[model]\nname = \"jcgm101_additive\"\n[inputs.x9]\nu = 1\n", "job.toml: inputs.x9: model 'jcgm101_additive' has no input 'x9'");
+  ExpectError("[model]\nname = \"jcgm101_additive\"\n[inputs.x9]\nu = 1\n",
+              "job.toml: inputs.x9: model 'jcgm101_additive' has no input 'x9'");
   ExpectError("[model]\nname = \"jcgm101_additive\"\n[inputs.x1]\nobservations = [1, 2]\nu = 1\n",
               "job.toml: inputs.x1.u: an input with observations");
   ExpectError("[model]\nname = \"jcgm101_additive\"\n[inputs.x1]\nobservations = [1]\n",
@@ -380,45 +388,66 @@ TEST(CustomJob, BadInputNamesFileAndKey) {
               "job.toml: inputs.x1.observations: a column name needs [observations]");
   ExpectError("[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = \"gum_h2_observations.csv\"\n",
               "job.toml: observations.simultaneous: required key is missing");
-  ExpectError("[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = \"nope.csv\"\nsimultaneous = true\n",
-              "job.toml: observations.file: cannot read '");
-  ExpectError("[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = \"gum_h2_observations.csv\"\nsimultaneous = true\n[inputs.V]\nobservations = \"W\"\n",
-              "has no column 'W'");
-  ExpectError("[model]\nname = \"jcgm101_additive\"\n[correlations.a]\ninputs = [\"x1\", \"x2\", \"x3\"]\nmatrix = [[1, 0.9, -0.9], [0.9, 1, 0.9], [-0.9, 0.9, 1]]\n",
-              "job.toml: correlations.a.matrix: correlation matrix is not positive semi-definite");
-  ExpectError("[model]\nname = \"jcgm101_additive\"\n[correlations.a]\ninputs = [\"x1\", \"x2\"]\nmatrix = [[1, 0.5], [0.5, 1]]\n[correlations.b]\ninputs = [\"x2\", \"x3\"]\nmatrix = [[1, 0.5], [0.5, 1]]\n",
-              "job.toml: correlations.b.inputs: input 'x2' is already in correlation group 'a'");
+  ExpectError(
+      "[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = \"nope.csv\"\nsimultaneous = true\n",
+      "job.toml: observations.file: cannot read '");
+  ExpectError(
+      "[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = "
+      "\"gum_h2_observations.csv\"\nsimultaneous = true\n[inputs.V]\nobservations = \"W\"\n",
+      "has no column 'W'");
+  ExpectError(
+      "[model]\nname = \"jcgm101_additive\"\n[correlations.a]\ninputs = [\"x1\", \"x2\", \"x3\"]\nmatrix = "
+      "[[1, 0.9, -0.9], [0.9, 1, 0.9], [-0.9, 0.9, 1]]\n",
+      "job.toml: correlations.a.matrix: correlation matrix is not positive semi-definite");
+  ExpectError(
+      "[model]\nname = \"jcgm101_additive\"\n[correlations.a]\ninputs = [\"x1\", \"x2\"]\nmatrix = [[1, "
+      "0.5], [0.5, 1]]\n[correlations.b]\ninputs = [\"x2\", \"x3\"]\nmatrix = [[1, 0.5], [0.5, 1]]\n",
+      "job.toml: correlations.b.inputs: input 'x2' is already in correlation group 'a'");
   // An input of the simultaneous observations may not be correlated again by hand.
-  ExpectError("[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = \"gum_h2_observations.csv\"\nsimultaneous = true\n"
-              "[inputs.V]\nobservations = \"V\"\n[inputs.phi]\nobservations = \"phi\"\n"
-              "[correlations.a]\ninputs = [\"V\", \"I_amp\"]\nmatrix = [[1, 0.5], [0.5, 1]]\n",
-              "job.toml: correlations.a.inputs: input 'V' is already in correlation group 'observations'");
+  ExpectError(
+      "[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = "
+      "\"gum_h2_observations.csv\"\nsimultaneous = true\n"
+      "[inputs.V]\nobservations = \"V\"\n[inputs.phi]\nobservations = \"phi\"\n"
+      "[correlations.a]\ninputs = [\"V\", \"I_amp\"]\nmatrix = [[1, 0.5], [0.5, 1]]\n",
+      "job.toml: correlations.a.inputs: input 'V' is already in correlation group 'observations'");
   ExpectError("[model]\nname = \"jcgm101_additive\"\n[outputs.y.tolerance]\nlower = 2\nupper = 1\n",
               "job.toml: outputs.y.tolerance.upper: must be above lower");
-  ExpectError("[model]\nname = \"jcgm101_additive\"\n[inputs.x1]\ndof = 0.5\n", "job.toml: inputs.x1.dof: degrees of freedom must be");
+  ExpectError("[model]\nname = \"jcgm101_additive\"\n[inputs.x1]\ndof = 0.5\n",
+              "job.toml: inputs.x1.dof: degrees of freedom must be");
   ExpectError("[model]\nname = \"jcgm101_mass\"\n[inputs.rho_a]\nestimate = \"1.2 kg/m^3\"\n",
               "job.toml: inputs.rho_a.estimate: give a number in the model's unit (kg/m^3)");
 }
 
 // An [observations] file no input reads, or simultaneous with one reader: a warning each.
 TEST(CustomJob, ObservationsWarnings) {
-  const CustomJob unused = Parse("[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = \"gum_h2_observations.csv\"\nsimultaneous = true\n");
+  const CustomJob unused = Parse(
+      "[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = "
+      "\"gum_h2_observations.csv\"\nsimultaneous = true\n");
   ASSERT_EQ(unused.warnings.size(), 1u);
-  EXPECT_NE(unused.warnings[0].find("job.toml: observations.file: no input reads a column of"), std::string::npos) << unused.warnings[0];
-  const CustomJob one = Parse("[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = \"gum_h2_observations.csv\"\nsimultaneous = true\n[inputs.V]\nobservations = \"V\"\n");
+  EXPECT_NE(unused.warnings[0].find("job.toml: observations.file: no input reads a column of"),
+            std::string::npos)
+      << unused.warnings[0];
+  const CustomJob one = Parse(
+      "[model]\nname = \"gum_h2_impedance\"\n[observations]\nfile = "
+      "\"gum_h2_observations.csv\"\nsimultaneous = true\n[inputs.V]\nobservations = \"V\"\n");
   ASSERT_EQ(one.warnings.size(), 1u);
-  EXPECT_NE(one.warnings[0].find("job.toml: observations.simultaneous: only one input reads"), std::string::npos) << one.warnings[0];
+  EXPECT_NE(one.warnings[0].find("job.toml: observations.simultaneous: only one input reads"),
+            std::string::npos)
+      << one.warnings[0];
 }
 
 // Monte Carlo refuses Type A inputs with fewer than 4 observations (t with nu <= 2); the GUM runs.
 TEST(CustomJob, TooFewObservationsForMonteCarlo) {
-  const CustomJob job = Parse("[model]\nname = \"jcgm101_additive\"\n[inputs.x1]\nobservations = [1, 2, 4]\n");
+  const CustomJob job =
+      Parse("[model]\nname = \"jcgm101_additive\"\n[inputs.x1]\nobservations = [1, 2, 4]\n");
   EXPECT_NO_THROW((void)RunCustomJob(job, NoMcm()));
   try {
     (void)RunCustomJob(job, Trials(10000));
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("job.toml: inputs.x1.observations: Monte Carlo needs at least 4"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("job.toml: inputs.x1.observations: Monte Carlo needs at least 4"),
+              std::string::npos)
+        << e.what();
   }
 }
 
@@ -547,14 +576,17 @@ points = ["A", "B"]
     (void)ParseJob(base + "[task.tolerance.radius]\nupper = \"1 mm\"\n", "job.toml", ".");
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("job.toml: task[0].tolerance.radius: a distance task has no quantity 'radius' (distance)"),
-              std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(
+                  "job.toml: task[0].tolerance.radius: a distance task has no quantity 'radius' (distance)"),
+              std::string::npos)
+        << e.what();
   }
   try {
     (void)ParseJob(base + "[task.tolerance.distance]\nupper = \"1 deg\"\n", "job.toml", ".");
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("job.toml: task[0].tolerance.distance.upper"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("job.toml: task[0].tolerance.distance.upper"), std::string::npos)
+        << e.what();
   }
 }
 

@@ -31,12 +31,10 @@ TEST(DistributionNames, ParsesEveryAcceptedSpelling) {
   EXPECT_EQ(ParseDistribution("arcsine", "t"), DistributionKind::kArcsine);
   EXPECT_EQ(ParseDistribution("u-shaped", "t"), DistributionKind::kArcsine);
   EXPECT_EQ(ParseDistribution("student_t", "t"), DistributionKind::kStudentT);
-  EXPECT_EQ(ParseDistribution("curvilinear_trapezoid", "t"),
-            DistributionKind::kCurvilinearTrapezoid);
+  EXPECT_EQ(ParseDistribution("curvilinear_trapezoid", "t"), DistributionKind::kCurvilinearTrapezoid);
   for (DistributionKind kind :
        {DistributionKind::kNormal, DistributionKind::kRectangular, DistributionKind::kTriangular,
-        DistributionKind::kArcsine, DistributionKind::kStudentT,
-        DistributionKind::kCurvilinearTrapezoid}) {
+        DistributionKind::kArcsine, DistributionKind::kStudentT, DistributionKind::kCurvilinearTrapezoid}) {
     EXPECT_EQ(ParseDistribution(DistributionName(kind), "t"), kind);
   }
 }
@@ -65,7 +63,7 @@ TEST(DistributionCdf, ArcsineAnalytic) {
   // JCGM 101 6.4.6: a = sqrt(2) u; F(mu + a sin(theta)) = 1/2 + theta/pi.
   const Distribution d(DistributionKind::kArcsine, 5.0, 0.2);
   const double a = std::sqrt(2.0) * 0.2;
-  EXPECT_NEAR(d.Cdf(5.0 + a * 0.5), 2.0 / 3.0, 1e-15);       // theta = pi/6
+  EXPECT_NEAR(d.Cdf(5.0 + a * 0.5), 2.0 / 3.0, 1e-15);        // theta = pi/6
   EXPECT_NEAR(d.Cdf(5.0 - a / std::sqrt(2.0)), 0.25, 1e-15);  // theta = -pi/4
   EXPECT_EQ(d.Cdf(5.0 - a), 0.0);
   EXPECT_EQ(d.Cdf(5.0 + a * 1.0001), 1.0);
@@ -93,8 +91,7 @@ TEST(DistributionCdf, StudentTClosedForms) {
     EXPECT_NEAR(StudentTCdf(t, 1.0), 0.5 + std::atan(t) / kPi, 1e-14) << t;
     EXPECT_NEAR(StudentTCdf(t, 2.0), 0.5 + t / (2.0 * std::sqrt(2.0 + t * t)), 1e-14) << t;
     const double s3 = std::sqrt(3.0);
-    EXPECT_NEAR(StudentTCdf(t, 3.0),
-                0.5 + (t / (s3 * (1.0 + t * t / 3.0)) + std::atan(t / s3)) / kPi, 1e-14)
+    EXPECT_NEAR(StudentTCdf(t, 3.0), 0.5 + (t / (s3 * (1.0 + t * t / 3.0)) + std::atan(t / s3)) / kPi, 1e-14)
         << t;
   }
   // Published quantile: t_0.975(10) = 2.228138852 (JCGM 100 Table G.2: 2.23).
@@ -120,7 +117,7 @@ TEST(DistributionCdf, CurvilinearTrapezoidAgainstIntegratedPdf) {
     }
   }
   EXPECT_NEAR(cdf, 1.0, 1e-6);
-  EXPECT_NEAR(std::sqrt(var), u, 1e-5);   // 6.4.3.3: Var = w^2/3 + d^2/9
+  EXPECT_NEAR(std::sqrt(var), u, 1e-5);  // 6.4.3.3: Var = w^2/3 + d^2/9
 }
 
 TEST(DistributionQuantile, NormalPublishedValues) {
@@ -155,8 +152,7 @@ TEST(DistributionQuantile, InvertsTheCdfForEveryKind) {
 // standard deviation and the Kolmogorov-Smirnov distance to the distribution's own CDF.
 void CheckSampling(const Distribution& d, double kurtosis) {
   const int n = 200000;
-  const mcm_internal::InputSampler sampler({d}, {"x"}, Eigen::MatrixXd(), 7,
-                                           "test");
+  const mcm_internal::InputSampler sampler({d}, {"x"}, Eigen::MatrixXd(), 7, "test");
   const mcm_internal::KeyedStream rng(12345);
   std::vector<double> x(n);
   // Odd offsets and lengths exercise the groups of 4 trials sharing one Philox call.
@@ -217,8 +213,9 @@ TEST(RandomStreams, SinCosTwoPiMatchesLongDouble) {
   // The Box-Muller transform's own sin/cos of 2 pi u (random.h) against long double libm.
   const long double two_pi = 6.283185307179586476925286766559005768L;
   double worst = 0.0;
-  std::vector<double> us = {0.0, 0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875, 1.0,
-                            std::nextafter(1.0, 0.0), 0x1.0p-53, 0.1, 0.3, 0.7};
+  std::vector<double> us = {0.0,       0.125, 0.25,  0.375, 0.5,
+                            0.625,     0.75,  0.875, 1.0,   std::nextafter(1.0, 0.0),
+                            0x1.0p-53, 0.1,   0.3,   0.7};
   for (std::uint64_t i = 0; i < 200000; ++i) {
     us.push_back(mcm_internal::KeyedStream::ToOpenUnit(i * 0x9E3779B97F4A7C15ull));
   }
@@ -246,14 +243,13 @@ TEST(RandomStreams, UniformsAreOpenAndDependOnlyOnTheirKey) {
     EXPECT_GT(x[j], 0.0);
     EXPECT_LT(x[j], 1.0);
   }
-  b.Uniforms(10, 4, 0, y);   // another input
+  b.Uniforms(10, 4, 0, y);  // another input
   EXPECT_NE(x[0], y[0]);
 }
 
 TEST(DistributionSampling, ZeroUncertaintyIsTheEstimate) {
-  const mcm_internal::InputSampler sampler(
-      {Distribution(DistributionKind::kStudentT, 4.0, 0.0, 5.0)}, {"x"}, Eigen::MatrixXd(), 0,
-      "test");
+  const mcm_internal::InputSampler sampler({Distribution(DistributionKind::kStudentT, 4.0, 0.0, 5.0)}, {"x"},
+                                           Eigen::MatrixXd(), 0, "test");
   const mcm_internal::KeyedStream rng(1);
   double x[10];
   sampler.Draw(rng, 0, 10, x, 10, nullptr);
@@ -336,7 +332,6 @@ TEST(DistributionSampling, SingularCorrelationOfOneGivesIdenticalDrawsAndMinusOn
   EXPECT_GT(spread, 1.0);  // the draws do vary
 }
 
-
 TEST(RandomStreams, BulkNormalsAreTheNormalsOfEachGroupBitForBit) {
   // KeyedStream::NormalsBulk and DrawNormals (the engine's paths) against the per-group
   // Normals, including sub-batch edges that start and end inside a group of 4 trials.
@@ -353,8 +348,8 @@ TEST(RandomStreams, BulkNormalsAreTheNormalsOfEachGroupBitForBit) {
       }
     }
   }
-  for (const auto& [first, n] : std::vector<std::pair<std::int64_t, int>>{
-           {0, 256}, {3, 1}, {5, 517}, {4093, 7}, {1'000'001, 300}}) {
+  for (const auto& [first, n] :
+       std::vector<std::pair<std::int64_t, int>>{{0, 256}, {3, 1}, {5, 517}, {4093, 7}, {1'000'001, 300}}) {
     std::vector<double> out(static_cast<std::size_t>(n));
     mcm_internal::DrawNormals(rng, 4, first, n, out.data());
     for (int i = 0; i < n; ++i) {
@@ -383,10 +378,9 @@ TEST(RandomStreams, EveryPhiloxImplementationIsRandom123) {
           mcm_internal::PhiloxWordsForTest(which, key[0], key[1], first_pair, pairs, input, words.data());
           for (int p = 0; p < pairs; ++p) {
             const std::uint64_t pair = first_pair + static_cast<std::uint64_t>(p);
-            const r123::Philox4x32::ctr_type ctr = {{static_cast<std::uint32_t>(pair),
-                                                     static_cast<std::uint32_t>(pair >> 32),
-                                                     static_cast<std::uint32_t>(input),
-                                                     static_cast<std::uint32_t>(input >> 32)}};
+            const r123::Philox4x32::ctr_type ctr = {
+                {static_cast<std::uint32_t>(pair), static_cast<std::uint32_t>(pair >> 32),
+                 static_cast<std::uint32_t>(input), static_cast<std::uint32_t>(input >> 32)}};
             const r123::Philox4x32::ctr_type expected = r123::Philox4x32()(ctr, key);
             for (int j = 0; j < 4; ++j) {
               ASSERT_EQ(words[4 * static_cast<std::size_t>(p) + j], expected[j])
@@ -408,8 +402,8 @@ TEST(RandomStreams, LogOpenUnitWithinOneUlpOfLongDouble) {
   auto check = [&worst](double u) {
     const long double exact = std::log(static_cast<long double>(u));
     const double got = mcm_internal::KeyedStream::LogOpenUnit(u);
-    const double ulp = std::nextafter(std::fabs(static_cast<double>(exact)), 1e300) -
-                       std::fabs(static_cast<double>(exact));
+    const double ulp =
+        std::nextafter(std::fabs(static_cast<double>(exact)), 1e300) - std::fabs(static_cast<double>(exact));
     worst = std::max(worst, static_cast<double>(std::fabs(got - exact)) / ulp);
   };
   for (std::uint64_t i = 0; i < 2'000'000; ++i) {
@@ -432,8 +426,8 @@ TEST(RandomStreams, NormalsAreBoxMullerOfTheirPhiloxWords) {
   // stream (and so of every Monte Carlo result for a given seed) must be deliberate.
   const std::uint64_t seed = 0x0123456789ABCDEFull;
   const mcm_internal::KeyedStream rng(seed);
-  const r123::Philox4x32::key_type key = {{static_cast<std::uint32_t>(seed),
-                                           static_cast<std::uint32_t>(seed >> 32)}};
+  const r123::Philox4x32::key_type key = {
+      {static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32)}};
   const long double two_pi = 6.283185307179586476925286766559005768L;
   for (std::uint64_t group : {0ull, 1ull, 999ull, (1ull << 33) + 5}) {
     double z[4];
@@ -448,14 +442,16 @@ TEST(RandomStreams, NormalsAreBoxMullerOfTheirPhiloxWords) {
       };
       const long double r = std::sqrt(-2.0L * std::log(unit(w[0], w[1])));
       const long double angle = two_pi * unit(w[2], w[3]);
-      EXPECT_NEAR(z[2 * half], static_cast<double>(r * std::cos(angle)), 4e-15 * (1.0 + std::fabs(z[2 * half])));
-      EXPECT_NEAR(z[2 * half + 1], static_cast<double>(r * std::sin(angle)), 4e-15 * (1.0 + std::fabs(z[2 * half + 1])));
+      EXPECT_NEAR(z[2 * half], static_cast<double>(r * std::cos(angle)),
+                  4e-15 * (1.0 + std::fabs(z[2 * half])));
+      EXPECT_NEAR(z[2 * half + 1], static_cast<double>(r * std::sin(angle)),
+                  4e-15 * (1.0 + std::fabs(z[2 * half + 1])));
     }
   }
   double first[4];
   rng.Normals(0, 0, first);
   const double pinned[4] = {0x1.6ad54d12cffc1p-1, 0x1.9300836837bf5p-2, -0x1.64f47fe6bb003p-1,
-                           0x1.130f09ec5860cp-1};
+                            0x1.130f09ec5860cp-1};
   for (int j = 0; j < 4; ++j) EXPECT_EQ(first[j], pinned[j]) << j << ": " << std::hexfloat << first[j];
 }
 

@@ -58,8 +58,7 @@ Matrix3Xd SpherePoints(const Vector3d& centre, double radius, int n, double max_
   return p;
 }
 
-Matrix3Xd CirclePoints(const Vector3d& centre, const Vector3d& normal, double radius, int n,
-                       double arc) {
+Matrix3Xd CirclePoints(const Vector3d& centre, const Vector3d& normal, double radius, int n, double arc) {
   const auto [u, w] = PlaneBasis(normal);
   Matrix3Xd p(3, n);
   for (int i = 0; i < n; ++i) {
@@ -77,8 +76,8 @@ Matrix3Xd LinePoints(const Vector3d& origin, const Vector3d& direction, int n) {
 
 // Central finite differences of every output w.r.t. every coordinate (k x 3N), fitting with the
 // given orientation so that no perturbed fit flips sign.
-Eigen::MatrixXd FiniteDifferenceJacobian(TaskKind kind, const Matrix3Xd& points,
-                                         const FitOptions& options, double h) {
+Eigen::MatrixXd FiniteDifferenceJacobian(TaskKind kind, const Matrix3Xd& points, const FitOptions& options,
+                                         double h) {
   FitOptions value_only = options;
   value_only.jacobian = false;
   const long k = FitTask(kind, points, value_only).values.size();
@@ -88,8 +87,8 @@ Eigen::MatrixXd FiniteDifferenceJacobian(TaskKind kind, const Matrix3Xd& points,
       Matrix3Xd plus = points, minus = points;
       plus(c, j) += h;
       minus(c, j) -= h;
-      fd.col(3 * j + c) = (FitTask(kind, plus, value_only).values -
-                           FitTask(kind, minus, value_only).values) / (2.0 * h);
+      fd.col(3 * j + c) =
+          (FitTask(kind, plus, value_only).values - FitTask(kind, minus, value_only).values) / (2.0 * h);
     }
   }
   return fd;
@@ -113,8 +112,7 @@ void ExpectJacobianMatches(TaskKind kind, const Matrix3Xd& points, double h) {
     const double scale = fd.row(row).cwiseAbs().maxCoeff();
     ASSERT_GT(scale, 0.0) << fit.outputs[row].name;
     const double error = (fit.jacobian.row(row) - fd.row(row)).cwiseAbs().maxCoeff();
-    EXPECT_LE(error, 1e-6 * scale) << TaskOutputs(kind)[row].name << " of "
-                                   << static_cast<int>(kind);
+    EXPECT_LE(error, 1e-6 * scale) << TaskOutputs(kind)[row].name << " of " << static_cast<int>(kind);
   }
 }
 
@@ -174,7 +172,7 @@ TEST(Fits, ExactRecovery) {
     EXPECT_LE((r.values.segment<3>(4) - n).norm(), 1e-13);
     EXPECT_LE(r.values(7), 1e-13);
   }
-  {  // line
+  {                                                 // line
     const Vector3d dir = Vector3d(-0.6, 0.0, 0.8);  // largest |component| is z: kept positive
     const Matrix3Xd p = LinePoints(origin, dir, 9);
     const FitResult r = FitLine(p);
@@ -188,18 +186,14 @@ TEST(Fits, KnownResidualStatistics) {
   // Plane z = 0: heights (+1, -1, +1, -1, 0) um on a symmetric square pattern keep the fitted
   // plane at z = 0 (zero mean, no tilt), so flatness = 2 um and rms = sqrt(4/5) um.
   Matrix3Xd p(3, 5);
-  p << 1, -1, -1, 1, 0,
-       1, 1, -1, -1, 0,
-       1e-6, -1e-6, 1e-6, -1e-6, 0;
+  p << 1, -1, -1, 1, 0, 1, 1, -1, -1, 0, 1e-6, -1e-6, 1e-6, -1e-6, 0;
   const FitResult plane = FitPlane(p);
   EXPECT_NEAR(plane.values(6), 2e-6, 1e-18);
   EXPECT_NEAR(plane.values(7), std::sqrt(4e-12 / 5.0), 1e-18);
   // Line along x (offsets 1, -2, 1 um at x = -1, 0, 1: zero mean, zero slope): the largest
   // perpendicular distance is 2 um, straightness = 2 x 2 um.
   Matrix3Xd q(3, 3);
-  q << -1, 0, 1,
-       1e-6, -2e-6, 1e-6,
-       0, 0, 0;
+  q << -1, 0, 1, 1e-6, -2e-6, 1e-6, 0, 0, 0;
   const FitResult line = FitLine(q);
   EXPECT_NEAR(line.values(6), 4e-6, 1e-12);
 }
@@ -208,23 +202,18 @@ TEST(Fits, JacobiansMatchFiniteDifferences) {
   const Vector3d n = Vector3d(0.1, 0.7, -0.5).normalized();
   // Step 1e-7 m, well below the 1e-4 m residuals, so that the curvature of the residual
   // statistics (~1/rms) leaves the truncation error of the central differences negligible.
-  ExpectJacobianMatches(TaskKind::kPlane, Noisy(PlanePoints(Vector3d(2, 1, 0), n, 20), 1e-4, 1),
+  ExpectJacobianMatches(TaskKind::kPlane, Noisy(PlanePoints(Vector3d(2, 1, 0), n, 20), 1e-4, 1), 1e-7);
+  ExpectJacobianMatches(TaskKind::kSphere, Noisy(SpherePoints(Vector3d(1, -2, 0.5), 0.25, 24, 2.0), 1e-4, 2),
                         1e-7);
-  ExpectJacobianMatches(TaskKind::kSphere,
-                        Noisy(SpherePoints(Vector3d(1, -2, 0.5), 0.25, 24, 2.0), 1e-4, 2), 1e-7);
   ExpectJacobianMatches(TaskKind::kCircle,
-                        Noisy(CirclePoints(Vector3d(0.5, 0.5, 3), n, 0.8, 16, 4.0), 1e-4, 3),
-                        1e-7);
-  ExpectJacobianMatches(TaskKind::kLine,
-                        Noisy(LinePoints(Vector3d(-1, 2, 1), n, 15), 1e-4, 4), 1e-7);
+                        Noisy(CirclePoints(Vector3d(0.5, 0.5, 3), n, 0.8, 16, 4.0), 1e-4, 3), 1e-7);
+  ExpectJacobianMatches(TaskKind::kLine, Noisy(LinePoints(Vector3d(-1, 2, 1), n, 15), 1e-4, 4), 1e-7);
   // Minimal point sets: exact fits, where only the non-statistic rows exist.
-  ExpectJacobianMatches(TaskKind::kSphere,
-                        Noisy(SpherePoints(Vector3d(0, 0, 0), 1.0, 4, 2.5), 1e-3, 5), 1e-6);
+  ExpectJacobianMatches(TaskKind::kSphere, Noisy(SpherePoints(Vector3d(0, 0, 0), 1.0, 4, 2.5), 1e-3, 5),
+                        1e-6);
   ExpectJacobianMatches(TaskKind::kCircle, CirclePoints(Vector3d(1, 2, 3), n, 0.5, 3, 3.0), 1e-6);
-  ExpectJacobianMatches(TaskKind::kPlane, Noisy(PlanePoints(Vector3d(0, 0, 1), n, 3), 1e-3, 6),
-                        1e-6);
-  ExpectJacobianMatches(TaskKind::kLine, Noisy(LinePoints(Vector3d(0, 0, 1), n, 2), 1e-3, 7),
-                        1e-6);
+  ExpectJacobianMatches(TaskKind::kPlane, Noisy(PlanePoints(Vector3d(0, 0, 1), n, 3), 1e-3, 6), 1e-6);
+  ExpectJacobianMatches(TaskKind::kLine, Noisy(LinePoints(Vector3d(0, 0, 1), n, 2), 1e-3, 7), 1e-6);
 }
 
 // The fitted geometry is a smooth function of the points: the central difference
@@ -245,8 +234,7 @@ void ExpectContinuous(TaskKind kind, const Matrix3Xd& points, const FitOptions& 
         plus(c, j) += h;
         minus(c, j) -= h;
         const Eigen::VectorXd slope =
-            (FitTask(kind, plus, options).values - FitTask(kind, minus, options).values) /
-            (2.0 * h);
+            (FitTask(kind, plus, options).values - FitTask(kind, minus, options).values) / (2.0 * h);
         if (reference.size() == 0) {
           reference = slope;
           continue;
@@ -254,8 +242,8 @@ void ExpectContinuous(TaskKind kind, const Matrix3Xd& points, const FitOptions& 
         for (long row = 0; row + 1 < slope.size(); ++row) {
           EXPECT_LE(std::abs(slope(row) - reference(row)),
                     1e-6 * reference.cwiseAbs().maxCoeff() + 64.0 * ulp / (2.0 * h))
-              << TaskOutputs(kind)[row].name << " of " << static_cast<int>(kind) << ", point "
-              << j << " coordinate " << c << ", h = " << h;
+              << TaskOutputs(kind)[row].name << " of " << static_cast<int>(kind) << ", point " << j
+              << " coordinate " << c << ", h = " << h;
         }
       }
     }
@@ -263,8 +251,7 @@ void ExpectContinuous(TaskKind kind, const Matrix3Xd& points, const FitOptions& 
 }
 
 TEST(Fits, FittedValuesAreContinuous) {
-  ExpectContinuous(TaskKind::kSphere,
-                   Noisy(SpherePoints(Vector3d(1, -2, 0.5), 0.25, 24, 2.0), 1e-4, 2), {});
+  ExpectContinuous(TaskKind::kSphere, Noisy(SpherePoints(Vector3d(1, -2, 0.5), 0.25, 24, 2.0), 1e-4, 2), {});
   const Vector3d n = Vector3d(0.1, 0.7, -0.5).normalized();
   const Matrix3Xd circle = Noisy(CirclePoints(Vector3d(0.5, 0.5, 3), n, 0.8, 16, 4.0), 1e-4, 3);
   FitOptions options;
@@ -288,8 +275,7 @@ TEST(Fits, ExactPlaneStillDifferentiatesCentroidAndNormal) {
 TEST(Fits, RigidTranslationAndRotation) {
   const Vector3d n = Vector3d(0.3, -0.2, 0.9).normalized();
   const Vector3d t(12.5, -3.25, 0.75);
-  const Eigen::Matrix3d rot =
-      Eigen::AngleAxisd(0.7, Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const Eigen::Matrix3d rot = Eigen::AngleAxisd(0.7, Vector3d(1, 2, 3).normalized()).toRotationMatrix();
   struct Case {
     TaskKind kind;
     Matrix3Xd points;
@@ -298,14 +284,22 @@ TEST(Fits, RigidTranslationAndRotation) {
     std::vector<int> invariant_rows;  // radius, flatness, rms, ...
   };
   const Case cases[] = {
-      {TaskKind::kPlane, Noisy(PlanePoints(Vector3d(1, 0, 0), n, 12), 1e-4, 11), {0, 1, 2},
-       {3, 4, 5}, {6, 7}},
-      {TaskKind::kSphere, Noisy(SpherePoints(Vector3d(0, 1, 0), 0.5, 15, 2.0), 1e-4, 12),
-       {0, 1, 2}, {}, {3, 4}},
-      {TaskKind::kCircle, Noisy(CirclePoints(Vector3d(0, 0, 1), n, 0.4, 10, 5.0), 1e-4, 13),
-       {0, 1, 2}, {4, 5, 6}, {3, 7}},
-      {TaskKind::kLine, Noisy(LinePoints(Vector3d(2, 0, 0), n, 10), 1e-4, 14), {0, 1, 2},
-       {3, 4, 5}, {6, 7}},
+      {TaskKind::kPlane,
+       Noisy(PlanePoints(Vector3d(1, 0, 0), n, 12), 1e-4, 11),
+       {0, 1, 2},
+       {3, 4, 5},
+       {6, 7}},
+      {TaskKind::kSphere,
+       Noisy(SpherePoints(Vector3d(0, 1, 0), 0.5, 15, 2.0), 1e-4, 12),
+       {0, 1, 2},
+       {},
+       {3, 4}},
+      {TaskKind::kCircle,
+       Noisy(CirclePoints(Vector3d(0, 0, 1), n, 0.4, 10, 5.0), 1e-4, 13),
+       {0, 1, 2},
+       {4, 5, 6},
+       {3, 7}},
+      {TaskKind::kLine, Noisy(LinePoints(Vector3d(2, 0, 0), n, 10), 1e-4, 14), {0, 1, 2}, {3, 4, 5}, {6, 7}},
   };
   for (const Case& c : cases) {
     FitOptions options;
@@ -323,11 +317,9 @@ TEST(Fits, RigidTranslationAndRotation) {
     const FitResult rotated = FitTask(c.kind, rotated_points, rotated_options);
     const Vector3d centre(base.values(c.centre_rows[0]), base.values(c.centre_rows[1]),
                           base.values(c.centre_rows[2]));
-    const Vector3d centre_shifted(shifted.values(c.centre_rows[0]),
-                                  shifted.values(c.centre_rows[1]),
+    const Vector3d centre_shifted(shifted.values(c.centre_rows[0]), shifted.values(c.centre_rows[1]),
                                   shifted.values(c.centre_rows[2]));
-    const Vector3d centre_rotated(rotated.values(c.centre_rows[0]),
-                                  rotated.values(c.centre_rows[1]),
+    const Vector3d centre_rotated(rotated.values(c.centre_rows[0]), rotated.values(c.centre_rows[1]),
                                   rotated.values(c.centre_rows[2]));
     EXPECT_LE((centre_shifted - centre - t).norm(), 1e-12);
     EXPECT_LE((centre_rotated - rot * centre).norm(), 1e-12);
@@ -338,11 +330,9 @@ TEST(Fits, RigidTranslationAndRotation) {
     if (!c.direction_rows.empty()) {
       const Vector3d d(base.values(c.direction_rows[0]), base.values(c.direction_rows[1]),
                        base.values(c.direction_rows[2]));
-      const Vector3d d_shift(shifted.values(c.direction_rows[0]),
-                             shifted.values(c.direction_rows[1]),
+      const Vector3d d_shift(shifted.values(c.direction_rows[0]), shifted.values(c.direction_rows[1]),
                              shifted.values(c.direction_rows[2]));
-      const Vector3d d_rot(rotated.values(c.direction_rows[0]),
-                           rotated.values(c.direction_rows[1]),
+      const Vector3d d_rot(rotated.values(c.direction_rows[0]), rotated.values(c.direction_rows[1]),
                            rotated.values(c.direction_rows[2]));
       EXPECT_LE((d_shift - d).norm(), 1e-12);
       EXPECT_LE((d_rot - rot * d).norm(), 1e-12);
@@ -397,12 +387,9 @@ TEST(Fits, DegenerateInputsAreRefused) {
   ExpectRefusal<InputError>(TaskKind::kPlane, nan_point, "point 3 has a non-finite");
 
   ExpectRefusal<NumericalError>(TaskKind::kPlane, LinePoints(Vector3d(1, 2, 3), n, 6), "collinear");
-  ExpectRefusal<NumericalError>(TaskKind::kCircle, LinePoints(Vector3d(1, 2, 3), n, 6),
-                                "collinear");
-  ExpectRefusal<NumericalError>(TaskKind::kSphere, CirclePoints(Vector3d(1, 2, 3), n, 1, 8, 6),
-                                "coplanar");
-  ExpectRefusal<NumericalError>(TaskKind::kSphere, PlanePoints(Vector3d(1, 2, 3), n, 8),
-                                "coplanar");
+  ExpectRefusal<NumericalError>(TaskKind::kCircle, LinePoints(Vector3d(1, 2, 3), n, 6), "collinear");
+  ExpectRefusal<NumericalError>(TaskKind::kSphere, CirclePoints(Vector3d(1, 2, 3), n, 1, 8, 6), "coplanar");
+  ExpectRefusal<NumericalError>(TaskKind::kSphere, PlanePoints(Vector3d(1, 2, 3), n, 8), "coplanar");
   Matrix3Xd same(3, 2);
   same << 1, 1, 2, 2, 3, 3;
   ExpectRefusal<NumericalError>(TaskKind::kDistance, same, "coincide");
@@ -420,13 +407,11 @@ TEST(Fits, LargePointSetsScale) {
   const Vector3d normal = Vector3d(0.1, 0.2, 1.0).normalized();
   FitOptions options;
   options.jacobian = true;
-  const FitResult plane =
-      FitPlane(Noisy(PlanePoints(Vector3d(0, 0, 0), normal, n), 1e-6, 21), options);
+  const FitResult plane = FitPlane(Noisy(PlanePoints(Vector3d(0, 0, 0), normal, n), 1e-6, 21), options);
   EXPECT_LE((plane.values.segment<3>(3) - normal).norm(), 1e-6);
   EXPECT_EQ(plane.jacobian.cols(), 3 * n);
   EXPECT_TRUE(plane.jacobian.allFinite());
-  const FitResult sphere =
-      FitSphere(Noisy(SpherePoints(Vector3d(1, 1, 1), 0.5, n, 1.5), 1e-6, 22), options);
+  const FitResult sphere = FitSphere(Noisy(SpherePoints(Vector3d(1, 1, 1), 0.5, n, 1.5), 1e-6, 22), options);
   EXPECT_NEAR(sphere.values(3), 0.5, 1e-6);
   EXPECT_TRUE(sphere.jacobian.allFinite());
 }

@@ -32,8 +32,8 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 struct ClosedForm {
-  double drho;    // m: range error seen from O0
-  double dtheta;  // rad: mirror-angle-equivalent direction error (half the elevation error)
+  double drho;            // m: range error seen from O0
+  double dtheta;          // rad: mirror-angle-equivalent direction error (half the elevation error)
   double dtheta_printed;  // rad: the printed eq. 14 with arcsin
 };
 
@@ -61,7 +61,7 @@ TEST(GeneratedMirrorOffset, ReproducesCorrectedPaperEquations10To14) {
   for (double tmv : {5e-6, -20e-6, 1e-3}) {
     std::vector<double> params(model->num_params, 0.0);
     params[k_tmv] = tmv;
-    params[k_r0] = -tmv / std::sin(kPi / 4);  // range calibrated at home (reading counts from O0)
+    params[k_r0] = -tmv / std::sin(kPi / 4);     // range calibrated at home (reading counts from O0)
     const double z0 = -tmv / std::sin(kPi / 4);  // O0, the home hit point
     for (double rho : {0.5, 3.0, 40.0}) {
       for (double theta_deg = 5; theta_deg <= 85; theta_deg += 2.5) {

@@ -30,23 +30,22 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 // Compile-time view of one generated model (the templates of generated/<name>.h).
-#define VLT_KERNELS(NAME)                                                                   \
-  struct NAME##_kernels {                                                                   \
-    static constexpr const char* kName = #NAME;                                             \
-    static constexpr int R = vlt::gen::NAME::kNumReadings;                                  \
-    static constexpr int P = vlt::gen::NAME::kNumParams;                                    \
-    static constexpr int O = vlt::gen::NAME::kNumOutputs;                                   \
-    template <typename S>                                                                   \
-    static void Forward(const S* r, const S* p, S* o) {                                     \
-      vlt::gen::NAME::Forward(r, p, o);                                                     \
-    }                                                                                       \
-    static void ForwardJacobians(const double* r, const double* p, double* o, double* jr,   \
-                                 double* jp) {                                              \
-      vlt::gen::NAME::ForwardJacobians(r, p, o, jr, jp);                                    \
-    }                                                                                       \
-    static void NominalJacobians(const double* r, double* o, double* jr, double* jp) {      \
-      vlt::gen::NAME::NominalJacobians(r, o, jr, jp);                                       \
-    }                                                                                       \
+#define VLT_KERNELS(NAME)                                                                               \
+  struct NAME##_kernels {                                                                               \
+    static constexpr const char* kName = #NAME;                                                         \
+    static constexpr int R = vlt::gen::NAME::kNumReadings;                                              \
+    static constexpr int P = vlt::gen::NAME::kNumParams;                                                \
+    static constexpr int O = vlt::gen::NAME::kNumOutputs;                                               \
+    template <typename S>                                                                               \
+    static void Forward(const S* r, const S* p, S* o) {                                                 \
+      vlt::gen::NAME::Forward(r, p, o);                                                                 \
+    }                                                                                                   \
+    static void ForwardJacobians(const double* r, const double* p, double* o, double* jr, double* jp) { \
+      vlt::gen::NAME::ForwardJacobians(r, p, o, jr, jp);                                                \
+    }                                                                                                   \
+    static void NominalJacobians(const double* r, double* o, double* jr, double* jp) {                  \
+      vlt::gen::NAME::NominalJacobians(r, o, jr, jp);                                                   \
+    }                                                                                                   \
   };
 VLT_KERNELS(mirror)
 VLT_KERNELS(head)
@@ -80,8 +79,8 @@ void AutoDiffJacobians(const double* r, const double* p, double* out, double* jr
 
 // Central differences of Forward with steps h_readings / h_params.
 template <typename K>
-void FiniteDifferenceJacobians(const double* r, const double* p, const double* hr,
-                               const double* hp, double* jr, double* jp) {
+void FiniteDifferenceJacobians(const double* r, const double* p, const double* hr, const double* hp,
+                               double* jr, double* jp) {
   std::array<double, (K::R > 0 ? K::R : 1)> rr{};
   std::array<double, K::P> pp{};
   std::array<double, K::O> plus{}, minus{};
@@ -106,8 +105,8 @@ void FiniteDifferenceJacobians(const double* r, const double* p, const double* h
 }
 
 // Every column of `actual` equals `reference` to `rel` x max(|reference column|, floor).
-void ExpectColumnsNear(const double* actual, const double* reference, int rows, int cols,
-                       double rel, double floor, const std::string& what) {
+void ExpectColumnsNear(const double* actual, const double* reference, int rows, int cols, double rel,
+                       double floor, const std::string& what) {
   for (int k = 0; k < cols; ++k) {
     double norm = 0;
     for (int i = 0; i < rows; ++i) norm = std::hypot(norm, reference[rows * k + i]);
@@ -121,12 +120,12 @@ void ExpectColumnsNear(const double* actual, const double* reference, int rows, 
 
 // Runs every Jacobian check at readings r and parameters p.
 template <typename K>
-void CheckJacobians(const double* r, const double* p, const double* hr, const double* hp,
-                    double floor, const std::string& where) {
+void CheckJacobians(const double* r, const double* p, const double* hr, const double* hp, double floor,
+                    const std::string& where) {
   const vlt::ModelInfo& model = Model(K::kName);
   constexpr int O = K::O, R = K::R, P = K::P;
   std::array<double, O> out{}, out_fwd{}, out_ad{};
-  std::array<double, O * (R > 0 ? R : 1)> jr{}, jr_ad{}, jr_fd{};
+  std::array<double, O*(R > 0 ? R : 1)> jr{}, jr_ad{}, jr_fd{};
   std::array<double, O * P> jp{}, jp_ad{}, jp_fd{};
   K::ForwardJacobians(r, p, out.data(), jr.data(), jp.data());
   K::Forward(r, p, out_fwd.data());
@@ -149,7 +148,7 @@ void CheckJacobians(const double* r, const double* p, const double* hr, const do
   }
   // The double wrappers are the same kernels.
   std::array<double, O> out_info{};
-  std::array<double, O * (R > 0 ? R : 1)> jr_info{};
+  std::array<double, O*(R > 0 ? R : 1)> jr_info{};
   std::array<double, O * P> jp_info{};
   model.forward(r, p, out_info.data());
   model.forward_jacobians(r, p, out_info.data(), jr_info.data(), jp_info.data());
@@ -163,7 +162,7 @@ void CheckNominal(const double* r, double floor, const std::string& where) {
   constexpr int O = K::O, R = K::R, P = K::P;
   std::array<double, P> zero{};
   std::array<double, O> out{}, out_ad{};
-  std::array<double, O * (R > 0 ? R : 1)> jr{}, jr_ad{};
+  std::array<double, O*(R > 0 ? R : 1)> jr{}, jr_ad{};
   std::array<double, O * P> jp{}, jp_ad{};
   K::NominalJacobians(r, out.data(), jr.data(), jp.data());
   AutoDiffJacobians<K>(r, zero.data(), out_ad.data(), jr_ad.data(), jp_ad.data());
@@ -192,8 +191,8 @@ void TrackerJacobianSweep(std::uint64_t seed) {
       }
       std::array<double, K::P> p;
       for (int k = 0; k < K::P; ++k) p[k] = scale * model.params[k].default_u * normal(rng);
-      const std::string where = std::string(K::kName) + " scale " + std::to_string(scale) +
-                                " trial " + std::to_string(trial);
+      const std::string where =
+          std::string(K::kName) + " scale " + std::to_string(scale) + " trial " + std::to_string(trial);
       CheckJacobians<K>(r, p.data(), hr.data(), hp.data(), 1.0, where);
       if (scale == 1.0) CheckNominal<K>(r, 1.0, where);
     }
@@ -251,7 +250,8 @@ TEST(GeneratedModels, ForwardBatchEqualsForward) {
     std::vector<std::vector<double>> r(m->num_readings, std::vector<double>(n));
     std::vector<std::vector<double>> p(m->num_params, std::vector<double>(n));
     std::vector<std::vector<double>> o(m->num_outputs, std::vector<double>(n));
-    for (auto& v : r) for (auto& x : v) x = 1.0 + std::abs(normal(rng));
+    for (auto& v : r)
+      for (auto& x : v) x = 1.0 + std::abs(normal(rng));
     for (int k = 0; k < m->num_params; ++k) {
       for (auto& x : p[k]) x = m->params[k].default_estimate + m->params[k].default_u * normal(rng);
     }

@@ -48,8 +48,8 @@ struct GenRun {
 };
 
 GenRun RunGen(const std::string& args, const fs::path& dir) {
-  const std::string cmd = kGen + " " + args + " > " + (dir / "stdout").string() + " 2> " +
-                          (dir / "stderr").string();
+  const std::string cmd =
+      kGen + " " + args + " > " + (dir / "stdout").string() + " 2> " + (dir / "stderr").string();
   const int raw = std::system(cmd.c_str());
   GenRun r;
   r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
@@ -153,7 +153,8 @@ TEST(VltGen, BadSpecsAreRefusedWithOneLineNamingFileAndKey) {
     const fs::path dir = TempDir();
     fs::create_directories(dir / "models");
     Write(dir / "models" / "mirror.toml", c.text);
-    const GenRun r = RunGen("--models " + (dir / "models").string() + " --out " + (dir / "out").string(), dir);
+    const GenRun r =
+        RunGen("--models " + (dir / "models").string() + " --out " + (dir / "out").string(), dir);
     EXPECT_EQ(r.status, 2) << c.what;
     EXPECT_NE(r.err.find((dir / "models" / "mirror.toml").string()), std::string::npos)
         << c.what << ": " << r.err;
@@ -181,12 +182,17 @@ TEST(VltGen, ExpressionsUndefinedAtZeroGenerateAndSingularOnesAreRefused) {
   // v/i (and 1/i) have no value at i = 0: the nominal Jacobian is taken at the estimates, so the
   // spec generates; with the estimate i = 0 itself the spec is refused with one line, exit 2.
   auto spec = [](double i_estimate) {
-    return std::string("[model]\nname = \"ohm\"\nkind = \"custom\"\ndescription = \"R = V / I\"\n\n"
-                       "[[input]]\nname = \"v\"\nunit = \"1\"\nquantity = \"dimensionless\"\ndescription = \"voltage\"\n"
-                       "estimate = 5.0\nu = 0.01\ndistribution = \"normal\"\n\n"
-                       "[[input]]\nname = \"i\"\nunit = \"1\"\nquantity = \"dimensionless\"\ndescription = \"current\"\n"
-                       "estimate = ") + std::to_string(i_estimate) +
-           "\nu = 0.001\ndistribution = \"normal\"\n\n[[output]]\nname = \"r\"\nunit = \"1\"\nquantity = \"dimensionless\"\n"
+    return std::string(
+               "[model]\nname = \"ohm\"\nkind = \"custom\"\ndescription = \"R = V / I\"\n\n"
+               "[[input]]\nname = \"v\"\nunit = \"1\"\nquantity = \"dimensionless\"\ndescription = "
+               "\"voltage\"\n"
+               "estimate = 5.0\nu = 0.01\ndistribution = \"normal\"\n\n"
+               "[[input]]\nname = \"i\"\nunit = \"1\"\nquantity = \"dimensionless\"\ndescription = "
+               "\"current\"\n"
+               "estimate = ") +
+           std::to_string(i_estimate) +
+           "\nu = 0.001\ndistribution = \"normal\"\n\n[[output]]\nname = \"r\"\nunit = \"1\"\nquantity = "
+           "\"dimensionless\"\n"
            "description = \"resistance\"\nexpression = \"v/i + sqrt(v^2 + i^2) - sqrt(v^2 + i^2)\"\n";
   };
   const fs::path dir = TempDir();
@@ -201,7 +207,9 @@ TEST(VltGen, ExpressionsUndefinedAtZeroGenerateAndSingularOnesAreRefused) {
   r = RunGen("--models " + (dir / "models").string() + " --out " + (dir / "out").string(), dir);
   EXPECT_EQ(r.status, 2) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-  EXPECT_NE(r.err.find("ohm.toml: the model or its Jacobian is singular at the inputs' estimates"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("ohm.toml: the model or its Jacobian is singular at the inputs' estimates"),
+            std::string::npos)
+      << r.err;
   EXPECT_FALSE(fs::exists(dir / "out" / "ohm.h"));
   fs::remove_all(dir);
 }

@@ -150,8 +150,7 @@ TEST(GumCoverage, FactorsComputedFromTheDistributions) {
   EXPECT_NEAR(ChiSquareCoverageFactor(0.95, 2), std::sqrt(-2.0 * std::log(0.05)), 1e-12);
   EXPECT_NEAR(ChiSquareCoverageFactor(0.95, 3), std::sqrt(7.814727903251178), 1e-12);
   EXPECT_NEAR(ChiSquareCoverageFactor(0.95, 3), 2.796, 1e-3);  // published to 3 decimals
-  EXPECT_NEAR(ChiSquareCoverageFactor(0.99, 4) * ChiSquareCoverageFactor(0.99, 4),
-              13.276704135987622, 1e-9);
+  EXPECT_NEAR(ChiSquareCoverageFactor(0.99, 4) * ChiSquareCoverageFactor(0.99, 4), 13.276704135987622, 1e-9);
   EXPECT_THROW(NormalCoverageFactor(1.0), std::invalid_argument);
 }
 
@@ -208,8 +207,7 @@ TEST(GumPoint, CovarianceEqualsFiniteDifferencePropagation) {
       const Eigen::MatrixXd j = FiniteDifferenceJacobian(m, pts[i].readings);
       const Eigen::Matrix3d ref = j * InputCovariance(m, pts[i].readings(0)) * j.transpose();
       EXPECT_LE((res[i].cov_part - ref).norm(), 1e-6 * ref.norm()) << pts[i].name;
-      EXPECT_NEAR(res[i].U_part(0), 1.959963984540054 * std::sqrt(ref(0, 0)),
-                  1e-6 * std::sqrt(ref(0, 0)));
+      EXPECT_NEAR(res[i].U_part(0), 1.959963984540054 * std::sqrt(ref(0, 0)), 1e-6 * std::sqrt(ref(0, 0)));
     }
   }
 }
@@ -251,8 +249,7 @@ TEST(GumPoint, LineOfSightSplitClosedForm) {
   EXPECT_NEAR(r.ellipsoid.semi_axes(0), k3 * rho * 4e-6, 1e-14);
   EXPECT_NEAR(r.ellipsoid.semi_axes(1), k3 * rho * std::cos(e) * 3e-6, 1e-14);
   EXPECT_NEAR(r.ellipsoid.semi_axes(2), k3 * (2e-6 + 1e-6 * rho), 1e-14);
-  EXPECT_NEAR(std::abs(r.ellipsoid.directions.col(2).dot(r.los_part.directions.col(0))), 1.0,
-              1e-9);
+  EXPECT_NEAR(std::abs(r.ellipsoid.directions.col(2).dot(r.los_part.directions.col(0))), 1.0, 1e-9);
 }
 
 TEST(GumBudget, SensitivitiesUnitsAndShares) {
@@ -314,7 +311,8 @@ TEST(GumBudget, SensitivitiesUnitsAndShares) {
 
 TEST(GumPoint, SingularPointsNameThePoint) {
   MeasurementModel m(FullSetup(false));
-  std::vector<PointReadings> pts = {{"ok", {5.0, 0.1, 0.1}}, {"zenith", {3.0, 0.2, std::numbers::pi / 2 - 1e-6}}};  // E' = E + 1e-6 index
+  std::vector<PointReadings> pts = {
+      {"ok", {5.0, 0.1, 0.1}}, {"zenith", {3.0, 0.2, std::numbers::pi / 2 - 1e-6}}};  // E' = E + 1e-6 index
   try {
     PropagatePoints(m, pts);
     FAIL() << "no exception";
@@ -400,8 +398,7 @@ TEST(GumTask, LowRankPathHandlesHundredThousandPoints) {
   std::vector<int> idx(n);
   for (int i = 0; i < n; ++i) idx[i] = i;
   // Mean range of all points: G = (1/n) d_i^T per point; closed form u = u(mu) * mean(rho).
-  const Eigen::Vector3d d(std::cos(0.05) * std::cos(0.3), std::cos(0.05) * std::sin(0.3),
-                          std::sin(0.05));
+  const Eigen::Vector3d d(std::cos(0.05) * std::cos(0.3), std::cos(0.05) * std::sin(0.3), std::sin(0.05));
   Eigen::MatrixXd g(1, 3 * n);
   for (int i = 0; i < n; ++i) g.middleCols(3 * i, 3) = d.transpose() / n;
   TaskUncertainty t;
@@ -436,7 +433,8 @@ TEST(GumCovarianceField, EqualsFullPropagation) {
   MeasurementSetup mirror = FullSetup(false);
   mirror.model = FindModel("mirror");
   mirror.params.clear();
-  for (int k = 0; k < mirror.model->num_params; ++k) mirror.params.push_back(In(0.0, mirror.model->params[k].default_u));
+  for (int k = 0; k < mirror.model->num_params; ++k)
+    mirror.params.push_back(In(0.0, mirror.model->params[k].default_u));
   setups.push_back(mirror);
   for (const MeasurementSetup& setup : setups) {
     MeasurementModel m(setup);
@@ -469,8 +467,7 @@ TEST(GumPlan, ReadingsReproduceTheNominalPoint) {
   MeasurementModel m(FullSetup(false));
   const Eigen::VectorXd x = m.shared_estimates();
   for (bool back : {false, true}) {
-    for (const Eigen::Vector3d& part :
-         {Eigen::Vector3d(4.0, -2.0, 0.5), Eigen::Vector3d(-3.0, 7.0, 2.0)}) {
+    for (const Eigen::Vector3d& part : {Eigen::Vector3d(4.0, -2.0, 0.5), Eigen::Vector3d(-3.0, 7.0, 2.0)}) {
       const Eigen::Vector3d r = ReadingsForPartPoint(m, part, back, "N");
       Eigen::Vector3d y;
       m.Evaluate(r.data(), x.data(), y.data());
@@ -497,9 +494,26 @@ const QuantityInfo kAdditiveInputs[] = {{"x1", "1", "dimensionless", "", 0, 1, "
                                         {"x3", "1", "dimensionless", "", 0, 1, "normal", 0},
                                         {"x4", "1", "dimensionless", "", 0, 1, "normal", 0}};
 const QuantityInfo kAdditiveOutputs[] = {{"y", "1", "dimensionless", "", 0, 0, "normal", 0}};
-const ModelInfo kAdditive = {"additive_test", "custom", "", "", 0, 4, 1, nullptr, kAdditiveInputs,
-                             kAdditiveOutputs, &AdditiveForward, &AdditiveJacobians, nullptr,
-                             nullptr, nullptr, nullptr, nullptr, 0, 0, 0};
+const ModelInfo kAdditive = {"additive_test",
+                             "custom",
+                             "",
+                             "",
+                             0,
+                             4,
+                             1,
+                             nullptr,
+                             kAdditiveInputs,
+                             kAdditiveOutputs,
+                             &AdditiveForward,
+                             &AdditiveJacobians,
+                             nullptr,
+                             nullptr,
+                             nullptr,
+                             nullptr,
+                             nullptr,
+                             0,
+                             0,
+                             0};
 
 TEST(GumCustom, Jcgm101AdditiveModel) {
   std::vector<UncertainInput> in = {In(0, 1), In(0, 1), In(0, 1), In(0, 1)};

@@ -114,8 +114,7 @@ TEST(GumGenerated, TrackerBudgetsMatchFiniteDifferences) {
         x(col) = x0(col) - h;
         m.Evaluate(pts[i].readings.data(), x.data(), ym.data());
         const Eigen::Vector3d fd = (yp - ym) / (2 * h);
-        EXPECT_LE((row.sensitivity - fd).norm(), 1e-6 * fd.norm() + 1e-9)
-            << info->name << " " << row.input;
+        EXPECT_LE((row.sensitivity - fd).norm(), 1e-6 * fd.norm() + 1e-9) << info->name << " " << row.input;
       }
       EXPECT_NEAR(share, 1.0, 1e-12);
     }

@@ -12,8 +12,7 @@
 
 namespace vlt::test {
 
-inline void IdealForwardJacobians(const double* r, const double* p, double* out, double* jr,
-                                  double* jp) {
+inline void IdealForwardJacobians(const double* r, const double* p, double* out, double* jr, double* jp) {
   const double rho = (1.0 + p[1]) * r[0] + p[0];
   const double a = r[1] + p[2], e = r[2] + p[3];
   const double ca = std::cos(a), sa = std::sin(a), ce = std::cos(e), se = std::sin(e);
@@ -57,9 +56,25 @@ inline const QuantityInfo kIdealOutputs[] = {
     {"z", "m", "length", "z", 0, 0, "normal", 0},
 };
 
-inline const ModelInfo kIdealTracker = {
-    "ideal_test", "tracker", "ideal spherical tracker (test scaffolding)", "tests",
-    3, 4, 3, kIdealReadings, kIdealParams, kIdealOutputs,
-    &IdealForward, &IdealForwardJacobians, nullptr, nullptr, nullptr, nullptr, nullptr, 0, 0, 0};
+inline const ModelInfo kIdealTracker = {"ideal_test",
+                                        "tracker",
+                                        "ideal spherical tracker (test scaffolding)",
+                                        "tests",
+                                        3,
+                                        4,
+                                        3,
+                                        kIdealReadings,
+                                        kIdealParams,
+                                        kIdealOutputs,
+                                        &IdealForward,
+                                        &IdealForwardJacobians,
+                                        nullptr,
+                                        nullptr,
+                                        nullptr,
+                                        nullptr,
+                                        nullptr,
+                                        0,
+                                        0,
+                                        0};
 
 }  // namespace vlt::test

@@ -58,7 +58,8 @@ TEST(GumSecondOrder, RangeTimesAngleTermOfTheIdealTracker) {
   const MeasurementModel model(s);
   const PointUncertainty p = Check(model, Eigen::Vector3d(rho, 0.0, 0.0));
   EXPECT_NEAR(p.second_order_variance(1), u_rho * u_rho * u_a * u_a, 1e-6 * u_rho * u_rho * u_a * u_a);
-  EXPECT_NEAR(p.second_order_variance(0), 0.5 * std::pow(rho * u_a * u_a, 2), 1e-6 * 0.5 * std::pow(rho * u_a * u_a, 2));
+  EXPECT_NEAR(p.second_order_variance(0), 0.5 * std::pow(rho * u_a * u_a, 2),
+              1e-6 * 0.5 * std::pow(rho * u_a * u_a, 2));
   // With correlated parameters the independent directions are F e_k: a range offset r0 and a
   // scale mu fully correlated act as one input; the check must still be finite and small here.
   s.params = {In(0, 1e-6), In(0, 1e-6), In(0, 1e-6), In(0, 1e-6)};

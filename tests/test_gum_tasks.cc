@@ -103,8 +103,7 @@ Eigen::MatrixXd JointCovariance(const MeasurementModel& m, const std::vector<Poi
     const Eigen::MatrixXd ji = FdPointJacobian(m, pts[i].readings);
     j.block(3 * i, 3 * i, 3, 3) = ji.leftCols(3);
     j.block(3 * i, 3 * n, 3, s) = ji.rightCols(s);
-    cov.block(3 * i, 3 * i, 3, 3) =
-        m.reading_uncertainty(pts[i].readings(0)).cwiseAbs2().asDiagonal();
+    cov.block(3 * i, 3 * i, 3, 3) = m.reading_uncertainty(pts[i].readings(0)).cwiseAbs2().asDiagonal();
   }
   return j * cov * j.transpose();
 }
@@ -149,13 +148,14 @@ TEST_P(GumTaskBruteForce, EqualsJointCovariance) {
       case TaskKind::kSphere: {
         // Spread over more than a hemisphere (well-conditioned centre and radius).
         const double el = -0.6 + 1.8 * i / (n - 1);
-        p = Eigen::Vector3d(2.0, 1.0, 0.3) +
-            0.2 * Eigen::Vector3d(std::cos(2.4 * i) * std::cos(el), std::sin(2.4 * i) * std::cos(el),
-                                  std::sin(el));
+        p = Eigen::Vector3d(2.0, 1.0, 0.3) + 0.2 * Eigen::Vector3d(std::cos(2.4 * i) * std::cos(el),
+                                                                   std::sin(2.4 * i) * std::cos(el),
+                                                                   std::sin(el));
         break;
       }
       case TaskKind::kCircle:
-        p = Eigen::Vector3d(2.5, -0.5, 0.4) + 0.3 * Eigen::Vector3d(std::cos(t), std::sin(t), 0.1 * std::cos(t));
+        p = Eigen::Vector3d(2.5, -0.5, 0.4) +
+            0.3 * Eigen::Vector3d(std::cos(t), std::sin(t), 0.1 * std::cos(t));
         break;
       case TaskKind::kLine: p = Eigen::Vector3d(1.0 + 0.5 * i, 0.2 * i, 0.3); break;
       // The same point twice (both front face here; tests/test_two_face.cc has the back face):
@@ -230,9 +230,9 @@ TEST(GumTaskLarge, PlaneOverHundredThousandPointsClosedForm) {
   const TaskUncertainty t = PropagateTask(m, pts, task);
   EXPECT_NEAR(t.u(2), 1e-5, 1e-12);  // centroid_z
   EXPECT_NEAR(t.u(0), 0.0, 1e-12);
-  EXPECT_NEAR(t.u(5), 0.0, 1e-12);   // normal_z
-  EXPECT_NEAR(t.u(3), 0.0, 1e-12);   // normal_x
-  EXPECT_LT(t.u(6), 1e-12);          // flatness
+  EXPECT_NEAR(t.u(5), 0.0, 1e-12);  // normal_z
+  EXPECT_NEAR(t.u(3), 0.0, 1e-12);  // normal_x
+  EXPECT_LT(t.u(6), 1e-12);         // flatness
 }
 
 }  // namespace

@@ -21,8 +21,8 @@ std::vector<std::array<double, 3>> GridPoints() {
   for (double range : {0.5, 1.3, 4.0, 12.0, 40.0}) {
     for (double a = -3.1; a < 3.2; a += 0.55) {
       for (double e = -1.2; e <= 1.35; e += 0.25) {
-        points.push_back({range * std::cos(e) * std::cos(a), range * std::cos(e) * std::sin(a),
-                          range * std::sin(e)});
+        points.push_back(
+            {range * std::cos(e) * std::cos(a), range * std::cos(e) * std::sin(a), range * std::sin(e)});
       }
     }
   }

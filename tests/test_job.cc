@@ -38,10 +38,13 @@ point = [ {name = "A", x = 3000, y = 0, z = 0}, {name = "B", x = 4000, y = 1000,
           {name = "C", x = 3000, y = 1000, z = 500} ]
 )";
 
-Job Parse(const std::string& text) { return ParseJob(text, "job.toml", std::filesystem::temp_directory_path()); }
+Job Parse(const std::string& text) {
+  return ParseJob(text, "job.toml", std::filesystem::temp_directory_path());
+}
 
 // The InputError message of parsing `text`, or "" when it parses.
-std::string ErrorOf(const std::string& text, const std::filesystem::path& base = std::filesystem::temp_directory_path()) {
+std::string ErrorOf(const std::string& text,
+                    const std::filesystem::path& base = std::filesystem::temp_directory_path()) {
   try {
     ParseJob(text, "job.toml", base);
   } catch (const InputError& e) {
@@ -128,14 +131,14 @@ reference = "20 degC"
   EXPECT_NEAR(Param(job, "rmv").u, 0.8 * kArcsec, 1e-18);
   EXPECT_EQ(Param(job, "rmv").distribution, "rectangular");
   EXPECT_NEAR(Param(job, "mu").u, 0.5e-6, 1e-18);
-  EXPECT_EQ(Param(job, "sdh").u, 0.0);            // u = 0 switches a parameter off
+  EXPECT_EQ(Param(job, "sdh").u, 0.0);                     // u = 0 switches a parameter off
   EXPECT_NEAR(Param(job, "thv").estimate, 3 * um, 1e-18);  // a bare quantity is the estimate
   EXPECT_EQ(Param(job, "thv").u, job.setup.model->params[FindParam(*job.setup.model, "thv")].default_u);
   ASSERT_TRUE(job.setup.environment.has_value());
   const Environment& env = *job.setup.environment;
   EXPECT_EQ(env.equation, Environment::Equation::kEdlenBoensch);
   EXPECT_NEAR(env.vacuum_wavelength, 632.8e-9, 1e-18);
-  EXPECT_NEAR(env.temperature.estimate, 20.5, 1e-12);   // 293.65 K = 20.5 degC
+  EXPECT_NEAR(env.temperature.estimate, 20.5, 1e-12);  // 293.65 K = 20.5 degC
   EXPECT_NEAR(env.temperature.u, 0.2, 1e-15);
   EXPECT_NEAR(env.pressure.estimate, 101325.0, 1e-9);
   EXPECT_NEAR(env.pressure.u, 30.0, 1e-12);
@@ -146,7 +149,7 @@ reference = "20 degC"
   EXPECT_NEAR(job.setup.pose->rz.estimate, 20 * kPi / 180, 1e-15);
   EXPECT_NEAR(job.setup.pose->rz.u, 5e-6, 1e-18);
   EXPECT_NEAR(job.setup.pose->tx.estimate, -2.5, 1e-15);
-  EXPECT_EQ(job.setup.pose->rx.u, 0.0);   // omitted pose inputs: 0 +- 0
+  EXPECT_EQ(job.setup.pose->rx.u, 0.0);  // omitted pose inputs: 0 +- 0
   ASSERT_TRUE(job.setup.thermal.has_value());
   EXPECT_NEAR(job.setup.thermal->cte.estimate, 23e-6, 1e-18);
   EXPECT_NEAR(job.setup.thermal->cte.u, 1e-6, 1e-18);
@@ -170,17 +173,19 @@ TEST(Job, EnvironmentEquationSpellings) {
   EXPECT_EQ(Parse(job_with("edlen")).setup.environment->equation, AirEquation::kEdlenBoensch);
   EXPECT_EQ(Parse(job_with("ciddor")).setup.environment->equation, AirEquation::kCiddor);
   // A bad spelling: the one-line message names every accepted spelling.
-  EXPECT_EQ(ErrorOf(job_with("edlen-modified")),
-            "job.toml: environment.equation: unknown refractive-index equation 'edlen-modified' (expected one "
-            "of: ciddor, edlen, edlen_boensch, boensch_potulski, modified_edlen, birch_downs, edlen_birch_downs)");
+  EXPECT_EQ(
+      ErrorOf(job_with("edlen-modified")),
+      "job.toml: environment.equation: unknown refractive-index equation 'edlen-modified' (expected one "
+      "of: ciddor, edlen, edlen_boensch, boensch_potulski, modified_edlen, birch_downs, edlen_birch_downs)");
   // Its range of validity (350 .. 650 nm) is checked; CO2 is not an input of it, so a CO2
   // estimate the other equations refuse is no error (docs/units.md).
   EXPECT_NE(ErrorOf(job_with("modified_edlen", "wavelength = \"1550 nm\"\n"))
                 .find("outside the range of validity of the modified Edlen (NIST, Birch-Downs) equation"),
             std::string::npos);
   EXPECT_EQ(ErrorOf(job_with("modified_edlen", "co2 = \"3000 ppm\"\n")), "");
-  EXPECT_NE(ErrorOf(job_with("ciddor", "co2 = \"3000 ppm\"\n")).find("CO2 mole fraction 3000 umol/mol is outside"),
-            std::string::npos);
+  EXPECT_NE(
+      ErrorOf(job_with("ciddor", "co2 = \"3000 ppm\"\n")).find("CO2 mole fraction 3000 umol/mol is outside"),
+      std::string::npos);
 }
 
 TEST(Job, RangeNoiseSpellings) {
@@ -235,7 +240,8 @@ TEST(Job, CorrelationsBetweenAnyInputs) {
 [tracker.correlations.encoder]
 parameters = ["eas", "a0"]
 matrix = [[1, 0.4], [0.4, 1]]
-)" + kSurroundings + R"(
+)" + kSurroundings +
+                  R"(
 [correlations.thermometer]
 inputs = ["environment.temperature", "thermal.temperature", "tmv"]
 matrix = [[1, 1, 0.2], [1, 1, 0.2], [0.2, 0.2, 1]]
@@ -287,37 +293,47 @@ TEST(Job, CorrelationErrorsAreOneLineNamingFileAndKey) {
       {base + group("t", "\"environment.temperature\", \"thermal.temprature\"", one),
        "job.toml: correlations.t.inputs: unknown input 'thermal.temprature' (inputs: a0, eac, "},
       {base + group("t", "\"environment.temperature\", \"thermal.temprature\"", one),
-       "environment.temperature, environment.pressure, environment.humidity, environment.co2, pose.rx, pose.ry, "
+       "environment.temperature, environment.pressure, environment.humidity, environment.co2, pose.rx, "
+       "pose.ry, "
        "pose.rz, pose.tx, pose.ty, pose.tz, thermal.cte, thermal.temperature)"},
       // The job file's section names are not the inputs' names: say which is meant.
       {base + group("t", "\"environment.temperature\", \"part.temperature\"", one),
-       "job.toml: correlations.t.inputs: unknown input 'part.temperature': inputs are named as results.json and "
+       "job.toml: correlations.t.inputs: unknown input 'part.temperature': inputs are named as results.json "
+       "and "
        "budget.csv name them, 'thermal.temperature' for [part] temperature"},
       {base + group("t", "\"station.tx\", \"tmv\"", one),
-       "job.toml: correlations.t.inputs: unknown input 'station.tx': inputs are named as results.json and budget.csv "
+       "job.toml: correlations.t.inputs: unknown input 'station.tx': inputs are named as results.json and "
+       "budget.csv "
        "name them, 'pose.tx' for [station] tx"},
       {kTracker + kPlan + group("t", "\"environment.temperature\", \"tmv\"", one),
-       "job.toml: correlations.t.inputs: input 'environment.temperature' is not an input of this job: it has no "
+       "job.toml: correlations.t.inputs: input 'environment.temperature' is not an input of this job: it has "
+       "no "
        "[environment] section"},
       // One input in two groups, across the two spellings and within [correlations].
       {base + "[tracker.correlations.a]\nparameters = [\"tmv\", \"a0\"]\nmatrix = " + one + "\n" +
            group("b", "\"environment.temperature\", \"tmv\"", one),
-       "job.toml: correlations.b.inputs: input 'tmv' is already in correlation group 'a' (an input may be in one "
+       "job.toml: correlations.b.inputs: input 'tmv' is already in correlation group 'a' (an input may be in "
+       "one "
        "group only)"},
       {base + group("a", "\"environment.temperature\", \"thermal.temperature\"", one) +
            group("b", "\"pose.tx\", \"environment.temperature\"", one),
-       "job.toml: correlations.b.inputs: input 'environment.temperature' is already in correlation group 'a'"},
-      {base + group("a", "\"tmv\", \"tmv\"", one), "job.toml: correlations.a.inputs: input 'tmv' appears twice"},
+       "job.toml: correlations.b.inputs: input 'environment.temperature' is already in correlation group "
+       "'a'"},
+      {base + group("a", "\"tmv\", \"tmv\"", one),
+       "job.toml: correlations.a.inputs: input 'tmv' appears twice"},
       {base + "[tracker.correlations.g]\nparameters = [\"tmv\", \"a0\"]\nmatrix = " + one + "\n" +
            group("g", "\"environment.temperature\", \"thermal.temperature\"", one),
        "job.toml: correlations.g.inputs: correlation group name 'g' is used twice"},
       // [tracker.correlations] stays restricted to parameters.
-      {base + "[tracker.correlations.c]\nparameters = [\"tmv\", \"environment.temperature\"]\nmatrix = " + one + "\n",
-       "job.toml: tracker.correlations.c.parameters: unknown parameter 'environment.temperature' of model 'mirror'"},
+      {base + "[tracker.correlations.c]\nparameters = [\"tmv\", \"environment.temperature\"]\nmatrix = " +
+           one + "\n",
+       "job.toml: tracker.correlations.c.parameters: unknown parameter 'environment.temperature' of model "
+       "'mirror'"},
       // The matrix: not positive semi-definite, wrong size, not a correlation matrix.
       {base + group("t", "\"environment.temperature\", \"thermal.temperature\", \"tmv\"",
                     "[[1, 0.9, 0.9], [0.9, 1, -0.9], [0.9, -0.9, 1]]"),
-       "job.toml: correlations.t.matrix: correlation matrix is not positive semi-definite (smallest eigenvalue -0.8)"},
+       "job.toml: correlations.t.matrix: correlation matrix is not positive semi-definite (smallest "
+       "eigenvalue -0.8)"},
       {base + group("t", "\"environment.temperature\", \"thermal.temperature\", \"tmv\"", one),
        "job.toml: correlations.t.matrix: expected 3 rows of 3 numbers (one per name in inputs)"},
       {base + group("t", "\"environment.temperature\", \"thermal.temperature\"", "[[1, 0.5], [0.5]]"),
@@ -329,8 +345,10 @@ TEST(Job, CorrelationErrorsAreOneLineNamingFileAndKey) {
       {base + group("t", "\"environment.temperature\", \"thermal.temperature\"", "[[0.9, 0.5], [0.5, 1]]"),
        "job.toml: correlations.t.matrix: diagonal element 1 is not 1"},
       {base + group("t", "", "[]"), "job.toml: correlations.t.inputs: no inputs"},
-      {base + "[correlations.t]\ninput = [\"tmv\"]\nmatrix = [[1]]\n", "job.toml: correlations.t.inputs: required key is missing"},
-      {base + "[correlations.t]\ninputs = [\"tmv\"]\nmatrix = [[1]]\nrho = 1\n", "job.toml: correlations.t.rho: unknown key"},
+      {base + "[correlations.t]\ninput = [\"tmv\"]\nmatrix = [[1]]\n",
+       "job.toml: correlations.t.inputs: required key is missing"},
+      {base + "[correlations.t]\ninputs = [\"tmv\"]\nmatrix = [[1]]\nrho = 1\n",
+       "job.toml: correlations.t.rho: unknown key"},
       {base + "[correlations]\nt = 1\n", "job.toml: correlations.t: expected a table"},
   };
   for (const Case& c : cases) {
@@ -354,23 +372,30 @@ azimuth = "0.1 arcsec"
 elevation = "0.1 arcsec"
 )";
   const std::string plan = "[plan]\npoint = [{name = \"P\", x = 3.0, y = 1.0, z = 0.0}]\n";
-  const Job job = ParseJob(tracker + plan + kSurroundings +
-                               "[correlations.t]\ninputs = [\"environment.temperature\", \"thermal.temperature\"]\n"
-                               "matrix = [[1, 0.9], [0.9, 1]]\n",
-                           "job.toml", dir);
+  const Job job =
+      ParseJob(tracker + plan + kSurroundings +
+                   "[correlations.t]\ninputs = [\"environment.temperature\", \"thermal.temperature\"]\n"
+                   "matrix = [[1, 0.9], [0.9, 1]]\n",
+               "job.toml", dir);
   ASSERT_EQ(job.setup.correlations.size(), 2u);
   EXPECT_EQ(job.setup.correlations[0].name, "calibration");
   EXPECT_EQ(job.setup.correlations[0].where_inputs, "job.toml: tracker.calibration");
   EXPECT_EQ(job.setup.correlations[1].name, "t");
   EXPECT_NO_THROW(MeasurementModel{job.setup});
-  EXPECT_NE(ErrorOf(tracker + plan + kSurroundings +
-                        "[correlations.t]\ninputs = [\"environment.temperature\", \"ex\"]\nmatrix = [[1, 0.5], [0.5, 1]]\n",
-                    dir)
-                .find("job.toml: correlations.t.inputs: input 'ex' is already in correlation group 'calibration'"),
-            std::string::npos);
-  EXPECT_NE(ErrorOf(tracker + plan + "[tracker.correlations.c]\nparameters = [\"ex\", \"by\"]\nmatrix = [[1, 0.5], [0.5, 1]]\n", dir)
-                .find("job.toml: tracker.correlations.c.parameters: input 'ex' is already in correlation group 'calibration'"),
-            std::string::npos);
+  EXPECT_NE(
+      ErrorOf(tracker + plan + kSurroundings +
+                  "[correlations.t]\ninputs = [\"environment.temperature\", \"ex\"]\nmatrix = [[1, 0.5], "
+                  "[0.5, 1]]\n",
+              dir)
+          .find("job.toml: correlations.t.inputs: input 'ex' is already in correlation group 'calibration'"),
+      std::string::npos);
+  EXPECT_NE(
+      ErrorOf(tracker + plan +
+                  "[tracker.correlations.c]\nparameters = [\"ex\", \"by\"]\nmatrix = [[1, 0.5], [0.5, 1]]\n",
+              dir)
+          .find("job.toml: tracker.correlations.c.parameters: input 'ex' is already in correlation group "
+                "'calibration'"),
+      std::string::npos);
 }
 
 TEST(Job, TasksResolveToPointIndices) {
@@ -440,7 +465,8 @@ TEST_F(JobFiles, CartesianReadingsAreTheSphericalOnes) {
   const double deg = kPi / 180;
   // Front face: 4 m at azimuth 30 deg, elevation 10 deg; 6 m at azimuth 300 deg, elevation -20 deg;
   // the first point again in the back face (azimuth 210 deg, elevation 170 deg).
-  const Eigen::Vector3d spherical[3] = {{4.0, 30 * deg, 10 * deg}, {6.0, 300 * deg, -20 * deg}, {4.0, 210 * deg, 170 * deg}};
+  const Eigen::Vector3d spherical[3] = {
+      {4.0, 30 * deg, 10 * deg}, {6.0, 300 * deg, -20 * deg}, {4.0, 210 * deg, 170 * deg}};
   auto ideal = [](const Eigen::Vector3d& r) {
     return Eigen::Vector3d(r[0] * std::cos(r[2]) * std::cos(r[1]), r[0] * std::cos(r[2]) * std::sin(r[1]),
                            r[0] * std::sin(r[2]));
@@ -475,7 +501,9 @@ units = { x = "mm", y = "mm", z = "mm" }
   EXPECT_EQ(job.points[0].face, Face::kFront);
   EXPECT_EQ(job.points[2].face, Face::kBack);
   // vertical_angle belongs to spherical readings; the origin has no direction.
-  Write("job2.toml", kTracker + "[readings]\ncsv = \"xyz.csv\"\ncoordinates = \"cartesian\"\nvertical_angle = \"zenith\"\n");
+  Write(
+      "job2.toml",
+      kTracker + "[readings]\ncsv = \"xyz.csv\"\ncoordinates = \"cartesian\"\nvertical_angle = \"zenith\"\n");
   EXPECT_THROW(LoadJob((dir_ / "job2.toml").string()), InputError);
   Write("o.csv", "name,x,y,z\nO,0,0,0\n");
   Write("job3.toml", kTracker + "[readings]\ncsv = \"o.csv\"\ncoordinates = \"cartesian\"\n");
@@ -483,8 +511,10 @@ units = { x = "mm", y = "mm", z = "mm" }
     LoadJob((dir_ / "job3.toml").string());
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("o.csv: line 2: inverse: point (0, 0, 0) m is at the tracker origin"),
-              std::string::npos) << e.what();
+    EXPECT_NE(
+        std::string(e.what()).find("o.csv: line 2: inverse: point (0, 0, 0) m is at the tracker origin"),
+        std::string::npos)
+        << e.what();
   }
 }
 
@@ -495,7 +525,8 @@ TEST_F(JobFiles, ReadingsFaceColumnMustAgree) {
     LoadJob((dir_ / "job.toml").string());
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("r.csv: line 2: face column says back but the vertical angle is a front-face reading"),
+    EXPECT_NE(std::string(e.what()).find(
+                  "r.csv: line 2: face column says back but the vertical angle is a front-face reading"),
               std::string::npos)
         << e.what();
   }
@@ -518,7 +549,8 @@ TEST_F(JobFiles, UnreadableCsvRowNamesFileAndLine) {
     LoadJob((dir_ / "job.toml").string());
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("plan.csv: line 4: 3 fields, the header has 4 (separator ','"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("plan.csv: line 4: 3 fields, the header has 4 (separator ','"),
+              std::string::npos)
         << e.what();
   }
 }
@@ -535,13 +567,15 @@ TEST(Job, BadInputClasses) {
     return t.replace(at, from.size(), to);
   };
   const Case cases[] = {
-      {with("azimuth = \"0.5 arcsec\"", "azimuth = \"0.5 arcsec"), "job.toml: line 6, column 22: TOML syntax error"},
+      {with("azimuth = \"0.5 arcsec\"", "azimuth = \"0.5 arcsec"),
+       "job.toml: line 6, column 22: TOML syntax error"},
       {with("azimuth = \"0.5 arcsec\"", "azimuth = \"0.5 arcsec\"\nazimth = 1"),
        "job.toml: tracker.noise.azimth: unknown key"},
       {good + "[monte_carlo]\ntrails = 1000\n", "job.toml: monte_carlo.trails: unknown key"},
       {good + "[extra]\n", "job.toml: extra: unknown key"},
       {with("model = \"mirror\"\n", ""), "job.toml: tracker.model: required key is missing"},
-      {with("elevation = \"0.5 arcsec\"\n", ""), "job.toml: tracker.noise.elevation: required key is missing"},
+      {with("elevation = \"0.5 arcsec\"\n", ""),
+       "job.toml: tracker.noise.elevation: required key is missing"},
       {kTracker, "job.toml: plan: required key is missing"},
       {with("model = \"mirror\"", "model = \"mirror\"\n[tracker.parameters]\nfoo = { u = 1 }"),
        "job.toml: tracker.parameters.foo: unknown parameter 'foo' of model 'mirror'"},
@@ -555,8 +589,10 @@ TEST(Job, BadInputClasses) {
        "job.toml: tracker.parameters.tmv.u: negative uncertainty"},
       {with("model = \"mirror\"", "model = \"mirror\"\n[tracker.parameters]\ntmv = { u = nan }"),
        "job.toml: tracker.parameters.tmv.u: not a finite number"},
-      {with("azimuth = \"0.5 arcsec\"", "azimuth = \"-0.5 arcsec\""), "job.toml: tracker.noise.azimuth: negative uncertainty"},
-      {with("model = \"mirror\"", "model = \"mirror\"\n[tracker.parameters]\ntmv = { u = 1e-6, distribution = \"lorentz\" }"),
+      {with("azimuth = \"0.5 arcsec\"", "azimuth = \"-0.5 arcsec\""),
+       "job.toml: tracker.noise.azimuth: negative uncertainty"},
+      {with("model = \"mirror\"",
+            "model = \"mirror\"\n[tracker.parameters]\ntmv = { u = 1e-6, distribution = \"lorentz\" }"),
        "unknown distribution 'lorentz'"},
       {good + "[tracker.correlations.c]\nparameters = [\"a0\", \"eac\", \"eas\"]\n"
               "matrix = [[1, 0.9, 0.9], [0.9, 1, -0.9], [0.9, -0.9, 1]]\n",
@@ -565,19 +601,26 @@ TEST(Job, BadInputClasses) {
        "job.toml: tracker.correlations.c.matrix: not symmetric"},
       {with("{name = \"C\", x = 3000, y = 1000, z = 500}", "{name = \"C\", x = 0, y = 0, z = 500}"),
        "job.toml: plan.point[2]: point 'C' lies on the tracker's vertical axis"},
-      {with("{name = \"C\", x = 3000", "{name = \"A\", x = 3000"), "job.toml: plan.point[2]: point name 'A' used twice"},
-      {good + "[[task]]\nkind = \"plane\"\nname = \"p\"\npoints = [\"A\", \"B\"]\n", "plane needs at least 3 points"},
-      {good + "[[task]]\nkind = \"distance\"\nname = \"d\"\npoints = [\"A\", \"X\"]\n", "point 'X' not measured"},
-      {good + "[[task]]\nkind = \"cone\"\nname = \"d\"\npoints = [\"A\", \"B\"]\n", "unknown task kind 'cone'"},
+      {with("{name = \"C\", x = 3000", "{name = \"A\", x = 3000"),
+       "job.toml: plan.point[2]: point name 'A' used twice"},
+      {good + "[[task]]\nkind = \"plane\"\nname = \"p\"\npoints = [\"A\", \"B\"]\n",
+       "plane needs at least 3 points"},
+      {good + "[[task]]\nkind = \"distance\"\nname = \"d\"\npoints = [\"A\", \"X\"]\n",
+       "point 'X' not measured"},
+      {good + "[[task]]\nkind = \"cone\"\nname = \"d\"\npoints = [\"A\", \"B\"]\n",
+       "unknown task kind 'cone'"},
       {good + "[monte_carlo]\ntrials = 100\n", "job.toml: monte_carlo.trials: at least 2000 trials"},
-      {good + "[monte_carlo]\ncoverage_probability = 1.5\n", "monte_carlo.coverage_probability: must be between 0 and 1"},
+      {good + "[monte_carlo]\ncoverage_probability = 1.5\n",
+       "monte_carlo.coverage_probability: must be between 0 and 1"},
       {good + "[environment]\ntemperature = \"20 degC\"\npressure = \"1013 hPa\"\n",
        "job.toml: environment.humidity: required key is missing"},
       {good + "[environment]\ntemperature = \"-300 degC\"\npressure = \"1013 hPa\"\nhumidity = \"50 %\"\n",
        "below absolute zero"},
       {good + "[map]\nplane = \"w=0\"\nextent = \"0,1,0,1\"\n", "job.toml: map: plane: expected x=<value>"},
-      {good + "[map]\nplane = \"z=0\"\nextent = \"0,1,0\"\n", "job.toml: map: extent: expected 4 comma-separated values"},
-      {good + "[readings]\ncsv = \"x.csv\"\n", "give either [plan] (offline) or [readings] (online), not both"},
+      {good + "[map]\nplane = \"z=0\"\nextent = \"0,1,0\"\n",
+       "job.toml: map: extent: expected 4 comma-separated values"},
+      {good + "[readings]\ncsv = \"x.csv\"\n",
+       "give either [plan] (offline) or [readings] (online), not both"},
   };
   for (const Case& c : cases) {
     std::string message = ErrorOf(c.text);
@@ -593,7 +636,7 @@ TEST(Job, MapGrid) {
   EXPECT_EQ(plane.counts(), Eigen::Vector3i(51, 41, 1));  // (7.5-2.5)/0.1+1, (2+2)/0.1+1
   std::vector<Eigen::Vector3d> nodes = plane.Nodes();
   ASSERT_EQ(nodes.size(), 51u * 41u);
-  EXPECT_NEAR(nodes[1].x(), 2.6, 1e-12);        // x fastest
+  EXPECT_NEAR(nodes[1].x(), 2.6, 1e-12);  // x fastest
   EXPECT_NEAR(nodes[51].y(), -1.9, 1e-12);
   EXPECT_DOUBLE_EQ(nodes.back().z(), -0.8);
   MapSettings side = ParseMapPlane("y=1", "0,4,-1,1", "500 mm", "cli");  // free axes x and z
@@ -641,7 +684,8 @@ TEST(Csv, SemicolonsAndDecimalCommasAreDetected) {
     ParseCsv("name;x;y\nA;1\n", "s.csv");
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()), "s.csv: line 2: 2 fields, the header has 3 (separator ';', taken from the header line)");
+    EXPECT_EQ(std::string(e.what()),
+              "s.csv: line 2: 2 fields, the header has 3 (separator ';', taken from the header line)");
   }
 }
 

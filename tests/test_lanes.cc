@@ -21,8 +21,8 @@ TEST(Lanes, ArithmeticIsTheScalarArithmeticLaneByLane) {
     double a[4], b[4];
     for (int l = 0; l < 4; ++l) a[l] = value(rng), b[l] = value(rng);
     const Double4 x = lanes::Load(a), y = lanes::Load(b);
-    const Double4 sum = x + y, diff = x - y, prod = x * y, quot = x / y, neg = -x,
-                  root = lanes::sqrt(x * x), mixed = 0.5 * x + 1.0;
+    const Double4 sum = x + y, diff = x - y, prod = x * y, quot = x / y, neg = -x, root = lanes::sqrt(x * x),
+                  mixed = 0.5 * x + 1.0;
     for (int l = 0; l < 4; ++l) {
       ASSERT_EQ(sum[l], a[l] + b[l]);
       ASSERT_EQ(diff[l], a[l] - b[l]);
@@ -56,7 +56,8 @@ TEST(Lanes, SinCosWithinAFewUlpOfLongDouble) {
   auto check = [&](double x) {
     Double4 s, c;
     lanes::SinCos(Double4(x), &s, &c);
-    const long double exact[2] = {std::sin(static_cast<long double>(x)), std::cos(static_cast<long double>(x))};
+    const long double exact[2] = {std::sin(static_cast<long double>(x)),
+                                  std::cos(static_cast<long double>(x))};
     const double got[2] = {s[0], c[0]};
     for (int w = 0; w < 2; ++w) {
       if (std::fabs(static_cast<double>(exact[w])) > 1e-6) {

@@ -36,7 +36,6 @@ const ModelInfo& Additive() {
   return *m;
 }
 
-
 // Root of an increasing function by bisection.
 template <typename F>
 double Solve(F f, double target, double lo, double hi) {
@@ -78,7 +77,7 @@ TEST(Jcgm101Additive, AllRectangular) {
     return f / 24.0;
   };
   const double exact = 2 * std::sqrt(3.0) * Solve(irwin_hall, 0.975, 0.0, 4.0) - 4 * std::sqrt(3.0);
-  EXPECT_NEAR(exact, 3.88, 0.005);   // JCGM 101 Table 3
+  EXPECT_NEAR(exact, 3.88, 0.005);  // JCGM 101 Table 3
   EXPECT_NEAR(y.u, 2.0, 0.007);
   EXPECT_NEAR(y.symmetric.high, exact, 0.02);
   EXPECT_NEAR(y.symmetric.low, -exact, 0.02);
@@ -100,7 +99,7 @@ TEST(Jcgm101Additive, MixedRectangularDominant) {
   };
   auto cdf = [&](double v) { return s / (2 * a) * (g((v + a) / s) - g((v - a) / s)); };
   const double exact = Solve(cdf, 0.975, 0.0, 40.0);
-  EXPECT_NEAR(exact, 17.0, 0.05);    // JCGM 101 Table 4
+  EXPECT_NEAR(exact, 17.0, 0.05);  // JCGM 101 Table 4
   EXPECT_NEAR(y.u, std::sqrt(103.0), 0.03);
   EXPECT_NEAR(y.u, 10.15, 0.03);
   EXPECT_NEAR(y.symmetric.high, exact, 0.05);
@@ -118,8 +117,7 @@ TEST(GumH1EndGauge, MonteCarloFindsTheExactSecondOrderVariance) {
   std::vector<UncertainInput> in;
   for (int k = 0; k < model->num_params; ++k) {
     const QuantityInfo& q = model->params[k];
-    in.push_back(Input(q.name, q.default_estimate, q.default_u, q.default_distribution,
-                       q.default_shape));
+    in.push_back(Input(q.name, q.default_estimate, q.default_u, q.default_distribution, q.default_shape));
   }
   auto var_product = [](double mx, double sx, double my, double sy) {
     return sx * sx * sy * sy + mx * mx * sy * sy + my * my * sx * sx;
@@ -129,23 +127,23 @@ TEST(GumH1EndGauge, MonteCarloFindsTheExactSecondOrderVariance) {
       var_product(at("dalpha").estimate, at("dalpha").u, at("theta").estimate, at("theta").u) +
       var_product(at("alpha_s").estimate, at("alpha_s").u, at("dtheta").estimate, at("dtheta").u);
   const double mu_ls = at("l_s").estimate, s_ls = at("l_s").u, s_d = at("d").u;
-  const double mean_w = at("dalpha").estimate * at("theta").estimate +
-                        at("alpha_s").estimate * at("dtheta").estimate;
+  const double mean_w =
+      at("dalpha").estimate * at("theta").estimate + at("alpha_s").estimate * at("dtheta").estimate;
   const double exact_u = std::sqrt(s_ls * s_ls * (1 - mean_w) * (1 - mean_w) +
                                    (mu_ls * mu_ls + s_ls * s_ls) * var_w + s_d * s_d);
   EXPECT_NEAR(exact_u, 34e-9, 0.5e-9);
   const McmResult r = RunMcmCustom(*model, in, {}, Fixed(1'000'000, 17));
-  EXPECT_NEAR(r.outputs[0].u, exact_u, 0.3e-9);    // standard error ~0.03 nm
-  EXPECT_NEAR(r.outputs[0].mean - 0.05, 838e-9, 0.2e-9);   // GUM H.1.5: 50.000 838 mm
+  EXPECT_NEAR(r.outputs[0].u, exact_u, 0.3e-9);           // standard error ~0.03 nm
+  EXPECT_NEAR(r.outputs[0].mean - 0.05, 838e-9, 0.2e-9);  // GUM H.1.5: 50.000 838 mm
 }
 
 // Every double of a result, for bitwise comparison.
 std::vector<double> Flatten(const McmResult& r) {
   std::vector<double> v;
   for (const McmOutputResult& o : r.outputs) {
-    v.insert(v.end(), {o.mean, o.u, o.symmetric.low, o.symmetric.high, o.shortest.low,
-                       o.shortest.high, o.accuracy.s_mean, o.accuracy.s_u, o.accuracy.s_low,
-                       o.accuracy.s_high, o.value_at_estimates});
+    v.insert(v.end(),
+             {o.mean, o.u, o.symmetric.low, o.symmetric.high, o.shortest.low, o.shortest.high,
+              o.accuracy.s_mean, o.accuracy.s_u, o.accuracy.s_low, o.accuracy.s_high, o.value_at_estimates});
   }
   for (const McmPointResult& p : r.points) {
     v.insert(v.end(), p.mean.data(), p.mean.data() + 3);
@@ -165,9 +163,9 @@ TEST(McmReproducibility, CustomModelSameForOneAndTwoThreadsDifferentSeedsDiffer)
   // Every kind of draw: normal (Box-Muller), Student t (Bailey), curvilinear trapezoid (two
   // uniforms), and a Gaussian copula over a t and an arcsine input. M is not a multiple of the
   // batch, the chunk or 4.
-  const std::vector<UncertainInput> in = {
-      Input("x1", 1, 1), Input("x2", 0, 2, "student_t", 5.0),
-      Input("x3", 0, 1, "curvilinear_trapezoid", 0.4), Input("x4", 3, 1, "arcsine")};
+  const std::vector<UncertainInput> in = {Input("x1", 1, 1), Input("x2", 0, 2, "student_t", 5.0),
+                                          Input("x3", 0, 1, "curvilinear_trapezoid", 0.4),
+                                          Input("x4", 3, 1, "arcsine")};
   Eigen::Matrix4d corr = Eigen::Matrix4d::Identity();
   corr(1, 3) = corr(3, 1) = 0.5;
   const McmResult one = RunMcmCustom(Additive(), in, corr, Fixed(25'003, 7, 1));
@@ -233,8 +231,8 @@ TEST(McmJob, OutputsPointsAndFittedTasks) {
     // Coordinates: u of a few to tens of micrometres, mean within 5 standard errors.
     EXPECT_GT(r.outputs[o].u, 1e-6) << r.outputs[o].name;
     EXPECT_LT(r.outputs[o].u, 2e-4) << r.outputs[o].name;
-    EXPECT_NEAR(r.outputs[o].mean, r.outputs[o].value_at_estimates,
-                5 * r.outputs[o].u / std::sqrt(20'000.0)) << r.outputs[o].name;
+    EXPECT_NEAR(r.outputs[o].mean, r.outputs[o].value_at_estimates, 5 * r.outputs[o].u / std::sqrt(20'000.0))
+        << r.outputs[o].name;
     EXPECT_LE(r.outputs[o].symmetric.low, r.outputs[o].mean);
     EXPECT_GE(r.outputs[o].symmetric.high, r.outputs[o].mean);
   }
@@ -261,11 +259,11 @@ TEST(McmAdaptive, StopsWhenEveryStatisticIsWithinTolerance) {
   const McmResult r = RunMcmCustom(Additive(), in, {}, s);
   EXPECT_TRUE(r.adaptive);
   EXPECT_TRUE(r.converged);
-  EXPECT_EQ(r.batch_size, 10'000);                    // max(ceil(100/0.05), 10^4)
+  EXPECT_EQ(r.batch_size, 10'000);  // max(ceil(100/0.05), 10^4)
   EXPECT_GE(r.batches, 2);
   EXPECT_EQ(r.trials, r.batches * r.batch_size);
   const McmOutputResult& y = r.outputs[0];
-  EXPECT_EQ(y.accuracy.delta, 0.05);                  // u = 2.0 -> c = 20, l = -1
+  EXPECT_EQ(y.accuracy.delta, 0.05);  // u = 2.0 -> c = 20, l = -1
   for (double s_stat : {y.accuracy.s_mean, y.accuracy.s_u, y.accuracy.s_low, y.accuracy.s_high}) {
     EXPECT_GT(s_stat, 0.0);
     EXPECT_LE(2 * s_stat, y.accuracy.delta);
@@ -295,7 +293,8 @@ TEST(McmHistogram, CountsEveryTrialAndFollowsTheNormal) {
   for (int b = 0; b < kHistogramBins; ++b) {
     const double p = cdf(h.low + (b + 1) * h.width) - cdf(h.low + b * h.width);
     const double expected = 200'000 * p, sd = std::sqrt(200'000 * p * (1 - p));
-    EXPECT_NEAR(static_cast<double>(h.counts[static_cast<std::size_t>(b)]), expected, 2.5 * sd + 1) << "bin " << b;
+    EXPECT_NEAR(static_cast<double>(h.counts[static_cast<std::size_t>(b)]), expected, 2.5 * sd + 1)
+        << "bin " << b;
   }
 }
 
@@ -363,7 +362,7 @@ TEST(McmMemory, AdaptiveRunSwitchesWhenItOutgrowsTheBudget) {
   job.points = {test::SomePoints()[0]};
   McmSettings s = Fixed(0, 2);
   s.significant_digits = 1;
-  s.memory_budget_bytes = 3 * 4 * 15'000;   // room for 1.5 batches of 3 outputs
+  s.memory_budget_bytes = 3 * 4 * 15'000;  // room for 1.5 batches of 3 outputs
   const McmResult r = RunMcm(job, s);
   EXPECT_NE(r.interval_method.find("average"), std::string::npos);
   EXPECT_TRUE(r.converged);
@@ -373,9 +372,9 @@ TEST(McmMemory, AdaptiveRunSwitchesWhenItOutgrowsTheBudget) {
 
 TEST(CoverageIntervalRoutines, HandMadeSamples) {
   EXPECT_EQ(CoverageCount(10'000, 0.95), 9500);
-  EXPECT_EQ(CoverageCount(10'001, 0.95), 9501);   // 9500.95 -> integer part of 9501.45
-  EXPECT_EQ(CoverageCount(100, 0.955), 96);       // 95.5 -> integer part of 96.0
-  EXPECT_THROW(CoverageCount(10, 0.95), InputError);   // q = 10 = M
+  EXPECT_EQ(CoverageCount(10'001, 0.95), 9501);       // 9500.95 -> integer part of 9501.45
+  EXPECT_EQ(CoverageCount(100, 0.955), 96);           // 95.5 -> integer part of 96.0
+  EXPECT_THROW(CoverageCount(10, 0.95), InputError);  // q = 10 = M
 
   // M = 20, p = 0.9: q = 18, r = 1: [y(1), y(19)]; shortest r in {1, 2}.
   std::vector<double> y = {-10};
@@ -393,7 +392,7 @@ TEST(CoverageIntervalRoutines, HandMadeSamples) {
   shortest = ShortestCoverageInterval(y, 0.5);
   EXPECT_EQ(sym.low, 1.5);
   EXPECT_EQ(sym.high, 6);
-  EXPECT_EQ(shortest.low, 1);     // widths 4.2, 3.3, 4.5, 5, 5.5 -> r = 2
+  EXPECT_EQ(shortest.low, 1);  // widths 4.2, 3.3, 4.5, 5, 5.5 -> r = 2
   EXPECT_EQ(shortest.high, 4.3);
 
   // The engine's partial-sort routine (float and double) agrees with the sorted-span routines.
@@ -401,7 +400,7 @@ TEST(CoverageIntervalRoutines, HandMadeSamples) {
   std::lognormal_distribution<double> skewed(0.0, 0.7);
   for (int m : {15, 40, 1001, 10'007}) {
     for (double p : {0.3, 0.5, 0.9, 0.95, 0.99}) {
-      if (p == 0.99 && m < 200) continue;   // M - pM < 1
+      if (p == 0.99 && m < 200) continue;  // M - pM < 1
       std::vector<double> v(m);
       for (double& x : v) x = skewed(gen);
       std::vector<double> sorted = v;
@@ -493,7 +492,8 @@ void CheckSortedTails(std::uint64_t seed) {
             ASSERT_EQ(tails.low_values[k], sorted[k]) << m << " " << variant << " " << low << " " << k;
           }
           for (std::int64_t j = 0; j < high; ++j) {
-            ASSERT_EQ(tails.high_values[j], sorted[m - high + j]) << m << " " << variant << " " << high << " " << j;
+            ASSERT_EQ(tails.high_values[j], sorted[m - high + j])
+                << m << " " << variant << " " << high << " " << j;
           }
         }
       }
@@ -536,24 +536,22 @@ TEST(McmErrors, NonFiniteTrialAndBadSettings) {
   EXPECT_THROW(RunMcmCustom(log_model, in, {}, Fixed(10'000)), NumericalError);
   McmSettings s = Fixed(10'000);
   s.coverage_probability = 1.0;
-  EXPECT_THROW(RunMcmCustom(Additive(), {}, {}, s), InputError);   // wrong input count first
-  const std::vector<UncertainInput> four = {Input("x1", 0, 1), Input("x2", 0, 1),
-                                            Input("x3", 0, 1), Input("x4", 0, 1)};
+  EXPECT_THROW(RunMcmCustom(Additive(), {}, {}, s), InputError);  // wrong input count first
+  const std::vector<UncertainInput> four = {Input("x1", 0, 1), Input("x2", 0, 1), Input("x3", 0, 1),
+                                            Input("x4", 0, 1)};
   EXPECT_THROW(RunMcmCustom(Additive(), four, {}, s), InputError);
   s = Fixed(10);
-  EXPECT_THROW(RunMcmCustom(Additive(), four, {}, s), InputError);   // M too small for p
+  EXPECT_THROW(RunMcmCustom(Additive(), four, {}, s), InputError);  // M too small for p
   s = Fixed(1000);
   s.significant_digits = 3;
   EXPECT_THROW(RunMcmCustom(Additive(), four, {}, s), InputError);
   EXPECT_THROW(RunMcmCustom(*FindModel("mirror"), four, {}, Fixed(1000)), InputError);
 }
 
-
 // The documented composition of MeasurementModel::Evaluate (vlt/measurement_model.h), written
 // out here from the public stages as the reference of the test below:
 //   rho' = rho (n_est / n(t, p, RH, x)),  x_t = f(rho', A, E; params),  y = s (R x_t + t).
-void ComposedByHand(const MeasurementModel& model, const double* readings, const double* shared,
-                    double* y) {
+void ComposedByHand(const MeasurementModel& model, const double* readings, const double* shared, double* y) {
   const MeasurementSetup& setup = model.setup();
   double corrected[3] = {readings[0], readings[1], readings[2]};
   if (setup.environment) {
@@ -565,11 +563,9 @@ void ComposedByHand(const MeasurementModel& model, const double* readings, const
     air.pressure = env[1];
     air.humidity = env[2];
     air.co2 = env[3];
-    const AirEquation equation = e.equation == Environment::Equation::kCiddor
-                                     ? AirEquation::kCiddor
-                                     : AirEquation::kEdlenBoensch;
-    corrected[0] *= model.refractive_index_estimate() /
-                    AirRefractiveIndexValue(equation, air, "environment");
+    const AirEquation equation =
+        e.equation == Environment::Equation::kCiddor ? AirEquation::kCiddor : AirEquation::kEdlenBoensch;
+    corrected[0] *= model.refractive_index_estimate() / AirRefractiveIndexValue(equation, air, "environment");
   }
   Eigen::Vector3d x_t;
   setup.model->forward(corrected, shared, x_t.data());
@@ -605,20 +601,20 @@ TEST(McmPreparedShared, SameAsEvaluateBitForBit) {
   struct Case {
     bool environment, edlen, pose, thermal;
   };
-  const Case cases[] = {{true, false, true, true},  {true, true, true, true},
+  const Case cases[] = {{true, false, true, true},    {true, true, true, true},
                         {false, false, false, false}, {true, false, false, false},
                         {false, false, true, false},  {false, false, false, true}};
   for (const Case& c : cases) {
     MeasurementSetup setup = test::MirrorSetup(c.pose);
     if (c.environment) {
       setup.environment = env;
-      setup.environment->equation = c.edlen ? Environment::Equation::kEdlenBoensch
-                                            : Environment::Equation::kCiddor;
+      setup.environment->equation =
+          c.edlen ? Environment::Equation::kEdlenBoensch : Environment::Equation::kCiddor;
     }
     if (c.thermal) setup.thermal = thermal;
     const MeasurementModel model(setup);
-    SCOPED_TRACE(::testing::Message() << "environment " << c.environment << " edlen " << c.edlen
-                                      << " pose " << c.pose << " thermal " << c.thermal);
+    SCOPED_TRACE(::testing::Message() << "environment " << c.environment << " edlen " << c.edlen << " pose "
+                                      << c.pose << " thermal " << c.thermal);
     std::mt19937_64 gen(11);
     std::normal_distribution<double> normal;
     // One trial's shared vector per state, as in the kernel's sub-batch scratch.
@@ -656,8 +652,7 @@ TEST(McmPreparedShared, SameAsEvaluateBitForBit) {
         ASSERT_EQ(state.thermal_scale, 1.0);
       }
       for (int p = 0; p < 3; ++p) {
-        const double readings[3] = {2.0 + 2.5 * p + 1e-4 * normal(gen), -1.0 + 0.9 * p,
-                                    -0.3 + 0.2 * p};
+        const double readings[3] = {2.0 + 2.5 * p + 1e-4 * normal(gen), -1.0 + 0.9 * p, -0.3 + 0.2 * p};
         double expected[3], by_hand[3], got[3];
         model.Evaluate(readings, trial_shared, expected);
         ComposedByHand(model, readings, trial_shared, by_hand);
@@ -683,7 +678,8 @@ TEST(McmPreparedShared, SameAsEvaluateBitForBit) {
       std::vector<double> params(static_cast<std::size_t>(kL) * model.setup().model->num_params);
       for (int l = 0; l < kL; ++l) {
         lane_states[l] = &states[t0 + l];
-        for (int k = 0; k < model.setup().model->num_params; ++k) params[kL * k + l] = states[t0 + l].shared[k];
+        for (int k = 0; k < model.setup().model->num_params; ++k)
+          params[kL * k + l] = states[t0 + l].shared[k];
         r[l] = 0.5 + 0.3 * (t0 + l);
         r[kL + l] = -3.1 + 0.031 * (t0 + l);
         r[2 * kL + l] = -0.6 + 0.011 * (t0 + l);

@@ -61,10 +61,8 @@ inline MeasurementSetup MirrorSetup(bool pose = true) {
 
 // Readings of a few points 3 m .. 8 m away.
 inline std::vector<McmPoint> SomePoints() {
-  return {{"P1", {3.0, 0.2, 0.1}},
-          {"P2", {5.0, 0.6, -0.2}},
-          {"P3", {8.0, -0.4, 0.3}},
-          {"P4", {4.0, 1.2, 0.05}}};
+  return {
+      {"P1", {3.0, 0.2, 0.1}}, {"P2", {5.0, 0.6, -0.2}}, {"P3", {8.0, -0.4, 0.3}}, {"P4", {4.0, 1.2, 0.05}}};
 }
 
 }  // namespace vlt::test
@@ -73,9 +71,8 @@ namespace vlt::test {
 
 // A custom ModelInfo around a plain function (forward only: exercises the engine's per-trial
 // path; forward_batch stays null).
-inline ModelInfo CustomModel(const char* name, int num_params, int num_outputs,
-                             const QuantityInfo* params, const QuantityInfo* outputs,
-                             ForwardFn forward) {
+inline ModelInfo CustomModel(const char* name, int num_params, int num_outputs, const QuantityInfo* params,
+                             const QuantityInfo* outputs, ForwardFn forward) {
   ModelInfo m{};
   m.name = name;
   m.kind = "custom";
@@ -100,8 +97,8 @@ inline McmSettings Fixed(std::int64_t trials, std::uint64_t seed = 1, int thread
   return s;
 }
 
-inline UncertainInput Input(const char* name, double estimate, double u,
-                            const char* distribution = "normal", double shape = 0.0) {
+inline UncertainInput Input(const char* name, double estimate, double u, const char* distribution = "normal",
+                            double shape = 0.0) {
   UncertainInput in;
   in.name = name;
   in.unit = "1";

@@ -101,8 +101,7 @@ void CheckJacobian(const MeasurementModel& m, const double* readings, const doub
     const double scale = Eigen::Map<const Eigen::Vector3d>(js.data() + 3 * k).norm() +
                          Eigen::Map<const Eigen::Vector3d>(col).norm() * 1e-3 + 1e-15;
     for (int i = 0; i < 3; ++i) {
-      EXPECT_NEAR(js[3 * k + i], col[i], rel_tol * scale)
-          << "shared input " << in.name << " axis " << i;
+      EXPECT_NEAR(js[3 * k + i], col[i], rel_tol * scale) << "shared input " << in.name << " axis " << i;
     }
   }
 }
@@ -137,12 +136,11 @@ TEST(MeasurementModel, EvaluateClosedFormPoseAndThermal) {
   const double rho = (1 + 2e-6) * 5.0 + 3e-6, a = 0.3 + 4e-6, e = 0.2 - 5e-6;
   const Eigen::Vector3d xt(rho * std::cos(e) * std::cos(a), rho * std::cos(e) * std::sin(a),
                            rho * std::sin(e));
-  const Eigen::Matrix3d r = (Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()) *
-                             Eigen::AngleAxisd(-0.02, Eigen::Vector3d::UnitY()) *
-                             Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitX()))
-                                .toRotationMatrix();
-  const Eigen::Vector3d expected =
-      (r * xt + Eigen::Vector3d(1.0, -2.0, 0.5)) / (1 + 11.5e-6 * (22.5 - 20.0));
+  const Eigen::Matrix3d r =
+      (Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(-0.02, Eigen::Vector3d::UnitY()) *
+       Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
+  const Eigen::Vector3d expected = (r * xt + Eigen::Vector3d(1.0, -2.0, 0.5)) / (1 + 11.5e-6 * (22.5 - 20.0));
   for (int i = 0; i < 3; ++i) EXPECT_NEAR(y[i], expected(i), 1e-13);
   double xtr[3];
   m.EvaluateTracker(readings, x.data(), xtr);
@@ -154,9 +152,8 @@ TEST(MeasurementModel, JacobianMatchesFiniteDifferencesAllStages) {
     for (bool thermal : {false, true}) {
       MeasurementModel m(IdealSetup(pose, thermal, false));
       const Eigen::VectorXd x = m.shared_estimates();
-      for (const Eigen::Vector3d& r :
-           {Eigen::Vector3d(5.0, 0.3, 0.2), Eigen::Vector3d(30.0, -2.5, -0.6),
-            Eigen::Vector3d(1.2, 3.0, 1.3)}) {
+      for (const Eigen::Vector3d& r : {Eigen::Vector3d(5.0, 0.3, 0.2), Eigen::Vector3d(30.0, -2.5, -0.6),
+                                       Eigen::Vector3d(1.2, 3.0, 1.3)}) {
         SCOPED_TRACE(testing::Message() << "pose " << pose << " thermal " << thermal);
         CheckJacobian(m, r.data(), x.data(), 1e-7);
       }
@@ -271,7 +268,8 @@ TEST(MeasurementModel, EvaluateNominalLanesEqualsEvaluateWithJacobianBitForBit) 
             double y1[3], jr1[9];
             std::vector<double> js1(3 * shared);
             m.EvaluateWithJacobian(readings + 3 * i, x->data(), y1, jr1, js1.data());
-            SCOPED_TRACE(testing::Message() << name << " stations " << stations << " count " << count << " point " << i);
+            SCOPED_TRACE(testing::Message()
+                         << name << " stations " << stations << " count " << count << " point " << i);
             for (int q = 0; q < 3; ++q) ASSERT_EQ(y[3 * i + q], y1[q]);
             for (int q = 0; q < 9; ++q) ASSERT_EQ(jr[9 * i + q], jr1[q]);
             for (int q = 3 * np; q < 3 * shared; ++q) ASSERT_EQ(js[3 * shared * i + q], js1[q]) << q;
@@ -289,8 +287,8 @@ TEST(MeasurementModel, EvaluateNominalLanesEqualsEvaluateWithJacobianBitForBit) 
       nonzero(1) = 3e-6;
       std::vector<double> y(3 * L), jr(9 * L), js(3 * shared * L), jp(3 * np * L);
       Eigen::Matrix3d linear_map;
-      EXPECT_FALSE(m.EvaluateNominalLanes(L, readings, nonzero.data(), y.data(), jr.data(), js.data(), jp.data(),
-                                          linear_map));
+      EXPECT_FALSE(m.EvaluateNominalLanes(L, readings, nonzero.data(), y.data(), jr.data(), js.data(),
+                                          jp.data(), linear_map));
     }
   }
   EXPECT_EQ(checked, 2 * 2 * 2 * (1 + 2 + 3 + 4));
@@ -298,7 +296,8 @@ TEST(MeasurementModel, EvaluateNominalLanesEqualsEvaluateWithJacobianBitForBit) 
   double y[3 * (L + 1)], jr[9 * (L + 1)], js[12 * (L + 1)], jp[12 * (L + 1)];
   Eigen::Matrix3d linear_map;
   EXPECT_THROW(m.EvaluateNominalLanes(0, nullptr, nullptr, y, jr, js, jp, linear_map), std::invalid_argument);
-  EXPECT_THROW(m.EvaluateNominalLanes(L + 1, nullptr, nullptr, y, jr, js, jp, linear_map), std::invalid_argument);
+  EXPECT_THROW(m.EvaluateNominalLanes(L + 1, nullptr, nullptr, y, jr, js, jp, linear_map),
+               std::invalid_argument);
   // The ideal test tracker has no batch kernel: declined.
   const Eigen::VectorXd x0 = Eigen::VectorXd::Zero(m.num_shared());
   const double r[3 * L] = {1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0};

@@ -35,10 +35,10 @@ struct Params {
 // The SMR: from the point the beam leaves (o), its unit direction (dr) and the length to the
 // vertex (l), the sphere centre, with the dihedral-angle pointing error and the vertex offsets.
 Vector3d ReflectorCentre(const Params& p, const Vector3d& o, const Vector3d& dr, double l) {
-  const Vector3d eh = kZ.cross(dr).normalized();  // horizontal, toward increasing azimuth
-  const Vector3d ev = dr.cross(eh);               // toward increasing elevation
+  const Vector3d eh = kZ.cross(dr).normalized();                     // horizontal, toward increasing azimuth
+  const Vector3d ev = dr.cross(eh);                                  // toward increasing elevation
   const double psi = 0.5 * (4.0 * std::sqrt(6.0) / 3.0) * p("sdh");  // half the deviation
-  const Vector3d line_of_sight = AngleAxisd(-psi, eh) * dr;           // rotated toward ev
+  const Vector3d line_of_sight = AngleAxisd(-psi, eh) * dr;          // rotated toward ev
   const Vector3d vertex = o + l * line_of_sight;
   return vertex - p("srr") * dr - p("srh") * eh - p("srv") * ev;
 }
@@ -58,7 +58,7 @@ Vector3d MirrorRayTrace(const Params& p, double range, double azimuth, double el
   // Line-plane intersection: n . (b0 + t ei - q) = tmv.
   const double t_hit = (p("tmv") - n.dot(beam_point - axis_point)) / n.dot(ei);
   const Vector3d hit = beam_point + t_hit * ei;
-  const Vector3d dr = ei - 2 * ei.dot(n) * n;  // mirror reflection
+  const Vector3d dr = ei - 2 * ei.dot(n) * n;           // mirror reflection
   const double path = (1 + p("mu")) * range + p("R0");  // counted from z = 0 along the beam
   return ReflectorCentre(p, hit, dr.normalized(), path - t_hit);
 }
@@ -72,9 +72,9 @@ Vector3d HeadChain(const Params& p, double range, double azimuth, double elevati
   const double zp = z + p("ae0") + p("ae1") * std::cos(z) + p("be1") * std::sin(z) +
                     p("ae2") * std::cos(2 * z) + p("be2") * std::sin(2 * z);
   const double alpha = p("alpha");
-  const Eigen::Matrix3d m = (AngleAxisd(h, kZ) * AngleAxisd(alpha, kX) *
-                             AngleAxisd(zp - M_PI / 2, kY) * AngleAxisd(-alpha, kX))
-                                .toRotationMatrix();
+  const Eigen::Matrix3d m =
+      (AngleAxisd(h, kZ) * AngleAxisd(alpha, kX) * AngleAxisd(zp - M_PI / 2, kY) * AngleAxisd(-alpha, kX))
+          .toRotationMatrix();
   const Vector3d b = AngleAxisd(h, kZ) * (p("ex") * kX) + m * Vector3d(-p("ex"), p("by"), p("bz"));
   const Vector3d n = m * (AngleAxisd(p("gamma"), kZ) * kX);
   return ReflectorCentre(p, b, n, d);
@@ -121,10 +121,10 @@ TEST(ModelPhysics, ReferencesAreIdealAtZeroErrors) {
     const std::vector<double> zero(model->num_params, 0.0);
     const Params p{*model, zero};
     const double range = 7.5, az = 0.7, el = -0.3;
-    const Vector3d ideal = range * Vector3d(std::cos(el) * std::cos(az),
-                                            std::cos(el) * std::sin(az), std::sin(el));
-    const Vector3d r = std::string(name) == "mirror" ? MirrorRayTrace(p, range, az, el)
-                                                     : HeadChain(p, range, az, el);
+    const Vector3d ideal =
+        range * Vector3d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+    const Vector3d r =
+        std::string(name) == "mirror" ? MirrorRayTrace(p, range, az, el) : HeadChain(p, range, az, el);
     EXPECT_LT((r - ideal).norm(), 1e-13) << name;
   }
 }

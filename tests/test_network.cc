@@ -26,7 +26,8 @@ TargetList Targets() {
   for (double x : {0.0, 2.0, 4.0, 6.0})
     for (double y : {0.0, 3.0}) positions.emplace_back(x, y, 0.2 + 0.5 * std::fmod(x, 4.0) / 2.0);
   for (double x : {1.0, 3.0, 5.0, 2.5}) positions.emplace_back(x, 1.5, x == 2.5 ? 1.7 : 1.2);
-  static const char* const kNames[12] = {"T0", "T1", "T2", "T3", "T4", "T5", "T6", "T7", "T8", "T9", "T10", "T11"};
+  static const char* const kNames[12] = {"T0", "T1", "T2", "T3", "T4",  "T5",
+                                         "T6", "T7", "T8", "T9", "T10", "T11"};
   TargetList t;
   for (std::size_t i = 0; i < positions.size(); ++i) t.emplace_back(kNames[i], positions[i]);
   return t;
@@ -61,7 +62,8 @@ Network MakeNetwork(bool datum_station, int stations = 3, const TargetList& targ
   if (!datum_station) {
     for (std::size_t r : {0u, 3u, 6u, 9u}) {
       if (r >= targets.size()) continue;
-      net.references.push_back({targets[r].first, targets[r].second, 20e-6, "net.toml: reference[" + std::to_string(r) + "]"});
+      net.references.push_back(
+          {targets[r].first, targets[r].second, 20e-6, "net.toml: reference[" + std::to_string(r) + "]"});
     }
   }
   PlanNetworkReadings(net, targets, sees);
@@ -69,7 +71,8 @@ Network MakeNetwork(bool datum_station, int stations = 3, const TargetList& targ
 }
 
 const AdjustedTarget& Find(const NetworkResult& r, const std::string& name) {
-  for (const AdjustedTarget& t : r.targets) if (t.name == name) return t;
+  for (const AdjustedTarget& t : r.targets)
+    if (t.name == name) return t;
   throw std::runtime_error("no target " + name);
 }
 
@@ -140,7 +143,8 @@ TEST(Network, OneStationIsTheSingleStationGum) {
   model.EvaluateWithJacobian(points[5].readings.data(), s0.data(), y.data(), jr.data(), jb.data());
   Eigen::VectorXd u(model.num_shared());
   for (int k = 0; k < model.num_shared(); ++k) u(k) = model.shared_inputs()[k].u;
-  const Eigen::Matrix3d cross = ja * model.shared_correlation().cwiseProduct(u * u.transpose()) * jb.transpose();
+  const Eigen::Matrix3d cross =
+      ja * model.shared_correlation().cwiseProduct(u * u.transpose()) * jb.transpose();
   EXPECT_LT((r.covariance.block<3, 3>(a, b) - cross).norm(), 1e-9 * cross.norm());
 
   // Tasks over the targets: the GUM's task propagation of the same readings (PropagateTask).
@@ -156,7 +160,8 @@ TEST(Network, OneStationIsTheSingleStationGum) {
     const TaskUncertainty gum_task = PropagateTask(model, points, tasks[i]);
     ASSERT_EQ(gum_task.value.size(), network_tasks[i].value.size());
     EXPECT_LT((network_tasks[i].value - gum_task.value).norm(), 1e-10);
-    EXPECT_LT((network_tasks[i].covariance - gum_task.covariance).norm(), 1e-8 * gum_task.covariance.norm()) << tasks[i].name;
+    EXPECT_LT((network_tasks[i].covariance - gum_task.covariance).norm(), 1e-8 * gum_task.covariance.norm())
+        << tasks[i].name;
   }
 }
 
@@ -212,7 +217,9 @@ TEST(Network, CovarianceIsTheFiniteDifferencePropagation) {
   }
   const int t0 = r.target_offset[0];
   const Eigen::MatrixXd analytic = r.covariance.block(t0, t0, m, m);
-  EXPECT_LT((analytic - cov).norm(), 2e-5 * cov.norm()) << "analytic\n" << analytic.topLeftCorner(6, 6) << "\nfd\n" << cov.topLeftCorner(6, 6);
+  EXPECT_LT((analytic - cov).norm(), 2e-5 * cov.norm()) << "analytic\n"
+                                                        << analytic.topLeftCorner(6, 6) << "\nfd\n"
+                                                        << cov.topLeftCorner(6, 6);
   EXPECT_GT(n, m);
 }
 
@@ -243,8 +250,8 @@ TEST(Network, CoverageOfTheAdjustedTargetsWithAKnownTruth) {
     sum_birge2 += r.birge_ratio * r.birge_ratio;
   }
   const double fraction = static_cast<double>(inside) / total;
-  std::printf("coverage %d / %d = %.4f, mean d2 %.3f, mean Birge^2 %.3f\n", inside, total, fraction, sum_d2 / points,
-              sum_birge2 / seeds);
+  std::printf("coverage %d / %d = %.4f, mean d2 %.3f, mean Birge^2 %.3f\n", inside, total, fraction,
+              sum_d2 / points, sum_birge2 / seeds);
   // The targets of one seed share the instrument's errors: ~ seeds x (a few) independent draws.
   EXPECT_NEAR(fraction, 0.95, 0.025) << inside << " / " << total;
   EXPECT_NEAR(sum_d2 / points, 3.0, 0.45);
@@ -278,8 +285,8 @@ TEST(Network, SelfCalibrationRecoversTheTrueParameters) {
   }
   // Every systematic effect is now estimated: chi-square follows its degrees of freedom.
   EXPECT_NEAR(sum_birge2 / 200, 1.0, 0.05);
-  std::printf("self-calibration coverage %d / %d = %.4f, mean (d/u)^2 %.3f, mean Birge^2 %.3f\n", inside, total,
-              static_cast<double>(inside) / total, sum_d2 / total, sum_birge2 / 200);
+  std::printf("self-calibration coverage %d / %d = %.4f, mean (d/u)^2 %.3f, mean Birge^2 %.3f\n", inside,
+              total, static_cast<double>(inside) / total, sum_d2 / total, sum_birge2 / 200);
   EXPECT_NEAR(static_cast<double>(inside) / total, 0.95, 0.02) << inside << " / " << total;
   EXPECT_NEAR(sum_d2 / total, 1.0, 0.12);
   const NetworkResult r = AdjustNetwork(plan);
@@ -317,7 +324,8 @@ TEST(Network, SeveralInstrumentsCoverTheTruth) {
       }
     }
   }
-  std::printf("two instruments: coverage %d / %d = %.4f\n", inside, total, static_cast<double>(inside) / total);
+  std::printf("two instruments: coverage %d / %d = %.4f\n", inside, total,
+              static_cast<double>(inside) / total);
   EXPECT_NEAR(static_cast<double>(inside) / total, 0.95, 0.03) << inside << " / " << total;
   plan.self_calibrate = {"A.lam", "B." + std::string(plan.instruments[1].setup.params[0].name)};
   const NetworkResult r = AdjustNetwork(plan);
@@ -341,7 +349,8 @@ TEST(Network, IdentifiabilityIsTheDataOnlyInformation) {
   const int e = r.unknowns - 2;
   c_post = r.covariance.block<2, 2>(e, e);
   const Eigen::Vector2d u_prior(r.parameters[0].prior_u, r.parameters[1].prior_u);
-  const Eigen::Matrix2d z = u_prior.cwiseInverse().asDiagonal() * c_post * u_prior.cwiseInverse().asDiagonal();
+  const Eigen::Matrix2d z =
+      u_prior.cwiseInverse().asDiagonal() * c_post * u_prior.cwiseInverse().asDiagonal();
   // Information of the data = Z^-1 - I; its eigenvalues are the squared singular values.
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(z.inverse() - Eigen::Matrix2d::Identity());
   const double s0 = r.identifiability[0].singular_value, s1 = r.identifiability[1].singular_value;
@@ -349,7 +358,8 @@ TEST(Network, IdentifiabilityIsTheDataOnlyInformation) {
   EXPECT_NEAR(std::sqrt(std::max(0.0, eig.eigenvalues()(0))), s1, 1e-6 * s0);
   EXPECT_GE(s0, s1);
   std::printf("identifiability: %s (ratio %.3g), %s (ratio %.3g)\n", r.identifiability[0].description.c_str(),
-              r.identifiability[0].ratio, r.identifiability[1].description.c_str(), r.identifiability[1].ratio);
+              r.identifiability[0].ratio, r.identifiability[1].description.c_str(),
+              r.identifiability[1].ratio);
 }
 
 TEST(Network, StructureErrorsNameTheProblem) {
@@ -378,10 +388,12 @@ TEST(Network, StructureErrorsNameTheProblem) {
   {
     // Collinear references: the rotation about their line floats.
     TargetList targets = Targets();
-    for (int i = 0; i < 3; ++i) targets.emplace_back("L" + std::to_string(i), Eigen::Vector3d(1.0 + i, -1.0, 0.5));
+    for (int i = 0; i < 3; ++i)
+      targets.emplace_back("L" + std::to_string(i), Eigen::Vector3d(1.0 + i, -1.0, 0.5));
     Network net = MakeNetwork(false, 3, targets);
     net.references.clear();
-    for (int i = 0; i < 3; ++i) net.references.push_back({"L" + std::to_string(i), targets[12 + i].second, 20e-6, "r"});
+    for (int i = 0; i < 3; ++i)
+      net.references.push_back({"L" + std::to_string(i), targets[12 + i].second, 20e-6, "r"});
     try {
       AdjustNetwork(net);
       FAIL();

@@ -27,7 +27,8 @@ TEST(ParallelForEach, RunsEveryItemOnceOnAValidWorker) {
         runs[item].fetch_add(1);
         if (worker < 0 || worker >= max_worker) bad_worker.fetch_add(1);
       });
-      for (std::size_t i = 0; i < count; ++i) EXPECT_EQ(runs[i].load(), 1) << "threads " << threads << " item " << i;
+      for (std::size_t i = 0; i < count; ++i)
+        EXPECT_EQ(runs[i].load(), 1) << "threads " << threads << " item " << i;
       EXPECT_EQ(bad_worker.load(), 0) << "threads " << threads << " count " << count;
     }
   }

@@ -80,7 +80,8 @@ quantity = "points"
 [[optimize.objective]]
 quantity = "AC.distance"
 weight = 2
-)", "square.toml", ".");
+)",
+                           "square.toml", ".");
   const Eigen::Vector3d station(0.31, -0.27, 0.0);
   const StationEvaluation e = EvaluateStation(job, station);
   ASSERT_TRUE(e.feasible);
@@ -133,7 +134,8 @@ target_normal = [1, 0, 0]
     PlanStation(facing, 1);
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("square.toml: optimize: no feasible station"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("square.toml: optimize: no feasible station"), std::string::npos)
+        << e.what();
   }
   // Facing up, 85 deg: all four corners seen from the centre at elevation 0 are at 90 deg -> no;
   // with the station raised 0.5 m they are at 70.5 deg -> yes.
@@ -172,18 +174,25 @@ TEST(Planning, BadInputIsOneLineNamingTheKey) {
     }
     return std::string("no error");
   };
-  EXPECT_EQ(error("[optimize]\nfloor = \"1, 1, 0, 2\"\n"), "bad.toml: optimize.floor: empty region (xmax <= xmin or ymax <= ymin)");
-  EXPECT_EQ(error("[optimize]\nfloor = [[0, 0], [1, 1], [2, 2]]\n"), "bad.toml: optimize.floor: empty region (the polygon has no area)");
+  EXPECT_EQ(error("[optimize]\nfloor = \"1, 1, 0, 2\"\n"),
+            "bad.toml: optimize.floor: empty region (xmax <= xmin or ymax <= ymin)");
+  EXPECT_EQ(error("[optimize]\nfloor = [[0, 0], [1, 1], [2, 2]]\n"),
+            "bad.toml: optimize.floor: empty region (the polygon has no area)");
   EXPECT_EQ(error("[optimize]\nfloor = \"0, 1, 0, 1\"\nobjective = \"bore.radius\"\n"),
             "bad.toml: optimize.objective: no task 'bore' (tasks: AC)");
-  EXPECT_NE(error("[optimize]\nfloor = \"0, 1, 0, 1\"\nobjective = \"AC.flatness\"\n").find("optimize.objective: task 'AC' has no length quantity 'flatness'"),
+  EXPECT_NE(error("[optimize]\nfloor = \"0, 1, 0, 1\"\nobjective = \"AC.flatness\"\n")
+                .find("optimize.objective: task 'AC' has no length quantity 'flatness'"),
             std::string::npos);
-  EXPECT_EQ(error("[optimize]\nfloor = \"0, 1, 0, 1\"\nheight = \"2 m, 1 m\"\n"), "bad.toml: optimize.height: empty range (zmax < zmin)");
+  EXPECT_EQ(error("[optimize]\nfloor = \"0, 1, 0, 1\"\nheight = \"2 m, 1 m\"\n"),
+            "bad.toml: optimize.height: empty range (zmax < zmin)");
   EXPECT_EQ(error("[optimize]\nfloor = \"0, 1, 0, 1\"\nacceptance_angle = \"30 deg\"\n"),
-            "bad.toml: optimize.acceptance_angle: needs the targets' normals (target_normal or [optimize.normals])");
+            "bad.toml: optimize.acceptance_angle: needs the targets' normals (target_normal or "
+            "[optimize.normals])");
   EXPECT_EQ(error("[optimize]\nfloor = \"0, 1, 0, 1\"\n[optimize.normals]\nZ = [0, 0, 1]\n"),
             "bad.toml: optimize.normals.Z: no point 'Z' in the job");
-  EXPECT_EQ(error("[optimize]\nfloor = \"0, 1, 0, 1\"\ncolour = 1\n").rfind("bad.toml: optimize.colour: unknown key", 0), 0u);
+  EXPECT_EQ(error("[optimize]\nfloor = \"0, 1, 0, 1\"\ncolour = 1\n")
+                .rfind("bad.toml: optimize.colour: unknown key", 0),
+            0u);
 }
 
 // The per-source layers of a map add up in quadrature to |U| at every node, with correlated
@@ -202,11 +211,13 @@ inputs = ["environment.temperature", "thermal.temperature"]
 matrix = [[1.0, 1.0], [1.0, 1.0]]
 [plan]
 point = [ { name = "A", x = 3, y = 1, z = 0.5 } ]
-)", "sources.toml", ".");
+)",
+                           "sources.toml", ".");
   const MeasurementModel model(job.setup);
   const MapResult map = ComputeMap(model, ParseMapPlane("z=0", "-3,3,-3,3", "0.5m", "test"), 0.95, 2);
   bool found = false;
-  for (const MapResult::Layer& l : map.sources) found = found || (l.name == "correlations.thermometer" && l.group == "correlation");
+  for (const MapResult::Layer& l : map.sources)
+    found = found || (l.name == "correlations.thermometer" && l.group == "correlation");
   EXPECT_TRUE(found);
   std::size_t computed = 0;
   for (std::size_t i = 0; i < map.nodes.size(); ++i) {
@@ -234,7 +245,8 @@ point = [ { name = "A", x = 3, y = 1, z = 0.5 } ]
 [monte_carlo]
 trials = 20000
 seed = 5
-)", "mcmap.toml", ".");
+)",
+                     "mcmap.toml", ".");
   const MeasurementModel model(job.setup);
   MapResult one = ComputeMap(model, ParseMapPlane("z=0", "2,4,-1,1", "1m", "test"), 0.95, 1);
   MapResult two = one;

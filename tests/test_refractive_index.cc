@@ -85,8 +85,7 @@ TEST(RefractiveIndex, CiddorStandardAirDispersion) {
     air.vacuum_wavelength = lambda_um * 1e-6;
     const double s2 = 1.0 / (lambda_um * lambda_um);
     const double expected = 0.05792105 / (238.0185 - s2) + 0.00167917 / (57.362 - s2);
-    EXPECT_NEAR(AirRefractiveIndexValue(AirEquation::kCiddor, air) - 1.0, expected, 1e-12)
-        << lambda_um;
+    EXPECT_NEAR(AirRefractiveIndexValue(AirEquation::kCiddor, air) - 1.0, expected, 1e-12) << lambda_um;
   }
 }
 
@@ -124,14 +123,12 @@ TEST(RefractiveIndex, EdlenStandardAirAndCiddorAgreement) {
 // its own IAPWS-IF97 saturation vapour pressure (NIST A-I, t >= 0 degC), so that it shares no code
 // with the library: lambda [nm], t [degC], p [Pa], rh [%].
 double ClosedFormModifiedEdlen(double lambda_nm, double t, double p, double rh) {
-  const double n1 = 0.116705214528e4, n2 = -0.724213167032e6, n3 = -0.170738469401e2,
-               n4 = 0.120208247025e5, n5 = -0.323255503223e7, n6 = 0.149151086135e2,
-               n7 = -0.482326573616e4, n8 = 0.405113405421e6, n9 = -0.238555575678,
-               n10 = 0.650175348448e3;
+  const double n1 = 0.116705214528e4, n2 = -0.724213167032e6, n3 = -0.170738469401e2, n4 = 0.120208247025e5,
+               n5 = -0.323255503223e7, n6 = 0.149151086135e2, n7 = -0.482326573616e4, n8 = 0.405113405421e6,
+               n9 = -0.238555575678, n10 = 0.650175348448e3;
   const double T = t + 273.15;
   const double th = T + n9 / (T - n10);
-  const double A = th * th + n1 * th + n2, B = n3 * th * th + n4 * th + n5,
-               C = n6 * th * th + n7 * th + n8;
+  const double A = th * th + n1 * th + n2, B = n3 * th * th + n4 * th + n5, C = n6 * th * th + n7 * th + n8;
   const double psv = 1e6 * std::pow(2.0 * C / (-B + std::sqrt(B * B - 4.0 * A * C)), 4);
   const double pv = rh / 100.0 * psv;
   const double S = 1.0 / ((lambda_nm / 1000.0) * (lambda_nm / 1000.0));
@@ -157,10 +154,9 @@ TEST(RefractiveIndex, ModifiedEdlenNistCalculatorValues) {
   // 30 % RH (and the 450 umol/mol CO2 built into the equation), 300 .. 700 nm in 25 nm steps, as
   // tabulated with that attribution in the air RINDEX table of a Geant4 simulation's
   // GsimMaterialManager. Tolerance: half a unit of the 9th decimal (the values are rounded).
-  const double n[17] = {1.000286349, 1.000283315, 1.000280985, 1.000279151, 1.000277679,
-                        1.000276478, 1.000275484, 1.000274653, 1.000273949, 1.000273348,
-                        1.000272831, 1.000272382, 1.000271990, 1.000271646, 1.000271341,
-                        1.000271071, 1.000270830};
+  const double n[17] = {1.000286349, 1.000283315, 1.000280985, 1.000279151, 1.000277679, 1.000276478,
+                        1.000275484, 1.000274653, 1.000273949, 1.000273348, 1.000272831, 1.000272382,
+                        1.000271990, 1.000271646, 1.000271341, 1.000271071, 1.000270830};
   for (int k = 0; k < 17; ++k) {
     const double lambda_nm = 300.0 + 25.0 * k;
     EXPECT_NEAR(AirRefractiveIndexValue(AirEquation::kEdlenBirchDowns, Air(lambda_nm, 20.0, 101325.0, 30.0)),
@@ -207,7 +203,8 @@ TEST(RefractiveIndex, ModifiedEdlenAgainstClosedForm) {
           for (double co2 : {0.0, 450e-6, 2000e-6}) {
             const AirConditions air = Air(lambda_nm, t, p, rh, co2);
             const RefractiveIndex r = AirRefractiveIndex(AirEquation::kEdlenBirchDowns, air);
-            EXPECT_NEAR(r.n, expected, 1e-14) << lambda_nm << " nm " << t << " degC " << p << " Pa " << rh << " %";
+            EXPECT_NEAR(r.n, expected, 1e-14)
+                << lambda_nm << " nm " << t << " degC " << p << " Pa " << rh << " %";
             EXPECT_DOUBLE_EQ(AirRefractiveIndexValue(AirEquation::kEdlenBirchDowns, air), r.n);
             EXPECT_EQ(r.dn_dco2, 0.0);  // no CO2 term: exactly zero, not small
           }
@@ -217,13 +214,17 @@ TEST(RefractiveIndex, ModifiedEdlenAgainstClosedForm) {
   }
   // The exact derivatives against central differences of the closed form (not of the library).
   for (double t : {0.0, 20.0, 40.0}) {
-    const RefractiveIndex r = AirRefractiveIndex(AirEquation::kEdlenBirchDowns, Air(633.0, t, 101325.0, 50.0));
+    const RefractiveIndex r =
+        AirRefractiveIndex(AirEquation::kEdlenBirchDowns, Air(633.0, t, 101325.0, 50.0));
     const double d_t = (ClosedFormModifiedEdlen(633.0, t + 1e-3, 101325.0, 50.0) -
-                        ClosedFormModifiedEdlen(633.0, t - 1e-3, 101325.0, 50.0)) / 2e-3;
+                        ClosedFormModifiedEdlen(633.0, t - 1e-3, 101325.0, 50.0)) /
+                       2e-3;
     const double d_p = (ClosedFormModifiedEdlen(633.0, t, 101326.0, 50.0) -
-                        ClosedFormModifiedEdlen(633.0, t, 101324.0, 50.0)) / 2.0;
+                        ClosedFormModifiedEdlen(633.0, t, 101324.0, 50.0)) /
+                       2.0;
     const double d_h = (ClosedFormModifiedEdlen(633.0, t, 101325.0, 50.1) -
-                        ClosedFormModifiedEdlen(633.0, t, 101325.0, 49.9)) / 0.2;
+                        ClosedFormModifiedEdlen(633.0, t, 101325.0, 49.9)) /
+                       0.2;
     EXPECT_NEAR(r.dn_dtemperature, d_t, 1e-5 * std::abs(d_t)) << t;
     EXPECT_NEAR(r.dn_dpressure, d_p, 1e-5 * std::abs(d_p)) << t;
     EXPECT_NEAR(r.dn_dhumidity, d_h, 1e-5 * std::abs(d_h)) << t;
@@ -411,10 +412,11 @@ TEST(RefractiveIndex, ModifiedEdlenValidityRangeAndNames) {
     ParseAirEquation("modified-edlen", "job.toml: environment.equation");
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()),
-              "job.toml: environment.equation: unknown refractive-index equation 'modified-edlen' (expected one "
-              "of: ciddor, edlen, edlen_boensch, boensch_potulski, modified_edlen, birch_downs, "
-              "edlen_birch_downs)");
+    EXPECT_EQ(
+        std::string(e.what()),
+        "job.toml: environment.equation: unknown refractive-index equation 'modified-edlen' (expected one "
+        "of: ciddor, edlen, edlen_boensch, boensch_potulski, modified_edlen, birch_downs, "
+        "edlen_birch_downs)");
   }
 }
 
@@ -426,8 +428,7 @@ TEST(RefractiveIndex, DispersionPoleIsNumericalError) {
     try {
       const double n = AirRefractiveIndexValue(eq, air);
       EXPECT_TRUE(std::isfinite(n));  // if rounding misses the pole the value is finite
-    } catch (const NumericalError&) {
-    }
+    } catch (const NumericalError&) {}
   }
 }
 
@@ -452,12 +453,15 @@ TEST(AirIndexReport, GroupIndexOfEdlenBoenschAgainstTheAnalyticDispersion) {
   const double s2 = std::pow(1.0 / 0.633, 2);
   const double n_minus_1_n = 1e-8 * (8091.37 + 2333983.0 / (130.0 - s2) + 15518.0 / (38.9 - s2));
   const double f = (r.n_phase - 1.0) / n_minus_1_n;
-  const double expected = f * 1e-8 * (2.0 * 2333983.0 * s2 / std::pow(130.0 - s2, 2) + 2.0 * 15518.0 * s2 / std::pow(38.9 - s2, 2));
+  const double expected =
+      f * 1e-8 *
+      (2.0 * 2333983.0 * s2 / std::pow(130.0 - s2, 2) + 2.0 * 15518.0 * s2 / std::pow(38.9 - s2, 2));
   EXPECT_NEAR(r.n_group - r.n_phase, expected, 1e-6 * expected);
   // u(n): the root sum of squares of the exact sensitivities times u (independent inputs).
   const RefractiveIndex n = AirRefractiveIndex(AirEquation::kEdlenBoensch, air);
-  const double u_phase = std::sqrt(std::pow(n.dn_dtemperature * u[0], 2) + std::pow(n.dn_dpressure * u[1], 2) +
-                                   std::pow(n.dn_dhumidity * u[2], 2) + std::pow(n.dn_dco2 * u[3], 2));
+  const double u_phase =
+      std::sqrt(std::pow(n.dn_dtemperature * u[0], 2) + std::pow(n.dn_dpressure * u[1], 2) +
+                std::pow(n.dn_dhumidity * u[2], 2) + std::pow(n.dn_dco2 * u[3], 2));
   EXPECT_NEAR(r.u_phase, u_phase, 1e-12 * u_phase);
   // In dry air with only temperature and pressure uncertain, n - 1 and n_g - 1 are both F(t, p)
   // times a function of the wavelength: u(n_g)/(n_g - 1) = u(n)/(n - 1) exactly.
@@ -466,7 +470,6 @@ TEST(AirIndexReport, GroupIndexOfEdlenBoenschAgainstTheAnalyticDispersion) {
   const double relative = d.u_phase / (d.n_phase - 1.0);
   EXPECT_NEAR(d.u_group / (d.n_group - 1.0), relative, 2e-4 * relative);  // finite differences of n_g
 }
-
 
 TEST(AirIndexReport, ModifiedEdlenGroupIndexAndNoCo2Contribution) {
   // Dry air: n - 1 = F(t, p) (n_s - 1) with (n_s - 1) 1e8 = A + B/(130 - s^2) + C/(38.9 - s^2), so
@@ -478,7 +481,8 @@ TEST(AirIndexReport, ModifiedEdlenGroupIndexAndNoCo2Contribution) {
   const double ns1 = 1e-8 * (8342.54 + 2406147.0 / (130.0 - s2) + 15998.0 / (38.9 - s2));
   const double f = (r.n_phase - 1.0) / ns1;
   const double expected =
-      f * 1e-8 * (2.0 * 2406147.0 * s2 / std::pow(130.0 - s2, 2) + 2.0 * 15998.0 * s2 / std::pow(38.9 - s2, 2));
+      f * 1e-8 *
+      (2.0 * 2406147.0 * s2 / std::pow(130.0 - s2, 2) + 2.0 * 15998.0 * s2 / std::pow(38.9 - s2, 2));
   EXPECT_NEAR(r.n_group - r.n_phase, expected, 1e-6 * expected);
   // u(CO2) contributes nothing: the equation has no CO2 input (docs/units.md).
   const double u_no_co2[4] = {0.1, 10.0, 5.0, 0.0};

@@ -90,12 +90,12 @@ TEST(Results, JsonSchemaKeys) {
   const Results& r = SharedResults();
   nlohmann::json j = nlohmann::json::parse(ResultsJson(r));
   EXPECT_EQ(j["schema"], "vlt-results/2");
-  for (const char* key : {"schema", "vlt_version", "units", "job", "inputs", "monte_carlo", "points_file", "tasks",
-                          "map", "summary"}) {
+  for (const char* key : {"schema", "vlt_version", "units", "job", "inputs", "monte_carlo", "points_file",
+                          "tasks", "map", "summary"}) {
     EXPECT_TRUE(j.contains(key)) << key;
   }
-  for (const char* key : {"name", "description", "file", "mode", "model", "coverage_probability", "k_axis", "k_region",
-                          "n_dig", "points", "tasks"}) {
+  for (const char* key : {"name", "description", "file", "mode", "model", "coverage_probability", "k_axis",
+                          "k_region", "n_dig", "points", "tasks"}) {
     EXPECT_TRUE(j["job"].contains(key)) << "job." << key;
   }
   EXPECT_EQ(j["job"]["mode"], "plan");
@@ -140,8 +140,8 @@ TEST(Results, JsonSchemaKeys) {
   EXPECT_EQ(j["inputs"]["correlations"], nlohmann::json::array());
   // 20 mirror parameters + 4 environment + 6 pose + 2 thermal shared inputs.
   EXPECT_EQ(j["inputs"]["shared"].size(), 32u);
-  for (const char* key : {"enabled", "seed", "trials", "adaptive", "converged", "batch_size", "batches", "threads",
-                          "seconds", "interval_method", "n_dig"}) {
+  for (const char* key : {"enabled", "seed", "trials", "adaptive", "converged", "batch_size", "batches",
+                          "threads", "seconds", "interval_method", "n_dig"}) {
     EXPECT_TRUE(j["monte_carlo"].contains(key)) << "monte_carlo." << key;
   }
   EXPECT_EQ(j["monte_carlo"]["trials"], 4000);
@@ -188,7 +188,8 @@ TEST(Results, ModifiedEdlenNamedInInputsAir) {
   // results.json: inputs.environment_equation and inputs.air, whose n_phase is that equation's.
   std::string text = kJob;
   const std::string env = "[environment]\n";
-  text.replace(text.find(env), env.size(), env + "equation = \"modified_edlen\"\nco2 = { estimate = \"500 ppm\", u = \"50 ppm\" }\n");
+  text.replace(text.find(env), env.size(),
+               env + "equation = \"modified_edlen\"\nco2 = { estimate = \"500 ppm\", u = \"50 ppm\" }\n");
   Job job = ParseJob(text, "results.toml", ".");
   RunOptions options;
   options.monte_carlo = false;  // the GUM path is all this needs
@@ -346,9 +347,9 @@ TEST(Results, BudgetSensitivitiesInTheUnitsPeopleRead) {
   auto column = [&](const std::string& name) {
     return static_cast<std::size_t>(std::find(columns.begin(), columns.end(), name) - columns.begin());
   };
-  const std::map<std::string, double> unit_size = {{"um/um", 1e-6}, {"um/arcsec", M_PI / 648000}, {"um/ppm", 1e-6},
-                                                   {"um/K", 1.0},   {"um/hPa", 100.0},             {"um/%", 1.0},
-                                                   {"um/(ppm/K)", 1e-6}};
+  const std::map<std::string, double> unit_size = {
+      {"um/um", 1e-6}, {"um/arcsec", M_PI / 648000}, {"um/ppm", 1e-6}, {"um/K", 1.0}, {"um/hPa", 100.0},
+      {"um/%", 1.0},   {"um/(ppm/K)", 1e-6}};
   int checked = 0;
   while (std::getline(budget, row)) {
     const std::vector<std::string> f = SplitLine(row);
@@ -359,7 +360,8 @@ TEST(Results, BudgetSensitivitiesInTheUnitsPeopleRead) {
     for (const char* axis : {"x", "y", "z"}) {
       const double c = std::stod(f[column(std::string("sensitivity_practical_") + axis)]);
       const double contribution = std::stod(f[column(std::string("contribution_") + axis + "_um")]);
-      EXPECT_NEAR(c * u, contribution, 1e-9 * std::abs(contribution) + 1e-12) << f[column("input")] << " " << axis;
+      EXPECT_NEAR(c * u, contribution, 1e-9 * std::abs(contribution) + 1e-12)
+          << f[column("input")] << " " << axis;
     }
     ++checked;
   }
@@ -405,7 +407,8 @@ TEST(Results, MapSkipsTheVerticalAxisAndHasNoNaN) {
   EXPECT_EQ(m.markers[1].position, Eigen::Vector3d(2, 0.5, 0));
   std::string csv = MapCsv(m);
   // No field is a NaN or an infinity ("dominant_source" in the header has "nan" in it).
-  for (const char* bad : {",nan", ",-nan", ",inf", ",-inf"}) EXPECT_EQ(csv.find(bad), std::string::npos) << bad;
+  for (const char* bad : {",nan", ",-nan", ",inf", ",-inf"})
+    EXPECT_EQ(csv.find(bad), std::string::npos) << bad;
   EXPECT_NE(csv.find("skipped: at the tracker's gimbal point"), std::string::npos);
   // A map node where a plan point lies has the same per-axis U as that point (same GUM).
   Job job = ParseJob(kJob, "results.toml", ".");
@@ -438,9 +441,9 @@ TEST(Results, ReportIsSelfContained) {
   const Results& r = SharedResults();
   std::string html = ReportHtml(r);
   EXPECT_NE(html.find("<script id=\"vlt-data\" type=\"application/json\">"), std::string::npos);
-  EXPECT_NE(html.find("plotly.js v"), std::string::npos);  // the library itself, inline
+  EXPECT_NE(html.find("plotly.js v"), std::string::npos);   // the library itself, inline
   EXPECT_EQ(html.find("<script src="), std::string::npos);  // nothing loaded from elsewhere
-  EXPECT_EQ(html.find("@VLT_"), std::string::npos);          // every placeholder filled
+  EXPECT_EQ(html.find("@VLT_"), std::string::npos);         // every placeholder filled
   EXPECT_NE(html.find("id=\"vlt-status\""), std::string::npos);
   // plotly.js's MIT notice travels with it (its copyright line and the permission notice), in an
   // HTML comment before the script.
@@ -458,8 +461,9 @@ TEST(Results, ReportIsSelfContained) {
 class Writing : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("vlt_test_results_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    dir_ =
+        std::filesystem::temp_directory_path() /
+        ("vlt_test_results_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     std::filesystem::remove_all(dir_);
   }
   void TearDown() override { std::filesystem::remove_all(dir_); }
@@ -482,9 +486,9 @@ TEST_F(Writing, NewDirectoryHoldsExactlyTheFilesAndTheMarker) {
   OutputDirectory out(dir_ / "out");
   EXPECT_FALSE(std::filesystem::exists(dir_ / "out"));  // nothing before Commit
   out.Commit({{"points.csv", "1\n"}, {"results.json", "{}\n"}});
-  EXPECT_EQ(Entries(dir_ / "out"), 3);                   // two files + .vlt-output
+  EXPECT_EQ(Entries(dir_ / "out"), 3);  // two files + .vlt-output
   EXPECT_TRUE(std::filesystem::exists(dir_ / "out" / kOutputMarker));
-  EXPECT_EQ(Entries(dir_), 1);                           // no staging directory left beside it
+  EXPECT_EQ(Entries(dir_), 1);  // no staging directory left beside it
 }
 
 TEST_F(Writing, ASecondRunReplacesTheWholeSet) {
@@ -507,7 +511,8 @@ TEST_F(Writing, ADirectoryVltDidNotWriteIsRefusedBeforeComputing) {
     OutputDirectory out(dir_ / "mine");
     FAIL() << "accepted a foreign directory";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("holds 'thesis.tex', which vlt did not write"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("holds 'thesis.tex', which vlt did not write"), std::string::npos)
+        << e.what();
   }
   EXPECT_TRUE(std::filesystem::exists(dir_ / "mine" / "thesis.tex"));
   // A path that is a file, and a parent that is a file.
@@ -549,7 +554,8 @@ TEST_F(Writing, SigtermWhileWritingRemovesTheStagingDirectory) {
     if (child == 0) {
       InstallOutputSignalHandlers();
       Files files;
-      for (int i = 0; i < 24; ++i) files.emplace_back("f" + std::to_string(i) + ".csv", std::string(4 << 20, 'x'));
+      for (int i = 0; i < 24; ++i)
+        files.emplace_back("f" + std::to_string(i) + ".csv", std::string(4 << 20, 'x'));
       try {
         OutputDirectory(target).Commit(AsOutputFiles(files));
       } catch (...) {
@@ -636,8 +642,22 @@ TEST(Numbers, FastFormattingEqualsThePrintfDefinition) {
     state ^= state << 17;
     return state;
   };
-  std::vector<double> values = {0.0, -0.0, 1.0, 0.1, 0.5, 100000.0, 1234567.0, 1e-4, 1e-5, 2.42406840554768e-06,
-                                1.9599639845400536, 50.000838e-3, 1e300, 5e-324, -3.5, 123456.5};
+  std::vector<double> values = {0.0,
+                                -0.0,
+                                1.0,
+                                0.1,
+                                0.5,
+                                100000.0,
+                                1234567.0,
+                                1e-4,
+                                1e-5,
+                                2.42406840554768e-06,
+                                1.9599639845400536,
+                                50.000838e-3,
+                                1e300,
+                                5e-324,
+                                -3.5,
+                                123456.5};
   for (int i = 0; i < 200000; ++i) {
     double v;
     const std::uint64_t bits = next();

@@ -40,7 +40,7 @@ double U(const Job& job, const char* name) {
 TEST(DemoJob, GumWithinClosedFormBoundsAndSpecification) {
   Job job = ParseJob(DefaultJobToml(), kDefaultJobName, ".");
   ASSERT_STREQ(job.setup.model->name, "mirror");
-  ASSERT_FALSE(job.setup.pose.has_value());     // part frame = tracker frame below
+  ASSERT_FALSE(job.setup.pose.has_value());  // part frame = tracker frame below
   ASSERT_FALSE(job.setup.thermal.has_value());
   ASSERT_TRUE(job.setup.correlations.empty());  // independent inputs
   RunOptions options;
@@ -66,20 +66,21 @@ TEST(DemoJob, GumWithinClosedFormBoundsAndSpecification) {
     const double e = std::atan2(x.z(), std::hypot(x.x(), x.y()));
     const double ce = std::cos(e);
 
-    const double var_h_known = std::pow(r * ce, 2) *
-                               (std::pow(noise.azimuth, 2) + std::pow(U(job, "a0"), 2) +
-                                std::pow(std::cos(a) * U(job, "eac"), 2) + std::pow(std::sin(a) * U(job, "eas"), 2));
-    const double var_v_known = r * r * (std::pow(noise.elevation, 2) + std::pow(2 * U(job, "e0"), 2) +
-                                        std::pow(2 * std::cos(e / 2) * U(job, "eec"), 2) +
-                                        std::pow(2 * std::sin(e / 2) * U(job, "ees"), 2) +
-                                        std::pow(gain_dihedral * U(job, "sdh"), 2));
+    const double var_h_known = std::pow(r * ce, 2) * (std::pow(noise.azimuth, 2) + std::pow(U(job, "a0"), 2) +
+                                                      std::pow(std::cos(a) * U(job, "eac"), 2) +
+                                                      std::pow(std::sin(a) * U(job, "eas"), 2));
+    const double var_v_known =
+        r * r *
+        (std::pow(noise.elevation, 2) + std::pow(2 * U(job, "e0"), 2) +
+         std::pow(2 * std::cos(e / 2) * U(job, "eec"), 2) + std::pow(2 * std::sin(e / 2) * U(job, "ees"), 2) +
+         std::pow(gain_dihedral * U(job, "sdh"), 2));
     const double var_r_known = std::pow(noise.range_a + noise.range_b * r, 2) + std::pow(U(job, "R0"), 2) +
                                std::pow(r * U(job, "mu"), 2) + std::pow(U(job, "srr"), 2);
     double var_bounded = 0.0;
     for (const char* n : other_angles) var_bounded += std::pow(2 * r * U(job, n), 2);
     for (const char* n : offsets) var_bounded += std::pow(2 * U(job, n), 2);
-    var_bounded += std::pow(r * (1e-6 * env.temperature.u + 3e-9 * env.pressure.u + 1e-8 * env.humidity.u +
-                                 2e-4 * env.co2.u), 2);
+    var_bounded += std::pow(
+        r * (1e-6 * env.temperature.u + 3e-9 * env.pressure.u + 1e-8 * env.humidity.u + 2e-4 * env.co2.u), 2);
     // Upper bound in any direction: every input at its largest possible gain.
     const double var_upper = var_h_known + var_v_known + var_r_known + var_bounded;
 

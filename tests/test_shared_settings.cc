@@ -83,10 +83,11 @@ TEST(SharedSettings, SeedIsANonNegativeInteger) {
 
 TEST(SharedSettings, TrialsWithinTheCapabilitysLimits) {
   std::int64_t trials = 0;
-  ExpectReader<std::int64_t>([&](Section& s) { return ReadTrials(s, "trials", 2, 1000000, " (why)", trials); },
-                             trials, {{"trials = 2\n", 2}, {"trials = 1000000\n", 1000000}},
-                             {{"trials = 1\n", "x.toml: s.trials: at least 2 trials (why)"},
-                              {"trials = 1000001\n", "x.toml: s.trials: at most 1000000 trials"}});
+  ExpectReader<std::int64_t>(
+      [&](Section& s) { return ReadTrials(s, "trials", 2, 1000000, " (why)", trials); }, trials,
+      {{"trials = 2\n", 2}, {"trials = 1000000\n", 1000000}},
+      {{"trials = 1\n", "x.toml: s.trials: at least 2 trials (why)"},
+       {"trials = 1000001\n", "x.toml: s.trials: at most 1000000 trials"}});
 }
 
 TEST(SharedSettings, ThreadsIterationLimitAndOutlierLimit) {
@@ -96,8 +97,8 @@ TEST(SharedSettings, ThreadsIterationLimitAndOutlierLimit) {
                     {{"threads = 0\n", 0}, {"threads = 1024\n", 1024}},
                     {{"threads = 1025\n", "x.toml: s.threads: must be 0 (all) .. 1024"},
                      {"threads = -1\n", "x.toml: s.threads: must be 0 (all) .. 1024"}});
-  ExpectReader<int>([&](Section& s) { return ReadIterationLimit(s, "max_iterations", iterations); }, iterations,
-                    {{"max_iterations = 1\n", 1}, {"max_iterations = 10000\n", 10000}},
+  ExpectReader<int>([&](Section& s) { return ReadIterationLimit(s, "max_iterations", iterations); },
+                    iterations, {{"max_iterations = 1\n", 1}, {"max_iterations = 10000\n", 10000}},
                     {{"max_iterations = 0\n", "x.toml: s.max_iterations: must be 1 .. 10000"},
                      {"max_iterations = 10001\n", "x.toml: s.max_iterations: must be 1 .. 10000"}});
   ExpectReader<double>([&](Section& s) { return ReadOutlierLimit(s, "outlier_limit", outlier); }, outlier,

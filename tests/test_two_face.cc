@@ -214,8 +214,7 @@ Eigen::Matrix3d BruteForceCovariance(const MeasurementModel& m, const std::vecto
     u_r[i] = m.reading_uncertainty(pair[i].readings(0)).cwiseAbs2().asDiagonal();
   }
   const Eigen::MatrixXd dj = js[1] - js[0];
-  return dj * u_s * dj.transpose() + jr[0] * u_r[0] * jr[0].transpose() +
-         jr[1] * u_r[1] * jr[1].transpose();
+  return dj * u_s * dj.transpose() + jr[0] * u_r[0] * jr[0].transpose() + jr[1] * u_r[1] * jr[1].transpose();
 }
 
 Vector3d EvaluateAtEstimates(const MeasurementModel& m, const Vector3d& readings) {
@@ -232,7 +231,8 @@ TEST(TwoFaceGum, CovarianceEqualsBruteForce) {
   // tracker: level, high, low.
   for (double scale : {0.0, 0.7}) {
     const MeasurementModel m(HeadSetup(scale));
-    for (const Vector3d& part : {Vector3d(4.0, 1.0, 0.3), Vector3d(1.0, 3.0, 2.5), Vector3d(-3.0, -4.0, -1.2)}) {
+    for (const Vector3d& part :
+         {Vector3d(4.0, 1.0, 0.3), Vector3d(1.0, 3.0, 2.5), Vector3d(-3.0, -4.0, -1.2)}) {
       const std::vector<PointReadings> pair = TwoFacePair(m, part);
       ASSERT_GT(pair[1].readings(2), std::numbers::pi / 2) << "second reading is a back-face one";
       const TaskUncertainty t = PropagateTask(m, pair, kTwoFaceTask);
@@ -241,9 +241,10 @@ TEST(TwoFaceGum, CovarianceEqualsBruteForce) {
       const Eigen::Matrix3d ref = BruteForceCovariance(m, pair);
       ASSERT_EQ(t.covariance.rows(), 3);
       ASSERT_EQ(t.covariance.cols(), 3);
-      EXPECT_LE((t.covariance - ref).norm(), 1e-9 * ref.norm()) << "scale " << scale << " at "
-                                                                << part.transpose() << "\n"
-                                                                << t.covariance << "\n" << ref;
+      EXPECT_LE((t.covariance - ref).norm(), 1e-9 * ref.norm())
+          << "scale " << scale << " at " << part.transpose() << "\n"
+          << t.covariance << "\n"
+          << ref;
       for (int q = 0; q < 3; ++q) {
         EXPECT_NEAR(t.covariance(q, q), ref(q, q), 1e-9 * ref(q, q)) << t.quantities[q];
         EXPECT_NEAR(t.u(q), std::sqrt(ref(q, q)), 1e-9 * std::sqrt(ref(q, q)));
@@ -271,7 +272,8 @@ TEST(TwoFaceGum, ZeroParametersGiveZeroDifference) {
   ASSERT_EQ(t.value.size(), 3);
   EXPECT_LT(t.value.cwiseAbs().maxCoeff(), 1e-12) << t.value.transpose();
   // The distance between the same two points is refused: that is why two_face exists.
-  EXPECT_THROW(PropagateTask(m, pair, TaskSpec{"d", TaskKind::kDistance, {"P", "P_back"}, {}}), NumericalError);
+  EXPECT_THROW(PropagateTask(m, pair, TaskSpec{"d", TaskKind::kDistance, {"P", "P_back"}, {}}),
+               NumericalError);
 }
 
 TEST(TwoFaceGum, UncompensatedOffsetsGiveTheTwoFaceError) {
@@ -288,7 +290,8 @@ TEST(TwoFaceGum, UncompensatedOffsetsGiveTheTwoFaceError) {
   for (const Vector3d& part : {Vector3d(4.0, 1.0, 0.3), Vector3d(1.0, 3.0, 2.5)}) {
     const std::vector<PointReadings> pair = TwoFacePair(planning, part);
     const TaskUncertainty t = PropagateTask(m, pair, kTwoFaceTask);
-    const Vector3d expected = EvaluateAtEstimates(m, pair[1].readings) - EvaluateAtEstimates(m, pair[0].readings);
+    const Vector3d expected =
+        EvaluateAtEstimates(m, pair[1].readings) - EvaluateAtEstimates(m, pair[0].readings);
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(t.value(c), expected(c), 1e-15) << c;
     // Closed form from the kinematic chain of docs/models.md (all other parameters zero): the
     // beam leaves from b = Rz(H)(ex, 0, 0) + M (-ex, by, 0) along the same direction in both
@@ -303,10 +306,11 @@ TEST(TwoFaceGum, UncompensatedOffsetsGiveTheTwoFaceError) {
         << t.value.transpose() << " vs " << closed_form.transpose();
     EXPECT_NEAR(t.value.norm(), 2.0 * std::hypot(20e-6, 15e-6), 1e-9);
     // Without the offsets the same readings coincide.
-    EXPECT_LT((EvaluateAtEstimates(planning, pair[1].readings) - EvaluateAtEstimates(planning, pair[0].readings))
-                  .cwiseAbs()
-                  .maxCoeff(),
-              1e-12);
+    EXPECT_LT(
+        (EvaluateAtEstimates(planning, pair[1].readings) - EvaluateAtEstimates(planning, pair[0].readings))
+            .cwiseAbs()
+            .maxCoeff(),
+        1e-12);
     // The covariance is still the brute-force one.
     const Eigen::Matrix3d ref = BruteForceCovariance(m, pair);
     EXPECT_LE((t.covariance - ref).norm(), 1e-9 * ref.norm());
@@ -415,7 +419,8 @@ TEST(TwoFaceJob, WrongPointCountIsOneLineError) {
     ADD_FAILURE() << "three points accepted";
   } catch (const InputError& e) {
     const std::string what = e.what();
-    EXPECT_NE(what.find("task 'P_two_face': two_face needs exactly 2 points, 3 given"), std::string::npos) << what;
+    EXPECT_NE(what.find("task 'P_two_face': two_face needs exactly 2 points, 3 given"), std::string::npos)
+        << what;
     EXPECT_EQ(what.find('\n'), std::string::npos) << what;
   }
 }

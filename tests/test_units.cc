@@ -88,7 +88,10 @@ TEST(Units, RatioFractionHumidity) {
 
 TEST(Units, TemperatureAndPressure) {
   EXPECT_DOUBLE_EQ(Parse("20 degC", Dimension::kTemperature), 20.0);
-  EXPECT_DOUBLE_EQ(Parse("20 \xC2\xB0" "C", Dimension::kTemperature), 20.0);
+  EXPECT_DOUBLE_EQ(Parse("20 \xC2\xB0"
+                         "C",
+                         Dimension::kTemperature),
+                   20.0);
   EXPECT_NEAR(Parse("293.15 K", Dimension::kTemperature), 20.0, 1e-12);  // t = T - 273.15 K
   EXPECT_NEAR(Parse("0 K", Dimension::kTemperature), -273.15, 1e-12);
   EXPECT_DOUBLE_EQ(Parse("0.1 K", Dimension::kTemperatureDifference), 0.1);
@@ -111,7 +114,10 @@ TEST(Units, PerKelvinAndTime) {
   EXPECT_DOUBLE_EQ(Parse("11.5e-6 1/K", Dimension::kPerKelvin), 11.5e-6);
   EXPECT_DOUBLE_EQ(Parse("11.5e-6 /K", Dimension::kPerKelvin), 11.5e-6);
   EXPECT_DOUBLE_EQ(Parse("23 ppm/degC", Dimension::kPerKelvin), 23e-6);
-  EXPECT_DOUBLE_EQ(Parse("23 \xC2\xB5m/m/\xC2\xB0" "C", Dimension::kPerKelvin), 23e-6);
+  EXPECT_DOUBLE_EQ(Parse("23 \xC2\xB5m/m/\xC2\xB0"
+                         "C",
+                         Dimension::kPerKelvin),
+                   23e-6);
   EXPECT_DOUBLE_EQ(Parse("2 min", Dimension::kTime), 120.0);
   EXPECT_DOUBLE_EQ(Parse("1.5 h", Dimension::kTime), 5400.0);
   EXPECT_DOUBLE_EQ(Parse("250 ms", Dimension::kTime), 0.25);
@@ -119,34 +125,29 @@ TEST(Units, PerKelvinAndTime) {
 }
 
 TEST(Units, WrongDimensionNamesBoth) {
-  EXPECT_EQ(ErrorOf("12 arcsec", Dimension::kLength),
-            std::string(kWhere) + ": '12 arcsec' is an angle, expected a length "
-                                  "(m, mm, um, nm, cm, km, in)");
-  EXPECT_NE(ErrorOf("12 um", Dimension::kAngle).find("is a length, expected an angle"),
-            std::string::npos);
+  EXPECT_EQ(ErrorOf("12 arcsec", Dimension::kLength), std::string(kWhere) +
+                                                          ": '12 arcsec' is an angle, expected a length "
+                                                          "(m, mm, um, nm, cm, km, in)");
+  EXPECT_NE(ErrorOf("12 um", Dimension::kAngle).find("is a length, expected an angle"), std::string::npos);
   EXPECT_NE(ErrorOf("20 hPa", Dimension::kTemperature).find("is a pressure"), std::string::npos);
-  EXPECT_NE(ErrorOf("5 ppm/K", Dimension::kRatio).find("is an expansion coefficient"),
-            std::string::npos);
+  EXPECT_NE(ErrorOf("5 ppm/K", Dimension::kRatio).find("is an expansion coefficient"), std::string::npos);
   EXPECT_NE(ErrorOf("1 s", Dimension::kLength).find("is a time"), std::string::npos);
 }
 
 TEST(Units, RefusesMalformedUnknownNonFinite) {
-  for (const char* bad : {"", "   ", "abc", "um", "1..2 m", "1e m", "1e+ mm", "inf", "nan",
-                          "-inf m", "NaN", "1,5 mm", "1e999 m", "m 12"}) {
+  for (const char* bad : {"", "   ", "abc", "um", "1..2 m", "1e m", "1e+ mm", "inf", "nan", "-inf m", "NaN",
+                          "1,5 mm", "1e999 m", "m 12"}) {
     const std::string msg = ErrorOf(bad, Dimension::kLength);
     EXPECT_FALSE(msg.empty()) << "accepted '" << bad << "'";
     EXPECT_EQ(msg.rfind(kWhere, 0), 0u) << msg;  // message starts with the file and key
   }
-  EXPECT_NE(ErrorOf("12 furlong", Dimension::kLength).find("unknown unit 'furlong'"),
-            std::string::npos);
+  EXPECT_NE(ErrorOf("12 furlong", Dimension::kLength).find("unknown unit 'furlong'"), std::string::npos);
   EXPECT_NE(ErrorOf("12 Um", Dimension::kLength).find("unknown unit"), std::string::npos);
   // Overflow in the conversion itself.
   EXPECT_FALSE(ErrorOf("1e306 km", Dimension::kLength).empty());
   // Absolute temperature below 0 K.
-  EXPECT_NE(ErrorOf("-1 K", Dimension::kTemperature).find("below absolute zero"),
-            std::string::npos);
-  EXPECT_NE(ErrorOf("-300 degC", Dimension::kTemperature).find("below absolute zero"),
-            std::string::npos);
+  EXPECT_NE(ErrorOf("-1 K", Dimension::kTemperature).find("below absolute zero"), std::string::npos);
+  EXPECT_NE(ErrorOf("-300 degC", Dimension::kTemperature).find("below absolute zero"), std::string::npos);
   // A difference may be negative.
   EXPECT_DOUBLE_EQ(Parse("-1 K", Dimension::kTemperatureDifference), -1.0);
 }
@@ -158,10 +159,10 @@ TEST(Units, FormatRoundTrips) {
   EXPECT_EQ(FormatQuantity(0.5, Dimension::kLength), "0.5 m");
   EXPECT_NEAR(FromSi(kPi / 648000.0, Dimension::kAngle, "arcsec"), 1.0, 1e-15);
   EXPECT_DOUBLE_EQ(ToSi(1.0, Dimension::kAngle, "arcsec"), kPi / 648000.0);
-  for (Dimension d : {Dimension::kLength, Dimension::kAngle, Dimension::kRatio,
-                      Dimension::kTemperature, Dimension::kTemperatureDifference,
-                      Dimension::kPressure, Dimension::kHumidity, Dimension::kFraction,
-                      Dimension::kPerKelvin, Dimension::kDimensionless, Dimension::kTime}) {
+  for (Dimension d :
+       {Dimension::kLength, Dimension::kAngle, Dimension::kRatio, Dimension::kTemperature,
+        Dimension::kTemperatureDifference, Dimension::kPressure, Dimension::kHumidity, Dimension::kFraction,
+        Dimension::kPerKelvin, Dimension::kDimensionless, Dimension::kTime}) {
     ASSERT_FALSE(AcceptedUnits(d).empty());
     for (std::string_view unit : AcceptedUnits(d)) {
       const double si = 1.2345678901234 * (d == Dimension::kTemperature ? 10.0 : 1.0);

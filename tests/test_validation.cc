@@ -23,7 +23,7 @@ namespace {
 using test::Fixed;
 using test::Input;
 
-constexpr double kK95 = 1.959963984540054;   // Phi^-1(0.975)
+constexpr double kK95 = 1.959963984540054;  // Phi^-1(0.975)
 
 // sqrt of the 0.95 quantile of chi-square with 3 degrees of freedom, from its CDF
 // P(x) = erf(sqrt(x/2)) - sqrt(2x/pi) exp(-x/2).
@@ -42,13 +42,12 @@ ScalarValidation ValidateAdditive(const std::vector<UncertainInput>& in) {
   double u2 = 0.0;
   for (const UncertainInput& x : in) u2 += x.u * x.u;
   const McmResult r = RunMcmCustom(*FindModel("jcgm101_additive"), in, {}, Fixed(1'000'000));
-  return ValidateScalar("y", "1", 0.0, std::sqrt(u2), kK95 * std::sqrt(u2), r.outputs[0].symmetric,
-                        2);
+  return ValidateScalar("y", "1", 0.0, std::sqrt(u2), kK95 * std::sqrt(u2), r.outputs[0].symmetric, 2);
 }
 
 TEST(ValidateScalar, Jcgm101AdditiveNormalIsValidated) {
-  const ScalarValidation v = ValidateAdditive(
-      {Input("x1", 0, 1), Input("x2", 0, 1), Input("x3", 0, 1), Input("x4", 0, 1)});
+  const ScalarValidation v =
+      ValidateAdditive({Input("x1", 0, 1), Input("x2", 0, 1), Input("x3", 0, 1), Input("x4", 0, 1)});
   EXPECT_EQ(v.delta, 0.05);
   EXPECT_LT(v.d_low, 0.03);
   EXPECT_TRUE(v.validated) << v.verdict;
@@ -84,8 +83,7 @@ TEST(ValidateScalar, SquareOfNormalIsNotValidated) {
   const ModelInfo square = test::CustomModel("square", 1, 1, kIn, kOut, &Square);
   // X ~ N(0, 1): GUM sensitivity 2x = 0 -> u = 0, interval [0, 0]; Y ~ chi2_1 in fact
   // (95 % symmetric interval [0.00098, 5.02]).
-  McmResult r = RunMcmCustom(square, std::vector<UncertainInput>{Input("x", 0, 1)}, {},
-                             Fixed(200'000));
+  McmResult r = RunMcmCustom(square, std::vector<UncertainInput>{Input("x", 0, 1)}, {}, Fixed(200'000));
   EXPECT_NEAR(r.outputs[0].mean, 1.0, 0.02);
   EXPECT_NEAR(r.outputs[0].u, std::sqrt(2.0), 0.03);
   EXPECT_NEAR(r.outputs[0].symmetric.high, 5.024, 0.1);
@@ -114,7 +112,7 @@ TEST(ValidatePoint, ClosedFormRegions) {
   // chi2_3(0.95) = 7.814727903 (published tables: 7.815); k = 2.7955 (often quoted as 2.796).
   EXPECT_NEAR(k * k, 7.814727903, 1e-8);
   const Eigen::Vector3d y(1.0, 2.0, 3.0);
-  const double s = 20e-6;   // u = 20 um -> delta (2 digits) = 0.5 um
+  const double s = 20e-6;  // u = 20 um -> delta (2 digits) = 0.5 um
   const Eigen::Matrix3d cov = s * s * Eigen::Matrix3d::Identity();
   // Identical regions.
   PointValidation v = ValidatePoint("P", y, cov, k, Region(y, cov, k), 2);
@@ -132,21 +130,20 @@ TEST(ValidatePoint, ClosedFormRegions) {
   const Eigen::Vector3d shift = 0.3e-6 * Eigen::Vector3d(1, 1, 0).normalized();
   v = ValidatePoint("P", y, cov, k, Region(y + shift, cov, k), 2);
   EXPECT_TRUE(v.validated) << v.verdict;
-  EXPECT_NEAR(v.worst_distance, 0.3e-6, 0.3e-6 * 1e-3);   // direction grid within 0.1 %
+  EXPECT_NEAR(v.worst_distance, 0.3e-6, 0.3e-6 * 1e-3);  // direction grid within 0.1 %
   // Shifted by 0.7 um: not validated.
   v = ValidatePoint("P", y, cov, k, Region(y + shift * (7.0 / 3.0), cov, k), 2);
   EXPECT_FALSE(v.validated);
   // A thin ellipsoid, only its short axis differs: found through the eigenvector directions.
   Eigen::Matrix3d thin = cov;
-  thin(2, 2) = 1e-12;        // u_z = 1 um -> delta = 0.05 um
+  thin(2, 2) = 1e-12;  // u_z = 1 um -> delta = 0.05 um
   Eigen::Matrix3d thin_m = thin;
-  thin_m(2, 2) = 1.1e-12;    // d = k (sqrt(1.1) - 1) 1 um = 0.136 um > 0.05 um
+  thin_m(2, 2) = 1.1e-12;  // d = k (sqrt(1.1) - 1) 1 um = 0.136 um > 0.05 um
   v = ValidatePoint("P", y, thin, k, Region(y, thin_m, k), 2);
   EXPECT_FALSE(v.validated);
   EXPECT_NEAR(std::abs(v.worst_direction.z()), 1.0, 1e-9);
   // Singular GUM covariance: no region to compare.
-  EXPECT_THROW(ValidatePoint("P", y, Eigen::Matrix3d::Zero(), k, Region(y, cov, k), 2),
-               NumericalError);
+  EXPECT_THROW(ValidatePoint("P", y, Eigen::Matrix3d::Zero(), k, Region(y, cov, k), 2), NumericalError);
 }
 
 TEST(ValidatePoint, TrackerJobLinearisedCovarianceIsValidated) {
@@ -243,11 +240,12 @@ TEST(ValidationTolerance, NoiseAloneNeverGivesNotValidated) {
   std::sort(big.begin(), big.end());
   const std::size_t q = static_cast<std::size_t>(std::lround(p * big.size()));
   const std::size_t r = (big.size() - q) / 2;
-  const ScalarValidation wrong = ValidateScalar("y", "1", 0.0, 0.8 * u, kK95 * 0.8 * u, {big[r], big[r + q]}, 2,
-                                                static_cast<std::int64_t>(big.size()), u, p);
+  const ScalarValidation wrong = ValidateScalar("y", "1", 0.0, 0.8 * u, kK95 * 0.8 * u, {big[r], big[r + q]},
+                                                2, static_cast<std::int64_t>(big.size()), u, p);
   EXPECT_EQ(wrong.outcome, "not validated") << wrong.verdict;
   // A quantity without a GUM value (form error at nominal points) is "not applicable".
-  EXPECT_EQ(ValidateScalar("f", "m", 0.0, 0.0, 0.0, {1e-6, 5e-6}, 2, m, 1e-6, p, false).outcome, "not applicable");
+  EXPECT_EQ(ValidateScalar("f", "m", 0.0, 0.0, 0.0, {1e-6, 5e-6}, 2, m, 1e-6, p, false).outcome,
+            "not applicable");
   EXPECT_EQ(CombinedOutcome({"validated", "not applicable"}), "validated");
   EXPECT_EQ(CombinedOutcome({"validated", "inconclusive"}), "inconclusive");
   EXPECT_EQ(CombinedOutcome({"inconclusive", "not validated"}), "not validated");

@@ -10,23 +10,30 @@
 namespace vlt::cli {
 
 void AddCalibrateCommand(CLI::App& app, GlobalOptions& global) {
-  auto* command = app.add_subcommand("calibrate", "Identify a tracker's error parameters from measured test data "
-                                                  "(least squares with identifiability analysis); writes a calibration file");
+  auto* command =
+      app.add_subcommand("calibrate",
+                         "Identify a tracker's error parameters from measured test data "
+                         "(least squares with identifiability analysis); writes a calibration file");
   auto file = std::make_shared<std::string>();
   auto output_arg = std::make_shared<std::string>();
-  command->add_option("file", *file, "Calibration job (TOML: [tracker], [readings], [[bar]], [[reference]], docs/calibration.md)")
+  command
+      ->add_option(
+          "file", *file,
+          "Calibration job (TOML: [tracker], [readings], [[bar]], [[reference]], docs/calibration.md)")
       ->required();
   command->add_option("-o,--output", *output_arg,
                       "Output directory (default: [output] directory of the file, else ./vlt-out/<name>)");
-  command->footer("Exit status: 0 success, 2 bad input or no solution (one line on stderr; no output file is written).\n"
-                  "Outputs: calibration.toml (load it in a job: [tracker] calibration = \"...\"), parameters.csv,\n"
-                  "correlation.csv, identifiability.csv, targets.csv, residuals.csv, results.json, report.html.");
+  command->footer(
+      "Exit status: 0 success, 2 bad input or no solution (one line on stderr; no output file is written).\n"
+      "Outputs: calibration.toml (load it in a job: [tracker] calibration = \"...\"), parameters.csv,\n"
+      "correlation.csv, identifiability.csv, targets.csv, residuals.csv, results.json, report.html.");
   command->callback([file, output_arg, &global] {
     const CalibrationJob job = LoadCalibrationJob(*file);
     EmitWarnings(job.warnings, global);
     RunCliOptions where;
     where.output_dir = *output_arg;
-    OutputDirectory output(OutputPath(OutputSettings{job.output_directory}, std::filesystem::path(*file).parent_path(), where,
+    OutputDirectory output(OutputPath(OutputSettings{job.output_directory},
+                                      std::filesystem::path(*file).parent_path(), where,
                                       std::filesystem::path("vlt-out") / SafeFileName(job.name)));
     const std::filesystem::path& dir = output.path();
     const CalibrationResult result = Calibrate(job.data, job.options);
@@ -39,7 +46,8 @@ void AddCalibrateCommand(CLI::App& app, GlobalOptions& global) {
     output.Commit(AsOutputFiles(files));
     PrintWritten(files, calibration_outputs::CalibrationSummary(job, result), dir, global);
     if (!global.json && !global.quiet) {
-      std::printf("Use it in a job:  [tracker] calibration = \"%s\"\n", (dir / "calibration.toml").string().c_str());
+      std::printf("Use it in a job:  [tracker] calibration = \"%s\"\n",
+                  (dir / "calibration.toml").string().c_str());
     }
   });
 }

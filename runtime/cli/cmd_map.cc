@@ -12,8 +12,9 @@
 namespace vlt::cli {
 
 void AddMapCommand(CLI::App& app, GlobalOptions& global) {
-  auto* command = app.add_subcommand("map", "Map the GUM expanded uncertainty of the job's tracker over a plane or "
-                                            "a box of part-frame points (map.csv, map.html)");
+  auto* command = app.add_subcommand("map",
+                                     "Map the GUM expanded uncertainty of the job's tracker over a plane or "
+                                     "a box of part-frame points (map.csv, map.html)");
   struct MapOptions {
     std::string job, plane, extent, box, step = "0.25 m", output_dir, seed;
     int threads = -1;
@@ -23,29 +24,36 @@ void AddMapCommand(CLI::App& app, GlobalOptions& global) {
   auto o = std::make_shared<MapOptions>();
   command->add_option("job", o->job, "Job file (TOML): tracker, environment, station, part")->required();
   command->add_option("--plane", o->plane, "Plane of the grid: x=<v>, y=<v> or z=<v> (e.g. z=0, z=1.2m)");
-  command->add_option("--extent", o->extent,
-                      "Ranges of the plane's two free axes: amin,amax,bmin,bmax (e.g. 0,4,-1,1 or 0m,4m,-1m,1m)");
+  command->add_option(
+      "--extent", o->extent,
+      "Ranges of the plane's two free axes: amin,amax,bmin,bmax (e.g. 0,4,-1,1 or 0m,4m,-1m,1m)");
   command->add_option("--box", o->box, "A 3-D grid: xmin,xmax,ymin,ymax,zmin,zmax");
   command->add_option("--step", o->step, "Grid spacing (default 0.25 m; e.g. 0.1m, 250mm)");
   command->add_option("-o,--output", o->output_dir,
                       "Output directory (default: [output] directory of the job, else ./vlt-out/<job name>)");
-  command->add_option("--threads", o->threads, "Threads (0 = all hardware threads)")->check(IntegerIn(0, 1024));
-  command->add_flag("--mcm", o->mcm,
-                    "Also the Monte Carlo map: every node through the job's Monte Carlo engine, with the GUM-vs-MCM "
-                    "verdict per node (as [map] monte_carlo = true)");
-  command->add_option("--trials", o->trials, "Monte Carlo trials per node (default: the job's [monte_carlo] trials)")
+  command->add_option("--threads", o->threads, "Threads (0 = all hardware threads)")
+      ->check(IntegerIn(0, 1024));
+  command->add_flag(
+      "--mcm", o->mcm,
+      "Also the Monte Carlo map: every node through the job's Monte Carlo engine, with the GUM-vs-MCM "
+      "verdict per node (as [map] monte_carlo = true)");
+  command
+      ->add_option("--trials", o->trials,
+                   "Monte Carlo trials per node (default: the job's [monte_carlo] trials)")
       ->check(IntegerIn(1, 1000000000));
   command->add_option("--seed", o->seed, "Monte Carlo seed (default: the job's)")->check(UnsignedInteger64());
-  command->footer("Map value: |U| = sqrt(Ux^2 + Uy^2 + Uz^2), U_i = k u_i (part frame, k from the job's coverage\n"
-                  "probability). Nodes within 1 mm of the tracker's vertical axis are skipped and reported.\n"
-                  "Per source: U_s = k sqrt(trace of the source's part of U_y), adding up in quadrature to |U|\n"
-                  "(map.csv columns U_group_*, U_*; map.html 'Show').");
+  command->footer(
+      "Map value: |U| = sqrt(Ux^2 + Uy^2 + Uz^2), U_i = k u_i (part frame, k from the job's coverage\n"
+      "probability). Nodes within 1 mm of the tracker's vertical axis are skipped and reported.\n"
+      "Per source: U_s = k sqrt(trace of the source's part of U_y), adding up in quadrature to |U|\n"
+      "(map.csv columns U_group_*, U_*; map.html 'Show').");
   command->callback([o, &global] {
     Job job = LoadJob(o->job);
     EmitWarnings(job.warnings, global);
     MapSettings settings;
     if (!o->plane.empty() || !o->box.empty()) {
-      if (!o->plane.empty() && !o->box.empty()) throw InputError("command line: --plane and --box exclude each other");
+      if (!o->plane.empty() && !o->box.empty())
+        throw InputError("command line: --plane and --box exclude each other");
       if (!o->plane.empty()) {
         if (o->extent.empty()) throw InputError("command line: --extent: required with --plane");
         settings = ParseMapPlane(o->plane, o->extent, o->step, "command line");
@@ -60,7 +68,8 @@ void AddMapCommand(CLI::App& app, GlobalOptions& global) {
     }
     RunCliOptions ro;
     ro.output_dir = o->output_dir;
-    OutputDirectory output(OutputPath(job.output, job.base_dir, ro, std::filesystem::path("vlt-out") / SafeFileName(job.name)));
+    OutputDirectory output(
+        OutputPath(job.output, job.base_dir, ro, std::filesystem::path("vlt-out") / SafeFileName(job.name)));
     MeasurementModel model(job.setup);
     int threads = o->threads >= 0 ? o->threads : job.monte_carlo.threads;
     MapResult map = ComputeMap(model, settings, job.monte_carlo.coverage_probability, threads);
@@ -88,7 +97,8 @@ void AddMapCommand(CLI::App& app, GlobalOptions& global) {
       hi = std::max(hi, map.U_norm[i]);
       ++n;
     }
-    std::printf("Map of job '%s' (model %s): %s\n", job.name.c_str(), job.setup.model->name, settings.description.c_str());
+    std::printf("Map of job '%s' (model %s): %s\n", job.name.c_str(), job.setup.model->name,
+                settings.description.c_str());
     std::printf("|U| = sqrt(Ux^2+Uy^2+Uz^2), k = %.3f (p = %g): %.1f .. %.1f um over %zu nodes\n", map.k,
                 map.coverage_probability, n ? lo * 1e6 : 0.0, hi * 1e6, n);
     if (!map.sources.empty() && n > 0) {
@@ -99,7 +109,8 @@ void AddMapCommand(CLI::App& app, GlobalOptions& global) {
       }
       std::vector<std::size_t> order(count.size());
       for (std::size_t s = 0; s < order.size(); ++s) order[s] = s;
-      std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return count[a] > count[b]; });
+      std::stable_sort(order.begin(), order.end(),
+                       [&](std::size_t a, std::size_t b) { return count[a] > count[b]; });
       std::printf("Dominant source:");
       for (std::size_t s : order) {
         if (count[s] > 0) std::printf(" %s at %zu node(s);", map.sources[s].name.c_str(), count[s]);
@@ -114,14 +125,16 @@ void AddMapCommand(CLI::App& app, GlobalOptions& global) {
         inconclusive += map.verdict[i] == "inconclusive";
         failed += map.verdict[i] == "not validated";
       }
-      std::printf("Monte Carlo (%lld trials, seed %llu): GUM validated at %zu node(s), not validated at %zu, "
-                  "inconclusive at %zu (JCGM 101 8)\n",
-                  static_cast<long long>(map.mcm_trials), static_cast<unsigned long long>(map.mcm_seed), validated,
-                  failed, inconclusive);
+      std::printf(
+          "Monte Carlo (%lld trials, seed %llu): GUM validated at %zu node(s), not validated at %zu, "
+          "inconclusive at %zu (JCGM 101 8)\n",
+          static_cast<long long>(map.mcm_trials), static_cast<unsigned long long>(map.mcm_seed), validated,
+          failed, inconclusive);
     }
     if (!map.skipped.empty()) {
       std::printf("Skipped %zu node(s):\n", map.skipped.size());
-      for (std::size_t i = 0; i < map.skipped.size() && i < 10; ++i) std::printf("  %s\n", map.skipped[i].c_str());
+      for (std::size_t i = 0; i < map.skipped.size() && i < 10; ++i)
+        std::printf("  %s\n", map.skipped[i].c_str());
       if (map.skipped.size() > 10) std::printf("  ... (all in map.csv)\n");
     }
     std::printf("Wrote %s/: map.csv, map.html\n", output.path().string().c_str());

@@ -35,8 +35,8 @@ std::string Friendly(double si, const std::string& quantity) {
 }
 
 nlohmann::json QuantityJson(const QuantityInfo& q, bool with_defaults) {
-  nlohmann::json j = {{"name", q.name}, {"unit", q.unit}, {"quantity", q.quantity},
-                      {"description", q.description}};
+  nlohmann::json j = {
+      {"name", q.name}, {"unit", q.unit}, {"quantity", q.quantity}, {"description", q.description}};
   if (with_defaults) {
     j["default_estimate"] = q.default_estimate;
     j["default_u"] = q.default_u;
@@ -50,8 +50,11 @@ void List(const GlobalOptions& global) {
   if (global.json) {
     nlohmann::json models = nlohmann::json::array();
     for (const ModelInfo* m : AllModels()) {
-      models.push_back({{"name", m->name}, {"kind", m->kind}, {"description", m->description},
-                        {"num_readings", m->num_readings}, {"num_params", m->num_params},
+      models.push_back({{"name", m->name},
+                        {"kind", m->kind},
+                        {"description", m->description},
+                        {"num_readings", m->num_readings},
+                        {"num_params", m->num_params},
                         {"num_outputs", m->num_outputs}});
     }
     std::printf("%s\n", nlohmann::json{{"models", models}}.dump(2).c_str());
@@ -59,15 +62,14 @@ void List(const GlobalOptions& global) {
   }
   std::printf("%-20s %-8s %6s %6s  %s\n", "model", "kind", "params", "outputs", "description");
   for (const ModelInfo* m : AllModels()) {
-    std::printf("%-20s %-8s %6d %6d  %s\n", m->name, m->kind, m->num_params, m->num_outputs,
-                m->description);
+    std::printf("%-20s %-8s %6d %6d  %s\n", m->name, m->kind, m->num_params, m->num_outputs, m->description);
   }
 }
 
 void Show(const ModelInfo& m, const GlobalOptions& global) {
   if (global.json) {
-    nlohmann::json j = {{"name", m.name}, {"kind", m.kind}, {"description", m.description},
-                        {"spec_file", m.spec_file}};
+    nlohmann::json j = {
+        {"name", m.name}, {"kind", m.kind}, {"description", m.description}, {"spec_file", m.spec_file}};
     j["readings"] = nlohmann::json::array();
     for (int i = 0; i < m.num_readings; ++i) j["readings"].push_back(QuantityJson(m.readings[i], false));
     j["params"] = nlohmann::json::array();
@@ -92,16 +94,17 @@ void Show(const ModelInfo& m, const GlobalOptions& global) {
   for (int i = 0; i < m.num_params; ++i) {
     const QuantityInfo& q = m.params[i];
     std::printf("  %-10s [%s]  %s  u = %s  %s\n      %s\n", q.name, q.unit,
-                Friendly(q.default_estimate, q.quantity).c_str(),
-                Friendly(q.default_u, q.quantity).c_str(), q.default_distribution, q.description);
+                Friendly(q.default_estimate, q.quantity).c_str(), Friendly(q.default_u, q.quantity).c_str(),
+                q.default_distribution, q.description);
   }
   std::printf("\noutputs:\n");
   for (int i = 0; i < m.num_outputs; ++i) {
     std::printf("  %-10s [%s]  %s\n", m.outputs[i].name, m.outputs[i].unit, m.outputs[i].description);
   }
-  std::printf("\ngenerated kernels (operations after CSE): forward %d, forward+Jacobians %d, "
-              "nominal Jacobians %d\n",
-              m.ops_forward, m.ops_forward_jacobians, m.ops_nominal_jacobians);
+  std::printf(
+      "\ngenerated kernels (operations after CSE): forward %d, forward+Jacobians %d, "
+      "nominal Jacobians %d\n",
+      m.ops_forward, m.ops_forward_jacobians, m.ops_nominal_jacobians);
 }
 
 }  // namespace
@@ -111,8 +114,9 @@ void AddModelCommand(CLI::App& app, GlobalOptions& global) {
   command->require_subcommand(1);
   auto* list = command->add_subcommand("list", "List the models (name, kind, parameters, description)");
   list->callback([&global] { List(global); });
-  auto* show = command->add_subcommand("show", "Show one model: readings, error parameters with default "
-                                                "uncertainties, outputs (--json for JSON)");
+  auto* show = command->add_subcommand("show",
+                                       "Show one model: readings, error parameters with default "
+                                       "uncertainties, outputs (--json for JSON)");
   auto name = std::make_shared<std::string>();
   show->add_option("name", *name, "Model name (vlt model list)")->required();
   show->callback([name, &global] { Show(RequireModel(*name), global); });

@@ -14,51 +14,66 @@
 namespace vlt::cli {
 
 void AddNetworkCommand(CLI::App& app, GlobalOptions& global) {
-  auto* command = app.add_subcommand("network", "Adjust a network of stations (bundle adjustment of station poses and "
-                                                "targets, optionally self-calibrating the tracker), or plan one offline");
+  auto* command =
+      app.add_subcommand("network",
+                         "Adjust a network of stations (bundle adjustment of station poses and "
+                         "targets, optionally self-calibrating the tracker), or plan one offline");
   auto file = std::make_shared<std::string>();
   auto output_arg = std::make_shared<std::string>();
   auto simulate = std::make_shared<std::int64_t>(-1);
   auto threads = std::make_shared<int>(0);
-  command->add_option("file", *file, "Network file (TOML: [tracker], [[station]], [datum], [[reference]], docs/network.md)")
+  command
+      ->add_option("file", *file,
+                   "Network file (TOML: [tracker], [[station]], [datum], [[reference]], docs/network.md)")
       ->required();
   command->add_option("-o,--output", *output_arg,
                       "Output directory (default: [output] directory of the file, else ./vlt-out/<name>)");
-  command->add_option("--simulate", *simulate,
-                      "Offline networks: also write a simulated measurement with this seed (simulated_network.toml "
-                      "and one readings CSV per station)")
+  command
+      ->add_option(
+          "--simulate", *simulate,
+          "Offline networks: also write a simulated measurement with this seed (simulated_network.toml "
+          "and one readings CSV per station)")
       ->check(CLI::NonNegativeNumber);
-  command->add_option("--threads", *threads,
-                      "Threads of the Monte Carlo validation ([network.monte_carlo]; 0: all; results do not depend on it)")
+  command
+      ->add_option("--threads", *threads,
+                   "Threads of the Monte Carlo validation ([network.monte_carlo]; 0: all; results do not "
+                   "depend on it)")
       ->check(CLI::Range(0, 1024));
-  command->footer("Exit status: 0 success, 2 bad input or no solution (one line on stderr; no output file is written).\n"
-                  "Outputs: targets.csv, stations.csv, residuals.csv, covariance.csv, tasks.csv ([[task]]),\n"
-                  "parameters.csv (self-calibration), mcm.csv ([network.monte_carlo]), results.json.");
+  command->footer(
+      "Exit status: 0 success, 2 bad input or no solution (one line on stderr; no output file is written).\n"
+      "Outputs: targets.csv, stations.csv, residuals.csv, covariance.csv, tasks.csv ([[task]]),\n"
+      "parameters.csv (self-calibration), mcm.csv ([network.monte_carlo]), results.json.");
   command->callback([file, output_arg, simulate, threads, &global] {
     const NetworkJob job = LoadNetworkJob(*file);
     if (*simulate >= 0 && !job.offline) {
-      throw InputError(*file + ": station: --simulate needs an offline network (stations that see [targets])");
+      throw InputError(*file +
+                       ": station: --simulate needs an offline network (stations that see [targets])");
     }
     EmitWarnings(job.warnings, global);
     RunCliOptions where;
     where.output_dir = *output_arg;
-    OutputDirectory output(OutputPath(OutputSettings{job.output_directory}, std::filesystem::path(*file).parent_path(), where,
+    OutputDirectory output(OutputPath(OutputSettings{job.output_directory},
+                                      std::filesystem::path(*file).parent_path(), where,
                                       std::filesystem::path("vlt-out") / SafeFileName(job.name)));
     const NetworkResult result = AdjustNetwork(job.network);
     std::optional<NetworkMonteCarlo> mc;
     if (job.monte_carlo_trials > 0) {
-      mc = ValidateNetworkByMonteCarlo(job.network, result, job.monte_carlo_trials, job.monte_carlo_seed, *threads);
+      mc = ValidateNetworkByMonteCarlo(job.network, result, job.monte_carlo_trials, job.monte_carlo_seed,
+                                       *threads);
     }
     const std::vector<NetworkTaskResult> tasks = NetworkTasks(job.tasks, result, job.file);
     auto files = network_outputs::NetworkFiles(job, result, tasks, RunCreatedTime(), mc ? &*mc : nullptr);
     if (*simulate >= 0) {
-      const Network simulated = SimulateNetwork(job.network, job.nominal, static_cast<std::uint64_t>(*simulate));
-      for (auto& f : network_outputs::SimulatedNetworkFiles(job, simulated, static_cast<std::uint64_t>(*simulate))) {
+      const Network simulated =
+          SimulateNetwork(job.network, job.nominal, static_cast<std::uint64_t>(*simulate));
+      for (auto& f :
+           network_outputs::SimulatedNetworkFiles(job, simulated, static_cast<std::uint64_t>(*simulate))) {
         files.push_back(std::move(f));
       }
     }
     output.Commit(AsOutputFiles(files));
-    PrintWritten(files, network_outputs::NetworkSummary(job, result, mc ? &*mc : nullptr), output.path(), global);
+    PrintWritten(files, network_outputs::NetworkSummary(job, result, mc ? &*mc : nullptr), output.path(),
+                 global);
   });
 }
 

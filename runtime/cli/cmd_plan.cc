@@ -10,24 +10,28 @@ namespace vlt::cli {
 
 void AddPlanCommand(CLI::App& app, GlobalOptions& global) {
   auto* command = app.add_subcommand(
-      "plan", "Find the station position that minimises the job's [optimize] objective inside its region "
-              "(plan.json, station_map.csv, station_map.html, planned_job.toml)");
+      "plan",
+      "Find the station position that minimises the job's [optimize] objective inside its region "
+      "(plan.json, station_map.csv, station_map.html, planned_job.toml)");
   struct PlanOptions {
     std::string job, output_dir;
     int threads = -1;
   };
   auto o = std::make_shared<PlanOptions>();
-  command->add_option("job", o->job, "Job file (TOML) with [plan] points and an [optimize] section")->required();
+  command->add_option("job", o->job, "Job file (TOML) with [plan] points and an [optimize] section")
+      ->required();
   command->add_option("-o,--output", o->output_dir, "Output directory (default ./vlt-out/<job name>-plan)");
   command->add_option("--threads", o->threads, "Threads for the station map (0 = all hardware threads)")
       ->check(IntegerIn(0, 1024));
-  command->footer("Objective: sum of weight * term, each term an expanded uncertainty [m] as `vlt run` computes it\n"
-                  "with the station there. Search: NLopt GN_CRS2_LM (seeded) then LN_SBPLX; the station map shows\n"
-                  "the objective over the floor at the recommended height. `vlt run planned_job.toml` reproduces it.");
+  command->footer(
+      "Objective: sum of weight * term, each term an expanded uncertainty [m] as `vlt run` computes it\n"
+      "with the station there. Search: NLopt GN_CRS2_LM (seeded) then LN_SBPLX; the station map shows\n"
+      "the objective over the floor at the recommended height. `vlt run planned_job.toml` reproduces it.");
   command->callback([o, &global] {
     Job job = LoadJob(o->job);
     EmitWarnings(job.warnings, global);
-    if (!job.optimize) throw InputError(job.file + ": optimize: the job has no [optimize] section (docs/planning.md)");
+    if (!job.optimize)
+      throw InputError(job.file + ": optimize: the job has no [optimize] section (docs/planning.md)");
     RunCliOptions ro;
     ro.output_dir = o->output_dir;
     OutputDirectory output(OutputPath(OutputSettings{}, job.base_dir, ro,

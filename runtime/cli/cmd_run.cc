@@ -15,7 +15,8 @@ namespace vlt::cli {
 namespace {
 
 std::string Quoted(const std::string& s) {
-  return "'" + (s.size() > 40 ? s.substr(0, 40) + "...(" + std::to_string(s.size()) + " characters)" : s) + "'";
+  return "'" + (s.size() > 40 ? s.substr(0, 40) + "...(" + std::to_string(s.size()) + " characters)" : s) +
+         "'";
 }
 
 }  // namespace
@@ -124,8 +125,8 @@ RunOptions RunOptionsFrom(const RunCliOptions& options, const MonteCarloSettings
     double minimum = std::ceil(100.0 / (1.0 - monte_carlo.coverage_probability));
     if (static_cast<double>(options.trials) < minimum) {
       throw InputError("command line: --trials: at least " + std::to_string(static_cast<long long>(minimum)) +
-                       " trials for coverage probability " + std::to_string(monte_carlo.coverage_probability) +
-                       " (JCGM 101 7.2.2)");
+                       " trials for coverage probability " +
+                       std::to_string(monte_carlo.coverage_probability) + " (JCGM 101 7.2.2)");
     }
     run.trials = options.trials;
   }
@@ -160,14 +161,16 @@ int RunCustomAndWrite(const CustomJob& job, const RunCliOptions& options, const 
 }
 
 void AddRunCommand(CLI::App& app, GlobalOptions& global) {
-  auto* command = app.add_subcommand("run", "Run a job file: GUM and Monte Carlo uncertainty of every point and "
-                                            "task, written as CSV, JSON and an HTML report");
+  auto* command = app.add_subcommand("run",
+                                     "Run a job file: GUM and Monte Carlo uncertainty of every point and "
+                                     "task, written as CSV, JSON and an HTML report");
   auto job_file = std::make_shared<std::string>();
   auto options = std::make_shared<RunCliOptions>();
   command->add_option("job", *job_file, "Job file (TOML, docs/job-file.md)")->required();
   AddRunOptions(*command, *options);
-  command->footer("Exit status: 0 success, 2 bad input or a result that cannot be computed (one line on stderr;\n"
-                  "no output file is written). Outputs: docs/results.md.");
+  command->footer(
+      "Exit status: 0 success, 2 bad input or a result that cannot be computed (one line on stderr;\n"
+      "no output file is written). Outputs: docs/results.md.");
   command->callback([job_file, options, &global] {
     if (IsCustomModelJobFile(*job_file)) {
       RunCustomAndWrite(LoadCustomJob(*job_file), *options, global);

@@ -46,8 +46,10 @@ std::array<double, 3> ParsePoint(const std::string& text) {
   for (int i = 0; i < 3; ++i) {
     const std::size_t comma = text.find(',', start);
     if ((i < 2) != (comma != std::string::npos)) {
-      throw InputError("command line: --point: expected three coordinates X,Y,Z (e.g. 2,1,0.5 or "
-                       "2m,1m,500mm), got '" + text + "'");
+      throw InputError(
+          "command line: --point: expected three coordinates X,Y,Z (e.g. 2,1,0.5 or "
+          "2m,1m,500mm), got '" +
+          text + "'");
     }
     const std::string part = text.substr(start, i < 2 ? comma - start : std::string::npos);
     p[i] = ParseQuantity(part, Dimension::kLength, "command line: --point");
@@ -71,7 +73,8 @@ std::vector<double> AssignedParams(const ModelInfo* model, const std::vector<std
     const int k = FindParam(*model, name);
     if (k < 0) {
       std::string known;
-      for (int i = 0; i < model->num_params; ++i) known += (i ? ", " : "") + std::string(model->params[i].name);
+      for (int i = 0; i < model->num_params; ++i)
+        known += (i ? ", " : "") + std::string(model->params[i].name);
       throw InputError("command line: unknown parameter '" + name + "' of model '" + model->name +
                        "' (known: " + known + ")");
     }
@@ -83,14 +86,17 @@ std::vector<double> AssignedParams(const ModelInfo* model, const std::vector<std
 // A custom model: y = f(x) and the sensitivities dy/dx at the given inputs (exact, generated).
 void SimulateCustom(const ModelInfo* model, const SimulateOptions& options, const GlobalOptions& global) {
   if (!options.point.empty()) {
-    throw InputError("command line: --point: '" + options.model + "' is a custom model (no readings); give its inputs as NAME=VALUE");
+    throw InputError("command line: --point: '" + options.model +
+                     "' is a custom model (no readings); give its inputs as NAME=VALUE");
   }
   const std::vector<double> x = AssignedParams(model, options.assignments);
-  std::vector<double> y(model->num_outputs), jac(static_cast<std::size_t>(model->num_outputs) * model->num_params);
+  std::vector<double> y(model->num_outputs),
+      jac(static_cast<std::size_t>(model->num_outputs) * model->num_params);
   double unused = 0.0;
   model->forward_jacobians(nullptr, x.data(), y.data(), &unused, jac.data());
   for (double v : y) {
-    if (!std::isfinite(v)) throw InputError("command line: the model '" + options.model + "' is not finite at these inputs");
+    if (!std::isfinite(v))
+      throw InputError("command line: the model '" + options.model + "' is not finite at these inputs");
   }
   if (global.json) {
     nlohmann::json j;
@@ -102,7 +108,8 @@ void SimulateCustom(const ModelInfo* model, const SimulateOptions& options, cons
       for (int k = 0; k < model->num_params; ++k) {
         sens[model->params[k].name] = jac[static_cast<std::size_t>(k) * model->num_outputs + o];
       }
-      out[model->outputs[o].name] = {{"value", y[o]}, {"unit", model->outputs[o].unit}, {"sensitivities", sens}};
+      out[model->outputs[o].name] = {
+          {"value", y[o]}, {"unit", model->outputs[o].unit}, {"sensitivities", sens}};
     }
     j["inputs"] = in;
     j["outputs"] = out;
@@ -111,12 +118,14 @@ void SimulateCustom(const ModelInfo* model, const SimulateOptions& options, cons
   }
   if (global.quiet) return;
   std::printf("model %s (custom), inputs:", model->name);
-  for (int k = 0; k < model->num_params; ++k) std::printf(" %s=%.10g %s", model->params[k].name, x[k], model->params[k].unit);
+  for (int k = 0; k < model->num_params; ++k)
+    std::printf(" %s=%.10g %s", model->params[k].name, x[k], model->params[k].unit);
   std::printf("\n");
   for (int o = 0; o < model->num_outputs; ++o) {
     std::printf("%s = %.12g %s   sensitivities:", model->outputs[o].name, y[o], model->outputs[o].unit);
     for (int k = 0; k < model->num_params; ++k) {
-      std::printf(" d/d%s %.6g", model->params[k].name, jac[static_cast<std::size_t>(k) * model->num_outputs + o] + 0.0);
+      std::printf(" d/d%s %.6g", model->params[k].name,
+                  jac[static_cast<std::size_t>(k) * model->num_outputs + o] + 0.0);
     }
     std::printf("\n");
   }
@@ -164,8 +173,8 @@ void Simulate(const SimulateOptions& options, const GlobalOptions& global) {
     return;
   }
   if (global.quiet) return;
-  std::printf("model %s, %s face, true point (%.9f, %.9f, %.9f) m\n", model->name, FaceName(face),
-              point[0], point[1], point[2]);
+  std::printf("model %s, %s face, true point (%.9f, %.9f, %.9f) m\n", model->name, FaceName(face), point[0],
+              point[1], point[2]);
   std::printf("error state:");
   bool any = false;
   for (int k = 0; k < model->num_params; ++k) {
@@ -185,20 +194,26 @@ void Simulate(const SimulateOptions& options, const GlobalOptions& global) {
 }  // namespace
 
 void AddSimulateCommand(CLI::App& app, GlobalOptions& global) {
-  auto* command = app.add_subcommand(
-      "simulate", "Readings a tracker with a given error state shows at a point, the coordinates it "
-                  "reports with its nominal model, and the coordinate error");
+  auto* command =
+      app.add_subcommand("simulate",
+                         "Readings a tracker with a given error state shows at a point, the coordinates it "
+                         "reports with its nominal model, and the coordinate error");
   auto options = std::make_shared<SimulateOptions>();
-  command->add_option("--model", options->model, "Model (vlt model list): a tracker, or a custom model "
-                                                  "(then: its outputs and sensitivities at the inputs given)")->required();
-  command->add_option("--point", options->point, "Tracker models: true reflector centre X,Y,Z in the tracker frame "
-                                                  "(m, or with units: 2m,1m,500mm)");
+  command
+      ->add_option("--model", options->model,
+                   "Model (vlt model list): a tracker, or a custom model "
+                   "(then: its outputs and sensitivities at the inputs given)")
+      ->required();
+  command->add_option("--point", options->point,
+                      "Tracker models: true reflector centre X,Y,Z in the tracker frame "
+                      "(m, or with units: 2m,1m,500mm)");
   command->add_option("--face", options->face, "front (elevation in [-90, 90] deg) or back (A+180, 180-E)");
   command->add_option("assignments", options->assignments,
                       "Error parameters PARAMETER=VALUE with units, e.g. tmv=5um rmv=1arcsec mu=2ppm; "
                       "a custom model's inputs INPUT=VALUE");
-  command->footer("Exit status: 0 success, 2 bad input or a point where the readings are undefined "
-                  "(on the vertical axis). Parameters: vlt model show NAME, docs/models.md.");
+  command->footer(
+      "Exit status: 0 success, 2 bad input or a point where the readings are undefined "
+      "(on the vertical axis). Parameters: vlt model show NAME, docs/models.md.");
   command->callback([options, &global] { Simulate(*options, global); });
 }
 

@@ -22,15 +22,15 @@ std::string ShortenMessage(const std::string& message);
 // first one is an InputError instead (exit 2, nothing computed or written).
 void EmitWarnings(const std::vector<std::string>& warnings, const GlobalOptions& global);
 
-void AddModelCommand(CLI::App& app, GlobalOptions& global);     // vlt model list|show NAME
-void AddSimulateCommand(CLI::App& app, GlobalOptions& global);  // vlt simulate ...
-void AddRunCommand(CLI::App& app, GlobalOptions& global);       // vlt run JOB.toml [-o DIR]
-void AddDemoCommand(CLI::App& app, GlobalOptions& global);      // vlt demo (also: bare `vlt`)
-void AddMapCommand(CLI::App& app, GlobalOptions& global);       // vlt map JOB.toml ...
-void AddPlanCommand(CLI::App& app, GlobalOptions& global);      // vlt plan JOB.toml [-o DIR]
-void AddTestCommand(CLI::App& app, GlobalOptions& global);      // vlt test FILE.toml [-o DIR]
-void AddCalibrateCommand(CLI::App& app, GlobalOptions& global); // vlt calibrate FILE.toml [-o DIR]
-void AddNetworkCommand(CLI::App& app, GlobalOptions& global);   // vlt network FILE.toml [-o DIR]
+void AddModelCommand(CLI::App& app, GlobalOptions& global);      // vlt model list|show NAME
+void AddSimulateCommand(CLI::App& app, GlobalOptions& global);   // vlt simulate ...
+void AddRunCommand(CLI::App& app, GlobalOptions& global);        // vlt run JOB.toml [-o DIR]
+void AddDemoCommand(CLI::App& app, GlobalOptions& global);       // vlt demo (also: bare `vlt`)
+void AddMapCommand(CLI::App& app, GlobalOptions& global);        // vlt map JOB.toml ...
+void AddPlanCommand(CLI::App& app, GlobalOptions& global);       // vlt plan JOB.toml [-o DIR]
+void AddTestCommand(CLI::App& app, GlobalOptions& global);       // vlt test FILE.toml [-o DIR]
+void AddCalibrateCommand(CLI::App& app, GlobalOptions& global);  // vlt calibrate FILE.toml [-o DIR]
+void AddNetworkCommand(CLI::App& app, GlobalOptions& global);    // vlt network FILE.toml [-o DIR]
 
 // Runs the embedded default job into ./vlt-demo/ (what bare `vlt` does). Returns exit status.
 int RunDemo(const GlobalOptions& global);

@@ -74,11 +74,12 @@ int ReportFailure(const std::exception_ptr& failure) {
 int main(int argc, char** argv) {
   // MPI_Init / MPI_Finalize when built with -DVLT_MPI=ON and started by mpirun (docs/mpi.md).
   vlt::ranks::Session ranks(&argc, &argv);
-  CLI::App app{"vlt — the Virtual Laser Tracker: GUM and Monte Carlo uncertainty of laser "
-               "tracker measurements from an explicit model of the instrument"};
+  CLI::App app{
+      "vlt — the Virtual Laser Tracker: GUM and Monte Carlo uncertainty of laser "
+      "tracker measurements from an explicit model of the instrument"};
   // Version, the commit the build was configured from, and the build type (runtime/CMakeLists.txt).
-  app.set_version_flag("--version", std::string("vlt ") + VLT_VERSION + " (commit " + vlt::VltCommit() + ", " +
-                                        vlt::VltBuildType() + " build)");
+  app.set_version_flag("--version", std::string("vlt ") + VLT_VERSION + " (commit " + vlt::VltCommit() +
+                                        ", " + vlt::VltBuildType() + " build)");
   vlt::cli::GlobalOptions global;
   app.add_flag("-q,--quiet", global.quiet, "Print nothing but errors");
   app.add_flag("--json", global.json, "Print results as JSON where a command prints results");

@@ -15,11 +15,11 @@
 namespace vlt::cli {
 
 struct RunCliOptions {
-  std::string output_dir;                  // -o; "" = the default
+  std::string output_dir;  // -o; "" = the default
   bool no_mcm = false;
-  std::int64_t trials = -1;                // -1: from the job
+  std::int64_t trials = -1;  // -1: from the job
   bool adaptive = false;
-  std::string seed;                        // "": from the job; else an integer 0 .. 2^64-1
+  std::string seed;  // "": from the job; else an integer 0 .. 2^64-1
   int threads = -1;
 };
 
@@ -36,8 +36,9 @@ void PrintWritten(const std::vector<std::pair<std::string, std::string>>& files,
                   const std::filesystem::path& dir, const GlobalOptions& global);
 
 // Adds -o, --no-mcm, --trials, --adaptive, --seed, --threads to a subcommand.
-void AddRunOptions(CLI::App& command, RunCliOptions& options,
-                   const std::string& default_output = "[output] directory of the job, else ./vlt-out/<job name>");
+void AddRunOptions(
+    CLI::App& command, RunCliOptions& options,
+    const std::string& default_output = "[output] directory of the job, else ./vlt-out/<job name>");
 
 // Where the outputs of `job` go: -o, else [output] directory (relative to the job file), else
 // `fallback` (e.g. ./vlt-out/<job name>).

@@ -16,7 +16,8 @@
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view text(reinterpret_cast<const char*>(data), size);
   try {
-    const vlt::CustomJob job = vlt::ParseCustomJob(text, "fuzz.toml", std::filesystem::path("/nonexistent-vlt-fuzz"));
+    const vlt::CustomJob job =
+        vlt::ParseCustomJob(text, "fuzz.toml", std::filesystem::path("/nonexistent-vlt-fuzz"));
     vlt::RunOptions options;
     options.monte_carlo = false;
     options.threads = 1;
@@ -26,11 +27,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
           !std::isfinite(o.gum.second_order_variance)) {
         std::abort();
       }
-      if (o.conformity && o.conformity->probability_gum && !std::isfinite(*o.conformity->probability_gum)) std::abort();
+      if (o.conformity && o.conformity->probability_gum && !std::isfinite(*o.conformity->probability_gum))
+        std::abort();
     }
     (void)vlt::ResultFiles(results);  // the writers too
   } catch (const vlt::InputError&) {
-  } catch (const vlt::NumericalError&) {
-  }
+  } catch (const vlt::NumericalError&) {}
   return 0;
 }

@@ -16,7 +16,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     vlt::Job job = vlt::ParseJob(text, "fuzz.toml", std::filesystem::path("/nonexistent-vlt-fuzz"));
     (void)job;
   } catch (const vlt::InputError&) {
-  } catch (const vlt::NumericalError&) {
-  }
+  } catch (const vlt::NumericalError&) {}
   return 0;
 }

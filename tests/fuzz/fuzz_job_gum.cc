@@ -28,7 +28,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       if (!t.gum.value.allFinite() || !t.gum.covariance.allFinite()) std::abort();
     }
   } catch (const vlt::InputError&) {
-  } catch (const vlt::NumericalError&) {
-  }
+  } catch (const vlt::NumericalError&) {}
   return 0;
 }

@@ -46,11 +46,11 @@ void Print(const std::string& title, const McmResult& r) {
   for (const McmOutputResult& o : r.outputs) {
     text += o.name;
     text += '\n';
-    for (double v : {o.value_at_estimates, o.mean, o.u, o.symmetric.low, o.symmetric.high, o.shortest.low,
-                     o.shortest.high, o.accuracy.s_mean, o.accuracy.s_u, o.accuracy.s_low, o.accuracy.s_high,
-                     o.accuracy.delta, o.conformity_probability.value_or(-1.0), o.histogram.low,
-                     o.histogram.width, static_cast<double>(o.histogram.below),
-                     static_cast<double>(o.histogram.above)}) {
+    for (double v :
+         {o.value_at_estimates, o.mean, o.u, o.symmetric.low, o.symmetric.high, o.shortest.low,
+          o.shortest.high, o.accuracy.s_mean, o.accuracy.s_u, o.accuracy.s_low, o.accuracy.s_high,
+          o.accuracy.delta, o.conformity_probability.value_or(-1.0), o.histogram.low, o.histogram.width,
+          static_cast<double>(o.histogram.below), static_cast<double>(o.histogram.above)}) {
       Add(" ", v);
     }
     for (std::int64_t c : o.histogram.counts) Add(" bin", static_cast<double>(c));
@@ -70,7 +70,6 @@ void Print(const std::string& title, const McmResult& r) {
     Add(" region", v.has_region ? v.coverage_factor : -1.0);
   }
 }
-
 
 // The spec's estimates, u and distributions (not inlined: GCC 12's -Wrestrict false positive
 // on std::string assignments inlined into main).

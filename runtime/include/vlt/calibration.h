@@ -50,7 +50,7 @@ struct TargetReading {
   std::string target;
   Face face = Face::kFront;
   Eigen::Vector3d readings = Eigen::Vector3d::Zero();  // range [m], azimuth [rad], elevation [rad]
-  std::string where;                                    // "<file>: line N" for messages
+  std::string where;                                   // "<file>: line N" for messages
 };
 
 // A calibrated reference length (scale bar) measured in several positions; each position names
@@ -58,10 +58,10 @@ struct TargetReading {
 // uncertainty is common to all positions (as it physically is).
 struct ReferenceBar {
   std::string name;
-  double length = 0.0;        // calibrated length L_cal [m]
-  double u = 0.0;             // standard uncertainty of L_cal [m]
-  double u_position = 0.0;    // reproducibility of the length between positions (nest seating,
-                              // sag, temperature) [m]; > 0
+  double length = 0.0;      // calibrated length L_cal [m]
+  double u = 0.0;           // standard uncertainty of L_cal [m]
+  double u_position = 0.0;  // reproducibility of the length between positions (nest seating,
+                            // sag, temperature) [m]; > 0
   std::vector<std::pair<std::string, std::string>> positions;  // (end a, end b) targets
   std::string where;
 };
@@ -70,23 +70,23 @@ struct ReferenceBar {
 // ranging test. Independent between entries (document correlated references as a bar instead).
 struct ReferenceDistance {
   std::string from, to;
-  double length = 0.0;        // [m]
-  double u = 0.0;             // [m], > 0
+  double length = 0.0;  // [m]
+  double u = 0.0;       // [m], > 0
   std::string where;
 };
 
 struct CalibrationData {
-  const ModelInfo* model = nullptr;       // a tracker model
+  const ModelInfo* model = nullptr;  // a tracker model
   // Prior of every model parameter (model order): estimate and standard uncertainty (spec
   // defaults or the job's [tracker.parameters]). u = 0: held exactly at its estimate.
   std::vector<UncertainInput> priors;
-  Eigen::MatrixXd prior_correlation;      // empty = independent, else num_params^2
-  std::vector<bool> fit;                  // per parameter: may the data determine it (default all)
-  ReadingNoise noise;                     // of every reading
+  Eigen::MatrixXd prior_correlation;  // empty = independent, else num_params^2
+  std::vector<bool> fit;              // per parameter: may the data determine it (default all)
+  ReadingNoise noise;                 // of every reading
   std::vector<TargetReading> readings;
   std::vector<ReferenceBar> bars;
   std::vector<ReferenceDistance> distances;
-  std::string where;                      // the file, for messages
+  std::string where;  // the file, for messages
 };
 
 struct CalibrationOptions {
@@ -95,15 +95,15 @@ struct CalibrationOptions {
   double hold_ratio = 1.0;
   // |w| above this flags an observation as an outlier (Baarda: 3.29 = two-sided alpha 0.001).
   double outlier_limit = 3.29;
-  double coverage_probability = 0.95;     // k for the expanded uncertainties printed
+  double coverage_probability = 0.95;  // k for the expanded uncertainties printed
   int max_iterations = 100;
 };
 
 enum class ParameterStatus {
-  kIdentified,      // determined by the data (alone)
-  kPartly,          // lies partly in a held combination: its u mixes data and prior
-  kHeld,            // not determined by the data: held at its prior
-  kFixed,           // prior u = 0, or excluded from the fit by the user: prior kept
+  kIdentified,  // determined by the data (alone)
+  kPartly,      // lies partly in a held combination: its u mixes data and prior
+  kHeld,        // not determined by the data: held at its prior
+  kFixed,       // prior u = 0, or excluded from the fit by the user: prior kept
 };
 const char* ParameterStatusName(ParameterStatus status);  // "identified", "partly", "held", "fixed"
 
@@ -111,7 +111,7 @@ struct CalibratedParameter {
   std::string name, unit, quantity;
   double prior_estimate = 0.0, prior_u = 0.0;  // SI
   double estimate = 0.0, u = 0.0;              // SI; u includes held combinations' priors
-  double u_data = 0.0;       // standard uncertainty from the data alone (identified part); 0 if none
+  double u_data = 0.0;  // standard uncertainty from the data alone (identified part); 0 if none
   ParameterStatus status = ParameterStatus::kFixed;
 };
 
@@ -121,32 +121,32 @@ struct CalibratedParameter {
 struct HeldCombination {
   std::vector<std::pair<std::string, double>> terms;  // parameters with |coefficient| >= 0.05 max
   double ratio = 0.0;
-  std::string description;                            // "lam + srr (ratio inf)"
+  std::string description;  // "lam + srr (ratio inf)"
 };
 
 struct CalibratedTarget {
   std::string name;
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();   // tracker frame [m]
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  // tracker frame [m]
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   int readings = 0;
 };
 
 struct CalibratedBar {
   std::string name;
-  double length = 0.0, u = 0.0;                          // adjusted length [m]
+  double length = 0.0, u = 0.0;  // adjusted length [m]
 };
 
 // One scalar observation's residual at the solution.
 struct CalibrationResidual {
-  std::string observation;   // "T3 front range", "bar1 position 2", "distance R0-R4"
-  std::string where;         // file and line / key
-  std::string unit;          // "m" or "rad"
-  double residual = 0.0;     // observed - adjusted, in `unit`
-  double u = 0.0;            // standard uncertainty of the observation, in `unit`
-  double normalised = 0.0;   // residual / u
-  double redundancy = 0.0;   // r_ii = 1 - h_ii, 0..1 (the observation's share of the dof)
-  double w = 0.0;            // normalised / sqrt(redundancy): ~N(0,1) without gross errors
-  bool outlier = false;      // |w| > outlier_limit
+  std::string observation;  // "T3 front range", "bar1 position 2", "distance R0-R4"
+  std::string where;        // file and line / key
+  std::string unit;         // "m" or "rad"
+  double residual = 0.0;    // observed - adjusted, in `unit`
+  double u = 0.0;           // standard uncertainty of the observation, in `unit`
+  double normalised = 0.0;  // residual / u
+  double redundancy = 0.0;  // r_ii = 1 - h_ii, 0..1 (the observation's share of the dof)
+  double w = 0.0;           // normalised / sqrt(redundancy): ~N(0,1) without gross errors
+  bool outlier = false;     // |w| > outlier_limit
 };
 
 struct CalibrationResult {
@@ -158,21 +158,21 @@ struct CalibrationResult {
   // reduced, whitened Jacobian (descending) and the condition number s_max / s_min.
   std::vector<std::string> free_parameters;
   Eigen::VectorXd singular_values;
-  Eigen::MatrixXd singular_vectors;             // columns: v_i over free_parameters
+  Eigen::MatrixXd singular_vectors;  // columns: v_i over free_parameters
   double condition_number = 0.0;
   std::vector<HeldCombination> held;
   std::vector<CalibratedTarget> targets;
   std::vector<CalibratedBar> bars;
   std::vector<CalibrationResidual> residuals;
-  int observations = 0;                         // scalar observations (incl. bar calibrations)
-  int unknowns = 0;                             // fitted: determined combinations + nuisance
+  int observations = 0;  // scalar observations (incl. bar calibrations)
+  int unknowns = 0;      // fitted: determined combinations + nuisance
   int dof = 0;
   double chi2 = 0.0;
-  double birge_ratio = 0.0;                     // sqrt(chi2 / dof)
-  double p_value = 0.0;                         // P(chi2_dof >= chi2)
+  double birge_ratio = 0.0;  // sqrt(chi2 / dof)
+  double p_value = 0.0;      // P(chi2_dof >= chi2)
   int outliers = 0;
   int iterations = 0;
-  double k = 0.0;                               // coverage factor of the expanded values printed
+  double k = 0.0;  // coverage factor of the expanded values printed
 };
 
 // Checks the data (unknown targets, too few observations) and identifies the parameters.
@@ -196,15 +196,15 @@ struct StandardTest {
   // Tracker frame, true positions [m]: length and ranging: the two ends (ranging: a = the
   // interferometer's home position); two-face: the target a (b unused).
   Eigen::Vector3d a = Eigen::Vector3d::Zero(), b = Eigen::Vector3d::Zero();
-  Face face = Face::kFront;   // length and ranging tests
-  std::string bar;            // length tests: the bar (TestLayout::bars) that realises it
-  double reference_u = 0.0;   // ranging: u of the interferometer's distance [m]
+  Face face = Face::kFront;  // length and ranging tests
+  std::string bar;           // length tests: the bar (TestLayout::bars) that realises it
+  double reference_u = 0.0;  // ranging: u of the interferometer's distance [m]
   std::string where;
 };
 
 struct TestLayout {
   std::string name, source, where;
-  std::vector<ReferenceBar> bars;      // length, u, u_position (positions are filled by the tests)
+  std::vector<ReferenceBar> bars;  // length, u, u_position (positions are filled by the tests)
   std::vector<StandardTest> tests;
 };
 
@@ -212,8 +212,8 @@ struct TestLayout {
 // targets (the form of manufacturers' data sheets, e.g. 15 um + 6 um/m). set = false: no verdict.
 struct Mpe {
   bool set = false;
-  double a = 0.0;   // m
-  double b = 0.0;   // m/m
+  double a = 0.0;  // m
+  double b = 0.0;  // m/m
 };
 
 struct TestSettings {
@@ -224,13 +224,13 @@ struct TestSettings {
 struct TestResult {
   std::string name;
   TestKind kind = TestKind::kLength;
-  double reference = 0.0;          // reference length [m] (0 for two-face)
-  double range_max = 0.0;          // largest range to the test's targets [m]
+  double reference = 0.0;  // reference length [m] (0 for two-face)
+  double range_max = 0.0;  // largest range to the test's targets [m]
   // Length and ranging: the length error E = |p_b - p_a| - L (reported minus reference) [m].
   // Two-face: the two-face error |p_back - p_front| [m], with its components along the line of
   // sight (radial) and perpendicular to it (transverse).
   double error = 0.0;
-  Eigen::Vector3d two_face = Eigen::Vector3d::Zero();   // p_back - p_front, tracker frame [m]
+  Eigen::Vector3d two_face = Eigen::Vector3d::Zero();  // p_back - p_front, tracker frame [m]
   double two_face_radial = 0.0, two_face_transverse = 0.0;
   // Uncertainty of the test itself: the reading noise and the reference standard (JCGM 100,
   // linear propagation; two-face: along (p_back - p_front)/|...|, or the largest axis at 0).
@@ -238,8 +238,8 @@ struct TestResult {
   // Spread of the error that the parameters' standard uncertainties imply (what a tracker known
   // to those uncertainties could show).
   double u_parameters = 0.0;
-  double mpe = 0.0;                // 0 when no MPE is set for the kind
-  std::string verdict;             // "pass", "fail", "" (no MPE)
+  double mpe = 0.0;     // 0 when no MPE is set for the kind
+  std::string verdict;  // "pass", "fail", "" (no MPE)
   // d E / d p_k per model parameter (SI: m/m, m/rad, m/1); two-face: |d (p_back - p_front) / d p_k|.
   Eigen::VectorXd sensitivity;
 };
@@ -273,7 +273,7 @@ struct TestJob {
   MeasurementSetup tracker;
   TestLayout layout;
   TestSettings settings;
-  bool simulate = false;          // [tests.simulate] present: write simulated calibration data
+  bool simulate = false;  // [tests.simulate] present: write simulated calibration data
   std::uint64_t seed = 1;
   std::vector<std::string> warnings;  // implausible but legal values (vlt/job.h Job::warnings)
 };
@@ -285,9 +285,9 @@ struct CalibrationJob {
   std::string file, name, instrument;
   CalibrationData data;
   CalibrationOptions options;
-  std::vector<std::string> data_files;   // the job file and every CSV it read (provenance)
-  std::string output_directory;          // [output] directory, "" = default
-  std::vector<std::string> warnings;     // implausible but legal values (vlt/job.h Job::warnings)
+  std::vector<std::string> data_files;  // the job file and every CSV it read (provenance)
+  std::string output_directory;         // [output] directory, "" = default
+  std::vector<std::string> warnings;    // implausible but legal values (vlt/job.h Job::warnings)
 };
 CalibrationJob LoadCalibrationJob(const std::string& path);
 
@@ -296,8 +296,8 @@ CalibrationJob LoadCalibrationJob(const std::string& path);
 // `[tracker] calibration = "<file>"`.
 
 struct CalibrationProvenance {
-  std::string instrument;                  // free text: make, model, serial number
-  std::string created;                     // ISO 8601 UTC time of the calibration run
+  std::string instrument;  // free text: make, model, serial number
+  std::string created;     // ISO 8601 UTC time of the calibration run
   std::string vlt_version;
   std::vector<std::pair<std::string, std::string>> data_files;  // (file, SHA-256 hex)
 };
@@ -310,10 +310,10 @@ struct LoadedCalibration {
   std::string model;
   std::string instrument;
   std::string created;
-  std::vector<std::string> names;          // parameters, model order
-  std::vector<double> estimates, u;        // SI
+  std::vector<std::string> names;    // parameters, model order
+  std::vector<double> estimates, u;  // SI
   std::vector<std::string> status;
-  Eigen::MatrixXd correlation;             // names.size()^2
+  Eigen::MatrixXd correlation;  // names.size()^2
 };
 // Reads a calibration file; InputError "<file>: <key>: <problem>" when it is not one.
 LoadedCalibration LoadCalibrationFile(const std::string& path);
@@ -333,8 +333,7 @@ using Files = std::vector<std::pair<std::string, std::string>>;
 
 // tests.csv, sensitivity.csv, results.json, report.html; with simulated data also
 // simulated_readings.csv and simulated_calibration.toml (a `vlt calibrate` input).
-Files TestFiles(const TestJob& job, const std::vector<TestResult>& results,
-                const CalibrationData* simulated);
+Files TestFiles(const TestJob& job, const std::vector<TestResult>& results, const CalibrationData* simulated);
 
 // calibration.toml (the calibration file), parameters.csv, correlation.csv,
 // identifiability.csv, targets.csv, residuals.csv, results.json, report.html.

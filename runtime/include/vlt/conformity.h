@@ -22,9 +22,9 @@ struct ConformityDecision {
   //   "does not conform"  y < lower - U or y > upper + U (non-conformity proved)
   //   "undetermined"      otherwise: the uncertainty range straddles a tolerance limit.
   std::string verdict;
-  double guard_band = 0.0;                 // U, same unit as y
-  double acceptance_lower = 0.0;           // lower + U (-inf when one-sided)
-  double acceptance_upper = 0.0;           // upper - U (+inf when one-sided)
+  double guard_band = 0.0;        // U, same unit as y
+  double acceptance_lower = 0.0;  // lower + U (-inf when one-sided)
+  double acceptance_upper = 0.0;  // upper - U (+inf when one-sided)
   // JCGM 106 7.3.2: probability of conformity p_c = P(lower <= Y <= upper) for the normal PDF
   // N(y, u^2) of the GUM (u = 0: 1 or 0), or, with finite effective degrees of freedom, the
   // scaled and shifted t_nu_eff(y, u^2) (JCGM 106 7.3.3; consistent with U = t_p(nu_eff) u);

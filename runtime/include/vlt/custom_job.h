@@ -29,8 +29,8 @@ struct CustomInputSource {
   // Type A (JCGM 100 4.2): n observations q_k, mean q = sum q_k / n (4.2.1), experimental
   // standard deviation s(q_k) (4.2.2), u = s(q_k) / sqrt(n) (4.2.3), nu = n - 1 (G.3.3).
   int observations = 0;
-  double standard_deviation = 0.0;    // s(q_k), the input's unit
-  std::string from;                   // "job.toml: inputs.V.observations" or "data.csv: column V"
+  double standard_deviation = 0.0;  // s(q_k), the input's unit
+  std::string from;                 // "job.toml: inputs.V.observations" or "data.csv: column V"
 };
 
 struct CustomJob {
@@ -38,7 +38,7 @@ struct CustomJob {
   std::filesystem::path base_dir;
   std::string name;
   std::string description;
-  const ModelInfo* model = nullptr;   // kind "custom"
+  const ModelInfo* model = nullptr;  // kind "custom"
   // One per model input, spec order. For the GUM: estimate and standard uncertainty u. For Monte
   // Carlo the same, except Type A inputs (mcm_inputs below).
   std::vector<UncertainInput> inputs;
@@ -49,13 +49,13 @@ struct CustomJob {
   // (simultaneous_mcm_dof; a covariance exists for n >= N + 3).
   std::vector<UncertainInput> mcm_inputs;
   std::vector<CustomInputSource> sources;
-  std::vector<double> dof;            // nu per input (infinity: known exactly, JCGM 100 G.4.2)
-  Eigen::MatrixXd correlation;        // inputs x inputs; identity when none given
+  std::vector<double> dof;      // nu per input (infinity: known exactly, JCGM 100 G.4.2)
+  Eigen::MatrixXd correlation;  // inputs x inputs; identity when none given
   // Inputs of the same simultaneous observations (JCGM 100 5.2.3, H.2): their correlation is
   // the sample one (C.3.6 / eq. 17), one Welch-Satterthwaite component, one multivariate t.
   std::vector<std::vector<int>> simultaneous;
-  std::vector<double> simultaneous_mcm_dof;   // nu = n - N of each group's multivariate t
-  std::vector<std::optional<Tolerance>> tolerances;   // per output
+  std::vector<double> simultaneous_mcm_dof;          // nu = n - N of each group's multivariate t
+  std::vector<std::optional<Tolerance>> tolerances;  // per output
   MonteCarloSettings monte_carlo;
   OutputSettings output;
   std::vector<std::string> warnings;

@@ -94,7 +94,7 @@ class Distribution {
   double estimate_;
   double u_;
   double shape_;
-  double scale_;   // a, sqrt(6)u, sqrt(2)u, w, t scale s; u for normal
+  double scale_;  // a, sqrt(6)u, sqrt(2)u, w, t scale s; u for normal
 };
 
 // Standard normal CDF Phi(z) = erfc(-z / sqrt 2) / 2 and its inverse (|relative error| ~1e-15).

@@ -63,7 +63,7 @@ struct FitResult {
   // (Monte Carlo can). Ties of the extreme residuals are resolved by the first point reaching
   // the extreme (a one-sided derivative), see docs/tasks.md.
   std::vector<bool> differentiable;
-  int iterations = 0;                   // Levenberg-Marquardt + Newton iterations (sphere, circle), else 0
+  int iterations = 0;  // Levenberg-Marquardt + Newton iterations (sphere, circle), else 0
 };
 
 // Each function throws InputError "<where>: <kind> needs at least M points, got N" (distance,
@@ -74,40 +74,40 @@ struct FitResult {
 // column (a std::span<const Eigen::Vector3d> maps to it with Eigen::Map<const Eigen::Matrix3Xd>).
 
 // |p1 - p0| of exactly two points.
-FitResult FitDistance(const Eigen::Ref<const Eigen::Matrix3Xd>& points,
-                      const FitOptions& options = {}, std::string_view where = "task");
+FitResult FitDistance(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options = {},
+                      std::string_view where = "task");
 
 // Two-face difference p1 - p0 (dx, dy, dz; second point minus first) of exactly two points: the
 // same nominal point measured in the front face (first) and in the back face (second); the order
 // is the caller's, the faces are not checked. Linear in the points, G = [-I, I]: differentiable
 // everywhere, also when the two points coincide (where FitDistance refuses). The B89.4.19
 // two-face error is |p1 - p0| (docs/tasks.md: why the vector is reported instead).
-FitResult FitTwoFace(const Eigen::Ref<const Eigen::Matrix3Xd>& points,
-                     const FitOptions& options = {}, std::string_view where = "task");
+FitResult FitTwoFace(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options = {},
+                     std::string_view where = "task");
 
 // Total least squares plane (minimises the sum of squared orthogonal distances): through the
 // centroid, normal = eigenvector of the smallest eigenvalue of the centred scatter matrix.
 // flatness = max - min signed orthogonal residual; rms = sqrt(mean squared residual).
-FitResult FitPlane(const Eigen::Ref<const Eigen::Matrix3Xd>& points,
-                   const FitOptions& options = {}, std::string_view where = "task");
+FitResult FitPlane(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options = {},
+                   std::string_view where = "task");
 
 // Least-squares sphere (minimises sum (|p_i - centre| - radius)^2; algebraic start, then
 // Levenberg-Marquardt). rms = sqrt(mean squared radial residual).
-FitResult FitSphere(const Eigen::Ref<const Eigen::Matrix3Xd>& points,
-                    const FitOptions& options = {}, std::string_view where = "task");
+FitResult FitSphere(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options = {},
+                    std::string_view where = "task");
 
 // 3-D circle in two steps: the total least squares plane (as FitPlane), then the least-squares
 // circle of the points projected into that plane (minimises sum (|a_i - centre| - radius)^2 in
 // the plane). normal = the plane's normal; rms = in-plane radial residual.
-FitResult FitCircle(const Eigen::Ref<const Eigen::Matrix3Xd>& points,
-                    const FitOptions& options = {}, std::string_view where = "task");
+FitResult FitCircle(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options = {},
+                    std::string_view where = "task");
 
 // Total least squares line: through the centroid, direction = eigenvector of the largest
 // eigenvalue of the centred scatter matrix. straightness = 2 x the largest perpendicular distance
 // of a point from the fitted line (diameter of the cylinder about the least-squares line that
 // holds every point); rms = sqrt(mean squared perpendicular distance).
-FitResult FitLine(const Eigen::Ref<const Eigen::Matrix3Xd>& points,
-                  const FitOptions& options = {}, std::string_view where = "task");
+FitResult FitLine(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options = {},
+                  std::string_view where = "task");
 
 // Dispatches on kind.
 FitResult FitTask(TaskKind kind, const Eigen::Ref<const Eigen::Matrix3Xd>& points,

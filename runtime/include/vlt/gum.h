@@ -78,28 +78,28 @@ struct PointReadings {
 
 // One row of an uncertainty budget (JCGM 100 8, 7.2.5-7.2.6) for the 3 coordinates of a point.
 struct BudgetRow {
-  std::string input;             // "range", "azimuth", "elevation", a parameter name,
-                                 // "environment.temperature", "pose.rx", ..., or "correlations"
-  std::string group;             // "reading", "parameter", "environment", "pose", "thermal",
-                                 // or "correlation" for the correlation row
-  std::string input_unit;        // unit of estimate and u ("" for the correlation row)
+  std::string input;       // "range", "azimuth", "elevation", a parameter name,
+                           // "environment.temperature", "pose.rx", ..., or "correlations"
+  std::string group;       // "reading", "parameter", "environment", "pose", "thermal",
+                           // or "correlation" for the correlation row
+  std::string input_unit;  // unit of estimate and u ("" for the correlation row)
   double estimate = 0.0;
-  double u = 0.0;                // standard uncertainty of the input (0 for the correlation row)
+  double u = 0.0;  // standard uncertainty of the input (0 for the correlation row)
   Eigen::Vector3d sensitivity = Eigen::Vector3d::Zero();  // c = d y_axis / d input (part frame)
   std::string sensitivity_unit;  // e.g. "m/rad", "m/m", "m/K", "m/Pa" (SensitivityUnit)
   Eigen::Vector3d contribution = Eigen::Vector3d::Zero();  // c * u per axis, signed [m];
-                                 // correlation row: signed sqrt(|term|) per axis
-  Eigen::Vector3d variance = Eigen::Vector3d::Zero();  // (c u)^2 per axis [m^2]; correlation
-                                 // row: 2 sum_{i<j} c_i c_j u_i u_j r_ij (may be negative)
-  Eigen::Vector3d share = Eigen::Vector3d::Zero();     // variance / u^2(y_axis), 0..1 (the
-                                 // correlation row may be negative); each axis sums to 1
-  double share_total = 0.0;      // sum of variance over axes / trace(U_y); rows sorted by it
+                                                           // correlation row: signed sqrt(|term|) per axis
+  Eigen::Vector3d variance = Eigen::Vector3d::Zero();      // (c u)^2 per axis [m^2]; correlation
+      // row: 2 sum_{i<j} c_i c_j u_i u_j r_ij (may be negative)
+  Eigen::Vector3d share = Eigen::Vector3d::Zero();  // variance / u^2(y_axis), 0..1 (the
+                                                    // correlation row may be negative); each axis sums to 1
+  double share_total = 0.0;  // sum of variance over axes / trace(U_y); rows sorted by it
 };
 
 // Coverage region (JCGM 102 6.5.2.3): {y' : (y'-y)^T U_y^-1 (y'-y) <= k^2}, k^2 = chi^2_3(p).
 struct CoverageEllipsoid {
-  double k = 0.0;                                   // sqrt(chi^2_3(p))
-  Eigen::Vector3d semi_axes = Eigen::Vector3d::Zero();  // k sqrt(eigenvalues of U_y), descending [m]
+  double k = 0.0;                                            // sqrt(chi^2_3(p))
+  Eigen::Vector3d semi_axes = Eigen::Vector3d::Zero();       // k sqrt(eigenvalues of U_y), descending [m]
   Eigen::Matrix3d directions = Eigen::Matrix3d::Identity();  // column j: unit axis of semi_axes(j)
 };
 
@@ -119,7 +119,7 @@ struct LineOfSightSplit {
 
 struct PointUncertainty {
   std::string name;
-  Eigen::Vector3d readings = Eigen::Vector3d::Zero();   // range, azimuth, elevation as given
+  Eigen::Vector3d readings = Eigen::Vector3d::Zero();  // range, azimuth, elevation as given
   // Tracker frame: output of the tracker model (readings, params, environment) before pose and
   // thermal. Its covariance has the contributions of readings, params and environment only.
   Eigen::Vector3d tracker = Eigen::Vector3d::Zero();
@@ -130,13 +130,13 @@ struct PointUncertainty {
   // when thermal is enabled; equal to the tracker frame when neither is enabled). All inputs.
   Eigen::Vector3d part = Eigen::Vector3d::Zero();
   Eigen::Matrix3d cov_part = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d u_part = Eigen::Vector3d::Zero();     // standard uncertainty per axis
-  double k = 0.0;                                       // NormalCoverageFactor(p)
-  Eigen::Vector3d U_part = Eigen::Vector3d::Zero();     // expanded, k * u_part
+  Eigen::Vector3d u_part = Eigen::Vector3d::Zero();  // standard uncertainty per axis
+  double k = 0.0;                                    // NormalCoverageFactor(p)
+  Eigen::Vector3d U_part = Eigen::Vector3d::Zero();  // expanded, k * u_part
   LineOfSightSplit los_part;
-  CoverageEllipsoid ellipsoid;                          // of cov_part
-  std::vector<BudgetRow> budget;                        // part frame; empty if !options.budgets
-  std::string correlation_handling;                     // how correlated inputs enter the budget
+  CoverageEllipsoid ellipsoid;       // of cov_part
+  std::vector<BudgetRow> budget;     // part frame; empty if !options.budgets
+  std::string correlation_handling;  // how correlated inputs enter the budget
   // Non-linearity (CheckSecondOrder; zero until it ran): the second-order variance per part-frame
   // coordinate (JCGM 100 5.1.2 note) and its ratio to the first-order u^2; gum_reliable = false
   // when a ratio exceeds the threshold: the linearised u is then not to be trusted here.
@@ -166,16 +166,14 @@ std::vector<PointUncertainty> PropagatePoints(const MeasurementModel& model,
 // for each reading triple, no budgets, no names (the singular-point message names the index).
 std::vector<Eigen::Vector3d> ExpandedUncertaintyField(const MeasurementModel& model,
                                                       std::span<const Eigen::Vector3d> readings,
-                                                      double coverage_probability = 0.95,
-                                                      int threads = 0);
+                                                      double coverage_probability = 0.95, int threads = 0);
 
 // Lean path for the full covariance: U_y (3 x 3, part frame, m^2) of each reading triple at the
 // shared estimates, JCGM 100 5.2.2 in matrix form, as PropagatePoints' cov_part (to rounding:
 // the sums are formed in another order) without the per-point results around it. The points go
 // through the model 4 at a time in SIMD lanes (MeasurementModel::EvaluateWithJacobians).
 std::vector<Eigen::Matrix3d> CovarianceField(const MeasurementModel& model,
-                                             std::span<const Eigen::Vector3d> readings,
-                                             int threads = 0);
+                                             std::span<const Eigen::Vector3d> readings, int threads = 0);
 
 // What each source contributes to the map value |U| = k sqrt(trace U_y) (vlt map's per-source
 // layers, docs/gum.md "Sources of a map"). The columns of [J_r U_r^1/2 | J_s F] (F the factor of
@@ -258,8 +256,7 @@ void PropagateTaskCovariance(const MeasurementModel& model, std::span<const Poin
 
 // Part-frame estimates of the points (MeasurementModel::Evaluate at the shared estimates).
 std::vector<Eigen::Vector3d> PointEstimates(const MeasurementModel& model,
-                                            std::span<const PointReadings> points,
-                                            int threads = 0);
+                                            std::span<const PointReadings> points, int threads = 0);
 
 // ---------------------------------------------------------------------------------------------
 // Custom models (no readings; every input is an UncertainInput): the JCGM 100 law of
@@ -290,9 +287,9 @@ struct CustomOutput {
 
 struct CustomUncertainty {
   std::vector<CustomOutput> outputs;
-  Eigen::MatrixXd covariance;  // num_outputs x num_outputs
-  Eigen::MatrixXd correlation; // of the outputs (identity where a u is 0)
-  double k = 0.0;              // normal coverage factor (infinite degrees of freedom)
+  Eigen::MatrixXd covariance;   // num_outputs x num_outputs
+  Eigen::MatrixXd correlation;  // of the outputs (identity where a u is 0)
+  double k = 0.0;               // normal coverage factor (infinite degrees of freedom)
   // JCGM 102 6.5.2.3 coverage region of the output vector (>= 2 outputs): k = sqrt(chi2_m(p)).
   double region_k = 0.0;
   std::string correlation_handling;
@@ -314,8 +311,7 @@ struct InputDegreesOfFreedom {
 };
 
 CustomUncertainty PropagateCustom(const ModelInfo& model, std::span<const UncertainInput> inputs,
-                                  const Eigen::MatrixXd& correlation = {},
-                                  const GumOptions& options = {},
+                                  const Eigen::MatrixXd& correlation = {}, const GumOptions& options = {},
                                   const InputDegreesOfFreedom& degrees_of_freedom = {});
 
 }  // namespace vlt

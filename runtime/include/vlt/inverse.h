@@ -24,7 +24,7 @@ const char* FaceName(Face face);
 Face ParseFace(const char* text, const char* where);
 
 struct InverseOptions {
-  double tolerance = 1e-12;       // m: |forward(readings) - point| at convergence
+  double tolerance = 1e-12;  // m: |forward(readings) - point| at convergence
   int max_iterations = 50;
   // A point closer than this to the vertical (standing) axis has no defined azimuth: m.
   double min_horizontal_distance = 1e-6;

@@ -45,12 +45,12 @@ struct JobPoint {
 // JCGM 101 7.2 / 7.9: fixed number of trials or the adaptive procedure.
 struct MonteCarloSettings {
   bool enabled = true;
-  std::int64_t trials = 200000;       // fixed M (ignored when adaptive)
-  bool adaptive = false;              // JCGM 101 7.9.4
-  int n_dig = 2;                      // significant digits of the numerical tolerance (7.9.2)
-  std::uint64_t seed = 20090101;      // Philox key: same seed, same result for any thread count
+  std::int64_t trials = 200000;   // fixed M (ignored when adaptive)
+  bool adaptive = false;          // JCGM 101 7.9.4
+  int n_dig = 2;                  // significant digits of the numerical tolerance (7.9.2)
+  std::uint64_t seed = 20090101;  // Philox key: same seed, same result for any thread count
   double coverage_probability = 0.95;
-  int threads = 0;                    // 0: all hardware threads
+  int threads = 0;  // 0: all hardware threads
 };
 
 // Largest range [m] vlt accepts from a reading or a planned point: beyond any laser tracker (the
@@ -64,14 +64,14 @@ inline constexpr double kMaxMapNodes = 1e6;
 struct MapSettings {
   enum class Kind { kPlane, kBox };
   Kind kind = Kind::kPlane;
-  int fixed_axis = 2;                 // kPlane: 0 = x, 1 = y, 2 = z
-  double level = 0.0;                 // kPlane: value of the fixed coordinate [m]
+  int fixed_axis = 2;                             // kPlane: 0 = x, 1 = y, 2 = z
+  double level = 0.0;                             // kPlane: value of the fixed coordinate [m]
   Eigen::Vector3d min = Eigen::Vector3d::Zero();  // [m], the fixed axis has min = max = level
   Eigen::Vector3d max = Eigen::Vector3d::Zero();
-  double step = 0.25;                 // grid spacing [m]
-  std::string frame = "part";         // coordinates of the grid: "part" (like plan points)
-  std::string description;            // e.g. "plane z = 0 m, x 0..4 m, y -1..1 m, step 0.25 m"
-  bool monte_carlo = false;           // also the Monte Carlo map (AddMonteCarloToMap, vlt/results.h)
+  double step = 0.25;          // grid spacing [m]
+  std::string frame = "part";  // coordinates of the grid: "part" (like plan points)
+  std::string description;     // e.g. "plane z = 0 m, x 0..4 m, y -1..1 m, step 0.25 m"
+  bool monte_carlo = false;    // also the Monte Carlo map (AddMonteCarloToMap, vlt/results.h)
 
   // Number of grid nodes along each axis (1 along the fixed axis of a plane).
   Eigen::Vector3i counts() const;
@@ -89,7 +89,7 @@ MapSettings ParseMapBox(std::string_view box, std::string_view step, std::string
 // [optimize]: where `vlt plan` may put the station and what it minimises (docs/planning.md).
 // Positions are the tracker's origin (the pose translation t of [station]) in the part frame.
 struct KeepOutBox {
-  std::string name;                   // for messages and the report, e.g. "keep_out[0]" or its name
+  std::string name;  // for messages and the report, e.g. "keep_out[0]" or its name
   Eigen::Vector3d min = Eigen::Vector3d::Zero();  // [m]
   Eigen::Vector3d max = Eigen::Vector3d::Zero();
 };
@@ -97,57 +97,57 @@ struct ObjectiveTerm {
   // "points": the largest |U| = sqrt(U_x^2 + U_y^2 + U_z^2) of the job's points; or
   // "<task>.<quantity>": the expanded uncertainty U of a task quantity with unit m.
   std::string quantity = "points";
-  double weight = 1.0;                // objective = sum of weight * term [m]
-  int task = -1;                      // index into Job::tasks, -1 for "points"
-  int output = -1;                    // index into TaskOutputs(kind)
+  double weight = 1.0;  // objective = sum of weight * term [m]
+  int task = -1;        // index into Job::tasks, -1 for "points"
+  int output = -1;      // index into TaskOutputs(kind)
 };
 struct OptimizeSettings {
-  std::vector<Eigen::Vector2d> floor;   // polygon of allowed (x, y) [m], >= 3 vertices
-  double z_min = 0.0, z_max = 0.0;      // allowed heights of the origin [m] (equal: fixed)
-  double min_range = 0.0;               // every point at least this far from the station [m]
-  double max_range = kMaxRange;         // and at most this far
-  double acceptance_angle = 0.0;        // half-angle [rad]; 0: not checked
+  std::vector<Eigen::Vector2d> floor;  // polygon of allowed (x, y) [m], >= 3 vertices
+  double z_min = 0.0, z_max = 0.0;     // allowed heights of the origin [m] (equal: fixed)
+  double min_range = 0.0;              // every point at least this far from the station [m]
+  double max_range = kMaxRange;        // and at most this far
+  double acceptance_angle = 0.0;       // half-angle [rad]; 0: not checked
   Eigen::Vector3d target_normal = Eigen::Vector3d::Zero();  // default normal of every point (unit; 0: none)
   std::vector<std::pair<std::string, Eigen::Vector3d>> normals;  // per point (unit)
-  std::vector<KeepOutBox> keep_out;     // may not hold the station nor lie under it, nor cross a
-                                        // line of sight
-  std::vector<ObjectiveTerm> objective; // at least one
-  double step = 0.0;                    // station map spacing [m]
-  std::int64_t evaluations = 2000;      // of the global search
-  std::uint64_t seed = 20090101;        // of the global search (NLopt's generator)
-  std::string where;                    // "<file>: optimize"
+  std::vector<KeepOutBox> keep_out;      // may not hold the station nor lie under it, nor cross a
+                                         // line of sight
+  std::vector<ObjectiveTerm> objective;  // at least one
+  double step = 0.0;                     // station map spacing [m]
+  std::int64_t evaluations = 2000;       // of the global search
+  std::uint64_t seed = 20090101;         // of the global search (NLopt's generator)
+  std::string where;                     // "<file>: optimize"
 };
 
 struct OutputSettings {
-  std::string directory;              // [output] directory (relative to the job file); "" = default
-  double ellipsoid_scale = 0.0;       // report: ellipsoid exaggeration; 0 = automatic
+  std::string directory;         // [output] directory (relative to the job file); "" = default
+  double ellipsoid_scale = 0.0;  // report: ellipsoid exaggeration; 0 = automatic
 };
 
 // Where the tracker's error parameters came from when a calibration file gave them
 // ([tracker] calibration = "<file>", docs/calibration.md).
 struct CalibrationSource {
-  std::string file;          // as resolved against the job file's directory
-  std::string sha256;        // of the file's bytes
-  std::string instrument;    // [calibration] instrument of the file
-  std::string created;       // [calibration] created of the file (ISO 8601 UTC)
+  std::string file;        // as resolved against the job file's directory
+  std::string sha256;      // of the file's bytes
+  std::string instrument;  // [calibration] instrument of the file
+  std::string created;     // [calibration] created of the file (ISO 8601 UTC)
 };
 
 // A file a job was read from, for provenance (results.json "job.input_files", the report header).
 struct InputFile {
-  std::string role;          // "job", "plan csv", "readings csv", "calibration"
-  std::string path;          // as named in messages (resolved against the job file's directory)
-  std::string sha256;        // of the file's bytes, lower-case hex
+  std::string role;    // "job", "plan csv", "readings csv", "calibration"
+  std::string path;    // as named in messages (resolved against the job file's directory)
+  std::string sha256;  // of the file's bytes, lower-case hex
 };
 
 struct Job {
-  std::string file;                   // the job file as named in messages
-  std::filesystem::path base_dir;     // relative paths in the job are relative to this
-  std::string name;                   // [job] name (default: the file's stem)
+  std::string file;                // the job file as named in messages
+  std::filesystem::path base_dir;  // relative paths in the job are relative to this
+  std::string name;                // [job] name (default: the file's stem)
   std::string description;
   MeasurementSetup setup;
   JobMode mode = JobMode::kPlan;
   std::vector<JobPoint> points;
-  std::string readings_file;          // kReadings: the CSV as resolved (provenance)
+  std::string readings_file;                     // kReadings: the CSV as resolved (provenance)
   std::optional<CalibrationSource> calibration;  // parameters from a calibration file
   std::vector<InputFile> input_files;  // the job file (from its text), its CSVs, its calibration file
   // Implausible but legal values, one line each "<file>: <key>: <why>" (the command prints them
@@ -176,7 +176,6 @@ inline constexpr const char* kDefaultJobName = "vlt-demo.toml";
 // Horizontal distance [m] below which a point is "on the tracker's vertical axis": its azimuth is
 // undefined, so no readings can be planned for it.
 inline constexpr double kVerticalAxisTolerance = 1e-6;
-
 
 // A nominal part-frame point expressed in the tracker frame at the job's estimates (inverse of the
 // station pose and part thermal expansion of vlt/measurement_model.h).

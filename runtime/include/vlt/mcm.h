@@ -41,11 +41,11 @@ struct McmSettings {
   // max(ceil(100 / (1 - p)), 10^4) trials until twice the standard deviation of the batch values of
   // the mean, u, y_low and y_high of EVERY output is within the numerical tolerance delta (7.9.2).
   std::int64_t trials = 0;
-  double coverage_probability = 0.95;   // p, in (0, 1)
-  int significant_digits = 2;           // n_dig of 7.9.2 (1 or 2) for the adaptive procedure
-  std::int64_t max_trials = 50'000'000; // adaptive: stop (converged = false) at this many trials
-  int num_threads = 0;                  // 0 = std::thread::hardware_concurrency()
-  bool quiet = false;                   // no progress bar (it only shows on a terminal anyway)
+  double coverage_probability = 0.95;    // p, in (0, 1)
+  int significant_digits = 2;            // n_dig of 7.9.2 (1 or 2) for the adaptive procedure
+  std::int64_t max_trials = 50'000'000;  // adaptive: stop (converged = false) at this many trials
+  int num_threads = 0;                   // 0 = std::thread::hardware_concurrency()
+  bool quiet = false;                    // no progress bar (it only shows on a terminal anyway)
   // Memory for keeping every model value (stored as float deviations from the value at the
   // estimates, 4 bytes each: relative error 2^-24 of the deviation, see docs/monte-carlo.md).
   // Beyond the budget the coverage intervals and k_p are the averages of the batch values
@@ -77,12 +77,12 @@ struct McmNumericalAccuracy {
   double s_u = 0.0;
   double s_low = 0.0;
   double s_high = 0.0;
-  double delta = 0.0;   // numerical tolerance of u (7.9.2, n_dig significant digits)
+  double delta = 0.0;  // numerical tolerance of u (7.9.2, n_dig significant digits)
 };
 
 struct McmOutputResult {
-  std::string name;     // "P1.x", "distance(P1,P2)", or the custom model's output name
-  std::string unit;     // SI unit
+  std::string name;                 // "P1.x", "distance(P1,P2)", or the custom model's output name
+  std::string unit;                 // SI unit
   double value_at_estimates = 0.0;  // f(x) at the input estimates (what GUM reports as y)
   double mean = 0.0;                // estimate y of JCGM 101 7.6
   double u = 0.0;                   // standard uncertainty u(y) (7.6), divisor M - 1
@@ -96,8 +96,8 @@ struct McmOutputResult {
   // values outside counted in below / above. Empty (no counts) when not every value was kept
   // (the averaged-endpoint method) or u = 0.
   struct Histogram {
-    double low = 0.0;                 // left edge of the first bin (SI)
-    double width = 0.0;               // bin width (SI)
+    double low = 0.0;    // left edge of the first bin (SI)
+    double width = 0.0;  // bin width (SI)
     std::vector<std::int64_t> counts;
     std::int64_t below = 0, above = 0;
   } histogram;
@@ -108,7 +108,7 @@ inline constexpr int kHistogramBins = 60;
 struct McmPointResult {
   std::string name;
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();   // m^2, divisor M - 1 (JCGM 102 7.6)
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // m^2, divisor M - 1 (JCGM 102 7.6)
   Eigen::Matrix3d correlation = Eigen::Matrix3d::Identity();
   // Coverage region {eta : |L^-1 (eta - mean)| <= k_p}, covariance = L L^T (JCGM 102 7.7.3):
   // k_p is the p-quantile of |L^-1 (y_r - mean)| over the trials. GUM (normal) gives
@@ -122,34 +122,34 @@ struct McmPointResult {
 struct McmVectorResult {
   std::string name;
   Eigen::VectorXd mean;
-  Eigen::MatrixXd covariance;     // divisor M - 1
+  Eigen::MatrixXd covariance;  // divisor M - 1
   Eigen::MatrixXd correlation;
   bool has_region = false;
-  double coverage_factor = 0.0;   // k_p: p-quantile of |L^-1 (y_r - mean)|
+  double coverage_factor = 0.0;  // k_p: p-quantile of |L^-1 (y_r - mean)|
 };
 
 struct McmResult {
   std::uint64_t seed = 0;
   double coverage_probability = 0.95;
-  std::int64_t trials = 0;        // M actually used
+  std::int64_t trials = 0;  // M actually used
   bool adaptive = false;
-  bool converged = true;          // adaptive: false when max_trials stopped it first
-  std::int64_t batch_size = 0;    // trials per batch (7.9.4 a)
-  std::int64_t batches = 0;       // h
+  bool converged = true;        // adaptive: false when max_trials stopped it first
+  std::int64_t batch_size = 0;  // trials per batch (7.9.4 a)
+  std::int64_t batches = 0;     // h
   // Adaptive runs (7.9.4): after each batch from the second on, the trials so far and the
   // stopping criterion's worst ratio 2 s / delta over the outputs and their four statistics
   // (the run stops at <= 1): the convergence plot of the report. Empty for a fixed M.
   std::vector<std::int64_t> convergence_trials;
   std::vector<double> convergence_ratio;
-  int threads = 1;                // per rank
-  int ranks = 1;                  // MPI ranks that shared the trials (docs/mpi.md); 1 without MPI
-  double seconds = 0.0;           // wall time of the trials
+  int threads = 1;       // per rank
+  int ranks = 1;         // MPI ranks that shared the trials (docs/mpi.md); 1 without MPI
+  double seconds = 0.0;  // wall time of the trials
   // "order statistics of all M values" or
   // "average of the batch endpoints (memory budget exceeded)".
   std::string interval_method;
   std::vector<McmOutputResult> outputs;
-  std::vector<McmPointResult> points;   // empty for custom models
-  std::vector<McmVectorResult> vectors; // custom models with >= 2 outputs: the output vector
+  std::vector<McmPointResult> points;    // empty for custom models
+  std::vector<McmVectorResult> vectors;  // custom models with >= 2 outputs: the output vector
 };
 
 // One measured point of a job: its name and the estimates of its readings
@@ -164,12 +164,11 @@ struct McmPoint {
 // writes output_names.size() values. It is called from several threads at once and must not
 // keep state between calls; it should not allocate (it runs once per trial).
 struct McmTask {
-  std::string name;                         // e.g. "distance P1-P2", "plane A"
-  std::vector<int> points;                  // indices into McmJob::points
-  std::vector<std::string> output_names;    // full output names, e.g. "plane A.flatness"
-  std::vector<std::string> output_units;    // SI units, same size
-  std::function<void(std::span<const Eigen::Vector3d> points, std::span<double> outputs)>
-      evaluate;
+  std::string name;                       // e.g. "distance P1-P2", "plane A"
+  std::vector<int> points;                // indices into McmJob::points
+  std::vector<std::string> output_names;  // full output names, e.g. "plane A.flatness"
+  std::vector<std::string> output_units;  // SI units, same size
+  std::function<void(std::span<const Eigen::Vector3d> points, std::span<double> outputs)> evaluate;
 };
 
 struct McmJob {
@@ -180,7 +179,7 @@ struct McmJob {
   // and line directions fixed by the fit to the points at the estimates so that no trial flips
   // sign. Outputs "<task name>.<output name>" in the order of TaskOutputs(kind), units from it.
   std::vector<TaskSpec> fit_tasks;
-  std::vector<std::vector<int>> fit_task_points;   // indices into points, one list per fit task
+  std::vector<std::vector<int>> fit_task_points;  // indices into points, one list per fit task
   // Further quantities from the points (after the fit tasks), e.g. for tests.
   std::vector<McmTask> tasks;
 };
@@ -196,8 +195,8 @@ McmResult RunMcm(const McmJob& job, const McmSettings& settings);
 // members' UncertainInput must be normal with u = s / sqrt(n) (the scale, not the standard
 // deviation, which is larger by sqrt(nu / (nu - 2))) and their correlation the sample one.
 struct MultivariateTGroup {
-  std::vector<int> inputs;   // indices into the model's inputs
-  double dof = 0.0;          // nu = n - 1
+  std::vector<int> inputs;  // indices into the model's inputs
+  double dof = 0.0;         // nu = n - 1
 };
 
 // Custom model entry point: `inputs` one per model.params (same order); `correlation` empty
@@ -213,7 +212,7 @@ McmResult RunMcmCustom(const ModelInfo& model, std::span<const UncertainInput> i
 // symmetric: r = (M - q)/2 if integer else (M - q + 1)/2, interval [y_(r), y_(r+q)];
 // shortest: the r in 1..M-q minimising y_(r+q) - y_(r), the smallest such r on ties (7.7.2).
 // Throws InputError when M - q < 1 (too few values for p).
-std::int64_t CoverageCount(std::int64_t m, double p);   // q
+std::int64_t CoverageCount(std::int64_t m, double p);  // q
 CoverageInterval SymmetricCoverageInterval(std::span<const double> sorted, double p);
 CoverageInterval ShortestCoverageInterval(std::span<const double> sorted, double p);
 

@@ -25,14 +25,14 @@ namespace vlt {
 // One uncertain scalar input (JCGM 100 4.1): estimate and standard uncertainty in SI units,
 // plus the probability distribution the Monte Carlo engine samples (runtime/distributions).
 struct UncertainInput {
-  std::string name;         // e.g. "tmv", "environment.temperature", "pose.rx"
-  std::string unit;         // SI unit of estimate and u: "m", "rad", "1", "degC", "Pa", ...
-  std::string group;        // "parameter", "environment", "pose", "thermal"
+  std::string name;   // e.g. "tmv", "environment.temperature", "pose.rx"
+  std::string unit;   // SI unit of estimate and u: "m", "rad", "1", "degC", "Pa", ...
+  std::string group;  // "parameter", "environment", "pose", "thermal"
   double estimate = 0.0;
-  double u = 0.0;           // standard uncertainty
+  double u = 0.0;  // standard uncertainty
   std::string distribution = "normal";
-  double shape = 0.0;       // degrees of freedom (student_t), half-width uncertainty ratio
-                            // (curvilinear_trapezoid), ... ; 0 where the distribution has none
+  double shape = 0.0;  // degrees of freedom (student_t), half-width uncertainty ratio
+                       // (curvilinear_trapezoid), ... ; 0 where the distribution has none
   // The estimate and u in the units the job file gave them ("22.3 degC", "0.3 K", "0.4 arcsec");
   // empty when not typed with a unit (model defaults, bare SI numbers): reports then use
   // FormatReadable (vlt/units.h).
@@ -42,10 +42,10 @@ struct UncertainInput {
 
 // Standard uncertainty of the readings of one point.
 struct ReadingNoise {
-  double range_a = 0.0;     // m       u(range) = range_a + range_b * range
-  double range_b = 0.0;     // m/m
-  double azimuth = 0.0;     // rad
-  double elevation = 0.0;   // rad
+  double range_a = 0.0;    // m       u(range) = range_a + range_b * range
+  double range_b = 0.0;    // m/m
+  double azimuth = 0.0;    // rad
+  double elevation = 0.0;  // rad
 };
 
 // Air at the tracker: its refractive index scales every range (the tracker compensates with the
@@ -54,10 +54,10 @@ struct Environment {
   using Equation = AirEquation;  // one enum for the equation everywhere (vlt/refractive_index.h)
   Equation equation = Equation::kCiddor;
   double vacuum_wavelength = 633e-9;  // m
-  UncertainInput temperature;   // degC
-  UncertainInput pressure;      // Pa
-  UncertainInput humidity;      // relative humidity, % (0..100)
-  UncertainInput co2;           // mole fraction, 1 (e.g. 450e-6)
+  UncertainInput temperature;         // degC
+  UncertainInput pressure;            // Pa
+  UncertainInput humidity;            // relative humidity, % (0..100)
+  UncertainInput co2;                 // mole fraction, 1 (e.g. 450e-6)
 };
 
 // The refractive-index equation and the air conditions at the estimates of an Environment
@@ -67,8 +67,8 @@ AirConditions AirAtEstimates(const Environment& environment);
 
 // Station pose: x_part = R * x_tracker + t, R = Rz(rz) * Ry(ry) * Rx(rx).
 struct StationPose {
-  UncertainInput rx, ry, rz;    // rad
-  UncertainInput tx, ty, tz;    // m
+  UncertainInput rx, ry, rz;  // rad
+  UncertainInput tx, ty, tz;  // m
 };
 
 // R = Rz(rz) Ry(ry) Rx(rx) of a pose (angles [rad]) and its partial derivatives d R / d(rx, ry, rz).
@@ -78,9 +78,9 @@ void PoseRotationDerivatives(double rx, double ry, double rz, Eigen::Matrix3d d_
 // Part thermal expansion: coordinates reported at the reference temperature,
 // x_ref = x_part / (1 + cte * (temperature - reference)).
 struct PartThermal {
-  UncertainInput cte;           // 1/K
-  UncertainInput temperature;   // degC
-  double reference = 20.0;      // degC
+  UncertainInput cte;          // 1/K
+  UncertainInput temperature;  // degC
+  double reference = 20.0;     // degC
 };
 
 // A group of correlated shared inputs (JCGM 100 5.2, JCGM 101 6.4.8): any shared inputs, named
@@ -102,9 +102,9 @@ struct CorrelationGroup {
 };
 
 struct MeasurementSetup {
-  const ModelInfo* model = nullptr;                 // a tracker model (3 readings)
-  std::vector<UncertainInput> params;               // one per model->params, same order
-  std::vector<CorrelationGroup> correlations;       // empty = every shared input independent
+  const ModelInfo* model = nullptr;            // a tracker model (3 readings)
+  std::vector<UncertainInput> params;          // one per model->params, same order
+  std::vector<CorrelationGroup> correlations;  // empty = every shared input independent
   ReadingNoise noise;
   std::optional<Environment> environment;
   std::optional<StationPose> pose;
@@ -155,11 +155,11 @@ class MeasurementModel {
   // pose R, t and the thermal scale s. Refers to the shared vector it was prepared from (the
   // tracker model reads its error parameters there), which must outlive it.
   struct PreparedShared {
-    const double* shared = nullptr;   // the shared vector (params | environment | pose | thermal)
-    double range_scale = 1.0;         // n_est / n(t, p, RH, x); 1 without environment
-    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();   // R; identity without pose
-    Eigen::Vector3d translation = Eigen::Vector3d::Zero();    // t [m]; zero without pose
-    double thermal_scale = 1.0;       // s = 1 / (1 + cte (T - T_ref)); 1 without thermal
+    const double* shared = nullptr;  // the shared vector (params | environment | pose | thermal)
+    double range_scale = 1.0;        // n_est / n(t, p, RH, x); 1 without environment
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  // R; identity without pose
+    Eigen::Vector3d translation = Eigen::Vector3d::Zero();   // t [m]; zero without pose
+    double thermal_scale = 1.0;  // s = 1 / (1 + cte (T - T_ref)); 1 without thermal
   };
   PreparedShared PrepareShared(const double* shared) const;
   // y of one point at the prepared shared inputs, bit for bit Evaluate(readings, shared, y):
@@ -187,8 +187,8 @@ class MeasurementModel {
   //   dy/d env_k   = s R J_r(:,0) * (-rho'/n) dn/d env_k
   //   dy/d r_j     = s (dR/dr_j) x_t,   dy/d t = s I
   //   dy/dcte      = -y (T - T_ref) s,  dy/dT = -y cte s
-  void EvaluateWithJacobian(const double* readings, const double* shared, double* y,
-                            double* d_y_d_readings, double* d_y_d_shared) const;
+  void EvaluateWithJacobian(const double* readings, const double* shared, double* y, double* d_y_d_readings,
+                            double* d_y_d_shared) const;
   // The GUM engine's SIMD path (CovarianceField): EvaluateWithJacobian of `count` points (1 ..
   // kLanes) at shared inputs whose error parameters are all 0, with the tracker kernel run on the
   // points at once in SIMD lanes (vlt/model_info.h NominalJacobiansBatchFn). Returns false, and
@@ -246,9 +246,8 @@ class MeasurementModel {
   // tracker-frame point x_t, d_y_d_readings the generated J_r and, when params_in_place, the
   // first 3P entries of d_y_d_shared d x_t / d params, all at the air-corrected range. Returns
   // the linear map s R applied to the tracker-frame columns.
-  Eigen::Matrix3d ChainStation(const double* shared, const AirStage& air, double corrected_range,
-                               double* y, double* d_y_d_readings, double* d_y_d_shared,
-                               bool params_in_place) const;
+  Eigen::Matrix3d ChainStation(const double* shared, const AirStage& air, double corrected_range, double* y,
+                               double* d_y_d_readings, double* d_y_d_shared, bool params_in_place) const;
 
   MeasurementSetup setup_;
   std::vector<UncertainInput> shared_;

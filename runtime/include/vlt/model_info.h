@@ -19,14 +19,14 @@ namespace vlt {
 
 // One named scalar: a reading, an error parameter / custom input, or an output.
 struct QuantityInfo {
-  const char* name;          // identifier used in specs, job files and reports, e.g. "tmv"
-  const char* unit;          // SI unit of the value: "m", "rad", "1" (dimensionless), "degC", ...
-  const char* quantity;      // "length", "angle", "ratio", "temperature", "dimensionless", ...
-  const char* description;   // physical meaning and sign convention, one sentence
-  double default_estimate;   // SI; 0 for a compensated tracker
-  double default_u;          // default standard uncertainty, SI
+  const char* name;                  // identifier used in specs, job files and reports, e.g. "tmv"
+  const char* unit;                  // SI unit of the value: "m", "rad", "1" (dimensionless), "degC", ...
+  const char* quantity;              // "length", "angle", "ratio", "temperature", "dimensionless", ...
+  const char* description;           // physical meaning and sign convention, one sentence
+  double default_estimate;           // SI; 0 for a compensated tracker
+  double default_u;                  // default standard uncertainty, SI
   const char* default_distribution;  // "normal", "rectangular", ... (runtime/distributions)
-  double default_shape;      // extra shape parameter where the distribution has one, else 0
+  double default_shape;              // extra shape parameter where the distribution has one, else 0
 };
 
 // Kernels instantiated for double. All pointers are to caller-owned arrays; nothing allocates.
@@ -35,15 +35,14 @@ using ForwardJacobiansFn = void (*)(const double* readings, const double* params
                                     double* d_outputs_d_readings, double* d_outputs_d_params);
 // Same as ForwardJacobiansFn with every parameter at its nominal value, specialised symbolically:
 // 0 for tracker models (a compensated tracker), the spec's estimates for custom models.
-using NominalJacobiansFn = void (*)(const double* readings, double* outputs,
-                                    double* d_outputs_d_readings, double* d_outputs_d_params);
+using NominalJacobiansFn = void (*)(const double* readings, double* outputs, double* d_outputs_d_readings,
+                                    double* d_outputs_d_params);
 // Column k of d_outputs_d_params at general parameter values (k indexes params).
-using SensitivityFn = void (*)(int param_index, const double* readings, const double* params,
-                               double* column);
+using SensitivityFn = void (*)(int param_index, const double* readings, const double* params, double* column);
 // Structure-of-arrays batch: readings[j][i] is reading j of item i (num_readings arrays of n),
 // params[k][i] likewise, outputs[o][i] likewise.
-using ForwardBatchFn = void (*)(std::size_t n, const double* const* readings,
-                                const double* const* params, double* const* outputs);
+using ForwardBatchFn = void (*)(std::size_t n, const double* const* readings, const double* const* params,
+                                double* const* outputs);
 // NominalJacobiansFn for kNominalBatchLanes points at once, structure of arrays: quantity q of
 // point (lane) l is at [kNominalBatchLanes * q + l] in every array (readings: 3 quantities,
 // outputs: num_outputs, d_outputs_d_readings: 3 * num_outputs, d_outputs_d_params:
@@ -67,11 +66,11 @@ inline constexpr int kForwardLanes = 4;
 using ForwardLanesFn = void (*)(const double* readings, const double* params, double* outputs);
 
 struct ModelInfo {
-  const char* name;         // "mirror", "head", "jcgm101_additive", ...
-  const char* kind;         // "tracker" or "custom"
+  const char* name;  // "mirror", "head", "jcgm101_additive", ...
+  const char* kind;  // "tracker" or "custom"
   const char* description;
-  const char* spec_file;    // e.g. "models/mirror.toml"
-  int num_readings;         // 3 for trackers, 0 for custom models
+  const char* spec_file;  // e.g. "models/mirror.toml"
+  int num_readings;       // 3 for trackers, 0 for custom models
   int num_params;
   int num_outputs;
   const QuantityInfo* readings;
@@ -83,7 +82,7 @@ struct ModelInfo {
   SensitivityFn sensitivity;
   ForwardBatchFn forward_batch;
   NominalJacobiansBatchFn nominal_jacobians_batch;  // tracker models; nullptr for custom models
-  ForwardLanesFn forward_lanes;                      // tracker models; nullptr for custom models
+  ForwardLanesFn forward_lanes;                     // tracker models; nullptr for custom models
   // Operation counts of the emitted kernels after common-subexpression elimination.
   int ops_forward;
   int ops_forward_jacobians;

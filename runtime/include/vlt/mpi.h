@@ -26,8 +26,8 @@ class Session {
   Session& operator=(const Session&) = delete;
 };
 
-int Rank();    // 0 without MPI
-int Count();   // 1 without MPI
+int Rank();   // 0 without MPI
+int Count();  // 1 without MPI
 inline bool IsRoot() { return Rank() == 0; }
 
 // Collective. `failure`: this rank's exception, or null. If any rank failed, every rank throws:

@@ -39,31 +39,31 @@ inline constexpr std::array<const char*, 6> kPoseNames = {"rx", "ry", "rz", "tx"
 // correlation, or a calibration file), reading noise and air. Its shared inputs (MeasurementModel
 // order, without pose or thermal) are common to every station it occupies.
 struct NetworkInstrument {
-  std::string name;               // "tracker" for the single [tracker] of a file
+  std::string name;  // "tracker" for the single [tracker] of a file
   MeasurementSetup setup;
 };
 
 struct NetworkStation {
   std::string name;
-  int instrument = 0;             // index into Network::instruments
+  int instrument = 0;                                  // index into Network::instruments
   StationPoseVector pose = StationPoseVector::Zero();  // estimate (starting value, plan value)
-  bool pose_given = false;        // false: computed from already placed targets (Umeyama)
+  bool pose_given = false;  // false: computed from already placed targets (Umeyama)
   StationPoseVector pose_u = StationPoseVector::Zero();  // > 0: a prior on that component
-  bool datum = false;             // held exactly at `pose`: defines the part frame
-  std::vector<TargetReading> readings;   // what the station read (raw readings, both faces)
-  std::string where;              // "<file>: station[i]"
+  bool datum = false;                                    // held exactly at `pose`: defines the part frame
+  std::vector<TargetReading> readings;                   // what the station read (raw readings, both faces)
+  std::string where;                                     // "<file>: station[i]"
 };
 
 // A target with known part-frame coordinates: a pseudo-observation of each coordinate.
 struct NetworkReference {
   std::string target;
   Eigen::Vector3d position = Eigen::Vector3d::Zero();  // [m]
-  double u = 0.0;                 // standard uncertainty of each coordinate [m], > 0
+  double u = 0.0;                                      // standard uncertainty of each coordinate [m], > 0
   std::string where;
 };
 
 struct Network {
-  std::string where;              // the file, for messages
+  std::string where;  // the file, for messages
   std::string name;
   // The instruments (one moved from station to station, or several); at least one.
   std::vector<NetworkInstrument> instruments;
@@ -73,7 +73,7 @@ struct Network {
   // pseudo-observation; every other shared input is a consider parameter.
   std::vector<std::string> self_calibrate;
   double coverage_probability = 0.95;
-  double outlier_limit = 3.29;    // |w| above it flags a reading component (Baarda, alpha 0.001)
+  double outlier_limit = 3.29;  // |w| above it flags a reading component (Baarda, alpha 0.001)
   int max_iterations = 100;
 };
 
@@ -91,55 +91,55 @@ struct AdjustedStation {
 
 struct AdjustedTarget {
   std::string name;
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();     // part frame [m]
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();   // [m^2]
-  int stations = 0;               // how many stations read it
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();    // part frame [m]
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // [m^2]
+  int stations = 0;                                      // how many stations read it
   int readings = 0;
   bool reference = false;
 };
 
 // One reading component's residual at the solution, in the reading's own terms.
 struct NetworkResidual {
-  std::string station, target, component;   // component: "range", "azimuth", "elevation"
+  std::string station, target, component;  // component: "range", "azimuth", "elevation"
   Face face = Face::kFront;
   std::string where;
-  std::string unit;               // "m" or "rad"
-  double residual = 0.0;          // observed - adjusted reading
-  double u = 0.0;                 // its standard uncertainty (reading noise)
-  double normalised = 0.0;        // residual / u
-  double redundancy = 0.0;        // r_ii in [0, 1]
-  double w = 0.0;                 // normalised / sqrt(redundancy) (Baarda)
+  std::string unit;         // "m" or "rad"
+  double residual = 0.0;    // observed - adjusted reading
+  double u = 0.0;           // its standard uncertainty (reading noise)
+  double normalised = 0.0;  // residual / u
+  double redundancy = 0.0;  // r_ii in [0, 1]
+  double w = 0.0;           // normalised / sqrt(redundancy) (Baarda)
   bool outlier = false;
 };
 
 // A combination of self-calibrated inputs and how well the network alone determines it
 // (docs/network.md N-9; the analysis of vlt/calibration.h): u(combination) = ratio x its prior u.
 struct NetworkCombination {
-  double singular_value = 0.0;    // of the data's information in prior-scaled coordinates
-  double ratio = 0.0;             // 1 / singular_value: data-only u / prior u (inf: blind)
-  bool determined = false;        // ratio <= 1: the network knows it better than the prior
-  std::string description;        // "+1.000 lam -0.412 srr" (coefficients in each input's prior u)
+  double singular_value = 0.0;  // of the data's information in prior-scaled coordinates
+  double ratio = 0.0;           // 1 / singular_value: data-only u / prior u (inf: blind)
+  bool determined = false;      // ratio <= 1: the network knows it better than the prior
+  std::string description;      // "+1.000 lam -0.412 srr" (coefficients in each input's prior u)
 };
 
 struct NetworkResult {
   std::vector<AdjustedStation> stations;
-  std::vector<AdjustedTarget> targets;        // sorted by first appearance
-  std::vector<CalibratedParameter> parameters;  // the self-calibrated shared inputs
+  std::vector<AdjustedTarget> targets;              // sorted by first appearance
+  std::vector<CalibratedParameter> parameters;      // the self-calibrated shared inputs
   std::vector<NetworkCombination> identifiability;  // self-calibration: best determined first
   // Full covariance of every unknown [m, rad, SI]: the free station poses (6 each, network
   // order, datum stations left out), then the targets (3 each), then the self-calibrated inputs.
-  std::vector<std::string> unknown_names;     // "S2.rx", "T1.x", "tmv"
+  std::vector<std::string> unknown_names;  // "S2.rx", "T1.x", "tmv"
   Eigen::MatrixXd covariance;
-  std::vector<int> station_offset;            // per station: first index in covariance, -1 datum
-  std::vector<int> target_offset;             // per target
+  std::vector<int> station_offset;  // per station: first index in covariance, -1 datum
+  std::vector<int> target_offset;   // per target
   std::vector<NetworkResidual> residuals;
-  int observations = 0;           // scalar observations incl. reference coordinates and priors
+  int observations = 0;  // scalar observations incl. reference coordinates and priors
   int unknowns = 0;
   int dof = 0;
   double chi2 = 0.0, birge_ratio = 0.0, p_value = 0.0;
   int outliers = 0;
   int iterations = 0;
-  double k = 0.0;                 // coverage factor of the expanded values printed (normal)
+  double k = 0.0;  // coverage factor of the expanded values printed (normal)
   // Shares of the targets' variance (sum over targets of trace) from the reading noise and the
   // references (`noise`) and from the consider parameters (`consider`); they add up to 1.
   double share_noise = 0.0, share_consider = 0.0;
@@ -160,7 +160,8 @@ struct PlannedSighting {
   Face face = Face::kFront;
   std::string where;
 };
-void PlanNetworkReadings(Network& network, const std::vector<std::pair<std::string, Eigen::Vector3d>>& nominal,
+void PlanNetworkReadings(Network& network,
+                         const std::vector<std::pair<std::string, Eigen::Vector3d>>& nominal,
                          const std::vector<std::vector<PlannedSighting>>& sees);
 
 // A simulated measurement of `network` (whose stations already hold readings, e.g. planned):
@@ -168,8 +169,9 @@ void PlanNetworkReadings(Network& network, const std::vector<std::pair<std::stri
 // inputs drawn from their distributions (normal, with the prior correlation) and returned in
 // `shared_true`; each reading is the exact inverse at the truth plus N(0, noise); each reference
 // is its true coordinates plus N(0, u^2). Philox keyed by `seed`: reproducible.
-Network SimulateNetwork(const Network& network, const std::vector<std::pair<std::string, Eigen::Vector3d>>& truth,
-                        std::uint64_t seed, Eigen::VectorXd* shared_true = nullptr);
+Network SimulateNetwork(const Network& network,
+                        const std::vector<std::pair<std::string, Eigen::Vector3d>>& truth, std::uint64_t seed,
+                        Eigen::VectorXd* shared_true = nullptr);
 
 // Monte Carlo validation of the adjustment's GUM (JCGM 101 applied to the whole estimator): the
 // adjusted network is taken as the truth, `trials` measurements of it are simulated
@@ -179,15 +181,15 @@ Network SimulateNetwork(const Network& network, const std::vector<std::pair<std:
 struct NetworkMonteCarlo {
   int trials = 0;
   std::uint64_t seed = 0;
-  int ranks = 1;    // MPI ranks that shared the trials (docs/mpi.md); 1 without MPI
+  int ranks = 1;                            // MPI ranks that shared the trials (docs/mpi.md); 1 without MPI
   std::vector<Eigen::Matrix3d> covariance;  // per target (result order): E[(x - x_true)(..)^T]
   std::vector<Eigen::Vector3d> bias;        // per target: mean of x - x_true [m]
   // |u_MCM / u_GUM - 1| within which the two agree at this number of trials: z / sqrt(2 (M - 1))
   // (the standard error of a standard deviation from M values), z the normal quantile that
   // keeps all 3T coordinates inside with 95 % probability (Bonferroni).
   double tolerance = 0.0;
-  double worst_ratio = 1.0;                 // u_MCM / u_GUM farthest from 1 over all coordinates
-  std::string worst;                        // "T3.z"
+  double worst_ratio = 1.0;  // u_MCM / u_GUM farthest from 1 over all coordinates
+  std::string worst;         // "T3.z"
   bool agrees = true;
 };
 NetworkMonteCarlo ValidateNetworkByMonteCarlo(const Network& network, const NetworkResult& result, int trials,
@@ -201,11 +203,11 @@ struct NetworkTaskResult {
   std::string name;
   TaskKind kind = TaskKind::kDistance;
   std::vector<std::string> quantities, units;
-  Eigen::VectorXd value, u, U;                 // SI; u = U = 0 where not differentiable
+  Eigen::VectorXd value, u, U;  // SI; u = U = 0 where not differentiable
   Eigen::MatrixXd covariance;
   std::vector<bool> differentiable;
   std::vector<std::optional<ConformityDecision>> conformity;  // per quantity with a tolerance
-  std::vector<std::string> tolerance;          // DescribeTolerance, "" without one
+  std::vector<std::string> tolerance;                         // DescribeTolerance, "" without one
 };
 std::vector<NetworkTaskResult> NetworkTasks(const std::vector<TaskSpec>& tasks, const NetworkResult& result,
                                             const std::string& where);
@@ -215,20 +217,19 @@ std::vector<NetworkTaskResult> NetworkTasks(const std::vector<TaskSpec>& tasks, 
 // [network] settings, [datum], [[reference]], [[station]] with its pose and either its readings
 // (online) or the targets it sees (offline, with [targets] nominal coordinates), [[task]].
 
-
 struct NetworkJob {
   std::string file, name, description;
   Network network;
-  bool offline = false;                   // stations `sees` targets of [targets]
+  bool offline = false;                                          // stations `sees` targets of [targets]
   std::vector<std::pair<std::string, Eigen::Vector3d>> nominal;  // offline: [targets], part frame
-  std::vector<TaskSpec> tasks;            // [[task]] over target names (as in a job)
+  std::vector<TaskSpec> tasks;                                   // [[task]] over target names (as in a job)
   std::vector<std::pair<std::string, std::string>> input_files;  // (role, path): the file, CSVs
   std::vector<std::string> warnings;
-  std::string output_directory;           // [output] directory, "" = default
-  int monte_carlo_trials = 0;             // [network.monte_carlo] trials (0: no validation)
+  std::string output_directory;  // [output] directory, "" = default
+  int monte_carlo_trials = 0;    // [network.monte_carlo] trials (0: no validation)
   std::uint64_t monte_carlo_seed = 20090101;
-  std::string text;                       // the file's text (for simulated_network.toml)
-  std::filesystem::path base_dir;         // relative paths in the file resolve against it
+  std::string text;                // the file's text (for simulated_network.toml)
+  std::filesystem::path base_dir;  // relative paths in the file resolve against it
 };
 NetworkJob LoadNetworkJob(const std::string& path);
 
@@ -243,8 +244,9 @@ using Files = std::vector<std::pair<std::string, std::string>>;
 // targets.csv, stations.csv, residuals.csv, covariance.csv, tasks.csv (with [[task]]: the
 // results of NetworkTasks), parameters.csv (with self-calibration), results.json, report.html.
 // With a Monte Carlo validation (`mc` not null) also mcm.csv.
-Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std::vector<NetworkTaskResult>& tasks,
-                   const std::string& created, const NetworkMonteCarlo* mc = nullptr);
+Files NetworkFiles(const NetworkJob& job, const NetworkResult& result,
+                   const std::vector<NetworkTaskResult>& tasks, const std::string& created,
+                   const NetworkMonteCarlo* mc = nullptr);
 
 // An offline network's simulated measurement (SimulateNetwork, truth = [targets] and the
 // stations' poses): simulated_<station>.csv per station (the readings, SI: m, rad) and
@@ -253,6 +255,7 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std
 Files SimulatedNetworkFiles(const NetworkJob& job, const Network& simulated, std::uint64_t seed);
 
 // The terminal summary.
-std::string NetworkSummary(const NetworkJob& job, const NetworkResult& result, const NetworkMonteCarlo* mc = nullptr);
+std::string NetworkSummary(const NetworkJob& job, const NetworkResult& result,
+                           const NetworkMonteCarlo* mc = nullptr);
 
 }  // namespace vlt::network_outputs

@@ -33,11 +33,11 @@ inline constexpr double kInfeasibleObjective = 1.0;
 struct StationEvaluation {
   Eigen::Vector3d station = Eigen::Vector3d::Zero();  // origin in the part frame [m]
   bool feasible = false;
-  std::string reason;              // why not feasible ("" when feasible), e.g. "point 'P3': range
-                                   // 0.4 m below min_range 1 m"
-  double violation = 0.0;          // how far from feasible (m, rad and counts summed; 0 if feasible)
-  double objective = 0.0;          // sum of weight * term [m] (feasible only)
-  std::vector<double> terms;       // per OptimizeSettings::objective term, unweighted [m]
+  std::string reason;         // why not feasible ("" when feasible), e.g. "point 'P3': range
+                              // 0.4 m below min_range 1 m"
+  double violation = 0.0;     // how far from feasible (m, rad and counts summed; 0 if feasible)
+  double objective = 0.0;     // sum of weight * term [m] (feasible only)
+  std::vector<double> terms;  // per OptimizeSettings::objective term, unweighted [m]
 };
 
 // The objective and the constraints at `station` for `job` (which must have [optimize]).
@@ -46,8 +46,8 @@ StationEvaluation EvaluateStation(const Job& job, const Eigen::Vector3d& station
 struct StationPlan {
   const Job* job = nullptr;
   OptimizeSettings settings;
-  StationEvaluation recommended;   // rounded to 1 um (as written to the planned job)
-  StationEvaluation job_station;   // at the job's own [station] (tx, ty, tz)
+  StationEvaluation recommended;  // rounded to 1 um (as written to the planned job)
+  StationEvaluation job_station;  // at the job's own [station] (tx, ty, tz)
   std::int64_t global_evaluations = 0;
   std::int64_t local_evaluations = 0;
   std::int64_t map_evaluations = 0;
@@ -55,7 +55,7 @@ struct StationPlan {
   std::string local_algorithm = "LN_SBPLX";
   std::string nlopt_version;
   double seconds = 0.0;
-  MapResult map;                   // the objective over the floor at the recommended height
+  MapResult map;  // the objective over the floor at the recommended height
 };
 
 // Plans the station. InputError (the job's file and optimize key) when the job has no

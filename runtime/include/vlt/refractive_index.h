@@ -49,12 +49,12 @@ struct AirConditions {
 
 // n and its partial derivatives with respect to the four environmental inputs.
 struct RefractiveIndex {
-  double n = 1.0;                 // phase refractive index, 1
-  double dn_dtemperature = 0.0;   // 1/K     (about -9.5e-7 /K near 20 degC, 633 nm)
-  double dn_dpressure = 0.0;      // 1/Pa    (about +2.7e-9 /Pa)
-  double dn_dhumidity = 0.0;      // 1/%RH   (about -8.5e-9 per %RH at 20 degC)
-  double dn_dco2 = 0.0;           // 1 per unit mole fraction (about +1.4e-4, i.e. 1.4e-10 per ppm;
-                                  // exactly 0 for kEdlenBirchDowns, which has no CO2 input)
+  double n = 1.0;                // phase refractive index, 1
+  double dn_dtemperature = 0.0;  // 1/K     (about -9.5e-7 /K near 20 degC, 633 nm)
+  double dn_dpressure = 0.0;     // 1/Pa    (about +2.7e-9 /Pa)
+  double dn_dhumidity = 0.0;     // 1/%RH   (about -8.5e-9 per %RH at 20 degC)
+  double dn_dco2 = 0.0;          // 1 per unit mole fraction (about +1.4e-4, i.e. 1.4e-10 per ppm;
+                                 // exactly 0 for kEdlenBirchDowns, which has no CO2 input)
 };
 
 // Refractive index and derivatives. Throws InputError, message starting with `where`, when an
@@ -76,8 +76,8 @@ struct AirIndexReport {
   double n_phase = 1.0, u_phase = 0.0;
   double n_group = 1.0, u_group = 0.0;
 };
-AirIndexReport AirIndexWithUncertainty(AirEquation equation, const AirConditions& estimates, const double u[4],
-                                       std::string_view where = "refractive index");
+AirIndexReport AirIndexWithUncertainty(AirEquation equation, const AirConditions& estimates,
+                                       const double u[4], std::string_view where = "refractive index");
 
 // Only n (same checks): the cheap path for Monte Carlo trials.
 double AirRefractiveIndexValue(AirEquation equation, const AirConditions& air,

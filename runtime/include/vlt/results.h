@@ -33,31 +33,31 @@ namespace vlt {
 
 // Command-line overrides of the job's [monte_carlo] settings.
 struct RunOptions {
-  bool monte_carlo = true;                 // false: --no-mcm
-  std::optional<std::int64_t> trials;      // --trials (0 = adaptive)
-  std::optional<std::uint64_t> seed;       // --seed
-  std::optional<int> threads;              // --threads
-  bool compute_map = true;                 // compute the job's [map] when it has one
-  bool progress = false;                   // MCM progress bar on a terminal
+  bool monte_carlo = true;             // false: --no-mcm
+  std::optional<std::int64_t> trials;  // --trials (0 = adaptive)
+  std::optional<std::uint64_t> seed;   // --seed
+  std::optional<int> threads;          // --threads
+  bool compute_map = true;             // compute the job's [map] when it has one
+  bool progress = false;               // MCM progress bar on a terminal
 };
 
 // The Monte Carlo results of one point and their comparison with the GUM.
 struct PointMcm {
-  McmPointResult mcm;                      // JCGM 102: mean, covariance, region factor
-  std::array<McmOutputResult, 3> axes;     // JCGM 101 per coordinate x, y, z
+  McmPointResult mcm;                               // JCGM 102: mean, covariance, region factor
+  std::array<McmOutputResult, 3> axes;              // JCGM 101 per coordinate x, y, z
   std::array<ScalarValidation, 3> axis_validation;  // JCGM 101 8 per coordinate
-  PointValidation region_validation;       // coverage ellipsoids (vlt/validation.h)
+  PointValidation region_validation;                // coverage ellipsoids (vlt/validation.h)
 };
 
 struct PointResult {
-  JobPoint input;                          // name, face, nominal (plan), readings as given
-  PointUncertainty gum;                    // budget empty: see internal::ForEachPointBudget
+  JobPoint input;        // name, face, nominal (plan), readings as given
+  PointUncertainty gum;  // budget empty: see internal::ForEachPointBudget
   bool has_mcm = false;
   // Set when has_mcm (held apart: a GUM-only scan of 10^6 points does not carry 1.6 kB of empty
   // Monte Carlo fields per point).
   std::shared_ptr<const PointMcm> monte_carlo;
-  bool validated = false;                  // all of the above validated
-  std::string outcome;                     // CombinedOutcome of the above (vlt/validation.h)
+  bool validated = false;  // all of the above validated
+  std::string outcome;     // CombinedOutcome of the above (vlt/validation.h)
 };
 
 struct TaskResult {
@@ -65,10 +65,10 @@ struct TaskResult {
   std::vector<int> point_indices;
   TaskUncertainty gum;
   bool has_mcm = false;
-  std::vector<McmOutputResult> mcm;        // one per gum.quantities
+  std::vector<McmOutputResult> mcm;  // one per gum.quantities
   std::vector<ScalarValidation> validation;
-  bool validated = false;                  // every applicable quantity validated
-  std::string outcome;                     // CombinedOutcome (vlt/validation.h)
+  bool validated = false;  // every applicable quantity validated
+  std::string outcome;     // CombinedOutcome (vlt/validation.h)
   // Per quantity with a tolerance (TaskSpec::tolerances): the ISO 14253-1 decision from the GUM
   // (y, U), or, for a quantity without a GUM value (a form quantity at exact nominal points), from
   // the Monte Carlo shortest coverage interval; probability of conformity (JCGM 106).
@@ -86,28 +86,28 @@ struct MapResult {
   MapSettings settings;
   double coverage_probability = 0.95;
   double k = 0.0;
-  std::vector<Eigen::Vector3d> nodes;      // every grid node (part frame, m), x fastest
-  std::vector<char> computed;              // 0 = skipped
-  std::vector<Eigen::Vector3d> U;          // per axis, m (zero where skipped)
-  std::vector<double> U_norm;              // m (zero where skipped)
-  std::vector<std::string> skipped;        // "x,y,z: reason" for each skipped node
+  std::vector<Eigen::Vector3d> nodes;  // every grid node (part frame, m), x fastest
+  std::vector<char> computed;          // 0 = skipped
+  std::vector<Eigen::Vector3d> U;      // per axis, m (zero where skipped)
+  std::vector<double> U_norm;          // m (zero where skipped)
+  std::vector<std::string> skipped;    // "x,y,z: reason" for each skipped node
   std::string quantity = "U_norm = sqrt(U_x^2 + U_y^2 + U_z^2), U_i = k u_i, part frame";
-  std::string value_name = "|U|";          // what U_norm holds, for plots ("objective" for a
-                                           // station map of `vlt plan`)
+  std::string value_name = "|U|";  // what U_norm holds, for plots ("objective" for a
+                                   // station map of `vlt plan`)
 
   // Per source (ExpandedUncertaintyBySource): what each source and each group of sources
   // contributes, U_s = k sqrt(trace of the source's part of U_y); sum_s U_s^2 = U_norm^2 and
   // sum_g U_g^2 = U_norm^2 at every computed node (zero where skipped).
   struct Layer {
-    std::string name;                      // a source ("tmv", "correlations.thermometer") or group
-    std::string group;                     // its group ("reading", "parameter", ...)
-    std::vector<double> U;                 // m, one per node
+    std::string name;       // a source ("tmv", "correlations.thermometer") or group
+    std::string group;      // its group ("reading", "parameter", ...)
+    std::vector<double> U;  // m, one per node
   };
-  std::vector<Layer> sources;              // UncertaintySources order (empty for objective maps)
-  std::vector<Layer> groups;               // reading, parameter, environment, pose, thermal,
-                                           // correlation: those present
-  std::vector<int> dominant;               // per node: index into sources of the largest U_s (-1
-                                           // where skipped)
+  std::vector<Layer> sources;  // UncertaintySources order (empty for objective maps)
+  std::vector<Layer> groups;   // reading, parameter, environment, pose, thermal,
+                               // correlation: those present
+  std::vector<int> dominant;   // per node: index into sources of the largest U_s (-1
+                               // where skipped)
 
   // Monte Carlo at the nodes ([map] monte_carlo = true, `vlt map --mcm`): each node run as a
   // plan point through the job's Monte Carlo engine and validated as points are (JCGM 101 8,
@@ -115,23 +115,23 @@ struct MapResult {
   bool has_mcm = false;
   std::int64_t mcm_trials = 0;
   std::uint64_t mcm_seed = 0;
-  std::vector<double> U_norm_mcm;          // m, one per node (0 where skipped)
-  std::vector<std::string> verdict;        // "validated", "not validated", "inconclusive"; "" skipped
+  std::vector<double> U_norm_mcm;    // m, one per node (0 where skipped)
+  std::vector<std::string> verdict;  // "validated", "not validated", "inconclusive"; "" skipped
 
   // Named positions drawn on the map (`vlt plan`: the recommended and the job's station).
   struct Marker {
     std::string name;
     Eigen::Vector3d position = Eigen::Vector3d::Zero();
-    bool point = false;                    // a measured point (small dot) rather than a station
+    bool point = false;  // a measured point (small dot) rather than a station
   };
   std::vector<Marker> markers;
 };
 
 struct Results {
   std::string vlt_version;
-  std::string vlt_commit;                     // VltCommit()
-  std::string created;                        // when the run was made, ISO 8601 UTC (RunCreatedTime)
-  std::vector<InputFile> input_files;         // Job::input_files
+  std::string vlt_commit;              // VltCommit()
+  std::string created;                 // when the run was made, ISO 8601 UTC (RunCreatedTime)
+  std::vector<InputFile> input_files;  // Job::input_files
   std::string job_file;
   std::string job_name;
   std::string job_description;
@@ -141,18 +141,18 @@ struct Results {
   MeasurementSetup setup;
   std::vector<UncertainInput> shared_inputs;  // MeasurementModel::shared_inputs()
   double coverage_probability = 0.95;
-  double k_axis = 0.0;                        // NormalCoverageFactor(p)
-  double k_region = 0.0;                      // ChiSquareCoverageFactor(p, 3)
+  double k_axis = 0.0;    // NormalCoverageFactor(p)
+  double k_region = 0.0;  // ChiSquareCoverageFactor(p, 3)
   int n_dig = 2;
   std::vector<PointResult> points;
   std::vector<TaskResult> tasks;
   bool has_mcm = false;
-  McmResult mcm;                              // run information (outputs/points moved into results)
+  McmResult mcm;  // run information (outputs/points moved into results)
   std::optional<MapResult> map;
   double gum_seconds = 0.0;
   double mcm_seconds = 0.0;
-  int threads = 0;                            // of the run (the budgets are recomputed with them)
-  double ellipsoid_scale = 0.0;               // report: exaggeration of the ellipsoids
+  int threads = 0;               // of the run (the budgets are recomputed with them)
+  double ellipsoid_scale = 0.0;  // report: exaggeration of the ellipsoids
   int validated_points = 0;
   int validated_tasks = 0;
   int inconclusive_points = 0;
@@ -194,12 +194,12 @@ void CheckJobMemory(const Job& job, std::uint64_t available_bytes, const RunOpti
 // A custom-model job (vlt/custom_job.h, docs/custom-models.md): files outputs.csv, budget.csv,
 // results.json ("schema": "vlt-custom-results/1"), report.html.
 struct CustomOutputResult {
-  CustomOutput gum;                        // estimate, u, nu_eff, k = t_p(nu_eff), U, budget
+  CustomOutput gum;  // estimate, u, nu_eff, k = t_p(nu_eff), U, budget
   bool has_mcm = false;
-  McmOutputResult mcm;                     // JCGM 101 7.6, 7.7
-  ScalarValidation validation;             // JCGM 101 8 (the GUM interval y +- k u)
+  McmOutputResult mcm;          // JCGM 101 7.6, 7.7
+  ScalarValidation validation;  // JCGM 101 8 (the GUM interval y +- k u)
   std::optional<Tolerance> tolerance;
-  std::optional<ConformityDecision> conformity;   // ISO 14253-1 / JCGM 106
+  std::optional<ConformityDecision> conformity;  // ISO 14253-1 / JCGM 106
 };
 
 // JCGM 102 for the output vector (two or more outputs): the GUM region k = sqrt(chi2_m(p)) and
@@ -208,8 +208,8 @@ struct CustomRegionResult {
   double gum_k = 0.0;
   bool has_mcm = false;
   McmVectorResult mcm;
-  double coverage_factor_ratio = 0.0;      // k_mcm / k_gum
-  double covariance_difference = 0.0;      // |U_mcm - U_gum|_F / |U_gum|_F
+  double coverage_factor_ratio = 0.0;  // k_mcm / k_gum
+  double covariance_difference = 0.0;  // |U_mcm - U_gum|_F / |U_gum|_F
 };
 
 struct CustomResults {
@@ -218,8 +218,8 @@ struct CustomResults {
   std::string job_name;
   std::string job_description;
   const ModelInfo* model = nullptr;
-  std::vector<UncertainInput> inputs;          // the GUM's (CustomJob::inputs)
-  std::vector<UncertainInput> mcm_inputs;      // what Monte Carlo sampled
+  std::vector<UncertainInput> inputs;      // the GUM's (CustomJob::inputs)
+  std::vector<UncertainInput> mcm_inputs;  // what Monte Carlo sampled
   std::vector<CustomInputSource> sources;
   std::vector<double> dof;
   Eigen::MatrixXd correlation;
@@ -231,8 +231,8 @@ struct CustomResults {
   std::vector<CustomOutputResult> outputs;
   std::optional<CustomRegionResult> region;
   bool has_mcm = false;
-  McmResult mcm;                               // run information
-  std::string outcome;                         // CombinedOutcome of the validations
+  McmResult mcm;        // run information
+  std::string outcome;  // CombinedOutcome of the validations
   double gum_seconds = 0.0;
   double mcm_seconds = 0.0;
 };
@@ -242,8 +242,8 @@ std::vector<std::pair<std::string, std::string>> ResultFiles(const CustomResults
 std::string SummaryText(const CustomResults& results);
 
 // The map of `settings` for a job's model (nodes in the part frame), with its per-source layers.
-MapResult ComputeMap(const MeasurementModel& model, const MapSettings& settings,
-                     double coverage_probability, int threads);
+MapResult ComputeMap(const MeasurementModel& model, const MapSettings& settings, double coverage_probability,
+                     int threads);
 // Marks the job's tracker (its origin, part frame, at the estimates) and its points (plan: nominal;
 // readings: the part-frame estimates; at most kMaxMapPointMarkers) on the map.
 inline constexpr std::size_t kMaxMapPointMarkers = 500;

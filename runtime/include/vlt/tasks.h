@@ -37,13 +37,13 @@ TaskKind ParseTaskKind(std::string_view text, std::string_view where);
 int MinimumPoints(TaskKind kind);
 
 struct TaskSpec {
-  std::string name;                 // user's label, e.g. "bore_A"
+  std::string name;  // user's label, e.g. "bore_A"
   TaskKind kind = TaskKind::kDistance;
   std::vector<std::string> points;  // names of the measured points used, in order
   // Tolerances of some of its quantities (vlt/conformity.h): quantity name (TaskOutputs(kind),
   // e.g. "distance", "flatness", "radius") and the interval, SI units.
   std::vector<std::pair<std::string, Tolerance>> tolerances;
-  bool all_points = false;          // `points = "all"`: every point of the job, in job order
+  bool all_points = false;  // `points = "all"`: every point of the job, in job order
 
   // The tolerance of `quantity`, or nullptr.
   const Tolerance* ToleranceOf(std::string_view quantity) const {

@@ -34,7 +34,7 @@ struct ScalarValidation {
   std::string unit;
   double gum_y = 0.0;
   double gum_u = 0.0;
-  double gum_expanded = 0.0;   // U_p
+  double gum_expanded = 0.0;  // U_p
   double mcm_low = 0.0;
   double mcm_high = 0.0;
   double d_low = 0.0;
@@ -42,17 +42,16 @@ struct ScalarValidation {
   double delta = 0.0;
   double mcm_tolerance = 0.0;  // 2 s_end (above); 0 when unknown (trials = 0)
   bool validated = false;
-  std::string outcome;         // "validated", "inconclusive", "not validated", "not applicable"
-  std::string verdict;         // outcome with the numbers
+  std::string outcome;  // "validated", "inconclusive", "not validated", "not applicable"
+  std::string verdict;  // outcome with the numbers
 };
 
 // trials: M of the Monte Carlo run; mcm_u: its standard uncertainty of the output; p: coverage
 // probability. differentiable = false: "not applicable".
-ScalarValidation ValidateScalar(const std::string& name, const std::string& unit, double gum_y,
-                                double gum_u, double gum_expanded,
-                                const CoverageInterval& mcm_symmetric, int significant_digits,
-                                std::int64_t trials = 0, double mcm_u = 0.0, double p = 0.95,
-                                bool differentiable = true);
+ScalarValidation ValidateScalar(const std::string& name, const std::string& unit, double gum_y, double gum_u,
+                                double gum_expanded, const CoverageInterval& mcm_symmetric,
+                                int significant_digits, std::int64_t trials = 0, double mcm_u = 0.0,
+                                double p = 0.95, bool differentiable = true);
 
 // Outcome of several comparisons together: "not validated" if any is, else "inconclusive" if any
 // is, else "validated" ("not applicable" ones do not count; all of them: "not applicable").
@@ -76,14 +75,14 @@ struct PointValidation {
   double covariance_difference = 0.0;  // relative Frobenius difference
   double worst_ratio = 0.0;            // max over v of d(v) / delta(s_g(v))
   Eigen::Vector3d worst_direction = Eigen::Vector3d::UnitX();
-  double worst_distance = 0.0;         // d(v) in the worst direction, m
-  double worst_delta = 0.0;            // delta(s_g(v)) there, m
+  double worst_distance = 0.0;  // d(v) in the worst direction, m
+  double worst_delta = 0.0;     // delta(s_g(v)) there, m
   // Monte Carlo tolerance of the region's end in the worst direction: 2 s(v) with
   // s(v) = s_m(v) sqrt(s_k^2 + k_m^2 / (2M)), s_k = sqrt(p (1 - p) / M) / f(k_m), f the chi density
   // with 3 degrees of freedom (the quantile k_m and the spread s_m(v) both estimated from M trials).
   double mcm_tolerance = 0.0;
   bool validated = false;
-  std::string outcome;                 // as ScalarValidation::outcome
+  std::string outcome;  // as ScalarValidation::outcome
   std::string verdict;
 };
 
@@ -92,7 +91,7 @@ struct PointValidation {
 // GUM covariance is not positive definite (no region to compare).
 PointValidation ValidatePoint(const std::string& name, const Eigen::Vector3d& gum_y,
                               const Eigen::Matrix3d& gum_covariance, double gum_coverage_factor,
-                              const McmPointResult& mcm, int significant_digits,
-                              std::int64_t trials = 0, double p = 0.95);
+                              const McmPointResult& mcm, int significant_digits, std::int64_t trials = 0,
+                              double p = 0.95);
 
 }  // namespace vlt

@@ -109,9 +109,7 @@ int CsvTable::Column(std::string_view name) const {
   return -1;
 }
 
-std::string CsvTable::Where(const CsvRow& row) const {
-  return file + ": line " + std::to_string(row.line);
-}
+std::string CsvTable::Where(const CsvRow& row) const { return file + ": line " + std::to_string(row.line); }
 
 CsvTable ParseCsv(std::string_view text, const std::string& file) {
   CsvTable table;
@@ -177,20 +175,22 @@ CsvTable ReadCsvFile(const std::string& path, const std::string& label) {
 
 namespace vlt::job_detail {
 
-double CsvQuantity(const std::string& field, std::optional<Dimension> dim, double unit_scale, double unit_offset,
-                   const std::string& where) {
+double CsvQuantity(const std::string& field, std::optional<Dimension> dim, double unit_scale,
+                   double unit_offset, const std::string& where) {
   if (field.empty()) throw InputError(where + ": empty field");
   // A bare decimal number in the column's unit (docs/units.md: decimal literals only — no hex
   // floats, no inf/nan, which strtod would take); anything else must carry its own unit.
   std::string_view digits = field;
   if (!digits.empty() && digits.front() == '+') digits.remove_prefix(1);
   double v = 0.0;
-  const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), v, std::chars_format::general);
+  const auto [end, ec] =
+      std::from_chars(digits.data(), digits.data() + digits.size(), v, std::chars_format::general);
   if (ec == std::errc() && end == digits.data() + digits.size()) {
     if (!std::isfinite(v)) throw InputError(where + ": '" + field + "' is not a finite number");
     return v * unit_scale + unit_offset;
   }
-  if (ec == std::errc::result_out_of_range) throw InputError(where + ": '" + field + "' is out of the range of finite numbers");
+  if (ec == std::errc::result_out_of_range)
+    throw InputError(where + ": '" + field + "' is out of the range of finite numbers");
   if (!dim) throw InputError(where + ": '" + field + "' is not a decimal number");
   return ParseQuantity(field, *dim, where);  // a field with its own unit
 }

@@ -24,9 +24,9 @@ struct CsvRow {
 };
 
 struct CsvTable {
-  std::string file;                 // path as used in messages
+  std::string file;  // path as used in messages
   int header_line = 0;
-  char delimiter = ',';              // ',', ';' or '\t' (from the header line)
+  char delimiter = ',';             // ',', ';' or '\t' (from the header line)
   std::vector<std::string> header;  // column names, trimmed
   std::vector<CsvRow> rows;         // every row has exactly header.size() fields
 

@@ -100,7 +100,6 @@ std::string HtmlEscape(const std::string& text) {
   return out;
 }
 
-
 std::string CsvField(const std::string& field) {
   if (field.find_first_of(",\"\n\r") == std::string::npos) return field;
   std::string out = "\"";

@@ -16,14 +16,13 @@
 namespace vlt {
 
 Dimension DimensionOfQuantity(std::string_view quantity, const std::string& where) {
-  for (Dimension d : {Dimension::kLength, Dimension::kAngle, Dimension::kRatio,
-                      Dimension::kTemperature, Dimension::kTemperatureDifference,
-                      Dimension::kPressure, Dimension::kHumidity, Dimension::kFraction,
-                      Dimension::kPerKelvin, Dimension::kDimensionless, Dimension::kTime}) {
+  for (Dimension d :
+       {Dimension::kLength, Dimension::kAngle, Dimension::kRatio, Dimension::kTemperature,
+        Dimension::kTemperatureDifference, Dimension::kPressure, Dimension::kHumidity, Dimension::kFraction,
+        Dimension::kPerKelvin, Dimension::kDimensionless, Dimension::kTime}) {
     if (DimensionName(d) == quantity) return d;
   }
-  throw InputError(where + ": the model declares an unknown quantity kind '" +
-                   std::string(quantity) + "'");
+  throw InputError(where + ": the model declares an unknown quantity kind '" + std::string(quantity) + "'");
 }
 
 namespace job_detail {
@@ -100,8 +99,6 @@ double AsQuantity(const toml::node& node, Dimension dimension, const std::string
                    std::string(SiUnit(dimension)) + ")");
 }
 
-
-
 // The distribution name is parsed by the Monte Carlo engine's parser (vlt/distributions.h) and
 // stored in its canonical spelling; the Distribution constructor checks the shape parameter.
 void CheckDistribution(UncertainInput& input, const std::string& where_distribution,
@@ -117,7 +114,8 @@ void CheckDistribution(UncertainInput& input, const std::string& where_distribut
 void CheckUncertainty(double u, const std::string& where) {
   if (!std::isfinite(u)) throw InputError(where + ": uncertainty is not finite");
   if (u < 0.0) throw InputError(where + ": negative uncertainty");
-  if (u > kMaxMagnitude) throw InputError(where + ": uncertainty beyond what vlt computes with (at most 1e12 in SI units)");
+  if (u > kMaxMagnitude)
+    throw InputError(where + ": uncertainty beyond what vlt computes with (at most 1e12 in SI units)");
 }
 
 // An uncertain input: either a table {estimate, u, distribution, shape} (omitted keys keep the
@@ -169,7 +167,6 @@ UncertainInput MakeInput(std::string name, std::string group, Dimension dim, dou
   input.u = u;
   return input;
 }
-
 
 namespace {
 
@@ -244,8 +241,7 @@ std::filesystem::path BaseDirectory(const std::string& path) {
   return base.empty() ? std::filesystem::path(".") : base;
 }
 
-void ReadJobMeta(Section& top, std::string& name, std::string* description,
-                 const std::string& default_name) {
+void ReadJobMeta(Section& top, std::string& name, std::string* description, const std::string& default_name) {
   name = default_name;
   Section meta = top.Sub("job", false);
   if (!meta.exists()) return;

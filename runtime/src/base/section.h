@@ -36,7 +36,7 @@ class Section {
   const toml::node* Get(std::string_view key);    // nullptr when absent
   const toml::node& Require(std::string_view key);
   Section Sub(std::string_view key, bool required);  // a nested table
-  void Finish() const;                            // unknown keys -> InputError
+  void Finish() const;                               // unknown keys -> InputError
 
  private:
   const toml::table* table_ = nullptr;

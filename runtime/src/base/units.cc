@@ -109,10 +109,17 @@ constexpr UnitDef kUnits[] = {
 };
 
 constexpr Dimension kAllDimensions[] = {
-    Dimension::kLength,      Dimension::kAngle,     Dimension::kRatio,
-    Dimension::kTemperature, Dimension::kTemperatureDifference,
-    Dimension::kPressure,    Dimension::kHumidity,  Dimension::kFraction,
-    Dimension::kPerKelvin,   Dimension::kDimensionless, Dimension::kTime,
+    Dimension::kLength,
+    Dimension::kAngle,
+    Dimension::kRatio,
+    Dimension::kTemperature,
+    Dimension::kTemperatureDifference,
+    Dimension::kPressure,
+    Dimension::kHumidity,
+    Dimension::kFraction,
+    Dimension::kPerKelvin,
+    Dimension::kDimensionless,
+    Dimension::kTime,
 };
 
 // The ASCII spelling of a unit: micro sign (U+00B5) and Greek mu (U+03BC) -> "u",
@@ -124,7 +131,8 @@ std::string Canonical(std::string_view unit) {
     if (rest.starts_with("\xC2\xB5") || rest.starts_with("\xCE\xBC")) {
       out += 'u';
       ++i;
-    } else if (rest.starts_with("\xC2\xB0" "C")) {
+    } else if (rest.starts_with("\xC2\xB0"
+                                "C")) {
       out += "degC";
       i += 2;
     } else if (rest.starts_with("\xC2\xB0")) {
@@ -253,8 +261,7 @@ double ParseQuantity(std::string_view text, Dimension expected, std::string_view
   std::string prefix(where);
   prefix.append(": ");
   if (trimmed.empty()) {
-    throw InputError(prefix + "empty value, expected " +
-                     WithArticle(DimensionName(expected)) + " (e.g. '1 " +
+    throw InputError(prefix + "empty value, expected " + WithArticle(DimensionName(expected)) + " (e.g. '1 " +
                      std::string(SiUnit(expected)) + "')");
   }
   const std::size_t length = NumberLength(trimmed);
@@ -282,14 +289,12 @@ double ParseQuantity(std::string_view text, Dimension expected, std::string_view
     if (def == nullptr) {
       for (Dimension other : kAllDimensions) {
         if (Find(canonical, other) != nullptr) {
-          throw InputError(prefix + quoted + " is " + WithArticle(DimensionName(other)) +
-                           ", expected " + WithArticle(DimensionName(expected)) + " (" +
-                           UnitList(expected) + ")");
+          throw InputError(prefix + quoted + " is " + WithArticle(DimensionName(other)) + ", expected " +
+                           WithArticle(DimensionName(expected)) + " (" + UnitList(expected) + ")");
         }
       }
-      throw InputError(prefix + "unknown unit '" + std::string(unit) + "' in " + quoted +
-                       "; " + WithArticle(DimensionName(expected)) + " takes " +
-                       UnitList(expected));
+      throw InputError(prefix + "unknown unit '" + std::string(unit) + "' in " + quoted + "; " +
+                       WithArticle(DimensionName(expected)) + " takes " + UnitList(expected));
     }
     si = value * def->factor + def->offset;
   }
@@ -312,13 +317,11 @@ double ToSi(double value, Dimension dimension, std::string_view unit) {
   return value * u.factor + u.offset;
 }
 
-std::string FormatQuantity(double si, Dimension dimension, std::string_view unit,
-                           int significant_digits) {
+std::string FormatQuantity(double si, Dimension dimension, std::string_view unit, int significant_digits) {
   if (unit.empty()) unit = SiUnit(dimension);
   const double value = FromSi(si, dimension, unit);
   char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.*g", significant_digits < 1 ? 1 : significant_digits,
-                value);
+  std::snprintf(buffer, sizeof buffer, "%.*g", significant_digits < 1 ? 1 : significant_digits, value);
   return std::string(buffer) + " " + std::string(unit);
 }
 
@@ -331,20 +334,13 @@ std::string FormatReadable(double si, Dimension dimension) {
       return a >= 3.14159265358979323846 / 180.0 ? FormatQuantity(si, dimension, "deg", 8)
                                                  : FormatQuantity(si, dimension, "arcsec", 4);
     case Dimension::kRatio:
-    case Dimension::kFraction:
-      return FormatQuantity(si, dimension, "ppm", 4);
-    case Dimension::kPerKelvin:
-      return FormatQuantity(si, dimension, "ppm/K", 4);
-    case Dimension::kPressure:
-      return FormatQuantity(si, dimension, "hPa", 6);
-    case Dimension::kTemperature:
-      return FormatQuantity(si, dimension, "degC", 6);
-    case Dimension::kTemperatureDifference:
-      return FormatQuantity(si, dimension, "K", 4);
-    case Dimension::kHumidity:
-      return FormatQuantity(si, dimension, "%", 4);
-    default:
-      return FormatQuantity(si, dimension, {}, 6);
+    case Dimension::kFraction: return FormatQuantity(si, dimension, "ppm", 4);
+    case Dimension::kPerKelvin: return FormatQuantity(si, dimension, "ppm/K", 4);
+    case Dimension::kPressure: return FormatQuantity(si, dimension, "hPa", 6);
+    case Dimension::kTemperature: return FormatQuantity(si, dimension, "degC", 6);
+    case Dimension::kTemperatureDifference: return FormatQuantity(si, dimension, "K", 4);
+    case Dimension::kHumidity: return FormatQuantity(si, dimension, "%", 4);
+    default: return FormatQuantity(si, dimension, {}, 6);
   }
 }
 

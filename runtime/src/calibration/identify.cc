@@ -31,7 +31,7 @@ namespace {
 // parameters, T (A x n) the determined combinations in prior-scaled coordinates.
 struct ParameterMap {
   Eigen::VectorXd p0;
-  std::vector<int> active;     // model indices of the parameters with u0 > 0
+  std::vector<int> active;  // model indices of the parameters with u0 > 0
   Eigen::VectorXd u_active;
   Eigen::MatrixXd determined;  // A x n: columns v_i of the determined combinations
   Eigen::MatrixXd held;        // A x h: held combinations (prior kept)
@@ -144,14 +144,18 @@ double ChiSquareUpperTail(double x, int dof) {
 
 // A held combination v (F free parameters, prior-scaled) as the report names it: its terms of at
 // least 5 % of the largest, that one positive.
-HeldCombination DescribeHeld(const Eigen::VectorXd& v, const std::vector<std::string>& free_parameters, double ratio,
-                             bool blind) {
+HeldCombination DescribeHeld(const Eigen::VectorXd& v, const std::vector<std::string>& free_parameters,
+                             double ratio, bool blind) {
   const int F = static_cast<int>(v.size());
   HeldCombination h;
   h.ratio = ratio;
   const double big = v.cwiseAbs().maxCoeff();
-  const double sign = v(static_cast<Eigen::Index>(std::distance(v.data(), std::max_element(v.data(), v.data() + F,
-      [](double x, double y) { return std::abs(x) < std::abs(y); })))) < 0 ? -1.0 : 1.0;
+  const double sign =
+      v(static_cast<Eigen::Index>(std::distance(
+          v.data(), std::max_element(v.data(), v.data() + F,
+                                     [](double x, double y) { return std::abs(x) < std::abs(y); })))) < 0
+          ? -1.0
+          : 1.0;
   for (int f = 0; f < F; ++f) {
     if (std::abs(v(f)) >= 0.05 * big) {
       h.terms.emplace_back(free_parameters[f], sign * v(f));
@@ -186,18 +190,24 @@ struct Calibration {
   CalibrationResult result;
 
   Calibration(const CalibrationData& d, const CalibrationOptions& o)
-      : data(d), options(o), problem(calibration_internal::IndexProblem(d)), P(problem.num_params),
-        T(static_cast<int>(problem.target_names.size())), B(static_cast<int>(problem.bar_length.size())),
-        nuisance(3 * T + B), m(problem.num_residuals()) {
-    if (!(options.hold_ratio > 0.0)) throw InputError(data.where + ": calibration.hold_ratio: must be positive");
+      : data(d),
+        options(o),
+        problem(calibration_internal::IndexProblem(d)),
+        P(problem.num_params),
+        T(static_cast<int>(problem.target_names.size())),
+        B(static_cast<int>(problem.bar_length.size())),
+        nuisance(3 * T + B),
+        m(problem.num_residuals()) {
+    if (!(options.hold_ratio > 0.0))
+      throw InputError(data.where + ": calibration.hold_ratio: must be positive");
   }
 
   // Prior-scaled coordinates z over the active parameters (u0 > 0); the user's `fit` selects
   // which of them the data may move.
   void MapParameters() {
     if (!data.fit.empty() && static_cast<int>(data.fit.size()) != P) {
-      throw InputError(data.where + ": calibration.fit: " + std::to_string(data.fit.size()) + " flags for a model with " +
-                       std::to_string(P) + " parameters");
+      throw InputError(data.where + ": calibration.fit: " + std::to_string(data.fit.size()) +
+                       " flags for a model with " + std::to_string(P) + " parameters");
     }
     map.p0 = problem.p0;
     for (int k = 0; k < P; ++k) {
@@ -209,7 +219,8 @@ struct Calibration {
     A = static_cast<int>(map.active.size());
     F = static_cast<int>(free.size());
     if (F == 0) {
-      throw InputError(data.where + ": calibration.fit: no parameter is left to identify (every parameter is excluded "
+      throw InputError(data.where +
+                       ": calibration.fit: no parameter is left to identify (every parameter is excluded "
                        "or has prior u = 0)");
     }
     map.u_active.resize(A);
@@ -246,7 +257,8 @@ struct Calibration {
     const Eigen::MatrixXd j_nuisance = jac.rightCols(nuisance);
     Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr_n(j_nuisance);
     if (qr_n.rank() < nuisance) {
-      throw NumericalError(data.where + ": the target coordinates and bar lengths are not all determined by the readings");
+      throw NumericalError(data.where +
+                           ": the target coordinates and bar lengths are not all determined by the readings");
     }
     result.model = problem.model->name;
     Eigen::MatrixXd j_free(m, F);
@@ -287,7 +299,7 @@ struct Calibration {
     }
     // Condition number of what is fitted: the determined combinations (the blind ones are held).
     result.condition_number = determined.empty() ? std::numeric_limits<double>::infinity()
-                                                  : s_max / result.singular_values(determined.back());
+                                                 : s_max / result.singular_values(determined.back());
   }
 
   // Bases in z (A-dimensional): determined combinations; held = held free ones + the active
@@ -318,7 +330,8 @@ struct Calibration {
       throw InputError(data.where + ": " + std::to_string(m) + " scalar observations for " +
                        std::to_string(result.unknowns) + " unknowns (" + std::to_string(n) +
                        " parameter combinations, " + std::to_string(3 * T) + " target coordinates, " +
-                       std::to_string(B) + " bar lengths): too few observations (no redundancy to check the fit)");
+                       std::to_string(B) +
+                       " bar lengths): too few observations (no redundancy to check the fit)");
     }
   }
 
@@ -333,15 +346,19 @@ struct Calibration {
     for (const ReadingObservation& obs : problem.readings) {
       auto* cost = new ReadingCost(problem, obs, map);
       double* x = targets.data() + 3 * obs.target;
-      if (n > 0) solver_problem.AddResidualBlock(cost, nullptr, alpha.data(), x);
-      else solver_problem.AddResidualBlock(cost, nullptr, x);
+      if (n > 0)
+        solver_problem.AddResidualBlock(cost, nullptr, alpha.data(), x);
+      else
+        solver_problem.AddResidualBlock(cost, nullptr, x);
     }
     for (const DistanceObservation& obs : problem.distances) {
       auto* cost = new DistanceCost(obs);
       double* xa = targets.data() + 3 * obs.a;
       double* xb = targets.data() + 3 * obs.b;
-      if (obs.bar >= 0) solver_problem.AddResidualBlock(cost, nullptr, xa, xb, bars.data() + obs.bar);
-      else solver_problem.AddResidualBlock(cost, nullptr, xa, xb);
+      if (obs.bar >= 0)
+        solver_problem.AddResidualBlock(cost, nullptr, xa, xb, bars.data() + obs.bar);
+      else
+        solver_problem.AddResidualBlock(cost, nullptr, xa, xb);
     }
     for (int b = 0; b < B; ++b) {
       solver_problem.AddResidualBlock(new BarCalibrationCost(problem.bar_length[b], problem.bar_u[b]),
@@ -373,7 +390,7 @@ struct Calibration {
     const Eigen::VectorXd p_hat = map.Params(alpha.data());
     DenseSystem(problem, p_hat, targets, bars, e, jac);
     const int h = static_cast<int>(map.held.cols());
-    j_fit.resize(m, n + nuisance);   // [alpha | targets | bars]
+    j_fit.resize(m, n + nuisance);  // [alpha | targets | bars]
     j_fit.leftCols(n) = jac.leftCols(P) * map.ParamsJacobian(P, map.determined);
     j_fit.rightCols(nuisance) = jac.rightCols(nuisance);
     const Eigen::MatrixXd j_held = jac.leftCols(P) * map.ParamsJacobian(P, map.held);
@@ -385,7 +402,7 @@ struct Calibration {
     // Held combinations beta ~ (0, Sigma_b) move the estimate by K beta, K = -C J^T J_held.
     const Eigen::MatrixXd sigma_held = map.held.transpose() * prior_corr * map.held;
     const Eigen::MatrixXd gain = -c_fit * (j_fit.transpose() * j_held);
-    cov_all.resize(n + nuisance + h, n + nuisance + h);   // [alpha | nuisance | beta]
+    cov_all.resize(n + nuisance + h, n + nuisance + h);  // [alpha | nuisance | beta]
     cov_all.topLeftCorner(n + nuisance, n + nuisance) = c_fit + gain * sigma_held * gain.transpose();
     cov_all.topRightCorner(n + nuisance, h) = gain * sigma_held;
     cov_all.bottomLeftCorner(h, n + nuisance) = (gain * sigma_held).transpose();
@@ -484,8 +501,9 @@ struct Calibration {
       const TargetReading& src = data.readings[i];
       for (int c = 0; c < 3; ++c) {
         // e = W (f(m) - x) ~ S^-1/2 (m - m_adjusted): observed minus adjusted reading.
-        AddResidual(jc, static_cast<int>(3 * i) + c, src.target + " " + FaceName(src.face) + " " + kReadingNames[c],
-                    src.where, c == 0 ? "m" : "rad", obs.sigma(c), 1.0);
+        AddResidual(jc, static_cast<int>(3 * i) + c,
+                    src.target + " " + FaceName(src.face) + " " + kReadingNames[c], src.where,
+                    c == 0 ? "m" : "rad", obs.sigma(c), 1.0);
       }
     }
     int row = 3 * static_cast<int>(problem.readings.size());
@@ -493,7 +511,8 @@ struct Calibration {
       AddResidual(jc, row++, obs.label, obs.where, "m", obs.u, -1.0);  // observed L - adjusted |xa - xb|
     }
     for (int b = 0; b < B; ++b) {
-      AddResidual(jc, row++, data.bars[b].name + " calibration", data.bars[b].where, "m", problem.bar_u[b], -1.0);
+      AddResidual(jc, row++, data.bars[b].name + " calibration", data.bars[b].where, "m", problem.bar_u[b],
+                  -1.0);
     }
     for (const CalibratedParameter& cp : result.parameters) {
       if (!std::isfinite(cp.estimate) || !std::isfinite(cp.u)) {

@@ -46,7 +46,8 @@ IndexedProblem IndexProblem(const CalibrationData& data) {
     const double range_u = data.noise.range_a + data.noise.range_b * r.readings(0);
     obs.sigma = Eigen::Vector3d(range_u, data.noise.azimuth, data.noise.elevation);
     if (!(obs.sigma.minCoeff() > 0.0)) {
-      throw InputError(data.where + ": tracker.noise: every reading needs a positive standard "
+      throw InputError(data.where +
+                       ": tracker.noise: every reading needs a positive standard "
                        "uncertainty (range, azimuth, elevation) to be weighted");
     }
     // Whitening at the prior estimates: W = S^-1/2 J_r^-1, so that W (f(m) - x) is the
@@ -73,7 +74,8 @@ IndexedProblem IndexProblem(const CalibrationData& data) {
   };
   for (const ReferenceBar& bar : data.bars) {
     if (!(bar.length > 0.0)) throw InputError(bar.where + ": length must be positive");
-    if (!(bar.u > 0.0)) throw InputError(bar.where + ": u must be positive (the bar's calibration uncertainty)");
+    if (!(bar.u > 0.0))
+      throw InputError(bar.where + ": u must be positive (the bar's calibration uncertainty)");
     if (!(bar.u_position > 0.0)) throw InputError(bar.where + ": u_position must be positive");
     if (bar.positions.empty()) throw InputError(bar.where + ": positions: no positions");
     const int b = static_cast<int>(problem.bar_length.size());
@@ -84,7 +86,9 @@ IndexedProblem IndexProblem(const CalibrationData& data) {
       DistanceObservation d;
       d.a = target(a_name, bar.where);
       d.b = target(b_name, bar.where);
-      if (d.a == d.b) throw InputError(bar.where + ": position " + std::to_string(k + 1) + ": both ends are target '" + a_name + "'");
+      if (d.a == d.b)
+        throw InputError(bar.where + ": position " + std::to_string(k + 1) + ": both ends are target '" +
+                         a_name + "'");
       d.bar = b;
       d.u = bar.u_position;
       d.label = bar.name + " position " + std::to_string(++k) + " (" + a_name + "-" + b_name + ")";
@@ -123,8 +127,8 @@ void ReadingResidual(const IndexedProblem& problem, const ReadingObservation& ob
   }
 }
 
-double DistanceResidual(const DistanceObservation& obs, const double* xa, const double* xb,
-                        double length, double* d_e_d_xa, double* d_e_d_xb) {
+double DistanceResidual(const DistanceObservation& obs, const double* xa, const double* xb, double length,
+                        double* d_e_d_xa, double* d_e_d_xb) {
   const Eigen::Vector3d d = Eigen::Map<const Eigen::Vector3d>(xb) - Eigen::Map<const Eigen::Vector3d>(xa);
   const double n = d.norm();
   if (!(n > 0.0)) throw NumericalError(obs.where + ": " + obs.label + ": the two targets coincide");
@@ -136,9 +140,8 @@ double DistanceResidual(const DistanceObservation& obs, const double* xa, const 
   return (n - length) / obs.u;
 }
 
-void DenseSystem(const IndexedProblem& problem, const Eigen::VectorXd& p,
-                 const Eigen::VectorXd& targets, const Eigen::VectorXd& bars, Eigen::VectorXd& e,
-                 Eigen::MatrixXd& jacobian) {
+void DenseSystem(const IndexedProblem& problem, const Eigen::VectorXd& p, const Eigen::VectorXd& targets,
+                 const Eigen::VectorXd& bars, Eigen::VectorXd& e, Eigen::MatrixXd& jacobian) {
   const int P = problem.num_params;
   const int T = static_cast<int>(problem.target_names.size());
   const int B = static_cast<int>(problem.bar_length.size());
@@ -156,8 +159,8 @@ void DenseSystem(const IndexedProblem& problem, const Eigen::VectorXd& p,
   for (const DistanceObservation& obs : problem.distances) {
     const double length = obs.bar >= 0 ? bars(obs.bar) : obs.length;
     Eigen::Vector3d da, db;
-    e(row) = DistanceResidual(obs, targets.data() + 3 * obs.a, targets.data() + 3 * obs.b, length,
-                              da.data(), db.data());
+    e(row) = DistanceResidual(obs, targets.data() + 3 * obs.a, targets.data() + 3 * obs.b, length, da.data(),
+                              db.data());
     jacobian.block<1, 3>(row, P + 3 * obs.a) += da.transpose();
     jacobian.block<1, 3>(row, P + 3 * obs.b) += db.transpose();
     if (obs.bar >= 0) jacobian(row, P + 3 * T + obs.bar) = -1.0 / obs.u;

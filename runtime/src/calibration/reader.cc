@@ -82,7 +82,8 @@ TestLayout LoadTestLayout(const std::string& path) {
   auto unique = [&](Section& s) {
     std::string name = AsString(s.Require("name"), s.Where("name"));
     if (name.empty()) throw InputError(s.Where("name") + ": empty name");
-    if (name.find_first_of(",\"\n") != std::string::npos) throw InputError(s.Where("name") + ": a name may not contain ',', '\"' or a line break");
+    if (name.find_first_of(",\"\n") != std::string::npos)
+      throw InputError(s.Where("name") + ": a name may not contain ',', '\"' or a line break");
     if (!names.insert(name).second) throw InputError(s.Where("name") + ": '" + name + "' is used twice");
     return name;
   };
@@ -107,16 +108,25 @@ TestLayout LoadTestLayout(const std::string& path) {
     for (const ReferenceBar& b : layout.bars) {
       if (b.name == t.bar) bar = &b;
     }
-    if (!bar) throw InputError(s.Where("bar") + ": bar '" + t.bar + "' is not defined (define [[bar]] before the tests)");
+    if (!bar)
+      throw InputError(s.Where("bar") + ": bar '" + t.bar +
+                       "' is not defined (define [[bar]] before the tests)");
     const Place p = ReadPlace(s, Positive(s, "distance", Dimension::kLength));
     const std::string orientation = AsString(s.Require("orientation"), s.Where("orientation"));
     Eigen::Vector3d axis;
-    if (orientation == "horizontal") axis = p.transverse;
-    else if (orientation == "vertical") axis = p.up;
-    else if (orientation == "right_diagonal") axis = (-p.transverse + p.up).normalized();
-    else if (orientation == "left_diagonal") axis = (p.transverse + p.up).normalized();
-    else if (orientation == "radial") axis = p.radial;
-    else throw InputError(s.Where("orientation") + ": '" + orientation + "' (expected horizontal, vertical, right_diagonal, left_diagonal or radial)");
+    if (orientation == "horizontal")
+      axis = p.transverse;
+    else if (orientation == "vertical")
+      axis = p.up;
+    else if (orientation == "right_diagonal")
+      axis = (-p.transverse + p.up).normalized();
+    else if (orientation == "left_diagonal")
+      axis = (p.transverse + p.up).normalized();
+    else if (orientation == "radial")
+      axis = p.radial;
+    else
+      throw InputError(s.Where("orientation") + ": '" + orientation +
+                       "' (expected horizontal, vertical, right_diagonal, left_diagonal or radial)");
     t.a = p.centre - 0.5 * bar->length * axis;
     t.b = p.centre + 0.5 * bar->length * axis;
     t.face = ReadFace(s);
@@ -149,7 +159,8 @@ TestLayout LoadTestLayout(const std::string& path) {
     layout.tests.push_back(t);
   });
   top.Finish();
-  if (layout.tests.empty()) throw InputError(path + ": length: the layout has no tests ([[length]], [[ranging]], [[two_face]])");
+  if (layout.tests.empty())
+    throw InputError(path + ": length: the layout has no tests ([[length]], [[ranging]], [[two_face]])");
   return layout;
 }
 
@@ -213,7 +224,9 @@ CalibrationJob LoadCalibrationJob(const std::string& path) {
   holder.base_dir = BaseDirectory(path);
   ReadTracker(top, holder);
   if (holder.calibration) {
-    throw InputError(path + ": tracker.calibration: a calibration job estimates the parameters; start from priors, not from another calibration file");
+    throw InputError(path +
+                     ": tracker.calibration: a calibration job estimates the parameters; start from priors, "
+                     "not from another calibration file");
   }
   Section readings = top.Sub("readings", true);
   ReadReadings(readings, holder);
@@ -250,13 +263,16 @@ CalibrationJob LoadCalibrationJob(const std::string& path) {
         const std::string name = AsString(e, cal.Where(key));
         std::size_t k = 0;
         while (k < data.priors.size() && data.priors[k].name != name) ++k;
-        if (k == data.priors.size()) throw InputError(cal.Where(key) + ": unknown parameter '" + name + "' of model '" + data.model->name + "'");
+        if (k == data.priors.size())
+          throw InputError(cal.Where(key) + ": unknown parameter '" + name + "' of model '" +
+                           data.model->name + "'");
         data.fit[k] = fit != nullptr;
       }
     }
     if (const toml::node* n = cal.Get("hold_ratio")) {
       job.options.hold_ratio = AsNumber(*n, cal.Where("hold_ratio"));
-      if (!(job.options.hold_ratio > 0.0) || !std::isfinite(job.options.hold_ratio)) throw InputError(cal.Where("hold_ratio") + ": must be positive");
+      if (!(job.options.hold_ratio > 0.0) || !std::isfinite(job.options.hold_ratio))
+        throw InputError(cal.Where("hold_ratio") + ": must be positive");
     }
     ReadOutlierLimit(cal, "outlier_limit", job.options.outlier_limit);
     ReadCoverageProbability(cal, "coverage_probability", job.options.coverage_probability);
@@ -269,17 +285,21 @@ CalibrationJob LoadCalibrationJob(const std::string& path) {
     bar.where = s.WhereSelf();
     bar.name = AsString(s.Require("name"), s.Where("name"));
     for (const ReferenceBar& other : data.bars) {
-      if (other.name == bar.name) throw InputError(s.Where("name") + ": bar '" + bar.name + "' defined twice");
+      if (other.name == bar.name)
+        throw InputError(s.Where("name") + ": bar '" + bar.name + "' defined twice");
     }
     bar.length = Positive(s, "length", Dimension::kLength);
     bar.u = Positive(s, "u", Dimension::kLength);
     bar.u_position = Positive(s, "u_position", Dimension::kLength);
     const toml::node& positions = s.Require("positions");
     const std::string where = s.Where("positions");
-    if (!positions.is_array() || positions.as_array()->empty()) throw InputError(where + ": expected [[\"a\", \"b\"], ...] (target names of the two ends)");
+    if (!positions.is_array() || positions.as_array()->empty())
+      throw InputError(where + ": expected [[\"a\", \"b\"], ...] (target names of the two ends)");
     for (const toml::node& e : *positions.as_array()) {
-      if (!e.is_array() || e.as_array()->size() != 2) throw InputError(where + ": each position is a pair [\"a\", \"b\"] of target names");
-      bar.positions.emplace_back(AsString(*e.as_array()->get(0), where), AsString(*e.as_array()->get(1), where));
+      if (!e.is_array() || e.as_array()->size() != 2)
+        throw InputError(where + ": each position is a pair [\"a\", \"b\"] of target names");
+      bar.positions.emplace_back(AsString(*e.as_array()->get(0), where),
+                                 AsString(*e.as_array()->get(1), where));
     }
     data.bars.push_back(bar);
   });
@@ -296,7 +316,8 @@ CalibrationJob LoadCalibrationJob(const std::string& path) {
   Section output = top.Sub("output", false);
   if (output.exists()) {
     output.set_hint("directory");
-    if (const toml::node* n = output.Get("directory")) job.output_directory = AsString(*n, output.Where("directory"));
+    if (const toml::node* n = output.Get("directory"))
+      job.output_directory = AsString(*n, output.Where("directory"));
     output.Finish();
   }
   top.Finish();

@@ -36,7 +36,7 @@ struct Sighting {
   Eigen::Vector3d readings;
   Eigen::Vector3d reported;
   Eigen::Matrix3d d_y_d_readings;
-  Eigen::MatrixXd d_y_d_params;     // 3 x P
+  Eigen::MatrixXd d_y_d_params;  // 3 x P
   Eigen::Matrix3d reading_cov;
 };
 
@@ -56,8 +56,8 @@ Eigen::Vector3d ReadingSigma(const ReadingNoise& noise, double range) {
   return {noise.range_a + noise.range_b * range, noise.azimuth, noise.elevation};
 }
 
-Sighting See(const MeasurementSetup& tracker, const Eigen::VectorXd& p_true,
-             const Eigen::VectorXd& p_comp, const Eigen::Vector3d& x, Face face, const std::string& where) {
+Sighting See(const MeasurementSetup& tracker, const Eigen::VectorXd& p_true, const Eigen::VectorXd& p_comp,
+             const Eigen::Vector3d& x, Face face, const std::string& where) {
   const ModelInfo& model = *tracker.model;
   const int P = model.num_params;
   if (std::hypot(x.x(), x.y()) < 1e-6) {
@@ -82,8 +82,7 @@ Sighting See(const MeasurementSetup& tracker, const Eigen::VectorXd& p_true,
 Eigen::MatrixXd ParamCovariance(const MeasurementSetup& tracker) {
   const int P = static_cast<int>(tracker.params.size());
   // The parameters' block of the shared correlation (the parameters come first).
-  Eigen::MatrixXd c =
-      SharedCorrelation(SharedInputNames(tracker), tracker.correlations).topLeftCorner(P, P);
+  Eigen::MatrixXd c = SharedCorrelation(SharedInputNames(tracker), tracker.correlations).topLeftCorner(P, P);
   for (int i = 0; i < P; ++i)
     for (int j = 0; j < P; ++j) c(i, j) *= tracker.params[i].u * tracker.params[j].u;
   return c;
@@ -123,9 +122,10 @@ std::vector<TestResult> SimulateTests(const MeasurementSetup& tracker, const Tes
       const Eigen::Vector3d radial = test.a.normalized();
       r.two_face_radial = r.two_face.dot(radial);
       r.two_face_transverse = (r.two_face - r.two_face_radial * radial).norm();
-      const Eigen::Matrix3d cov = front.d_y_d_readings * front.reading_cov * front.d_y_d_readings.transpose() +
-                                  back.d_y_d_readings * back.reading_cov * back.d_y_d_readings.transpose();
-      const Eigen::MatrixXd d_delta = back.d_y_d_params - front.d_y_d_params;   // 3 x P
+      const Eigen::Matrix3d cov =
+          front.d_y_d_readings * front.reading_cov * front.d_y_d_readings.transpose() +
+          back.d_y_d_readings * back.reading_cov * back.d_y_d_readings.transpose();
+      const Eigen::MatrixXd d_delta = back.d_y_d_params - front.d_y_d_params;  // 3 x P
       // |Delta| is not differentiable at Delta = 0: use the direction of Delta, or the largest
       // axis of the covariance for an error-free tracker.
       Eigen::Vector3d g;
@@ -156,7 +156,8 @@ std::vector<TestResult> SimulateTests(const MeasurementSetup& tracker, const Tes
       }
       const Eigen::RowVector3d ga = -unit.transpose() * sa.d_y_d_readings;
       const Eigen::RowVector3d gb = unit.transpose() * sb.d_y_d_readings;
-      const double var = (ga * sa.reading_cov * ga.transpose())(0, 0) + (gb * sb.reading_cov * gb.transpose())(0, 0);
+      const double var =
+          (ga * sa.reading_cov * ga.transpose())(0, 0) + (gb * sb.reading_cov * gb.transpose())(0, 0);
       r.u = std::sqrt(var + u_ref * u_ref);
       r.sensitivity = (unit.transpose() * (sb.d_y_d_params - sa.d_y_d_params)).transpose();
       r.u_parameters = std::sqrt(std::max(0.0, r.sensitivity.dot(cov_p * r.sensitivity)));
@@ -211,7 +212,8 @@ CalibrationData SimulateCalibrationData(const MeasurementSetup& tracker, const T
     r.target = target;
     r.face = face;
     const Eigen::Vector3d sigma = ReadingSigma(tracker.noise, m[0]);
-    for (int c = 0; c < 3; ++c) r.readings(c) = m[c] + sigma(c) * normal(reading_index, static_cast<std::uint64_t>(c));
+    for (int c = 0; c < 3; ++c)
+      r.readings(c) = m[c] + sigma(c) * normal(reading_index, static_cast<std::uint64_t>(c));
     r.readings(1) = NormalizeAzimuth(r.readings(1));
     r.where = where;
     ++reading_index;

@@ -30,8 +30,7 @@ std::optional<Dimension> KnownDimension(const QuantityInfo& q) {
   try {
     const Dimension d = DimensionOfQuantity(q.quantity, "");
     if (SiUnit(d) == q.unit) return d;
-  } catch (const InputError&) {
-  }
+  } catch (const InputError&) {}
   return std::nullopt;
 }
 
@@ -64,8 +63,8 @@ struct Observations {
 };
 
 // Type A (JCGM 100 4.2.1-4.2.3): mean, s(q_k), u = s / sqrt(n), nu = n - 1.
-void SetTypeA(const Observations& obs, UncertainInput& input, CustomInputSource& source,
-              double& dof, const std::string& where) {
+void SetTypeA(const Observations& obs, UncertainInput& input, CustomInputSource& source, double& dof,
+              const std::string& where) {
   const int n = static_cast<int>(obs.values.size());
   if (n < 2) throw InputError(where + ": at least 2 observations are needed for a Type A evaluation");
   double mean = 0.0;
@@ -96,8 +95,8 @@ struct CustomJobReader {
   std::optional<CsvTable> table;
   bool simultaneous = false;
   std::string observations_where;
-  std::vector<int> from_table;                 // inputs observed in a column of `table`
-  std::vector<std::vector<double>> observed;   // Type A values, SI
+  std::vector<int> from_table;                // inputs observed in a column of `table`
+  std::vector<std::vector<double>> observed;  // Type A values, SI
 
   CustomJobReader(Section& top, CustomJob& job) : top(top), job(job) {}
 
@@ -126,9 +125,10 @@ void CustomJobReader::FindCustomModel() {
     for (const ModelInfo* m : AllModels()) {
       if (std::string_view(m->kind) == "custom") list += (list.empty() ? "" : ", ") + std::string(m->name);
     }
-    throw InputError(model_section.Where("name") + ": '" + model_name +
-                     (model == nullptr ? "' is not a compiled model" : "' is a tracker model (use [tracker])") +
-                     " (custom models: " + list + "; add one with a spec in models/, docs/models.md)");
+    throw InputError(
+        model_section.Where("name") + ": '" + model_name +
+        (model == nullptr ? "' is not a compiled model" : "' is a tracker model (use [tracker])") +
+        " (custom models: " + list + "; add one with a spec in models/, docs/models.md)");
   }
   model_section.Finish();
   job.model = model;
@@ -172,13 +172,15 @@ void CustomJobReader::ReadObservationsFile() {
 }
 
 // The observations of input i: an array of values or a column of [observations] file.
-Observations CustomJobReader::ReadObservations(Section& s, const toml::node& obs, int i, std::optional<Dimension> dim) {
+Observations CustomJobReader::ReadObservations(Section& s, const toml::node& obs, int i,
+                                               std::optional<Dimension> dim) {
   const QuantityInfo& q = model->params[i];
   Observations o;
   if (const toml::array* arr = obs.as_array()) {
     int index = 0;
     for (const toml::node& e : *arr) {
-      o.values.push_back(Value(e, dim, q.unit, s.Where("observations") + "[" + std::to_string(index++) + "]"));
+      o.values.push_back(
+          Value(e, dim, q.unit, s.Where("observations") + "[" + std::to_string(index++) + "]"));
     }
     o.from = s.Where("observations");
   } else if (obs.is_string()) {
@@ -193,13 +195,15 @@ Observations CustomJobReader::ReadObservations(Section& s, const toml::node& obs
     for (const CsvRow& row : table->rows) {
       const std::string where = table->Where(row) + ": column " + column;
       const double v = CsvQuantity(row.fields[c], dim, 1.0, 0.0, where);
-      if (std::abs(v) > kMaxMagnitude) throw InputError(where + ": beyond what vlt computes with (at most 1e12)");
+      if (std::abs(v) > kMaxMagnitude)
+        throw InputError(where + ": beyond what vlt computes with (at most 1e12)");
       o.values.push_back(v);
     }
     o.from = table->file + ": column " + column;
     from_table.push_back(i);
   } else {
-    throw InputError(s.Where("observations") + ": expected an array of values or a column name of [observations] file");
+    throw InputError(s.Where("observations") +
+                     ": expected an array of values or a column name of [observations] file");
   }
   return o;
 }
@@ -251,7 +255,8 @@ void CustomJobReader::ReadInput(Section& inputs, const std::string& name, const 
   if (const toml::node* obs = s.Get("observations")) {
     for (const char* k : {"estimate", "u", "distribution", "shape", "dof"}) {
       if (s.Get(k)) {
-        throw InputError(s.Where(k) + ": an input with observations takes its estimate, u and "
+        throw InputError(s.Where(k) +
+                         ": an input with observations takes its estimate, u and "
                          "degrees of freedom from them (JCGM 100 4.2)");
       }
     }
@@ -341,7 +346,8 @@ void CustomJobReader::SetMonteCarloInputs() {
     const double members = static_cast<double>(job.simultaneous[g].size());
     job.simultaneous_mcm_dof.push_back(n - members);
     for (int i : job.simultaneous[g]) {
-      job.mcm_inputs[i].u = n > members ? job.inputs[i].u * std::sqrt((n - 1.0) / (n - members)) : job.inputs[i].u;
+      job.mcm_inputs[i].u =
+          n > members ? job.inputs[i].u * std::sqrt((n - 1.0) / (n - members)) : job.inputs[i].u;
     }
   }
   for (int i = 0; i < n_in; ++i) {
@@ -372,16 +378,20 @@ void CustomJobReader::ReadTolerances() {
     for (int k = 0; k < model->num_outputs; ++k) {
       if (name == model->outputs[k].name) o = k;
     }
-    if (o < 0) throw InputError(outputs.Where(name) + ": model '" + model->name + "' has no output '" + name + "'");
+    if (o < 0)
+      throw InputError(outputs.Where(name) + ": model '" + model->name + "' has no output '" + name + "'");
     const std::optional<Dimension> dim = KnownDimension(model->outputs[o]);
     Section s = outputs.Sub(name, true);
     s.set_hint("tolerance");
     Section t = s.Sub("tolerance", true);
     t.set_hint("lower, upper");
     Tolerance tol;
-    if (const toml::node* n = t.Get("lower")) tol.lower = Value(*n, dim, model->outputs[o].unit, t.Where("lower"));
-    if (const toml::node* n = t.Get("upper")) tol.upper = Value(*n, dim, model->outputs[o].unit, t.Where("upper"));
-    if (std::isinf(tol.lower) && std::isinf(tol.upper)) throw InputError(t.WhereSelf() + ": give lower, upper or both");
+    if (const toml::node* n = t.Get("lower"))
+      tol.lower = Value(*n, dim, model->outputs[o].unit, t.Where("lower"));
+    if (const toml::node* n = t.Get("upper"))
+      tol.upper = Value(*n, dim, model->outputs[o].unit, t.Where("upper"));
+    if (std::isinf(tol.lower) && std::isinf(tol.upper))
+      throw InputError(t.WhereSelf() + ": give lower, upper or both");
     if (!(tol.lower < tol.upper)) throw InputError(t.Where("upper") + ": must be above lower");
     t.Finish();
     s.Finish();

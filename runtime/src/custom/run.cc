@@ -73,16 +73,19 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
     for (std::size_t g = 0; g < job.simultaneous.size(); ++g) {
       if (job.simultaneous_mcm_dof[g] <= 2.0) {
         const int n = job.sources[job.simultaneous[g].front()].observations;
-        throw InputError(job.file + ": observations: Monte Carlo needs at least N + 3 simultaneous observations of N "
-                         "inputs (JCGM 102 6.5.3: the multivariate t with nu = n - N <= 2 has no covariance); " +
-                         std::to_string(n) + " observations of " + std::to_string(job.simultaneous[g].size()) +
-                         " inputs: give more, or run with --no-mcm");
+        throw InputError(
+            job.file +
+            ": observations: Monte Carlo needs at least N + 3 simultaneous observations of N "
+            "inputs (JCGM 102 6.5.3: the multivariate t with nu = n - N <= 2 has no covariance); " +
+            std::to_string(n) + " observations of " + std::to_string(job.simultaneous[g].size()) +
+            " inputs: give more, or run with --no-mcm");
       }
     }
     // JCGM 101 6.4.9: a t distribution with nu <= 2 has no standard deviation.
     for (std::size_t i = 0; i < job.sources.size(); ++i) {
       bool grouped = false;
-      for (const auto& set : job.simultaneous) grouped = grouped || std::find(set.begin(), set.end(), static_cast<int>(i)) != set.end();
+      for (const auto& set : job.simultaneous)
+        grouped = grouped || std::find(set.begin(), set.end(), static_cast<int>(i)) != set.end();
       if (job.sources[i].kind == "type A" && !grouped && job.sources[i].observations < 4) {
         throw InputError(job.file + ": inputs." + job.inputs[i].name +
                          ".observations: Monte Carlo needs at least 4 observations of a Type A input "
@@ -90,9 +93,11 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
                          "deviation); give more, or run with --no-mcm");
       }
     }
-    McmSettings settings = internal::McmSettingsFor(job.monte_carlo, options, options.threads.value_or(job.monte_carlo.threads));
+    McmSettings settings =
+        internal::McmSettingsFor(job.monte_carlo, options, options.threads.value_or(job.monte_carlo.threads));
     for (int o = 0; o < model.num_outputs; ++o) {
-      if (job.tolerances[o]) settings.tolerances.push_back({o, job.tolerances[o]->lower, job.tolerances[o]->upper});
+      if (job.tolerances[o])
+        settings.tolerances.push_back({o, job.tolerances[o]->lower, job.tolerances[o]->upper});
     }
     std::vector<MultivariateTGroup> t_groups;
     for (std::size_t g = 0; g < job.simultaneous.size(); ++g) {
@@ -113,17 +118,20 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
       out.has_mcm = true;
       out.mcm = mcm.outputs[o];
       // JCGM 101 8.2: the GUM interval y +- U (U = t_p(nu_eff) u) against the MCM symmetric one.
-      out.validation = ValidateScalar(out.gum.name, out.gum.unit, out.gum.estimate, out.gum.u, out.gum.U,
-                                      out.mcm.symmetric, r.n_dig, mcm.trials, out.mcm.u, r.coverage_probability);
+      out.validation =
+          ValidateScalar(out.gum.name, out.gum.unit, out.gum.estimate, out.gum.u, out.gum.U,
+                         out.mcm.symmetric, r.n_dig, mcm.trials, out.mcm.u, r.coverage_probability);
       outcomes.push_back(out.validation.outcome);
     }
     r.outcome = CombinedOutcome(outcomes);
     if (r.region && !mcm.vectors.empty()) {
       r.region->has_mcm = true;
       r.region->mcm = mcm.vectors.front();
-      r.region->coverage_factor_ratio = r.region->mcm.has_region ? r.region->mcm.coverage_factor / r.region->gum_k : 0.0;
+      r.region->coverage_factor_ratio =
+          r.region->mcm.has_region ? r.region->mcm.coverage_factor / r.region->gum_k : 0.0;
       const double norm = r.gum.covariance.norm();
-      r.region->covariance_difference = norm > 0.0 ? (r.region->mcm.covariance - r.gum.covariance).norm() / norm : 0.0;
+      r.region->covariance_difference =
+          norm > 0.0 ? (r.region->mcm.covariance - r.gum.covariance).norm() / norm : 0.0;
     }
     mcm.outputs.clear();
     mcm.vectors.clear();
@@ -134,8 +142,9 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
     std::optional<double> p_mcm;
     if (out.has_mcm) p_mcm = out.mcm.conformity_probability;
     // The t of the truncated nu_eff, the same as U = t_p(nu_eff) u (JCGM 100 G.6.4).
-    const double nu = std::isinf(out.gum.dof_effective) ? out.gum.dof_effective
-                                                        : std::max(1.0, std::floor(out.gum.dof_effective * (1.0 + 1e-9)));
+    const double nu = std::isinf(out.gum.dof_effective)
+                          ? out.gum.dof_effective
+                          : std::max(1.0, std::floor(out.gum.dof_effective * (1.0 + 1e-9)));
     out.conformity = DecideConformity(*out.tolerance, out.gum.estimate, out.gum.u, out.gum.U, p_mcm, nu);
   }
   return r;
@@ -154,22 +163,22 @@ std::string OutputsCsv(const CustomResults& r) {
          "probability_of_conformity_mcm\n";
   for (const CustomOutputResult& o : r.outputs) {
     const CustomOutput& g = o.gum;
-    out << g.name << "," << g.unit << "," << Num(g.estimate) << "," << Num(g.u) << "," << DofText(g.dof_effective)
-        << "," << Num(g.k) << "," << Num(g.U) << "," << Num(g.estimate - g.U) << "," << Num(g.estimate + g.U) << ","
-        << Num(std::sqrt(g.u * g.u + g.second_order_variance)) << "," << Num(g.second_order_ratio) << ","
-        << (g.gum_reliable ? "true" : "false") << ",";
+    out << g.name << "," << g.unit << "," << Num(g.estimate) << "," << Num(g.u) << ","
+        << DofText(g.dof_effective) << "," << Num(g.k) << "," << Num(g.U) << "," << Num(g.estimate - g.U)
+        << "," << Num(g.estimate + g.U) << "," << Num(std::sqrt(g.u * g.u + g.second_order_variance)) << ","
+        << Num(g.second_order_ratio) << "," << (g.gum_reliable ? "true" : "false") << ",";
     if (o.has_mcm) {
       out << Num(o.mcm.mean) << "," << Num(o.mcm.u) << "," << Num(o.mcm.symmetric.low) << ","
-          << Num(o.mcm.symmetric.high) << "," << Num(o.mcm.shortest.low) << "," << Num(o.mcm.shortest.high) << ","
-          << o.validation.outcome << "," << Num(o.validation.d_low) << "," << Num(o.validation.d_high) << ","
-          << Num(o.validation.delta) << ",";
+          << Num(o.mcm.symmetric.high) << "," << Num(o.mcm.shortest.low) << "," << Num(o.mcm.shortest.high)
+          << "," << o.validation.outcome << "," << Num(o.validation.d_low) << "," << Num(o.validation.d_high)
+          << "," << Num(o.validation.delta) << ",";
     } else {
       out << ",,,,,,not run,,,,";
     }
     if (o.conformity) {
       out << (std::isinf(o.tolerance->lower) ? "" : Num(o.tolerance->lower)) << ","
-          << (std::isinf(o.tolerance->upper) ? "" : Num(o.tolerance->upper)) << "," << o.conformity->verdict << ","
-          << Num(*o.conformity->probability_gum) << ","
+          << (std::isinf(o.tolerance->upper) ? "" : Num(o.tolerance->upper)) << "," << o.conformity->verdict
+          << "," << Num(*o.conformity->probability_gum) << ","
           << (o.conformity->probability_mcm ? Num(*o.conformity->probability_mcm) : "");
     } else {
       out << ",,,,";
@@ -191,8 +200,9 @@ std::string BudgetCsvText(const CustomResults& r) {
       }
       out << o.gum.name << "," << o.gum.unit << "," << row.input << ",";
       if (i >= 0) {
-        out << r.sources[i].kind << "," << row.input_unit << "," << Num(row.estimate) << "," << Num(row.u) << ","
-            << DofText(r.dof[i]) << "," << Num(row.sensitivity(0)) << "," << row.sensitivity_unit << ",";
+        out << r.sources[i].kind << "," << row.input_unit << "," << Num(row.estimate) << "," << Num(row.u)
+            << "," << DofText(r.dof[i]) << "," << Num(row.sensitivity(0)) << "," << row.sensitivity_unit
+            << ",";
       } else {
         out << "correlation,,,,,,,";
       }
@@ -218,27 +228,40 @@ json ResultsJsonObject(const CustomResults& r) {
   j["schema"] = "vlt-custom-results/1";
   j["vlt_version"] = r.vlt_version;
   j["job"] = {{"file", r.job_file}, {"name", r.job_name}, {"description", r.job_description}};
-  j["model"] = {{"name", model.name}, {"kind", model.kind}, {"description", model.description},
+  j["model"] = {{"name", model.name},
+                {"kind", model.kind},
+                {"description", model.description},
                 {"spec_file", model.spec_file}};
   j["coverage_probability"] = r.coverage_probability;
   json inputs = json::array();
   for (std::size_t i = 0; i < r.inputs.size(); ++i) {
     const UncertainInput& in = r.inputs[i];
     const CustomInputSource& src = r.sources[i];
-    json e{{"name", in.name}, {"unit", in.unit}, {"source", src.kind}, {"estimate", in.estimate}, {"u", in.u},
-           {"dof", Dof(r.dof[i])}, {"distribution", in.distribution}, {"shape", in.shape},
-           {"monte_carlo", {{"distribution", r.mcm_inputs[i].distribution},
-                            {"standard_deviation", r.mcm_inputs[i].u},
-                            {"shape", r.mcm_inputs[i].shape}}}};
+    json e{{"name", in.name},
+           {"unit", in.unit},
+           {"source", src.kind},
+           {"estimate", in.estimate},
+           {"u", in.u},
+           {"dof", Dof(r.dof[i])},
+           {"distribution", in.distribution},
+           {"shape", in.shape},
+           {"monte_carlo",
+            {{"distribution", r.mcm_inputs[i].distribution},
+             {"standard_deviation", r.mcm_inputs[i].u},
+             {"shape", r.mcm_inputs[i].shape}}}};
     const int group = SimultaneousGroup(r, static_cast<int>(i));
     if (group >= 0) {
       // JCGM 102 6.5.3: one multivariate t of the group; scale and nu = n - N.
       const double nu = r.simultaneous_mcm_dof[group], scale = r.mcm_inputs[i].u;
-      e["monte_carlo"] = {{"distribution", "multivariate_t"}, {"dof", nu}, {"scale", scale},
-                          {"standard_deviation", nu > 2.0 ? json(scale * std::sqrt(nu / (nu - 2.0))) : json(nullptr)}};
+      e["monte_carlo"] = {
+          {"distribution", "multivariate_t"},
+          {"dof", nu},
+          {"scale", scale},
+          {"standard_deviation", nu > 2.0 ? json(scale * std::sqrt(nu / (nu - 2.0))) : json(nullptr)}};
     }
     if (src.kind == "type A") {
-      e["observations"] = {{"n", src.observations}, {"standard_deviation", src.standard_deviation}, {"from", src.from}};
+      e["observations"] = {
+          {"n", src.observations}, {"standard_deviation", src.standard_deviation}, {"from", src.from}};
     }
     inputs.push_back(e);
   }
@@ -264,36 +287,56 @@ json ResultsJsonObject(const CustomResults& r) {
     const CustomOutput& g = o.gum;
     json budget = json::array();
     for (const BudgetRow& row : g.budget) {
-      budget.push_back({{"input", row.input}, {"estimate", row.estimate}, {"u", row.u},
-                        {"sensitivity", row.sensitivity(0)}, {"sensitivity_unit", row.sensitivity_unit},
-                        {"contribution", row.contribution(0)}, {"variance", row.variance(0)}, {"share", row.share(0)}});
+      budget.push_back({{"input", row.input},
+                        {"estimate", row.estimate},
+                        {"u", row.u},
+                        {"sensitivity", row.sensitivity(0)},
+                        {"sensitivity_unit", row.sensitivity_unit},
+                        {"contribution", row.contribution(0)},
+                        {"variance", row.variance(0)},
+                        {"share", row.share(0)}});
     }
     json e{{"name", g.name},
            {"unit", g.unit},
-           {"gum", {{"estimate", g.estimate}, {"u", g.u}, {"dof_effective", Dof(g.dof_effective)}, {"k", g.k},
-                    {"U", g.U}, {"interval", {g.estimate - g.U, g.estimate + g.U}},
-                    {"second_order", {{"variance", g.second_order_variance}, {"ratio", g.second_order_ratio},
-                                      {"u_with_second_order", std::sqrt(g.u * g.u + g.second_order_variance)},
-                                      {"threshold", kSecondOrderThreshold}, {"gum_reliable", g.gum_reliable}}},
-                    {"budget", budget}}}};
+           {"gum",
+            {{"estimate", g.estimate},
+             {"u", g.u},
+             {"dof_effective", Dof(g.dof_effective)},
+             {"k", g.k},
+             {"U", g.U},
+             {"interval", {g.estimate - g.U, g.estimate + g.U}},
+             {"second_order",
+              {{"variance", g.second_order_variance},
+               {"ratio", g.second_order_ratio},
+               {"u_with_second_order", std::sqrt(g.u * g.u + g.second_order_variance)},
+               {"threshold", kSecondOrderThreshold},
+               {"gum_reliable", g.gum_reliable}}},
+             {"budget", budget}}}};
     if (o.has_mcm) {
-      e["mcm"] = {{"mean", o.mcm.mean}, {"u", o.mcm.u}, {"value_at_estimates", o.mcm.value_at_estimates},
+      e["mcm"] = {{"mean", o.mcm.mean},
+                  {"u", o.mcm.u},
+                  {"value_at_estimates", o.mcm.value_at_estimates},
                   {"symmetric_interval", {o.mcm.symmetric.low, o.mcm.symmetric.high}},
                   {"shortest_interval", {o.mcm.shortest.low, o.mcm.shortest.high}},
                   {"numerical_tolerance", o.mcm.accuracy.delta}};
-      e["validation"] = {{"outcome", o.validation.outcome}, {"d_low", o.validation.d_low},
-                         {"d_high", o.validation.d_high}, {"delta", o.validation.delta},
-                         {"mcm_tolerance", o.validation.mcm_tolerance}, {"verdict", o.validation.verdict}};
+      e["validation"] = {{"outcome", o.validation.outcome},
+                         {"d_low", o.validation.d_low},
+                         {"d_high", o.validation.d_high},
+                         {"delta", o.validation.delta},
+                         {"mcm_tolerance", o.validation.mcm_tolerance},
+                         {"verdict", o.validation.verdict}};
     }
     if (o.conformity) {
-      e["conformity"] = {{"tolerance", {std::isinf(o.tolerance->lower) ? json(nullptr) : json(o.tolerance->lower),
-                                        std::isinf(o.tolerance->upper) ? json(nullptr) : json(o.tolerance->upper)}},
-                         {"decision_rule", "ISO 14253-1:2017 guard band w = U"},
-                         {"verdict", o.conformity->verdict},
-                         {"guard_band", o.conformity->guard_band},
-                         {"probability_gum", *o.conformity->probability_gum},
-                         {"probability_mcm", o.conformity->probability_mcm ? json(*o.conformity->probability_mcm)
-                                                                           : json(nullptr)}};
+      e["conformity"] = {
+          {"tolerance",
+           {std::isinf(o.tolerance->lower) ? json(nullptr) : json(o.tolerance->lower),
+            std::isinf(o.tolerance->upper) ? json(nullptr) : json(o.tolerance->upper)}},
+          {"decision_rule", "ISO 14253-1:2017 guard band w = U"},
+          {"verdict", o.conformity->verdict},
+          {"guard_band", o.conformity->guard_band},
+          {"probability_gum", *o.conformity->probability_gum},
+          {"probability_mcm",
+           o.conformity->probability_mcm ? json(*o.conformity->probability_mcm) : json(nullptr)}};
     }
     outs.push_back(e);
   }
@@ -311,12 +354,15 @@ json ResultsJsonObject(const CustomResults& r) {
       json cov = json::array();
       for (Eigen::Index a = 0; a < r.region->mcm.covariance.rows(); ++a) {
         json row = json::array();
-        for (Eigen::Index b = 0; b < r.region->mcm.covariance.cols(); ++b) row.push_back(r.region->mcm.covariance(a, b));
+        for (Eigen::Index b = 0; b < r.region->mcm.covariance.cols(); ++b)
+          row.push_back(r.region->mcm.covariance(a, b));
         cov.push_back(row);
       }
-      reg["mcm_k"] = r.region->has_mcm && r.region->mcm.has_region ? json(r.region->mcm.coverage_factor) : json(nullptr);
+      reg["mcm_k"] =
+          r.region->has_mcm && r.region->mcm.has_region ? json(r.region->mcm.coverage_factor) : json(nullptr);
       reg["mcm_covariance"] = cov;
-      reg["coverage_factor_ratio"] = r.region->mcm.has_region ? json(r.region->coverage_factor_ratio) : json(nullptr);
+      reg["coverage_factor_ratio"] =
+          r.region->mcm.has_region ? json(r.region->coverage_factor_ratio) : json(nullptr);
       reg["covariance_difference"] = r.region->covariance_difference;
     }
     j["coverage_region"] = reg;
@@ -324,10 +370,16 @@ json ResultsJsonObject(const CustomResults& r) {
   if (!r.has_mcm) {
     j["monte_carlo"] = {{"enabled", false}};
   } else {
-    j["monte_carlo"] = {{"enabled", true}, {"seed", r.mcm.seed}, {"trials", r.mcm.trials}, {"adaptive", r.mcm.adaptive},
-                        {"converged", r.mcm.converged}, {"threads", r.mcm.threads},
-                        {"ranks", r.mcm.ranks}, {"n_dig", r.n_dig},
-                        {"interval_method", r.mcm.interval_method}, {"outcome", r.outcome}};
+    j["monte_carlo"] = {{"enabled", true},
+                        {"seed", r.mcm.seed},
+                        {"trials", r.mcm.trials},
+                        {"adaptive", r.mcm.adaptive},
+                        {"converged", r.mcm.converged},
+                        {"threads", r.mcm.threads},
+                        {"ranks", r.mcm.ranks},
+                        {"n_dig", r.n_dig},
+                        {"interval_method", r.mcm.interval_method},
+                        {"outcome", r.outcome}};
   }
   return j;
 }
@@ -336,37 +388,42 @@ std::string Esc(const std::string& s) { return internal::HtmlEscape(s); }
 
 // "k = 2.78" or "none" where the Monte Carlo region could not be formed.
 std::string RegionK(const CustomRegionResult& region) {
-  return region.mcm.has_region ? internal::Sig(region.mcm.coverage_factor, 4) : std::string("none (singular covariance)");
+  return region.mcm.has_region ? internal::Sig(region.mcm.coverage_factor, 4)
+                               : std::string("none (singular covariance)");
 }
 
 std::string ReportHtmlText(const CustomResults& r) {
   const ModelInfo& model = *r.model;
   std::ostringstream h;
   h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>vlt: " << Esc(r.job_name)
-    << "</title>\n<style>body{font-family:sans-serif;margin:2em;max-width:72em}table{border-collapse:collapse;"
+    << "</"
+       "title>\n<style>body{font-family:sans-serif;margin:2em;max-width:72em}table{border-collapse:collapse;"
        "margin:1em 0}td,th{border:1px solid #ccc;padding:.25em .6em;text-align:right}th{background:#f3f3f3}"
        "td.l,th.l{text-align:left}.bar{background:#4a7fb5;height:.8em;display:inline-block}"
        ".bad{color:#b00;font-weight:bold}.ok{color:#070}</style></head><body>\n";
   h << "<h1>" << Esc(r.job_name) << "</h1>\n<p>" << Esc(r.job_description) << "</p>\n";
-  h << "<p>Model <b>" << Esc(model.name) << "</b> (" << Esc(model.spec_file) << "): " << Esc(model.description)
-    << ". vlt " << Esc(r.vlt_version) << ", job file " << Esc(r.job_file) << ". Coverage probability "
-    << Num(r.coverage_probability) << ". All values in the SI units shown.</p>\n";
+  h << "<p>Model <b>" << Esc(model.name) << "</b> (" << Esc(model.spec_file)
+    << "): " << Esc(model.description) << ". vlt " << Esc(r.vlt_version) << ", job file " << Esc(r.job_file)
+    << ". Coverage probability " << Num(r.coverage_probability)
+    << ". All values in the SI units shown.</p>\n";
   h << "<h2>Inputs</h2>\n<table><tr><th class=l>input</th><th class=l>source</th><th>estimate</th><th>u</th>"
        "<th class=l>unit</th><th>&nu;</th><th class=l>distribution (Monte Carlo)</th></tr>\n";
   for (std::size_t i = 0; i < r.inputs.size(); ++i) {
     const UncertainInput& in = r.inputs[i];
     std::string src = r.sources[i].kind;
-    if (src == "type A") src += ": " + std::to_string(r.sources[i].observations) + " observations, s = " +
-                               internal::Sig(r.sources[i].standard_deviation, 4) + " (" + r.sources[i].from + ")";
+    if (src == "type A")
+      src += ": " + std::to_string(r.sources[i].observations) +
+             " observations, s = " + internal::Sig(r.sources[i].standard_deviation, 4) + " (" +
+             r.sources[i].from + ")";
     std::string dist = r.mcm_inputs[i].distribution;
     if (r.mcm_inputs[i].shape != 0.0) dist += " (" + internal::Sig(r.mcm_inputs[i].shape, 4) + ")";
     if (const int g = SimultaneousGroup(r, static_cast<int>(i)); g >= 0) {
       dist = "multivariate t (nu = " + internal::Sig(r.simultaneous_mcm_dof[g], 4) + ", scale " +
              internal::Sig(r.mcm_inputs[i].u, 4) + ")";
     }
-    h << "<tr><td class=l>" << Esc(in.name) << "</td><td class=l>" << Esc(src) << "</td><td>" << Num(in.estimate)
-      << "</td><td>" << internal::Sig(in.u, 4) << "</td><td class=l>" << Esc(in.unit) << "</td><td>" << DofText(r.dof[i])
-      << "</td><td class=l>" << Esc(dist) << "</td></tr>\n";
+    h << "<tr><td class=l>" << Esc(in.name) << "</td><td class=l>" << Esc(src) << "</td><td>"
+      << Num(in.estimate) << "</td><td>" << internal::Sig(in.u, 4) << "</td><td class=l>" << Esc(in.unit)
+      << "</td><td>" << DofText(r.dof[i]) << "</td><td class=l>" << Esc(dist) << "</td></tr>\n";
   }
   h << "</table>\n";
   bool any_corr = false;
@@ -387,14 +444,16 @@ std::string ReportHtmlText(const CustomResults& r) {
        "<th class=l>linearisation (JCGM 100 5.1.2 note)</th></tr>\n";
   for (const CustomOutputResult& o : r.outputs) {
     const CustomOutput& g = o.gum;
-    h << "<tr><td class=l>" << Esc(g.name) << "</td><td class=l>" << Esc(g.unit) << "</td><td>" << Num(g.estimate)
-      << "</td><td>" << internal::Sig(g.u, 4) << "</td><td>" << DofText(std::floor(g.dof_effective * (1.0 + 1e-9))) << "</td><td>"
-      << internal::Sig(g.k, 4) << "</td><td>" << internal::Sig(g.U, 4) << "</td>";
+    h << "<tr><td class=l>" << Esc(g.name) << "</td><td class=l>" << Esc(g.unit) << "</td><td>"
+      << Num(g.estimate) << "</td><td>" << internal::Sig(g.u, 4) << "</td><td>"
+      << DofText(std::floor(g.dof_effective * (1.0 + 1e-9))) << "</td><td>" << internal::Sig(g.k, 4)
+      << "</td><td>" << internal::Sig(g.U, 4) << "</td>";
     if (o.has_mcm) {
       h << "<td>" << Num(o.mcm.mean) << "</td><td>" << internal::Sig(o.mcm.u, 4) << "</td><td>["
-        << Num(o.mcm.symmetric.low) << ", " << Num(o.mcm.symmetric.high) << "]</td><td>[" << Num(o.mcm.shortest.low)
-        << ", " << Num(o.mcm.shortest.high) << "]</td><td class=\"l " << (o.validation.outcome == "validated" ? "ok" : "bad")
-        << "\">" << Esc(o.validation.verdict) << "</td>";
+        << Num(o.mcm.symmetric.low) << ", " << Num(o.mcm.symmetric.high) << "]</td><td>["
+        << Num(o.mcm.shortest.low) << ", " << Num(o.mcm.shortest.high) << "]</td><td class=\"l "
+        << (o.validation.outcome == "validated" ? "ok" : "bad") << "\">" << Esc(o.validation.verdict)
+        << "</td>";
     } else {
       h << "<td></td><td></td><td></td><td></td><td class=l>Monte Carlo not run</td>";
     }
@@ -411,8 +470,7 @@ std::string ReportHtmlText(const CustomResults& r) {
     if (r.region->has_mcm) {
       h << "; Monte Carlo k = " << RegionK(*r.region) << " (ratio "
         << (r.region->mcm.has_region ? internal::Sig(r.region->coverage_factor_ratio, 4) : std::string("-"))
-        << "), relative covariance difference "
-        << internal::Sig(r.region->covariance_difference, 3);
+        << "), relative covariance difference " << internal::Sig(r.region->covariance_difference, 3);
     }
     h << ". Output correlation (GUM): ";
     for (int a = 0; a < model.num_outputs; ++a) {
@@ -427,35 +485,42 @@ std::string ReportHtmlText(const CustomResults& r) {
   for (const CustomOutputResult& o : r.outputs) any_tol = any_tol || o.conformity.has_value();
   if (any_tol) {
     h << "<h2>Conformity (ISO 14253-1:2017, JCGM 106:2012)</h2>\n<table><tr><th class=l>output</th>"
-         "<th class=l>tolerance</th><th>guard band U</th><th class=l>decision</th><th>p<sub>c</sub> (GUM)</th>"
+         "<th class=l>tolerance</th><th>guard band U</th><th class=l>decision</th><th>p<sub>c</sub> "
+         "(GUM)</th>"
          "<th>p<sub>c</sub> (Monte Carlo)</th></tr>\n";
     for (const CustomOutputResult& o : r.outputs) {
       if (!o.conformity) continue;
-      h << "<tr><td class=l>" << Esc(o.gum.name) << "</td><td class=l>" << Esc(DescribeTolerance(*o.tolerance, o.gum.unit))
-        << "</td><td>" << internal::Sig(o.conformity->guard_band, 4) << "</td><td class=l>" << Esc(o.conformity->verdict)
+      h << "<tr><td class=l>" << Esc(o.gum.name) << "</td><td class=l>"
+        << Esc(DescribeTolerance(*o.tolerance, o.gum.unit)) << "</td><td>"
+        << internal::Sig(o.conformity->guard_band, 4) << "</td><td class=l>" << Esc(o.conformity->verdict)
         << "</td><td>" << internal::Sig(*o.conformity->probability_gum, 4) << "</td><td>"
-        << (o.conformity->probability_mcm ? internal::Sig(*o.conformity->probability_mcm, 4) : std::string("")) << "</td></tr>\n";
+        << (o.conformity->probability_mcm ? internal::Sig(*o.conformity->probability_mcm, 4)
+                                          : std::string(""))
+        << "</td></tr>\n";
     }
     h << "</table>\n";
   }
   h << "<h2>Uncertainty budgets</h2>\n";
   for (const CustomOutputResult& o : r.outputs) {
-    h << "<h3>" << Esc(o.gum.name) << " [" << Esc(o.gum.unit) << "]</h3>\n<table><tr><th class=l>input</th>"
-         "<th>u(x)</th><th>c = &part;y/&part;x</th><th class=l>unit of c</th><th>c u</th><th>share of u&sup2;</th>"
+    h << "<h3>" << Esc(o.gum.name) << " [" << Esc(o.gum.unit)
+      << "]</h3>\n<table><tr><th class=l>input</th>"
+         "<th>u(x)</th><th>c = &part;y/&part;x</th><th class=l>unit of c</th><th>c u</th><th>share of "
+         "u&sup2;</th>"
          "<th class=l></th></tr>\n";
     for (const BudgetRow& row : o.gum.budget) {
       const double share = row.share(0);
       h << "<tr><td class=l>" << Esc(row.input) << "</td><td>" << internal::Sig(row.u, 4) << "</td><td>"
-        << internal::Sig(row.sensitivity(0), 4) << "</td><td class=l>" << Esc(row.sensitivity_unit) << "</td><td>"
-        << internal::Sig(row.contribution(0), 4) << "</td><td>" << internal::Sig(100.0 * share, 3)
-        << " %</td><td class=l><span class=bar style=\"width:" << Num(std::round(std::max(0.0, share) * 200.0))
-        << "px\"></span></td></tr>\n";
+        << internal::Sig(row.sensitivity(0), 4) << "</td><td class=l>" << Esc(row.sensitivity_unit)
+        << "</td><td>" << internal::Sig(row.contribution(0), 4) << "</td><td>"
+        << internal::Sig(100.0 * share, 3) << " %</td><td class=l><span class=bar style=\"width:"
+        << Num(std::round(std::max(0.0, share) * 200.0)) << "px\"></span></td></tr>\n";
     }
     h << "</table>\n";
   }
   if (r.has_mcm) {
-    h << "<p>Monte Carlo (JCGM 101): " << r.mcm.trials << " trials" << (r.mcm.adaptive ? " (adaptive, 7.9.4)" : "")
-      << ", seed " << r.mcm.seed << ", " << Esc(r.mcm.interval_method) << ".</p>\n";
+    h << "<p>Monte Carlo (JCGM 101): " << r.mcm.trials << " trials"
+      << (r.mcm.adaptive ? " (adaptive, 7.9.4)" : "") << ", seed " << r.mcm.seed << ", "
+      << Esc(r.mcm.interval_method) << ".</p>\n";
   }
   h << "<script type=\"application/json\" id=\"results\">";
   std::string text = ResultsJsonObject(r).dump();
@@ -486,8 +551,9 @@ std::string SummaryText(const CustomResults& r) {
   out << line;
   for (const CustomOutputResult& o : r.outputs) {
     const CustomOutput& g = o.gum;
-    std::string verdict = !o.has_mcm ? "not run" : o.validation.outcome == "not validated" ? "NOT validated"
-                                                                                          : o.validation.outcome;
+    std::string verdict = !o.has_mcm                                ? "not run"
+                          : o.validation.outcome == "not validated" ? "NOT validated"
+                                                                    : o.validation.outcome;
     if (!g.gum_reliable) {
       // JCGM 100 5.1.2 note, computed without Monte Carlo: said with --no-mcm too.
       char flag[96];
@@ -495,7 +561,8 @@ std::string SummaryText(const CustomResults& r) {
       verdict = flag + verdict;
     }
     std::snprintf(line, sizeof line, "%-16s %-6s %17.10g %11.4g %7s %6.3f %11.4g %11s  %s\n", g.name.c_str(),
-                  g.unit.c_str(), g.estimate, g.u, DofText(std::floor(g.dof_effective * (1.0 + 1e-9))).c_str(), g.k, g.U,
+                  g.unit.c_str(), g.estimate, g.u,
+                  DofText(std::floor(g.dof_effective * (1.0 + 1e-9))).c_str(), g.k, g.U,
                   o.has_mcm ? internal::Sig(o.mcm.u, 4).c_str() : "", verdict.c_str());
     out << line;
   }

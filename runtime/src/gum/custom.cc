@@ -40,14 +40,14 @@ std::vector<int> WelchSatterthwaiteComponents(int n, const std::vector<std::vect
 struct Linearisation {
   const ModelInfo& model;
   std::span<const UncertainInput> inputs;
-  Eigen::VectorXd x, u;              // estimates and standard uncertainties of the inputs
-  Eigen::MatrixXd r;                 // their correlation matrix (identity when uncorrelated)
+  Eigen::VectorXd x, u;  // estimates and standard uncertainties of the inputs
+  Eigen::MatrixXd r;     // their correlation matrix (identity when uncorrelated)
   bool correlated = false;
-  std::vector<double> dof;           // their degrees of freedom
-  std::vector<int> component;        // their Welch-Satterthwaite components
-  Eigen::VectorXd y;                 // the outputs at the estimates
-  Eigen::MatrixXd j, ju;             // sensitivities c and contributions c_i u_i
-  std::vector<Eigen::MatrixXd> hz;   // per output: its Hessian in z (second-order terms)
+  std::vector<double> dof;          // their degrees of freedom
+  std::vector<int> component;       // their Welch-Satterthwaite components
+  Eigen::VectorXd y;                // the outputs at the estimates
+  Eigen::MatrixXd j, ju;            // sensitivities c and contributions c_i u_i
+  std::vector<Eigen::MatrixXd> hz;  // per output: its Hessian in z (second-order terms)
 
   Linearisation(const ModelInfo& m, std::span<const UncertainInput> in) : model(m), inputs(in) {}
 };
@@ -107,8 +107,8 @@ void InputDegrees(Linearisation& lin, const InputDegreesOfFreedom& degrees_of_fr
   if (!degrees_of_freedom.dof.empty()) {
     if (static_cast<int>(degrees_of_freedom.dof.size()) != num_inputs) {
       throw InputError(std::string("model '") + model.name + "': degrees of freedom for " +
-                       std::to_string(degrees_of_freedom.dof.size()) + " of " +
-                       std::to_string(num_inputs) + " inputs");
+                       std::to_string(degrees_of_freedom.dof.size()) + " of " + std::to_string(num_inputs) +
+                       " inputs");
     }
     for (int i = 0; i < num_inputs; ++i) {
       dof[i] = degrees_of_freedom.dof[i];
@@ -120,7 +120,8 @@ void InputDegrees(Linearisation& lin, const InputDegreesOfFreedom& degrees_of_fr
   }
   for (const std::vector<int>& set : degrees_of_freedom.components) {
     for (int i : set) {
-      if (i < 0 || i >= num_inputs) throw InputError(std::string("model '") + model.name + "': bad input index in a component");
+      if (i < 0 || i >= num_inputs)
+        throw InputError(std::string("model '") + model.name + "': bad input index in a component");
     }
   }
   lin.component = WelchSatterthwaiteComponents(num_inputs, degrees_of_freedom.components);
@@ -182,8 +183,8 @@ void SecondOrderCheck(const Linearisation& lin, int o, double var, CustomOutput&
     throw NumericalError(std::string("model '") + lin.model.name + "': output '" + out.name +
                          "': the second-order check gives a non-finite result");
   }
-  out.second_order_ratio = var > 0.0 ? out.second_order_variance / var
-                                     : (out.second_order_variance > 0.0 ? 1e300 : 0.0);
+  out.second_order_ratio =
+      var > 0.0 ? out.second_order_variance / var : (out.second_order_variance > 0.0 ? 1e300 : 0.0);
   out.gum_reliable = out.second_order_ratio <= kSecondOrderThreshold;
 }
 
@@ -219,9 +220,7 @@ void AddBudget(const Linearisation& lin, int o, double var, CustomOutput& out) {
     out.budget.push_back(std::move(row));
   }
   std::stable_sort(out.budget.begin(), out.budget.end(),
-                   [](const BudgetRow& l, const BudgetRow& r) {
-                     return l.share_total > r.share_total;
-                   });
+                   [](const BudgetRow& l, const BudgetRow& r) { return l.share_total > r.share_total; });
 }
 
 // Output o: its estimate, standard and expanded uncertainty, second-order check and budget.
@@ -286,11 +285,11 @@ CustomUncertainty PropagateCustom(const ModelInfo& model, std::span<const Uncert
   result.k = NormalCoverageFactor(options.coverage_probability);
   if (num_outputs >= 2) result.region_k = ChiSquareCoverageFactor(options.coverage_probability, num_outputs);
   result.correlation = model_internal::CorrelationOfCovariance(result.covariance);
-  result.correlation_handling =
-      lin.correlated ? "inputs correlated: each row is (c u)^2 of one input; the cross terms "
-                       "2 sum_{i<j} c_i c_j u_i u_j r_ij are the row 'correlations' (may be "
-                       "negative); the shares, that row included, sum to 100 %"
-                     : "all inputs uncorrelated: each row is (c u)^2, the shares sum to 100 %";
+  result.correlation_handling = lin.correlated
+                                    ? "inputs correlated: each row is (c u)^2 of one input; the cross terms "
+                                      "2 sum_{i<j} c_i c_j u_i u_j r_ij are the row 'correlations' (may be "
+                                      "negative); the shares, that row included, sum to 100 %"
+                                    : "all inputs uncorrelated: each row is (c u)^2, the shares sum to 100 %";
   for (int o = 0; o < num_outputs; ++o) result.outputs.push_back(OutputOf(lin, o, result, options));
   return result;
 }

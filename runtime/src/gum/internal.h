@@ -27,8 +27,8 @@ struct SharedFactor {
     Eigen::MatrixXd factor;       // D_b L_b
   };
   int num_shared = 0;
-  bool diagonal = true;           // no block: every shared input independent
-  Eigen::VectorXd u;              // standard uncertainty of every shared input
+  bool diagonal = true;  // no block: every shared input independent
+  Eigen::VectorXd u;     // standard uncertainty of every shared input
   std::vector<Block> blocks;
 
   // a = j F for a rows x S column-major j; a may not alias j.

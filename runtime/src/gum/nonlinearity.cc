@@ -79,8 +79,8 @@ void CheckSecondOrder(const MeasurementModel& model, std::span<const PointReadin
         const Eigen::MatrixXd sym = 0.5 * (h[a] + h[a].transpose());
         p.second_order_variance(a) = 0.5 * sym.squaredNorm();
         const double var1 = p.cov_part(a, a);
-        p.second_order_ratio(a) = var1 > 0.0 ? p.second_order_variance(a) / var1
-                                             : (p.second_order_variance(a) > 0.0 ? 1e300 : 0.0);
+        p.second_order_ratio(a) =
+            var1 > 0.0 ? p.second_order_variance(a) / var1 : (p.second_order_variance(a) > 0.0 ? 1e300 : 0.0);
       }
       if (!p.second_order_variance.allFinite()) {
         throw NumericalError("point '" + p.name + "': the second-order check gives a non-finite result");

@@ -46,8 +46,7 @@ void CheckReadings(const Eigen::Vector3d& r, const std::string& name, std::size_
 }
 
 // Radial, horizontal and vertical unit vectors (columns) at tracker-frame point x.
-Eigen::Matrix3d LineOfSight(const Eigen::Vector3d& x, const std::string& name,
-                            std::size_t index) {
+Eigen::Matrix3d LineOfSight(const Eigen::Vector3d& x, const std::string& name, std::size_t index) {
   const double horizontal = std::hypot(x(0), x(1));
   if (horizontal < gum_internal::kStandingAxisTolerance) {
     throw NumericalError(PointLabel(name, index) +
@@ -101,8 +100,7 @@ std::string CorrelationHandling(const MeasurementModel& model, const SharedFacto
 
 // Per-thread scratch space, allocated once per chunk, not per point.
 struct Scratch {
-  explicit Scratch(int num_shared)
-      : js(3 * num_shared), a(3 * num_shared), instrument(3 * num_shared) {}
+  explicit Scratch(int num_shared) : js(3 * num_shared), a(3 * num_shared), instrument(3 * num_shared) {}
   std::vector<double> js, a, instrument;
 };
 
@@ -117,12 +115,10 @@ struct Factors {
   std::string correlation_handling;
 };
 
-void PropagateOne(const MeasurementModel& model, const Factors& factors,
-                  const Eigen::VectorXd& x, const Eigen::Matrix3d& rotation,
-                  const Eigen::Vector3d& translation, double scale,
-                  const PointReadings& point, std::size_t index, double k,
-                  double k3, const std::vector<BudgetRow>* templates_or_null, Scratch& scratch,
-                  PointUncertainty& out) {
+void PropagateOne(const MeasurementModel& model, const Factors& factors, const Eigen::VectorXd& x,
+                  const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation, double scale,
+                  const PointReadings& point, std::size_t index, double k, double k3,
+                  const std::vector<BudgetRow>* templates_or_null, Scratch& scratch, PointUncertainty& out) {
   const SharedFactor& factor = factors.all;
   const int num_instrument = factors.num_instrument;
   const int num_shared = model.num_shared();
@@ -130,8 +126,7 @@ void PropagateOne(const MeasurementModel& model, const Factors& factors,
   out.name = point.name;
   out.readings = point.readings;
   Eigen::Matrix3d jr;
-  model.EvaluateWithJacobian(point.readings.data(), x.data(), out.part.data(), jr.data(),
-                             scratch.js.data());
+  model.EvaluateWithJacobian(point.readings.data(), x.data(), out.part.data(), jr.data(), scratch.js.data());
   // x_t = R^T (y / s - t) at the estimates (saves a second model evaluation).
   out.tracker = rotation.transpose() * (out.part / scale - translation);
   const Eigen::Matrix3d los = LineOfSight(out.tracker, point.name, index);
@@ -185,8 +180,7 @@ void PropagateOne(const MeasurementModel& model, const Factors& factors,
   out.budget.reserve(3 + num_shared + 1);
   Eigen::Vector3d sum_of_squares = Eigen::Vector3d::Zero();
   // Rows start from the per-input templates (names, units, estimates, u: built once per call).
-  auto add = [&](const BudgetRow& row_template, double estimate, double u,
-                 const Eigen::Vector3d& c) {
+  auto add = [&](const BudgetRow& row_template, double estimate, double u, const Eigen::Vector3d& c) {
     BudgetRow& row = out.budget.emplace_back(row_template);
     row.estimate = estimate;
     row.u = u;
@@ -215,9 +209,7 @@ void PropagateOne(const MeasurementModel& model, const Factors& factors,
     out.budget.push_back(std::move(row));
   }
   std::stable_sort(out.budget.begin(), out.budget.end(),
-                   [](const BudgetRow& l, const BudgetRow& r) {
-                     return l.share_total > r.share_total;
-                   });
+                   [](const BudgetRow& l, const BudgetRow& r) { return l.share_total > r.share_total; });
 }
 
 // One row per input with everything that does not depend on the point.
@@ -309,14 +301,14 @@ std::vector<PointUncertainty> PropagatePoints(const MeasurementModel& model,
   const std::vector<BudgetRow> templates = BudgetTemplates(model);
   const std::vector<BudgetRow>* budget_templates = options.budgets ? &templates : nullptr;
   std::vector<PointUncertainty> results(points.size());
-  parallel::ForEachChunk(
-      points.size(), kChunk, options.threads, [&](std::size_t, std::size_t begin, std::size_t end) {
-        Scratch scratch(model.num_shared());
-        for (std::size_t i = begin; i < end; ++i) {
-          PropagateOne(model, factors, x, rotation, translation, scale, points[i], i, k, k3,
-                       budget_templates, scratch, results[i]);
-        }
-      });
+  parallel::ForEachChunk(points.size(), kChunk, options.threads,
+                         [&](std::size_t, std::size_t begin, std::size_t end) {
+                           Scratch scratch(model.num_shared());
+                           for (std::size_t i = begin; i < end; ++i) {
+                             PropagateOne(model, factors, x, rotation, translation, scale, points[i], i, k,
+                                          k3, budget_templates, scratch, results[i]);
+                           }
+                         });
   return results;
 }
 
@@ -353,23 +345,26 @@ std::vector<Eigen::Vector3d> ExpandedUncertaintyField(const MeasurementModel& mo
   const SharedFactor factor = gum_internal::MakeSharedFactor(model);
   const int num_shared = model.num_shared();
   std::vector<Eigen::Vector3d> field(readings.size());
-  ForEachMapJacobian(model, readings, threads,
-                     [&](std::size_t i, const Eigen::Matrix3d& jr, const Eigen::Vector3d& ur, Scratch& scratch) {
-    // Only the diagonal of J U J^T: sum of squares of the rows of [J_r U_r^1/2, J_s F].
-    const Eigen::Vector3d var_readings = (jr * ur.asDiagonal()).rowwise().squaredNorm();
-    Eigen::Vector3d var;
-    if (factor.diagonal) {
-      // Accumulated in three scalars, in the same order as var(i) += ... (bit-identical): with an
-      // Eigen::Vector3d accumulator GCC keeps the sums in memory and every addition waits for a
-      // store-to-load forward (docs/performance.md 6.1).
-      var = AddSharedVariances(var_readings, factor.u.data(), scratch.js.data(), num_shared);
-    } else {
-      factor.Apply(scratch.js.data(), scratch.a.data(), 3);
-      var = var_readings + Eigen::Map<const Eigen::MatrixXd>(scratch.a.data(), 3, num_shared).rowwise().squaredNorm();
-    }
-    field[i] = k * var.cwiseSqrt();
-    if (!field[i].allFinite()) throw NumericalError(PointLabel("", i) + "the model gives a non-finite result");
-  });
+  ForEachMapJacobian(
+      model, readings, threads,
+      [&](std::size_t i, const Eigen::Matrix3d& jr, const Eigen::Vector3d& ur, Scratch& scratch) {
+        // Only the diagonal of J U J^T: sum of squares of the rows of [J_r U_r^1/2, J_s F].
+        const Eigen::Vector3d var_readings = (jr * ur.asDiagonal()).rowwise().squaredNorm();
+        Eigen::Vector3d var;
+        if (factor.diagonal) {
+          // Accumulated in three scalars, in the same order as var(i) += ... (bit-identical): with an
+          // Eigen::Vector3d accumulator GCC keeps the sums in memory and every addition waits for a
+          // store-to-load forward (docs/performance.md 6.1).
+          var = AddSharedVariances(var_readings, factor.u.data(), scratch.js.data(), num_shared);
+        } else {
+          factor.Apply(scratch.js.data(), scratch.a.data(), 3);
+          var = var_readings +
+                Eigen::Map<const Eigen::MatrixXd>(scratch.a.data(), 3, num_shared).rowwise().squaredNorm();
+        }
+        field[i] = k * var.cwiseSqrt();
+        if (!field[i].allFinite())
+          throw NumericalError(PointLabel("", i) + "the model gives a non-finite result");
+      });
   return field;
 }
 
@@ -399,9 +394,9 @@ std::vector<Eigen::Matrix3d> CovarianceField(const MeasurementModel& model,
           Eigen::Matrix3d m;
           // SIMD lanes at the nominal parameters when the inputs are independent (the parameters'
           // part then separates: sum_p (M c_p u_p)(M c_p u_p)^T = M (sum_p c_p c_p^T u_p^2) M^T).
-          const bool lanes = factor.diagonal &&
-                             model.EvaluateNominalLanes(count, readings[i].data(), x.data(), y.data(),
-                                                        jr.data(), js.data(), jp.data(), m);
+          const bool lanes =
+              factor.diagonal && model.EvaluateNominalLanes(count, readings[i].data(), x.data(), y.data(),
+                                                            jr.data(), js.data(), jp.data(), m);
           Lanes params[6];  // the parameters' sum_p c_p c_p^T u_p^2, entries 00 11 22 01 02 12
           for (Lanes& e : params) e.setZero();
           if (lanes) {
@@ -418,7 +413,8 @@ std::vector<Eigen::Matrix3d> CovarianceField(const MeasurementModel& model,
             }
           }
           for (int l = 0; l < count; ++l, ++i) {
-            if (!y.col(l).allFinite()) throw NumericalError(PointLabel("", i) + "the model gives a non-finite result");
+            if (!y.col(l).allFinite())
+              throw NumericalError(PointLabel("", i) + "the model gives a non-finite result");
             // U_y = J_r U_r J_r^T + (J_s F)(J_s F)^T, column by column of [J_r U_r^1/2 | J_s F].
             const Eigen::Vector3d ur = model.reading_uncertainty(readings[i](0));
             const double* js_l = js.data() + 3 * num_shared * l;
@@ -426,8 +422,8 @@ std::vector<Eigen::Matrix3d> CovarianceField(const MeasurementModel& model,
             AddOuterProducts(jr.col(l).data(), ur.data(), 3, acc);
             if (lanes) {
               Eigen::Matrix3d p;
-              p << params[0](l), params[3](l), params[4](l), params[3](l), params[1](l),
-                  params[5](l), params[4](l), params[5](l), params[2](l);
+              p << params[0](l), params[3](l), params[4](l), params[3](l), params[1](l), params[5](l),
+                  params[4](l), params[5](l), params[2](l);
               const Eigen::Matrix3d mp = m * p;  // M P M^T, its six entries (symmetric)
               acc[0] += mp.row(0).dot(m.row(0));
               acc[1] += mp.row(1).dot(m.row(1));
@@ -444,7 +440,8 @@ std::vector<Eigen::Matrix3d> CovarianceField(const MeasurementModel& model,
             }
             Eigen::Matrix3d& cov = field[i];
             cov << acc[0], acc[3], acc[4], acc[3], acc[1], acc[5], acc[4], acc[5], acc[2];
-            if (!cov.allFinite()) throw NumericalError(PointLabel("", i) + "the model gives a non-finite result");
+            if (!cov.allFinite())
+              throw NumericalError(PointLabel("", i) + "the model gives a non-finite result");
           }
         }
       });
@@ -517,20 +514,22 @@ Eigen::MatrixXd ExpandedUncertaintyBySource(const MeasurementModel& model,
   const int num_shared = model.num_shared();
   const Eigen::Index num_sources = static_cast<Eigen::Index>(sc.sources.size());
   Eigen::MatrixXd by_source = Eigen::MatrixXd::Zero(num_sources, static_cast<Eigen::Index>(readings.size()));
-  ForEachMapJacobian(model, readings, threads,
-                     [&](std::size_t i, const Eigen::Matrix3d& jr, const Eigen::Vector3d& ur, Scratch& scratch) {
-    const Eigen::Index col = static_cast<Eigen::Index>(i);
-    // trace(U_y) = |U|^2 / k^2 column by column of [J_r U_r^1/2 | J_s F], summed per source.
-    for (int c = 0; c < 3; ++c) by_source(c, col) = (jr.col(c) * ur(c)).squaredNorm();
-    factor.Apply(scratch.js.data(), scratch.a.data(), 3);
-    const Eigen::Map<const Eigen::MatrixXd> a(scratch.a.data(), 3, num_shared);
-    for (int s = 0; s < num_shared; ++s) {
-      const int source = sc.source_of_column[3 + s];
-      if (source >= 0) by_source(source, col) += a.col(s).squaredNorm();
-    }
-    by_source.col(col) = k * by_source.col(col).cwiseSqrt();
-    if (!by_source.col(col).allFinite()) throw NumericalError(PointLabel("", i) + "the model gives a non-finite result");
-  });
+  ForEachMapJacobian(
+      model, readings, threads,
+      [&](std::size_t i, const Eigen::Matrix3d& jr, const Eigen::Vector3d& ur, Scratch& scratch) {
+        const Eigen::Index col = static_cast<Eigen::Index>(i);
+        // trace(U_y) = |U|^2 / k^2 column by column of [J_r U_r^1/2 | J_s F], summed per source.
+        for (int c = 0; c < 3; ++c) by_source(c, col) = (jr.col(c) * ur(c)).squaredNorm();
+        factor.Apply(scratch.js.data(), scratch.a.data(), 3);
+        const Eigen::Map<const Eigen::MatrixXd> a(scratch.a.data(), 3, num_shared);
+        for (int s = 0; s < num_shared; ++s) {
+          const int source = sc.source_of_column[3 + s];
+          if (source >= 0) by_source(source, col) += a.col(s).squaredNorm();
+        }
+        by_source.col(col) = k * by_source.col(col).cwiseSqrt();
+        if (!by_source.col(col).allFinite())
+          throw NumericalError(PointLabel("", i) + "the model gives a non-finite result");
+      });
   return by_source;
 }
 

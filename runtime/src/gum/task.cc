@@ -33,16 +33,15 @@ std::vector<Eigen::Vector3d> PointEstimates(const MeasurementModel& model,
                                             std::span<const PointReadings> points, int threads) {
   const Eigen::VectorXd x = model.shared_estimates();
   std::vector<Eigen::Vector3d> y(points.size());
-  parallel::ForEachChunk(points.size(), kChunk, threads,
-                               [&](std::size_t, std::size_t begin, std::size_t end) {
-                                 for (std::size_t i = begin; i < end; ++i) {
-                                   model.Evaluate(points[i].readings.data(), x.data(), y[i].data());
-                                   if (!y[i].allFinite()) {
-                                     throw NumericalError(PointLabel(points[i].name, i) +
-                                                          "the model gives a non-finite result");
-                                   }
-                                 }
-                               });
+  parallel::ForEachChunk(
+      points.size(), kChunk, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
+        for (std::size_t i = begin; i < end; ++i) {
+          model.Evaluate(points[i].readings.data(), x.data(), y[i].data());
+          if (!y[i].allFinite()) {
+            throw NumericalError(PointLabel(points[i].name, i) + "the model gives a non-finite result");
+          }
+        }
+      });
   return y;
 }
 
@@ -58,31 +57,30 @@ void PropagateTaskCovariance(const MeasurementModel& model, std::span<const Poin
   const Eigen::VectorXd x = model.shared_estimates();
   const std::size_t num_chunks = (n + kChunk - 1) / kChunk;
   std::vector<Partial> partials(num_chunks);
-  parallel::ForEachChunk(
-      n, kChunk, options.threads, [&](std::size_t c, std::size_t begin, std::size_t end) {
-        Partial& p = partials[c];
-        p.g_js = Eigen::MatrixXd::Zero(k, num_shared);
-        p.cov_readings = Eigen::MatrixXd::Zero(k, k);
-        std::vector<double> js(3 * num_shared);
-        Eigen::Map<const Eigen::MatrixXd> js_map(js.data(), 3, num_shared);
-        Eigen::MatrixXd b(k, 3);
-        for (std::size_t j = begin; j < end; ++j) {
-          const PointReadings& point = points[indices[j]];
-          const Eigen::Vector3d& r = point.readings;
-          if (!r.allFinite() || !(r(0) > 0.0)) {
-            throw NumericalError(PointLabel(point.name, indices[j]) +
-                                 "range reading must be positive and finite (zero range is "
-                                 "singular)");
-          }
-          Eigen::Vector3d y;
-          Eigen::Matrix3d jr;
-          model.EvaluateWithJacobian(r.data(), x.data(), y.data(), jr.data(), js.data());
-          const auto gj = g.middleCols(3 * j, 3);
-          p.g_js.noalias() += gj * js_map;
-          b.noalias() = gj * (jr * model.reading_uncertainty(r(0)).asDiagonal());
-          p.cov_readings.noalias() += b * b.transpose();
-        }
-      });
+  parallel::ForEachChunk(n, kChunk, options.threads, [&](std::size_t c, std::size_t begin, std::size_t end) {
+    Partial& p = partials[c];
+    p.g_js = Eigen::MatrixXd::Zero(k, num_shared);
+    p.cov_readings = Eigen::MatrixXd::Zero(k, k);
+    std::vector<double> js(3 * num_shared);
+    Eigen::Map<const Eigen::MatrixXd> js_map(js.data(), 3, num_shared);
+    Eigen::MatrixXd b(k, 3);
+    for (std::size_t j = begin; j < end; ++j) {
+      const PointReadings& point = points[indices[j]];
+      const Eigen::Vector3d& r = point.readings;
+      if (!r.allFinite() || !(r(0) > 0.0)) {
+        throw NumericalError(PointLabel(point.name, indices[j]) +
+                             "range reading must be positive and finite (zero range is "
+                             "singular)");
+      }
+      Eigen::Vector3d y;
+      Eigen::Matrix3d jr;
+      model.EvaluateWithJacobian(r.data(), x.data(), y.data(), jr.data(), js.data());
+      const auto gj = g.middleCols(3 * j, 3);
+      p.g_js.noalias() += gj * js_map;
+      b.noalias() = gj * (jr * model.reading_uncertainty(r(0)).asDiagonal());
+      p.cov_readings.noalias() += b * b.transpose();
+    }
+  });
   // Merge in chunk order: bit-identical for any thread count.
   Eigen::MatrixXd g_js = Eigen::MatrixXd::Zero(k, num_shared);
   Eigen::MatrixXd cov_readings = Eigen::MatrixXd::Zero(k, k);

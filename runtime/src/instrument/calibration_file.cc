@@ -60,10 +60,12 @@ std::string CalibrationFileToml(const CalibrationResult& result, const Calibrati
   os << "birge_ratio = " << Exact(result.birge_ratio) << "\n";
   os << "outliers = " << result.outliers << "\n";
   os << "held = [";
-  for (std::size_t i = 0; i < result.held.size(); ++i) os << (i ? ", " : "") << calibration_internal::TomlQuoted(result.held[i].description);
+  for (std::size_t i = 0; i < result.held.size(); ++i)
+    os << (i ? ", " : "") << calibration_internal::TomlQuoted(result.held[i].description);
   os << "]\n\n";
   for (const auto& [file, sha] : provenance.data_files) {
-    os << "[[calibration.data_file]]\nfile = " << calibration_internal::TomlQuoted(file) << "\nsha256 = " << calibration_internal::TomlQuoted(sha) << "\n\n";
+    os << "[[calibration.data_file]]\nfile = " << calibration_internal::TomlQuoted(file)
+       << "\nsha256 = " << calibration_internal::TomlQuoted(sha) << "\n\n";
   }
   for (const CalibratedParameter& p : result.parameters) {
     os << "[[parameter]]\n";
@@ -78,7 +80,8 @@ std::string CalibrationFileToml(const CalibrationResult& result, const Calibrati
   os << "[correlation]\n# rows and columns in the order of the [[parameter]] tables\nmatrix = [\n";
   for (Eigen::Index i = 0; i < result.correlation.rows(); ++i) {
     os << "  [";
-    for (Eigen::Index j = 0; j < result.correlation.cols(); ++j) os << (j ? ", " : "") << Exact(result.correlation(i, j));
+    for (Eigen::Index j = 0; j < result.correlation.cols(); ++j)
+      os << (j ? ", " : "") << Exact(result.correlation(i, j));
     os << "],\n";
   }
   os << "]\n";
@@ -86,7 +89,8 @@ std::string CalibrationFileToml(const CalibrationResult& result, const Calibrati
 }
 
 LoadedCalibration LoadCalibrationFile(const std::string& path) {
-  const toml::table root = job_detail::ParseToml(job_detail::ReadTextFile(path, "the calibration file"), path);
+  const toml::table root =
+      job_detail::ParseToml(job_detail::ReadTextFile(path, "the calibration file"), path);
   LoadedCalibration c;
   const toml::table* meta = root["calibration"].as_table();
   if (!meta) throw InputError(path + ": calibration: not a vlt calibration file (no [calibration] table)");
@@ -108,7 +112,8 @@ LoadedCalibration LoadCalibrationFile(const std::string& path) {
     c.names.push_back(text(*t, "name", where));
     const auto estimate = (*t)["estimate"].value<double>();
     const auto u = (*t)["u"].value<double>();
-    if (!estimate || !std::isfinite(*estimate)) throw InputError(where + ".estimate: expected a finite number");
+    if (!estimate || !std::isfinite(*estimate))
+      throw InputError(where + ".estimate: expected a finite number");
     if (!u || !std::isfinite(*u) || *u < 0.0) throw InputError(where + ".u: expected a finite number >= 0");
     c.estimates.push_back(*estimate);
     c.u.push_back(*u);
@@ -122,19 +127,25 @@ LoadedCalibration LoadCalibrationFile(const std::string& path) {
   c.correlation = Eigen::MatrixXd::Identity(n, n);
   const toml::array* rows = root["correlation"]["matrix"].as_array();
   const std::string where = path + ": correlation.matrix";
-  if (!rows || static_cast<int>(rows->size()) != n) throw InputError(where + ": expected " + std::to_string(n) + " rows");
+  if (!rows || static_cast<int>(rows->size()) != n)
+    throw InputError(where + ": expected " + std::to_string(n) + " rows");
   for (int i = 0; i < n; ++i) {
     const toml::array* row = rows->get(i)->as_array();
-    if (!row || static_cast<int>(row->size()) != n) throw InputError(where + ": row " + std::to_string(i + 1) + ": expected " + std::to_string(n) + " numbers");
+    if (!row || static_cast<int>(row->size()) != n)
+      throw InputError(where + ": row " + std::to_string(i + 1) + ": expected " + std::to_string(n) +
+                       " numbers");
     for (int j = 0; j < n; ++j) {
       const auto v = row->get(j)->value<double>();
-      if (!v || !std::isfinite(*v) || std::abs(*v) > 1.0 + 1e-12) throw InputError(where + ": row " + std::to_string(i + 1) + ": expected correlation coefficients in [-1, 1]");
+      if (!v || !std::isfinite(*v) || std::abs(*v) > 1.0 + 1e-12)
+        throw InputError(where + ": row " + std::to_string(i + 1) +
+                         ": expected correlation coefficients in [-1, 1]");
       c.correlation(i, j) = *v;
     }
   }
   if (!(c.correlation - c.correlation.transpose()).isZero(1e-12)) throw InputError(where + ": not symmetric");
   for (int i = 0; i < n; ++i) {
-    if (std::abs(c.correlation(i, i) - 1.0) > 1e-12) throw InputError(where + ": diagonal element " + std::to_string(i + 1) + " is not 1");
+    if (std::abs(c.correlation(i, i) - 1.0) > 1e-12)
+      throw InputError(where + ": diagonal element " + std::to_string(i + 1) + " is not 1");
   }
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(c.correlation);
   if (eig.eigenvalues().minCoeff() < -1e-10) throw InputError(where + ": not positive semi-definite");

@@ -52,11 +52,15 @@ void ParseLengthPlusRatio(const std::string& text, const std::string& where, dou
       try {
         v = ParseQuantity(term, Dimension::kRatio, where);
       } catch (const InputError&) {
-        throw InputError(where + ": '" + term + "' is neither a length nor a ratio; expected '<length> + <ratio>', e.g. \"5 um + 0.5 um/m\"");
+        throw InputError(
+            where + ": '" + term +
+            "' is neither a length nor a ratio; expected '<length> + <ratio>', e.g. \"5 um + 0.5 um/m\"");
       }
     }
     bool& have = is_length ? have_a : have_b;
-    if (have) throw InputError(where + ": two " + std::string(is_length ? "length" : "ratio") + " terms; expected '<length> + <ratio>'");
+    if (have)
+      throw InputError(where + ": two " + std::string(is_length ? "length" : "ratio") +
+                       " terms; expected '<length> + <ratio>'");
     have = true;
     (is_length ? a : b) = v;
   }
@@ -92,7 +96,8 @@ CorrelationGroup ReadCorrelationGroup(Section& parent, const std::string& name,
   for (int i = 0; i < m; ++i) {
     const toml::node& row = *mat_node.as_array()->get(i);
     if (!row.is_array() || static_cast<int>(row.as_array()->size()) != m) {
-      throw InputError(wm + ": row " + std::to_string(i + 1) + ": expected " + std::to_string(m) + " numbers");
+      throw InputError(wm + ": row " + std::to_string(i + 1) + ": expected " + std::to_string(m) +
+                       " numbers");
     }
     for (int j = 0; j < m; ++j) group.matrix(i, j) = AsNumber(*row.as_array()->get(j), wm);
   }
@@ -163,7 +168,8 @@ void TrackerReader::ReadCalibrationFile() {
   MeasurementSetup& setup = job.setup;
   const std::string where = tracker.Where("calibration");
   const std::filesystem::path path = job.base_dir / AsString(*n, where);
-  if (!std::filesystem::is_regular_file(path)) throw InputError(where + ": cannot read '" + path.string() + "'");
+  if (!std::filesystem::is_regular_file(path))
+    throw InputError(where + ": cannot read '" + path.string() + "'");
   LoadedCalibration c = LoadCalibrationFile(path.string());
   if (c.model != model->name) {
     throw InputError(where + ": the calibration file is for model '" + c.model + "', the tracker is model '" +
@@ -172,8 +178,11 @@ void TrackerReader::ReadCalibrationFile() {
   std::vector<int> index;
   for (const std::string& name : c.names) {
     const int k = FindParam(*model, name);
-    if (k < 0) throw InputError(where + ": parameter '" + name + "' of the calibration file is not a parameter of model '" + model_name + "'");
-    if (calibrated[k]) throw InputError(where + ": parameter '" + name + "' appears twice in the calibration file");
+    if (k < 0)
+      throw InputError(where + ": parameter '" + name +
+                       "' of the calibration file is not a parameter of model '" + model_name + "'");
+    if (calibrated[k])
+      throw InputError(where + ": parameter '" + name + "' appears twice in the calibration file");
     calibrated[k] = true;
     index.push_back(k);
   }
@@ -202,9 +211,10 @@ void TrackerReader::ReadParameterOverrides() {
     int k = FindParam(*model, name);
     if (k < 0) {
       std::string list;
-      for (int j = 0; j < model->num_params; ++j) list += (j ? ", " : "") + std::string(model->params[j].name);
-      throw InputError(params.Where(name) + ": unknown parameter '" + name + "' of model '" +
-                       model_name + "' (parameters: " + list + ")");
+      for (int j = 0; j < model->num_params; ++j)
+        list += (j ? ", " : "") + std::string(model->params[j].name);
+      throw InputError(params.Where(name) + ": unknown parameter '" + name + "' of model '" + model_name +
+                       "' (parameters: " + list + ")");
     }
     if (calibrated[k]) {
       throw InputError(params.Where(name) + ": parameter '" + name +
@@ -246,7 +256,8 @@ void ReadReadingNoise(Section& noise, ReadingNoise& reading_noise) {
   }
   if (range) {
     if (range->is_string()) {
-      ParseLengthPlusRatio(*range->value<std::string>(), noise.Where("range"), reading_noise.range_a, reading_noise.range_b);
+      ParseLengthPlusRatio(*range->value<std::string>(), noise.Where("range"), reading_noise.range_a,
+                           reading_noise.range_b);
     } else {
       reading_noise.range_a = AsQuantity(*range, Dimension::kLength, noise.Where("range"));
       reading_noise.range_b = 0.0;
@@ -262,7 +273,8 @@ void ReadReadingNoise(Section& noise, ReadingNoise& reading_noise) {
   }
   reading_noise.azimuth = AsQuantity(noise.Require("azimuth"), Dimension::kAngle, noise.Where("azimuth"));
   CheckUncertainty(reading_noise.azimuth, noise.Where("azimuth"));
-  reading_noise.elevation = AsQuantity(noise.Require("elevation"), Dimension::kAngle, noise.Where("elevation"));
+  reading_noise.elevation =
+      AsQuantity(noise.Require("elevation"), Dimension::kAngle, noise.Where("elevation"));
   CheckUncertainty(reading_noise.elevation, noise.Where("elevation"));
   noise.Finish();
 }
@@ -289,12 +301,15 @@ void TrackerReader::WarnImplausibleParameters() {
   }
 }
 
-void WarnImplausibleNoise(const Section& noise, const ReadingNoise& reading_noise, std::vector<std::string>& warnings) {
+void WarnImplausibleNoise(const Section& noise, const ReadingNoise& reading_noise,
+                          std::vector<std::string>& warnings) {
   if (reading_noise.range_a > 1e-3 || reading_noise.range_b > 1e-4) {
-    warnings.push_back(noise.Where("range") + ": range noise above 1 mm or 100 um/m is implausible for a laser tracker");
+    warnings.push_back(noise.Where("range") +
+                       ": range noise above 1 mm or 100 um/m is implausible for a laser tracker");
   }
   if (std::max(reading_noise.azimuth, reading_noise.elevation) > 100.0 * 4.84813681109536e-6) {
-    warnings.push_back(noise.Where("azimuth") + ": angle noise above 100 arcsec is implausible for a laser tracker");
+    warnings.push_back(noise.Where("azimuth") +
+                       ": angle noise above 100 arcsec is implausible for a laser tracker");
   }
 }
 
@@ -339,7 +354,8 @@ void ReadEnvironment(Section& top, Job& job) {
   if (!s.Get("temperature")) throw InputError(s.Where("temperature") + ": required key is missing");
   if (!s.Get("pressure")) throw InputError(s.Where("pressure") + ": required key is missing");
   if (!s.Get("humidity")) throw InputError(s.Where("humidity") + ": required key is missing");
-  ReadUncertain(s, "temperature", Dimension::kTemperature, Dimension::kTemperatureDifference, env.temperature);
+  ReadUncertain(s, "temperature", Dimension::kTemperature, Dimension::kTemperatureDifference,
+                env.temperature);
   ReadUncertain(s, "pressure", Dimension::kPressure, Dimension::kPressure, env.pressure);
   ReadUncertain(s, "humidity", Dimension::kHumidity, Dimension::kHumidity, env.humidity);
   ReadUncertain(s, "co2", Dimension::kFraction, Dimension::kFraction, env.co2);
@@ -352,7 +368,8 @@ void ReadEnvironment(Section& top, Job& job) {
   if (pressure && pressure->is_number() && env.pressure.estimate < 2000.0) {
     char number[32];
     std::snprintf(number, sizeof number, "%g", env.pressure.estimate);
-    throw InputError(s.Where("pressure") + ": " + number + " Pa (a bare number is in Pa) is no air pressure at a tracker: did you mean \"" +
+    throw InputError(s.Where("pressure") + ": " + number +
+                     " Pa (a bare number is in Pa) is no air pressure at a tracker: did you mean \"" +
                      number + " hPa\"?");
   }
   // The estimates must lie in the equation's published range of validity (docs/units.md).
@@ -392,7 +409,8 @@ void ReadPart(Section& top, Job& job) {
   if (!s.Get("cte")) throw InputError(s.Where("cte") + ": required key is missing");
   if (!s.Get("temperature")) throw InputError(s.Where("temperature") + ": required key is missing");
   ReadUncertain(s, "cte", Dimension::kPerKelvin, Dimension::kPerKelvin, thermal.cte);
-  ReadUncertain(s, "temperature", Dimension::kTemperature, Dimension::kTemperatureDifference, thermal.temperature);
+  ReadUncertain(s, "temperature", Dimension::kTemperature, Dimension::kTemperatureDifference,
+                thermal.temperature);
   if (const toml::node* n = s.Get("reference")) {
     thermal.reference = AsQuantity(*n, Dimension::kTemperature, s.Where("reference"));
   }
@@ -400,8 +418,8 @@ void ReadPart(Section& top, Job& job) {
   // The part's coordinates are divided by 1 + cte (T - T_ref): a factor <= 0 is no expansion.
   const double factor = 1.0 + thermal.cte.estimate * (thermal.temperature.estimate - thermal.reference);
   if (!(factor > 0.0)) {
-    throw InputError(s.Where("cte") + ": the thermal expansion factor 1 + cte (T - T_ref) = " + std::to_string(factor) +
-                     " is not positive: not a physical expansion");
+    throw InputError(s.Where("cte") + ": the thermal expansion factor 1 + cte (T - T_ref) = " +
+                     std::to_string(factor) + " is not positive: not a physical expansion");
   }
   if (std::abs(thermal.cte.estimate) > 1e-4 || thermal.cte.u > 1e-4) {
     job.warnings.push_back(s.Where("cte") + ": expansion coefficient " +
@@ -410,7 +428,6 @@ void ReadPart(Section& top, Job& job) {
   }
   job.setup.thermal = thermal;
 }
-
 
 void ReadCorrelations(Section& top, Job& job) {
   MeasurementSetup& setup = job.setup;
@@ -424,18 +441,23 @@ void ReadCorrelations(Section& top, Job& job) {
       for (const std::string& name : group.inputs) {
         if (std::find(names.begin(), names.end(), name) != names.end()) continue;
         const std::size_t dot = name.find('.');
-        const std::string head = name.substr(0, dot), tail = dot == std::string::npos ? "" : name.substr(dot + 1);
+        const std::string head = name.substr(0, dot),
+                          tail = dot == std::string::npos ? "" : name.substr(dot + 1);
         const char* prefix = head == "part" ? "thermal." : head == "station" ? "pose." : nullptr;
         if (prefix != nullptr && std::find(names.begin(), names.end(), prefix + tail) != names.end()) {
           throw InputError(group.where_inputs + ": unknown input '" + name +
                            "': inputs are named as results.json and budget.csv name them, '" + prefix + tail +
                            "' for [" + head + "] " + tail);
         }
-        const char* section = head == "environment" ? "environment" : head == "pose" ? "station" : head == "thermal" ? "part" : nullptr;
-        const bool absent = (head == "environment" && !setup.environment) || (head == "pose" && !setup.pose) ||
-                            (head == "thermal" && !setup.thermal);
+        const char* section = head == "environment" ? "environment"
+                              : head == "pose"      ? "station"
+                              : head == "thermal"   ? "part"
+                                                    : nullptr;
+        const bool absent = (head == "environment" && !setup.environment) ||
+                            (head == "pose" && !setup.pose) || (head == "thermal" && !setup.thermal);
         if (section != nullptr && absent) {
-          throw InputError(group.where_inputs + ": input '" + name + "' is not an input of this job: it has no [" + section + "] section");
+          throw InputError(group.where_inputs + ": input '" + name +
+                           "' is not an input of this job: it has no [" + section + "] section");
         }
       }
       setup.correlations.push_back(std::move(group));

@@ -10,15 +10,16 @@
 
 namespace vlt::job_detail {
 
-void ReadTracker(Section& top, Job& job);      //  [tracker]
-void ReadEnvironment(Section& top, Job& job);  //  [environment]
-void ReadStation(Section& top, Job& job);      //  [station]
-void ReadPart(Section& top, Job& job);         //  [part]
-void ReadCorrelations(Section& top, Job& job); //  [correlations] (after the above)
+void ReadTracker(Section& top, Job& job);       //  [tracker]
+void ReadEnvironment(Section& top, Job& job);   //  [environment]
+void ReadStation(Section& top, Job& job);       //  [station]
+void ReadPart(Section& top, Job& job);          //  [part]
+void ReadCorrelations(Section& top, Job& job);  //  [correlations] (after the above)
 
 // One [<...>.correlations.<name>] table: `<inputs_key>` = [names] and matrix = [[...]]; the
 // meaning is checked by SharedCorrelation (vlt/measurement_model.h) with the other groups.
-CorrelationGroup ReadCorrelationGroup(Section& parent, const std::string& name, const std::string& inputs_key);
+CorrelationGroup ReadCorrelationGroup(Section& parent, const std::string& name,
+                                      const std::string& inputs_key);
 // "5 um + 0.5 um/m" -> (a [m], b [m/m]); either term may be absent.
 void ParseLengthPlusRatio(const std::string& text, const std::string& where, double& a, double& b);
 

@@ -6,7 +6,8 @@
 namespace vlt {
 
 namespace {
-constexpr const char kDefaultJob[] = R"vltjob(# vlt demo — the embedded default job (`vlt demo`, bare `vlt`; `vlt demo --show-job` prints it).
+constexpr const char kDefaultJob[] =
+    R"vltjob(# vlt demo — the embedded default job (`vlt demo`, bare `vlt`; `vlt demo --show-job` prints it).
 #
 # A beam-steering-mirror laser tracker (model "mirror", Huo et al. 2010) measures a 4 m x 1.5 m
 # panel lying on a fixture 0.8 m below the tracker's gimbal point, 3 m to 7 m away, offline: the

@@ -27,7 +27,6 @@ std::vector<std::string> Job::point_names() const {
 
 using namespace job_detail;  // Section, AsString and the section readers
 
-
 Eigen::Vector3d PartToTrackerNominal(const MeasurementSetup& setup, const Eigen::Vector3d& part) {
   Eigen::Vector3d x = part;
   if (setup.thermal) {
@@ -54,7 +53,8 @@ Job ParseJob(std::string_view text, const std::string& file, const std::filesyst
   job.input_files.push_back({"job", file, Sha256Bytes(text)});
   Section top(root, file, "");
   top.set_hint(
-      "job, tracker, environment, station, part, correlations, plan, readings, task, monte_carlo, map, optimize, output");
+      "job, tracker, environment, station, part, correlations, plan, readings, task, monte_carlo, map, "
+      "optimize, output");
 
   ReadJobMeta(top, job.name, &job.description, job.name);
   ReadTracker(top, job);
@@ -80,7 +80,8 @@ Job ParseJob(std::string_view text, const std::string& file, const std::filesyst
   {
     std::set<std::string> names;
     for (const JobPoint& p : job.points) {
-      if (!names.insert(p.name).second) throw InputError(p.where + ": point name '" + p.name + "' used twice");
+      if (!names.insert(p.name).second)
+        throw InputError(p.where + ": point name '" + p.name + "' used twice");
     }
   }
   ReadTasks(top, job);

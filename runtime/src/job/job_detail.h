@@ -26,15 +26,15 @@ namespace vlt::job_detail {
 // points.cc: [plan]; check_reach: every point within range of the job's station and off its
 // vertical axis (a network's [targets] are checked per station instead).
 void ReadPlan(Section& plan, Job& job, bool check_reach = true);
-void ReadReadings(Section& readings, Job& job);  // points.cc: [readings]
-void ReadTasks(Section& top, Job& job);        // tasks.cc: [[task]]
+void ReadReadings(Section& readings, Job& job);                   // points.cc: [readings]
+void ReadTasks(Section& top, Job& job);                           // tasks.cc: [[task]]
 void ReadMonteCarlo(Section& top, MonteCarloSettings& settings);  // settings.cc: [monte_carlo]
 // "a,b,c,d" or an array of numbers / quantity strings, as one comma-separated text (settings.cc).
 std::string ExtentString(const toml::node& node, const std::string& where);
 // Exactly `count` lengths [m] from such a text or array (bare numbers are metres).
 std::vector<double> LengthList(const toml::node& node, std::size_t count, const std::string& where);
-void ReadMap(Section& top, Job& job);          // settings.cc: [map]
-void ReadOptimize(Section& top, Job& job);     // optimize.cc: [optimize] (after the tasks)
+void ReadMap(Section& top, Job& job);                   // settings.cc: [map]
+void ReadOptimize(Section& top, Job& job);              // optimize.cc: [optimize] (after the tasks)
 void ReadOutput(Section& top, OutputSettings& output);  // settings.cc: [output]
 
 }  // namespace vlt::job_detail

@@ -45,9 +45,10 @@ void FillRanges(MapSettings& map, const std::vector<int>& axes, std::string_view
   std::string w = std::string(where) + ": " + std::string(what);
   if (parts.size() != 2 * axes.size()) {
     throw InputError(w + ": expected " + std::to_string(2 * axes.size()) + " comma-separated values (" +
-                     (axes.size() == 2 ? std::string(1, axis_names[axes[0]]) + "min," + axis_names[axes[0]] +
-                                             "max," + axis_names[axes[1]] + "min," + axis_names[axes[1]] + "max"
-                                       : std::string("xmin,xmax,ymin,ymax,zmin,zmax")) +
+                     (axes.size() == 2
+                          ? std::string(1, axis_names[axes[0]]) + "min," + axis_names[axes[0]] + "max," +
+                                axis_names[axes[1]] + "min," + axis_names[axes[1]] + "max"
+                          : std::string("xmin,xmax,ymin,ymax,zmin,zmax")) +
                      "), got '" + std::string(text) + "'");
   }
   for (std::size_t k = 0; k < axes.size(); ++k) {
@@ -55,7 +56,8 @@ void FillRanges(MapSettings& map, const std::vector<int>& axes, std::string_view
     map.min[a] = ParseQuantity(parts[2 * k], Dimension::kLength, w);
     map.max[a] = ParseQuantity(parts[2 * k + 1], Dimension::kLength, w);
     if (!(map.max[a] >= map.min[a])) {
-      throw InputError(w + ": " + std::string(1, axis_names[a]) + "max < " + std::string(1, axis_names[a]) + "min");
+      throw InputError(w + ": " + std::string(1, axis_names[a]) + "max < " + std::string(1, axis_names[a]) +
+                       "min");
     }
   }
   // Count in double before any conversion to int: a span of 3e9 m at 1 m steps is 3e9 nodes,
@@ -66,7 +68,8 @@ void FillRanges(MapSettings& map, const std::vector<int>& axes, std::string_view
     char count[32];
     std::snprintf(count, sizeof count, "%.3g", nodes);
     throw InputError(std::string(where) + ": step: the grid has " + count + " nodes, more than " +
-                     std::to_string(static_cast<long long>(kMaxMapNodes)) + "; use a larger step or a smaller extent");
+                     std::to_string(static_cast<long long>(kMaxMapNodes)) +
+                     "; use a larger step or a smaller extent");
   }
 }
 
@@ -88,7 +91,8 @@ std::vector<Eigen::Vector3d> MapSettings::Nodes() const {
   nodes.reserve(static_cast<std::size_t>(n[0]) * n[1] * n[2]);
   for (int k = 0; k < n[2]; ++k)
     for (int j = 0; j < n[1]; ++j)
-      for (int i = 0; i < n[0]; ++i) nodes.emplace_back(min[0] + i * step, min[1] + j * step, min[2] + k * step);
+      for (int i = 0; i < n[0]; ++i)
+        nodes.emplace_back(min[0] + i * step, min[1] + j * step, min[2] + k * step);
   return nodes;
 }
 
@@ -114,9 +118,10 @@ MapSettings ParseMapPlane(std::string_view plane, std::string_view extent, std::
   FillRanges(map, free_axes, extent, "extent", where);
   const char* names = "xyz";
   char a0 = names[free_axes[0]], a1 = names[free_axes[1]];
-  map.description = "plane " + axis + " = " + Metres(map.level) + ", " + a0 + " " + Metres(map.min[free_axes[0]]) +
-                    " .. " + Metres(map.max[free_axes[0]]) + ", " + a1 + " " + Metres(map.min[free_axes[1]]) +
-                    " .. " + Metres(map.max[free_axes[1]]) + ", step " + Metres(map.step);
+  map.description = "plane " + axis + " = " + Metres(map.level) + ", " + a0 + " " +
+                    Metres(map.min[free_axes[0]]) + " .. " + Metres(map.max[free_axes[0]]) + ", " + a1 + " " +
+                    Metres(map.min[free_axes[1]]) + " .. " + Metres(map.max[free_axes[1]]) + ", step " +
+                    Metres(map.step);
   return map;
 }
 
@@ -125,9 +130,9 @@ MapSettings ParseMapBox(std::string_view box, std::string_view step, std::string
   map.kind = MapSettings::Kind::kBox;
   map.step = ParseStep(step, where);
   FillRanges(map, {0, 1, 2}, box, "box", where);
-  map.description = "box x " + Metres(map.min[0]) + " .. " + Metres(map.max[0]) + ", y " + Metres(map.min[1]) +
-                    " .. " + Metres(map.max[1]) + ", z " + Metres(map.min[2]) + " .. " + Metres(map.max[2]) +
-                    ", step " + Metres(map.step);
+  map.description = "box x " + Metres(map.min[0]) + " .. " + Metres(map.max[0]) + ", y " +
+                    Metres(map.min[1]) + " .. " + Metres(map.max[1]) + ", z " + Metres(map.min[2]) + " .. " +
+                    Metres(map.max[2]) + ", step " + Metres(map.step);
   return map;
 }
 

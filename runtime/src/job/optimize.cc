@@ -21,7 +21,8 @@ Eigen::Vector3d UnitVector(const toml::node& node, const std::string& where) {
   Eigen::Vector3d v;
   for (int i = 0; i < 3; ++i) v[i] = AsNumber(*a->get(static_cast<std::size_t>(i)), where);
   const double norm = v.norm();
-  if (!std::isfinite(norm) || !(norm > 0.0)) throw InputError(where + ": the direction must be finite and non-zero");
+  if (!std::isfinite(norm) || !(norm > 0.0))
+    throw InputError(where + ": the direction must be finite and non-zero");
   return v / norm;
 }
 
@@ -41,7 +42,8 @@ std::vector<Eigen::Vector2d> ReadFloor(const toml::node& node, const std::string
   if (node.is_string()) {
     // A box: "xmin,xmax,ymin,ymax".
     const std::vector<double> v = LengthList(node, 4, where);
-    if (!(v[1] > v[0]) || !(v[3] > v[2])) throw InputError(where + ": empty region (xmax <= xmin or ymax <= ymin)");
+    if (!(v[1] > v[0]) || !(v[3] > v[2]))
+      throw InputError(where + ": empty region (xmax <= xmin or ymax <= ymin)");
     floor = {{v[0], v[2]}, {v[1], v[2]}, {v[1], v[3]}, {v[0], v[3]}};
   } else if (const toml::array* a = node.as_array()) {
     // A polygon: [[x, y], ...], vertices in order.
@@ -59,7 +61,8 @@ std::vector<Eigen::Vector2d> ReadFloor(const toml::node& node, const std::string
       throw InputError(where + ": coordinates must be finite and within 10 km");
     }
   }
-  if (!(std::abs(TwiceArea(floor)) > 1e-12)) throw InputError(where + ": empty region (the polygon has no area)");
+  if (!(std::abs(TwiceArea(floor)) > 1e-12))
+    throw InputError(where + ": empty region (the polygon has no area)");
   return floor;
 }
 
@@ -69,7 +72,8 @@ void ReadHeight(Section& s, const Job& job, OptimizeSettings& o) {
   o.z_min = o.z_max = tz;
   const toml::node* n = s.Get("height");
   if (!n) return;
-  const bool one = !n->is_array() && !(n->is_string() && n->value<std::string>()->find(',') != std::string::npos);
+  const bool one =
+      !n->is_array() && !(n->is_string() && n->value<std::string>()->find(',') != std::string::npos);
   const std::vector<double> z = LengthList(*n, one ? 1 : 2, s.Where("height"));
   o.z_min = z.front();
   o.z_max = z.back();
@@ -82,8 +86,10 @@ void ReadHeight(Section& s, const Job& job, OptimizeSettings& o) {
 // What the tracker can measure from the station: its range limits and the targets' acceptance
 // angle about their normals.
 void ReadSightConstraints(Section& s, const Job& job, OptimizeSettings& o) {
-  if (const toml::node* n = s.Get("min_range")) o.min_range = AsQuantity(*n, Dimension::kLength, s.Where("min_range"));
-  if (const toml::node* n = s.Get("max_range")) o.max_range = AsQuantity(*n, Dimension::kLength, s.Where("max_range"));
+  if (const toml::node* n = s.Get("min_range"))
+    o.min_range = AsQuantity(*n, Dimension::kLength, s.Where("min_range"));
+  if (const toml::node* n = s.Get("max_range"))
+    o.max_range = AsQuantity(*n, Dimension::kLength, s.Where("max_range"));
   if (!(o.min_range >= 0.0)) throw InputError(s.Where("min_range") + ": must be >= 0");
   if (!(o.max_range > o.min_range) || o.max_range > kMaxRange) {
     throw InputError(s.Where("max_range") + ": must be above min_range and at most 10 km");
@@ -94,7 +100,8 @@ void ReadSightConstraints(Section& s, const Job& job, OptimizeSettings& o) {
       throw InputError(s.Where("acceptance_angle") + ": must be a half-angle above 0 and at most 90 deg");
     }
   }
-  if (const toml::node* n = s.Get("target_normal")) o.target_normal = UnitVector(*n, s.Where("target_normal"));
+  if (const toml::node* n = s.Get("target_normal"))
+    o.target_normal = UnitVector(*n, s.Where("target_normal"));
   Section normals = s.Sub("normals", false);
   if (normals.exists()) {
     const std::vector<std::string> names = job.point_names();
@@ -108,7 +115,8 @@ void ReadSightConstraints(Section& s, const Job& job, OptimizeSettings& o) {
     normals.Finish();
   }
   if (o.acceptance_angle > 0.0 && o.target_normal.isZero() && o.normals.empty()) {
-    throw InputError(s.Where("acceptance_angle") + ": needs the targets' normals (target_normal or [optimize.normals])");
+    throw InputError(s.Where("acceptance_angle") +
+                     ": needs the targets' normals (target_normal or [optimize.normals])");
   }
 }
 
@@ -137,7 +145,8 @@ void ReadKeepOut(Section& s, const Job& job, OptimizeSettings& o) {
 }
 
 // One term of the objective: "points" or "<task>.<quantity>", a length with a GUM uncertainty.
-ObjectiveTerm ReadObjectiveTerm(const Job& job, const std::string& quantity, double weight, const std::string& where) {
+ObjectiveTerm ReadObjectiveTerm(const Job& job, const std::string& quantity, double weight,
+                                const std::string& where) {
   ObjectiveTerm t;
   t.quantity = quantity;
   t.weight = weight;
@@ -159,15 +168,16 @@ ObjectiveTerm ReadObjectiveTerm(const Job& job, const std::string& quantity, dou
     for (std::size_t q = 0; q < outputs.size(); ++q) {
       // Lengths with a GUM uncertainty at nominal points (form quantities have none there:
       // vlt/fits.h; their uncertainty comes from Monte Carlo in `vlt run`).
-      const bool form = outputs[q].name == "flatness" || outputs[q].name == "straightness" || outputs[q].name == "rms";
+      const bool form =
+          outputs[q].name == "flatness" || outputs[q].name == "straightness" || outputs[q].name == "rms";
       if (outputs[q].unit != "m" || form) continue;
       known += (known.empty() ? "" : ", ") + std::string(outputs[q].name);
       if (outputs[q].name == output) t.output = static_cast<int>(q);
     }
     if (t.output < 0) {
-      throw InputError(where + ": task '" + task_name + "' has no length quantity '" + output + "' with a GUM " +
-                       "uncertainty (it has: " + known + "; form quantities such as flatness have none at " +
-                       "nominal points)");
+      throw InputError(where + ": task '" + task_name + "' has no length quantity '" + output +
+                       "' with a GUM " + "uncertainty (it has: " + known +
+                       "; form quantities such as flatness have none at " + "nominal points)");
     }
     return t;
   }
@@ -186,17 +196,19 @@ void ReadObjective(Section& s, const Job& job, OptimizeSettings& o) {
   } else if (const toml::array* a = n->as_array(); a && !a->empty()) {
     for (std::size_t i = 0; i < a->size(); ++i) {
       const std::string path = s.path() + ".objective[" + std::to_string(i) + "]";
-      if (!a->get(i)->is_table()) throw InputError(job.file + ": " + path + ": expected a table {quantity, weight}");
+      if (!a->get(i)->is_table())
+        throw InputError(job.file + ": " + path + ": expected a table {quantity, weight}");
       Section t(*a->get(i)->as_table(), job.file, path);
       t.set_hint("quantity, weight");
       const double weight = t.Get("weight") ? AsNumber(*t.Get("weight"), t.Where("weight")) : 1.0;
-      o.objective.push_back(
-          ReadObjectiveTerm(job, AsString(t.Require("quantity"), t.Where("quantity")), weight, t.Where("weight")));
+      o.objective.push_back(ReadObjectiveTerm(job, AsString(t.Require("quantity"), t.Where("quantity")),
+                                              weight, t.Where("weight")));
       t.Finish();
     }
   } else {
-    throw InputError(s.Where("objective") + ": expected \"points\", \"<task>.<quantity>\" or [[optimize.objective]] "
-                                            "tables {quantity, weight}");
+    throw InputError(s.Where("objective") +
+                     ": expected \"points\", \"<task>.<quantity>\" or [[optimize.objective]] "
+                     "tables {quantity, weight}");
   }
 }
 
@@ -212,8 +224,10 @@ void ReadStationMapStep(Section& s, OptimizeSettings& o) {
     o.step = AsQuantity(*n, Dimension::kLength, s.Where("step"));
     if (!(o.step > 0.0)) throw InputError(s.Where("step") + ": must be positive");
   }
-  const double nodes = (std::floor((hi.x() - lo.x()) / o.step) + 1) * (std::floor((hi.y() - lo.y()) / o.step) + 1);
-  if (!(nodes <= 250000)) throw InputError(s.Where("step") + ": the station map would have more than 250000 nodes");
+  const double nodes =
+      (std::floor((hi.x() - lo.x()) / o.step) + 1) * (std::floor((hi.y() - lo.y()) / o.step) + 1);
+  if (!(nodes <= 250000))
+    throw InputError(s.Where("step") + ": the station map would have more than 250000 nodes");
 }
 
 }  // namespace
@@ -221,11 +235,13 @@ void ReadStationMapStep(Section& s, OptimizeSettings& o) {
 void ReadOptimize(Section& top, Job& job) {
   Section s = top.Sub("optimize", false);
   if (!s.exists()) return;
-  s.set_hint("floor, height, min_range, max_range, acceptance_angle, target_normal, normals, keep_out, objective, "
-             "step, evaluations, seed");
+  s.set_hint(
+      "floor, height, min_range, max_range, acceptance_angle, target_normal, normals, keep_out, objective, "
+      "step, evaluations, seed");
   if (job.mode != JobMode::kPlan) {
-    throw InputError(s.WhereSelf() + ": a station is planned for a [plan] job (nominal points); the readings of a "
-                                     "[readings] job were taken from their station");
+    throw InputError(s.WhereSelf() +
+                     ": a station is planned for a [plan] job (nominal points); the readings of a "
+                     "[readings] job were taken from their station");
   }
   OptimizeSettings o;
   o.where = s.WhereSelf();

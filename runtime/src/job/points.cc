@@ -100,26 +100,30 @@ void ReadPlan(Section& s, Job& job, bool check_reach) {
       p.nominal = {PlanCoordinate(pt.Require("x"), scale, pt.Where("x")),
                    PlanCoordinate(pt.Require("y"), scale, pt.Where("y")),
                    PlanCoordinate(pt.Require("z"), scale, pt.Where("z"))};
-      if (const toml::node* f = pt.Get("face")) p.face = ParseFaceField(AsString(*f, pt.Where("face")), pt.Where("face"));
+      if (const toml::node* f = pt.Get("face"))
+        p.face = ParseFaceField(AsString(*f, pt.Where("face")), pt.Where("face"));
       pt.Finish();
       job.points.push_back(std::move(p));
     }
   }
   s.Finish();
-  if (job.points.empty()) throw InputError(s.WhereSelf() + ": the plan has no points (give csv or [[plan.point]])");
+  if (job.points.empty())
+    throw InputError(s.WhereSelf() + ": the plan has no points (give csv or [[plan.point]])");
 
   // A planned point must have a defined azimuth: not on the tracker's vertical axis.
   if (!check_reach) return;
   for (const JobPoint& p : job.points) {
     Eigen::Vector3d t = PartToTrackerNominal(job.setup, p.nominal);
     if (!(t.stableNorm() <= kMaxRange)) {
-      throw InputError(p.where + ": point '" + p.name + "' is " + FormatQuantity(t.stableNorm(), Dimension::kLength, "m", 6) +
+      throw InputError(p.where + ": point '" + p.name + "' is " +
+                       FormatQuantity(t.stableNorm(), Dimension::kLength, "m", 6) +
                        " from the tracker: beyond any laser tracker (at most " +
                        FormatQuantity(kMaxRange, Dimension::kLength, "km", 3) + ")");
     }
     if (std::hypot(t.x(), t.y()) < kVerticalAxisTolerance) {
-      throw InputError(p.where + ": point '" + p.name +
-                       "' lies on the tracker's vertical axis (azimuth undefined; move the point or the station)");
+      throw InputError(
+          p.where + ": point '" + p.name +
+          "' lies on the tracker's vertical axis (azimuth undefined; move the point or the station)");
     }
   }
 }
@@ -134,8 +138,10 @@ void ReadReadings(Section& s, Job& job) {
   bool cartesian = false;
   if (const toml::node* n = s.Get("coordinates")) {
     const std::string v = AsString(*n, s.Where("coordinates"));
-    if (v == "cartesian") cartesian = true;
-    else if (v != "spherical") throw InputError(s.Where("coordinates") + ": expected \"spherical\" or \"cartesian\"");
+    if (v == "cartesian")
+      cartesian = true;
+    else if (v != "spherical")
+      throw InputError(s.Where("coordinates") + ": expected \"spherical\" or \"cartesian\"");
   }
   static const char* const kSpherical[5] = {"name", "range", "azimuth", "elevation", "face"};
   static const char* const kCartesian[5] = {"name", "x", "y", "z", "face"};
@@ -164,14 +170,18 @@ void ReadReadings(Section& s, Job& job) {
     }
     us.Finish();
   }
-  for (int k = 0; k < 3; ++k) scales[k] = UnitScale(units[k], dims[k], s.Where(std::string("units.") + keys[k + 1]));
+  for (int k = 0; k < 3; ++k)
+    scales[k] = UnitScale(units[k], dims[k], s.Where(std::string("units.") + keys[k + 1]));
   bool zenith = false;
   if (const toml::node* n = s.Get("vertical_angle"); n != nullptr && cartesian) {
-    throw InputError(s.Where("vertical_angle") + ": only for spherical readings (coordinates = \"cartesian\")");
+    throw InputError(s.Where("vertical_angle") +
+                     ": only for spherical readings (coordinates = \"cartesian\")");
   } else if (n != nullptr) {
     std::string v = AsString(*n, s.Where("vertical_angle"));
-    if (v == "zenith") zenith = true;
-    else if (v != "elevation") throw InputError(s.Where("vertical_angle") + ": expected \"elevation\" or \"zenith\"");
+    if (v == "zenith")
+      zenith = true;
+    else if (v != "elevation")
+      throw InputError(s.Where("vertical_angle") + ": expected \"elevation\" or \"zenith\"");
   }
   s.Finish();
 
@@ -203,8 +213,9 @@ void ReadReadings(Section& s, Job& job) {
     if (cartesian) {
       // The ideal tracker's readings of the point (vlt/inverse.h IdealReadings), in the face the
       // face column gives (front by default).
-      const Face face = col[4] >= 0 && !row.fields[col[4]].empty() ? ParseFaceField(row.fields[col[4]], p.where)
-                                                                     : Face::kFront;
+      const Face face = col[4] >= 0 && !row.fields[col[4]].empty()
+                            ? ParseFaceField(row.fields[col[4]], p.where)
+                            : Face::kFront;
       try {
         const std::array<double, 3> ideal = IdealReadings({r[0], r[1], r[2]}, face);
         r[0] = ideal[0];
@@ -217,7 +228,8 @@ void ReadReadings(Section& s, Job& job) {
     if (!(r[0] > 0.0)) throw InputError(p.where + ": range must be positive");
     if (r[0] > kMaxRange) {
       throw InputError(p.where + ": " + names[1] + ": " + FormatQuantity(r[0], Dimension::kLength, "m", 6) +
-                       " is beyond any laser tracker (at most " + FormatQuantity(kMaxRange, Dimension::kLength, "km", 3) + ")");
+                       " is beyond any laser tracker (at most " +
+                       FormatQuantity(kMaxRange, Dimension::kLength, "km", 3) + ")");
     }
     double elevation = zenith ? kPi / 2 - r[2] : r[2];
     // Normalise the elevation into [-pi/2, 3pi/2): front face up to pi/2, back face beyond.
@@ -233,7 +245,8 @@ void ReadReadings(Section& s, Job& job) {
       }
     }
     if (r[0] * std::abs(std::cos(elevation)) < kVerticalAxisTolerance) {
-      throw InputError(p.where + ": " + names[3] + ": the reading points along the tracker's standing axis "
+      throw InputError(p.where + ": " + names[3] +
+                       ": the reading points along the tracker's standing axis "
                        "(elevation +-90 deg, zenith 0 or 180 deg): its azimuth is undefined");
     }
     p.face = face;
@@ -242,6 +255,5 @@ void ReadReadings(Section& s, Job& job) {
   }
   if (job.points.empty()) throw InputError(rel + ": no readings (only a header)");
 }
-
 
 }  // namespace vlt::job_detail

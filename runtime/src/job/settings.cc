@@ -42,7 +42,8 @@ std::string ExtentString(const toml::node& node, const std::string& where) {
   std::string out;
   for (const toml::node& e : *node.as_array()) {
     if (!out.empty()) out += ",";
-    if (e.is_string()) out += *e.value<std::string>();
+    if (e.is_string())
+      out += *e.value<std::string>();
     else {
       std::ostringstream os;
       os.precision(17);
@@ -54,7 +55,8 @@ std::string ExtentString(const toml::node& node, const std::string& where) {
 }
 
 std::vector<double> LengthList(const toml::node& node, std::size_t count, const std::string& where) {
-  const std::string text = node.is_string() || node.is_array() ? ExtentString(node, where) : std::to_string(AsNumber(node, where));
+  const std::string text =
+      node.is_string() || node.is_array() ? ExtentString(node, where) : std::to_string(AsNumber(node, where));
   std::vector<double> values;
   std::string part;
   for (std::size_t i = 0; i <= text.size(); ++i) {
@@ -81,7 +83,8 @@ void ReadMap(Section& top, Job& job) {
   const toml::node* box = s.Get("box");
   const toml::node* step = s.Get("step");
   std::string step_text = "0.25 m";
-  if (step) step_text = step->is_string() ? *step->value<std::string>() : ExtentString(*step, s.Where("step"));
+  if (step)
+    step_text = step->is_string() ? *step->value<std::string>() : ExtentString(*step, s.Where("step"));
   if (plane && box) throw InputError(s.Where("box") + ": give either plane + extent or box, not both");
   if (plane) {
     if (!extent) throw InputError(s.Where("extent") + ": required key is missing (with plane)");
@@ -108,6 +111,5 @@ void ReadOutput(Section& top, OutputSettings& output) {
   }
   s.Finish();
 }
-
 
 }  // namespace vlt::job_detail

@@ -31,8 +31,8 @@ void ReadTaskTolerances(Section& t, TaskSpec& spec) {
       list += (list.empty() ? "" : ", ") + std::string(o.name);
     }
     if (output == nullptr) {
-      throw InputError(tol.Where(name) + ": a " + std::string(TaskKindName(spec.kind)) + " task has no quantity '" +
-                       name + "' (" + list + ")");
+      throw InputError(tol.Where(name) + ": a " + std::string(TaskKindName(spec.kind)) +
+                       " task has no quantity '" + name + "' (" + list + ")");
     }
     const Dimension dim = output->unit == "m" ? Dimension::kLength : Dimension::kDimensionless;
     Section q = tol.Sub(name, true);
@@ -40,7 +40,8 @@ void ReadTaskTolerances(Section& t, TaskSpec& spec) {
     Tolerance limits;
     if (const toml::node* n = q.Get("lower")) limits.lower = AsQuantity(*n, dim, q.Where("lower"));
     if (const toml::node* n = q.Get("upper")) limits.upper = AsQuantity(*n, dim, q.Where("upper"));
-    if (std::isinf(limits.lower) && std::isinf(limits.upper)) throw InputError(q.WhereSelf() + ": give lower, upper or both");
+    if (std::isinf(limits.lower) && std::isinf(limits.upper))
+      throw InputError(q.WhereSelf() + ": give lower, upper or both");
     if (!(limits.lower < limits.upper)) throw InputError(q.Where("upper") + ": must be above lower");
     q.Finish();
     tol.Get(name);
@@ -67,7 +68,8 @@ void ReadTasks(Section& top, Job& job) {
     spec.kind = ParseTaskKind(AsString(t.Require("kind"), t.Where("kind")), t.Where("kind"));
     spec.name = AsString(t.Require("name"), t.Where("name"));
     if (spec.name.empty()) throw InputError(t.Where("name") + ": empty task name");
-    if (!seen.insert(spec.name).second) throw InputError(t.Where("name") + ": task '" + spec.name + "' defined twice");
+    if (!seen.insert(spec.name).second)
+      throw InputError(t.Where("name") + ": task '" + spec.name + "' defined twice");
     const toml::node& pts = t.Require("points");
     if (pts.is_string() && *pts.value<std::string>() == "all") {
       spec.points = point_names;  // a scan: every point of the job, in the job's order
@@ -83,6 +85,5 @@ void ReadTasks(Section& top, Job& job) {
     job.tasks.push_back(std::move(spec));
   }
 }
-
 
 }  // namespace vlt::job_detail

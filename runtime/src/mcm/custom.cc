@@ -12,12 +12,11 @@ namespace vlt {
 namespace {
 
 using mcm_internal::InputSampler;
-using mcm_internal::kSubBatch;
 using mcm_internal::KeyedStream;
+using mcm_internal::kSubBatch;
 using mcm_internal::Scratch;
 
-std::vector<Distribution> Distributions(const ModelInfo& model,
-                                        std::span<const UncertainInput> inputs) {
+std::vector<Distribution> Distributions(const ModelInfo& model, std::span<const UncertainInput> inputs) {
   std::vector<Distribution> out;
   for (const UncertainInput& input : inputs) {
     out.push_back(Distribution::FromInput(input, std::string("model '") + model.name + "'"));
@@ -44,9 +43,9 @@ class CustomKernel final : public mcm_internal::TrialKernel {
   void InitScratch(Scratch& scratch) const override {
     const std::size_t p = static_cast<std::size_t>(model_.num_params);
     // params SoA | copula scratch | one trial's params | one trial's outputs
-    scratch.doubles.assign(p * kSubBatch + sampler_.scratch_size(kSubBatch) + p +
-                               static_cast<std::size_t>(model_.num_outputs),
-                           0.0);
+    scratch.doubles.assign(
+        p * kSubBatch + sampler_.scratch_size(kSubBatch) + p + static_cast<std::size_t>(model_.num_outputs),
+        0.0);
   }
 
   std::vector<double> AtEstimates() const override {
@@ -98,8 +97,8 @@ McmResult RunMcmCustom(const ModelInfo& model, std::span<const UncertainInput> i
   }
   if (static_cast<int>(inputs.size()) != model.num_params) {
     throw InputError(std::string("Monte Carlo: model '") + model.name + "' has " +
-                     std::to_string(model.num_params) + " inputs, " +
-                     std::to_string(inputs.size()) + " given");
+                     std::to_string(model.num_params) + " inputs, " + std::to_string(inputs.size()) +
+                     " given");
   }
   const CustomKernel kernel(model, inputs, correlation, t_groups);
   mcm_internal::OutputSpec spec;

@@ -45,8 +45,8 @@ namespace {
 
 // Per-batch values of the four statistics of 7.9.4 for one output.
 struct BatchStats {
-  std::vector<double> mean, u, low, high;            // per batch
-  std::vector<double> shortest_low, shortest_high;   // only when values are not all kept
+  std::vector<double> mean, u, low, high;           // per batch
+  std::vector<double> shortest_low, shortest_high;  // only when values are not all kept
 };
 
 // Standard deviation of the average of h batch values: sqrt(sum (v - vbar)^2 / (h (h - 1))).
@@ -82,14 +82,14 @@ std::vector<const float*> GroupSeries(const float* base, std::int64_t stride, co
 // x, y, z stay together). Memory for the values and the order statistics are thus divided among
 // the ranks as well as the trials. One rank: everything is its own.
 struct OutputShare {
-  int first = 0, last = 0;               // own outputs [first, last)
-  std::vector<int> groups;               // own groups (their outputs are own outputs)
-  std::vector<int> first_of, last_of;    // every rank's outputs
+  int first = 0, last = 0;             // own outputs [first, last)
+  std::vector<int> groups;             // own groups (their outputs are own outputs)
+  std::vector<int> first_of, last_of;  // every rank's outputs
 
   OutputShare(int n_out, const std::vector<OutputGroup>& all_groups) {
     std::vector<int> group_at(static_cast<std::size_t>(n_out), -1);
     for (int g = 0; g < static_cast<int>(all_groups.size()); ++g) group_at[all_groups[g].first] = g;
-    std::vector<int> block_start;   // a group's outputs form one block, any other output its own
+    std::vector<int> block_start;  // a group's outputs form one block, any other output its own
     for (int o = 0; o < n_out;) {
       block_start.push_back(o);
       o += group_at[o] >= 0 ? all_groups[group_at[o]].dim : 1;
@@ -126,8 +126,8 @@ struct OutputShare {
 // agreement (ranks::Agree) and the exchange. One rank: `computed` becomes `values`.
 struct BatchExchange {
   int chunk_first = 0, chunk_last = 0;
-  std::int64_t trial_first = 0, trial_count = 0;            // this rank's trials of the batch
-  std::vector<std::int64_t> trials_first_of, trials_of;     // every rank's
+  std::int64_t trial_first = 0, trial_count = 0;         // this rank's trials of the batch
+  std::vector<std::int64_t> trials_first_of, trials_of;  // every rank's
   std::vector<std::size_t> sum_counts, send_counts, receive_counts;
   std::vector<double> sums_mine;
   std::vector<float> received;
@@ -141,7 +141,8 @@ struct BatchExchange {
     // MPI counts are int; checked here, before the ranks agree, by every rank alike.
     if (static_cast<std::size_t>(n_out) * static_cast<std::size_t>(bh) > static_cast<std::size_t>(INT_MAX)) {
       throw InputError("Monte Carlo under MPI: a batch of " + std::to_string(bh) + " trials of " +
-                       std::to_string(n_out) + " outputs exceeds one MPI message (2^31 - 1 values); "
+                       std::to_string(n_out) +
+                       " outputs exceeds one MPI message (2^31 - 1 values); "
                        "use fewer points per job");
     }
     for (int r = 0; r < count; ++r) {
@@ -170,7 +171,8 @@ struct BatchExchange {
     ranks::AllGather(std::span<const double>(sums_mine), std::span<double>(partial), sum_counts);
     // `computed` is output-major, so the block for rank s (its outputs, this rank's trials) is
     // contiguous; the blocks received come rank after rank, each [own output][that rank's trials].
-    ranks::AllToAll(std::span<const float>(computed), send_counts, std::span<float>(received), receive_counts);
+    ranks::AllToAll(std::span<const float>(computed), send_counts, std::span<float>(received),
+                    receive_counts);
     std::size_t at = 0;
     for (int r = 0; r < ranks::Count(); ++r) {
       for (int o = 0; o < n_own; ++o) {
@@ -190,9 +192,18 @@ constexpr int kGroupRecord = 2;
 
 void PackOutput(const McmOutputResult& r, double* rec) {
   const McmOutputResult::Histogram& h = r.histogram;
-  const double head[12] = {r.accuracy.s_mean, r.accuracy.s_u, r.accuracy.s_low, r.accuracy.s_high,
-                           r.symmetric.low, r.symmetric.high, r.shortest.low, r.shortest.high,
-                           h.low, h.width, static_cast<double>(h.below), static_cast<double>(h.above)};
+  const double head[12] = {r.accuracy.s_mean,
+                           r.accuracy.s_u,
+                           r.accuracy.s_low,
+                           r.accuracy.s_high,
+                           r.symmetric.low,
+                           r.symmetric.high,
+                           r.shortest.low,
+                           r.shortest.high,
+                           h.low,
+                           h.width,
+                           static_cast<double>(h.below),
+                           static_cast<double>(h.above)};
   std::copy(head, head + 12, rec);
   for (int b = 0; b < kHistogramBins; ++b) {
     rec[12 + b] = h.counts.empty() ? -1.0 : static_cast<double>(h.counts[b]);
@@ -223,17 +234,17 @@ std::string FormatStatus(double value, const char* what) {
   return text;
 }
 
-
 // The checks of the settings, before anything is computed.
 void CheckSettings(const TrialKernel& kernel, const McmSettings& settings) {
   const double p = settings.coverage_probability;
   if (!(p > 0.0 && p < 1.0)) {
-    throw InputError("Monte Carlo: coverage probability must be in (0, 1), got " +
-                     std::to_string(p));
+    throw InputError("Monte Carlo: coverage probability must be in (0, 1), got " + std::to_string(p));
   }
   if (settings.significant_digits != 1 && settings.significant_digits != 2) {
-    throw InputError("Monte Carlo: n_dig (significant digits of the numerical tolerance) must be "
-                     "1 or 2, got " + std::to_string(settings.significant_digits));
+    throw InputError(
+        "Monte Carlo: n_dig (significant digits of the numerical tolerance) must be "
+        "1 or 2, got " +
+        std::to_string(settings.significant_digits));
   }
   if (settings.trials < 0) {
     throw InputError("Monte Carlo: number of trials must be >= 0 (0 = adaptive), got " +
@@ -325,10 +336,10 @@ struct SumPlan {
 struct Batch {
   std::int64_t first = 0, bh = 0;
   int n_chunks = 0;
-  std::vector<double> partial;      // the sums of each chunk, chunk-major
-  std::vector<float> vals;          // [o - own_first][trial] after the exchange
+  std::vector<double> partial;  // the sums of each chunk, chunk-major
+  std::vector<float> vals;      // [o - own_first][trial] after the exchange
   std::vector<double> batch_sums;
-  double worst = 0.0;               // adaptive: this rank's worst 2 s / delta
+  double worst = 0.0;  // adaptive: this rank's worst 2 s / delta
 };
 
 // The records of the final pass that every rank shares: its own, then everybody's.
@@ -371,9 +382,9 @@ struct MonteCarloRun {
   const bool direct;
   std::vector<ValueSeries> series;
   std::vector<double> total;
-  std::vector<BatchStats> stats;                 // filled for the own outputs
-  std::vector<std::vector<double>> batch_k;      // own groups, when values are not all kept
-  std::vector<Tails<float>> batch_tails;         // per-thread buffers of the batch endpoints
+  std::vector<BatchStats> stats;             // filled for the own outputs
+  std::vector<std::vector<double>> batch_k;  // own groups, when values are not all kept
+  std::vector<Tails<float>> batch_tails;     // per-thread buffers of the batch endpoints
   const SumPlan sums;
   ProgressBar progress;
   const std::chrono::steady_clock::time_point t_start;
@@ -384,20 +395,36 @@ struct MonteCarloRun {
   std::vector<double> convergence_ratio;
 
   MonteCarloRun(const TrialKernel& kernel, const OutputSpec& spec, const McmSettings& settings)
-      : kernel(kernel), spec(spec), settings(settings), p(settings.coverage_probability),
-        n_out(kernel.num_outputs()), n_groups(static_cast<int>(spec.groups.size())),
+      : kernel(kernel),
+        spec(spec),
+        settings(settings),
+        p(settings.coverage_probability),
+        n_out(kernel.num_outputs()),
+        n_groups(static_cast<int>(spec.groups.size())),
         n_tolerances(static_cast<int>(settings.tolerances.size())),
-        layout(n_out, spec.groups, n_tolerances), stride(layout.stride()), adaptive(settings.trials == 0),
-        batch_size(BatchSize(settings, adaptive)), y0(OutputsAtEstimates(kernel, spec)),
-        threads(parallel::ResolveThreads(settings.num_threads)), scratch(ThreadScratch(kernel, threads)),
+        layout(n_out, spec.groups, n_tolerances),
+        stride(layout.stride()),
+        adaptive(settings.trials == 0),
+        batch_size(BatchSize(settings, adaptive)),
+        y0(OutputsAtEstimates(kernel, spec)),
+        threads(parallel::ResolveThreads(settings.num_threads)),
+        scratch(ThreadScratch(kernel, threads)),
         buffers(threads, std::vector<double>(static_cast<std::size_t>(n_out) * kSubBatch, 0.0)),
-        rng(settings.seed), share(n_out, spec.groups), own_first(share.first), n_own(share.count()),
+        rng(settings.seed),
+        share(n_out, spec.groups),
+        own_first(share.first),
+        n_own(share.count()),
         bytes_per_trial(static_cast<std::size_t>(n_out) * sizeof(float)),
         keep_all(KeepsAllValues(settings, adaptive, bytes_per_trial)),
         direct(keep_all && !adaptive && ranks::Count() == 1),
-        series(ValueStorage(n_own, keep_all, direct, adaptive, settings.trials)), total(stride, 0.0),
-        stats(n_out), batch_k(n_groups), batch_tails(threads), sums(spec, n_out),
-        progress("Monte Carlo", settings.quiet), t_start(std::chrono::steady_clock::now()),
+        series(ValueStorage(n_own, keep_all, direct, adaptive, settings.trials)),
+        total(stride, 0.0),
+        stats(n_out),
+        batch_k(n_groups),
+        batch_tails(threads),
+        sums(spec, n_out),
+        progress("Monte Carlo", settings.quiet),
+        t_start(std::chrono::steady_clock::now()),
         converged(!adaptive) {}
 
   // Items run on the process's shared workers (parallel/pool.h); `w` picks the per-thread scratch.
@@ -471,7 +498,7 @@ Batch MonteCarloRun::NextBatch() const {
 // with the other ranks before any of them waits for this rank's values.
 void MonteCarloRun::ComputeBatch(Batch& batch) {
   std::exception_ptr failure;
-  bool computed_here = false;   // past this rank's chunks: a failure now was agreed or is alike on every rank
+  bool computed_here = false;  // past this rank's chunks: a failure now was agreed or is alike on every rank
   try {
     BatchExchange exchange(batch.n_chunks, stride, batch.bh, n_out, share);
     std::vector<float> computed(direct ? 0 : static_cast<std::size_t>(n_out) * exchange.trial_count);
@@ -485,7 +512,7 @@ void MonteCarloRun::ComputeBatch(Batch& batch) {
   } catch (...) {
     if (computed_here) throw;
     failure = std::current_exception();
-    ranks::Agree(failure);   // throws on every rank
+    ranks::Agree(failure);  // throws on every rank
   }
 }
 
@@ -645,8 +672,9 @@ void MonteCarloRun::BatchExtras(std::vector<float>& vals, std::int64_t bh,
   ParallelFor(n_own, [&](int i, int) {
     const int o = own_first + i;
     CoverageInterval sym, shortest;
-    CoverageIntervals(std::span<const float>(vals.data() + static_cast<std::size_t>(i) * bh, static_cast<std::size_t>(bh)),
-                      y0[o], p, &sym, &shortest);
+    CoverageIntervals(
+        std::span<const float>(vals.data() + static_cast<std::size_t>(i) * bh, static_cast<std::size_t>(bh)),
+        y0[o], p, &sym, &shortest);
     stats[o].shortest_low.push_back(shortest.low);
     stats[o].shortest_high.push_back(shortest.high);
   });
@@ -668,7 +696,8 @@ void MonteCarloRun::BatchStatistics(const Batch& batch) {
     const std::int64_t q = CoverageCount(bh, p);
     const std::int64_t r = (bh - q) % 2 == 0 ? (bh - q) / 2 : (bh - q + 1) / 2;
     Tails<float>& tails = batch_tails[w];
-    SortedTails(std::span<const float>(batch_values, static_cast<std::size_t>(bh)), r, bh - r - q + 1, &tails);
+    SortedTails(std::span<const float>(batch_values, static_cast<std::size_t>(bh)), r, bh - r - q + 1,
+                &tails);
     stats[o].low.push_back(y0[o] + static_cast<double>(tails.low_values.back()));
     stats[o].high.push_back(y0[o] + static_cast<double>(tails.high_values.front()));
   });
@@ -701,7 +730,7 @@ bool MonteCarloRun::Finished(double worst) {
   std::string status;
   if (adaptive) {
     if (batches >= 2) {
-      worst = ranks::Max(worst);   // the largest over every output (exact)
+      worst = ranks::Max(worst);  // the largest over every output (exact)
       if (worst <= 1.0) converged = true;
       status = FormatStatus(worst, "worst 2s/delta (stops at <= 1):");
       convergence_trials.push_back(done);
@@ -717,8 +746,8 @@ bool MonteCarloRun::Finished(double worst) {
     if (se > largest) largest = se, worst_output = o;
   }
   progress.Update(done, settings.trials,
-                  FormatStatus(largest, "largest std. error of a mean:") + " " +
-                      spec.units[worst_output] + " (" + spec.names[worst_output] + ")");
+                  FormatStatus(largest, "largest std. error of a mean:") + " " + spec.units[worst_output] +
+                      " (" + spec.names[worst_output] + ")");
   return done >= settings.trials;
 }
 
@@ -727,8 +756,7 @@ McmResult MonteCarloRun::Result() {
   std::vector<McmVectorResult> vectors = GroupResults(result);
   FinalPass(result, vectors);
   SplitPointsAndVectors(result, vectors);
-  result.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return result;
 }
 
@@ -807,7 +835,8 @@ void MonteCarloRun::SizeFinalExchange(FinalRecords& records) const {
     records.output_counts.push_back(static_cast<std::size_t>(share.last_of[r] - share.first_of[r]) *
                                     kOutputRecord);
     std::size_t groups_of_r = 0;
-    for (const OutputGroup& g : spec.groups) groups_of_r += g.first >= share.first_of[r] && g.first < share.last_of[r];
+    for (const OutputGroup& g : spec.groups)
+      groups_of_r += g.first >= share.first_of[r] && g.first < share.last_of[r];
     records.group_counts.push_back(groups_of_r * kGroupRecord);
   }
   records.all_outputs.resize(static_cast<std::size_t>(n_out) * kOutputRecord);
@@ -835,7 +864,8 @@ void MonteCarloRun::AllValuesPass(McmResult& result, std::vector<McmVectorResult
       h->width = 10.0 * out.u / kHistogramBins;
     }
   }
-  const std::size_t n_items = n_regions + static_cast<std::size_t>(n_own) * static_cast<std::size_t>(1 + passes);
+  const std::size_t n_items =
+      n_regions + static_cast<std::size_t>(n_own) * static_cast<std::size_t>(1 + passes);
   parallel::ForEach(n_items, threads, [&](std::size_t item, int) {
     if (item < n_regions) {
       const int gi = share.groups[item];
@@ -880,9 +910,12 @@ void MonteCarloRun::CountHistogramPass(McmResult& result, std::size_t item, std:
     // Bin floor(b): below for b < 0, above for b >= kHistogramBins, else the truncation of
     // b (= its floor for b >= 0; no libm floor call on baseline x86-64).
     const double b = (reference + static_cast<double>(series[i][t]) - h->low) / h->width;
-    if (!(b >= 0.0)) ++cell[kHistogramBins];
-    else if (b >= kHistogramBins) ++cell[kHistogramBins + 1];
-    else ++cell[static_cast<std::size_t>(b)];
+    if (!(b >= 0.0))
+      ++cell[kHistogramBins];
+    else if (b >= kHistogramBins)
+      ++cell[kHistogramBins + 1];
+    else
+      ++cell[static_cast<std::size_t>(b)];
   }
 }
 
@@ -945,7 +978,8 @@ void MonteCarloRun::ShareRecords(FinalRecords& records, McmResult& result,
   // The gathered group records follow the groups' order of their first output (OutputShare).
   std::vector<int> order(n_groups);
   for (int gi = 0; gi < n_groups; ++gi) order[gi] = gi;
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return spec.groups[a].first < spec.groups[b].first; });
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return spec.groups[a].first < spec.groups[b].first; });
   for (int j = 0; j < n_groups; ++j) {
     vectors[order[j]].has_region = records.all_groups[static_cast<std::size_t>(j) * kGroupRecord] != 0.0;
     vectors[order[j]].coverage_factor = records.all_groups[static_cast<std::size_t>(j) * kGroupRecord + 1];
@@ -972,8 +1006,7 @@ void MonteCarloRun::SplitPointsAndVectors(McmResult& result, std::vector<McmVect
 
 }  // namespace
 
-McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
-                    const McmSettings& settings) {
+McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec, const McmSettings& settings) {
   CheckSettings(kernel, settings);
   MonteCarloRun run(kernel, spec, settings);
   run.RunBatches();

@@ -40,8 +40,8 @@ class InputSampler {
   // s / sqrt(n); every member's correlated normal is divided by sqrt(w / nu), w ~ chi2_nu drawn
   // once per trial and group (stream kChiSquareStream + group).
   InputSampler(std::vector<Distribution> inputs, std::vector<std::string> names,
-               const Eigen::MatrixXd& correlation, std::uint64_t first_stream,
-               std::string_view where, std::span<const MultivariateTGroup> t_groups = {});
+               const Eigen::MatrixXd& correlation, std::uint64_t first_stream, std::string_view where,
+               std::span<const MultivariateTGroup> t_groups = {});
 
   int size() const { return static_cast<int>(inputs_.size()); }
   const std::vector<Distribution>& inputs() const { return inputs_; }
@@ -54,14 +54,14 @@ class InputSampler {
 
  private:
   std::vector<Distribution> inputs_;
-  std::vector<int> independent_;   // input indices drawn on their own
-  std::vector<int> copula_;        // input indices drawn through the Gaussian copula
-  Eigen::MatrixXd cholesky_;       // factor L L^T = R of the copula's correlation matrix: lower
-                                   // triangular (Cholesky) unless R is singular (eigen factor)
+  std::vector<int> independent_;  // input indices drawn on their own
+  std::vector<int> copula_;       // input indices drawn through the Gaussian copula
+  Eigen::MatrixXd cholesky_;      // factor L L^T = R of the copula's correlation matrix: lower
+                                  // triangular (Cholesky) unless R is singular (eigen factor)
   bool factor_is_lower_ = true;
   std::uint64_t first_stream_;
-  std::vector<int> t_group_of_;      // per copula_ position: index into t_dof_, or -1
-  std::vector<double> t_dof_;        // nu of each multivariate t group
+  std::vector<int> t_group_of_;  // per copula_ position: index into t_dof_, or -1
+  std::vector<double> t_dof_;    // nu of each multivariate t group
 };
 
 // Random stream of the chi-square draw of multivariate t group g: kChiSquareStream + g, far above
@@ -74,8 +74,7 @@ inline constexpr std::uint64_t kChiSquareStream = std::uint64_t{1} << 40;
 double DrawChiSquare(const KeyedStream& rng, std::uint64_t stream, std::uint64_t trial, double nu);
 
 // Normals for trials [first, first + n) of one stream: out[i] = z(trial first + i).
-void DrawNormals(const KeyedStream& rng, std::uint64_t stream, std::int64_t first, int n,
-                 double* out);
+void DrawNormals(const KeyedStream& rng, std::uint64_t stream, std::int64_t first, int n, double* out);
 
 // Per-thread scratch owned by the driver, sized by the kernel.
 struct Scratch {
@@ -103,9 +102,9 @@ class TrialKernel {
 // vector of a custom model. Its covariance and coverage region are computed.
 struct OutputGroup {
   std::string name;
-  int first = 0;       // index of its first output; the others follow
+  int first = 0;  // index of its first output; the others follow
   int dim = 3;
-  bool point = true;   // true: reported in McmResult::points (dim 3), else McmResult::vectors
+  bool point = true;  // true: reported in McmResult::points (dim 3), else McmResult::vectors
 };
 
 struct OutputSpec {
@@ -114,22 +113,21 @@ struct OutputSpec {
   std::vector<OutputGroup> groups;
 };
 
-McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec,
-                    const McmSettings& settings);
+McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec, const McmSettings& settings);
 
 // Both coverage intervals (JCGM 101 7.7) of the values `reference + values[i]` (partial sorts of
 // the two tails only: O(M) + O((M - q) log(M - q))). `values` is only read.
 void CoverageIntervals(std::span<const float> values, double reference, double p, CoverageInterval* symmetric,
                        CoverageInterval* shortest);
-void CoverageIntervals(std::span<const double> values, double reference, double p, CoverageInterval* symmetric,
-                       CoverageInterval* shortest);
+void CoverageIntervals(std::span<const double> values, double reference, double p,
+                       CoverageInterval* symmetric, CoverageInterval* shortest);
 
 // k_p of JCGM 102 7.7.3 from the deviations (float, relative to y0) of n trials of one group
 // (mcm/region.cc): the q-th smallest |L^-1 (y_r - mean)|, L L^T = cov; series[a] holds
 // component a, mean_minus_y0 the group's mean less y0. Returns false when the covariance is not
 // positive definite.
 bool RegionFactor(const std::vector<const float*>& series, std::int64_t n,
-                  const Eigen::VectorXd& mean_minus_y0, const Eigen::MatrixXd& cov, double p,
-                  int threads, double* k);
+                  const Eigen::VectorXd& mean_minus_y0, const Eigen::MatrixXd& cov, double p, int threads,
+                  double* k);
 
 }  // namespace vlt::mcm_internal

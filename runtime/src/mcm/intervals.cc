@@ -23,12 +23,13 @@ std::int64_t CoverageCount(std::int64_t m, double p) {
   const double pm = p * static_cast<double>(m);
   const double slack = 8.0 * std::numeric_limits<double>::epsilon() * pm;
   const double nearest = std::round(pm);
-  const std::int64_t q = std::abs(pm - nearest) <= slack
-                             ? static_cast<std::int64_t>(nearest)
-                             : static_cast<std::int64_t>(std::floor(pm + 0.5));
+  const std::int64_t q = std::abs(pm - nearest) <= slack ? static_cast<std::int64_t>(nearest)
+                                                         : static_cast<std::int64_t>(std::floor(pm + 0.5));
   if (m - q < 1) {
-    throw InputError("Monte Carlo: " + std::to_string(m) + " trials are too few for coverage "
-                     "probability " + std::to_string(p) + " (need M - pM >= 1)");
+    throw InputError("Monte Carlo: " + std::to_string(m) +
+                     " trials are too few for coverage "
+                     "probability " +
+                     std::to_string(p) + " (need M - pM >= 1)");
   }
   return q;
 }
@@ -115,8 +116,8 @@ void CoverageIntervals(std::span<const float> values, double reference, double p
   CoverageIntervalsOf(values, reference, p, symmetric, shortest);
 }
 
-void CoverageIntervals(std::span<const double> values, double reference, double p, CoverageInterval* symmetric,
-                       CoverageInterval* shortest) {
+void CoverageIntervals(std::span<const double> values, double reference, double p,
+                       CoverageInterval* symmetric, CoverageInterval* shortest) {
   CoverageIntervalsOf(values, reference, p, symmetric, shortest);
 }
 

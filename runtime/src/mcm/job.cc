@@ -15,8 +15,8 @@ namespace vlt {
 namespace {
 
 using mcm_internal::InputSampler;
-using mcm_internal::kSubBatch;
 using mcm_internal::KeyedStream;
+using mcm_internal::kSubBatch;
 using mcm_internal::Scratch;
 
 std::vector<Distribution> SharedDistributions(const MeasurementModel& model) {
@@ -58,8 +58,8 @@ class JobKernel final : public mcm_internal::TrialKernel {
       for (int index : task.points) {
         if (index < 0 || index >= static_cast<int>(job.points.size())) {
           throw InputError("Monte Carlo: task '" + task.name + "' refers to point index " +
-                           std::to_string(index) + " (job has " +
-                           std::to_string(job.points.size()) + " points)");
+                           std::to_string(index) + " (job has " + std::to_string(job.points.size()) +
+                           " points)");
         }
       }
       task_first_output_.push_back(n_out_);
@@ -96,8 +96,7 @@ class JobKernel final : public mcm_internal::TrialKernel {
       for (int index : task.points) {
         points.emplace_back(out[3 * index], out[3 * index + 1], out[3 * index + 2]);
       }
-      task.evaluate(points, std::span<double>(out.data() + task_first_output_[t],
-                                              task.output_names.size()));
+      task.evaluate(points, std::span<double>(out.data() + task_first_output_[t], task.output_names.size()));
     }
     return out;
   }
@@ -119,7 +118,8 @@ class JobKernel final : public mcm_internal::TrialKernel {
     shared_.Draw(rng, first, n, shared_soa, kSubBatch, copula);
     for (int i = 0; i < n; ++i) {
       double* aos = shared_aos + static_cast<std::size_t>(i) * s_count;
-      for (int k = lanes_params_; k < s_count; ++k) aos[k] = shared_soa[static_cast<std::size_t>(k) * kSubBatch + i];
+      for (int k = lanes_params_; k < s_count; ++k)
+        aos[k] = shared_soa[static_cast<std::size_t>(k) * kSubBatch + i];
       // Air index, pose and thermal scale depend on the shared inputs only: once per trial,
       // not once per point (states[i] refers to aos, which stays put until the sub-batch ends).
       states[i] = model_.PrepareShared(aos);
@@ -194,7 +194,7 @@ class JobKernel final : public mcm_internal::TrialKernel {
   const McmJob& job_;
   InputSampler shared_;
   int num_shared_;
-  int lanes_params_;   // the tracker model's parameters when it has a lanes kernel, else 0
+  int lanes_params_;  // the tracker model's parameters when it has a lanes kernel, else 0
   int n_out_ = 0;
   std::vector<Eigen::Vector3d> reading_u_;
   std::vector<int> task_first_output_;

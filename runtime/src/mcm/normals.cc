@@ -94,16 +94,30 @@ struct Sse2Lanes {
 struct Avx2Lanes {
   using V = __m256i;
   static constexpr int kWidth = 8;
-  __attribute__((target("avx2"))) static __m256i Load(const std::uint32_t* p) { return _mm256_load_si256(reinterpret_cast<const __m256i*>(p)); }
-  __attribute__((target("avx2"))) static void Store(std::uint32_t* p, __m256i v) { _mm256_store_si256(reinterpret_cast<__m256i*>(p), v); }
-  __attribute__((target("avx2"))) static __m256i Splat32(std::uint32_t x) { return _mm256_set1_epi32(static_cast<int>(x)); }
-  __attribute__((target("avx2"))) static __m256i Splat64(std::uint64_t x) { return _mm256_set1_epi64x(static_cast<long long>(x)); }
-  __attribute__((target("avx2"))) static __m256i MulEven(__m256i a, __m256i b) { return _mm256_mul_epu32(a, b); }
+  __attribute__((target("avx2"))) static __m256i Load(const std::uint32_t* p) {
+    return _mm256_load_si256(reinterpret_cast<const __m256i*>(p));
+  }
+  __attribute__((target("avx2"))) static void Store(std::uint32_t* p, __m256i v) {
+    _mm256_store_si256(reinterpret_cast<__m256i*>(p), v);
+  }
+  __attribute__((target("avx2"))) static __m256i Splat32(std::uint32_t x) {
+    return _mm256_set1_epi32(static_cast<int>(x));
+  }
+  __attribute__((target("avx2"))) static __m256i Splat64(std::uint64_t x) {
+    return _mm256_set1_epi64x(static_cast<long long>(x));
+  }
+  __attribute__((target("avx2"))) static __m256i MulEven(__m256i a, __m256i b) {
+    return _mm256_mul_epu32(a, b);
+  }
   __attribute__((target("avx2"))) static __m256i ShiftDown(__m256i a) { return _mm256_srli_epi64(a, 32); }
   __attribute__((target("avx2"))) static __m256i ShiftUp(__m256i a) { return _mm256_slli_epi64(a, 32); }
   __attribute__((target("avx2"))) static __m256i Xor(__m256i a, __m256i b) { return _mm256_xor_si256(a, b); }
-  __attribute__((target("avx2"))) static __m256i Xor3(__m256i a, __m256i b, __m256i c) { return Xor(Xor(a, b), c); }
-  __attribute__((target("avx2"))) static __m256i Blend(__m256i a, __m256i b) { return _mm256_blend_epi32(a, b, 0xAA); }
+  __attribute__((target("avx2"))) static __m256i Xor3(__m256i a, __m256i b, __m256i c) {
+    return Xor(Xor(a, b), c);
+  }
+  __attribute__((target("avx2"))) static __m256i Blend(__m256i a, __m256i b) {
+    return _mm256_blend_epi32(a, b, 0xAA);
+  }
 };
 
 // AVX-512 (F): sixteen lanes per register, the three-way xor in one instruction (vpternlogd,
@@ -116,16 +130,32 @@ struct Avx2Lanes {
 struct Avx512Lanes {
   using V = __m512i;
   static constexpr int kWidth = 16;
-  __attribute__((target("avx512f"))) static __m512i Load(const std::uint32_t* p) { return _mm512_load_si512(p); }
-  __attribute__((target("avx512f"))) static void Store(std::uint32_t* p, __m512i v) { _mm512_store_si512(p, v); }
-  __attribute__((target("avx512f"))) static __m512i Splat32(std::uint32_t x) { return _mm512_set1_epi32(static_cast<int>(x)); }
-  __attribute__((target("avx512f"))) static __m512i Splat64(std::uint64_t x) { return _mm512_set1_epi64(static_cast<long long>(x)); }
-  __attribute__((target("avx512f"))) static __m512i MulEven(__m512i a, __m512i b) { return _mm512_mul_epu32(a, b); }
+  __attribute__((target("avx512f"))) static __m512i Load(const std::uint32_t* p) {
+    return _mm512_load_si512(p);
+  }
+  __attribute__((target("avx512f"))) static void Store(std::uint32_t* p, __m512i v) {
+    _mm512_store_si512(p, v);
+  }
+  __attribute__((target("avx512f"))) static __m512i Splat32(std::uint32_t x) {
+    return _mm512_set1_epi32(static_cast<int>(x));
+  }
+  __attribute__((target("avx512f"))) static __m512i Splat64(std::uint64_t x) {
+    return _mm512_set1_epi64(static_cast<long long>(x));
+  }
+  __attribute__((target("avx512f"))) static __m512i MulEven(__m512i a, __m512i b) {
+    return _mm512_mul_epu32(a, b);
+  }
   __attribute__((target("avx512f"))) static __m512i ShiftDown(__m512i a) { return _mm512_srli_epi64(a, 32); }
   __attribute__((target("avx512f"))) static __m512i ShiftUp(__m512i a) { return _mm512_slli_epi64(a, 32); }
-  __attribute__((target("avx512f"))) static __m512i Xor(__m512i a, __m512i b) { return _mm512_xor_si512(a, b); }
-  __attribute__((target("avx512f"))) static __m512i Xor3(__m512i a, __m512i b, __m512i c) { return _mm512_ternarylogic_epi32(a, b, c, 0x96); }
-  __attribute__((target("avx512f"))) static __m512i Blend(__m512i a, __m512i b) { return _mm512_mask_blend_epi32(0xAAAA, a, b); }
+  __attribute__((target("avx512f"))) static __m512i Xor(__m512i a, __m512i b) {
+    return _mm512_xor_si512(a, b);
+  }
+  __attribute__((target("avx512f"))) static __m512i Xor3(__m512i a, __m512i b, __m512i c) {
+    return _mm512_ternarylogic_epi32(a, b, c, 0x96);
+  }
+  __attribute__((target("avx512f"))) static __m512i Blend(__m512i a, __m512i b) {
+    return _mm512_mask_blend_epi32(0xAAAA, a, b);
+  }
 };
 #pragma GCC diagnostic pop
 
@@ -182,8 +212,8 @@ __attribute__((always_inline)) inline void PhiloxLanes(std::uint32_t key0, std::
 #pragma GCC diagnostic pop
 
 __attribute__((target("avx2"))) void PhiloxAvx2(std::uint32_t key0, std::uint32_t key1,
-                                                std::uint64_t first_pair, int lanes,
-                                                std::uint64_t input, PhiloxWords& out) {
+                                                std::uint64_t first_pair, int lanes, std::uint64_t input,
+                                                PhiloxWords& out) {
   PhiloxLanes<Avx2Lanes>(key0, key1, first_pair, lanes, input, out);
 }
 
@@ -196,15 +226,15 @@ void PhiloxSse2(std::uint32_t key0, std::uint32_t key1, std::uint64_t first_pair
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #pragma GCC diagnostic ignored "-Wuninitialized"
 __attribute__((target("avx512f"))) void PhiloxAvx512(std::uint32_t key0, std::uint32_t key1,
-                                                     std::uint64_t first_pair, int lanes,
-                                                     std::uint64_t input, PhiloxWords& out) {
+                                                     std::uint64_t first_pair, int lanes, std::uint64_t input,
+                                                     PhiloxWords& out) {
   PhiloxLanes<Avx512Lanes>(key0, key1, first_pair, lanes, input, out);
 }
 #pragma GCC diagnostic pop
 #endif
 
-void Philox(std::uint32_t key0, std::uint32_t key1, std::uint64_t first_pair, int pairs,
-            std::uint64_t input, PhiloxWords& out) {
+void Philox(std::uint32_t key0, std::uint32_t key1, std::uint64_t first_pair, int pairs, std::uint64_t input,
+            PhiloxWords& out) {
 #if VLT_PHILOX_SIMD
   static const auto path = __builtin_cpu_supports("avx512f") ? PhiloxAvx512
                            : __builtin_cpu_supports("avx2")  ? PhiloxAvx2
@@ -220,7 +250,8 @@ void Philox(std::uint32_t key0, std::uint32_t key1, std::uint64_t first_pair, in
 // out[2 p + j] = z_{2 (first_pair + p) + j} of random.h for p < pairs: the transform in lanes,
 // compiled for AVX-512, AVX2 and the baseline.
 VLT_ARRAY_CLONES  // base/lanes.h (through random.h): AVX-512, AVX2 and baseline clones
-void BoxMuller(const PhiloxWords& words, int pairs, double* out) {
+    void
+    BoxMuller(const PhiloxWords& words, int pairs, double* out) {
   const std::uint32_t *x0 = words.w0, *x1 = words.w1, *x2 = words.w2, *x3 = words.w3;
   // Box-Muller (random.h), stage by stage.
   alignas(64) double radius[kPairs], sine[kPairs], cosine[kPairs];
@@ -257,8 +288,7 @@ bool PhiloxImplementationRuns(PhiloxImplementation which) {
 }
 
 void PhiloxWordsForTest(PhiloxImplementation which, std::uint32_t key0, std::uint32_t key1,
-                        std::uint64_t first_pair, int pairs, std::uint64_t input,
-                        std::uint32_t* words) {
+                        std::uint64_t first_pair, int pairs, std::uint64_t input, std::uint32_t* words) {
   PhiloxWords w;
   const int lanes = (std::min(pairs, kPairs) + 31) & ~31;
   switch (which) {
@@ -277,8 +307,7 @@ void PhiloxWordsForTest(PhiloxImplementation which, std::uint32_t key0, std::uin
   }
 }
 
-void KeyedStream::NormalsBulk(std::uint64_t first_group, int groups, std::uint64_t input,
-                              double* out) const {
+void KeyedStream::NormalsBulk(std::uint64_t first_group, int groups, std::uint64_t input, double* out) const {
   PhiloxWords words;
   Philox(normal_key_[0], normal_key_[1], 2 * first_group, 2 * groups, input, words);
   BoxMuller(words, 2 * groups, out);

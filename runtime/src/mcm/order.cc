@@ -61,18 +61,20 @@ void SortedTails(std::span<const T> values, std::int64_t low, std::int64_t high,
   SortAscending(std::span<T>(tails->sample));
   auto margin_rank = [&](std::int64_t tail) {
     const double expected = static_cast<double>(tail) / static_cast<double>(m) * static_cast<double>(s);
-    return std::min<std::int64_t>(s / 2 - 1, static_cast<std::int64_t>(expected + 6.0 * std::sqrt(expected) + 8.0));
+    return std::min<std::int64_t>(s / 2 - 1,
+                                  static_cast<std::int64_t>(expected + 6.0 * std::sqrt(expected) + 8.0));
   };
   const std::int64_t k_low = margin_rank(low), k_high = margin_rank(high);
   constexpr T kInf = std::numeric_limits<T>::infinity();
-  const T lo = low > 0 ? tails->sample[k_low] : -kInf;            // gather x <= lo
-  const T hi = high > 0 ? tails->sample[s - 1 - k_high] : kInf;   // gather x >= hi
+  const T lo = low > 0 ? tails->sample[k_low] : -kInf;           // gather x <= lo
+  const T hi = high > 0 ? tails->sample[s - 1 - k_high] : kInf;  // gather x >= hi
 
   // One pass, branch-free: every value is written to both buffers and kept (the count advanced)
   // when it lies beyond the threshold. The buffers grow a block ahead of the counts.
   constexpr std::size_t kBlock = 4096;
   std::size_t n_low = 0, n_high = 0;
-  const std::size_t guess = static_cast<std::size_t>(m / s) * static_cast<std::size_t>(std::max(k_low, k_high) + 1);
+  const std::size_t guess =
+      static_cast<std::size_t>(m / s) * static_cast<std::size_t>(std::max(k_low, k_high) + 1);
   lows.resize(guess + kBlock);
   highs.resize(guess + kBlock);
   const T* x = values.data();
@@ -92,7 +94,8 @@ void SortedTails(std::span<const T> values, std::int64_t low, std::int64_t high,
   }
   // The gathered values are every value <= lo (>= hi), so once there are enough of them their
   // smallest (largest) are exactly the tail, ties included.
-  if (static_cast<std::int64_t>(n_low) < low || static_cast<std::int64_t>(n_high) < high) return from_full_sort();
+  if (static_cast<std::int64_t>(n_low) < low || static_cast<std::int64_t>(n_high) < high)
+    return from_full_sort();
   lows.resize(n_low);
   SortAscending(std::span<T>(lows));
   lows.resize(static_cast<std::size_t>(low));

@@ -21,7 +21,7 @@ void SortAscending(std::span<double> values);
 template <typename T>
 struct Tails {
   std::vector<T> low_values, high_values;
-  std::vector<T> sample, work;   // reused between calls
+  std::vector<T> sample, work;  // reused between calls
 };
 
 // Fills tails->low_values / high_values for `values` (finite; low + high <= M). For a large M

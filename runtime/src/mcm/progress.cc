@@ -34,8 +34,8 @@ void ProgressBar::Update(std::int64_t done, std::int64_t total, const std::strin
     std::snprintf(line, sizeof line, "%s [%s] %lld/%lld trials  %s", label_.c_str(), bar,
                   static_cast<long long>(done), static_cast<long long>(total), status.c_str());
   } else {
-    std::snprintf(line, sizeof line, "%s %lld trials  %s", label_.c_str(),
-                  static_cast<long long>(done), status.c_str());
+    std::snprintf(line, sizeof line, "%s %lld trials  %s", label_.c_str(), static_cast<long long>(done),
+                  status.c_str());
   }
   std::fprintf(stderr, "\r%-100s", line);
   std::fflush(stderr);

@@ -34,7 +34,6 @@
 
 #include "base/lanes.h"
 
-
 namespace vlt::mcm_internal {
 
 class KeyedStream {
@@ -52,8 +51,7 @@ class KeyedStream {
   const r123::Philox4x32::key_type& normal_key() const { return normal_key_; }
 
   // Four uniforms for trials 4*group .. 4*group+3 of `input` (purpose 0 or 1).
-  void Uniforms(std::uint64_t group, std::uint64_t input, std::uint64_t purpose,
-                double out[4]) const {
+  void Uniforms(std::uint64_t group, std::uint64_t input, std::uint64_t purpose, double out[4]) const {
     Generator::ctr_type ctr = {{group, input, purpose, 0}};
     const Generator::ctr_type r = generator_(ctr, key_);
     for (int j = 0; j < 4; ++j) out[j] = ToOpenUnit(r[j]);
@@ -64,10 +62,9 @@ class KeyedStream {
   void Normals(std::uint64_t group, std::uint64_t input, double out[4]) const {
     for (int half = 0; half < 2; ++half) {
       const std::uint64_t pair = 2 * group + static_cast<std::uint64_t>(half);
-      const NormalGenerator::ctr_type ctr = {{static_cast<std::uint32_t>(pair),
-                                              static_cast<std::uint32_t>(pair >> 32),
-                                              static_cast<std::uint32_t>(input),
-                                              static_cast<std::uint32_t>(input >> 32)}};
+      const NormalGenerator::ctr_type ctr = {
+          {static_cast<std::uint32_t>(pair), static_cast<std::uint32_t>(pair >> 32),
+           static_cast<std::uint32_t>(input), static_cast<std::uint32_t>(input >> 32)}};
       const NormalGenerator::ctr_type w = NormalGenerator()(ctr, normal_key_);
       const double u = OpenUnitFromHalves(w[0], w[1]);
       const double v = OpenUnitFromHalves(w[2], w[3]);
@@ -105,8 +102,7 @@ class KeyedStream {
     // m >= sqrt(2) (the mantissa field above that of sqrt(2)): halve m, one more in e.
     const bool high = mantissa > 0x6A09E667F3BCCull;
     const std::uint64_t biased = (bits >> 52) + (high ? 1u : 0u);  // e + 1023, in [970, 1023]
-    const double m = std::bit_cast<double>(mantissa | (high ? 0x3FE0000000000000ull
-                                                            : 0x3FF0000000000000ull));
+    const double m = std::bit_cast<double>(mantissa | (high ? 0x3FE0000000000000ull : 0x3FF0000000000000ull));
     // e as a double, exactly: 2^52 + biased has `biased` in its mantissa field.
     const double e = std::bit_cast<double>(0x4330000000000000ull | biased) - (0x1.0p52 + 1023.0);
     const double f = m - 1.0;
@@ -114,8 +110,9 @@ class KeyedStream {
     const double z = s * s;
     const double w = z * z;
     const double t1 = w * (0x1.999999997fa04p-2 + w * (0x1.c71c51d8e78afp-3 + w * 0x1.39a09d078c69fp-3));
-    const double t2 = z * (0x1.5555555555593p-1 +
-                           w * (0x1.2492494229359p-2 + w * (0x1.7466496cb03dep-3 + w * 0x1.2f112df3e5244p-3)));
+    const double t2 =
+        z * (0x1.5555555555593p-1 +
+             w * (0x1.2492494229359p-2 + w * (0x1.7466496cb03dep-3 + w * 0x1.2f112df3e5244p-3)));
     const double r = t2 + t1;
     const double hfsq = 0.5 * f * f;
     constexpr double kLn2Hi = 0x1.62e42feep-1, kLn2Lo = 0x1.a39ef35793c76p-33;
@@ -147,8 +144,7 @@ class KeyedStream {
   }
 
   // Four uniforms of one trial for a rejection method, attempt 0, 1, 2, ...
-  void TrialUniforms(std::uint64_t trial, std::uint64_t input, std::uint64_t attempt,
-                     double out[4]) const {
+  void TrialUniforms(std::uint64_t trial, std::uint64_t input, std::uint64_t attempt, double out[4]) const {
     Generator::ctr_type ctr = {{trial, input, attempt, 1}};
     const Generator::ctr_type r = generator_(ctr, key_);
     for (int j = 0; j < 4; ++j) out[j] = ToOpenUnit(r[j]);
@@ -173,7 +169,6 @@ class KeyedStream {
 enum class PhiloxImplementation { kPortable, kSse2, kAvx2, kAvx512 };
 bool PhiloxImplementationRuns(PhiloxImplementation which);
 void PhiloxWordsForTest(PhiloxImplementation which, std::uint32_t key0, std::uint32_t key1,
-                        std::uint64_t first_pair, int pairs, std::uint64_t input,
-                        std::uint32_t* words);
+                        std::uint64_t first_pair, int pairs, std::uint64_t input, std::uint32_t* words);
 
 }  // namespace vlt::mcm_internal

@@ -48,8 +48,8 @@ void RegionDistances(int dim, const float* const* series, const double* mean_min
 // covariance is not positive definite. The distances are computed in parallel (each on its own:
 // the same bits for any thread count), the order statistic on one thread (mcm/order.h).
 bool RegionFactor(const std::vector<const float*>& series, std::int64_t n,
-                  const Eigen::VectorXd& mean_minus_y0, const Eigen::MatrixXd& cov, double p,
-                  int threads, double* k) {
+                  const Eigen::VectorXd& mean_minus_y0, const Eigen::MatrixXd& cov, double p, int threads,
+                  double* k) {
   const int dim = static_cast<int>(series.size());
   Eigen::LLT<Eigen::MatrixXd> llt(cov);
   if (llt.info() != Eigen::Success || !(cov.diagonal().minCoeff() > 0.0)) return false;
@@ -58,15 +58,15 @@ bool RegionFactor(const std::vector<const float*>& series, std::int64_t n,
   // Row-major copy of L^-1; |w| with w_a = sum_b (L^-1)_ab dev_b summed in b order (RegionDistances).
   const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rows = l_inv;
   std::vector<double, UninitializedAllocator<double>> d(static_cast<std::size_t>(n));
-  parallel::ForEachChunk(static_cast<std::size_t>(n), kPassChunk, threads,
-                         [&](std::size_t, std::size_t begin, std::size_t end) {
-    const float* const* components = series.data();
-    if (dim == 3) {
-      RegionDistances<3>(3, components, mean_minus_y0.data(), rows.data(), begin, end, d.data());
-    } else {
-      RegionDistances<0>(dim, components, mean_minus_y0.data(), rows.data(), begin, end, d.data());
-    }
-  });
+  parallel::ForEachChunk(
+      static_cast<std::size_t>(n), kPassChunk, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
+        const float* const* components = series.data();
+        if (dim == 3) {
+          RegionDistances<3>(3, components, mean_minus_y0.data(), rows.data(), begin, end, d.data());
+        } else {
+          RegionDistances<0>(dim, components, mean_minus_y0.data(), rows.data(), begin, end, d.data());
+        }
+      });
   // The q-th smallest distance is the smallest of the n - q + 1 largest.
   const std::int64_t q = CoverageCount(n, p);
   Tails<double> tails;

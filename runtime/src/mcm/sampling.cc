@@ -13,8 +13,7 @@
 
 namespace vlt::mcm_internal {
 
-void DrawNormals(const KeyedStream& rng, std::uint64_t stream, std::int64_t first, int n,
-                 double* out) {
+void DrawNormals(const KeyedStream& rng, std::uint64_t stream, std::int64_t first, int n, double* out) {
   // Groups of 4 trials share one Philox call (random.h); trials outside [first, first + n) of
   // the edge groups are computed and discarded. Up to KeyedStream::kBulkGroups groups at once.
   constexpr int kBulk = KeyedStream::kBulkGroups;
@@ -47,8 +46,8 @@ void DrawUniformInputs(const KeyedStream& rng, const Distribution& dist, std::ui
   }
 }
 
-void DrawStudentT(const KeyedStream& rng, const Distribution& dist, std::uint64_t stream,
-                  std::int64_t first, int n, double* out) {
+void DrawStudentT(const KeyedStream& rng, const Distribution& dist, std::uint64_t stream, std::int64_t first,
+                  int n, double* out) {
   double u[4];
   for (int i = 0; i < n; ++i) {
     const std::uint64_t trial = static_cast<std::uint64_t>(first + i);
@@ -92,14 +91,14 @@ InputSampler::InputSampler(std::vector<Distribution> inputs, std::vector<std::st
   if (correlation.size() != 0) {
     if (correlation.rows() != n || correlation.cols() != n) {
       throw InputError(at + ": correlation matrix is " + std::to_string(correlation.rows()) + "x" +
-                       std::to_string(correlation.cols()) + ", expected " + std::to_string(n) +
-                       "x" + std::to_string(n));
+                       std::to_string(correlation.cols()) + ", expected " + std::to_string(n) + "x" +
+                       std::to_string(n));
     }
     for (int i = 0; i < n; ++i) {
       for (int j = 0; j < n; ++j) {
         const double r = correlation(i, j);
-        const bool ok = std::isfinite(r) && (i == j ? r == 1.0 : std::abs(r) <= 1.0) &&
-                        r == correlation(j, i);
+        const bool ok =
+            std::isfinite(r) && (i == j ? r == 1.0 : std::abs(r) <= 1.0) && r == correlation(j, i);
         if (!ok) {
           throw InputError(at + ": correlation matrix entry ('" + names[i] + "', '" + names[j] +
                            "') must be symmetric, in [-1, 1], and 1 on the diagonal");
@@ -148,8 +147,8 @@ InputSampler::InputSampler(std::vector<Distribution> inputs, std::vector<std::st
   }
 }
 
-void InputSampler::Draw(const KeyedStream& rng, std::int64_t first, int n, double* out,
-                        int stride, double* scratch) const {
+void InputSampler::Draw(const KeyedStream& rng, std::int64_t first, int n, double* out, int stride,
+                        double* scratch) const {
   for (int k : independent_) {
     const Distribution& dist = inputs_[k];
     double* row = out + static_cast<std::ptrdiff_t>(k) * stride;
@@ -195,7 +194,8 @@ void InputSampler::Draw(const KeyedStream& rng, std::int64_t first, int n, doubl
     for (int a = 0; a < m; ++a) {
       double zc = 0.0;
       const int columns = factor_is_lower_ ? a + 1 : m;  // Cholesky: the same sums as always
-      for (int b = 0; b < columns; ++b) zc += cholesky_(a, b) * scratch[static_cast<std::ptrdiff_t>(b) * n + i];
+      for (int b = 0; b < columns; ++b)
+        zc += cholesky_(a, b) * scratch[static_cast<std::ptrdiff_t>(b) * n + i];
       if (!t_group_of_.empty() && t_group_of_[a] >= 0) zc *= mix[t_group_of_[a]];
       const Distribution& dist = inputs_[copula_[a]];
       double value;

@@ -63,8 +63,8 @@ void AccumulatePoint(int o, int gi, const SumLayout& layout, const double* out, 
   part[layout.cross(gi, PairIndex(1, 2, 3))] += syz;
 }
 
-void GroupMoments(const std::vector<double>& sums, const SumLayout& layout, const OutputGroup& g,
-                  int gi, const std::vector<double>& y0, std::int64_t n, Eigen::VectorXd* mean,
+void GroupMoments(const std::vector<double>& sums, const SumLayout& layout, const OutputGroup& g, int gi,
+                  const std::vector<double>& y0, std::int64_t n, Eigen::VectorXd* mean,
                   Eigen::MatrixXd* cov) {
   const double dn = static_cast<double>(n);
   const int d = g.dim;
@@ -75,8 +75,7 @@ void GroupMoments(const std::vector<double>& sums, const SumLayout& layout, cons
   for (int a = 0; a < d; ++a) (*mean)(a) = y0[g.first + a] + s1(a) / dn;
   for (int a = 0; a < d; ++a) {
     for (int b = 0; b < d; ++b) {
-      const double sab = a == b ? sums[layout.sum2(g.first + a)]
-                                : sums[layout.cross(gi, PairIndex(a, b, d))];
+      const double sab = a == b ? sums[layout.sum2(g.first + a)] : sums[layout.cross(gi, PairIndex(a, b, d))];
       (*cov)(a, b) = (sab - s1(a) * s1(b) / dn) / (dn - 1.0);
     }
   }

@@ -19,9 +19,9 @@ namespace vlt::mcm_internal {
 // (a < b, in the order (0,1), (0,2), ..., (1,2), ...) of the deviations d = y - y(estimates).
 struct SumLayout {
   int outputs;
-  std::vector<int> cross_offset;   // first cross sum of each group
+  std::vector<int> cross_offset;  // first cross sum of each group
   int cross_total = 0;
-  int tolerances = 0;              // then one count per tolerance (McmSettings::tolerances)
+  int tolerances = 0;  // then one count per tolerance (McmSettings::tolerances)
   SumLayout(int num_outputs, const std::vector<OutputGroup>& groups, int num_tolerances)
       : outputs(num_outputs), tolerances(num_tolerances) {
     for (const OutputGroup& g : groups) {
@@ -59,8 +59,7 @@ void AccumulatePoint(int o, int gi, const SumLayout& layout, const double* out, 
                      std::int64_t first_trial, const std::vector<std::string>& names);
 
 // Mean and covariance of group g (dim outputs from g.first) from the sums of n trials.
-void GroupMoments(const std::vector<double>& sums, const SumLayout& layout, const OutputGroup& g,
-                  int gi, const std::vector<double>& y0, std::int64_t n, Eigen::VectorXd* mean,
-                  Eigen::MatrixXd* cov);
+void GroupMoments(const std::vector<double>& sums, const SumLayout& layout, const OutputGroup& g, int gi,
+                  const std::vector<double>& y0, std::int64_t n, Eigen::VectorXd* mean, Eigen::MatrixXd* cov);
 
 }  // namespace vlt::mcm_internal

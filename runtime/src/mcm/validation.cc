@@ -34,8 +34,8 @@ std::string Verdict(const std::string& outcome, double worst, double delta, doub
                   "%.3g %s within what Monte Carlo noise gives; use more trials or the adaptive procedure",
                   mcm_tolerance, unit.c_str(), delta, unit.c_str(), worst, unit.c_str());
   } else {
-    std::snprintf(text, sizeof text, "%s (largest endpoint difference %.3g %s, tolerance %.3g %s)", outcome.c_str(),
-                  worst, unit.c_str(), delta, unit.c_str());
+    std::snprintf(text, sizeof text, "%s (largest endpoint difference %.3g %s, tolerance %.3g %s)",
+                  outcome.c_str(), worst, unit.c_str(), delta, unit.c_str());
   }
   return text;
 }
@@ -69,10 +69,10 @@ std::string CombinedOutcome(const std::vector<std::string>& outcomes) {
   return inconclusive ? "inconclusive" : "validated";
 }
 
-ScalarValidation ValidateScalar(const std::string& name, const std::string& unit, double gum_y,
-                                double gum_u, double gum_expanded,
-                                const CoverageInterval& mcm_symmetric, int significant_digits,
-                                std::int64_t trials, double mcm_u, double p, bool differentiable) {
+ScalarValidation ValidateScalar(const std::string& name, const std::string& unit, double gum_y, double gum_u,
+                                double gum_expanded, const CoverageInterval& mcm_symmetric,
+                                int significant_digits, std::int64_t trials, double mcm_u, double p,
+                                bool differentiable) {
   ScalarValidation v;
   v.name = name;
   v.unit = unit;
@@ -87,8 +87,9 @@ ScalarValidation ValidateScalar(const std::string& name, const std::string& unit
   if (!differentiable) {
     // GUM has no value here (no first-order sensitivity): nothing to validate (docs/tasks.md).
     v.outcome = "not applicable";
-    v.verdict = "not applicable: GUM has no first-order value (not differentiable at zero form error); "
-                "the Monte Carlo interval is the answer";
+    v.verdict =
+        "not applicable: GUM has no first-order value (not differentiable at zero form error); "
+        "the Monte Carlo interval is the answer";
     return v;
   }
   v.delta = NumericalTolerance(gum_u, significant_digits);
@@ -105,8 +106,8 @@ ScalarValidation ValidateScalar(const std::string& name, const std::string& unit
 
 PointValidation ValidatePoint(const std::string& name, const Eigen::Vector3d& gum_y,
                               const Eigen::Matrix3d& gum_covariance, double gum_coverage_factor,
-                              const McmPointResult& mcm, int significant_digits,
-                              std::int64_t trials, double p) {
+                              const McmPointResult& mcm, int significant_digits, std::int64_t trials,
+                              double p) {
   PointValidation v;
   v.name = name;
   v.gum_coverage_factor = gum_coverage_factor;
@@ -141,8 +142,8 @@ PointValidation ValidatePoint(const std::string& name, const Eigen::Vector3d& gu
     const double h = gum_coverage_factor * s_g - mcm.coverage_factor * s_m;
     const double distance = std::max(std::abs(c - h), std::abs(c + h));
     const double delta = NumericalTolerance(s_g, significant_digits);
-    const double ratio = delta > 0.0 ? distance / delta
-                                     : (distance > 0.0 ? std::numeric_limits<double>::max() : 0.0);
+    const double ratio =
+        delta > 0.0 ? distance / delta : (distance > 0.0 ? std::numeric_limits<double>::max() : 0.0);
     if (ratio > v.worst_ratio) {
       v.worst_ratio = ratio;
       v.worst_direction = d;
@@ -159,7 +160,8 @@ PointValidation ValidatePoint(const std::string& name, const Eigen::Vector3d& gu
     const double s_m = std::sqrt(std::max(0.0, v.worst_direction.dot(mcm.covariance * v.worst_direction)));
     v.mcm_tolerance = 2.0 * s_m * std::sqrt(s_k * s_k + k * k / (2.0 * m));
   }
-  v.outcome = v.validated ? std::string("validated") : Outcome(v.worst_distance, v.mcm_tolerance, v.worst_delta);
+  v.outcome =
+      v.validated ? std::string("validated") : Outcome(v.worst_distance, v.mcm_tolerance, v.worst_delta);
   v.verdict = Verdict(v.outcome, v.worst_distance, v.worst_delta, v.mcm_tolerance, "m");
   return v;
 }

@@ -116,8 +116,8 @@ Eigen::MatrixXd SharedCorrelation(const std::vector<std::string>& names,
     const int m = static_cast<int>(index.size());
     if (group.matrix.rows() != m || group.matrix.cols() != m) {
       throw InputError(where_matrix + ": expected " + std::to_string(m) + " x " + std::to_string(m) +
-                       " (one row and column per input), got " + std::to_string(group.matrix.rows()) +
-                       " x " + std::to_string(group.matrix.cols()));
+                       " (one row and column per input), got " + std::to_string(group.matrix.rows()) + " x " +
+                       std::to_string(group.matrix.cols()));
     }
     CheckCorrelationMatrix(group.matrix, where_matrix);
     // Exactly symmetric with a unit diagonal (the checks allow 1e-12): what the Monte Carlo
@@ -132,4 +132,3 @@ Eigen::MatrixXd SharedCorrelation(const std::vector<std::string>& names,
 }
 
 }  // namespace vlt
-

@@ -45,8 +45,7 @@ std::array<double, 3> IdealReadings(const std::array<double, 3>& point, Face fac
   const double horizontal = std::hypot(point[0], point[1]);
   const double range = std::hypot(horizontal, point[2]);
   if (!(range >= options.min_range)) {
-    throw NumericalError("inverse: point " + PointText(point) +
-                         " is at the tracker origin (range below " +
+    throw NumericalError("inverse: point " + PointText(point) + " is at the tracker origin (range below " +
                          std::to_string(options.min_range) + " m): direction undefined");
   }
   if (!(horizontal >= options.min_horizontal_distance)) {
@@ -69,8 +68,7 @@ std::array<double, 3> InverseReadings(const ModelInfo& model, const double* para
                                       const std::array<double, 3>& point, Face face,
                                       const InverseOptions& options) {
   if (model.num_readings != 3 || std::string(model.kind) != "tracker") {
-    throw InputError(std::string("inverse: model '") + model.name +
-                     "' is not a tracker model (no readings)");
+    throw InputError(std::string("inverse: model '") + model.name + "' is not a tracker model (no readings)");
   }
   std::array<double, 3> r = IdealReadings(point, face, options);
   const Eigen::Vector3d target(point[0], point[1], point[2]);
@@ -103,8 +101,8 @@ std::array<double, 3> InverseReadings(const ModelInfo& model, const double* para
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.3g m", last);
   throw NumericalError("inverse: Newton iteration for model '" + std::string(model.name) +
-                       "' did not converge at point " + PointText(point) + " (" +
-                       FaceName(face) + " face, residual " + buf + ")");
+                       "' did not converge at point " + PointText(point) + " (" + FaceName(face) +
+                       " face, residual " + buf + ")");
 }
 
 }  // namespace vlt

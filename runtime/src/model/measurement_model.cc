@@ -32,8 +32,8 @@ template <typename Setup, typename Visit>
 void ForEachShared(Setup& setup, Visit visit) {
   for (std::size_t k = 0; k < setup.params.size(); ++k) {
     const bool known = setup.model != nullptr && static_cast<int>(k) < setup.model->num_params;
-    visit(setup.params[k], known ? setup.model->params[k].name : "",
-          known ? setup.model->params[k].unit : "", "parameter");
+    visit(setup.params[k], known ? setup.model->params[k].name : "", known ? setup.model->params[k].unit : "",
+          "parameter");
   }
   if (setup.environment) {
     auto& env = *setup.environment;
@@ -103,7 +103,6 @@ Eigen::Matrix3d dRz(double a) {
   return r;
 }
 
-
 }  // namespace
 
 Eigen::Matrix3d PoseRotationMatrix(double rx, double ry, double rz) { return Rz(rz) * Ry(ry) * Rx(rx); }
@@ -130,17 +129,15 @@ MeasurementModel::MeasurementModel(MeasurementSetup setup) : setup_(std::move(se
                      "' is not a tracker model (3 readings -> 3 coordinates)");
   }
   if (model->forward == nullptr || model->forward_jacobians == nullptr) {
-    throw InputError(std::string("measurement setup: model '") + model->name +
-                     "' has no forward kernels");
+    throw InputError(std::string("measurement setup: model '") + model->name + "' has no forward kernels");
   }
   const int num_params = model->num_params;
   if (static_cast<int>(setup_.params.size()) != num_params) {
     throw InputError(std::string("measurement setup: model '") + model->name + "' has " +
-                     std::to_string(num_params) + " parameters, " +
-                     std::to_string(setup_.params.size()) + " given");
+                     std::to_string(num_params) + " parameters, " + std::to_string(setup_.params.size()) +
+                     " given");
   }
-  ForEachShared(setup_, [&](UncertainInput& input, const char* name, const char* unit,
-                            const char* group) {
+  ForEachShared(setup_, [&](UncertainInput& input, const char* name, const char* unit, const char* group) {
     Fill(input, name, unit, group);
     CheckInput(input);
     shared_.push_back(input);
@@ -201,7 +198,8 @@ AirEquation Equation(const Environment& e) { return EquationOf(e); }
 AirEquation EquationOf(const Environment& e) { return e.equation; }
 
 AirConditions AirAtEstimates(const Environment& e) {
-  const double estimates[4] = {e.temperature.estimate, e.pressure.estimate, e.humidity.estimate, e.co2.estimate};
+  const double estimates[4] = {e.temperature.estimate, e.pressure.estimate, e.humidity.estimate,
+                               e.co2.estimate};
   return Air(e, estimates);
 }
 
@@ -239,12 +237,11 @@ double MeasurementModel::RangeScale(const double* shared) const {
   // The tracker converted optical path to range with n_est; the true geometric range is
   // optical path / n = rho n_est / n (range scale error mu_env = n_est / n - 1).
   const Environment& e = *setup_.environment;
-  return n_est_ / AirRefractiveIndexValue(Equation(e), Air(e, shared + env_offset_),
-                                          "environment");
+  return n_est_ / AirRefractiveIndexValue(Equation(e), Air(e, shared + env_offset_), "environment");
 }
 
-void MeasurementModel::TrackerPoint(double range_scale, const double* readings,
-                                    const double* shared, double* x_tracker) const {
+void MeasurementModel::TrackerPoint(double range_scale, const double* readings, const double* shared,
+                                    double* x_tracker) const {
   double corrected[3] = {readings[0], readings[1], readings[2]};
   if (env_offset_ >= 0) corrected[0] *= range_scale;
   setup_.model->forward(corrected, shared, x_tracker);
@@ -284,9 +281,8 @@ void MeasurementModel::EvaluatePrepared(const PreparedShared& prepared, const do
   Place(prepared, x_t, y);
 }
 
-bool MeasurementModel::EvaluatePreparedLanes(const PreparedShared* const* prepared,
-                                             const double* readings, const double* params,
-                                             double* y) const {
+bool MeasurementModel::EvaluatePreparedLanes(const PreparedShared* const* prepared, const double* readings,
+                                             const double* params, double* y) const {
   const ModelInfo& model = *setup_.model;
   constexpr int kL = kForwardLanes;
   if (model.forward_lanes == nullptr) return false;
@@ -332,9 +328,8 @@ bool MeasurementModel::NominalParams(const double* shared) const {
   return true;
 }
 
-void MeasurementModel::EvaluateWithJacobian(const double* readings, const double* shared,
-                                            double* y, double* d_y_d_readings,
-                                            double* d_y_d_shared) const {
+void MeasurementModel::EvaluateWithJacobian(const double* readings, const double* shared, double* y,
+                                            double* d_y_d_readings, double* d_y_d_shared) const {
   const ModelInfo& model = *setup_.model;
   // Stage 1: air. rho' = rho * n_est / n.
   const AirStage air = AirAt(shared);
@@ -350,14 +345,12 @@ void MeasurementModel::EvaluateWithJacobian(const double* readings, const double
   ChainStation(shared, air, corrected[0], y, d_y_d_readings, d_y_d_shared, true);
 }
 
-bool MeasurementModel::EvaluateNominalLanes(int count, const double* readings,
-                                            const double* shared, double* y,
-                                            double* d_y_d_readings, double* d_y_d_shared,
-                                            double* d_x_t_d_params,
-                                            Eigen::Matrix3d& linear_map) const {
+bool MeasurementModel::EvaluateNominalLanes(int count, const double* readings, const double* shared,
+                                            double* y, double* d_y_d_readings, double* d_y_d_shared,
+                                            double* d_x_t_d_params, Eigen::Matrix3d& linear_map) const {
   if (count < 1 || count > kLanes) {
-    throw std::invalid_argument("EvaluateNominalLanes: count " + std::to_string(count) +
-                                " is not in 1.." + std::to_string(kLanes));
+    throw std::invalid_argument("EvaluateNominalLanes: count " + std::to_string(count) + " is not in 1.." +
+                                std::to_string(kLanes));
   }
   const ModelInfo& model = *setup_.model;
   if (model.nominal_jacobians_batch == nullptr || !NominalParams(shared)) return false;
@@ -382,9 +375,8 @@ bool MeasurementModel::EvaluateNominalLanes(int count, const double* readings,
 }
 
 Eigen::Matrix3d MeasurementModel::ChainStation(const double* shared, const AirStage& air,
-                                               double corrected_range, double* y,
-                                               double* d_y_d_readings, double* d_y_d_shared,
-                                               bool params_in_place) const {
+                                               double corrected_range, double* y, double* d_y_d_readings,
+                                               double* d_y_d_shared, bool params_in_place) const {
   if (env_offset_ < 0 && pose_offset_ < 0 && thermal_offset_ < 0) {
     // The tracker alone: the general path below computes y = 1 (I x_t + 0), which for finite
     // x_t is x_t + 0 (x_t, with -0 made +0), and leaves the Jacobians as they are.
@@ -424,8 +416,8 @@ Eigen::Matrix3d MeasurementModel::ChainStation(const double* shared, const AirSt
   Eigen::Map<Eigen::Matrix<double, 3, Eigen::Dynamic>> jy_s(d_y_d_shared, 3, num_shared);
   if (env_offset_ >= 0) {
     // d rho' / d env_k = -rho n_est / n^2 dn/dk = -(rho' / n) dn/dk.
-    const Eigen::Vector3d along_range = (linear_map ? Eigen::Vector3d(m * j_r.col(0))
-                                                    : Eigen::Vector3d(j_r.col(0)));
+    const Eigen::Vector3d along_range =
+        (linear_map ? Eigen::Vector3d(m * j_r.col(0)) : Eigen::Vector3d(j_r.col(0)));
     for (int k = 0; k < 4; ++k) {
       jy_s.col(env_offset_ + k) = along_range * (-corrected_range / air.n * air.dn[k]);
     }

@@ -2,9 +2,7 @@
 
 namespace vlt {
 
-std::span<const ModelInfo* const> AllModels() {
-  return {generated::kModels, generated::kNumModels};
-}
+std::span<const ModelInfo* const> AllModels() { return {generated::kModels, generated::kNumModels}; }
 
 const ModelInfo* FindModel(std::string_view name) {
   for (const ModelInfo* model : AllModels()) {

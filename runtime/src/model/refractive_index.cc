@@ -37,10 +37,9 @@ double Value(const Dual& x) { return x.value(); }
 // p_s from T), coefficients n1..n10 of IAPWS-IF97 table 34.
 template <typename T>
 T SvpOverWater(const T& t_degc) {
-  constexpr double K1 = 1.16705214528e3, K2 = -7.24213167032e5, K3 = -1.70738469401e1,
-                   K4 = 1.20208247025e4, K5 = -3.23255503223e6, K6 = 1.49151086135e1,
-                   K7 = -4.82326573616e3, K8 = 4.05113405421e5, K9 = -2.38555575678e-1,
-                   K10 = 6.50175348448e2;
+  constexpr double K1 = 1.16705214528e3, K2 = -7.24213167032e5, K3 = -1.70738469401e1, K4 = 1.20208247025e4,
+                   K5 = -3.23255503223e6, K6 = 1.49151086135e1, K7 = -4.82326573616e3, K8 = 4.05113405421e5,
+                   K9 = -2.38555575678e-1, K10 = 6.50175348448e2;
   using std::sqrt;
   const T temperature = t_degc + kZeroCelsius;  // K
   const T omega = temperature + K9 / (temperature - K10);
@@ -92,19 +91,17 @@ T Ciddor(double sigma2, const T& t, const T& p, const T& h, const T& co2) {
   const T x_c = co2 * 1e6;                     // CO2 in umol/mol
 
   const double n_as1 = 1e-8 * (k1 / (k0 - sigma2) + k3 / (k2 - sigma2));
-  const T n_axs1 = n_as1 * (1.0 + 0.534e-6 * (x_c - 450.0));                  // eq. (2)
-  const double n_ws1 =
-      1.022e-8 * (w0 + w1 * sigma2 + w2 * sigma2 * sigma2 + w3 * sigma2 * sigma2 * sigma2);
-  const T m_a = 0.0289635 + 1.2011e-8 * (x_c - 400.0);                         // eq. (4), kg/mol
+  const T n_axs1 = n_as1 * (1.0 + 0.534e-6 * (x_c - 450.0));  // eq. (2)
+  const double n_ws1 = 1.022e-8 * (w0 + w1 * sigma2 + w2 * sigma2 * sigma2 + w3 * sigma2 * sigma2 * sigma2);
+  const T m_a = 0.0289635 + 1.2011e-8 * (x_c - 400.0);  // eq. (4), kg/mol
 
   const T pt = p / temperature;
-  const T z = 1.0 - pt * (a0 + a1 * t + a2 * t * t + (b0 + b1 * t) * x_v +
-                          (c0 + c1 * t) * x_v * x_v) +
-              pt * pt * (d + e * x_v * x_v);                                   // eq. (12)
-  const T rho_axs = p_r1 * m_a / (z_a * R * t_r1);                             // eq. (4)
-  const T rho_v = x_v * p * M_v / (z * R * temperature);                       // eq. (4)
+  const T z = 1.0 - pt * (a0 + a1 * t + a2 * t * t + (b0 + b1 * t) * x_v + (c0 + c1 * t) * x_v * x_v) +
+              pt * pt * (d + e * x_v * x_v);              // eq. (12)
+  const T rho_axs = p_r1 * m_a / (z_a * R * t_r1);        // eq. (4)
+  const T rho_v = x_v * p * M_v / (z * R * temperature);  // eq. (4)
   const T rho_a = (1.0 - x_v) * p * m_a / (z * R * temperature);
-  return 1.0 + (rho_a / rho_axs) * n_axs1 + (rho_v / rho_vs) * n_ws1;          // eq. (5)
+  return 1.0 + (rho_a / rho_axs) * n_axs1 + (rho_v / rho_vs) * n_ws1;  // eq. (5)
 }
 
 // --- Edlén as updated by Bönsch & Potulski 1998 ------------------------------------------------
@@ -112,11 +109,11 @@ template <typename T>
 T EdlenBoensch(double sigma2, const T& t, const T& p, const T& h, const T& co2) {
   // Standard air (15 degC, 101325 Pa, 400 umol/mol CO2, dry), B&P eq. (6).
   const double n_n1 = 1e-8 * (8091.37 + 2333983.0 / (130.0 - sigma2) + 15518.0 / (38.9 - sigma2));
-  const T n_x1 = n_n1 * (1.0 + 0.5327 * (co2 - 0.0004));                       // eq. (7)
-  const T n_tp1 = n_x1 * p * (1.0 + 1e-8 * (0.5953 - 0.009876 * t) * p) /
-                  (93214.60 * (1.0 + 0.0036610 * t));                          // eq. (8)
-  const T f = (h / 100.0) * Svp(t);  // water vapour partial pressure, Pa
-  return 1.0 + n_tp1 - f * (3.8020 - 0.0384 * sigma2) * 1e-10;                 // eq. (9)
+  const T n_x1 = n_n1 * (1.0 + 0.5327 * (co2 - 0.0004));  // eq. (7)
+  const T n_tp1 =
+      n_x1 * p * (1.0 + 1e-8 * (0.5953 - 0.009876 * t) * p) / (93214.60 * (1.0 + 0.0036610 * t));  // eq. (8)
+  const T f = (h / 100.0) * Svp(t);                             // water vapour partial pressure, Pa
+  return 1.0 + n_tp1 - f * (3.8020 - 0.0384 * sigma2) * 1e-10;  // eq. (9)
 }
 
 // --- Modified Edlén (NIST Appendix A-IV): Birch & Downs 1993/1994 with NIST's water term -------
@@ -126,11 +123,11 @@ T EdlenBoensch(double sigma2, const T& t, const T& p, const T& h, const T& co2) 
 // "shop-floor" use).
 template <typename T>
 T EdlenBirchDowns(double sigma2, const T& t, const T& p, const T& h) {
-  constexpr double A = 8342.54, B = 2406147.0, C = 15998.0;            // dispersion
-  constexpr double D = 96095.43, E = 0.601, F = 0.00972, G = 0.003661;  // density (t, p)
+  constexpr double A = 8342.54, B = 2406147.0, C = 15998.0;                     // dispersion
+  constexpr double D = 96095.43, E = 0.601, F = 0.00972, G = 0.003661;          // density (t, p)
   const double n_s1 = 1e-8 * (A + B / (130.0 - sigma2) + C / (38.9 - sigma2));  // (n_s - 1)
   const T x = (1.0 + 1e-8 * (E - F * t) * p) / (1.0 + G * t);
-  const T n_tp1 = p * n_s1 * x / D;                                            // (n_tp - 1)
+  const T n_tp1 = p * n_s1 * x / D;    // (n_tp - 1)
   const T p_v = (h / 100.0) * Svp(t);  // water vapour partial pressure, Pa (NIST A-II)
   return 1.0 + n_tp1 - 1e-10 * (292.75 / (t + kZeroCelsius)) * (3.7345 - 0.0401 * sigma2) * p_v;
 }
@@ -138,12 +135,10 @@ T EdlenBirchDowns(double sigma2, const T& t, const T& p, const T& h) {
 template <typename T>
 T Evaluate(AirEquation equation, double sigma2, const T& t, const T& p, const T& h, const T& co2) {
   switch (equation) {
-    case AirEquation::kCiddor:
-      return Ciddor(sigma2, t, p, h, co2);
+    case AirEquation::kCiddor: return Ciddor(sigma2, t, p, h, co2);
     case AirEquation::kEdlenBirchDowns:
       return EdlenBirchDowns(sigma2, t, p, h);  // CO2 is not an input of this equation
-    case AirEquation::kEdlenBoensch:
-      break;
+    case AirEquation::kEdlenBoensch: break;
   }
   return EdlenBoensch(sigma2, t, p, h, co2);
 }
@@ -166,19 +161,16 @@ double CheckPhysical(const AirConditions& air, std::string_view where) {
   finite(air.humidity, "humidity");
   finite(air.co2, "CO2 fraction");
   if (air.vacuum_wavelength <= 0.0) {
-    throw InputError(prefix + "vacuum wavelength " + Num(air.vacuum_wavelength) +
-                     " m must be positive");
+    throw InputError(prefix + "vacuum wavelength " + Num(air.vacuum_wavelength) + " m must be positive");
   }
   if (air.temperature <= -kZeroCelsius) {
-    throw InputError(prefix + "temperature " + Num(air.temperature) +
-                     " degC is at or below absolute zero");
+    throw InputError(prefix + "temperature " + Num(air.temperature) + " degC is at or below absolute zero");
   }
   if (air.pressure <= 0.0) {
     throw InputError(prefix + "pressure " + Num(air.pressure) + " Pa must be positive");
   }
   if (air.humidity < 0.0 || air.humidity > 100.0) {
-    throw InputError(prefix + "relative humidity " + Num(air.humidity) +
-                     " % is outside 0..100 %");
+    throw InputError(prefix + "relative humidity " + Num(air.humidity) + " % is outside 0..100 %");
   }
   if (air.co2 < 0.0 || air.co2 >= 1.0) {
     throw InputError(prefix + "CO2 mole fraction " + Num(air.co2) +
@@ -199,12 +191,9 @@ void CheckFinite(double v, std::string_view where) {
 
 std::string_view AirEquationName(AirEquation equation) {
   switch (equation) {
-    case AirEquation::kCiddor:
-      return "ciddor";
-    case AirEquation::kEdlenBirchDowns:
-      return "modified_edlen";
-    case AirEquation::kEdlenBoensch:
-      break;
+    case AirEquation::kCiddor: return "ciddor";
+    case AirEquation::kEdlenBirchDowns: return "modified_edlen";
+    case AirEquation::kEdlenBoensch: break;
   }
   return "edlen";
 }
@@ -228,12 +217,11 @@ AirEquation ParseAirEquation(std::string_view text, std::string_view where) {
     if (text == s.name) return s.equation;
     expected += (expected.empty() ? "" : ", ") + std::string(s.name);
   }
-  throw InputError(std::string(where) + ": unknown refractive-index equation '" +
-                   std::string(text) + "' (expected one of: " + expected + ")");
+  throw InputError(std::string(where) + ": unknown refractive-index equation '" + std::string(text) +
+                   "' (expected one of: " + expected + ")");
 }
 
-RefractiveIndex AirRefractiveIndex(AirEquation equation, const AirConditions& air,
-                                   std::string_view where) {
+RefractiveIndex AirRefractiveIndex(AirEquation equation, const AirConditions& air, std::string_view where) {
   const double sigma2 = CheckPhysical(air, where);
   // Seed one derivative direction per environmental input.
   const Dual t(air.temperature, 4, 0);
@@ -247,18 +235,16 @@ RefractiveIndex AirRefractiveIndex(AirEquation equation, const AirConditions& ai
   result.dn_dpressure = n.derivatives()(1);
   result.dn_dhumidity = n.derivatives()(2);
   result.dn_dco2 = n.derivatives()(3);
-  for (double v : {result.n, result.dn_dtemperature, result.dn_dpressure, result.dn_dhumidity,
-                   result.dn_dco2}) {
+  for (double v :
+       {result.n, result.dn_dtemperature, result.dn_dpressure, result.dn_dhumidity, result.dn_dco2}) {
     CheckFinite(v, where);
   }
   return result;
 }
 
-double AirRefractiveIndexValue(AirEquation equation, const AirConditions& air,
-                               std::string_view where) {
+double AirRefractiveIndexValue(AirEquation equation, const AirConditions& air, std::string_view where) {
   const double sigma2 = CheckPhysical(air, where);
-  const double n =
-      Evaluate(equation, sigma2, air.temperature, air.pressure, air.humidity, air.co2);
+  const double n = Evaluate(equation, sigma2, air.temperature, air.pressure, air.humidity, air.co2);
   CheckFinite(n, where);
   return n;
 }
@@ -266,20 +252,19 @@ double AirRefractiveIndexValue(AirEquation equation, const AirConditions& air,
 void CheckAirValidity(AirEquation equation, const AirConditions& air, std::string_view where) {
   CheckPhysical(air, where);
   const bool ciddor = equation == AirEquation::kCiddor;
-  const std::string eq = ciddor ? "Ciddor"
-                         : equation == AirEquation::kEdlenBirchDowns
-                             ? "modified Edlen (NIST, Birch-Downs)"
-                             : "Edlen (Boensch-Potulski)";
+  const std::string eq = ciddor                                      ? "Ciddor"
+                         : equation == AirEquation::kEdlenBirchDowns ? "modified Edlen (NIST, Birch-Downs)"
+                                                                     : "Edlen (Boensch-Potulski)";
   const auto check = [&](double value, double lo, double hi, const char* what, double scale,
                          const char* unit) {
     if (value < lo || value > hi) {
       throw InputError(std::string(where) + ": " + what + " " + Num(value * scale) + " " + unit +
-                       " is outside the range of validity of the " + eq + " equation (" +
-                       Num(lo * scale) + ".." + Num(hi * scale) + " " + unit + ")");
+                       " is outside the range of validity of the " + eq + " equation (" + Num(lo * scale) +
+                       ".." + Num(hi * scale) + " " + unit + ")");
     }
   };
-  check(air.vacuum_wavelength, ciddor ? 300e-9 : 350e-9, ciddor ? 1700e-9 : 650e-9,
-        "vacuum wavelength", 1e9, "nm");
+  check(air.vacuum_wavelength, ciddor ? 300e-9 : 350e-9, ciddor ? 1700e-9 : 650e-9, "vacuum wavelength", 1e9,
+        "nm");
   check(air.temperature, ciddor ? -40.0 : 0.0, ciddor ? 100.0 : 40.0, "temperature", 1.0, "degC");
   check(air.pressure, ciddor ? 10e3 : 60e3, 140e3, "pressure", 1e-3, "kPa");
   // The modified Edlén equation has no CO2 input (its standard air holds 450 umol/mol): the CO2
@@ -305,14 +290,16 @@ double GroupIndex(AirEquation equation, const AirConditions& air, std::string_vi
   AirConditions plus = air, minus = air;
   plus.vacuum_wavelength += h;
   minus.vacuum_wavelength -= h;
-  const double dn = (AirRefractiveIndexValue(equation, plus, where) - AirRefractiveIndexValue(equation, minus, where)) / (2.0 * h);
+  const double dn =
+      (AirRefractiveIndexValue(equation, plus, where) - AirRefractiveIndexValue(equation, minus, where)) /
+      (2.0 * h);
   return AirRefractiveIndexValue(equation, air, where) - air.vacuum_wavelength * dn;
 }
 
 }  // namespace
 
-AirIndexReport AirIndexWithUncertainty(AirEquation equation, const AirConditions& estimates, const double u[4],
-                                       std::string_view where) {
+AirIndexReport AirIndexWithUncertainty(AirEquation equation, const AirConditions& estimates,
+                                       const double u[4], std::string_view where) {
   AirIndexReport r;
   const RefractiveIndex n = AirRefractiveIndex(equation, estimates, where);
   r.n_phase = n.n;
@@ -324,12 +311,16 @@ AirIndexReport AirIndexWithUncertainty(AirEquation equation, const AirConditions
   for (int k = 0; k < 4; ++k) {
     AirConditions plus = estimates, minus = estimates;
     double* p = k == 0 ? &plus.temperature : k == 1 ? &plus.pressure : k == 2 ? &plus.humidity : &plus.co2;
-    double* m = k == 0 ? &minus.temperature : k == 1 ? &minus.pressure : k == 2 ? &minus.humidity : &minus.co2;
+    double* m = k == 0   ? &minus.temperature
+                : k == 1 ? &minus.pressure
+                : k == 2 ? &minus.humidity
+                         : &minus.co2;
     *p += steps[k];
     *m -= steps[k];
     if (k == 2) *m = std::max(*m, 0.0), *p = std::min(*p, 100.0);
     if (k == 3) *m = std::max(*m, 0.0);
-    const double d_group = (GroupIndex(equation, plus, where) - GroupIndex(equation, minus, where)) / (*p - *m);
+    const double d_group =
+        (GroupIndex(equation, plus, where) - GroupIndex(equation, minus, where)) / (*p - *m);
     var_phase += grad[k] * grad[k] * u[k] * u[k];
     var_group += d_group * d_group * u[k] * u[k];
   }

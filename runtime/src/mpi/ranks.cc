@@ -19,10 +19,10 @@
 namespace vlt::ranks {
 namespace {
 
-bool g_mpi = false;       // MPI_Init was called by Session
+bool g_mpi = false;  // MPI_Init was called by Session
 int g_rank = 0;
 int g_count = 1;
-bool g_agreed = false;    // a failure was agreed by Agree
+bool g_agreed = false;  // a failure was agreed by Agree
 
 #ifdef VLT_MPI
 // The exit status a failure means (runtime/cli/main.cc): 2 for input and numerical errors.
@@ -78,8 +78,8 @@ void AllGatherImpl(std::span<const T> mine, std::span<T> all, std::span<const st
     total += counts[r];
   }
   MpiCount(total);
-  MPI_Allgatherv(mine.data(), MpiCount(mine.size()), type, all.data(), count.data(),
-                 offset.data(), type, MPI_COMM_WORLD);
+  MPI_Allgatherv(mine.data(), MpiCount(mine.size()), type, all.data(), count.data(), offset.data(), type,
+                 MPI_COMM_WORLD);
 }
 #endif
 
@@ -172,8 +172,8 @@ void AllGather(std::span<const float> mine, std::span<float> all, std::span<cons
   CopyOwn(mine, all);
 }
 
-void AllToAll(std::span<const float> send, std::span<const std::size_t> send_counts,
-              std::span<float> receive, std::span<const std::size_t> receive_counts) {
+void AllToAll(std::span<const float> send, std::span<const std::size_t> send_counts, std::span<float> receive,
+              std::span<const std::size_t> receive_counts) {
 #ifdef VLT_MPI
   if (g_mpi) {
     std::vector<int> sc(static_cast<std::size_t>(g_count)), sd(sc.size()), rc(sc.size()), rd(sc.size());

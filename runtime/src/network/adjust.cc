@@ -29,9 +29,9 @@ struct Observation {
   int station = 0, target = 0, reading = 0;  // reading: index into the station's readings
   int instrument = 0;
   Eigen::Vector3d readings;
-  Eigen::Vector3d y0;              // station-frame point at s0 [m]
-  Eigen::Vector3d sigma;           // u of range [m], azimuth, elevation [rad]
-  Eigen::Matrix3d whitening;       // W = S^-1/2 J_r^-1 (N-2): W^T W = (J_r S J_r^T)^-1
+  Eigen::Vector3d y0;         // station-frame point at s0 [m]
+  Eigen::Vector3d sigma;      // u of range [m], azimuth, elevation [rad]
+  Eigen::Matrix3d whitening;  // W = S^-1/2 J_r^-1 (N-2): W^T W = (J_r S J_r^T)^-1
 };
 
 // The stacked shared inputs' split: estimated (self-calibration) and consider parameters.
@@ -41,12 +41,13 @@ struct SharedSplit {
 
 // y and d y / d s (3 x stacked size, zero outside the reading's instrument) of one reading at
 // the stacked shared values s.
-void EvaluateReading(const network_internal::Instruments& instruments, const Observation& obs, const Eigen::VectorXd& s,
-                     Eigen::Vector3d& y, Eigen::Matrix3d& dy_dr, Eigen::MatrixXd& dy_ds) {
+void EvaluateReading(const network_internal::Instruments& instruments, const Observation& obs,
+                     const Eigen::VectorXd& s, Eigen::Vector3d& y, Eigen::Matrix3d& dy_dr,
+                     Eigen::MatrixXd& dy_ds) {
   const int k = obs.instrument, n = instruments.Size(k);
   Eigen::Matrix<double, 3, Eigen::Dynamic> local(3, n);
-  instruments.models[k].EvaluateWithJacobian(obs.readings.data(), instruments.Segment(k, s), y.data(), dy_dr.data(),
-                                             local.data());
+  instruments.models[k].EvaluateWithJacobian(obs.readings.data(), instruments.Segment(k, s), y.data(),
+                                             dy_dr.data(), local.data());
   dy_ds.setZero(3, s.size());
   dy_ds.middleCols(instruments.offset[k], n) = local;
 }
@@ -54,7 +55,8 @@ void EvaluateReading(const network_internal::Instruments& instruments, const Obs
 // Residual of one reading (N-3): e = W (y(s) - R^T (x - t)), blocks [pose 6, target 3 (, s_E)].
 class ReadingCost : public ceres::CostFunction {
  public:
-  ReadingCost(const network_internal::Instruments& instruments, const Observation& obs, const SharedSplit& split)
+  ReadingCost(const network_internal::Instruments& instruments, const Observation& obs,
+              const SharedSplit& split)
       : instruments_(instruments), obs_(obs), split_(split), e_(static_cast<int>(split.estimated.size())) {
     set_num_residuals(3);
     mutable_parameter_block_sizes()->push_back(6);
@@ -116,7 +118,8 @@ class PriorCost : public ceres::CostFunction {
     const Eigen::Map<const Eigen::VectorXd> v(parameters[0], v0_.size());
     Eigen::Map<Eigen::VectorXd>(residuals, w_.rows()) = w_ * (v - v0_);
     if (jacobians && jacobians[0]) {
-      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[0], w_.rows(), w_.cols()) = w_;
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+          jacobians[0], w_.rows(), w_.cols()) = w_;
     }
     return true;
   }
@@ -144,7 +147,6 @@ StationPoseVector PoseFromRotation(const Eigen::Matrix3d& r, const Eigen::Vector
   return pose;
 }
 
-
 // Rigid transform dst ~ R src + t from >= 3 non-collinear point pairs; false when degenerate.
 bool FitRigid(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& dst, Eigen::Matrix4d& transform) {
   if (src.cols() < 3) return false;
@@ -166,11 +168,13 @@ SharedSplit SplitSharedInputs(const Network& network, const network_internal::In
     int k = 0;
     while (k < S && instruments.names[k] != name) ++k;
     if (k == S) {
-      throw InputError(file + ": network.self_calibrate: unknown input '" + name + "' (the instruments' inputs: " +
-                       (S > 0 ? instruments.names[0] : std::string("none")) + (S > 1 ? ", ..." : "") + ")");
+      throw InputError(file + ": network.self_calibrate: unknown input '" + name +
+                       "' (the instruments' inputs: " + (S > 0 ? instruments.names[0] : std::string("none")) +
+                       (S > 1 ? ", ..." : "") + ")");
     }
     if (!(u_shared(k) > 0.0)) {
-      throw InputError(file + ": network.self_calibrate: '" + name + "' has u = 0: it is known exactly, nothing to calibrate");
+      throw InputError(file + ": network.self_calibrate: '" + name +
+                       "' has u = 0: it is known exactly, nothing to calibrate");
     }
     estimated[k] = true;
   }
@@ -178,8 +182,9 @@ SharedSplit SplitSharedInputs(const Network& network, const network_internal::In
   for (int a : split.estimated) {
     for (int c : split.consider) {
       if (instruments.correlation(a, c) != 0.0) {
-        throw InputError(file + ": network.self_calibrate: '" + instruments.names[a] + "' is correlated with '" +
-                         instruments.names[c] + "', which is not self-calibrated: calibrate both or neither");
+        throw InputError(file + ": network.self_calibrate: '" + instruments.names[a] +
+                         "' is correlated with '" + instruments.names[c] +
+                         "', which is not self-calibrated: calibrate both or neither");
       }
     }
   }
@@ -187,8 +192,8 @@ SharedSplit SplitSharedInputs(const Network& network, const network_internal::In
 }
 
 // Reading r of station i prepared at s0 (N-2): its station-frame point y0 and its whitening W.
-Observation PrepareObservation(const network_internal::Instruments& instruments, const NetworkStation& st, int i,
-                               int r, int target) {
+Observation PrepareObservation(const network_internal::Instruments& instruments, const NetworkStation& st,
+                               int i, int r, int target) {
   const TargetReading& reading = st.readings[r];
   Observation obs;
   obs.station = i;
@@ -202,11 +207,13 @@ Observation PrepareObservation(const network_internal::Instruments& instruments,
   obs.sigma = instruments.models[obs.instrument].reading_uncertainty(obs.readings(0));
   Eigen::FullPivLU<Eigen::Matrix3d> lu(dy_dr);
   if (!lu.isInvertible() || !(obs.sigma.minCoeff() > 0.0)) {
-    throw InputError(reading.where + ": the reading of '" + reading.target + "' carries no weight (singular reading "
+    throw InputError(reading.where + ": the reading of '" + reading.target +
+                     "' carries no weight (singular reading "
                      "Jacobian or zero reading noise: give [tracker.noise])");
   }
   obs.whitening = obs.sigma.cwiseInverse().asDiagonal() * lu.inverse();
-  if (!obs.y0.allFinite() || !obs.whitening.allFinite()) throw InputError(reading.where + ": reading gives no finite point");
+  if (!obs.y0.allFinite() || !obs.whitening.allFinite())
+    throw InputError(reading.where + ": reading gives no finite point");
   return obs;
 }
 
@@ -224,11 +231,13 @@ PreparedReadings PrepareReadings(const Network& network, const network_internal:
   std::set<std::string> station_names;
   for (int i = 0; i < static_cast<int>(network.stations.size()); ++i) {
     const NetworkStation& st = network.stations[i];
-    if (!station_names.insert(st.name).second) throw InputError(st.where + ".name: station '" + st.name + "' defined twice");
+    if (!station_names.insert(st.name).second)
+      throw InputError(st.where + ".name: station '" + st.name + "' defined twice");
     if (st.readings.empty()) throw InputError(st.where + ": station '" + st.name + "' has no readings");
     for (int r = 0; r < static_cast<int>(st.readings.size()); ++r) {
       const TargetReading& reading = st.readings[r];
-      auto [it, inserted] = prepared.target_index.emplace(reading.target, static_cast<int>(prepared.target_names.size()));
+      auto [it, inserted] =
+          prepared.target_index.emplace(reading.target, static_cast<int>(prepared.target_names.size()));
       if (inserted) {
         prepared.target_names.push_back(reading.target);
         prepared.target_stations.emplace_back();
@@ -249,13 +258,18 @@ std::set<std::string> CheckDatum(const Network& network, const std::map<std::str
                                  bool any_datum_station) {
   std::set<std::string> reference_names;
   for (const NetworkReference& ref : network.references) {
-    if (!target_index.count(ref.target)) throw InputError(ref.where + ".target: no station reads reference target '" + ref.target + "'");
-    if (!reference_names.insert(ref.target).second) throw InputError(ref.where + ".target: reference '" + ref.target + "' given twice");
-    if (!(ref.u > 0.0)) throw InputError(ref.where + ".u: must be positive (hold a station as the datum for an exact frame)");
+    if (!target_index.count(ref.target))
+      throw InputError(ref.where + ".target: no station reads reference target '" + ref.target + "'");
+    if (!reference_names.insert(ref.target).second)
+      throw InputError(ref.where + ".target: reference '" + ref.target + "' given twice");
+    if (!(ref.u > 0.0))
+      throw InputError(ref.where + ".u: must be positive (hold a station as the datum for an exact frame)");
   }
   if (!any_datum_station && network.references.size() < 3) {
-    throw InputError(network.where + ": datum: the part frame is undetermined: hold one station as the datum ([datum] station = "
-                     "\"<name>\") or give at least 3 [[reference]] targets with known coordinates");
+    throw InputError(
+        network.where +
+        ": datum: the part frame is undetermined: hold one station as the datum ([datum] station = "
+        "\"<name>\") or give at least 3 [[reference]] targets with known coordinates");
   }
   return reference_names;
 }
@@ -275,9 +289,14 @@ struct StartingValues {
   std::vector<StationPoseVector> pose;
   std::vector<bool> placed_station;
 
-  StartingValues(const Network& network, const std::vector<std::vector<const Observation*>>& by_station, int T)
-      : network(network), by_station(by_station), P(static_cast<int>(network.stations.size())),
-        x(T, Eigen::Vector3d::Zero()), placed_target(T, false), pose(P, StationPoseVector::Zero()),
+  StartingValues(const Network& network, const std::vector<std::vector<const Observation*>>& by_station,
+                 int T)
+      : network(network),
+        by_station(by_station),
+        P(static_cast<int>(network.stations.size())),
+        x(T, Eigen::Vector3d::Zero()),
+        placed_target(T, false),
+        pose(P, StationPoseVector::Zero()),
         placed_station(P, false) {}
 
   // The targets of station i not placed yet, each at the mean of its readings in the part frame.
@@ -305,7 +324,8 @@ struct StartingValues {
       }
     }
     if (!any_datum_station) placed_station[0] = true;  // provisional frame: station 0's
-    for (int i = 0; i < P; ++i) if (placed_station[i]) PlaceTargetsOf(i);
+    for (int i = 0; i < P; ++i)
+      if (placed_station[i]) PlaceTargetsOf(i);
   }
 
   // Station i from the targets already placed; false while it shares too few of them.
@@ -342,9 +362,10 @@ struct StartingValues {
     }
     for (int i = 0; i < P; ++i) {
       if (!placed_station[i]) {
-        throw InputError(network.stations[i].where + ": station '" + network.stations[i].name +
-                         "' shares fewer than 3 non-collinear targets with the rest of the network (disconnected "
-                         "network; give it more common targets)");
+        throw InputError(
+            network.stations[i].where + ": station '" + network.stations[i].name +
+            "' shares fewer than 3 non-collinear targets with the rest of the network (disconnected "
+            "network; give it more common targets)");
       }
     }
   }
@@ -358,20 +379,23 @@ struct StartingValues {
     }
     Eigen::Matrix4d transform;
     if (!FitRigid(src, dst, transform)) {
-      throw InputError(network.where + ": datum: the references do not fix the part frame: they are collinear (give at least "
+      throw InputError(network.where +
+                       ": datum: the references do not fix the part frame: they are collinear (give at least "
                        "3 references not on one line, or hold one station as the datum)");
     }
     const Eigen::Matrix3d r = transform.topLeftCorner<3, 3>();
     const Eigen::Vector3d t = transform.topRightCorner<3, 1>();
     for (int i = 0; i < P; ++i) {
-      pose[i] = PoseFromRotation(r * PoseRotationMatrix(pose[i](0), pose[i](1), pose[i](2)), r * pose[i].tail<3>() + t);
+      pose[i] = PoseFromRotation(r * PoseRotationMatrix(pose[i](0), pose[i](1), pose[i](2)),
+                                 r * pose[i].tail<3>() + t);
     }
   }
 
   // Starting values: a given pose where the file gives one (the plan's, or the user's better
   // guess), then every target from its readings.
   void FromGivenPoses() {
-    for (int i = 0; i < P; ++i) if (network.stations[i].pose_given) pose[i] = network.stations[i].pose;
+    for (int i = 0; i < P; ++i)
+      if (network.stations[i].pose_given) pose[i] = network.stations[i].pose;
     std::fill(placed_target.begin(), placed_target.end(), false);
     for (int i = 0; i < P; ++i) PlaceTargetsOf(i);
   }
@@ -379,9 +403,9 @@ struct StartingValues {
 
 // A pseudo-observation (N-4) as the normal matrix sees it.
 struct Prior {
-  int offset;                    // first unknown of the block (internal order)
+  int offset;  // first unknown of the block (internal order)
   const PriorCost* cost;
-  const double* block;           // the block's values
+  const double* block;  // the block's values
 };
 
 // One bundle adjustment (docs/network.md), its state from the prepared readings to the result.
@@ -427,11 +451,18 @@ struct Adjustment {
   NetworkResult result;
 
   explicit Adjustment(const Network& net)
-      : network(net), file(net.where), instruments(network_internal::MakeInstruments(net)), s0(instruments.s0),
-        sigma_shared(instruments.sigma), u_shared(sigma_shared.diagonal().cwiseSqrt()),
-        split(SplitSharedInputs(net, instruments, u_shared)), E(static_cast<int>(split.estimated.size())),
-        C(static_cast<int>(split.consider.size())), readings(PrepareReadings(net, instruments)),
-        observations(readings.observations), T(static_cast<int>(readings.target_names.size())),
+      : network(net),
+        file(net.where),
+        instruments(network_internal::MakeInstruments(net)),
+        s0(instruments.s0),
+        sigma_shared(instruments.sigma),
+        u_shared(sigma_shared.diagonal().cwiseSqrt()),
+        split(SplitSharedInputs(net, instruments, u_shared)),
+        E(static_cast<int>(split.estimated.size())),
+        C(static_cast<int>(split.consider.size())),
+        readings(PrepareReadings(net, instruments)),
+        observations(readings.observations),
+        T(static_cast<int>(readings.target_names.size())),
         P(static_cast<int>(net.stations.size())) {}
 
   void FindStartingValues() {
@@ -477,10 +508,12 @@ struct Adjustment {
       const NetworkStation& st = network.stations[i];
       if (st.datum) continue;
       std::vector<int> rows;
-      for (int c = 0; c < 6; ++c) if (st.pose_u(c) > 0.0) rows.push_back(c);
+      for (int c = 0; c < 6; ++c)
+        if (st.pose_u(c) > 0.0) rows.push_back(c);
       if (rows.empty()) continue;
       Eigen::MatrixXd w = Eigen::MatrixXd::Zero(static_cast<int>(rows.size()), 6);
-      for (std::size_t r = 0; r < rows.size(); ++r) w(static_cast<int>(r), rows[r]) = 1.0 / st.pose_u(rows[r]);
+      for (std::size_t r = 0; r < rows.size(); ++r)
+        w(static_cast<int>(r), rows[r]) = 1.0 / st.pose_u(rows[r]);
       auto* cost = new PriorCost(st.pose, w);
       problem->AddResidualBlock(cost, nullptr, pose[i].data());
       priors.push_back({pose_offset[i], cost, pose[i].data()});
@@ -497,7 +530,8 @@ struct Adjustment {
     }
     Eigen::LLT<Eigen::MatrixXd> llt(sigma_e);
     if (llt.info() != Eigen::Success) {
-      throw InputError(file + ": network.self_calibrate: the prior covariance of the self-calibrated inputs is singular");
+      throw InputError(
+          file + ": network.self_calibrate: the prior covariance of the self-calibrated inputs is singular");
     }
     prior_factor = llt.matrixL();
     const Eigen::MatrixXd w = llt.matrixL().solve(Eigen::MatrixXd::Identity(E, E));
@@ -513,8 +547,11 @@ struct Adjustment {
     problem = std::make_unique<ceres::Problem>(problem_options);
     for (const Observation& obs : observations) {
       auto* cost = new ReadingCost(instruments, obs, split);
-      if (E > 0) problem->AddResidualBlock(cost, nullptr, pose[obs.station].data(), x[obs.target].data(), s_est.data());
-      else problem->AddResidualBlock(cost, nullptr, pose[obs.station].data(), x[obs.target].data());
+      if (E > 0)
+        problem->AddResidualBlock(cost, nullptr, pose[obs.station].data(), x[obs.target].data(),
+                                  s_est.data());
+      else
+        problem->AddResidualBlock(cost, nullptr, pose[obs.station].data(), x[obs.target].data());
     }
     for (int i = 0; i < P; ++i) {
       if (network.stations[i].datum) problem->SetParameterBlockConstant(pose[i].data());
@@ -540,7 +577,8 @@ struct Adjustment {
   // Global index of each column of a reading's local Jacobian [pose 6 | s_E | target 3], -1 absent.
   std::vector<int> LocalIndex(const Observation& obs) const {
     std::vector<int> index;
-    for (int c = 0; c < 6; ++c) index.push_back(pose_offset[obs.station] >= 0 ? pose_offset[obs.station] + c : -1);
+    for (int c = 0; c < 6; ++c)
+      index.push_back(pose_offset[obs.station] >= 0 ? pose_offset[obs.station] + c : -1);
     for (int c = 0; c < E; ++c) index.push_back(e_offset + c);
     for (int c = 0; c < 3; ++c) index.push_back(a + 3 * obs.target + c);
     return index;
@@ -595,9 +633,12 @@ struct Adjustment {
       g.row(index[r]) += jtb.row(r);
       for (int c = 0; c < local; ++c) {
         if (index[c] < 0) continue;
-        if (index[r] < a && index[c] < a) n_aa(index[r], index[c]) += jtj(r, c);
-        else if (index[r] < a) n_at(index[r], index[c] - a) += jtj(r, c);
-        else if (index[c] >= a) n_tt[obs.target](index[r] - a - 3 * obs.target, index[c] - a - 3 * obs.target) += jtj(r, c);
+        if (index[r] < a && index[c] < a)
+          n_aa(index[r], index[c]) += jtj(r, c);
+        else if (index[r] < a)
+          n_at(index[r], index[c] - a) += jtj(r, c);
+        else if (index[c] >= a)
+          n_tt[obs.target](index[r] - a - 3 * obs.target, index[c] - a - 3 * obs.target) += jtj(r, c);
       }
     }
   }
@@ -611,8 +652,10 @@ struct Adjustment {
     for (int r = 0; r < width; ++r) {
       for (int c = 0; c < width; ++c) {
         const int gr = prior.offset + r, gc = prior.offset + c;
-        if (gr < a && gc < a) n_aa(gr, gc) += wtw(r, c);
-        else if (gr >= a && gc >= a) n_tt[(gr - a) / 3]((gr - a) % 3, (gc - a) % 3) += wtw(r, c);
+        if (gr < a && gc < a)
+          n_aa(gr, gc) += wtw(r, c);
+        else if (gr >= a && gc >= a)
+          n_tt[(gr - a) / 3]((gr - a) % 3, (gc - a) % 3) += wtw(r, c);
       }
     }
   }
@@ -622,7 +665,8 @@ struct Adjustment {
     n_tt_inv.resize(T);
     for (int t = 0; t < T; ++t) {
       Eigen::LLT<Eigen::Matrix3d> llt(n_tt[t]);
-      if (llt.info() != Eigen::Success) throw NumericalError(file + ": target '" + readings.target_names[t] + "' is not determined");
+      if (llt.info() != Eigen::Success)
+        throw NumericalError(file + ": target '" + readings.target_names[t] + "' is not determined");
       n_tt_inv[t] = llt.solve(Eigen::Matrix3d::Identity());
     }
     h.resize(3 * T, a);  // N_tt^-1 N_ta
@@ -631,10 +675,12 @@ struct Adjustment {
     c_aa.resize(a, a);
     if (a > 0) {
       // Scale to unit diagonal before judging the rank: poses mix radians and metres.
-      const Eigen::VectorXd scale = schur.diagonal().cwiseMax(std::numeric_limits<double>::min()).cwiseSqrt().cwiseInverse();
+      const Eigen::VectorXd scale =
+          schur.diagonal().cwiseMax(std::numeric_limits<double>::min()).cwiseSqrt().cwiseInverse();
       const Eigen::MatrixXd scaled = scale.asDiagonal() * schur * scale.asDiagonal();
       Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled);
-      if (!(eig.eigenvalues()(0) > 1e-10 * eig.eigenvalues()(a - 1))) ThrowUndetermined(eig.eigenvectors().col(0));
+      if (!(eig.eigenvalues()(0) > 1e-10 * eig.eigenvalues()(a - 1)))
+        ThrowUndetermined(eig.eigenvectors().col(0));
       c_aa = scale.asDiagonal() * eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() *
              eig.eigenvectors().transpose() * scale.asDiagonal();
     }
@@ -646,7 +692,8 @@ struct Adjustment {
     v.cwiseAbs().maxCoeff(&worst);
     std::string what = "the self-calibrated inputs";
     for (int i = 0; i < P; ++i) {
-      if (pose_offset[i] >= 0 && worst >= pose_offset[i] && worst < pose_offset[i] + 6) what = "station '" + network.stations[i].name + "'";
+      if (pose_offset[i] >= 0 && worst >= pose_offset[i] && worst < pose_offset[i] + 6)
+        what = "station '" + network.stations[i].name + "'";
     }
     throw InputError(file + ": datum: the network does not determine " + what +
                      " (collinear references or common targets, or a datum that leaves a rotation free)");
@@ -659,7 +706,8 @@ struct Adjustment {
   // v_i is determined by the network with u(v_i^T z) = 1 / s_i (prior units).
   std::vector<NetworkCombination> Identifiability() const {
     std::vector<NetworkCombination> identifiability;
-    const Eigen::MatrixXd w = prior_factor.triangularView<Eigen::Lower>().solve(Eigen::MatrixXd::Identity(E, E));
+    const Eigen::MatrixXd w =
+        prior_factor.triangularView<Eigen::Lower>().solve(Eigen::MatrixXd::Identity(E, E));
     Eigen::MatrixXd m = schur.block(e_offset, e_offset, E, E) - w.transpose() * w;
     if (e_offset > 0) {
       const Eigen::MatrixXd s_pe = schur.block(0, e_offset, e_offset, E);
@@ -684,27 +732,30 @@ struct Adjustment {
   std::string DescribeCombination(const Eigen::VectorXd& v) const {
     std::string description;
     Eigen::VectorXd coefficients = prior_factor * v;
-    for (int k = 0; k < E; ++k) coefficients(k) /= std::sqrt(sigma_shared(split.estimated[k], split.estimated[k]));
+    for (int k = 0; k < E; ++k)
+      coefficients(k) /= std::sqrt(sigma_shared(split.estimated[k], split.estimated[k]));
     Eigen::Index big = 0;
     const double largest = coefficients.cwiseAbs().maxCoeff(&big);
     if (coefficients(big) < 0.0) coefficients = -coefficients;
     for (int k = 0; k < E; ++k) {
       if (std::abs(coefficients(k)) < 0.05 * largest) continue;
       char term[96];
-      std::snprintf(term, sizeof term, "%s%+.3f %s", description.empty() ? "" : " ", coefficients(k) / largest,
-                    instruments.names[split.estimated[k]].c_str());
+      std::snprintf(term, sizeof term, "%s%+.3f %s", description.empty() ? "" : " ",
+                    coefficients(k) / largest, instruments.names[split.estimated[k]].c_str());
       description += term;
     }
     return description;
   }
 
   // Order of the result: [free poses | targets | s_E].
-  int OutIndex(int gi) const { return gi < e_offset ? gi : (gi < a ? e_start + (gi - e_offset) : target_start + (gi - a)); }
+  int OutIndex(int gi) const {
+    return gi < e_offset ? gi : (gi < a ? e_start + (gi - e_offset) : target_start + (gi - a));
+  }
 
   void Covariance() {
-    target_start = e_offset;          // after the poses
+    target_start = e_offset;  // after the poses
     e_start = e_offset + 3 * T;
-    cov_internal.resize(n, n);          // internal order [poses | s_E | targets]
+    cov_internal.resize(n, n);  // internal order [poses | s_E | targets]
     cov_internal.topLeftCorner(a, a) = c_aa;
     const Eigen::MatrixXd c_ta = -h * c_aa;
     cov_internal.bottomLeftCorner(3 * T, a) = c_ta;
@@ -722,7 +773,8 @@ struct Adjustment {
     for (int gi = 0; gi < n; ++gi) perm[gi] = OutIndex(gi);
     result.covariance.resize(n, n);
     for (int r = 0; r < n; ++r)
-      for (int c = 0; c < n; ++c) result.covariance(perm[r], perm[c]) = cov_internal(r, c) + consider_part(r, c);
+      for (int c = 0; c < n; ++c)
+        result.covariance(perm[r], perm[c]) = cov_internal(r, c) + consider_part(r, c);
   }
 
   void NameUnknowns() {
@@ -730,12 +782,14 @@ struct Adjustment {
     result.station_offset = pose_offset;
     for (int i = 0; i < P; ++i) {
       if (pose_offset[i] < 0) continue;
-      for (int c = 0; c < 6; ++c) result.unknown_names[pose_offset[i] + c] = network.stations[i].name + "." + kPoseNames[c];
+      for (int c = 0; c < 6; ++c)
+        result.unknown_names[pose_offset[i] + c] = network.stations[i].name + "." + kPoseNames[c];
     }
     static const char* kAxis[3] = {"x", "y", "z"};
     for (int t = 0; t < T; ++t) {
       result.target_offset.push_back(target_start + 3 * t);
-      for (int c = 0; c < 3; ++c) result.unknown_names[target_start + 3 * t + c] = readings.target_names[t] + "." + kAxis[c];
+      for (int c = 0; c < 3; ++c)
+        result.unknown_names[target_start + 3 * t + c] = readings.target_names[t] + "." + kAxis[c];
     }
     for (int k = 0; k < E; ++k) result.unknown_names[e_start + k] = instruments.names[split.estimated[k]];
   }
@@ -752,7 +806,8 @@ struct Adjustment {
       at.reference = reference_names.count(at.name) > 0;
       trace_noise += cov_internal.block<3, 3>(a + 3 * t, a + 3 * t).trace();
       trace_consider += consider_part.block<3, 3>(a + 3 * t, a + 3 * t).trace();
-      if (!at.position.allFinite() || !at.covariance.allFinite()) throw NumericalError(file + ": target '" + at.name + "' came out non-finite");
+      if (!at.position.allFinite() || !at.covariance.allFinite())
+        throw NumericalError(file + ": target '" + at.name + "' came out non-finite");
       result.targets.push_back(at);
     }
     const double total = trace_noise + trace_consider;
@@ -776,7 +831,9 @@ struct Adjustment {
     for (int k = 0; k < E; ++k) {
       const int s = split.estimated[k];
       int instrument = 0;
-      while (instrument + 1 < static_cast<int>(instruments.models.size()) && instruments.offset[instrument + 1] <= s) ++instrument;
+      while (instrument + 1 < static_cast<int>(instruments.models.size()) &&
+             instruments.offset[instrument + 1] <= s)
+        ++instrument;
       const int in_instrument = s - instruments.offset[instrument];
       const UncertainInput& in = instruments.models[instrument].shared_inputs()[in_instrument];
       const ModelInfo& model_info = *instruments.models[instrument].setup().model;

@@ -8,7 +8,8 @@ namespace vlt {
 namespace network_internal {
 
 Instruments MakeInstruments(const Network& network) {
-  if (network.instruments.empty()) throw InputError(network.where + ": tracker: the network has no instrument");
+  if (network.instruments.empty())
+    throw InputError(network.where + ": tracker: the network has no instrument");
   Instruments in;
   int total = 0;
   for (const NetworkInstrument& instrument : network.instruments) {
@@ -30,7 +31,8 @@ Instruments MakeInstruments(const Network& network) {
     Eigen::VectorXd u(n);
     for (int i = 0; i < n; ++i) {
       u(i) = m.shared_inputs()[i].u;
-      in.names.push_back((several ? network.instruments[k].name + "." : std::string()) + m.shared_inputs()[i].name);
+      in.names.push_back((several ? network.instruments[k].name + "." : std::string()) +
+                         m.shared_inputs()[i].name);
     }
     in.correlation.block(o, o, n, n) = m.shared_correlation();
     in.sigma.block(o, o, n, n) = u.asDiagonal() * m.shared_correlation() * u.asDiagonal();

@@ -19,7 +19,8 @@ NetworkMonteCarlo ValidateNetworkByMonteCarlo(const Network& network, const Netw
   if (trials < 2) throw InputError(network.where + ": network.monte_carlo.trials: at least 2");
   // The truth: the adjusted targets and station poses.
   Network truth_network = network;
-  for (std::size_t i = 0; i < network.stations.size(); ++i) truth_network.stations[i].pose = result.stations[i].pose;
+  for (std::size_t i = 0; i < network.stations.size(); ++i)
+    truth_network.stations[i].pose = result.stations[i].pose;
   std::vector<std::pair<std::string, Eigen::Vector3d>> truth;
   for (const AdjustedTarget& t : result.targets) truth.emplace_back(t.name, t.position);
   const std::size_t T = result.targets.size();
@@ -34,19 +35,20 @@ NetworkMonteCarlo ValidateNetworkByMonteCarlo(const Network& network, const Netw
   std::exception_ptr failure;
   try {
     parallel::ForEachChunk(static_cast<std::size_t>(last - first), 1, threads,
-                                 [&](std::size_t, std::size_t begin, std::size_t end) {
-      for (std::size_t i = begin; i < end; ++i) {
-        const std::size_t trial = static_cast<std::size_t>(first) + i;
-        // One Philox key per trial (splitmix-style spacing of the user's seed).
-        const std::uint64_t key = seed * 0x9E3779B97F4A7C15ULL + trial + 1;
-        const Network simulated = SimulateNetwork(truth_network, truth, key);
-        const NetworkResult r = AdjustNetwork(simulated);
-        for (std::size_t t = 0; t < T; ++t) {
-          const Eigen::Vector3d d = r.targets[t].position - truth[t].second;
-          for (int c = 0; c < 3; ++c) mine[i * width + 3 * t + static_cast<std::size_t>(c)] = d(c);
-        }
-      }
-    });
+                           [&](std::size_t, std::size_t begin, std::size_t end) {
+                             for (std::size_t i = begin; i < end; ++i) {
+                               const std::size_t trial = static_cast<std::size_t>(first) + i;
+                               // One Philox key per trial (splitmix-style spacing of the user's seed).
+                               const std::uint64_t key = seed * 0x9E3779B97F4A7C15ULL + trial + 1;
+                               const Network simulated = SimulateNetwork(truth_network, truth, key);
+                               const NetworkResult r = AdjustNetwork(simulated);
+                               for (std::size_t t = 0; t < T; ++t) {
+                                 const Eigen::Vector3d d = r.targets[t].position - truth[t].second;
+                                 for (int c = 0; c < 3; ++c)
+                                   mine[i * width + 3 * t + static_cast<std::size_t>(c)] = d(c);
+                               }
+                             }
+                           });
   } catch (...) {
     failure = std::current_exception();
   }
@@ -74,7 +76,8 @@ NetworkMonteCarlo ValidateNetworkByMonteCarlo(const Network& network, const Netw
   }
   // Family-wise: 95 % that no coordinate of an agreeing GUM falls outside (Bonferroni over 3T),
   // with the standard error 1 / sqrt(2 (M - 1)) of a standard deviation from M normal values.
-  mc.tolerance = NormalCoverageFactor(1.0 - 0.05 / (3.0 * static_cast<double>(T))) / std::sqrt(2.0 * (trials - 1));
+  mc.tolerance =
+      NormalCoverageFactor(1.0 - 0.05 / (3.0 * static_cast<double>(T))) / std::sqrt(2.0 * (trials - 1));
   static const char* kAxis[3] = {"x", "y", "z"};
   double worst = 0.0;
   for (std::size_t t = 0; t < T; ++t) {

@@ -25,13 +25,10 @@ namespace vlt::network_outputs {
 namespace {
 
 using internal::AppendNum;
+using internal::Fixed;
 using internal::HtmlEscape;
 using internal::Num;
-using internal::Fixed;
 std::string Csv(const std::string& s) { return internal::CsvField(s); }
-
-
-
 
 constexpr double kArcsec = std::numbers::pi / (180.0 * 3600.0);
 
@@ -48,26 +45,39 @@ std::string InstrumentList(const Network& network) {
   return out;
 }
 
-
 // The adjustment at a glance: mode, instruments, redundancy, chi-square, variance shares, and the
 // Monte Carlo check where it ran.
 void AdjustmentSection(std::ostringstream& body, const NetworkJob& job, const NetworkResult& result,
                        const NetworkMonteCarlo* mc) {
   body << "<section><h2>Adjustment</h2><table>"
-       << "<tr><th class=\"l\">mode</th><td class=\"l\">" << (job.offline ? "plan (predicted uncertainties of planned readings)" : "measured readings") << "</td></tr>"
-       << "<tr><th class=\"l\">instruments (model)</th><td class=\"l\">" << HtmlEscape(InstrumentList(job.network)) << "</td></tr>"
-       << "<tr><th class=\"l\">stations / targets</th><td class=\"l\">" << result.stations.size() << " / " << result.targets.size() << "</td></tr>"
-       << "<tr><th class=\"l\">observations / unknowns / dof</th><td class=\"l\">" << result.observations << " / " << result.unknowns << " / " << result.dof << "</td></tr>"
-       << "<tr><th class=\"l\">chi-square, Birge ratio, p</th><td class=\"l\">" << internal::Sig(result.chi2, 4) << ", " << Fixed(result.birge_ratio, 3) << ", " << Fixed(result.p_value, 3) << "</td></tr>"
-       << "<tr><th class=\"l\">outliers (|w| &gt; " << Fixed(job.network.outlier_limit, 2) << ")</th><td class=\"l\">" << result.outliers << "</td></tr>"
-       << "<tr><th class=\"l\">self-calibrated inputs</th><td class=\"l\">" << result.parameters.size() << "</td></tr>"
-       << "<tr><th class=\"l\">targets' variance from reading noise and references / from the instruments' parameters</th><td class=\"l\">"
-       << Fixed(100.0 * result.share_noise, 1) << " % / " << Fixed(100.0 * result.share_consider, 1) << " %</td></tr>"
-       << "<tr><th class=\"l\">coverage factor k (p = " << Num(job.network.coverage_probability) << ", normal)</th><td class=\"l\">" << Fixed(result.k, 3) << "</td></tr>";
+       << "<tr><th class=\"l\">mode</th><td class=\"l\">"
+       << (job.offline ? "plan (predicted uncertainties of planned readings)" : "measured readings")
+       << "</td></tr>"
+       << "<tr><th class=\"l\">instruments (model)</th><td class=\"l\">"
+       << HtmlEscape(InstrumentList(job.network)) << "</td></tr>"
+       << "<tr><th class=\"l\">stations / targets</th><td class=\"l\">" << result.stations.size() << " / "
+       << result.targets.size() << "</td></tr>"
+       << "<tr><th class=\"l\">observations / unknowns / dof</th><td class=\"l\">" << result.observations
+       << " / " << result.unknowns << " / " << result.dof << "</td></tr>"
+       << "<tr><th class=\"l\">chi-square, Birge ratio, p</th><td class=\"l\">"
+       << internal::Sig(result.chi2, 4) << ", " << Fixed(result.birge_ratio, 3) << ", "
+       << Fixed(result.p_value, 3) << "</td></tr>"
+       << "<tr><th class=\"l\">outliers (|w| &gt; " << Fixed(job.network.outlier_limit, 2)
+       << ")</th><td class=\"l\">" << result.outliers << "</td></tr>"
+       << "<tr><th class=\"l\">self-calibrated inputs</th><td class=\"l\">" << result.parameters.size()
+       << "</td></tr>"
+       << "<tr><th class=\"l\">targets' variance from reading noise and references / from the instruments' "
+          "parameters</th><td class=\"l\">"
+       << Fixed(100.0 * result.share_noise, 1) << " % / " << Fixed(100.0 * result.share_consider, 1)
+       << " %</td></tr>"
+       << "<tr><th class=\"l\">coverage factor k (p = " << Num(job.network.coverage_probability)
+       << ", normal)</th><td class=\"l\">" << Fixed(result.k, 3) << "</td></tr>";
   if (mc) {
-    body << "<tr><th class=\"l\">Monte Carlo (" << mc->trials << " re-adjustments): u_MCM / u_GUM farthest from 1</th><td class=\"l "
-         << (mc->agrees ? "ok" : "bad") << "\">" << Fixed(mc->worst_ratio, 3) << " at " << HtmlEscape(mc->worst) << " (tolerance &plusmn; "
-         << Fixed(mc->tolerance, 3) << "): " << (mc->agrees ? "the GUM agrees" : "the GUM does not agree") << "</td></tr>";
+    body << "<tr><th class=\"l\">Monte Carlo (" << mc->trials
+         << " re-adjustments): u_MCM / u_GUM farthest from 1</th><td class=\"l "
+         << (mc->agrees ? "ok" : "bad") << "\">" << Fixed(mc->worst_ratio, 3) << " at "
+         << HtmlEscape(mc->worst) << " (tolerance &plusmn; " << Fixed(mc->tolerance, 3)
+         << "): " << (mc->agrees ? "the GUM agrees" : "the GUM does not agree") << "</td></tr>";
   }
   body << "</table></section>\n";
 }
@@ -76,10 +86,14 @@ void AdjustmentSection(std::ostringstream& body, const NetworkJob& job, const Ne
 struct Trace3d {
   nlohmann::json x = nlohmann::json::array(), y = nlohmann::json::array(), z = nlohmann::json::array();
   void Add(const Eigen::Vector3d& p) {
-    x.push_back(p(0)); y.push_back(p(1)); z.push_back(p(2));
+    x.push_back(p(0));
+    y.push_back(p(1));
+    z.push_back(p(2));
   }
   void Break() {
-    x.push_back(nullptr); y.push_back(nullptr); z.push_back(nullptr);
+    x.push_back(nullptr);
+    y.push_back(nullptr);
+    z.push_back(nullptr);
   }
   std::string Xyz() const { return "x:" + x.dump() + ",y:" + y.dump() + ",z:" + z.dump(); }
 };
@@ -88,12 +102,22 @@ struct Trace3d {
 double EllipsoidScale(const NetworkResult& result) {
   double extent = 0.0;
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = Eigen::Vector3d::Constant(-1e300);
-  for (const AdjustedTarget& t : result.targets) { lo = lo.cwiseMin(t.position); hi = hi.cwiseMax(t.position); }
-  for (const AdjustedStation& st : result.stations) { lo = lo.cwiseMin(st.pose.tail<3>()); hi = hi.cwiseMax(st.pose.tail<3>()); }
+  for (const AdjustedTarget& t : result.targets) {
+    lo = lo.cwiseMin(t.position);
+    hi = hi.cwiseMax(t.position);
+  }
+  for (const AdjustedStation& st : result.stations) {
+    lo = lo.cwiseMin(st.pose.tail<3>());
+    hi = hi.cwiseMax(st.pose.tail<3>());
+  }
   extent = (hi - lo).norm();
   double largest_axis = 0.0;
   for (const AdjustedTarget& t : result.targets) {
-    largest_axis = std::max(largest_axis, result.k * std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(t.covariance).eigenvalues().maxCoeff())));
+    largest_axis = std::max(
+        largest_axis,
+        result.k *
+            std::sqrt(std::max(
+                0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(t.covariance).eigenvalues().maxCoeff())));
   }
   const double scale = largest_axis > 0.0 ? 0.04 * extent / largest_axis : 1.0;
   return scale;
@@ -103,7 +127,8 @@ double EllipsoidScale(const NetworkResult& result) {
 Trace3d LinesOfSight(const NetworkJob& job, const NetworkResult& result) {
   Trace3d lines;
   std::map<std::string, int> target_of;
-  for (std::size_t t = 0; t < result.targets.size(); ++t) target_of[result.targets[t].name] = static_cast<int>(t);
+  for (std::size_t t = 0; t < result.targets.size(); ++t)
+    target_of[result.targets[t].name] = static_cast<int>(t);
   for (std::size_t i = 0; i < job.network.stations.size(); ++i) {
     std::set<std::string> seen;
     for (const TargetReading& r : job.network.stations[i].readings) {
@@ -124,8 +149,11 @@ Trace3d EllipsoidAxes(const NetworkResult& result, double scale) {
   for (const AdjustedTarget& t : result.targets) {
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(t.covariance);
     for (int c = 0; c < 3; ++c) {
-      const Eigen::Vector3d axis = eig.eigenvectors().col(c) * result.k * std::sqrt(std::max(0.0, eig.eigenvalues()(c))) * scale;
-      for (const Eigen::Vector3d& p : {Eigen::Vector3d(t.position - axis), Eigen::Vector3d(t.position + axis)}) axes.Add(p);
+      const Eigen::Vector3d axis =
+          eig.eigenvectors().col(c) * result.k * std::sqrt(std::max(0.0, eig.eigenvalues()(c))) * scale;
+      for (const Eigen::Vector3d& p :
+           {Eigen::Vector3d(t.position - axis), Eigen::Vector3d(t.position + axis)})
+        axes.Add(p);
       axes.Break();
     }
   }
@@ -133,11 +161,13 @@ Trace3d EllipsoidAxes(const NetworkResult& result, double scale) {
 }
 
 // The network in 3-D: stations, targets coloured by |U|, lines of sight, ellipsoid axes.
-void NetworkView(std::ostringstream& body, std::ostringstream& script, const NetworkJob& job, const NetworkResult& result) {
+void NetworkView(std::ostringstream& body, std::ostringstream& script, const NetworkJob& job,
+                 const NetworkResult& result) {
   const double scale = EllipsoidScale(result);
-  body << "<section><h2>The network</h2><p class=\"note\">Part frame, m. Targets coloured by |U| = k sqrt(trace C) in um; grey lines: lines of "
-          "sight; the three principal axes of each target's coverage ellipsoid (k sqrt(eigenvalues)) drawn " << Num(scale)
-       << " times enlarged.</p><div id=\"net\" class=\"plot\"></div></section>\n";
+  body << "<section><h2>The network</h2><p class=\"note\">Part frame, m. Targets coloured by |U| = k "
+          "sqrt(trace C) in um; grey lines: lines of "
+          "sight; the three principal axes of each target's coverage ellipsoid (k sqrt(eigenvalues)) drawn "
+       << Num(scale) << " times enlarged.</p><div id=\"net\" class=\"plot\"></div></section>\n";
   Trace3d targets;
   nlohmann::json tc = nlohmann::json::array(), tn = nlohmann::json::array();
   for (const AdjustedTarget& t : result.targets) {
@@ -152,42 +182,56 @@ void NetworkView(std::ostringstream& body, std::ostringstream& script, const Net
     sn.push_back(st.name + (st.datum ? " (datum)" : ""));
   }
   script << "Plotly.newPlot('net',["
-         << "{type:'scatter3d',mode:'lines',name:'lines of sight',hoverinfo:'skip',line:{color:'rgba(120,120,120,0.35)',width:1},"
+         << "{type:'scatter3d',mode:'lines',name:'lines of "
+            "sight',hoverinfo:'skip',line:{color:'rgba(120,120,120,0.35)',width:1},"
          << LinesOfSight(job, result).Xyz() << "},"
-         << "{type:'scatter3d',mode:'lines',name:'coverage ellipsoid axes',hoverinfo:'skip',line:{color:'#b42318',width:3},"
+         << "{type:'scatter3d',mode:'lines',name:'coverage ellipsoid "
+            "axes',hoverinfo:'skip',line:{color:'#b42318',width:3},"
          << EllipsoidAxes(result, scale).Xyz() << "},"
          << "{type:'scatter3d',mode:'markers',name:'targets',text:" << tn.dump() << "," << targets.Xyz()
-         << ",marker:{size:4,color:" << tc.dump() << ",colorscale:'Viridis',colorbar:{title:'|U| / um',x:1.02}},hovertemplate:'%{text}<br>|U| %{marker.color:.1f} um<extra></extra>'},"
-         << "{type:'scatter3d',mode:'markers+text',name:'stations',text:" << sn.dump() << "," << stations.Xyz()
-         << ",marker:{size:7,symbol:'diamond',color:'#1f3a5f'}}"
-         << "],{margin:{l:0,r:0,t:10,b:0},legend:{x:0,y:1},scene:{aspectmode:'data',xaxis:{title:'x / m'},yaxis:{title:'y / m'},zaxis:{title:'z / m'}}},{responsive:true}).then(done);";
+         << ",marker:{size:4,color:" << tc.dump()
+         << ",colorscale:'Viridis',colorbar:{title:'|U| / um',x:1.02}},hovertemplate:'%{text}<br>|U| "
+            "%{marker.color:.1f} um<extra></extra>'},"
+         << "{type:'scatter3d',mode:'markers+text',name:'stations',text:" << sn.dump() << ","
+         << stations.Xyz() << ",marker:{size:7,symbol:'diamond',color:'#1f3a5f'}}"
+         << "],{margin:{l:0,r:0,t:10,b:0},legend:{x:0,y:1},scene:{aspectmode:'data',xaxis:{title:'x / "
+            "m'},yaxis:{title:'y / m'},zaxis:{title:'z / m'}}},{responsive:true}).then(done);";
 }
 
 void TargetsTable(std::ostringstream& body, const NetworkResult& result) {
-  body << "<section><h2>Targets</h2><p class=\"note\">Part frame. U = k u per coordinate, um; the full covariance (targets with each "
-          "other and with the stations) is in covariance.csv.</p><table><tr><th class=\"l\">target</th><th>x / m</th><th>y / m</th><th>z / m</th>"
-          "<th>U<sub>x</sub> / um</th><th>U<sub>y</sub> / um</th><th>U<sub>z</sub> / um</th><th>stations</th><th class=\"l\">reference</th></tr>";
+  body << "<section><h2>Targets</h2><p class=\"note\">Part frame. U = k u per coordinate, um; the full "
+          "covariance (targets with each "
+          "other and with the stations) is in covariance.csv.</p><table><tr><th class=\"l\">target</th><th>x "
+          "/ m</th><th>y / m</th><th>z / m</th>"
+          "<th>U<sub>x</sub> / um</th><th>U<sub>y</sub> / um</th><th>U<sub>z</sub> / "
+          "um</th><th>stations</th><th class=\"l\">reference</th></tr>";
   for (const AdjustedTarget& t : result.targets) {
     body << "<tr><td class=\"l\">" << HtmlEscape(t.name) << "</td>";
     for (int c = 0; c < 3; ++c) body << "<td>" << Fixed(t.position(c), 6) << "</td>";
-    for (int c = 0; c < 3; ++c) body << "<td>" << Fixed(result.k * std::sqrt(t.covariance(c, c)) * 1e6, 1) << "</td>";
+    for (int c = 0; c < 3; ++c)
+      body << "<td>" << Fixed(result.k * std::sqrt(t.covariance(c, c)) * 1e6, 1) << "</td>";
     body << "<td>" << t.stations << "</td><td class=\"l\">" << (t.reference ? "yes" : "") << "</td></tr>";
   }
   body << "</table></section>\n";
 }
 
 void StationsTable(std::ostringstream& body, const NetworkResult& result) {
-  body << "<section><h2>Stations</h2><p class=\"note\">Pose: x_part = R x_station + t, R = Rz(rz) Ry(ry) Rx(rx); "
-          "angles in degrees, their U in arcsec; t in m, its U in um.</p><table><tr><th class=\"l\">station</th><th>rx / deg</th><th>ry / deg</th>"
-          "<th>rz / deg</th><th>tx / m</th><th>ty / m</th><th>tz / m</th><th>U(rx, ry, rz) / arcsec</th><th>U(tx, ty, tz) / um</th><th>readings</th></tr>";
+  body << "<section><h2>Stations</h2><p class=\"note\">Pose: x_part = R x_station + t, R = Rz(rz) Ry(ry) "
+          "Rx(rx); "
+          "angles in degrees, their U in arcsec; t in m, its U in um.</p><table><tr><th "
+          "class=\"l\">station</th><th>rx / deg</th><th>ry / deg</th>"
+          "<th>rz / deg</th><th>tx / m</th><th>ty / m</th><th>tz / m</th><th>U(rx, ry, rz) / "
+          "arcsec</th><th>U(tx, ty, tz) / um</th><th>readings</th></tr>";
   for (const AdjustedStation& st : result.stations) {
     body << "<tr><td class=\"l\">" << HtmlEscape(st.name) << (st.datum ? " (datum)" : "") << "</td>";
     for (int c = 0; c < 3; ++c) body << "<td>" << Fixed(st.pose(c) * 180.0 / std::numbers::pi, 6) << "</td>";
     for (int c = 3; c < 6; ++c) body << "<td>" << Fixed(st.pose(c), 6) << "</td>";
     body << "<td>";
-    for (int c = 0; c < 3; ++c) body << (c ? ", " : "") << Fixed(result.k * std::sqrt(st.covariance(c, c)) / kArcsec, 2);
+    for (int c = 0; c < 3; ++c)
+      body << (c ? ", " : "") << Fixed(result.k * std::sqrt(st.covariance(c, c)) / kArcsec, 2);
     body << "</td><td>";
-    for (int c = 3; c < 6; ++c) body << (c > 3 ? ", " : "") << Fixed(result.k * std::sqrt(st.covariance(c, c)) * 1e6, 1);
+    for (int c = 3; c < 6; ++c)
+      body << (c > 3 ? ", " : "") << Fixed(result.k * std::sqrt(st.covariance(c, c)) * 1e6, 1);
     body << "</td><td>" << st.readings << "</td></tr>";
   }
   body << "</table></section>\n";
@@ -195,67 +239,85 @@ void StationsTable(std::ostringstream& body, const NetworkResult& result) {
 
 // Tasks over adjusted targets, with the ISO 14253-1 decision where a tolerance is given.
 void TasksTable(std::ostringstream& body, const std::vector<NetworkTaskResult>& tasks) {
-  body << "<section><h2>Tasks</h2><p class=\"note\">Over adjusted targets, whichever station read them, with their joint covariance "
-          "through the adjustment (G C G<sup>T</sup>); lengths in um, directions dimensionless. n/a: no GUM value (a form quantity of points "
-          "that fit exactly).</p><table><tr><th class=\"l\">task</th><th class=\"l\">quantity</th><th>value</th><th>u</th><th>U</th>"
-          "<th class=\"l\">unit</th><th class=\"l\">tolerance</th><th class=\"l\">decision (ISO 14253-1)</th></tr>";
+  body << "<section><h2>Tasks</h2><p class=\"note\">Over adjusted targets, whichever station read them, with "
+          "their joint covariance "
+          "through the adjustment (G C G<sup>T</sup>); lengths in um, directions dimensionless. n/a: no GUM "
+          "value (a form quantity of points "
+          "that fit exactly).</p><table><tr><th class=\"l\">task</th><th "
+          "class=\"l\">quantity</th><th>value</th><th>u</th><th>U</th>"
+          "<th class=\"l\">unit</th><th class=\"l\">tolerance</th><th class=\"l\">decision (ISO "
+          "14253-1)</th></tr>";
   for (const NetworkTaskResult& t : tasks) {
     for (std::size_t q = 0; q < t.quantities.size(); ++q) {
       const bool length = t.units[q] == "m";
       const double f = length ? 1e6 : 1.0;
-      body << "<tr><td class=\"l\">" << HtmlEscape(t.name) << "</td><td class=\"l\">" << HtmlEscape(t.quantities[q]) << "</td><td>"
+      body << "<tr><td class=\"l\">" << HtmlEscape(t.name) << "</td><td class=\"l\">"
+           << HtmlEscape(t.quantities[q]) << "</td><td>"
            << (length ? Fixed(t.value(q) * 1e6, 1) : Fixed(t.value(q), 8)) << "</td><td>"
            << (t.differentiable[q] ? internal::Sig(t.u(q) * f, 3) : "n/a") << "</td><td>"
-           << (t.differentiable[q] ? internal::Sig(t.U(q) * f, 3) : "n/a") << "</td><td class=\"l\">" << (length ? "um" : "1")
-           << "</td><td class=\"l\">" << HtmlEscape(t.tolerance[q]) << "</td><td class=\"l\">"
-           << (t.conformity[q] ? HtmlEscape(t.conformity[q]->verdict) : "") << "</td></tr>";
+           << (t.differentiable[q] ? internal::Sig(t.U(q) * f, 3) : "n/a") << "</td><td class=\"l\">"
+           << (length ? "um" : "1") << "</td><td class=\"l\">" << HtmlEscape(t.tolerance[q])
+           << "</td><td class=\"l\">" << (t.conformity[q] ? HtmlEscape(t.conformity[q]->verdict) : "")
+           << "</td></tr>";
     }
   }
   body << "</table></section>\n";
 }
 
 void SelfCalibratedTable(std::ostringstream& body, const NetworkResult& result) {
-  body << "<section><h2>Self-calibrated parameters</h2><p class=\"note\">Estimated by the network with their prior as a pseudo-observation; "
-          "u / prior u near 1: the network does not see the parameter.</p><table><tr><th class=\"l\">input</th><th class=\"l\">unit (SI)</th>"
+  body << "<section><h2>Self-calibrated parameters</h2><p class=\"note\">Estimated by the network with their "
+          "prior as a pseudo-observation; "
+          "u / prior u near 1: the network does not see the parameter.</p><table><tr><th "
+          "class=\"l\">input</th><th class=\"l\">unit (SI)</th>"
           "<th>prior estimate</th><th>prior u</th><th>estimate</th><th>u</th><th>u / prior u</th></tr>";
   for (const CalibratedParameter& p : result.parameters) {
-    body << "<tr><td class=\"l\">" << HtmlEscape(p.name) << "</td><td class=\"l\">" << HtmlEscape(p.unit) << "</td><td>" << Num(p.prior_estimate)
-         << "</td><td>" << Num(p.prior_u) << "</td><td>" << Num(p.estimate) << "</td><td>" << Num(p.u) << "</td><td>" << Fixed(p.u / p.prior_u, 3)
+    body << "<tr><td class=\"l\">" << HtmlEscape(p.name) << "</td><td class=\"l\">" << HtmlEscape(p.unit)
+         << "</td><td>" << Num(p.prior_estimate) << "</td><td>" << Num(p.prior_u) << "</td><td>"
+         << Num(p.estimate) << "</td><td>" << Num(p.u) << "</td><td>" << Fixed(p.u / p.prior_u, 3)
          << "</td></tr>";
   }
   body << "</table></section>\n";
 }
 
 void IdentifiabilityTable(std::ostringstream& body, const NetworkResult& result) {
-  body << "<section><h2>Identifiability of the self-calibrated inputs</h2><p class=\"note\">Combinations of the inputs (coefficients in "
-          "each input's prior u), best determined first; data u / prior u is what the network alone would give, in units of the prior "
-          "(above 1: the prior knows it better; inf: the network is blind to it).</p><table><tr><th>#</th><th>singular value</th>"
+  body << "<section><h2>Identifiability of the self-calibrated inputs</h2><p class=\"note\">Combinations of "
+          "the inputs (coefficients in "
+          "each input's prior u), best determined first; data u / prior u is what the network alone would "
+          "give, in units of the prior "
+          "(above 1: the prior knows it better; inf: the network is blind to "
+          "it).</p><table><tr><th>#</th><th>singular value</th>"
           "<th>data u / prior u</th><th class=\"l\">determined</th><th class=\"l\">combination</th></tr>";
   for (std::size_t i = 0; i < result.identifiability.size(); ++i) {
     const NetworkCombination& c = result.identifiability[i];
     body << "<tr><td>" << i + 1 << "</td><td>" << internal::Sig(c.singular_value, 4) << "</td><td>"
-         << (std::isfinite(c.ratio) ? internal::Sig(c.ratio, 3) : std::string("inf")) << "</td><td class=\"l " << (c.determined ? "ok" : "na")
-         << "\">" << (c.determined ? "yes" : "no") << "</td><td class=\"l\">" << HtmlEscape(c.description) << "</td></tr>";
+         << (std::isfinite(c.ratio) ? internal::Sig(c.ratio, 3) : std::string("inf")) << "</td><td class=\"l "
+         << (c.determined ? "ok" : "na") << "\">" << (c.determined ? "yes" : "no") << "</td><td class=\"l\">"
+         << HtmlEscape(c.description) << "</td></tr>";
   }
   body << "</table></section>\n";
 }
 
 // Baarda's data snooping: the readings flagged as outliers.
 void FlaggedReadings(std::ostringstream& body, const NetworkJob& job, const NetworkResult& result) {
-  body << "<section><h2>Flagged readings</h2><p class=\"note\">Baarda's data snooping: w = (residual / u) / sqrt(redundancy); flagged when "
-          "|w| &gt; " << Fixed(job.network.outlier_limit, 2) << ". Every reading's residual is in residuals.csv.</p>";
+  body << "<section><h2>Flagged readings</h2><p class=\"note\">Baarda's data snooping: w = (residual / u) / "
+          "sqrt(redundancy); flagged when "
+          "|w| &gt; "
+       << Fixed(job.network.outlier_limit, 2) << ". Every reading's residual is in residuals.csv.</p>";
   if (result.outliers == 0) {
     body << "<p>None.</p>";
   } else {
-    body << "<table><tr><th class=\"l\">station</th><th class=\"l\">target</th><th class=\"l\">face</th><th class=\"l\">reading</th><th>residual</th>"
+    body << "<table><tr><th class=\"l\">station</th><th class=\"l\">target</th><th class=\"l\">face</th><th "
+            "class=\"l\">reading</th><th>residual</th>"
             "<th class=\"l\">unit</th><th>redundancy</th><th>w</th><th class=\"l\">where</th></tr>";
     for (const NetworkResidual& r : result.residuals) {
       if (!r.outlier) continue;
       const bool angle = r.unit == "rad";
-      body << "<tr><td class=\"l\">" << HtmlEscape(r.station) << "</td><td class=\"l\">" << HtmlEscape(r.target) << "</td><td class=\"l\">"
-           << FaceName(r.face) << "</td><td class=\"l\">" << r.component << "</td><td>" << Fixed(angle ? r.residual / kArcsec : r.residual * 1e6, 2)
-           << "</td><td class=\"l\">" << (angle ? "arcsec" : "um") << "</td><td>" << Fixed(r.redundancy, 3) << "</td><td class=\"bad\">"
-           << Fixed(r.w, 2) << "</td><td class=\"l\">" << HtmlEscape(r.where) << "</td></tr>";
+      body << "<tr><td class=\"l\">" << HtmlEscape(r.station) << "</td><td class=\"l\">"
+           << HtmlEscape(r.target) << "</td><td class=\"l\">" << FaceName(r.face) << "</td><td class=\"l\">"
+           << r.component << "</td><td>" << Fixed(angle ? r.residual / kArcsec : r.residual * 1e6, 2)
+           << "</td><td class=\"l\">" << (angle ? "arcsec" : "um") << "</td><td>" << Fixed(r.redundancy, 3)
+           << "</td><td class=\"bad\">" << Fixed(r.w, 2) << "</td><td class=\"l\">" << HtmlEscape(r.where)
+           << "</td></tr>";
     }
     body << "</table>";
   }
@@ -276,17 +338,28 @@ std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, co
   if (!result.parameters.empty()) SelfCalibratedTable(body, result);
   if (!result.identifiability.empty()) IdentifiabilityTable(body, result);
   FlaggedReadings(body, job, result);
-  return report::Page("vlt network — " + job.name, job.description.empty() ? "Bundle adjustment of a network of stations" : job.description,
-                      body.str(), script.str());
+  return report::Page(
+      "vlt network — " + job.name,
+      job.description.empty() ? "Bundle adjustment of a network of stations" : job.description, body.str(),
+      script.str());
 }
 
 std::string TargetsCsv(const NetworkResult& result) {
   std::string s = "name,x_m,y_m,z_m,u_x_m,u_y_m,u_z_m,U_x_m,U_y_m,U_z_m,stations,readings,reference\n";
   for (const AdjustedTarget& t : result.targets) {
     s += Csv(t.name);
-    for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, t.position(c)); }
-    for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, std::sqrt(t.covariance(c, c))); }
-    for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, result.k * std::sqrt(t.covariance(c, c))); }
+    for (int c = 0; c < 3; ++c) {
+      s += ',';
+      AppendNum(s, t.position(c));
+    }
+    for (int c = 0; c < 3; ++c) {
+      s += ',';
+      AppendNum(s, std::sqrt(t.covariance(c, c)));
+    }
+    for (int c = 0; c < 3; ++c) {
+      s += ',';
+      AppendNum(s, result.k * std::sqrt(t.covariance(c, c)));
+    }
     s += ',';
     s += std::to_string(t.stations);
     s += ',';
@@ -297,12 +370,20 @@ std::string TargetsCsv(const NetworkResult& result) {
 }
 
 std::string StationsCsv(const NetworkResult& result) {
-  std::string s = "name,datum,rx_rad,ry_rad,rz_rad,tx_m,ty_m,tz_m,u_rx_rad,u_ry_rad,u_rz_rad,u_tx_m,u_ty_m,u_tz_m,readings\n";
+  std::string s =
+      "name,datum,rx_rad,ry_rad,rz_rad,tx_m,ty_m,tz_m,u_rx_rad,u_ry_rad,u_rz_rad,u_tx_m,u_ty_m,u_tz_m,"
+      "readings\n";
   for (const AdjustedStation& st : result.stations) {
     s += Csv(st.name);
     s += st.datum ? ",true" : ",false";
-    for (int c = 0; c < 6; ++c) { s += ','; AppendNum(s, st.pose(c)); }
-    for (int c = 0; c < 6; ++c) { s += ','; AppendNum(s, std::sqrt(st.covariance(c, c))); }
+    for (int c = 0; c < 6; ++c) {
+      s += ',';
+      AppendNum(s, st.pose(c));
+    }
+    for (int c = 0; c < 6; ++c) {
+      s += ',';
+      AppendNum(s, std::sqrt(st.covariance(c, c)));
+    }
     s += ',';
     s += std::to_string(st.readings);
     s += '\n';
@@ -314,7 +395,10 @@ std::string ResidualsCsv(const NetworkResult& result) {
   std::string s = "station,target,face,reading,unit,residual,u,normalised,redundancy,w,outlier,where\n";
   for (const NetworkResidual& r : result.residuals) {
     s += Csv(r.station) + "," + Csv(r.target) + "," + FaceName(r.face) + "," + r.component + "," + r.unit;
-    for (double v : {r.residual, r.u, r.normalised, r.redundancy, r.w}) { s += ','; AppendNum(s, v); }
+    for (double v : {r.residual, r.u, r.normalised, r.redundancy, r.w}) {
+      s += ',';
+      AppendNum(s, v);
+    }
     s += std::string(",") + (r.outlier ? "true" : "false") + "," + Csv(r.where) + "\n";
   }
   return s;
@@ -330,18 +414,25 @@ std::string CovarianceCsv(const NetworkResult& result) {
   s += "\n";
   for (Eigen::Index r = 0; r < result.covariance.rows(); ++r) {
     s += Csv(result.unknown_names[r]);
-    for (Eigen::Index c = 0; c < result.covariance.cols(); ++c) { s += ','; AppendNum(s, result.covariance(r, c)); }
+    for (Eigen::Index c = 0; c < result.covariance.cols(); ++c) {
+      s += ',';
+      AppendNum(s, result.covariance(r, c));
+    }
     s += '\n';
   }
   return s;
 }
 
 std::string TasksCsv(const std::vector<NetworkTaskResult>& tasks) {
-  std::string s = "task,kind,quantity,unit,value,u,U,differentiable,tolerance,decision,probability_of_conformity\n";
+  std::string s =
+      "task,kind,quantity,unit,value,u,U,differentiable,tolerance,decision,probability_of_conformity\n";
   for (const NetworkTaskResult& t : tasks) {
     for (std::size_t q = 0; q < t.quantities.size(); ++q) {
       s += Csv(t.name) + "," + std::string(TaskKindName(t.kind)) + "," + t.quantities[q] + "," + t.units[q];
-      for (double v : {t.value(q), t.u(q), t.U(q)}) { s += ','; AppendNum(s, v); }
+      for (double v : {t.value(q), t.u(q), t.U(q)}) {
+        s += ',';
+        AppendNum(s, v);
+      }
       s += t.differentiable[q] ? ",true," : ",false,";
       s += Csv(t.tolerance[q]);
       s += ',';
@@ -360,12 +451,22 @@ std::string TasksCsv(const std::vector<NetworkTaskResult>& tasks) {
 
 // GUM and Monte Carlo standard uncertainties side by side, and the Monte Carlo bias.
 std::string McmCsv(const NetworkResult& result, const NetworkMonteCarlo& mc) {
-  std::string s = "name,u_x_gum_m,u_y_gum_m,u_z_gum_m,u_x_mcm_m,u_y_mcm_m,u_z_mcm_m,bias_x_m,bias_y_m,bias_z_m\n";
+  std::string s =
+      "name,u_x_gum_m,u_y_gum_m,u_z_gum_m,u_x_mcm_m,u_y_mcm_m,u_z_mcm_m,bias_x_m,bias_y_m,bias_z_m\n";
   for (std::size_t t = 0; t < result.targets.size(); ++t) {
     s += Csv(result.targets[t].name);
-    for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, std::sqrt(result.targets[t].covariance(c, c))); }
-    for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, std::sqrt(mc.covariance[t](c, c))); }
-    for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, mc.bias[t](c)); }
+    for (int c = 0; c < 3; ++c) {
+      s += ',';
+      AppendNum(s, std::sqrt(result.targets[t].covariance(c, c)));
+    }
+    for (int c = 0; c < 3; ++c) {
+      s += ',';
+      AppendNum(s, std::sqrt(mc.covariance[t](c, c)));
+    }
+    for (int c = 0; c < 3; ++c) {
+      s += ',';
+      AppendNum(s, mc.bias[t](c));
+    }
     s += '\n';
   }
   return s;
@@ -379,7 +480,10 @@ std::string IdentifiabilityCsv(const NetworkResult& result) {
     s += ',';
     AppendNum(s, c.singular_value);
     s += ',';
-    if (std::isfinite(c.ratio)) AppendNum(s, c.ratio); else s += "inf";
+    if (std::isfinite(c.ratio))
+      AppendNum(s, c.ratio);
+    else
+      s += "inf";
     s += c.determined ? ",true," : ",false,";
     s += Csv(c.description);
     s += '\n';
@@ -392,7 +496,10 @@ std::string ParametersCsv(const NetworkResult& result) {
   std::string s = "name,unit,prior_estimate,prior_u,estimate,u,u_over_prior\n";
   for (const CalibratedParameter& p : result.parameters) {
     s += Csv(p.name) + "," + p.unit;
-    for (double v : {p.prior_estimate, p.prior_u, p.estimate, p.u, p.u / p.prior_u}) { s += ','; AppendNum(s, v); }
+    for (double v : {p.prior_estimate, p.prior_u, p.estimate, p.u, p.u / p.prior_u}) {
+      s += ',';
+      AppendNum(s, v);
+    }
     s += '\n';
   }
   return s;
@@ -405,12 +512,14 @@ nlohmann::ordered_json JobJson(const NetworkJob& job) {
   meta["file"] = job.file;
   meta["mode"] = job.offline ? "plan" : "readings";
   nlohmann::ordered_json instruments = nlohmann::ordered_json::array();
-  for (const NetworkInstrument& in : job.network.instruments) instruments.push_back({{"name", in.name}, {"model", in.setup.model->name}});
+  for (const NetworkInstrument& in : job.network.instruments)
+    instruments.push_back({{"name", in.name}, {"model", in.setup.model->name}});
   meta["instruments"] = instruments;
   meta["coverage_probability"] = job.network.coverage_probability;
   meta["self_calibrate"] = job.network.self_calibrate;
   nlohmann::ordered_json inputs = nlohmann::ordered_json::array();
-  for (const auto& [role, path] : job.input_files) inputs.push_back({{"role", role}, {"path", path}, {"sha256", Sha256File(path)}});
+  for (const auto& [role, path] : job.input_files)
+    inputs.push_back({{"role", role}, {"path", path}, {"sha256", Sha256File(path)}});
   meta["input_files"] = inputs;
   return meta;
 }
@@ -455,8 +564,13 @@ nlohmann::ordered_json TargetsJson(const NetworkResult& result) {
 nlohmann::ordered_json ParametersJson(const NetworkResult& result) {
   nlohmann::ordered_json params = nlohmann::ordered_json::array();
   for (const CalibratedParameter& p : result.parameters) {
-    params.push_back({{"name", p.name}, {"unit", p.unit}, {"prior_estimate", p.prior_estimate}, {"prior_u", p.prior_u},
-                      {"estimate", p.estimate}, {"u", p.u}, {"u_over_prior", p.u / p.prior_u}});
+    params.push_back({{"name", p.name},
+                      {"unit", p.unit},
+                      {"prior_estimate", p.prior_estimate},
+                      {"prior_u", p.prior_u},
+                      {"estimate", p.estimate},
+                      {"u", p.u},
+                      {"u_over_prior", p.u / p.prior_u}});
   }
   return params;
 }
@@ -464,9 +578,13 @@ nlohmann::ordered_json ParametersJson(const NetworkResult& result) {
 nlohmann::ordered_json IdentifiabilityJson(const NetworkResult& result) {
   nlohmann::ordered_json ident = nlohmann::ordered_json::array();
   for (const NetworkCombination& c : result.identifiability) {
-    nlohmann::ordered_json o = {{"singular_value", c.singular_value}, {"determined", c.determined}, {"inputs", c.description}};
+    nlohmann::ordered_json o = {
+        {"singular_value", c.singular_value}, {"determined", c.determined}, {"inputs", c.description}};
     // Blind combinations have no finite ratio: JSON has no infinity, so null.
-    if (std::isfinite(c.ratio)) o["data_u_over_prior_u"] = c.ratio; else o["data_u_over_prior_u"] = nullptr;
+    if (std::isfinite(c.ratio))
+      o["data_u_over_prior_u"] = c.ratio;
+    else
+      o["data_u_over_prior_u"] = nullptr;
     ident.push_back(o);
   }
   return ident;
@@ -477,7 +595,9 @@ nlohmann::ordered_json TasksJson(const std::vector<NetworkTaskResult>& tasks) {
   for (const NetworkTaskResult& t : tasks) {
     nlohmann::ordered_json quantities = nlohmann::ordered_json::array();
     for (std::size_t q = 0; q < t.quantities.size(); ++q) {
-      nlohmann::ordered_json o = {{"name", t.quantities[q]}, {"unit", t.units[q]}, {"value", t.value(q)},
+      nlohmann::ordered_json o = {{"name", t.quantities[q]},
+                                  {"unit", t.units[q]},
+                                  {"value", t.value(q)},
                                   {"differentiable", static_cast<bool>(t.differentiable[q])}};
       if (t.differentiable[q]) {
         o["u"] = t.u(q);
@@ -486,18 +606,21 @@ nlohmann::ordered_json TasksJson(const std::vector<NetworkTaskResult>& tasks) {
       if (!t.tolerance[q].empty()) o["tolerance"] = t.tolerance[q];
       if (t.conformity[q]) {
         o["decision"] = t.conformity[q]->verdict;
-        if (t.conformity[q]->probability_gum) o["probability_of_conformity"] = *t.conformity[q]->probability_gum;
+        if (t.conformity[q]->probability_gum)
+          o["probability_of_conformity"] = *t.conformity[q]->probability_gum;
       }
       quantities.push_back(o);
     }
-    task_json.push_back({{"name", t.name}, {"kind", std::string(TaskKindName(t.kind))}, {"quantities", quantities}});
+    task_json.push_back(
+        {{"name", t.name}, {"kind", std::string(TaskKindName(t.kind))}, {"quantities", quantities}});
   }
   return task_json;
 }
 
 // results.json (schema vlt-network/1, docs/network.md); `files` are the files written before it.
-std::string ResultsJson(const NetworkJob& job, const NetworkResult& result, const std::vector<NetworkTaskResult>& tasks,
-                        const std::string& created, const NetworkMonteCarlo* mc, const Files& files) {
+std::string ResultsJson(const NetworkJob& job, const NetworkResult& result,
+                        const std::vector<NetworkTaskResult>& tasks, const std::string& created,
+                        const NetworkMonteCarlo* mc, const Files& files) {
   nlohmann::ordered_json j;
   j["schema"] = "vlt-network/1";
   j["created"] = created;
@@ -506,18 +629,30 @@ std::string ResultsJson(const NetworkJob& job, const NetworkResult& result, cons
   // Every number is SI; pose angles rx, ry, rz in rad (R = Rz Ry Rx, x_part = R x_station + t).
   j["units"] = {{"length", "m"}, {"angle", "rad"}, {"covariance", "SI products (m^2, m rad, rad^2)"}};
   j["job"] = JobJson(job);
-  j["summary"] = {{"observations", result.observations}, {"unknowns", result.unknowns}, {"dof", result.dof},
-                  {"chi2", result.chi2}, {"birge_ratio", result.birge_ratio}, {"p_value", result.p_value},
-                  {"outliers", result.outliers}, {"iterations", result.iterations}, {"k", result.k},
-                  {"share_noise", result.share_noise}, {"share_consider", result.share_consider}};
+  j["summary"] = {{"observations", result.observations},
+                  {"unknowns", result.unknowns},
+                  {"dof", result.dof},
+                  {"chi2", result.chi2},
+                  {"birge_ratio", result.birge_ratio},
+                  {"p_value", result.p_value},
+                  {"outliers", result.outliers},
+                  {"iterations", result.iterations},
+                  {"k", result.k},
+                  {"share_noise", result.share_noise},
+                  {"share_consider", result.share_consider}};
   j["stations"] = StationsJson(job, result);
   j["targets"] = TargetsJson(result);
   j["parameters"] = ParametersJson(result);
   if (!result.identifiability.empty()) j["identifiability"] = IdentifiabilityJson(result);
   j["tasks"] = TasksJson(tasks);
   if (mc) {
-    j["monte_carlo"] = {{"trials", mc->trials}, {"seed", mc->seed}, {"ranks", mc->ranks}, {"tolerance", mc->tolerance},
-                        {"worst_ratio", mc->worst_ratio}, {"worst", mc->worst}, {"agrees", mc->agrees}};
+    j["monte_carlo"] = {{"trials", mc->trials},
+                        {"seed", mc->seed},
+                        {"ranks", mc->ranks},
+                        {"tolerance", mc->tolerance},
+                        {"worst_ratio", mc->worst_ratio},
+                        {"worst", mc->worst},
+                        {"agrees", mc->agrees}};
   }
   std::vector<std::string> names;
   for (const auto& f : files) names.push_back(f.first);
@@ -528,8 +663,9 @@ std::string ResultsJson(const NetworkJob& job, const NetworkResult& result, cons
 
 }  // namespace
 
-Files NetworkFiles(const NetworkJob& job, const NetworkResult& result, const std::vector<NetworkTaskResult>& tasks,
-                   const std::string& created, const NetworkMonteCarlo* mc) {
+Files NetworkFiles(const NetworkJob& job, const NetworkResult& result,
+                   const std::vector<NetworkTaskResult>& tasks, const std::string& created,
+                   const NetworkMonteCarlo* mc) {
   Files files;
   files.emplace_back("targets.csv", TargetsCsv(result));
   files.emplace_back("stations.csv", StationsCsv(result));
@@ -555,30 +691,33 @@ std::string NetworkSummary(const NetworkJob& job, const NetworkResult& result, c
     }
   }
   char line[512];
-  std::snprintf(line, sizeof line,
-                "%s network '%s': %zu stations, %zu targets, %d observations, %d unknowns, dof %d; chi2 %.4g, Birge "
-                "ratio %.3f, %d outlier%s; largest |U| (k = %.2f) %.1f um at %s; variance from reading noise and "
-                "references %.0f %%, from the instruments' parameters %.0f %%",
-                job.offline ? "Planned" : "Measured", job.name.c_str(), result.stations.size(), result.targets.size(),
-                result.observations, result.unknowns, result.dof, result.chi2, result.birge_ratio, result.outliers,
-                result.outliers == 1 ? "" : "s", result.k, worst * 1e6, worst_name.c_str(), 100.0 * result.share_noise,
-                100.0 * result.share_consider);
+  std::snprintf(
+      line, sizeof line,
+      "%s network '%s': %zu stations, %zu targets, %d observations, %d unknowns, dof %d; chi2 %.4g, Birge "
+      "ratio %.3f, %d outlier%s; largest |U| (k = %.2f) %.1f um at %s; variance from reading noise and "
+      "references %.0f %%, from the instruments' parameters %.0f %%",
+      job.offline ? "Planned" : "Measured", job.name.c_str(), result.stations.size(), result.targets.size(),
+      result.observations, result.unknowns, result.dof, result.chi2, result.birge_ratio, result.outliers,
+      result.outliers == 1 ? "" : "s", result.k, worst * 1e6, worst_name.c_str(), 100.0 * result.share_noise,
+      100.0 * result.share_consider);
   std::string out = std::string(line) + "\n";
   if (!result.identifiability.empty()) {
     int determined = 0;
     for (const NetworkCombination& c : result.identifiability) determined += c.determined ? 1 : 0;
     std::snprintf(line, sizeof line,
-                  "Self-calibration: %d of %zu combinations of the %zu inputs determined by the network alone better than by "
+                  "Self-calibration: %d of %zu combinations of the %zu inputs determined by the network "
+                  "alone better than by "
                   "their priors (identifiability.csv)\n",
                   determined, result.identifiability.size(), result.parameters.size());
     out += line;
   }
   if (mc) {
-    std::snprintf(line, sizeof line,
-                  "Monte Carlo (%d re-adjusted simulated networks): u_MCM / u_GUM farthest from 1 is %.3f at %s; %s "
-                  "(tolerance +- %.3f)\n",
-                  mc->trials, mc->worst_ratio, mc->worst.c_str(), mc->agrees ? "the GUM agrees" : "the GUM does NOT agree",
-                  mc->tolerance);
+    std::snprintf(
+        line, sizeof line,
+        "Monte Carlo (%d re-adjusted simulated networks): u_MCM / u_GUM farthest from 1 is %.3f at %s; %s "
+        "(tolerance +- %.3f)\n",
+        mc->trials, mc->worst_ratio, mc->worst.c_str(),
+        mc->agrees ? "the GUM agrees" : "the GUM does NOT agree", mc->tolerance);
     out += line;
   }
   return out;
@@ -599,7 +738,8 @@ Files SimulatedNetworkFiles(const NetworkJob& job, const Network& simulated, std
   // lives in the output directory.
   if (toml::table* tracker = root["tracker"].as_table()) {
     if (const auto* cal = tracker->get_as<std::string>("calibration")) {
-      const std::string absolute = std::filesystem::absolute(job.base_dir / cal->get()).lexically_normal().string();
+      const std::string absolute =
+          std::filesystem::absolute(job.base_dir / cal->get()).lexically_normal().string();
       tracker->insert_or_assign("calibration", absolute);
     }
   }
@@ -610,7 +750,10 @@ Files SimulatedNetworkFiles(const NetworkJob& job, const Network& simulated, std
     std::string s = "name,range,azimuth,elevation,face\n";
     for (const TargetReading& r : st.readings) {
       s += Csv(r.target);
-      for (int c = 0; c < 3; ++c) { s += ','; AppendNum(s, r.readings(c)); }
+      for (int c = 0; c < 3; ++c) {
+        s += ',';
+        AppendNum(s, r.readings(c));
+      }
       s += ',';
       s += FaceName(r.face);
       s += '\n';
@@ -636,7 +779,8 @@ Files SimulatedNetworkFiles(const NetworkJob& job, const Network& simulated, std
   std::ostringstream os;
   os << "# Simulated measurement of the offline network " << job.file << " (vlt network --simulate " << seed
      << "): the truth is its [targets] and station poses; the instruments' true parameters are drawn from\n"
-     << "# their uncertainties, every reading carries the reading noise, references their u (docs/network.md).\n"
+     << "# their uncertainties, every reading carries the reading noise, references their u "
+        "(docs/network.md).\n"
      << "# Adjust it with:  vlt network simulated_network.toml\n"
      << root << "\n";
   files.emplace_back("simulated_network.toml", os.str());

@@ -23,7 +23,8 @@ namespace {
 // A length [m] of a table (number in m or a quantity string).
 double Length(Section& s, std::string_view key) {
   const double v = AsQuantity(s.Require(key), Dimension::kLength, s.Where(key));
-  if (!std::isfinite(v) || std::abs(v) > kMaxRange) throw InputError(s.Where(key) + ": not a plausible coordinate");
+  if (!std::isfinite(v) || std::abs(v) > kMaxRange)
+    throw InputError(s.Where(key) + ": not a plausible coordinate");
   return v;
 }
 
@@ -34,7 +35,7 @@ struct NetworkFileReader {
   Section& top;
   NetworkJob& job;
   Network& net;
-  Job holder;  // the job readers fill a Job
+  Job holder;            // the job readers fill a Job
   bool several = false;  // several instruments: every station names its own
   bool has_targets = false;
   std::vector<std::vector<PlannedSighting>> sees;
@@ -79,13 +80,17 @@ void NetworkFileReader::ReadInstrument(Section& s, const std::string& name) {
 
 void NetworkFileReader::ReadInstruments() {
   if (top.Get("instrument")) {
-    if (top.Get("tracker")) throw InputError(top.Where("tracker") + ": give either [tracker] (one instrument) or [[instrument]] tables, not both");
+    if (top.Get("tracker"))
+      throw InputError(top.Where("tracker") +
+                       ": give either [tracker] (one instrument) or [[instrument]] tables, not both");
     ForEachTable(top, path, "instrument", [&](Section& s) {
       s.set_hint("name, tracker, environment, correlations");
       const std::string name = AsString(s.Require("name"), s.Where("name"));
-      if (name.empty() || name.find('.') != std::string::npos) throw InputError(s.Where("name") + ": a non-empty name without '.'");
+      if (name.empty() || name.find('.') != std::string::npos)
+        throw InputError(s.Where("name") + ": a non-empty name without '.'");
       for (const NetworkInstrument& other : net.instruments) {
-        if (other.name == name) throw InputError(s.Where("name") + ": instrument '" + name + "' defined twice");
+        if (other.name == name)
+          throw InputError(s.Where("name") + ": instrument '" + name + "' defined twice");
       }
       ReadInstrument(s, name);
     });
@@ -169,7 +174,8 @@ int NetworkFileReader::InstrumentOf(Section& s) {
     return instrument;
   }
   if (several) {
-    throw InputError(s.Where("instrument") + ": required key is missing (the network has several instruments)");
+    throw InputError(s.Where("instrument") +
+                     ": required key is missing (the network has several instruments)");
   }
   return 0;
 }
@@ -208,8 +214,10 @@ void NetworkFileReader::ReadSightings(Section& s, const toml::node& see) {
   std::vector<Face> faces = {Face::kFront};
   if (const toml::node* f = s.Get("face")) {
     const std::string text = AsString(*f, s.Where("face"));
-    if (text == "both") faces = {Face::kFront, Face::kBack};
-    else faces = {ParseFace(text.c_str(), s.Where("face").c_str())};
+    if (text == "both")
+      faces = {Face::kFront, Face::kBack};
+    else
+      faces = {ParseFace(text.c_str(), s.Where("face").c_str())};
   }
   std::vector<std::string> names;
   const std::string where = s.Where("sees");
@@ -238,11 +246,15 @@ void NetworkFileReader::ReadStation(Section& s) {
   const bool has_readings = s.Get("readings") != nullptr;
   const toml::node* see = s.Get("sees");
   if (has_readings == (see != nullptr)) {
-    throw InputError(st.where + ": give either readings (online: a CSV of what the station read) or sees (offline: the "
-                     "targets it will read), not " + std::string(has_readings ? "both" : "neither"));
+    throw InputError(st.where +
+                     ": give either readings (online: a CSV of what the station read) or sees (offline: the "
+                     "targets it will read), not " +
+                     std::string(has_readings ? "both" : "neither"));
   }
   if ((has_readings && any_offline) || (!has_readings && any_online)) {
-    throw InputError(st.where + ": every station gives readings (online) or every station gives sees (offline), not a mix");
+    throw InputError(
+        st.where +
+        ": every station gives readings (online) or every station gives sees (offline), not a mix");
   }
   if (has_readings) {
     ReadOnlineReadings(s, st);
@@ -254,14 +266,17 @@ void NetworkFileReader::ReadStation(Section& s) {
 
 void NetworkFileReader::ReadStations() {
   ForEachTable(top, path, "station", [&](Section& s) { ReadStation(s); });
-  if (net.stations.empty()) throw InputError(path + ": station: required key is missing (give [[station]] tables)");
+  if (net.stations.empty())
+    throw InputError(path + ": station: required key is missing (give [[station]] tables)");
   job.offline = any_offline;
   if (job.offline && job.nominal.empty()) {
     throw InputError(path + ": targets: required key is missing (offline stations see targets of [targets])");
   }
   if (!job.offline && has_targets) {
-    throw InputError(path + ": targets: nominal targets are for offline networks (stations with sees); online stations "
-                     "give their readings");
+    throw InputError(
+        path +
+        ": targets: nominal targets are for offline networks (stations with sees); online stations "
+        "give their readings");
   }
 }
 
@@ -298,7 +313,8 @@ void NetworkFileReader::ReadReferences() {
 void NetworkFileReader::PlanOfflineReadings() {
   for (std::size_t i = 0; i < net.stations.size(); ++i) {
     if (!net.stations[i].pose_given) {
-      throw InputError(net.stations[i].where + ": an offline network needs every station's pose (rx, ry, rz, tx, ty, tz; "
+      throw InputError(net.stations[i].where +
+                       ": an offline network needs every station's pose (rx, ry, rz, tx, ty, tz; "
                        "omitted ones are 0)");
     }
   }
@@ -325,7 +341,9 @@ NetworkJob LoadNetworkJob(const std::string& path) {
   const std::string text = ReadTextFile(path, "the network file");
   toml::table root = ParseToml(text, path);
   Section top(root, path, "");
-  top.set_hint("job, tracker, environment, correlations, instrument, network, datum, reference, targets, station, task, output");
+  top.set_hint(
+      "job, tracker, environment, correlations, instrument, network, datum, reference, targets, station, "
+      "task, output");
   NetworkJob job;
   job.file = path;
   job.text = text;

@@ -18,12 +18,12 @@ using TargetList = std::vector<std::pair<std::string, Eigen::Vector3d>>;
 // Readings of the part-frame point `part` from a station at `pose`, by an instrument whose shared
 // inputs are `shared`: m' = f^-1(R^T (x - t); params), then the range the tracker shows is
 // rho = rho' / (n_est / n) (vlt/measurement_model.h: rho' = rho n_est / n).
-Eigen::Vector3d ReadingsAt(const MeasurementModel& model, const double* shared,
-                           const StationPoseVector& pose, const Eigen::Vector3d& part, Face face) {
+Eigen::Vector3d ReadingsAt(const MeasurementModel& model, const double* shared, const StationPoseVector& pose,
+                           const Eigen::Vector3d& part, Face face) {
   const Eigen::Matrix3d r = PoseRotationMatrix(pose(0), pose(1), pose(2));
   const Eigen::Vector3d local = r.transpose() * (part - pose.tail<3>());
-  const std::array<double, 3> m =
-      InverseReadings(*model.setup().model, shared + model.params_offset(), {local(0), local(1), local(2)}, face);
+  const std::array<double, 3> m = InverseReadings(*model.setup().model, shared + model.params_offset(),
+                                                  {local(0), local(1), local(2)}, face);
   const double scale = model.PrepareShared(shared).range_scale;
   return {m[0] / scale, m[1], m[2]};
 }
@@ -38,16 +38,19 @@ void PlanNetworkReadings(Network& network, const TargetList& nominal,
     NetworkStation& st = network.stations[i];
     for (const PlannedSighting& s : sees[i]) {
       const auto it = where_is.find(s.target);
-      if (it == where_is.end()) throw InputError(s.where + ": unknown target '" + s.target + "' (not in [targets])");
+      if (it == where_is.end())
+        throw InputError(s.where + ": unknown target '" + s.target + "' (not in [targets])");
       TargetReading reading;
       reading.target = s.target;
       reading.face = s.face;
       reading.where = s.where;
       try {
-        reading.readings = ReadingsAt(instruments.models[st.instrument], instruments.Segment(st.instrument, instruments.s0),
-                                      st.pose, it->second, s.face);
+        reading.readings =
+            ReadingsAt(instruments.models[st.instrument], instruments.Segment(st.instrument, instruments.s0),
+                       st.pose, it->second, s.face);
       } catch (const NumericalError& error) {
-        throw InputError(s.where + ": station '" + st.name + "' cannot read '" + s.target + "': " + error.what());
+        throw InputError(s.where + ": station '" + st.name + "' cannot read '" + s.target +
+                         "': " + error.what());
       }
       st.readings.push_back(std::move(reading));
     }
@@ -69,7 +72,8 @@ Network SimulateNetwork(const Network& network, const TargetList& truth, std::ui
   // R^1/2 its symmetric square root: R may be singular, r = +-1; (D R^1/2)(D R^1/2)^T = Sigma).
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(instruments.correlation);
   const Eigen::MatrixXd root = instruments.sigma.diagonal().cwiseSqrt().asDiagonal() * eig.eigenvectors() *
-                               eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal() * eig.eigenvectors().transpose();
+                               eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal() *
+                               eig.eigenvectors().transpose();
   Eigen::VectorXd z(S);
   for (int k = 0; k < S; ++k) z(k) = normal(0, static_cast<std::uint64_t>(k));
   const Eigen::VectorXd s_true = instruments.s0 + root * z;
@@ -81,9 +85,11 @@ Network SimulateNetwork(const Network& network, const TargetList& truth, std::ui
   for (NetworkStation& st : out.stations) {
     for (TargetReading& reading : st.readings) {
       const auto it = where_is.find(reading.target);
-      if (it == where_is.end()) throw InputError(reading.where + ": no true position of '" + reading.target + "'");
+      if (it == where_is.end())
+        throw InputError(reading.where + ": no true position of '" + reading.target + "'");
       const MeasurementModel& model = instruments.models[st.instrument];
-      Eigen::Vector3d m = ReadingsAt(model, instruments.Segment(st.instrument, s_true), st.pose, it->second, reading.face);
+      Eigen::Vector3d m =
+          ReadingsAt(model, instruments.Segment(st.instrument, s_true), st.pose, it->second, reading.face);
       const Eigen::Vector3d sigma = model.reading_uncertainty(m(0));
       for (int c = 0; c < 3; ++c) m(c) += sigma(c) * normal(1, 3 * counter + c);
       ++counter;

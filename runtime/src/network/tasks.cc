@@ -50,7 +50,8 @@ std::vector<NetworkTaskResult> NetworkTasks(const std::vector<TaskSpec>& tasks, 
       } else {
         r.conformity.push_back(std::nullopt);
       }
-      r.tolerance.push_back(tolerance ? DescribeTolerance(*tolerance, std::string(fit.outputs[q].unit)) : std::string());
+      r.tolerance.push_back(tolerance ? DescribeTolerance(*tolerance, std::string(fit.outputs[q].unit))
+                                      : std::string());
     }
     if (!r.value.allFinite() || !r.covariance.allFinite()) {
       throw NumericalError(where + ": task '" + spec.name + "' has no finite result");

@@ -58,11 +58,30 @@ bool CopyPath(char* buffer, const fs::path& p) {
 // The names every vlt command writes: a directory holding only these (and the marker) was
 // written by vlt, also by versions before the marker existed.
 const std::set<std::string>& KnownOutputNames() {
-  static const std::set<std::string> names = {
-      kOutputMarker, "points.csv", "points.jsonl", "outputs.csv", "budget.csv", "tasks.csv", "results.json", "report.html", "map.csv", "map.html",
-      "tests.csv", "sensitivity.csv", "simulated_readings.csv", "simulated_calibration.toml", "calibration.toml",
-      "parameters.csv", "correlation.csv", "identifiability.csv", "targets.csv", "residuals.csv",
-      "plan.json", "station_map.csv", "station_map.html", "planned_job.toml"};
+  static const std::set<std::string> names = {kOutputMarker,
+                                              "points.csv",
+                                              "points.jsonl",
+                                              "outputs.csv",
+                                              "budget.csv",
+                                              "tasks.csv",
+                                              "results.json",
+                                              "report.html",
+                                              "map.csv",
+                                              "map.html",
+                                              "tests.csv",
+                                              "sensitivity.csv",
+                                              "simulated_readings.csv",
+                                              "simulated_calibration.toml",
+                                              "calibration.toml",
+                                              "parameters.csv",
+                                              "correlation.csv",
+                                              "identifiability.csv",
+                                              "targets.csv",
+                                              "residuals.csv",
+                                              "plan.json",
+                                              "station_map.csv",
+                                              "station_map.html",
+                                              "planned_job.toml"};
   return names;
 }
 
@@ -90,7 +109,9 @@ void InstallOutputSignalHandlers() {
 
 OutputDirectory::OutputDirectory(const fs::path& target) : target_(Normalised(target)) {
   if (target_.empty() || target_ == "." || target_ == "..") {
-    throw InputError(target.string() + ": the output directory may not be the current directory or its parent (vlt replaces it as a whole)");
+    throw InputError(
+        target.string() +
+        ": the output directory may not be the current directory or its parent (vlt replaces it as a whole)");
   }
   std::error_code ec;
   const fs::file_status status = fs::symlink_status(target_, ec);
@@ -132,8 +153,7 @@ OutputDirectory::~OutputDirectory() {
 }
 
 OutputFile::OutputFile(std::string file_name, std::string content)
-    : name(std::move(file_name)),
-      write([text = std::move(content)](OutputText& out) { out.Write(text); }) {}
+    : name(std::move(file_name)), write([text = std::move(content)](OutputText& out) { out.Write(text); }) {}
 
 OutputFile::OutputFile(std::string file_name, std::function<void(OutputText&)> writer)
     : name(std::move(file_name)), write(std::move(writer)) {}
@@ -217,7 +237,8 @@ void OutputDirectory::Commit(const std::vector<OutputFile>& files) {
     }
     FileText out(staging_ / file.name);
     file.write(out);
-    if (!out.Close()) throw InputError((target_ / file.name).string() + ": cannot write the output file (disk full?)");
+    if (!out.Close())
+      throw InputError((target_ / file.name).string() + ": cannot write the output file (disk full?)");
   }
   // Swap in.
   const bool exists = fs::exists(fs::symlink_status(target_, ec));

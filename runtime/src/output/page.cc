@@ -17,22 +17,33 @@ std::string Page(const std::string& title, const std::string& subtitle, const st
                  const std::string& script) {
   std::ostringstream os;
   os << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << HtmlEscape(title)
-     << "</title>\n<script>window.vltErrors=[];window.onerror=function(m,s,l){window.vltErrors.push(String(m)+' (line '+l+')');"
-        "var e=document.getElementById('vlt-status');if(e){e.textContent='error';e.setAttribute('data-errors',String(window.vltErrors.length));}};</script>\n"
+     << "</"
+        "title>\n<script>window.vltErrors=[];window.onerror=function(m,s,l){window.vltErrors.push(String(m)+'"
+        " (line '+l+')');"
+        "var "
+        "e=document.getElementById('vlt-status');if(e){e.textContent='error';e.setAttribute('data-errors',"
+        "String(window.vltErrors.length));}};</script>\n"
         "<style>body{font-family:system-ui,sans-serif;margin:0;color:#1b2430;background:#f6f7f9}"
         "header{background:#1f3a5f;color:#fff;padding:18px 28px}header h1{margin:0 0 4px 0;font-size:22px}"
-        "main{padding:8px 28px 40px 28px;max-width:1400px}section{background:#fff;border:1px solid #dde2e8;border-radius:6px;padding:14px 18px;margin:16px 0}"
+        "main{padding:8px 28px 40px 28px;max-width:1400px}section{background:#fff;border:1px solid "
+        "#dde2e8;border-radius:6px;padding:14px 18px;margin:16px 0}"
         "h2{font-size:18px;margin:0 0 10px 0;color:#1f3a5f}table{border-collapse:collapse;font-size:13px}"
-        "th,td{border-bottom:1px solid #e3e7ec;padding:3px 8px;text-align:right;white-space:nowrap}th{background:#eef1f5}"
-        "td.l,th.l{text-align:left}.ok{color:#1a7f37;font-weight:600}.bad{color:#b42318;font-weight:600}.na{color:#777}"
+        "th,td{border-bottom:1px solid #e3e7ec;padding:3px "
+        "8px;text-align:right;white-space:nowrap}th{background:#eef1f5}"
+        "td.l,th.l{text-align:left}.ok{color:#1a7f37;font-weight:600}.bad{color:#b42318;font-weight:600}.na{"
+        "color:#777}"
         ".note{font-size:12px;color:#555;max-width:1100px}.plot{width:100%;height:560px}"
         "@media print{section{break-inside:avoid}.plot{height:420px}}</style>\n<script>"
      << report::PlotlyJs() << "</script></head><body><header><h1>" << HtmlEscape(title) << "</h1><p>"
-     << HtmlEscape(subtitle) << "</p></header><main><div id=\"vlt-status\" data-errors=\"0\" data-plots=\"0\" style=\"display:none\">pending</div>\n"
+     << HtmlEscape(subtitle)
+     << "</p></header><main><div id=\"vlt-status\" data-errors=\"0\" data-plots=\"0\" "
+        "style=\"display:none\">pending</div>\n"
      << body << "</main><footer class=\"note\" style=\"padding:0 28px 20px\">vlt " << VLT_VERSION
-     << " — plotly.js " << report::PlotlyVersion() << " (MIT licence) is embedded in this page.</footer>\n<script>\n"
+     << " — plotly.js " << report::PlotlyVersion()
+     << " (MIT licence) is embedded in this page.</footer>\n<script>\n"
      << "(function(){var plots=0;function done(){plots++;var s=document.getElementById('vlt-status');"
-        "s.setAttribute('data-plots',String(plots));if(window.vltErrors.length===0)s.textContent='plots-ok';}\n"
+        "s.setAttribute('data-plots',String(plots));if(window.vltErrors.length===0)s.textContent='plots-ok';}"
+        "\n"
      << script << "\n})();\n</script></body></html>\n";
   return os.str();
 }

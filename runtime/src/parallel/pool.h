@@ -37,7 +37,8 @@ void ForEach(std::size_t count, int threads, const std::function<void(std::size_
 // ForEach over the chunks [c * chunk, min(n, (c + 1) * chunk)) of [0, n): body(c, begin, end).
 // Chunks are fixed by n and chunk alone, so results combined per chunk in chunk order do not depend
 // on the thread count.
-void ForEachChunk(std::size_t n, std::size_t chunk, int threads,
-                  const std::function<void(std::size_t chunk_index, std::size_t begin, std::size_t end)>& body);
+void ForEachChunk(
+    std::size_t n, std::size_t chunk, int threads,
+    const std::function<void(std::size_t chunk_index, std::size_t begin, std::size_t end)>& body);
 
 }  // namespace vlt::parallel

@@ -62,7 +62,8 @@ std::string PlanJson(const StationPlan& plan) {
   region["max_range"] = o.max_range;
   region["acceptance_angle"] = o.acceptance_angle > 0.0 ? json(o.acceptance_angle) : json(nullptr);
   json keep_out = json::array();
-  for (const KeepOutBox& b : o.keep_out) keep_out.push_back({{"name", b.name}, {"min", Position(b.min)}, {"max", Position(b.max)}});
+  for (const KeepOutBox& b : o.keep_out)
+    keep_out.push_back({{"name", b.name}, {"min", Position(b.min)}, {"max", Position(b.max)}});
   region["keep_out"] = keep_out;
   j["region"] = region;
   json terms = json::array();
@@ -82,7 +83,10 @@ std::string PlanJson(const StationPlan& plan) {
                  {"local", plan.local_algorithm},
                  {"nlopt_version", plan.nlopt_version},
                  {"seed", o.seed},
-                 {"evaluations", {{"global", plan.global_evaluations}, {"local", plan.local_evaluations}, {"map", plan.map_evaluations}}},
+                 {"evaluations",
+                  {{"global", plan.global_evaluations},
+                   {"local", plan.local_evaluations},
+                   {"map", plan.map_evaluations}}},
                  {"seconds", plan.seconds}};
   j["map"] = nlohmann::ordered_json::parse(MapJson(plan.map, -1));
   return j.dump(1);
@@ -140,7 +144,8 @@ std::string PlannedJob(const StationPlan& plan) {
     toml::node* n = t->get(key);
     if (!n || !n->is_string()) return;
     std::filesystem::path p(*n->value<std::string>());
-    if (p.is_relative()) t->insert_or_assign(key, std::filesystem::absolute(job.base_dir / p).lexically_normal().string());
+    if (p.is_relative())
+      t->insert_or_assign(key, std::filesystem::absolute(job.base_dir / p).lexically_normal().string());
   };
   absolute("plan", "csv");
   absolute("tracker", "calibration");
@@ -158,8 +163,10 @@ std::string PlannedJob(const StationPlan& plan) {
     }
   }
   std::ostringstream out;
-  out << "# Written by vlt " << VLT_VERSION << " plan from " << job.file << ": [station] tx, ty, tz at the recommended\n"
-      << "# station (objective " << plan.recommended.objective * kUm << " um); everything else as in that job.\n"
+  out << "# Written by vlt " << VLT_VERSION << " plan from " << job.file
+      << ": [station] tx, ty, tz at the recommended\n"
+      << "# station (objective " << plan.recommended.objective * kUm
+      << " um); everything else as in that job.\n"
       << "# Comments of the original are not kept.\n\n"
       << doc << "\n";
   return out.str();
@@ -178,11 +185,11 @@ std::vector<std::pair<std::string, std::string>> PlanFiles(const StationPlan& pl
 std::string PlanSummary(const StationPlan& plan) {
   std::ostringstream s;
   char line[512];
-  s << "Station plan for job '" << plan.job->name << "' (model " << (plan.job->setup.model ? plan.job->setup.model->name : "")
-    << "): " << plan.map.quantity << "\n";
+  s << "Station plan for job '" << plan.job->name << "' (model "
+    << (plan.job->setup.model ? plan.job->setup.model->name : "") << "): " << plan.map.quantity << "\n";
   auto show = [&](const char* label, const StationEvaluation& e) {
-    std::snprintf(line, sizeof line, "  %-14s x = %.6f m, y = %.6f m, z = %.6f m: ", label, e.station.x(), e.station.y(),
-                  e.station.z());
+    std::snprintf(line, sizeof line, "  %-14s x = %.6f m, y = %.6f m, z = %.6f m: ", label, e.station.x(),
+                  e.station.y(), e.station.z());
     s << line;
     if (e.feasible) {
       std::snprintf(line, sizeof line, "objective %.4g um", e.objective * kUm);
@@ -190,8 +197,8 @@ std::string PlanSummary(const StationPlan& plan) {
       if (e.terms.size() > 1) {
         s << " (";
         for (std::size_t i = 0; i < e.terms.size(); ++i) {
-          std::snprintf(line, sizeof line, "%s%s %.4g um", i ? ", " : "", plan.settings.objective[i].quantity.c_str(),
-                        e.terms[i] * kUm);
+          std::snprintf(line, sizeof line, "%s%s %.4g um", i ? ", " : "",
+                        plan.settings.objective[i].quantity.c_str(), e.terms[i] * kUm);
           s << line;
         }
         s << ")";
@@ -204,11 +211,12 @@ std::string PlanSummary(const StationPlan& plan) {
   show("recommended", plan.recommended);
   show("job's station", plan.job_station);
   std::snprintf(line, sizeof line,
-                "Searched %lld positions (%s, seed %llu) + %lld (%s) + %lld map nodes in %.2f s; %zu node(s) infeasible\n",
+                "Searched %lld positions (%s, seed %llu) + %lld (%s) + %lld map nodes in %.2f s; %zu node(s) "
+                "infeasible\n",
                 static_cast<long long>(plan.global_evaluations), plan.global_algorithm.c_str(),
-                static_cast<unsigned long long>(plan.settings.seed), static_cast<long long>(plan.local_evaluations),
-                plan.local_algorithm.c_str(), static_cast<long long>(plan.map_evaluations), plan.seconds,
-                plan.map.skipped.size());
+                static_cast<unsigned long long>(plan.settings.seed),
+                static_cast<long long>(plan.local_evaluations), plan.local_algorithm.c_str(),
+                static_cast<long long>(plan.map_evaluations), plan.seconds, plan.map.skipped.size());
   s << line;
   return s.str();
 }

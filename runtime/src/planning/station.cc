@@ -39,7 +39,8 @@ double DistanceToSegment(const Eigen::Vector2d& p, const Eigen::Vector2d& a, con
 // 0 inside the polygon, else the distance to it [m].
 double OutsidePolygon(const std::vector<Eigen::Vector2d>& poly, const Eigen::Vector2d& p) {
   double d = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) d = std::min(d, DistanceToSegment(p, poly[j], poly[i]));
+  for (std::size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++)
+    d = std::min(d, DistanceToSegment(p, poly[j], poly[i]));
   if (d < 1e-12 || InsidePolygon(poly, p)) return 0.0;
   return d;
 }
@@ -49,7 +50,8 @@ double OutsidePolygon(const std::vector<Eigen::Vector2d>& poly, const Eigen::Vec
 // as closed to it as the box; below a box (a crane beam) it may stand.
 double DepthInside(const KeepOutBox& box, const Eigen::Vector3d& p) {
   if (!(p.z() > box.min.z())) return 0.0;
-  const double depth = std::min((p.head<2>() - box.min.head<2>()).minCoeff(), (box.max.head<2>() - p.head<2>()).minCoeff());
+  const double depth =
+      std::min((p.head<2>() - box.min.head<2>()).minCoeff(), (box.max.head<2>() - p.head<2>()).minCoeff());
   return depth > 0.0 ? depth : 0.0;
 }
 
@@ -90,8 +92,9 @@ UncertainInput PoseInput(const char* name, const char* unit) {
 MeasurementSetup SetupAt(const Job& job, const Eigen::Vector3d& station) {
   MeasurementSetup setup = job.setup;
   if (!setup.pose) {
-    setup.pose = StationPose{PoseInput("pose.rx", "rad"), PoseInput("pose.ry", "rad"), PoseInput("pose.rz", "rad"),
-                             PoseInput("pose.tx", "m"),   PoseInput("pose.ty", "m"),   PoseInput("pose.tz", "m")};
+    setup.pose =
+        StationPose{PoseInput("pose.rx", "rad"), PoseInput("pose.ry", "rad"), PoseInput("pose.rz", "rad"),
+                    PoseInput("pose.tx", "m"),   PoseInput("pose.ty", "m"),   PoseInput("pose.tz", "m")};
   }
   setup.pose->tx.estimate = station.x();
   setup.pose->ty.estimate = station.y();
@@ -109,7 +112,8 @@ Eigen::Vector3d NormalOf(const OptimizeSettings& o, const std::string& point) {
 }  // namespace
 
 StationEvaluation EvaluateStation(const Job& job, const Eigen::Vector3d& station) {
-  if (!job.optimize) throw InputError(job.file + ": optimize: the job has no [optimize] section (docs/planning.md)");
+  if (!job.optimize)
+    throw InputError(job.file + ": optimize: the job has no [optimize] section (docs/planning.md)");
   const OptimizeSettings& o = *job.optimize;
   StationEvaluation e;
   e.station = station;
@@ -131,10 +135,13 @@ StationEvaluation EvaluateStation(const Job& job, const Eigen::Vector3d& station
   for (const JobPoint& p : job.points) {
     const Eigen::Vector3d d = station - p.nominal;
     const double range = d.norm();
-    if (range < o.min_range) fail("point '" + p.name + "': range " + Fmt("%.4g", range) + " m below min_range", o.min_range - range);
-    if (range > o.max_range) fail("point '" + p.name + "': range " + Fmt("%.4g", range) + " m above max_range", range - o.max_range);
+    if (range < o.min_range)
+      fail("point '" + p.name + "': range " + Fmt("%.4g", range) + " m below min_range", o.min_range - range);
+    if (range > o.max_range)
+      fail("point '" + p.name + "': range " + Fmt("%.4g", range) + " m above max_range", range - o.max_range);
     for (const KeepOutBox& box : o.keep_out) {
-      if (Blocks(box, station, p.nominal)) fail("point '" + p.name + "': line of sight blocked by " + box.name, 0.1);
+      if (Blocks(box, station, p.nominal))
+        fail("point '" + p.name + "': line of sight blocked by " + box.name, 0.1);
     }
     if (o.acceptance_angle > 0.0 && range > 0.0) {
       const Eigen::Vector3d n = NormalOf(o, p.name);
@@ -142,7 +149,8 @@ StationEvaluation EvaluateStation(const Job& job, const Eigen::Vector3d& station
         const double angle = std::acos(std::clamp(n.dot(d) / range, -1.0, 1.0));
         if (angle > o.acceptance_angle) {
           fail("point '" + p.name + "': incidence " + Fmt("%.1f", angle * 180.0 / std::acos(-1.0)) +
-                   " deg beyond the acceptance angle", angle - o.acceptance_angle);
+                   " deg beyond the acceptance angle",
+               angle - o.acceptance_angle);
         }
       }
     }
@@ -174,7 +182,8 @@ StationEvaluation EvaluateStation(const Job& job, const Eigen::Vector3d& station
   for (const ObjectiveTerm& t : o.objective) points_needed = points_needed || t.task < 0;
   double largest = 0.0;
   if (points_needed) {
-    for (const PointUncertainty& u : PropagatePoints(model, readings, gum)) largest = std::max(largest, u.U_part.norm());
+    for (const PointUncertainty& u : PropagatePoints(model, readings, gum))
+      largest = std::max(largest, u.U_part.norm());
   }
   std::vector<std::optional<TaskUncertainty>> tasks(job.tasks.size());
   for (std::size_t i = 0; i < o.objective.size(); ++i) {
@@ -200,7 +209,9 @@ StationEvaluation EvaluateStation(const Job& job, const Eigen::Vector3d& station
 namespace {
 
 // The search's view of a position: the objective, or kInfeasibleObjective + violation.
-double Score(const StationEvaluation& e) { return e.feasible ? e.objective : kInfeasibleObjective + e.violation; }
+double Score(const StationEvaluation& e) {
+  return e.feasible ? e.objective : kInfeasibleObjective + e.violation;
+}
 
 // Rounded to 1 um, the resolution the planned job is written with (planning/outputs.cc).
 Eigen::Vector3d RoundToMicrometre(const Eigen::Vector3d& v) {
@@ -317,8 +328,7 @@ void StationSearch::RefineLocally() {
   try {
     local.optimize(x, f);
   } catch (const nlopt::roundoff_limited&) {
-  } catch (const std::runtime_error&) {
-  }
+  } catch (const std::runtime_error&) {}
 }
 
 // The station map at the best height: the objective over the floor (infeasible nodes skipped).
@@ -333,8 +343,8 @@ std::vector<StationEvaluation> StationSearch::MapStations(int threads) {
   grid.step = o.step;
   char description[256];
   std::snprintf(description, sizeof description,
-                "station positions z = %.4g m, x %.4g .. %.4g m, y %.4g .. %.4g m, step %.4g m", height, lo.x(),
-                hi.x(), lo.y(), hi.y(), o.step);
+                "station positions z = %.4g m, x %.4g .. %.4g m, y %.4g .. %.4g m, step %.4g m", height,
+                lo.x(), hi.x(), lo.y(), hi.y(), o.step);
   grid.description = description;
   MapResult& map = plan.map;
   map.settings = grid;
@@ -354,7 +364,8 @@ std::vector<StationEvaluation> StationSearch::MapStations(int threads) {
 std::string StationSearch::ObjectiveText() const {
   std::string objective_text;
   for (const ObjectiveTerm& t : o.objective) {
-    objective_text += (objective_text.empty() ? "" : " + ") + (t.weight == 1.0 ? "" : Fmt("%g * ", t.weight)) +
+    objective_text += (objective_text.empty() ? "" : " + ") +
+                      (t.weight == 1.0 ? "" : Fmt("%g * ", t.weight)) +
                       (t.task < 0 ? std::string("max |U| of the points") : "U(" + t.quantity + ")");
   }
   return objective_text;
@@ -366,7 +377,8 @@ void StationSearch::KeepFeasibleNodes(const std::vector<StationEvaluation>& at) 
   map.computed.assign(n, 0);
   map.U.assign(n, Eigen::Vector3d::Zero());
   map.U_norm.assign(n, 0.0);
-  map.quantity = "Objective " + ObjectiveText() + " [m] with the station at each node (k = " + Fmt("%.4g", map.k) +
+  map.quantity = "Objective " + ObjectiveText() +
+                 " [m] with the station at each node (k = " + Fmt("%.4g", map.k) +
                  ", p = " + Fmt("%g", map.coverage_probability) + ")";
   for (std::size_t i = 0; i < n; ++i) {
     if (at[i].feasible) {
@@ -378,7 +390,8 @@ void StationSearch::KeepFeasibleNodes(const std::vector<StationEvaluation>& at) 
       }
     } else {
       char node[96];
-      std::snprintf(node, sizeof node, "%.6g,%.6g,%.6g m: ", map.nodes[i].x(), map.nodes[i].y(), map.nodes[i].z());
+      std::snprintf(node, sizeof node, "%.6g,%.6g,%.6g m: ", map.nodes[i].x(), map.nodes[i].y(),
+                    map.nodes[i].z());
       map.skipped.push_back(node + at[i].reason);
     }
   }
@@ -386,17 +399,19 @@ void StationSearch::KeepFeasibleNodes(const std::vector<StationEvaluation>& at) 
 
 void StationSearch::Recommend(std::size_t map_nodes) {
   if (!best.feasible) {
-    throw InputError(o.where + ": no feasible station in the region (" + std::to_string(plan.global_evaluations) +
-                     " positions searched and " + std::to_string(map_nodes) + " map nodes; e.g. " +
+    throw InputError(o.where + ": no feasible station in the region (" +
+                     std::to_string(plan.global_evaluations) + " positions searched and " +
+                     std::to_string(map_nodes) + " map nodes; e.g. " +
                      (best.reason.empty() ? std::string("none evaluated") : best.reason) + ")");
   }
   // The recommendation as it is written (1 um): evaluated there, so that `vlt run` on the planned
   // job reproduces its objective.
   plan.recommended = EvaluateStation(job, RoundToMicrometre(best.station));
   if (!plan.recommended.feasible) plan.recommended = best;  // rounding crossed a boundary
-  const Eigen::Vector3d own = job.setup.pose ? Eigen::Vector3d(job.setup.pose->tx.estimate, job.setup.pose->ty.estimate,
-                                                               job.setup.pose->tz.estimate)
-                                             : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d own = job.setup.pose
+                                  ? Eigen::Vector3d(job.setup.pose->tx.estimate, job.setup.pose->ty.estimate,
+                                                    job.setup.pose->tz.estimate)
+                                  : Eigen::Vector3d::Zero();
   plan.job_station = EvaluateStation(job, own);
   plan.map.markers.push_back({"recommended", plan.recommended.station});
   plan.map.markers.push_back({"job's station", own});
@@ -405,7 +420,8 @@ void StationSearch::Recommend(std::size_t map_nodes) {
 }  // namespace
 
 StationPlan PlanStation(const Job& job, int threads) {
-  if (!job.optimize) throw InputError(job.file + ": optimize: the job has no [optimize] section (docs/planning.md)");
+  if (!job.optimize)
+    throw InputError(job.file + ": optimize: the job has no [optimize] section (docs/planning.md)");
   const auto start = std::chrono::steady_clock::now();
   StationPlan plan;
   plan.job = &job;

@@ -12,8 +12,8 @@ namespace {
 
 using internal::Num;
 
-constexpr double kMm = 1e3;   // m -> mm
-constexpr double kUm = 1e6;   // m -> um
+constexpr double kMm = 1e3;  // m -> mm
+constexpr double kUm = 1e6;  // m -> um
 constexpr double kDeg = 180.0 / 3.14159265358979323846;
 
 std::string Csv(const std::string& field) { return internal::CsvField(field); }
@@ -144,34 +144,36 @@ std::pair<std::string, double> PracticalSensitivity(const std::string& input_uni
 }  // namespace internal
 
 void WriteBudgetCsv(const Results& r, OutputText& out) {
-  out.Write("point,rank,input,group,unit,estimate,u,sensitivity_x,sensitivity_y,sensitivity_z,"
-            "sensitivity_unit,sensitivity_practical_x,sensitivity_practical_y,sensitivity_practical_z,"
-            "sensitivity_practical_unit,contribution_x_um,contribution_y_um,contribution_z_um,"
-            "share_x,share_y,share_z,share_total\n");
-  internal::WritePointBudgets(r, out, [&](std::size_t first, std::span<const PointUncertainty> points,
-                                          std::string& text) {
-    for (std::size_t i = 0; i < points.size(); ++i) {
-      int rank = 0;
-      for (const BudgetRow& b : points[i].budget) {
-        Row row;
-        row << r.points[first + i].input.name << ++rank << b.input << b.group << b.input_unit << b.estimate << b.u;
-        for (int a = 0; a < 3; ++a) row << b.sensitivity[a];
-        row << b.sensitivity_unit;
-        if (b.group == "correlation") {
-          row.Empty().Empty().Empty().Empty();
-        } else {
-          const auto [unit, factor] = internal::PracticalSensitivity(b.input_unit);
-          for (int a = 0; a < 3; ++a) row << b.sensitivity[a] * factor;
-          row << unit;
+  out.Write(
+      "point,rank,input,group,unit,estimate,u,sensitivity_x,sensitivity_y,sensitivity_z,"
+      "sensitivity_unit,sensitivity_practical_x,sensitivity_practical_y,sensitivity_practical_z,"
+      "sensitivity_practical_unit,contribution_x_um,contribution_y_um,contribution_z_um,"
+      "share_x,share_y,share_z,share_total\n");
+  internal::WritePointBudgets(
+      r, out, [&](std::size_t first, std::span<const PointUncertainty> points, std::string& text) {
+        for (std::size_t i = 0; i < points.size(); ++i) {
+          int rank = 0;
+          for (const BudgetRow& b : points[i].budget) {
+            Row row;
+            row << r.points[first + i].input.name << ++rank << b.input << b.group << b.input_unit
+                << b.estimate << b.u;
+            for (int a = 0; a < 3; ++a) row << b.sensitivity[a];
+            row << b.sensitivity_unit;
+            if (b.group == "correlation") {
+              row.Empty().Empty().Empty().Empty();
+            } else {
+              const auto [unit, factor] = internal::PracticalSensitivity(b.input_unit);
+              for (int a = 0; a < 3; ++a) row << b.sensitivity[a] * factor;
+              row << unit;
+            }
+            for (int a = 0; a < 3; ++a) row << b.contribution[a] * kUm;
+            for (int a = 0; a < 3; ++a) row << b.share[a];
+            row << b.share_total;
+            text += row.line();
+            text += '\n';
+          }
         }
-        for (int a = 0; a < 3; ++a) row << b.contribution[a] * kUm;
-        for (int a = 0; a < 3; ++a) row << b.share[a];
-        row << b.share_total;
-        text += row.line();
-        text += '\n';
-      }
-    }
-  });
+      });
 }
 
 std::string PointsCsv(const Results& r) {
@@ -194,8 +196,8 @@ std::string TasksCsv(const Results& r) {
   for (const TaskResult& t : r.tasks) {
     for (std::size_t q = 0; q < t.gum.quantities.size(); ++q) {
       const bool length = IsLength(t.gum.units[q]);
-      const double vs = length ? kMm : 1.0;   // value scale
-      const double us = length ? kUm : 1.0;   // uncertainty scale
+      const double vs = length ? kMm : 1.0;  // value scale
+      const double us = length ? kUm : 1.0;  // uncertainty scale
       const Eigen::Index i = static_cast<Eigen::Index>(q);
       Row row;
       row << t.spec.name << std::string(TaskKindName(t.spec.kind)) << t.gum.quantities[q]
@@ -213,11 +215,23 @@ std::string TasksCsv(const Results& r) {
       const std::optional<ConformityDecision>* c = q < t.conformity.size() ? &t.conformity[q] : nullptr;
       const Tolerance* tol = t.spec.ToleranceOf(t.gum.quantities[q]);
       if (c != nullptr && c->has_value() && tol != nullptr) {
-        if (std::isinf(tol->lower)) row.Empty(); else row << tol->lower * vs;
-        if (std::isinf(tol->upper)) row.Empty(); else row << tol->upper * vs;
+        if (std::isinf(tol->lower))
+          row.Empty();
+        else
+          row << tol->lower * vs;
+        if (std::isinf(tol->upper))
+          row.Empty();
+        else
+          row << tol->upper * vs;
         row << (*c)->verdict;
-        if ((*c)->probability_gum) row << *(*c)->probability_gum; else row.Empty();
-        if ((*c)->probability_mcm) row << *(*c)->probability_mcm; else row.Empty();
+        if ((*c)->probability_gum)
+          row << *(*c)->probability_gum;
+        else
+          row.Empty();
+        if ((*c)->probability_mcm)
+          row << *(*c)->probability_mcm;
+        else
+          row.Empty();
       } else {
         row.Empty().Empty().Empty().Empty().Empty();
       }
@@ -240,7 +254,8 @@ std::string MapCsv(const MapResult& map) {
   for (std::size_t i = 0; i < map.nodes.size(); ++i) {
     Row row;
     row << map.nodes[i].x() << map.nodes[i].y() << map.nodes[i].z();
-    const std::size_t extra = (map.has_mcm ? 2 : 0) + (map.sources.empty() ? 0 : 1) + map.groups.size() + map.sources.size();
+    const std::size_t extra =
+        (map.has_mcm ? 2 : 0) + (map.sources.empty() ? 0 : 1) + map.groups.size() + map.sources.size();
     if (map.computed[i]) {
       row << map.U[i].x() * kUm << map.U[i].y() * kUm << map.U[i].z() * kUm << map.U_norm[i] * kUm << "ok";
       if (map.has_mcm) row << map.U_norm_mcm[i] * kUm << map.verdict[i];

@@ -56,8 +56,8 @@ void WriteInBlocks(OutputText& out, std::size_t n, int threads,
                    const std::function<void(std::size_t, std::size_t, std::string&)>& format);
 // WriteInBlocks over every point of `results` with the points' budgets (recomputed as in
 // ForEachPointBudget): format(first, budgets of points first.., text).
-void WritePointBudgets(const Results& results, OutputText& out,
-                       const std::function<void(std::size_t, std::span<const PointUncertainty>, std::string&)>& format);
-
+void WritePointBudgets(
+    const Results& results, OutputText& out,
+    const std::function<void(std::size_t, std::span<const PointUncertainty>, std::string&)>& format);
 
 }  // namespace vlt::internal

@@ -45,9 +45,10 @@ json Columns(const Eigen::Matrix3d& m) {
 std::string Shown(const std::string& typed, double si, const std::string& unit, bool is_u) {
   if (!typed.empty()) return typed;
   static const std::pair<const char*, Dimension> kDimensions[] = {
-      {"m", Dimension::kLength}, {"rad", Dimension::kAngle},  {"1", Dimension::kRatio},
+      {"m", Dimension::kLength},    {"rad", Dimension::kAngle},  {"1", Dimension::kRatio},
       {"Pa", Dimension::kPressure}, {"%", Dimension::kHumidity}, {"1/K", Dimension::kPerKelvin}};
-  if (unit == "degC") return FormatReadable(si, is_u ? Dimension::kTemperatureDifference : Dimension::kTemperature);
+  if (unit == "degC")
+    return FormatReadable(si, is_u ? Dimension::kTemperatureDifference : Dimension::kTemperature);
   for (const auto& [name, dimension] : kDimensions) {
     if (unit == name) return FormatReadable(si, dimension);
   }
@@ -57,8 +58,12 @@ std::string Shown(const std::string& typed, double si, const std::string& unit, 
 }
 
 json Input(const UncertainInput& in) {
-  return json{{"name", in.name},         {"group", in.group},   {"unit", in.unit},
-              {"estimate", in.estimate}, {"u", in.u},           {"distribution", in.distribution},
+  return json{{"name", in.name},
+              {"group", in.group},
+              {"unit", in.unit},
+              {"estimate", in.estimate},
+              {"u", in.u},
+              {"distribution", in.distribution},
               {"shape", in.shape},
               {"display_estimate", Shown(in.display_estimate, in.estimate, in.unit, false)},
               {"display_u", Shown(in.display_u, in.u, in.unit, true)}};
@@ -69,8 +74,10 @@ json Input(const UncertainInput& in) {
 std::string InputDescription(const MeasurementSetup& setup, const UncertainInput& in) {
   if (in.group == "parameter" && setup.model) {
     // setup.params[k] is the model's parameter k (under its own name when the job renamed it).
-    for (std::size_t k = 0; k < setup.params.size() && k < static_cast<std::size_t>(setup.model->num_params); ++k) {
-      if (setup.params[k].name == in.name || in.name == setup.model->params[k].name) return setup.model->params[k].description;
+    for (std::size_t k = 0; k < setup.params.size() && k < static_cast<std::size_t>(setup.model->num_params);
+         ++k) {
+      if (setup.params[k].name == in.name || in.name == setup.model->params[k].name)
+        return setup.model->params[k].description;
     }
   }
   static const std::pair<const char*, const char*> kMeaning[] = {
@@ -93,7 +100,9 @@ std::string InputDescription(const MeasurementSetup& setup, const UncertainInput
 }
 
 json Los(const LineOfSightSplit& s) {
-  return json{{"u_radial", s.u_radial}, {"u_horizontal", s.u_horizontal}, {"u_vertical", s.u_vertical},
+  return json{{"u_radial", s.u_radial},
+              {"u_horizontal", s.u_horizontal},
+              {"u_vertical", s.u_vertical},
               {"directions", Columns(s.directions)}};
 }
 
@@ -111,21 +120,29 @@ json McmOut(const McmOutputResult& m) {
                 {"s_low", m.accuracy.s_low},
                 {"s_high", m.accuracy.s_high},
                 {"delta", m.accuracy.delta}}},
-              {"histogram", m.histogram.counts.empty()
-                                ? json(nullptr)
-                                : json{{"low", m.histogram.low},
-                                       {"width", m.histogram.width},
-                                       {"counts", m.histogram.counts},
-                                       {"below", m.histogram.below},
-                                       {"above", m.histogram.above}}}};
+              {"histogram", m.histogram.counts.empty() ? json(nullptr)
+                                                       : json{{"low", m.histogram.low},
+                                                              {"width", m.histogram.width},
+                                                              {"counts", m.histogram.counts},
+                                                              {"below", m.histogram.below},
+                                                              {"above", m.histogram.above}}}};
 }
 
 json Scalar(const ScalarValidation& v) {
-  return json{{"name", v.name},       {"unit", v.unit},     {"gum_y", v.gum_y},
-              {"gum_u", v.gum_u},     {"gum_U", v.gum_expanded}, {"mcm_low", v.mcm_low},
-              {"mcm_high", v.mcm_high}, {"d_low", v.d_low}, {"d_high", v.d_high},
-              {"delta", v.delta},     {"mcm_tolerance", v.mcm_tolerance}, {"validated", v.validated},
-              {"outcome", v.outcome}, {"verdict", v.verdict}};
+  return json{{"name", v.name},
+              {"unit", v.unit},
+              {"gum_y", v.gum_y},
+              {"gum_u", v.gum_u},
+              {"gum_U", v.gum_expanded},
+              {"mcm_low", v.mcm_low},
+              {"mcm_high", v.mcm_high},
+              {"d_low", v.d_low},
+              {"d_high", v.d_high},
+              {"delta", v.delta},
+              {"mcm_tolerance", v.mcm_tolerance},
+              {"validated", v.validated},
+              {"outcome", v.outcome},
+              {"verdict", v.verdict}};
 }
 
 // The refractive index of the job's air (docs/results.md inputs.air): phase and group index at
@@ -155,27 +172,31 @@ json AirJson(const MeasurementSetup& s) {
   const AirEquation equation = EquationOf(e);
   const AirIndexReport r = AirIndexWithUncertainty(equation, AirAtEstimates(e), u);
   return json{{"equation", std::string(AirEquationName(equation))},
-              {"n_phase", r.n_phase}, {"u_n_phase", r.u_phase},
-              {"n_group", r.n_group}, {"u_n_group", r.u_group},
+              {"n_phase", r.n_phase},
+              {"u_n_phase", r.u_phase},
+              {"n_group", r.n_group},
+              {"u_n_group", r.u_group},
               {"range_correction_uses", "n_phase"}};
 }
 
 json Budget(const BudgetRow& b) {
-  return json{{"input", b.input},
-              {"group", b.group},
-              {"unit", b.input_unit},
-              {"estimate", b.estimate},
-              {"u", b.u},
-              {"sensitivity", Vec(b.sensitivity)},
-              {"sensitivity_unit", b.sensitivity_unit},
-              {"sensitivity_practical", b.group == "correlation" ? json(nullptr)
-                                        : Vec(b.sensitivity * internal::PracticalSensitivity(b.input_unit).second)},
-              {"sensitivity_practical_unit", b.group == "correlation" ? std::string()
-                                             : internal::PracticalSensitivity(b.input_unit).first},
-              {"contribution", Vec(b.contribution)},
-              {"variance", Vec(b.variance)},
-              {"share", Vec(b.share)},
-              {"share_total", b.share_total}};
+  return json{
+      {"input", b.input},
+      {"group", b.group},
+      {"unit", b.input_unit},
+      {"estimate", b.estimate},
+      {"u", b.u},
+      {"sensitivity", Vec(b.sensitivity)},
+      {"sensitivity_unit", b.sensitivity_unit},
+      {"sensitivity_practical",
+       b.group == "correlation" ? json(nullptr)
+                                : Vec(b.sensitivity * internal::PracticalSensitivity(b.input_unit).second)},
+      {"sensitivity_practical_unit",
+       b.group == "correlation" ? std::string() : internal::PracticalSensitivity(b.input_unit).first},
+      {"contribution", Vec(b.contribution)},
+      {"variance", Vec(b.variance)},
+      {"share", Vec(b.share)},
+      {"share_total", b.share_total}};
 }
 
 // One point's detail: a line of points.jsonl (budget == nullptr: the rows are in budget.csv) or an
@@ -258,8 +279,11 @@ json Task(const TaskResult& t) {
   j["points"] = t.spec.all_points ? json("all") : json(t.spec.points);
   j["quantities"] = t.gum.quantities;
   j["units"] = t.gum.units;
-  j["gum"] = {{"value", Vec(t.gum.value)}, {"covariance", Mat(t.gum.covariance)}, {"u", Vec(t.gum.u)},
-              {"k", t.gum.k},              {"U", Vec(t.gum.U)}};
+  j["gum"] = {{"value", Vec(t.gum.value)},
+              {"covariance", Mat(t.gum.covariance)},
+              {"u", Vec(t.gum.u)},
+              {"k", t.gum.k},
+              {"U", Vec(t.gum.U)}};
   json groups = json::array();
   for (const TaskGroupContribution& g : t.gum.budget) {
     groups.push_back({{"group", g.group}, {"variance", Vec(g.variance)}, {"share", Vec(g.share)}});
@@ -272,8 +296,9 @@ json Task(const TaskResult& t) {
                       {"variance", Vec(t.gum.shared_input_variance.col(static_cast<Eigen::Index>(s)))}});
   }
   if (t.gum.shared_input_variance.cols() == static_cast<Eigen::Index>(t.gum.shared_input_names.size()) + 1) {
-    inputs.push_back({{"input", "correlations"},
-                      {"variance", Vec(t.gum.shared_input_variance.col(t.gum.shared_input_variance.cols() - 1))}});
+    inputs.push_back(
+        {{"input", "correlations"},
+         {"variance", Vec(t.gum.shared_input_variance.col(t.gum.shared_input_variance.cols() - 1))}});
   }
   j["budget_by_shared_input"] = inputs;
   if (t.has_mcm) {
@@ -293,15 +318,17 @@ json Task(const TaskResult& t) {
     const ConformityDecision& d = *t.conformity[q];
     const Tolerance tol = *t.spec.ToleranceOf(t.gum.quantities[q]);
     auto limit = [](double v) { return std::isinf(v) ? json(nullptr) : json(v); };
-    conformity.push_back({{"quantity", t.gum.quantities[q]},
-                          {"tolerance", {limit(tol.lower), limit(tol.upper)}},
-                          {"decision_rule", d.probability_gum ? "ISO 14253-1:2017 guard band w = U"
-                                            : d.probability_mcm ? "Monte Carlo shortest coverage interval inside the tolerance (no GUM value)"
-                                                                : "none: no GUM value and no Monte Carlo"},
-                          {"verdict", d.verdict},
-                          {"guard_band", d.guard_band},
-                          {"probability_gum", d.probability_gum ? json(*d.probability_gum) : json(nullptr)},
-                          {"probability_mcm", d.probability_mcm ? json(*d.probability_mcm) : json(nullptr)}});
+    conformity.push_back(
+        {{"quantity", t.gum.quantities[q]},
+         {"tolerance", {limit(tol.lower), limit(tol.upper)}},
+         {"decision_rule", d.probability_gum ? "ISO 14253-1:2017 guard band w = U"
+                           : d.probability_mcm
+                               ? "Monte Carlo shortest coverage interval inside the tolerance (no GUM value)"
+                               : "none: no GUM value and no Monte Carlo"},
+         {"verdict", d.verdict},
+         {"guard_band", d.guard_band},
+         {"probability_gum", d.probability_gum ? json(*d.probability_gum) : json(nullptr)},
+         {"probability_mcm", d.probability_mcm ? json(*d.probability_mcm) : json(nullptr)}});
   }
   j["conformity"] = conformity;
   return j;
@@ -312,8 +339,9 @@ json Map(const MapResult& m) {
   j["kind"] = m.settings.kind == MapSettings::Kind::kPlane ? "plane" : "box";
   j["description"] = m.settings.description;
   j["quantity"] = m.quantity;
-  j["fixed_axis"] = m.settings.kind == MapSettings::Kind::kPlane ? json(std::string(1, "xyz"[m.settings.fixed_axis]))
-                                                                 : json(nullptr);
+  j["fixed_axis"] = m.settings.kind == MapSettings::Kind::kPlane
+                        ? json(std::string(1, "xyz"[m.settings.fixed_axis]))
+                        : json(nullptr);
   j["min"] = Vec(m.settings.min);
   j["max"] = Vec(m.settings.max);
   j["step"] = m.settings.step;
@@ -354,13 +382,15 @@ json Map(const MapResult& m) {
   json groups = json::array(), sources = json::array();
   if (layers) {
     for (const MapResult::Layer& g : m.groups) groups.push_back({{"name", g.name}, {"U", values(g.U)}});
-    for (const MapResult::Layer& l : m.sources) sources.push_back({{"name", l.name}, {"group", l.group}, {"U", values(l.U)}});
+    for (const MapResult::Layer& l : m.sources)
+      sources.push_back({{"name", l.name}, {"group", l.group}, {"U", values(l.U)}});
   }
   j["groups"] = groups;
   j["sources"] = sources;
   json dominant = json::array();
   if (layers && !m.sources.empty()) {
-    for (std::size_t i = 0; i < m.nodes.size(); ++i) dominant.push_back(m.computed[i] ? json(m.dominant[i]) : json(nullptr));
+    for (std::size_t i = 0; i < m.nodes.size(); ++i)
+      dominant.push_back(m.computed[i] ? json(m.dominant[i]) : json(nullptr));
   }
   j["dominant"] = dominant;
   if (m.has_mcm) {
@@ -369,7 +399,8 @@ json Map(const MapResult& m) {
     mc["seed"] = m.mcm_seed;
     mc["U_norm"] = values(m.U_norm_mcm);
     json verdict = json::array();
-    for (std::size_t i = 0; i < m.nodes.size(); ++i) verdict.push_back(m.computed[i] ? json(m.verdict[i]) : json(nullptr));
+    for (std::size_t i = 0; i < m.nodes.size(); ++i)
+      verdict.push_back(m.computed[i] ? json(m.verdict[i]) : json(nullptr));
     mc["verdict"] = verdict;
     j["monte_carlo"] = mc;
   } else {
@@ -377,26 +408,23 @@ json Map(const MapResult& m) {
   }
   json markers = json::array();
   for (const MapResult::Marker& k : m.markers) {
-    markers.push_back({{"name", k.name}, {"position", Vec(k.position)}, {"kind", k.point ? "point" : "station"}});
+    markers.push_back(
+        {{"name", k.name}, {"position", Vec(k.position)}, {"kind", k.point ? "point" : "station"}});
   }
   j["markers"] = markers;
   return j;
 }
 
 json JobJson(const Results& r) {
-  json job = {{"name", r.job_name},
-              {"description", r.job_description},
-              {"file", r.job_file},
-              {"mode", r.mode == JobMode::kPlan ? "plan" : "readings"},
-              {"model", r.model_name},
-              {"coverage_probability", r.coverage_probability},
-              {"k_axis", r.k_axis},
-              {"k_region", r.k_region},
-              {"n_dig", r.n_dig},
-              {"points", r.points.size()},
+  json job = {{"name", r.job_name},     {"description", r.job_description},
+              {"file", r.job_file},     {"mode", r.mode == JobMode::kPlan ? "plan" : "readings"},
+              {"model", r.model_name},  {"coverage_probability", r.coverage_probability},
+              {"k_axis", r.k_axis},     {"k_region", r.k_region},
+              {"n_dig", r.n_dig},       {"points", r.points.size()},
               {"tasks", r.tasks.size()}};
   json files = json::array();
-  for (const InputFile& f : r.input_files) files.push_back({{"role", f.role}, {"path", f.path}, {"sha256", f.sha256}});
+  for (const InputFile& f : r.input_files)
+    files.push_back({{"role", f.role}, {"path", f.path}, {"sha256", f.sha256}});
   job["input_files"] = files;
   // Where the tracker's error parameters came from (docs/calibration.md): null = the model's
   // defaults and the job's [tracker.parameters].
@@ -447,10 +475,9 @@ json MonteCarloJson(const Results& r) {
           {"seconds", r.mcm.seconds},
           {"interval_method", r.mcm.interval_method},
           {"n_dig", r.n_dig},
-          {"convergence", r.mcm.convergence_trials.empty()
-                              ? json(nullptr)
-                              : json{{"trials", r.mcm.convergence_trials},
-                                     {"worst_ratio", r.mcm.convergence_ratio}}}};
+          {"convergence", r.mcm.convergence_trials.empty() ? json(nullptr)
+                                                           : json{{"trials", r.mcm.convergence_trials},
+                                                                  {"worst_ratio", r.mcm.convergence_ratio}}}};
 }
 
 // The points of a scan that report.html shows in full: the kReportDetailedPoints with the largest
@@ -476,7 +503,8 @@ std::vector<std::size_t> PointsShown(const Results& r, bool for_html, json& j) {
     // full (table, budgets, ellipsoids), an overview of at most kReportOverviewPoints points
     // (every s-th, in job order) for the 3-D plot; every point stays in points.csv / budget.csv.
     point_indices = LargestPoints(r);
-    const std::size_t stride = (r.points.size() + internal::kReportOverviewPoints - 1) / internal::kReportOverviewPoints;
+    const std::size_t stride =
+        (r.points.size() + internal::kReportOverviewPoints - 1) / internal::kReportOverviewPoints;
     json ox = json::array(), oy = json::array(), oz = json::array(), ou = json::array();
     for (std::size_t i = 0; i < r.points.size(); i += stride) {
       const PointUncertainty& g = r.points[i].gum;
@@ -523,9 +551,8 @@ std::string WithPoints(const Results& r, const json& j, int indent,
                        const std::vector<std::size_t>& point_indices) {
   // The points' budgets are not held in Results: recomputed for the points drawn.
   std::vector<std::vector<BudgetRow>> budgets(point_indices.size());
-  internal::ForEachPointBudget(r, point_indices, [&](std::size_t n, const PointUncertainty& g) {
-    budgets[n] = g.budget;
-  });
+  internal::ForEachPointBudget(r, point_indices,
+                               [&](std::size_t n, const PointUncertainty& g) { budgets[n] = g.budget; });
   const std::string outer = j.dump(indent, ' ', false, json::error_handler_t::replace);
   const std::string quoted = std::string("\"") + kPointsPlaceholder + "\"";
   const std::size_t at = outer.find(quoted);
@@ -569,9 +596,8 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
   j["vlt_version"] = r.vlt_version;
   j["vlt_commit"] = r.vlt_commit;
   j["created"] = r.created;
-  j["units"] = {{"length", "m"},          {"angle", "rad"},          {"temperature", "degC"},
-                {"pressure", "Pa"},       {"humidity", "%"},         {"ratio", "1"},
-                {"expansion_coefficient", "1/K"}, {"time", "s"}};
+  j["units"] = {{"length", "m"},   {"angle", "rad"}, {"temperature", "degC"},          {"pressure", "Pa"},
+                {"humidity", "%"}, {"ratio", "1"},   {"expansion_coefficient", "1/K"}, {"time", "s"}};
   j["job"] = JobJson(r);
   j["inputs"] = InputsJson(r);
   j["monte_carlo"] = MonteCarloJson(r);
@@ -596,12 +622,13 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
 std::string ResultsJson(const Results& r, int indent) { return internal::ResultsJsonText(r, indent, false); }
 
 void WritePointsJsonl(const Results& r, OutputText& out) {
-  internal::WriteInBlocks(out, r.points.size(), r.threads, [&](std::size_t begin, std::size_t end, std::string& text) {
-    for (std::size_t i = begin; i < end; ++i) {
-      text += Point(r, r.points[i], nullptr).dump(-1, ' ', false, json::error_handler_t::replace);
-      text += '\n';
-    }
-  });
+  internal::WriteInBlocks(
+      out, r.points.size(), r.threads, [&](std::size_t begin, std::size_t end, std::string& text) {
+        for (std::size_t i = begin; i < end; ++i) {
+          text += Point(r, r.points[i], nullptr).dump(-1, ' ', false, json::error_handler_t::replace);
+          text += '\n';
+        }
+      });
 }
 
 std::string PointsJsonl(const Results& r) {

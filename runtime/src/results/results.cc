@@ -68,8 +68,8 @@ std::vector<PointReadings> JobReadings(const Job& job, const MeasurementModel& m
   return readings;
 }
 
-MapResult ComputeMap(const MeasurementModel& model, const MapSettings& settings,
-                     double coverage_probability, int threads) {
+MapResult ComputeMap(const MeasurementModel& model, const MapSettings& settings, double coverage_probability,
+                     int threads) {
   MapResult map;
   map.settings = settings;
   map.coverage_probability = coverage_probability;
@@ -102,7 +102,8 @@ MapResult ComputeMap(const MeasurementModel& model, const MapSettings& settings,
     }
     map.skipped.push_back(internal::FormatNode(node) + ": " + reason);
   }
-  std::vector<Eigen::Vector3d> field = ExpandedUncertaintyField(model, readings, coverage_probability, threads);
+  std::vector<Eigen::Vector3d> field =
+      ExpandedUncertaintyField(model, readings, coverage_probability, threads);
   for (std::size_t j = 0; j < index.size(); ++j) {
     std::size_t i = index[j];
     map.computed[i] = 1;
@@ -114,11 +115,13 @@ MapResult ComputeMap(const MeasurementModel& model, const MapSettings& settings,
   }
   // Per source and per group: the columns of [J_r U_r^1/2 | J_s F] (vlt/gum.h), in quadrature.
   const std::vector<UncertaintySource> sources = UncertaintySources(model);
-  const Eigen::MatrixXd by_source = ExpandedUncertaintyBySource(model, readings, coverage_probability, threads);
+  const Eigen::MatrixXd by_source =
+      ExpandedUncertaintyBySource(model, readings, coverage_probability, threads);
   std::vector<double> group_sq;
   for (const UncertaintySource& s : sources) {
     map.sources.push_back({s.name, s.group, std::vector<double>(n, 0.0)});
-    if (std::none_of(map.groups.begin(), map.groups.end(), [&](const MapResult::Layer& g) { return g.name == s.group; })) {
+    if (std::none_of(map.groups.begin(), map.groups.end(),
+                     [&](const MapResult::Layer& g) { return g.name == s.group; })) {
       map.groups.push_back({s.group, s.group, std::vector<double>(n, 0.0)});
     }
   }
@@ -257,13 +260,16 @@ std::uint64_t EstimateJobMemory(const Job& job, const RunOptions& options) {
   const auto n = static_cast<std::uint64_t>(job.points.size());
   std::uint64_t bytes = kJobBaseBytes + n * (kBytesPerPoint + (3 + shared) * kBytesPerPointInput);
   if (options.monte_carlo && job.monte_carlo.enabled) {
-    const std::int64_t trials = options.trials.value_or(job.monte_carlo.adaptive ? 0 : job.monte_carlo.trials);
+    const std::int64_t trials =
+        options.trials.value_or(job.monte_carlo.adaptive ? 0 : job.monte_carlo.trials);
     std::uint64_t outputs = 3 * n;
     for (const TaskSpec& t : job.tasks) outputs += TaskOutputs(t.kind).size();
     const McmSettings defaults;
-    const std::uint64_t batch = trials > 0 ? std::min<std::uint64_t>(10000, static_cast<std::uint64_t>(trials)) : 10000;
+    const std::uint64_t batch =
+        trials > 0 ? std::min<std::uint64_t>(10000, static_cast<std::uint64_t>(trials)) : 10000;
     const std::uint64_t stored =
-        trials > 0 ? std::min<std::uint64_t>(defaults.memory_budget_bytes, 4 * outputs * static_cast<std::uint64_t>(trials))
+        trials > 0 ? std::min<std::uint64_t>(defaults.memory_budget_bytes,
+                                             4 * outputs * static_cast<std::uint64_t>(trials))
                    : defaults.memory_budget_bytes;
     bytes += n * kBytesPerPointMcm + 4 * outputs * batch + stored;
   }
@@ -295,14 +301,16 @@ void CheckJobMemory(const Job& job, std::uint64_t available_bytes, const RunOpti
   if (need <= available_bytes) return;
   const double gib = 1024.0 * 1024.0 * 1024.0;
   const std::uint64_t per_point = job.points.empty() ? 1 : (need - kJobBaseBytes) / job.points.size();
-  const std::uint64_t fits = available_bytes > kJobBaseBytes ? (available_bytes - kJobBaseBytes) / per_point : 0;
+  const std::uint64_t fits =
+      available_bytes > kJobBaseBytes ? (available_bytes - kJobBaseBytes) / per_point : 0;
   char text[512];
-  std::snprintf(text, sizeof text,
-                ": this job needs about %.1f GiB of memory (%zu points x %.1f kB%s) and %.1f GiB are available; "
-                "split it into jobs of at most %llu points",
-                static_cast<double>(need) / gib, job.points.size(), static_cast<double>(per_point) / 1024.0,
-                options.monte_carlo && job.monte_carlo.enabled ? ", with the Monte Carlo values of every output" : "",
-                static_cast<double>(available_bytes) / gib, static_cast<unsigned long long>(fits));
+  std::snprintf(
+      text, sizeof text,
+      ": this job needs about %.1f GiB of memory (%zu points x %.1f kB%s) and %.1f GiB are available; "
+      "split it into jobs of at most %llu points",
+      static_cast<double>(need) / gib, job.points.size(), static_cast<double>(per_point) / 1024.0,
+      options.monte_carlo && job.monte_carlo.enabled ? ", with the Monte Carlo values of every output" : "",
+      static_cast<double>(available_bytes) / gib, static_cast<unsigned long long>(fits));
   throw InputError(job.file + (job.mode == JobMode::kPlan ? ": plan" : ": readings") + text);
 }
 
@@ -310,7 +318,8 @@ namespace {
 
 // The budgets of points [begin, end) of `indices` (all points when empty), computed on one thread.
 std::vector<PointUncertainty> BudgetsOf(const Results& r, const MeasurementModel& model,
-                                        std::span<const std::size_t> indices, std::size_t begin, std::size_t end) {
+                                        std::span<const std::size_t> indices, std::size_t begin,
+                                        std::size_t end) {
   std::vector<PointReadings> chunk(end - begin);
   for (std::size_t i = begin; i < end; ++i) {
     const PointUncertainty& g = r.points[indices.empty() ? i : indices[i]].gum;
@@ -408,7 +417,8 @@ void PropagateJobPoints(const Job& job, const MeasurementModel& model,
   results.points.resize(job.points.size());
   constexpr std::size_t kGumBlock = 65536;
   for (std::size_t begin = 0; begin < readings.size(); begin += kGumBlock) {
-    const std::span<const PointReadings> block(readings.data() + begin, std::min(kGumBlock, readings.size() - begin));
+    const std::span<const PointReadings> block(readings.data() + begin,
+                                               std::min(kGumBlock, readings.size() - begin));
     std::vector<PointUncertainty> gum_points = PropagatePoints(model, block, gum_options);
     // Where the linearisation is not reliable, said without Monte Carlo (JCGM 100 5.1.2 note).
     CheckSecondOrder(model, block, gum_points, kSecondOrderThreshold, gum_options.threads);
@@ -473,8 +483,8 @@ void ValidatePointResult(const McmResult& mcm, std::size_t i, Results& results) 
   for (int a = 0; a < 3; ++a) {
     m->axes[a] = mcm.outputs[3 * i + a];
     m->axis_validation[a] = ValidateScalar(m->axes[a].name, "m", pr.gum.part[a], pr.gum.u_part[a],
-                                           pr.gum.U_part[a], m->axes[a].symmetric, results.n_dig,
-                                           mcm.trials, m->axes[a].u, results.coverage_probability);
+                                           pr.gum.U_part[a], m->axes[a].symmetric, results.n_dig, mcm.trials,
+                                           m->axes[a].u, results.coverage_probability);
     outcomes.push_back(m->axis_validation[a].outcome);
   }
   try {
@@ -512,10 +522,9 @@ void ValidateTaskResult(const McmResult& mcm, const McmTask& mt, std::size_t off
     }
     task.mcm.push_back(mcm.outputs[offset + j]);
     const bool differentiable = q >= task.gum.differentiable.size() || task.gum.differentiable[q];
-    task.validation.push_back(ValidateScalar(wanted, task.gum.units[q], task.gum.value[q], task.gum.u[q],
-                                             task.gum.U[q], task.mcm.back().symmetric, results.n_dig,
-                                             mcm.trials, task.mcm.back().u, results.coverage_probability,
-                                             differentiable));
+    task.validation.push_back(ValidateScalar(
+        wanted, task.gum.units[q], task.gum.value[q], task.gum.u[q], task.gum.U[q], task.mcm.back().symmetric,
+        results.n_dig, mcm.trials, task.mcm.back().u, results.coverage_probability, differentiable));
     outcomes.push_back(task.validation.back().outcome);
   }
   task.outcome = CombinedOutcome(outcomes);

@@ -39,7 +39,8 @@ McmTask MakeMcmTask(const TaskSpec& spec, const std::vector<int>& point_indices,
   const TaskKind kind = spec.kind;
   const std::string where = "task '" + spec.name + "' (Monte Carlo trial)";
   const std::size_t n_out = outputs.size();
-  task.evaluate = [kind, options, where, n_out](std::span<const Eigen::Vector3d> points, std::span<double> out) {
+  task.evaluate = [kind, options, where, n_out](std::span<const Eigen::Vector3d> points,
+                                                std::span<double> out) {
     Eigen::Matrix3Xd m(3, static_cast<Eigen::Index>(points.size()));
     for (std::size_t i = 0; i < points.size(); ++i) m.col(static_cast<Eigen::Index>(i)) = points[i];
     FitResult fit = FitTask(kind, m, options, where);

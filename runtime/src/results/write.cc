@@ -49,9 +49,9 @@ namespace {
 
 void RunHeaderLines(const Results& r, std::ostringstream& out) {
   char line[512];
-  out << "vlt " << r.vlt_version << " — job '" << r.job_name << "' (" << r.job_file << "), model " << r.model_name
-      << ", " << (r.mode == JobMode::kPlan ? "offline plan" : "online readings") << ", " << r.points.size()
-      << " points, " << r.tasks.size() << " tasks\n";
+  out << "vlt " << r.vlt_version << " — job '" << r.job_name << "' (" << r.job_file << "), model "
+      << r.model_name << ", " << (r.mode == JobMode::kPlan ? "offline plan" : "online readings") << ", "
+      << r.points.size() << " points, " << r.tasks.size() << " tasks\n";
   if (r.calibration) {
     out << "Tracker parameters from the calibration file " << r.calibration->file << " (instrument '"
         << r.calibration->instrument << "', calibrated " << r.calibration->created << ")\n";
@@ -70,7 +70,8 @@ std::string PointVerdict(const PointResult& p) {
   if (!g.gum_reliable) {
     // JCGM 100 5.1.2 note, computed without Monte Carlo: said with --no-mcm too.
     char flag[96];
-    std::snprintf(flag, sizeof flag, "GUM NOT RELIABLE (2nd order %.3g x u^2); ", g.second_order_ratio.maxCoeff());
+    std::snprintf(flag, sizeof flag, "GUM NOT RELIABLE (2nd order %.3g x u^2); ",
+                  g.second_order_ratio.maxCoeff());
     verdict = flag + verdict;
   }
   return verdict;
@@ -84,8 +85,9 @@ void PointTable(const Results& r, std::ostringstream& out) {
   for (std::size_t i = 0; i < r.points.size() && i < max_rows; ++i) {
     name_width = std::max(name_width, static_cast<int>(r.points[i].input.name.size()));
   }
-  out << FormatLine("%-*s %9s %10s %10s %10s %8s %8s %8s %8s %8s  %s\n", name_width, "point", "range[m]", "x[mm]",
-                    "y[mm]", "z[mm]", "Ux[um]", "Uy[um]", "Uz[um]", "|U|[um]", "a1[um]", "GUM vs MCM");
+  out << FormatLine("%-*s %9s %10s %10s %10s %8s %8s %8s %8s %8s  %s\n", name_width, "point", "range[m]",
+                    "x[mm]", "y[mm]", "z[mm]", "Ux[um]", "Uy[um]", "Uz[um]", "|U|[um]", "a1[um]",
+                    "GUM vs MCM");
   for (std::size_t i = 0; i < r.points.size(); ++i) {
     if (i == max_rows) {
       out << "... " << (r.points.size() - max_rows) << " more points in points.csv\n";
@@ -95,9 +97,9 @@ void PointTable(const Results& r, std::ostringstream& out) {
     const PointUncertainty& g = p.gum;
     const std::string verdict = PointVerdict(p);
     out << FormatLine("%-*s %9.3f %10.3f %10.3f %10.3f %8.1f %8.1f %8.1f %8.1f %8.1f  %s\n", name_width,
-                  p.input.name.c_str(), g.readings[0], g.part.x() * 1e3, g.part.y() * 1e3, g.part.z() * 1e3,
-                  g.U_part.x() * 1e6, g.U_part.y() * 1e6, g.U_part.z() * 1e6, g.U_part.norm() * 1e6,
-                  g.ellipsoid.semi_axes[0] * 1e6, verdict.c_str());
+                      p.input.name.c_str(), g.readings[0], g.part.x() * 1e3, g.part.y() * 1e3,
+                      g.part.z() * 1e3, g.U_part.x() * 1e6, g.U_part.y() * 1e6, g.U_part.z() * 1e6,
+                      g.U_part.norm() * 1e6, g.ellipsoid.semi_axes[0] * 1e6, verdict.c_str());
   }
 }
 
@@ -133,12 +135,13 @@ std::string TaskRow(const TaskResult& t, std::size_t q) {
                   (t.mcm[q].symmetric.high - t.gum.value[i]) * us, length ? " um" : "");
     interval = buffer;
     const std::string& outcome = t.validation[q].outcome;
-    verdict = outcome == "not validated" ? "NOT validated"
-              : outcome == "not applicable" ? "GUM n/a (not differentiable): MCM interval" : outcome;
+    verdict = outcome == "not validated"    ? "NOT validated"
+              : outcome == "not applicable" ? "GUM n/a (not differentiable): MCM interval"
+                                            : outcome;
   }
   std::snprintf(line, sizeof line, "%-18s %-9s %-13s %16s %11s %24s  %s\n", t.spec.name.c_str(),
-                std::string(TaskKindName(t.spec.kind)).c_str(), quantity.c_str(), value.c_str(), big_u.c_str(),
-                interval.c_str(), verdict.c_str());
+                std::string(TaskKindName(t.spec.kind)).c_str(), quantity.c_str(), value.c_str(),
+                big_u.c_str(), interval.c_str(), verdict.c_str());
   return line;
 }
 
@@ -146,8 +149,8 @@ void TaskTable(const Results& r, std::ostringstream& out) {
   if (r.tasks.empty()) return;
   char line[512];
   out << "\n";
-  std::snprintf(line, sizeof line, "%-18s %-9s %-13s %16s %11s %24s  %s\n", "task", "kind", "quantity", "value",
-                "U (GUM)", "MCM interval - value", "GUM vs MCM");
+  std::snprintf(line, sizeof line, "%-18s %-9s %-13s %16s %11s %24s  %s\n", "task", "kind", "quantity",
+                "value", "U (GUM)", "MCM interval - value", "GUM vs MCM");
   out << line;
   for (const TaskResult& t : r.tasks) {
     for (std::size_t q = 0; q < t.gum.quantities.size(); ++q) {
@@ -181,7 +184,8 @@ void ConformityLines(const Results& r, std::ostringstream& out) {
         out << line;
       }
       if (d.probability_mcm) {
-        std::snprintf(line, sizeof line, "%s %.4g Monte Carlo", d.probability_gum ? "," : "", *d.probability_mcm);
+        std::snprintf(line, sizeof line, "%s %.4g Monte Carlo", d.probability_gum ? "," : "",
+                      *d.probability_mcm);
         out << line;
       }
       out << ")\n";
@@ -215,16 +219,18 @@ void MonteCarloLines(const Results& r, std::ostringstream& out) {
       }
     }
   }
-  std::snprintf(line, sizeof line,
-                "Monte Carlo: %lld trials%s, seed %llu, %d thread(s), %.1f s. GUM validated by MCM (JCGM 101 8): "
-                "%d/%zu points, %zu/%zu task quantities.\n",
-                static_cast<long long>(r.mcm.trials), r.mcm.adaptive ? (r.mcm.converged ? " (adaptive, converged)" : " (adaptive, NOT converged)") : "",
-                static_cast<unsigned long long>(r.mcm.seed), r.mcm.threads, r.mcm.seconds, r.validated_points,
-                r.points.size(), validated, quantities);
+  std::snprintf(
+      line, sizeof line,
+      "Monte Carlo: %lld trials%s, seed %llu, %d thread(s), %.1f s. GUM validated by MCM (JCGM 101 8): "
+      "%d/%zu points, %zu/%zu task quantities.\n",
+      static_cast<long long>(r.mcm.trials),
+      r.mcm.adaptive ? (r.mcm.converged ? " (adaptive, converged)" : " (adaptive, NOT converged)") : "",
+      static_cast<unsigned long long>(r.mcm.seed), r.mcm.threads, r.mcm.seconds, r.validated_points,
+      r.points.size(), validated, quantities);
   out << line;
   if (r.inconclusive_points > 0 || inconclusive > 0) {
-    out << "Inconclusive (Monte Carlo tolerance larger than delta; more trials or --adaptive): " << r.inconclusive_points
-        << " points, " << inconclusive << " task quantities.\n";
+    out << "Inconclusive (Monte Carlo tolerance larger than delta; more trials or --adaptive): "
+        << r.inconclusive_points << " points, " << inconclusive << " task quantities.\n";
   }
   if (!failed.empty()) out << "Not validated: " << failed << " (tasks.csv, report.html).\n";
 }
@@ -237,7 +243,8 @@ void MapLine(const MapResult& map, std::ostringstream& out) {
     max_u = std::max(max_u, map.U_norm[i]);
     min_u = std::min(min_u, map.U_norm[i]);
   }
-  std::snprintf(line, sizeof line, "Map: %s: |U| %.1f .. %.1f um over %zu nodes (%zu skipped near the vertical axis).\n",
+  std::snprintf(line, sizeof line,
+                "Map: %s: |U| %.1f .. %.1f um over %zu nodes (%zu skipped near the vertical axis).\n",
                 map.settings.description.c_str(), min_u * 1e6, max_u * 1e6, map.nodes.size(),
                 map.skipped.size());
   out << line;

@@ -82,8 +82,7 @@ double ChiSquareCoverageFactor(double p, int m) {
   if (!(p > 0.0 && p < 1.0) || m < 1) {
     throw std::invalid_argument("coverage probability must be in (0, 1), dimension >= 1");
   }
-  const double q = InvertIncreasing([m](double x) { return ChiSquareCdf(x, m); }, p, 0.0,
-                                    1000.0 + 100.0 * m);
+  const double q = InvertIncreasing([m](double x) { return ChiSquareCdf(x, m); }, p, 0.0, 1000.0 + 100.0 * m);
   return std::sqrt(q);
 }
 

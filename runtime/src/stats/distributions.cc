@@ -122,9 +122,9 @@ Distribution::Distribution(DistributionKind kind, double estimate, double u, dou
   }
   switch (kind) {
     case DistributionKind::kNormal: scale_ = u; break;
-    case DistributionKind::kRectangular: scale_ = std::sqrt(3.0) * u; break;   // 6.4.2.3
-    case DistributionKind::kTriangular: scale_ = std::sqrt(6.0) * u; break;    // 6.4.5.3
-    case DistributionKind::kArcsine: scale_ = std::sqrt(2.0) * u; break;       // 6.4.6.3
+    case DistributionKind::kRectangular: scale_ = std::sqrt(3.0) * u; break;  // 6.4.2.3
+    case DistributionKind::kTriangular: scale_ = std::sqrt(6.0) * u; break;   // 6.4.5.3
+    case DistributionKind::kArcsine: scale_ = std::sqrt(2.0) * u; break;      // 6.4.6.3
     case DistributionKind::kStudentT:
       // 6.4.9.3: Var = s^2 nu / (nu - 2) for nu > 2.
       if (!(shape > 2.0) || !std::isfinite(shape)) {
@@ -146,15 +146,13 @@ Distribution::Distribution(DistributionKind kind, double estimate, double u, dou
 
 Distribution Distribution::FromInput(const UncertainInput& input, std::string_view where) {
   const std::string at = std::string(where) + ": " + input.name;
-  return Distribution(ParseDistribution(input.distribution, at), input.estimate, input.u,
-                      input.shape, at);
+  return Distribution(ParseDistribution(input.distribution, at), input.estimate, input.u, input.shape, at);
 }
 
 double Distribution::half_width() const {
   switch (kind_) {
     case DistributionKind::kNormal:
-    case DistributionKind::kStudentT:
-      return u_ > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
+    case DistributionKind::kStudentT: return u_ > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
     case DistributionKind::kCurvilinearTrapezoid: return scale_ * (1.0 + shape_);
     default: return scale_;
   }
@@ -166,8 +164,7 @@ double Distribution::Cdf(double x) const {
   const double a = scale_;
   switch (kind_) {
     case DistributionKind::kNormal: return StandardNormalCdf(t / a);
-    case DistributionKind::kRectangular:
-      return std::clamp((t + a) / (2.0 * a), 0.0, 1.0);
+    case DistributionKind::kRectangular: return std::clamp((t + a) / (2.0 * a), 0.0, 1.0);
     case DistributionKind::kTriangular:
       if (t <= -a) return 0.0;
       if (t >= a) return 1.0;
@@ -176,7 +173,7 @@ double Distribution::Cdf(double x) const {
     case DistributionKind::kArcsine:
       if (t <= -a) return 0.0;
       if (t >= a) return 1.0;
-      return 0.5 + std::asin(t / a) / kPi;   // 6.4.6.2
+      return 0.5 + std::asin(t / a) / kPi;  // 6.4.6.2
     case DistributionKind::kStudentT: return StudentTCdf(t / a, shape_);
     case DistributionKind::kCurvilinearTrapezoid: {
       if (shape_ == 0.0) return std::clamp((t + a) / (2.0 * a), 0.0, 1.0);
@@ -206,8 +203,8 @@ double Distribution::Quantile(double p) const {
       double lo = std::min(z, 0.0) * 2.0 - 1.0, hi = std::max(z, 0.0) * 2.0 + 1.0;
       while (StudentTCdf(lo, nu) > p) lo *= 2.0;
       while (StudentTCdf(hi, nu) < p) hi *= 2.0;
-      const double log_norm = std::lgamma(0.5 * (nu + 1.0)) - std::lgamma(0.5 * nu) -
-                              0.5 * std::log(nu * kPi);
+      const double log_norm =
+          std::lgamma(0.5 * (nu + 1.0)) - std::lgamma(0.5 * nu) - 0.5 * std::log(nu * kPi);
       double t = std::clamp(z, lo, hi);
       for (int i = 0; i < 200; ++i) {
         const double f = StudentTCdf(t, nu) - p;
@@ -216,8 +213,7 @@ double Distribution::Quantile(double p) const {
         const double pdf = std::exp(log_norm - 0.5 * (nu + 1.0) * std::log1p(t * t / nu));
         double next = t - f / pdf;
         if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-        if (std::abs(next - t) <= 4.0 * std::numeric_limits<double>::epsilon() * std::abs(t) ||
-            next == t) {
+        if (std::abs(next - t) <= 4.0 * std::numeric_limits<double>::epsilon() * std::abs(t) || next == t) {
           t = next;
           break;
         }
@@ -266,17 +262,14 @@ double StandardNormalQuantile(double p) {
   // (1 - p is exact for p >= 1/2).
   if (p > 0.5) return -StandardNormalQuantile(1.0 - p);
   // Acklam's rational approximation (relative error < 1.2e-9) as the start ...
-  static constexpr double a[] = {-3.969683028665376e+01, 2.209460984245205e+02,
-                                 -2.759285104469687e+02, 1.383577518672690e+02,
-                                 -3.066479806614716e+01, 2.506628277459239e+00};
-  static constexpr double b[] = {-5.447609879822406e+01, 1.615858368580409e+02,
-                                 -1.556989798598866e+02, 6.680131188771972e+01,
-                                 -1.328068155288572e+01};
-  static constexpr double c[] = {-7.784894002430293e-03, -3.223964580411365e-01,
-                                 -2.400758277161838e+00, -2.549732539343734e+00,
-                                 4.374664141464968e+00, 2.938163982698783e+00};
-  static constexpr double d[] = {7.784695709041462e-03, 3.224671290700398e-01,
-                                 2.445134137142996e+00, 3.754408661907416e+00};
+  static constexpr double a[] = {-3.969683028665376e+01, 2.209460984245205e+02,  -2.759285104469687e+02,
+                                 1.383577518672690e+02,  -3.066479806614716e+01, 2.506628277459239e+00};
+  static constexpr double b[] = {-5.447609879822406e+01, 1.615858368580409e+02, -1.556989798598866e+02,
+                                 6.680131188771972e+01, -1.328068155288572e+01};
+  static constexpr double c[] = {-7.784894002430293e-03, -3.223964580411365e-01, -2.400758277161838e+00,
+                                 -2.549732539343734e+00, 4.374664141464968e+00,  2.938163982698783e+00};
+  static constexpr double d[] = {7.784695709041462e-03, 3.224671290700398e-01, 2.445134137142996e+00,
+                                 3.754408661907416e+00};
   double x;
   if (p < 0.02425) {
     const double q = std::sqrt(-2.0 * std::log(p));
@@ -302,8 +295,8 @@ double RegularizedIncompleteBeta(double x, double a, double b) {
   // Continued fraction for I_x(a, b) (Abramowitz & Stegun 26.5.8), convergent for
   // x < (a + 1)/(a + b + 2); otherwise the symmetry I_x(a, b) = 1 - I_{1-x}(b, a).
   if (x > (a + 1.0) / (a + b + 2.0)) return 1.0 - RegularizedIncompleteBeta(1.0 - x, b, a);
-  const double log_front = a * std::log(x) + b * std::log1p(-x) + std::lgamma(a + b) -
-                           std::lgamma(a) - std::lgamma(b);
+  const double log_front =
+      a * std::log(x) + b * std::log1p(-x) + std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b);
   constexpr double kTiny = 1e-300;
   // Modified Lentz evaluation of 1 / (1 + d1 / (1 + d2 / (1 + ...))).
   double c = 1.0;
@@ -313,7 +306,7 @@ double RegularizedIncompleteBeta(double x, double a, double b) {
   double h = d;
   for (int m = 1; m <= 1000; ++m) {
     const double m2 = 2.0 * m;
-    double coefficient = m * (b - m) * x / ((a + m2 - 1.0) * (a + m2));   // d_{2m}
+    double coefficient = m * (b - m) * x / ((a + m2 - 1.0) * (a + m2));  // d_{2m}
     d = 1.0 + coefficient * d;
     if (std::abs(d) < kTiny) d = kTiny;
     c = 1.0 + coefficient / c;

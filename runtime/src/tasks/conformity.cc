@@ -13,7 +13,7 @@ ConformityDecision DecideConformity(const Tolerance& tolerance, double y, double
                                     std::optional<double> probability_mcm, double dof) {
   ConformityDecision d;
   d.guard_band = U;
-  d.acceptance_lower = tolerance.lower + U;   // -inf + U = -inf
+  d.acceptance_lower = tolerance.lower + U;  // -inf + U = -inf
   d.acceptance_upper = tolerance.upper - U;
   if (y >= d.acceptance_lower && y <= d.acceptance_upper) {
     d.verdict = "conforms";

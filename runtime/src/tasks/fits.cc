@@ -104,19 +104,25 @@ const char* KindName(TaskKind kind) {
   throw NumericalError(message);
 }
 
-void CheckPoints(const Points& points, TaskKind kind, int minimum, bool exact,
-                 std::string_view where) {
+void CheckPoints(const Points& points, TaskKind kind, int minimum, bool exact, std::string_view where) {
   const long n = points.cols();
   if (exact ? n != minimum : n < minimum) {
     std::string message(where);
-    message.append(": ").append(KindName(kind)).append(exact ? " needs exactly " : " needs at least ")
-        .append(std::to_string(minimum)).append(" points, got ").append(std::to_string(n));
+    message.append(": ")
+        .append(KindName(kind))
+        .append(exact ? " needs exactly " : " needs at least ")
+        .append(std::to_string(minimum))
+        .append(" points, got ")
+        .append(std::to_string(n));
     throw InputError(message);
   }
   for (long i = 0; i < n; ++i) {
     if (!points.col(i).allFinite()) {
       std::string message(where);
-      message.append(": ").append(KindName(kind)).append(": point ").append(std::to_string(i))
+      message.append(": ")
+          .append(KindName(kind))
+          .append(": point ")
+          .append(std::to_string(i))
           .append(" has a non-finite coordinate");
       throw InputError(message);
     }
@@ -396,8 +402,7 @@ struct HypersphereSolver {
   // H_cc += u u^T + e (I - u u^T)/rho and H_cR += u for one point.
   static void AddRadialCurvature(const RadialResidual<D>& r, Hessian& h) {
     const Eigen::Matrix<double, D, D> uu = r.u * r.u.transpose();
-    h.template topLeftCorner<D, D>() +=
-        uu + r.e * (Eigen::Matrix<double, D, D>::Identity() - uu) / r.rho;
+    h.template topLeftCorner<D, D>() += uu + r.e * (Eigen::Matrix<double, D, D>::Identity() - uu) / r.rho;
     h.template topRightCorner<D, 1>() += r.u;
   }
 
@@ -445,8 +450,7 @@ Eigen::Matrix<double, D + 1, D> HypersphereSensitivity(const HypersphereFit<D>& 
                                                        const RadialResidual<D>& r) {
   Eigen::Matrix<double, D + 1, D> rhs;
   rhs.template topRows<D>() =
-      r.u * r.u.transpose() +
-      r.e * (Eigen::Matrix<double, D, D>::Identity() - r.u * r.u.transpose()) / r.rho;
+      r.u * r.u.transpose() + r.e * (Eigen::Matrix<double, D, D>::Identity() - r.u * r.u.transpose()) / r.rho;
   rhs.template bottomRows<1>() = r.u.transpose();
   return fit.hessian.solve(rhs);
 }
@@ -582,9 +586,7 @@ FitResult FitCircle(const Points& points, const FitOptions& options, std::string
   const Vector3d u = (e - normal * normal.dot(e)).normalized();
   Eigen::Matrix<double, 3, 2> basis;
   basis << u, normal.cross(u);
-  const auto project = [&](long i) -> Eigen::Vector2d {
-    return basis.transpose() * (points.col(i) - c0);
-  };
+  const auto project = [&](long i) -> Eigen::Vector2d { return basis.transpose() * (points.col(i) - c0); };
   const HypersphereFit<2> fit = FitHypersphere<2>(n, project, TaskKind::kCircle, where);
   const Vector3d offset = basis * fit.centre;  // centre - centroid, in the plane
   const double rms = std::sqrt(fit.sum_sq / nd);
@@ -621,14 +623,14 @@ FitResult FitCircle(const Points& points, const FitOptions& options, std::string
     const Matrix3d dtheta = k * basis.transpose() - k_sum * basis.transpose() / nd - k_r * dn;
     auto block = result.jacobian.middleCols<3>(3 * j);
     // centre = c0 + B mu: dc0 + dB mu + B dmu, dB mu = -n (B mu)^T dn.
-    block.topRows<3>() = Matrix3d::Identity() / nd - normal * (offset.transpose() * dn) +
-                         basis * dtheta.topRows<2>();
+    block.topRows<3>() =
+        Matrix3d::Identity() / nd - normal * (offset.transpose() * dn) + basis * dtheta.topRows<2>();
     block.row(3) = dtheta.row(2);
     block.middleRows<3>(4) = dn;
     if (!exact) {
       // d(sum e^2)/dp_j / 2 = e_j u_j^T B^T - (sum e u^T) B^T / N - (sum e r u^T B^T) N_j.
-      const Eigen::RowVector3d half_grad = r.e * r.u.transpose() * basis.transpose() -
-                                           g_sum * basis.transpose() / nd - g_r * dn;
+      const Eigen::RowVector3d half_grad =
+          r.e * r.u.transpose() * basis.transpose() - g_sum * basis.transpose() / nd - g_r * dn;
       block.row(7) = half_grad / (nd * rms);
     }
   }
@@ -687,8 +689,7 @@ FitResult FitLine(const Points& points, const FitOptions& options, std::string_v
   return result;
 }
 
-FitResult FitTask(TaskKind kind, const Points& points, const FitOptions& options,
-                  std::string_view where) {
+FitResult FitTask(TaskKind kind, const Points& points, const FitOptions& options, std::string_view where) {
   switch (kind) {
     case TaskKind::kDistance: return FitDistance(points, options, where);
     case TaskKind::kPlane: return FitPlane(points, options, where);

@@ -16,9 +16,8 @@ struct KindName {
 };
 
 constexpr KindName kKinds[] = {
-    {TaskKind::kDistance, "distance", 2}, {TaskKind::kPlane, "plane", 3},
-    {TaskKind::kSphere, "sphere", 4},     {TaskKind::kCircle, "circle", 3},
-    {TaskKind::kLine, "line", 2},         {TaskKind::kTwoFace, "two_face", 2},
+    {TaskKind::kDistance, "distance", 2}, {TaskKind::kPlane, "plane", 3}, {TaskKind::kSphere, "sphere", 4},
+    {TaskKind::kCircle, "circle", 3},     {TaskKind::kLine, "line", 2},   {TaskKind::kTwoFace, "two_face", 2},
 };
 
 }  // namespace
@@ -50,13 +49,13 @@ std::vector<int> ResolveTaskPoints(const TaskSpec& spec, std::span<const std::st
   const std::string prefix = std::string(where) + ": task '" + spec.name + "'";
   const int count = static_cast<int>(spec.points.size());
   if ((spec.kind == TaskKind::kDistance || spec.kind == TaskKind::kTwoFace) && count != 2) {
-    throw InputError(prefix + ": " + std::string(TaskKindName(spec.kind)) +
-                     " needs exactly 2 points, " + std::to_string(count) + " given");
+    throw InputError(prefix + ": " + std::string(TaskKindName(spec.kind)) + " needs exactly 2 points, " +
+                     std::to_string(count) + " given");
   }
   if (count < MinimumPoints(spec.kind)) {
     throw InputError(prefix + ": " + std::string(TaskKindName(spec.kind)) + " needs at least " +
-                     std::to_string(MinimumPoints(spec.kind)) + " points, " +
-                     std::to_string(count) + " given");
+                     std::to_string(MinimumPoints(spec.kind)) + " points, " + std::to_string(count) +
+                     " given");
   }
   // Hash lookup: tasks over 10^5 points must not cost N^2.
   std::unordered_map<std::string_view, int> index_of;
