@@ -222,6 +222,121 @@ int SimultaneousGroup(const CustomResults& r, int i) {
   return -1;
 }
 
+// One input of results.json: its GUM and Monte Carlo descriptions and, for Type A, its observations.
+json InputJson(const CustomResults& r, std::size_t i) {
+  const UncertainInput& in = r.inputs[i];
+  const CustomInputSource& src = r.sources[i];
+  json e{{"name", in.name},
+         {"unit", in.unit},
+         {"source", src.kind},
+         {"estimate", in.estimate},
+         {"u", in.u},
+         {"dof", Dof(r.dof[i])},
+         {"distribution", in.distribution},
+         {"shape", in.shape},
+         {"monte_carlo",
+          {{"distribution", r.mcm_inputs[i].distribution},
+           {"standard_deviation", r.mcm_inputs[i].u},
+           {"shape", r.mcm_inputs[i].shape}}}};
+  const int group = SimultaneousGroup(r, static_cast<int>(i));
+  if (group >= 0) {
+    // JCGM 102 6.5.3: one multivariate t of the group; scale and nu = n - N.
+    const double nu = r.simultaneous_mcm_dof[group], scale = r.mcm_inputs[i].u;
+    e["monte_carlo"] = {
+        {"distribution", "multivariate_t"},
+        {"dof", nu},
+        {"scale", scale},
+        {"standard_deviation", nu > 2.0 ? json(scale * std::sqrt(nu / (nu - 2.0))) : json(nullptr)}};
+  }
+  if (src.kind == "type A") {
+    e["observations"] = {
+        {"n", src.observations}, {"standard_deviation", src.standard_deviation}, {"from", src.from}};
+  }
+  return e;
+}
+
+// One output of results.json: GUM (with the budget and the second-order check), Monte Carlo, the
+// validation and the conformity decision.
+json OutputJson(const CustomOutputResult& o) {
+  const CustomOutput& g = o.gum;
+  json budget = json::array();
+  for (const BudgetRow& row : g.budget) {
+    budget.push_back({{"input", row.input},
+                      {"estimate", row.estimate},
+                      {"u", row.u},
+                      {"sensitivity", row.sensitivity(0)},
+                      {"sensitivity_unit", row.sensitivity_unit},
+                      {"contribution", row.contribution(0)},
+                      {"variance", row.variance(0)},
+                      {"share", row.share(0)}});
+  }
+  json e{{"name", g.name},
+         {"unit", g.unit},
+         {"gum",
+          {{"estimate", g.estimate},
+           {"u", g.u},
+           {"dof_effective", Dof(g.dof_effective)},
+           {"k", g.k},
+           {"U", g.U},
+           {"interval", {g.estimate - g.U, g.estimate + g.U}},
+           {"second_order",
+            {{"variance", g.second_order_variance},
+             {"ratio", g.second_order_ratio},
+             {"u_with_second_order", std::sqrt(g.u * g.u + g.second_order_variance)},
+             {"threshold", kSecondOrderThreshold},
+             {"gum_reliable", g.gum_reliable}}},
+           {"budget", budget}}}};
+  if (o.has_mcm) {
+    e["mcm"] = {{"mean", o.mcm.mean},
+                {"u", o.mcm.u},
+                {"value_at_estimates", o.mcm.value_at_estimates},
+                {"symmetric_interval", {o.mcm.symmetric.low, o.mcm.symmetric.high}},
+                {"shortest_interval", {o.mcm.shortest.low, o.mcm.shortest.high}},
+                {"numerical_tolerance", o.mcm.accuracy.delta}};
+    e["validation"] = {{"outcome", o.validation.outcome},
+                       {"d_low", o.validation.d_low},
+                       {"d_high", o.validation.d_high},
+                       {"delta", o.validation.delta},
+                       {"mcm_tolerance", o.validation.mcm_tolerance},
+                       {"verdict", o.validation.verdict}};
+  }
+  if (o.conformity) {
+    e["conformity"] = {
+        {"tolerance",
+         {std::isinf(o.tolerance->lower) ? json(nullptr) : json(o.tolerance->lower),
+          std::isinf(o.tolerance->upper) ? json(nullptr) : json(o.tolerance->upper)}},
+        {"decision_rule", "ISO 14253-1:2017 guard band w = U"},
+        {"verdict", o.conformity->verdict},
+        {"guard_band", o.conformity->guard_band},
+        {"probability_gum", *o.conformity->probability_gum},
+        {"probability_mcm",
+         o.conformity->probability_mcm ? json(*o.conformity->probability_mcm) : json(nullptr)}};
+  }
+  return e;
+}
+
+// The coverage region of all the outputs together (JCGM 102 7.7).
+json CoverageRegionJson(const CustomResults& r) {
+  const ModelInfo& model = *r.model;
+  json reg{{"dimension", model.num_outputs}, {"gum_k", r.region->gum_k}};
+  if (r.region->has_mcm) {
+    json cov = json::array();
+    for (Eigen::Index a = 0; a < r.region->mcm.covariance.rows(); ++a) {
+      json row = json::array();
+      for (Eigen::Index b = 0; b < r.region->mcm.covariance.cols(); ++b)
+        row.push_back(r.region->mcm.covariance(a, b));
+      cov.push_back(row);
+    }
+    reg["mcm_k"] =
+        r.region->has_mcm && r.region->mcm.has_region ? json(r.region->mcm.coverage_factor) : json(nullptr);
+    reg["mcm_covariance"] = cov;
+    reg["coverage_factor_ratio"] =
+        r.region->mcm.has_region ? json(r.region->coverage_factor_ratio) : json(nullptr);
+    reg["covariance_difference"] = r.region->covariance_difference;
+  }
+  return reg;
+}
+
 json ResultsJsonObject(const CustomResults& r) {
   const ModelInfo& model = *r.model;
   json j;
@@ -234,37 +349,7 @@ json ResultsJsonObject(const CustomResults& r) {
                 {"spec_file", model.spec_file}};
   j["coverage_probability"] = r.coverage_probability;
   json inputs = json::array();
-  for (std::size_t i = 0; i < r.inputs.size(); ++i) {
-    const UncertainInput& in = r.inputs[i];
-    const CustomInputSource& src = r.sources[i];
-    json e{{"name", in.name},
-           {"unit", in.unit},
-           {"source", src.kind},
-           {"estimate", in.estimate},
-           {"u", in.u},
-           {"dof", Dof(r.dof[i])},
-           {"distribution", in.distribution},
-           {"shape", in.shape},
-           {"monte_carlo",
-            {{"distribution", r.mcm_inputs[i].distribution},
-             {"standard_deviation", r.mcm_inputs[i].u},
-             {"shape", r.mcm_inputs[i].shape}}}};
-    const int group = SimultaneousGroup(r, static_cast<int>(i));
-    if (group >= 0) {
-      // JCGM 102 6.5.3: one multivariate t of the group; scale and nu = n - N.
-      const double nu = r.simultaneous_mcm_dof[group], scale = r.mcm_inputs[i].u;
-      e["monte_carlo"] = {
-          {"distribution", "multivariate_t"},
-          {"dof", nu},
-          {"scale", scale},
-          {"standard_deviation", nu > 2.0 ? json(scale * std::sqrt(nu / (nu - 2.0))) : json(nullptr)}};
-    }
-    if (src.kind == "type A") {
-      e["observations"] = {
-          {"n", src.observations}, {"standard_deviation", src.standard_deviation}, {"from", src.from}};
-    }
-    inputs.push_back(e);
-  }
+  for (std::size_t i = 0; i < r.inputs.size(); ++i) inputs.push_back(InputJson(r, i));
   j["inputs"] = inputs;
   json corr = json::array();
   for (Eigen::Index a = 0; a < r.correlation.rows(); ++a) {
@@ -283,63 +368,7 @@ json ResultsJsonObject(const CustomResults& r) {
   }
   j["simultaneous_observations"] = sim;
   json outs = json::array();
-  for (const CustomOutputResult& o : r.outputs) {
-    const CustomOutput& g = o.gum;
-    json budget = json::array();
-    for (const BudgetRow& row : g.budget) {
-      budget.push_back({{"input", row.input},
-                        {"estimate", row.estimate},
-                        {"u", row.u},
-                        {"sensitivity", row.sensitivity(0)},
-                        {"sensitivity_unit", row.sensitivity_unit},
-                        {"contribution", row.contribution(0)},
-                        {"variance", row.variance(0)},
-                        {"share", row.share(0)}});
-    }
-    json e{{"name", g.name},
-           {"unit", g.unit},
-           {"gum",
-            {{"estimate", g.estimate},
-             {"u", g.u},
-             {"dof_effective", Dof(g.dof_effective)},
-             {"k", g.k},
-             {"U", g.U},
-             {"interval", {g.estimate - g.U, g.estimate + g.U}},
-             {"second_order",
-              {{"variance", g.second_order_variance},
-               {"ratio", g.second_order_ratio},
-               {"u_with_second_order", std::sqrt(g.u * g.u + g.second_order_variance)},
-               {"threshold", kSecondOrderThreshold},
-               {"gum_reliable", g.gum_reliable}}},
-             {"budget", budget}}}};
-    if (o.has_mcm) {
-      e["mcm"] = {{"mean", o.mcm.mean},
-                  {"u", o.mcm.u},
-                  {"value_at_estimates", o.mcm.value_at_estimates},
-                  {"symmetric_interval", {o.mcm.symmetric.low, o.mcm.symmetric.high}},
-                  {"shortest_interval", {o.mcm.shortest.low, o.mcm.shortest.high}},
-                  {"numerical_tolerance", o.mcm.accuracy.delta}};
-      e["validation"] = {{"outcome", o.validation.outcome},
-                         {"d_low", o.validation.d_low},
-                         {"d_high", o.validation.d_high},
-                         {"delta", o.validation.delta},
-                         {"mcm_tolerance", o.validation.mcm_tolerance},
-                         {"verdict", o.validation.verdict}};
-    }
-    if (o.conformity) {
-      e["conformity"] = {
-          {"tolerance",
-           {std::isinf(o.tolerance->lower) ? json(nullptr) : json(o.tolerance->lower),
-            std::isinf(o.tolerance->upper) ? json(nullptr) : json(o.tolerance->upper)}},
-          {"decision_rule", "ISO 14253-1:2017 guard band w = U"},
-          {"verdict", o.conformity->verdict},
-          {"guard_band", o.conformity->guard_band},
-          {"probability_gum", *o.conformity->probability_gum},
-          {"probability_mcm",
-           o.conformity->probability_mcm ? json(*o.conformity->probability_mcm) : json(nullptr)}};
-    }
-    outs.push_back(e);
-  }
+  for (const CustomOutputResult& o : r.outputs) outs.push_back(OutputJson(o));
   j["outputs"] = outs;
   json gum_corr = json::array();
   for (Eigen::Index a = 0; a < r.gum.correlation.rows(); ++a) {
@@ -348,25 +377,7 @@ json ResultsJsonObject(const CustomResults& r) {
     gum_corr.push_back(row);
   }
   j["output_correlation"] = gum_corr;
-  if (r.region) {
-    json reg{{"dimension", model.num_outputs}, {"gum_k", r.region->gum_k}};
-    if (r.region->has_mcm) {
-      json cov = json::array();
-      for (Eigen::Index a = 0; a < r.region->mcm.covariance.rows(); ++a) {
-        json row = json::array();
-        for (Eigen::Index b = 0; b < r.region->mcm.covariance.cols(); ++b)
-          row.push_back(r.region->mcm.covariance(a, b));
-        cov.push_back(row);
-      }
-      reg["mcm_k"] =
-          r.region->has_mcm && r.region->mcm.has_region ? json(r.region->mcm.coverage_factor) : json(nullptr);
-      reg["mcm_covariance"] = cov;
-      reg["coverage_factor_ratio"] =
-          r.region->mcm.has_region ? json(r.region->coverage_factor_ratio) : json(nullptr);
-      reg["covariance_difference"] = r.region->covariance_difference;
-    }
-    j["coverage_region"] = reg;
-  }
+  if (r.region) j["coverage_region"] = CoverageRegionJson(r);
   if (!r.has_mcm) {
     j["monte_carlo"] = {{"enabled", false}};
   } else {
