@@ -630,7 +630,8 @@ struct Adjustment {
     const Eigen::MatrixXd jtb = j.transpose() * b_consider[o];
     for (int r = 0; r < local; ++r) {
       if (index[r] < 0) continue;
-      g.row(index[r]) += jtb.row(r);
+      // No consider parameters (C = 0): g and jtb have no columns and no storage to offset into.
+      if (C > 0) g.row(index[r]) += jtb.row(r);
       for (int c = 0; c < local; ++c) {
         if (index[c] < 0) continue;
         if (index[r] < a && index[c] < a)
@@ -670,7 +671,11 @@ struct Adjustment {
       n_tt_inv[t] = llt.solve(Eigen::Matrix3d::Identity());
     }
     h.resize(3 * T, a);  // N_tt^-1 N_ta
-    for (int t = 0; t < T; ++t) h.middleRows<3>(3 * t) = n_tt_inv[t] * n_at.middleCols<3>(3 * t).transpose();
+    // With no station or shared input unknown (a = 0) h has no columns and no storage: a block of it
+    // would offset a null pointer (undefined behaviour, Clang's UBSan), and there is nothing to fill.
+    if (a > 0) {
+      for (int t = 0; t < T; ++t) h.middleRows<3>(3 * t) = n_tt_inv[t] * n_at.middleCols<3>(3 * t).transpose();
+    }
     schur = n_aa - n_at * h;
     c_aa.resize(a, a);
     if (a > 0) {
