@@ -5,8 +5,17 @@
 //                                         by 3 stations, 4 floor references (20 um): the Ceres
 //                                         solve, the full covariance of every unknown with the 20
 //                                         consider parameters, residuals and redundancy numbers
-// Counters: unknowns, observations, covariance_MB (the full matrix), peak_rss_MB (the process).
-// Target (issue: networks): 10 stations x 500 targets <= 5 s on one core.
+//   network/wing/<trials>                 the wing-size network of issue 29: 6 stations, 300
+//                                         targets and 4 scale bars (3 m, 2 um; 8 more targets),
+//                                         station S1 held, no references, every error parameter
+//                                         self-calibrated, 5 gross errors of 20 sigma: the robust
+//                                         adjustment (data snooping, 5 re-adjustments), then a
+//                                         Monte Carlo validation of `trials` re-adjusted simulated
+//                                         networks on every core (0: none)
+// Counters: unknowns, observations, covariance_MB (the full matrix), peak_rss_MB (the process);
+// wing: rejected, worst_ratio (u_MCM / u_GUM farthest from 1).
+// Target (issue: networks): 10 stations x 500 targets <= 5 s on one core; the wing with Monte
+// Carlo validation <= 10 s on the 2-core machine (issue 29).
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -93,6 +102,65 @@ void BM_AdjustNetwork(benchmark::State& state) {
   state.counters["covariance_MB"] = static_cast<double>(result.covariance.size()) * 8.0 / 1e6;
   state.counters["peak_rss_MB"] = static_cast<double>(usage.ru_maxrss) / 1024.0;
 }
+
+// The wing network: MakeBenchNetwork's geometry with 6 stations and 300 targets, plus 4 scale bars
+// whose 8 targets every station reads; S1 held instead of the references; self-calibration; five
+// readings spoiled by 20 sigma.
+Network MakeWingNetwork() {
+  BenchNetwork b = MakeBenchNetwork(6, 300);
+  Network plan = b.network;
+  plan.references.clear();
+  plan.stations[0].datum = true;
+  std::vector<std::vector<PlannedSighting>> sees(plan.stations.size());
+  std::vector<std::pair<std::string, Eigen::Vector3d>> bar_targets;
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector3d a(1.0 + 2.0 * k, 0.5 + 2.5 * k, 0.1), b3(a + Eigen::Vector3d(3.0, 0.0, 0.0));
+    const std::string name = "SB" + std::to_string(k + 1);
+    bar_targets.emplace_back(name + ".A", a);
+    bar_targets.emplace_back(name + ".B", b3);
+    NetworkDistance d;
+    d.name = name;
+    d.scale_bar = true;
+    d.from = name + ".A";
+    d.to = name + ".B";
+    d.length = d.calibrated_length = 3.0;
+    d.u = d.u_calibrated_length = 2e-6;
+    d.where = "bench: " + name;
+    plan.distances.push_back(d);
+  }
+  for (std::size_t i = 0; i < plan.stations.size(); ++i)
+    for (const auto& [name, x] : bar_targets) sees[i].push_back({name, Face::kFront, "bench"});
+  PlanNetworkReadings(plan, bar_targets, sees);
+  for (const auto& t : bar_targets) b.targets.push_back(t);
+  for (const UncertainInput& p : plan.instruments[0].setup.params)
+    if (p.u > 0.0) plan.self_calibrate.push_back(p.name);
+  Network sim = SimulateNetwork(plan, b.targets, 2);
+  const MeasurementModel model(sim.instruments[0].setup);
+  for (int e = 0; e < 5; ++e) {
+    std::vector<TargetReading>& readings = sim.stations[e % 6].readings;
+    TargetReading& reading = readings[(37 * e + 11) % readings.size()];
+    reading.readings(1) += 20.0 * model.reading_uncertainty(reading.readings(0))(1);
+  }
+  return sim;
+}
+
+void BM_WingNetwork(benchmark::State& state) {
+  const Network wing = MakeWingNetwork();
+  const int trials = static_cast<int>(state.range(0));
+  NetworkResult result;
+  NetworkMonteCarlo mc;
+  for (auto _ : state) {
+    result = AdjustNetwork(wing);
+    if (trials > 0) mc = ValidateNetworkByMonteCarlo(wing, result, trials, 20090101, 0);
+    benchmark::DoNotOptimize(result.covariance.data());
+  }
+  state.counters["unknowns"] = result.unknowns;
+  state.counters["observations"] = result.observations;
+  state.counters["rejected"] = static_cast<double>(result.rejected.size());
+  state.counters["worst_ratio"] = trials > 0 ? mc.worst_ratio : 0.0;
+}
+
+BENCHMARK(BM_WingNetwork)->Name("network/wing")->Arg(0)->Arg(100)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 BENCHMARK(BM_AdjustNetwork)
     ->Name("network/adjust")

@@ -102,3 +102,29 @@ add_test(NAME report_browser_with_calibration
   COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/cal_measure_summary/report.html -DPROFILE=${_out}/chromium-profile-cal-measure
           -DMIN_PLOTS=3 -P ${_cli}/report_browser.cmake)
 set_tests_properties(report_browser_with_calibration PROPERTIES FIXTURES_REQUIRED vlt_cal_measure TIMEOUT 300)
+
+# A calibration that does not fit its data is not used silently (docs/calibration.md "Fit"): the
+# mirror model fitted to head-tracker data warns and its calibration.toml says fits = false;
+# under --strict nothing is written; a job loading a file marked so warns, and fails under --strict.
+add_test(NAME cli_calibrate_unfit_warns
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=calibrate;${_cli}/calibration/mirror_on_head.toml;-o;${_out}/cal_unfit" -DEXPECT_RC=0
+          "-DEXPECT_STDERR=^vlt: warning: .*mirror_on_head[.]toml: calibration: the data do not fit the model: chi2 = [0-9.]+ for [0-9]+ degrees of freedom [(]Birge ratio [0-9.]+, p = .*[)]; calibration[.]toml says so"
+          -DCLEAN=${_out}/cal_unfit -P ${_cli}/expect_run.cmake)
+add_test(NAME cli_error_calibrate_unfit_strict
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=--strict;calibrate;${_cli}/calibration/mirror_on_head.toml;-o;${_out}/cal_unfit_strict"
+          -DOUT=${_out}/cal_unfit_strict
+          "-DEXPECT=mirror_on_head[.]toml: calibration: the data do not fit the model: .* [(]a warning; --strict makes it an error[)]"
+          -P ${_cli}/expect_error.cmake)
+add_test(NAME cli_run_unfit_calibration_warns
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=run;${_cli}/calibration/measure_with_unfit.toml;--no-mcm;-o;${_out}/cal_unfit_run" -DEXPECT_RC=0
+          "-DEXPECT_STDERR=^vlt: warning: .*measure_with_unfit[.]toml: tracker[.]calibration: '.*unfit_calibration[.]toml' is a calibration that does not fit its data [(]the data do not fit the model: .*[)]: its uncertainties understate the tracker's errors"
+          -DCLEAN=${_out}/cal_unfit_run -P ${_cli}/expect_run.cmake)
+add_test(NAME cli_error_run_unfit_calibration_strict
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=--strict;run;${_cli}/calibration/measure_with_unfit.toml;--no-mcm;-o;${_out}/cal_unfit_run_strict"
+          -DOUT=${_out}/cal_unfit_run_strict
+          "-DEXPECT=unfit_calibration[.]toml' is a calibration that does not fit its data"
+          -P ${_cli}/expect_error.cmake)

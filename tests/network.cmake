@@ -31,6 +31,34 @@ add_test(NAME report_browser_network
           -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
 set_tests_properties(report_browser_network PROPERTIES FIXTURES_REQUIRED vlt_network_simulated TIMEOUT 300)
 
+# Scale bars (docs/network.md N-4a): a plan held by S1 whose scale the bars give, its simulated
+# measurement adjusted (distances.csv), and a second run into the same directory (the marker lists
+# every file the first one wrote, simulated_<station>.csv among them).
+add_test(NAME cli_network_scale_bars
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_ex}/scale_bar_network.toml;--simulate;11;-o;${_out}/network_bars"
+          -DOUT=${_out}/network_bars
+          "-DFILES=targets.csv;stations.csv;residuals.csv;covariance.csv;distances.csv;parameters.csv;identifiability.csv;results.json;report.html;simulated_S1.csv;simulated_network.toml"
+          "-DEXPECT_STDOUT=Planned network 'scale-bar-network': 3 stations, 20 targets, 184 observations, 73 unknowns, dof 111; chi2 [0-9.e-]+, Birge ratio 0[.]000, 0 outliers.*Scale bars and distances: 3.*Self-calibration: 1 of 1 combinations"
+          "-DJSON_KEYS=schema;summary;targets;parameters;identifiability;distances;robust;files"
+          -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_network_scale_bars PROPERTIES FIXTURES_SETUP vlt_network_bars)
+add_test(NAME cli_network_scale_bars_simulated
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_out}/network_bars/simulated_network.toml;-o;${_out}/network_bars_simulated"
+          -DOUT=${_out}/network_bars_simulated
+          "-DFILES=distances.csv;parameters.csv;results.json;report.html"
+          "-DEXPECT_STDOUT=Measured network 'scale-bar-network-simulated-11': 3 stations, 20 targets, 184 observations.*Scale bars and distances: 3"
+          "-DJSON_KEYS=schema;summary;distances;robust;files"
+          -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_network_scale_bars_simulated PROPERTIES FIXTURES_REQUIRED vlt_network_bars)
+add_test(NAME cli_network_rerun_same_directory
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_ex}/scale_bar_network.toml;--simulate;11;-o;${_out}/network_bars_again"
+          -DOUT=${_out}/network_bars_again -DTWICE=ON
+          "-DFILES=simulated_S1.csv;simulated_network.toml;distances.csv"
+          "-DJSON_KEYS=schema;files" -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
+
 add_test(NAME cli_network_two_instruments
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
           "-DARGS=network;${_cli}/network/two_instruments.toml;-o;${_out}/network_two_instruments"
@@ -57,6 +85,10 @@ vlt_network_error(unknown_task_target unknown_distance.toml
                   "unknown_distance\\.toml: task\\[0\\]\\.points: task 'd': point 'W99' not measured")
 vlt_network_error(missing_instrument missing_instrument.toml
                   "missing_instrument\\.toml: station\\[2\\]\\.instrument: required key is missing [(]the network has several instruments[)]")
+vlt_network_error(scale_bar_same_target scale_bar_same_target.toml
+                  "scale_bar_same_target\\.toml: scale_bar\\[0\\]\\.to: the same target as `from`")
+vlt_network_error(distance_no_u scale_bar_no_u.toml
+                  "scale_bar_no_u\\.toml: distance\\[0\\]\\.u: required key is missing")
 add_test(NAME cli_error_network_simulate_online
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
           "-DARGS=network;${_out}/network_plan/simulated_network.toml;--simulate;3;-o;${_out}/error_network_simulate_online"

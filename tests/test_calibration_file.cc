@@ -63,6 +63,37 @@ TEST(CalibrationFile, RoundTripsBitForBit) {
   }
 }
 
+// The fit test (FitProblem, docs/calibration.md "Fit") at closed forms: with 2 degrees of freedom
+// P(chi2 >= x) = exp(-x/2), so p = 0.001 at x = 2 ln 1000 = 13.8155; one w among n = 1 goes at
+// the normal quantile z(0.995) = 2.5758.
+TEST(CalibrationFile, FitTestAtClosedForms) {
+  const double x_limit = 2.0 * std::log(1000.0);
+  EXPECT_EQ(FitProblem(x_limit - 0.01, 2, 0.0, 1), "");
+  EXPECT_NE(FitProblem(x_limit + 0.01, 2, 0.0, 1).find("do not fit the model"), std::string::npos);
+  EXPECT_EQ(FitProblem(0.0, 2, 2.5750, 1), "");
+  EXPECT_NE(FitProblem(0.0, 2, 2.5766, 1).find("an observation does not fit"), std::string::npos);
+  // Among 1000 observations a |w| of 4.0 is chance (limit z(1 - 5e-6) = 4.417), 4.5 is not.
+  EXPECT_EQ(FitProblem(0.0, 2, 4.0, 1000), "");
+  EXPECT_NE(FitProblem(0.0, 2, 4.5, 1000), "");
+}
+
+// A calibration that does not fit says so in its file, and reads back so; a fitting one too.
+TEST(CalibrationFile, MarksACalibrationThatDoesNotFit) {
+  CalibrationResult r = ExampleCalibration();
+  const std::filesystem::path dir = TempDir("unfit");
+  for (bool fits : {true, false}) {
+    if (!fits) r.chi2 = 10.0 * r.dof + 100.0;
+    EXPECT_EQ(CalibrationFitProblem(r).empty(), fits);
+    {
+      std::ofstream out(dir / "cal.toml");
+      out << CalibrationFileToml(r, {});
+    }
+    const LoadedCalibration c = LoadCalibrationFile((dir / "cal.toml").string());
+    EXPECT_EQ(c.fits, fits);
+    EXPECT_EQ(c.fit_problem, CalibrationFitProblem(r));
+  }
+}
+
 TEST(CalibrationFile, JobUsesItsEstimatesAndCovariance) {
   const CalibrationResult r = ExampleCalibration();
   const std::filesystem::path dir = TempDir("job");

@@ -65,6 +65,7 @@ void AutoDiffJacobians(const double* r, const double* p, double* out, double* jr
   constexpr int N = K::R + K::P;
   using Ad = Eigen::AutoDiffScalar<Eigen::Matrix<double, N, 1>>;
   std::array<Ad, (K::R > 0 ? K::R : 1)> ra;
+  ra.fill(Ad(0.0));  // a model without readings is passed one zero it does not read
   std::array<Ad, K::P> pa;
   std::array<Ad, K::O> oa;
   for (int j = 0; j < K::R; ++j) ra[j] = Ad(r[j], N, j);

@@ -37,6 +37,9 @@ void AddCalibrateCommand(CLI::App& app, GlobalOptions& global) {
                                       std::filesystem::path("vlt-out") / SafeFileName(job.name)));
     const std::filesystem::path& dir = output.path();
     const CalibrationResult result = Calibrate(job.data, job.options);
+    // A calibration that does not fit its data is not used silently (docs/calibration.md "Fit").
+    const std::string problem = CalibrationFitProblem(result);
+    if (!problem.empty()) EmitWarnings({*file + ": calibration: " + problem + "; calibration.toml says so"}, global);
     CalibrationProvenance provenance;
     provenance.instrument = job.instrument;
     provenance.created = RunCreatedTime();  // SOURCE_DATE_EPOCH when set

@@ -22,6 +22,7 @@ void AddNetworkCommand(CLI::App& app, GlobalOptions& global) {
   auto output_arg = std::make_shared<std::string>();
   auto simulate = std::make_shared<std::int64_t>(-1);
   auto threads = std::make_shared<int>(0);
+  auto no_robust = std::make_shared<bool>(false);
   command
       ->add_option("file", *file,
                    "Network file (TOML: [tracker], [[station]], [datum], [[reference]], docs/network.md)")
@@ -39,12 +40,16 @@ void AddNetworkCommand(CLI::App& app, GlobalOptions& global) {
                    "Threads of the Monte Carlo validation ([network.monte_carlo]; 0: all; results do not "
                    "depend on it)")
       ->check(CLI::Range(0, 1024));
+  command->add_flag("--no-robust", *no_robust,
+                    "Keep every observation: no iterative data snooping ([network] robust = false)");
   command->footer(
       "Exit status: 0 success, 2 bad input or no solution (one line on stderr; no output file is written).\n"
       "Outputs: targets.csv, stations.csv, residuals.csv, covariance.csv, tasks.csv ([[task]]),\n"
-      "parameters.csv (self-calibration), mcm.csv ([network.monte_carlo]), results.json.");
-  command->callback([file, output_arg, simulate, threads, &global] {
-    const NetworkJob job = LoadNetworkJob(*file);
+      "parameters.csv (self-calibration), mcm.csv ([network.monte_carlo]), distances.csv ([[scale_bar]],\n"
+      "[[distance]]), rejected.csv (observations the robust adjustment removed), results.json.");
+  command->callback([file, output_arg, simulate, threads, no_robust, &global] {
+    NetworkJob job = LoadNetworkJob(*file);
+    if (*no_robust) job.network.robust = false;
     if (*simulate >= 0 && !job.offline) {
       throw InputError(*file +
                        ": station: --simulate needs an offline network (stations that see [targets])");
@@ -56,6 +61,9 @@ void AddNetworkCommand(CLI::App& app, GlobalOptions& global) {
                                       std::filesystem::path(*file).parent_path(), where,
                                       std::filesystem::path("vlt-out") / SafeFileName(job.name)));
     const NetworkResult result = AdjustNetwork(job.network);
+    std::vector<std::string> warnings;
+    for (const std::string& w : result.warnings) warnings.push_back(*file + ": network: " + w);
+    EmitWarnings(warnings, global);
     std::optional<NetworkMonteCarlo> mc;
     if (job.monte_carlo_trials > 0) {
       mc = ValidateNetworkByMonteCarlo(job.network, result, job.monte_carlo_trials, job.monte_carlo_seed,

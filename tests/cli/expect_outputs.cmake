@@ -2,11 +2,18 @@
 # stdout must match EXPECT_STDOUT when given; results.json (when listed) must parse and hold the
 # schema's top-level keys.
 #   -DVLT=... -DARGS="..." -DOUT=... -DFILES="points.csv;..." [-DEXPECT_STDOUT=<regex>]
+#   [-DTWICE=ON] (the command runs twice into OUT; the second run is checked)
 #   [-DJSON_KEYS="schema;..."] (default: the top-level keys of a tracker job's results.json)
 #   [-DSCHEMA=...] (default: vlt-results/2; its points.jsonl must hold one parsable object per point,
 #   unless -DSKIP_JSONL_LINES=ON for a scan too large to parse in CMake)
 cmake_minimum_required(VERSION 3.25)
 file(REMOVE_RECURSE ${OUT})
+if(TWICE)  # [-DTWICE=ON]: run once before, into the same directory: the second run must replace it
+  execute_process(COMMAND ${VLT} ${ARGS} RESULT_VARIABLE rc OUTPUT_QUIET ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "first run: expected success, got exit status '${rc}'\nstderr: ${err}")
+  endif()
+endif()
 execute_process(COMMAND ${VLT} ${ARGS} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "expected success, got exit status '${rc}'\nstdout: ${out}\nstderr: ${err}")

@@ -302,6 +302,11 @@ struct CalibrationProvenance {
   std::vector<std::pair<std::string, std::string>> data_files;  // (file, SHA-256 hex)
 };
 
+// Whether a calibration fits its data (FitProblem of vlt/gum.h over its chi-square and the w of
+// its residuals): "" when it does, else why not. `vlt calibrate` warns (an error under --strict)
+// and the calibration file says so ([calibration] fits = false, fit_problem).
+std::string CalibrationFitProblem(const CalibrationResult& result);
+
 // The calibration file's text: model, provenance, every parameter (estimate, u, status, unit),
 // the correlation matrix, the fit statistics.
 std::string CalibrationFileToml(const CalibrationResult& result, const CalibrationProvenance& provenance);
@@ -314,6 +319,10 @@ struct LoadedCalibration {
   std::vector<double> estimates, u;  // SI
   std::vector<std::string> status;
   Eigen::MatrixXd correlation;  // names.size()^2
+  // [calibration] fits / fit_problem: false when the calibration did not fit its data
+  // (CalibrationFitProblem); a job that loads it warns. Files without the key fit.
+  bool fits = true;
+  std::string fit_problem;
 };
 // Reads a calibration file; InputError "<file>: <key>: <problem>" when it is not one.
 LoadedCalibration LoadCalibrationFile(const std::string& path);

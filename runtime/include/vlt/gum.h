@@ -46,6 +46,15 @@ double ChiSquareCoverageFactor(double p, int m);
 // P(chi^2_m <= x): the chi-square distribution function with m degrees of freedom (regularized
 // lower incomplete gamma P(m/2, x/2)); 0 for x <= 0.
 double ChiSquareCdf(double x, int m);
+
+// The fit test of an adjustment (vlt calibrate, vlt network; docs/calibration.md "Fit"): "" when
+// the residuals are what the model and the stated uncertainties make likely, else why not, one
+// line: chi-square's upper tail p below kFitProblemP, or the largest |w| of the `tested` normalised
+// residuals beyond z_(1 - alpha/(2 n)), alpha = kFitProblemAlphaW (any of n good observations
+// exceeds it with probability alpha; a lone |w| > 3.29 among a thousand is expected).
+inline constexpr double kFitProblemP = 0.001;
+inline constexpr double kFitProblemAlphaW = 0.01;
+std::string FitProblem(double chi2, int dof, double largest_w, int tested);
 // t_p(nu): P(|t_nu| <= k) = p for Student's t with nu degrees of freedom (JCGM 100 G.3.4, table
 // G.2: t_95.45(16) = 2.17, t_99(16) = 2.92); nu = infinity gives NormalCoverageFactor(p).
 // nu >= 1 (non-integer allowed); else std::invalid_argument.

@@ -62,6 +62,26 @@ struct NetworkReference {
   std::string where;
 };
 
+// A measured length between two targets (docs/network.md N-4a): a scale bar (its calibrated length
+// corrected for thermal expansion at its own temperature) or a distance measured otherwise (a laser
+// interferometer, a calibrated baseline). An observation (|x_to - x_from| - length) / u: what gives
+// the network its scale when no reference coordinates do (the range scale of every tracker is then
+// determined by the bars).
+struct NetworkDistance {
+  std::string name;        // "SB1"
+  bool scale_bar = false;  // [[scale_bar]] (else [[distance]])
+  std::string from, to;    // target names
+  double length = 0.0;     // at the conditions of the measurement [m] (a bar: thermally corrected)
+  double u = 0.0;          // standard uncertainty of `length` [m], > 0, the thermal terms included
+  // A scale bar: L = L_cal (1 + cte (T - T_ref)); u^2 = (1 + cte (T - T_ref))^2 u(L_cal)^2 +
+  // (L_cal (T - T_ref))^2 u(cte)^2 + (L_cal cte)^2 u(T)^2 (GUM 5.1.2, the inputs independent).
+  double calibrated_length = 0.0, u_calibrated_length = 0.0;  // [m]
+  double cte = 0.0, u_cte = 0.0;                              // [1/K]
+  double temperature = 20.0, u_temperature = 0.0;             // [degC], [K]
+  double reference_temperature = 20.0;                        // [degC]
+  std::string where;
+};
+
 struct Network {
   std::string where;  // the file, for messages
   std::string name;
@@ -69,12 +89,19 @@ struct Network {
   std::vector<NetworkInstrument> instruments;
   std::vector<NetworkStation> stations;
   std::vector<NetworkReference> references;
+  std::vector<NetworkDistance> distances;  // scale bars and measured distances
   // Shared inputs (NetworkSharedInputNames) estimated from the network with their prior as a
   // pseudo-observation; every other shared input is a consider parameter.
   std::vector<std::string> self_calibrate;
   double coverage_probability = 0.95;
   double outlier_limit = 3.29;  // |w| above it flags a reading component (Baarda, alpha 0.001)
   int max_iterations = 100;
+  // Robust adjustment by iterative data snooping (docs/network.md N-8a): while the largest |w| of
+  // the readings and distances exceeds the rejection limit, the observation with it is removed and
+  // the network re-adjusted. The limit keeps the probability of removing any good observation of a
+  // network without gross errors at `robust_alpha` (Bonferroni over the w tested).
+  bool robust = true;
+  double robust_alpha = 0.01;
 };
 
 // The shared inputs of every instrument, in order: each instrument's MeasurementModel names
@@ -112,6 +139,33 @@ struct NetworkResidual {
   bool outlier = false;
 };
 
+// A distance observation (scale bar, measured distance) at the solution.
+struct AdjustedDistance {
+  std::string name, from, to, where;
+  bool scale_bar = false;
+  double observed = 0.0, u_observed = 0.0;  // the observation [m] and its u
+  double adjusted = 0.0, u_adjusted = 0.0;  // |x_to - x_from| of the adjusted targets [m], its u (full C)
+  double normalised = 0.0;                  // (observed - adjusted) / u_observed
+  double redundancy = 0.0;                  // r in [0, 1]
+  double w = 0.0;                           // Baarda's w: normalised / sqrt(redundancy)
+  bool outlier = false;
+};
+
+// An observation the robust adjustment removed (docs/network.md N-8a), in the order removed.
+struct RejectedObservation {
+  std::string station, target;  // a reading (station, target, face) or a distance (station "", target = its name)
+  Face face = Face::kFront;
+  bool distance = false;
+  std::string where;
+  std::string component;  // the component with the largest |w| ("range", "azimuth", "elevation", "length")
+  double w_before = 0.0;  // its w when it was removed (largest |w| of the network at that round)
+  // Its w against the final adjustment, which no longer contains it: e / sqrt(1 + J N^-1 J^T) per
+  // component (the largest |w|), the same statistic a kept observation has; NaN-free: 0 with
+  // `predicted` false when its target left the network with it.
+  double w_after = 0.0;
+  bool predicted = false;
+};
+
 // A combination of self-calibrated inputs and how well the network alone determines it
 // (docs/network.md N-9; the analysis of vlt/calibration.h): u(combination) = ratio x its prior u.
 struct NetworkCombination {
@@ -133,6 +187,10 @@ struct NetworkResult {
   std::vector<int> station_offset;  // per station: first index in covariance, -1 datum
   std::vector<int> target_offset;   // per target
   std::vector<NetworkResidual> residuals;
+  std::vector<AdjustedDistance> distances;      // scale bars and measured distances kept
+  std::vector<RejectedObservation> rejected;    // removed by the robust adjustment
+  double rejection_limit = 0.0;                 // |w| above which it removes (0: not robust)
+  std::vector<std::string> warnings;            // the fit test failed (FitProblem), the robust rule stopped early
   int observations = 0;  // scalar observations incl. reference coordinates and priors
   int unknowns = 0;
   int dof = 0;

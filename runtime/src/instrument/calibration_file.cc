@@ -1,6 +1,7 @@
 // instrument/calibration_file.cc — the calibration file (vlt/calibration.h; format in docs/calibration.md):
 // written by `vlt calibrate`, read by a job's `[tracker] calibration = "<file>"`. Numbers are
 // written with 17 significant digits so that the file round-trips the estimates bit for bit.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -13,6 +14,7 @@
 #include "base/section.h"
 #include "vlt/calibration.h"
 #include "vlt/error.h"
+#include "vlt/gum.h"
 #include "vlt/units.h"
 
 namespace vlt {
@@ -40,6 +42,12 @@ const char* ParameterStatusName(ParameterStatus status) {
   return "?";
 }
 
+std::string CalibrationFitProblem(const CalibrationResult& result) {
+  double largest_w = 0.0;
+  for (const CalibrationResidual& r : result.residuals) largest_w = std::max(largest_w, std::abs(r.w));
+  return FitProblem(result.chi2, result.dof, largest_w, static_cast<int>(result.residuals.size()));
+}
+
 std::string CalibrationFileToml(const CalibrationResult& result, const CalibrationProvenance& provenance) {
   std::ostringstream os;
   os << "# vlt calibration file: error parameters of one tracker identified from test data by\n"
@@ -59,6 +67,10 @@ std::string CalibrationFileToml(const CalibrationResult& result, const Calibrati
   os << "dof = " << result.dof << "\n";
   os << "birge_ratio = " << Exact(result.birge_ratio) << "\n";
   os << "outliers = " << result.outliers << "\n";
+  // A calibration that does not fit its data says so; a job that loads it warns (docs/calibration.md).
+  const std::string problem = CalibrationFitProblem(result);
+  os << "fits = " << (problem.empty() ? "true" : "false") << "\n";
+  if (!problem.empty()) os << "fit_problem = " << calibration_internal::TomlQuoted(problem) << "\n";
   os << "held = [";
   for (std::size_t i = 0; i < result.held.size(); ++i)
     os << (i ? ", " : "") << calibration_internal::TomlQuoted(result.held[i].description);
@@ -102,6 +114,11 @@ LoadedCalibration LoadCalibrationFile(const std::string& path) {
   c.model = text(*meta, "model", path + ": calibration");
   if (auto v = (*meta)["instrument"].value<std::string>()) c.instrument = *v;
   if (auto v = (*meta)["created"].value<std::string>()) c.created = *v;
+  if (const toml::node* fits = meta->get("fits")) {
+    if (!fits->is_boolean()) throw InputError(path + ": calibration.fits: expected true or false");
+    c.fits = fits->value<bool>().value_or(true);
+  }
+  if (auto v = (*meta)["fit_problem"].value<std::string>()) c.fit_problem = *v;
   const toml::array* params = root["parameter"].as_array();
   if (!params || params->empty()) throw InputError(path + ": parameter: no [[parameter]] tables");
   int index = 0;

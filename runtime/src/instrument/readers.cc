@@ -171,6 +171,11 @@ void TrackerReader::ReadCalibrationFile() {
   if (!std::filesystem::is_regular_file(path))
     throw InputError(where + ": cannot read '" + path.string() + "'");
   LoadedCalibration c = LoadCalibrationFile(path.string());
+  if (!c.fits) {
+    job.warnings.push_back(where + ": '" + path.string() + "' is a calibration that does not fit its data (" +
+                           (c.fit_problem.empty() ? std::string("fits = false") : c.fit_problem) +
+                           "): its uncertainties understate the tracker's errors");
+  }
   if (c.model != model->name) {
     throw InputError(where + ": the calibration file is for model '" + c.model + "', the tracker is model '" +
                      model_name + "'");

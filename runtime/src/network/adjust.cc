@@ -8,6 +8,10 @@
 #include <map>
 #include <memory>
 #include <set>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -131,6 +135,29 @@ class PriorCost : public ceres::CostFunction {
   Eigen::MatrixXd w_;
 };
 
+// A distance observation (N-4a): e = (|x_to - x_from| - L) / u, blocks [from 3, to 3].
+class DistanceCost : public ceres::SizedCostFunction<1, 3, 3> {
+ public:
+  DistanceCost(double length, double u) : length_(length), u_(u) {}
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const Eigen::Map<const Eigen::Vector3d> from(parameters[0]), to(parameters[1]);
+    const Eigen::Vector3d d = to - from;
+    const double norm = d.norm();
+    residuals[0] = (norm - length_) / u_;
+    if (!jacobians) return true;
+    const Eigen::Vector3d unit = norm > 0.0 ? Eigen::Vector3d(d / norm) : Eigen::Vector3d::Zero();
+    for (int block = 0; block < 2; ++block) {
+      if (!jacobians[block]) continue;
+      Eigen::Map<Eigen::Vector3d> j(jacobians[block]);
+      j = (block == 0 ? -unit : unit) / u_;
+    }
+    return true;
+  }
+
+ private:
+  double length_, u_;
+};
+
 // Upper tail of chi-square: P(chi2_dof >= x).
 double ChiSquareUpperTail(double x, int dof) {
   return dof > 0 ? std::clamp(1.0 - ChiSquareCdf(x, dof), 0.0, 1.0) : 1.0;
@@ -191,16 +218,16 @@ SharedSplit SplitSharedInputs(const Network& network, const network_internal::In
   return split;
 }
 
-// Reading r of station i prepared at s0 (N-2): its station-frame point y0 and its whitening W.
-Observation PrepareObservation(const network_internal::Instruments& instruments, const NetworkStation& st,
-                               int i, int r, int target) {
-  const TargetReading& reading = st.readings[r];
+// Reading r of station i (by `instrument`) prepared at s0 (N-2): its station-frame point y0 and its
+// whitening W.
+Observation PrepareObservation(const network_internal::Instruments& instruments, const TargetReading& reading,
+                               int instrument, int i, int r, int target) {
   Observation obs;
   obs.station = i;
   obs.target = target;
   obs.reading = r;
   obs.readings = reading.readings;
-  obs.instrument = st.instrument;
+  obs.instrument = instrument;
   Eigen::Matrix3d dy_dr;
   Eigen::MatrixXd dy_ds;
   EvaluateReading(instruments, obs, instruments.s0, obs.y0, dy_dr, dy_ds);
@@ -243,13 +270,75 @@ PreparedReadings PrepareReadings(const Network& network, const network_internal:
         prepared.target_stations.emplace_back();
         prepared.target_readings.push_back(0);
       }
-      Observation obs = PrepareObservation(instruments, st, i, r, it->second);
+      Observation obs = PrepareObservation(instruments, reading, st.instrument, i, r, it->second);
       prepared.target_stations[obs.target].insert(i);
       ++prepared.target_readings[obs.target];
       prepared.observations.push_back(std::move(obs));
     }
   }
   return prepared;
+}
+
+// --- Distance observations (N-4a) between targets the stations read.
+struct DistanceObservation {
+  int from = 0, to = 0;  // target indices
+  double length = 0.0, u = 0.0;
+  int index = 0;  // into Network::distances
+};
+
+std::vector<DistanceObservation> PrepareDistances(const Network& network,
+                                                  const std::map<std::string, int>& target_index) {
+  std::vector<DistanceObservation> distances;
+  for (std::size_t k = 0; k < network.distances.size(); ++k) {
+    const NetworkDistance& d = network.distances[k];
+    DistanceObservation obs;
+    obs.index = static_cast<int>(k);
+    auto target = [&](const char* key, const std::string& name) {
+      const auto it = target_index.find(name);
+      if (it == target_index.end())
+        throw InputError(d.where + "." + key + ": no station reads target '" + name + "'");
+      return it->second;
+    };
+    obs.from = target("from", d.from);
+    obs.to = target("to", d.to);
+    if (obs.from == obs.to) throw InputError(d.where + ".to: the same target as `from`");
+    if (!(d.length > 0.0) || !std::isfinite(d.length)) throw InputError(d.where + ".length: must be positive");
+    if (!(d.u > 0.0) || !std::isfinite(d.u)) throw InputError(d.where + ".u: must be positive");
+    obs.length = d.length;
+    obs.u = d.u;
+    distances.push_back(obs);
+  }
+  return distances;
+}
+
+// Targets tied together by distance observations form groups: a group's block of the normal
+// matrix is full, the blocks of different groups are independent (N-5). A target without a
+// distance is a group of its own (3 x 3). Members in ascending order.
+struct TargetGroups {
+  std::vector<std::vector<int>> members;
+  std::vector<int> group, place;  // per target: its group and its place among the members
+};
+
+TargetGroups GroupTargets(int T, const std::vector<DistanceObservation>& distances) {
+  std::vector<int> parent(T);
+  for (int t = 0; t < T; ++t) parent[t] = t;
+  auto root = [&](int t) {
+    while (parent[t] != t) t = parent[t] = parent[parent[t]];
+    return t;
+  };
+  for (const DistanceObservation& d : distances) parent[root(d.from)] = root(d.to);
+  TargetGroups groups;
+  groups.group.assign(T, -1);
+  groups.place.assign(T, 0);
+  std::map<int, int> group_of_root;
+  for (int t = 0; t < T; ++t) {
+    const auto [it, inserted] = group_of_root.emplace(root(t), static_cast<int>(groups.members.size()));
+    if (inserted) groups.members.emplace_back();
+    groups.group[t] = it->second;
+    groups.place[t] = static_cast<int>(groups.members[it->second].size());
+    groups.members[it->second].push_back(t);
+  }
+  return groups;
 }
 
 // --- Datum and structure (N-1): a held station, or at least 3 references (each read, given once,
@@ -421,6 +510,8 @@ struct Adjustment {
   const PreparedReadings readings;
   const std::vector<Observation>& observations;
   const int T, P;
+  const std::vector<DistanceObservation> distances;
+  const TargetGroups groups;
   bool any_datum_station = false;
   std::set<std::string> reference_names;
   std::vector<std::vector<const Observation*>> by_station;
@@ -436,14 +527,14 @@ struct Adjustment {
   Eigen::MatrixXd prior_factor;  // L, Sigma_E = L L^T (self-calibration prior)
   // Normal matrix, blockwise, and what the residuals need of it.
   Eigen::MatrixXd n_aa, n_at, g;
-  std::vector<Eigen::Matrix3d> n_tt;
-  Eigen::VectorXd e;
+  std::vector<Eigen::MatrixXd> n_gg;  // per target group (3 x 3 without distances)
+  Eigen::VectorXd e, e_distance;
   int local = 0;
   std::vector<Eigen::MatrixXd> j_local;
   std::vector<Eigen::Matrix<double, 3, Eigen::Dynamic>> b_consider;
   double chi2 = 0.0;
   // Inverse by the Schur complement.
-  std::vector<Eigen::Matrix3d> n_tt_inv;
+  std::vector<Eigen::MatrixXd> n_gg_inv;
   Eigen::MatrixXd h, schur, c_aa;
   // Covariance, internal order, and the result's order.
   Eigen::MatrixXd cov_internal, consider_part;
@@ -463,7 +554,14 @@ struct Adjustment {
         readings(PrepareReadings(net, instruments)),
         observations(readings.observations),
         T(static_cast<int>(readings.target_names.size())),
-        P(static_cast<int>(net.stations.size())) {}
+        P(static_cast<int>(net.stations.size())),
+        distances(PrepareDistances(net, readings.target_index)),
+        groups(GroupTargets(T, distances)) {}
+
+  // The normal matrix's block of targets t1, t2 (of one group).
+  Eigen::Block<Eigen::MatrixXd, 3, 3> TargetBlock(int t1, int t2) {
+    return n_gg[groups.group[t1]].block<3, 3>(3 * groups.place[t1], 3 * groups.place[t2]);
+  }
 
   void FindStartingValues() {
     for (const NetworkStation& st : network.stations) any_datum_station |= st.datum;
@@ -553,6 +651,8 @@ struct Adjustment {
       else
         problem->AddResidualBlock(cost, nullptr, pose[obs.station].data(), x[obs.target].data());
     }
+    for (const DistanceObservation& d : distances)
+      problem->AddResidualBlock(new DistanceCost(d.length, d.u), nullptr, x[d.from].data(), x[d.to].data());
     for (int i = 0; i < P; ++i) {
       if (network.stations[i].datum) problem->SetParameterBlockConstant(pose[i].data());
     }
@@ -589,7 +689,11 @@ struct Adjustment {
   void AssembleNormals() {
     n_aa = Eigen::MatrixXd::Zero(a, a);
     n_at = Eigen::MatrixXd::Zero(a, 3 * T);
-    n_tt.assign(T, Eigen::Matrix3d::Zero());
+    n_gg.clear();
+    for (const std::vector<int>& members : groups.members) {
+      const int size = 3 * static_cast<int>(members.size());
+      n_gg.push_back(Eigen::MatrixXd::Zero(size, size));
+    }
     g = Eigen::MatrixXd::Zero(n, C);  // J^T B_c
     e.resize(3 * observations.size());
     // Local Jacobian of one reading: columns [pose 6 | s_E | target 3].
@@ -600,23 +704,56 @@ struct Adjustment {
     for (int k = 0; k < E; ++k) s_hat(split.estimated[k]) = s_est(k);
     for (std::size_t o = 0; o < observations.size(); ++o) AddReading(o, s_hat);
     chi2 = e.squaredNorm();
+    e_distance.resize(static_cast<int>(distances.size()));
+    for (std::size_t k = 0; k < distances.size(); ++k) AddDistance(k);
     for (const Prior& prior : priors) AddPrior(prior);
   }
 
-  void AddReading(std::size_t o, const Eigen::VectorXd& s_hat) {
-    const Observation& obs = observations[o];
+  // A distance observation (N-4a): J = [-u^T, u^T] / u_L over [from, to], u the unit vector.
+  void AddDistance(std::size_t k) {
+    const DistanceObservation& d = distances[k];
+    const double* params[2] = {x[d.from].data(), x[d.to].data()};
+    Eigen::Vector3d j_from, j_to;
+    double* jac[2] = {j_from.data(), j_to.data()};
+    DistanceCost(d.length, d.u).Evaluate(params, e_distance.data() + k, jac);
+    chi2 += e_distance(static_cast<Eigen::Index>(k)) * e_distance(static_cast<Eigen::Index>(k));
+    TargetBlock(d.from, d.from) += j_from * j_from.transpose();
+    TargetBlock(d.from, d.to) += j_from * j_to.transpose();
+    TargetBlock(d.to, d.from) += j_to * j_from.transpose();
+    TargetBlock(d.to, d.to) += j_to * j_to.transpose();
+  }
+
+  // A reading's whitened residual (3, into `residual`) and its Jacobian over the local unknowns
+  // [pose 6 | s_E | target 3] at the current estimates.
+  Eigen::MatrixXd ReadingJacobian(const Observation& obs, double* residual) const {
     ReadingCost cost(instruments, obs, split);
     const double* params[3] = {pose[obs.station].data(), x[obs.target].data(), s_est.data()};
     Eigen::Matrix<double, 3, 6, Eigen::RowMajor> jp;
     Eigen::Matrix<double, 3, 3, Eigen::RowMajor> jx;
     Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor> je(3, std::max(E, 1));
     double* jac[3] = {jp.data(), jx.data(), je.data()};
-    cost.Evaluate(params, e.data() + 3 * o, jac);
-    Eigen::MatrixXd& j = j_local[o];
-    j.setZero(3, local);
+    cost.Evaluate(params, residual, jac);
+    Eigen::MatrixXd j = Eigen::MatrixXd::Zero(3, local);
     if (pose_offset[obs.station] >= 0) j.leftCols(6) = jp;
     if (E > 0) j.middleCols(6, E) = je.leftCols(E);
     j.rightCols(3) = jx;
+    return j;
+  }
+
+  // J C J^T of a reading's local Jacobian over the noise part of the covariance (N-8).
+  Eigen::Matrix3d ReadingHat(const Observation& obs, const Eigen::MatrixXd& j) const {
+    const std::vector<int> index = LocalIndex(obs);
+    Eigen::MatrixXd c_local = Eigen::MatrixXd::Zero(local, local);
+    for (int r = 0; r < local; ++r)
+      for (int c = 0; c < local; ++c)
+        if (index[r] >= 0 && index[c] >= 0) c_local(r, c) = cov_internal(index[r], index[c]);
+    return j * c_local * j.transpose();
+  }
+
+  void AddReading(std::size_t o, const Eigen::VectorXd& s_hat) {
+    const Observation& obs = observations[o];
+    j_local[o] = ReadingJacobian(obs, e.data() + 3 * o);
+    const Eigen::MatrixXd& j = j_local[o];
     // Consider columns: W d y / d s_c at the solution's shared values (N-6).
     Eigen::Vector3d y;
     Eigen::Matrix3d dy_dr;
@@ -639,7 +776,8 @@ struct Adjustment {
         else if (index[r] < a)
           n_at(index[r], index[c] - a) += jtj(r, c);
         else if (index[c] >= a)
-          n_tt[obs.target](index[r] - a - 3 * obs.target, index[c] - a - 3 * obs.target) += jtj(r, c);
+          TargetBlock(obs.target, obs.target)(index[r] - a - 3 * obs.target, index[c] - a - 3 * obs.target) +=
+              jtj(r, c);
       }
     }
   }
@@ -656,25 +794,35 @@ struct Adjustment {
         if (gr < a && gc < a)
           n_aa(gr, gc) += wtw(r, c);
         else if (gr >= a && gc >= a)
-          n_tt[(gr - a) / 3]((gr - a) % 3, (gc - a) % 3) += wtw(r, c);
+          TargetBlock((gr - a) / 3, (gc - a) / 3)((gr - a) % 3, (gc - a) % 3) += wtw(r, c);
       }
     }
   }
 
   // --- Inverse by the Schur complement of the targets (N-5).
   void InvertBySchurComplement() {
-    n_tt_inv.resize(T);
-    for (int t = 0; t < T; ++t) {
-      Eigen::LLT<Eigen::Matrix3d> llt(n_tt[t]);
-      if (llt.info() != Eigen::Success)
-        throw NumericalError(file + ": target '" + readings.target_names[t] + "' is not determined");
-      n_tt_inv[t] = llt.solve(Eigen::Matrix3d::Identity());
+    const int G = static_cast<int>(groups.members.size());
+    n_gg_inv.resize(G);
+    for (int group = 0; group < G; ++group) {
+      Eigen::LLT<Eigen::MatrixXd> llt(n_gg[group]);
+      if (llt.info() != Eigen::Success) {
+        throw NumericalError(file + ": target '" + readings.target_names[groups.members[group][0]] +
+                             "' is not determined");
+      }
+      n_gg_inv[group] = llt.solve(Eigen::MatrixXd::Identity(n_gg[group].rows(), n_gg[group].cols()));
     }
-    h.resize(3 * T, a);  // N_tt^-1 N_ta
+    h.resize(3 * T, a);  // N_tt^-1 N_ta, group by group
     // With no station or shared input unknown (a = 0) h has no columns and no storage: a block of it
     // would offset a null pointer (undefined behaviour, Clang's UBSan), and there is nothing to fill.
     if (a > 0) {
-      for (int t = 0; t < T; ++t) h.middleRows<3>(3 * t) = n_tt_inv[t] * n_at.middleCols<3>(3 * t).transpose();
+      for (int group = 0; group < G; ++group) {
+        const std::vector<int>& members = groups.members[group];
+        const int m = static_cast<int>(members.size());
+        Eigen::MatrixXd n_ga(3 * m, a);
+        for (int i = 0; i < m; ++i) n_ga.middleRows<3>(3 * i) = n_at.middleCols<3>(3 * members[i]).transpose();
+        const Eigen::MatrixXd h_g = n_gg_inv[group] * n_ga;
+        for (int i = 0; i < m; ++i) h.middleRows<3>(3 * members[i]) = h_g.middleRows<3>(3 * i);
+      }
     }
     schur = n_aa - n_at * h;
     c_aa.resize(a, a);
@@ -766,7 +914,15 @@ struct Adjustment {
     cov_internal.bottomLeftCorner(3 * T, a) = c_ta;
     cov_internal.topRightCorner(a, 3 * T) = c_ta.transpose();
     cov_internal.bottomRightCorner(3 * T, 3 * T) = h * c_aa * h.transpose();
-    for (int t = 0; t < T; ++t) cov_internal.block<3, 3>(a + 3 * t, a + 3 * t) += n_tt_inv[t];
+    for (std::size_t group = 0; group < groups.members.size(); ++group) {
+      const std::vector<int>& members = groups.members[group];
+      for (std::size_t i = 0; i < members.size(); ++i) {
+        for (std::size_t j = 0; j < members.size(); ++j) {
+          cov_internal.block<3, 3>(a + 3 * members[i], a + 3 * members[j]) +=
+              n_gg_inv[group].block<3, 3>(3 * static_cast<int>(i), 3 * static_cast<int>(j));
+        }
+      }
+    }
     // Consider parameters: K = -N^-1 J^T B_c moves the estimate by K delta_c (N-7).
     const Eigen::MatrixXd gain = -cov_internal * g;
     Eigen::MatrixXd sigma_c(C, C);
@@ -858,7 +1014,7 @@ struct Adjustment {
 
   // --- Residuals: redundancy numbers r_ii = 1 - (J N^-1 J^T)_ii and data snooping (N-8).
   void Residuals() {
-    int observations_count = static_cast<int>(e.size());
+    int observations_count = static_cast<int>(e.size() + e_distance.size());
     for (const Prior& prior : priors) observations_count += static_cast<int>(prior.cost->whitening().rows());
     result.observations = observations_count;
     result.unknowns = n;
@@ -867,17 +1023,96 @@ struct Adjustment {
     result.birge_ratio = result.dof > 0 ? std::sqrt(chi2 / result.dof) : 0.0;
     result.p_value = ChiSquareUpperTail(chi2, result.dof);
     for (std::size_t o = 0; o < observations.size(); ++o) ReadingResiduals(o);
+    for (std::size_t k = 0; k < distances.size(); ++k) DistanceResidual(k);
+  }
+
+  // The gradient of |x_to - x_from| over [from, to] at the solution, and the 6 x 6 block of a
+  // covariance (internal order, or the result's) over the two targets.
+  Eigen::Matrix<double, 6, 1> DistanceGradient(const DistanceObservation& d) const {
+    const Eigen::Vector3d v = x[d.to] - x[d.from];
+    const Eigen::Vector3d unit = v.norm() > 0.0 ? Eigen::Vector3d(v / v.norm()) : Eigen::Vector3d::Zero();
+    Eigen::Matrix<double, 6, 1> grad;
+    grad << -unit, unit;
+    return grad;
+  }
+  static Eigen::Matrix<double, 6, 6> PairBlock(const Eigen::MatrixXd& c, int from, int to) {
+    Eigen::Matrix<double, 6, 6> block;
+    const int at[2] = {from, to};
+    for (int i = 0; i < 2; ++i)
+      for (int j = 0; j < 2; ++j) block.block<3, 3>(3 * i, 3 * j) = c.block<3, 3>(at[i], at[j]);
+    return block;
+  }
+
+  // A distance at the solution (N-8): its redundancy from the noise part of the covariance (as a
+  // reading's), the adjusted length's u from the full covariance (consider parameters included).
+  void DistanceResidual(std::size_t k) {
+    const DistanceObservation& d = distances[k];
+    const NetworkDistance& source = network.distances[d.index];
+    const Eigen::Matrix<double, 6, 1> grad = DistanceGradient(d);
+    const double hat =
+        grad.dot(PairBlock(cov_internal, a + 3 * d.from, a + 3 * d.to) * grad) / (d.u * d.u);
+    AdjustedDistance out;
+    out.name = source.name;
+    out.from = source.from;
+    out.to = source.to;
+    out.where = source.where;
+    out.scale_bar = source.scale_bar;
+    out.observed = d.length;
+    out.u_observed = d.u;
+    out.adjusted = (x[d.to] - x[d.from]).norm();
+    out.u_adjusted = std::sqrt(std::max(
+        0.0, grad.dot(PairBlock(result.covariance, target_start + 3 * d.from, target_start + 3 * d.to) * grad)));
+    out.normalised = -e_distance(static_cast<Eigen::Index>(k));
+    out.redundancy = std::clamp(1.0 - hat, 0.0, 1.0);
+    out.w = out.redundancy > 1e-9 ? out.normalised / std::sqrt(out.redundancy) : 0.0;
+    out.outlier = std::abs(out.w) > network.outlier_limit;
+    result.outliers += out.outlier ? 1 : 0;
+    result.distances.push_back(std::move(out));
+  }
+
+  // --- The w of an observation this adjustment does not contain (one the robust rule removed,
+  // N-8a): its residual at the solution over sqrt(1 + J N^-1 J^T), the variance of an
+  // observation's misfit to an estimate it did not take part in. The largest |w| of its
+  // components; false when its target is not in the network any more.
+  bool PredictReadingW(int station, const TargetReading& reading, RejectedObservation& out) const {
+    static const char* kReading[3] = {"range", "azimuth", "elevation"};
+    const auto it = readings.target_index.find(reading.target);
+    if (it == readings.target_index.end()) return false;
+    const Observation obs =
+        PrepareObservation(instruments, reading, network.stations[station].instrument, station, 0, it->second);
+    Eigen::Vector3d residual;
+    const Eigen::MatrixXd j = ReadingJacobian(obs, residual.data());
+    const Eigen::Matrix3d hat = ReadingHat(obs, j);
+    out.w_after = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      const double w = residual(c) / std::sqrt(1.0 + std::max(0.0, hat(c, c)));
+      if (std::abs(w) >= std::abs(out.w_after)) {
+        out.w_after = w;
+        out.component = kReading[c];
+      }
+    }
+    return true;
+  }
+
+  bool PredictDistanceW(const NetworkDistance& distance, RejectedObservation& out) const {
+    const auto from = readings.target_index.find(distance.from), to = readings.target_index.find(distance.to);
+    if (from == readings.target_index.end() || to == readings.target_index.end()) return false;
+    DistanceObservation d;
+    d.from = from->second;
+    d.to = to->second;
+    const Eigen::Matrix<double, 6, 1> grad = DistanceGradient(d);
+    const double hat =
+        grad.dot(PairBlock(cov_internal, a + 3 * d.from, a + 3 * d.to) * grad) / (distance.u * distance.u);
+    const double residual = (distance.length - (x[d.to] - x[d.from]).norm()) / distance.u;
+    out.w_after = residual / std::sqrt(1.0 + std::max(0.0, hat));
+    out.component = "length";
+    return true;
   }
 
   void ReadingResiduals(std::size_t o) {
     static const char* kReading[3] = {"range", "azimuth", "elevation"};
     const Observation& obs = observations[o];
-    const std::vector<int> index = LocalIndex(obs);
-    Eigen::MatrixXd c_local = Eigen::MatrixXd::Zero(local, local);
-    for (int r = 0; r < local; ++r)
-      for (int c = 0; c < local; ++c)
-        if (index[r] >= 0 && index[c] >= 0) c_local(r, c) = cov_internal(index[r], index[c]);
-    const Eigen::MatrixXd hat = j_local[o] * c_local * j_local[o].transpose();
+    const Eigen::Matrix3d hat = ReadingHat(obs, j_local[o]);
     const TargetReading& src = network.stations[obs.station].readings[obs.reading];
     for (int c = 0; c < 3; ++c) {
       NetworkResidual res;
@@ -901,9 +1136,20 @@ struct Adjustment {
 
 }  // namespace
 
-NetworkResult AdjustNetwork(const Network& network) {
-  if (network.stations.empty()) throw InputError(network.where + ": station: the network has no station");
-  Adjustment adjustment(network);
+namespace {
+
+// One adjustment of `network` from its readings to its residuals. The network is owned with it:
+// the adjustment refers to it.
+struct Solved {
+  std::unique_ptr<Network> network;
+  std::unique_ptr<Adjustment> adjustment;
+};
+
+Solved AdjustOnce(Network network) {
+  Solved solved;
+  solved.network = std::make_unique<Network>(std::move(network));
+  solved.adjustment = std::make_unique<Adjustment>(*solved.network);
+  Adjustment& adjustment = *solved.adjustment;
   adjustment.FindStartingValues();
   adjustment.NumberUnknowns();
   adjustment.Solve();
@@ -915,12 +1161,150 @@ NetworkResult AdjustNetwork(const Network& network) {
   adjustment.NameUnknowns();
   NetworkResult& result = adjustment.result;
   result.identifiability = std::move(identifiability);
-  result.k = NormalCoverageFactor(network.coverage_probability);
+  result.k = NormalCoverageFactor(solved.network->coverage_probability);
   adjustment.Targets();
   adjustment.Stations();
   adjustment.SelfCalibratedParameters();
   adjustment.Residuals();
-  return std::move(result);
+  return solved;
+}
+
+// The observation with the largest |w| of an adjustment: a reading (its largest component) or a
+// distance.
+struct Suspect {
+  double w = 0.0;
+  bool distance = false;
+  int index = -1;  // the observation (reading) or the distance
+  std::string component;
+};
+
+Suspect LargestW(const Adjustment& adjustment) {
+  Suspect worst;
+  const NetworkResult& result = adjustment.result;
+  for (std::size_t i = 0; i < result.residuals.size(); ++i) {
+    if (std::abs(result.residuals[i].w) <= std::abs(worst.w)) continue;
+    worst = {result.residuals[i].w, false, static_cast<int>(i / 3), result.residuals[i].component};
+  }
+  for (std::size_t k = 0; k < result.distances.size(); ++k) {
+    if (std::abs(result.distances[k].w) <= std::abs(worst.w)) continue;
+    worst = {result.distances[k].w, true, static_cast<int>(k), "length"};
+  }
+  return worst;
+}
+
+// The rejection limit (N-8a): Baarda's w is N(0, 1) for a good observation; over the n values
+// tested, z_(1 - alpha / (2 n)) keeps the probability of removing any good one of a network without
+// gross errors at or below alpha (Bonferroni). Never below the flagging limit.
+double RejectionLimit(const NetworkResult& result, const Network& network) {
+  const double tested = static_cast<double>(result.residuals.size() + result.distances.size());
+  return std::max(network.outlier_limit, NormalCoverageFactor(1.0 - network.robust_alpha / std::max(1.0, tested)));
+}
+
+// The fit test of the final adjustment (FitProblem, vlt/gum.h) as a warning of the result.
+void AddFitProblem(NetworkResult& result) {
+  double largest_w = 0.0;
+  for (const NetworkResidual& r : result.residuals) largest_w = std::max(largest_w, std::abs(r.w));
+  for (const AdjustedDistance& d : result.distances) largest_w = std::max(largest_w, std::abs(d.w));
+  const std::string problem = FitProblem(result.chi2, result.dof, largest_w,
+                                         static_cast<int>(result.residuals.size() + result.distances.size()));
+  if (!problem.empty()) {
+    result.warnings.push_back(problem + (result.parameters.empty()
+                                             ? " (the instruments' real errors? self-calibrate)"
+                                             : ""));
+  }
+}
+
+std::string FormatW(double w) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.2f", std::abs(w));
+  return text;
+}
+
+// `network` without the suspect (a copy), and the record of what was removed.
+Network WithoutSuspect(const Network& network, const Adjustment& adjustment, const Suspect& suspect,
+                       RejectedObservation& rejected, std::pair<int, TargetReading>& reading,
+                       NetworkDistance& distance) {
+  Network reduced = network;
+  rejected.w_before = suspect.w;
+  rejected.component = suspect.component;
+  if (suspect.distance) {
+    const int k = adjustment.distances[suspect.index].index;
+    distance = network.distances[k];
+    rejected.distance = true;
+    rejected.target = distance.name;
+    rejected.where = distance.where;
+    reduced.distances.erase(reduced.distances.begin() + k);
+  } else {
+    const Observation& obs = adjustment.observations[suspect.index];
+    const TargetReading& source = network.stations[obs.station].readings[obs.reading];
+    reading = {obs.station, source};
+    rejected.station = network.stations[obs.station].name;
+    rejected.target = source.target;
+    rejected.face = source.face;
+    rejected.where = source.where;
+    std::vector<TargetReading>& kept = reduced.stations[obs.station].readings;
+    kept.erase(kept.begin() + obs.reading);
+  }
+  return reduced;
+}
+
+}  // namespace
+
+// Iterative data snooping (Baarda 1968; Teunissen, Testing theory, 2006, ch. 4; docs/network.md
+// N-8a): adjust, remove the observation with the largest |w| above the rejection limit, re-adjust,
+// until none exceeds it. At most a fifth of the observations go, and never one whose removal leaves
+// the network undetermined: beyond that the data need a look, not a rule.
+NetworkResult AdjustNetwork(const Network& network) {
+  if (network.stations.empty()) throw InputError(network.where + ": station: the network has no station");
+  Solved solved = AdjustOnce(network);
+  if (!network.robust) {
+    AddFitProblem(solved.adjustment->result);
+    return std::move(solved.adjustment->result);
+  }
+  const double limit = RejectionLimit(solved.adjustment->result, network);
+  const std::size_t observations =
+      solved.adjustment->observations.size() + solved.adjustment->distances.size();
+  std::vector<RejectedObservation> rejected;
+  std::vector<std::pair<int, TargetReading>> rejected_readings;  // (station, reading); distance: -1
+  std::vector<NetworkDistance> rejected_distances;
+  std::vector<std::string> warnings;
+  for (;;) {
+    const Suspect suspect = LargestW(*solved.adjustment);
+    if (!(std::abs(suspect.w) > limit)) break;
+    if (5 * (rejected.size() + 1) > observations) {
+      warnings.push_back("the robust adjustment stopped after removing " + std::to_string(rejected.size()) +
+                         " observations (a fifth of them): |w| = " + FormatW(suspect.w) +
+                         " remains; look at the data and the instrument model");
+      break;
+    }
+    RejectedObservation record;
+    std::pair<int, TargetReading> reading{-1, {}};
+    NetworkDistance distance;
+    Network reduced = WithoutSuspect(*solved.network, *solved.adjustment, suspect, record, reading, distance);
+    try {
+      solved = AdjustOnce(std::move(reduced));
+    } catch (const std::runtime_error&) {  // InputError, NumericalError: the structure broke
+      warnings.push_back(record.where + ": |w| = " + FormatW(suspect.w) +
+                         " above the rejection limit, kept: without it the network is not determined");
+      break;
+    }
+    rejected.push_back(std::move(record));
+    rejected_readings.push_back(std::move(reading));
+    rejected_distances.push_back(std::move(distance));
+  }
+  NetworkResult result = std::move(solved.adjustment->result);
+  AddFitProblem(result);
+  for (std::size_t r = 0; r < rejected.size(); ++r) {
+    rejected[r].predicted =
+        rejected[r].distance
+            ? solved.adjustment->PredictDistanceW(rejected_distances[r], rejected[r])
+            : solved.adjustment->PredictReadingW(rejected_readings[r].first, rejected_readings[r].second,
+                                                 rejected[r]);
+  }
+  result.rejected = std::move(rejected);
+  result.rejection_limit = limit;
+  for (std::string& w : warnings) result.warnings.push_back(std::move(w));
+  return result;
 }
 
 }  // namespace vlt

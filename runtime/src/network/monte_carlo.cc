@@ -1,6 +1,9 @@
 // network/monte_carlo.cc — ValidateNetworkByMonteCarlo (vlt/network.h): the adjustment's GUM
 // checked by re-adjusting simulated measurements of the adjusted network (docs/network.md N-10).
+#include <algorithm>
 #include <cmath>
+#include <map>
+#include <string>
 #include <exception>
 #include <span>
 #include <utility>
@@ -14,11 +17,35 @@
 
 namespace vlt {
 
+namespace {
+
+// The network the adjustment kept: without the observations its robust rule removed (N-8a), which
+// the simulated trials then do not have either.
+Network KeptObservations(const Network& network, const NetworkResult& result) {
+  Network kept = network;
+  for (const RejectedObservation& gone : result.rejected) {
+    if (gone.distance) {
+      std::erase_if(kept.distances, [&](const NetworkDistance& d) { return d.name == gone.target && d.where == gone.where; });
+      continue;
+    }
+    for (NetworkStation& st : kept.stations) {
+      if (st.name != gone.station) continue;
+      const auto it = std::find_if(st.readings.begin(), st.readings.end(), [&](const TargetReading& r) {
+        return r.target == gone.target && r.face == gone.face && r.where == gone.where;
+      });
+      if (it != st.readings.end()) st.readings.erase(it);
+    }
+  }
+  return kept;
+}
+
+}  // namespace
+
 NetworkMonteCarlo ValidateNetworkByMonteCarlo(const Network& network, const NetworkResult& result, int trials,
                                               std::uint64_t seed, int threads) {
   if (trials < 2) throw InputError(network.where + ": network.monte_carlo.trials: at least 2");
   // The truth: the adjusted targets and station poses.
-  Network truth_network = network;
+  Network truth_network = KeptObservations(network, result);
   for (std::size_t i = 0; i < network.stations.size(); ++i)
     truth_network.stations[i].pose = result.stations[i].pose;
   std::vector<std::pair<std::string, Eigen::Vector3d>> truth;
@@ -42,8 +69,15 @@ NetworkMonteCarlo ValidateNetworkByMonteCarlo(const Network& network, const Netw
                                const std::uint64_t key = seed * 0x9E3779B97F4A7C15ULL + trial + 1;
                                const Network simulated = SimulateNetwork(truth_network, truth, key);
                                const NetworkResult r = AdjustNetwork(simulated);
+                               // By name: a trial's robust rule may remove a target's first reading.
+                               std::map<std::string, const AdjustedTarget*> by_name;
+                               for (const AdjustedTarget& target : r.targets) by_name[target.name] = &target;
                                for (std::size_t t = 0; t < T; ++t) {
-                                 const Eigen::Vector3d d = r.targets[t].position - truth[t].second;
+                                 const auto it = by_name.find(truth[t].first);
+                                 if (it == by_name.end())
+                                   throw NumericalError(network.where + ": a simulated trial lost target '" +
+                                                        truth[t].first + "'");
+                                 const Eigen::Vector3d d = it->second->position - truth[t].second;
                                  for (int c = 0; c < 3; ++c)
                                    mine[i * width + 3 * t + static_cast<std::size_t>(c)] = d(c);
                                }

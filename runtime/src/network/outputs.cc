@@ -1,6 +1,7 @@
 // network/outputs.cc — the files of `vlt network` (outputs.h). CSVs and results.json are SI with
 // the unit in every column name; the summary prints um and arcsec and says so.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -324,12 +325,63 @@ void FlaggedReadings(std::ostringstream& body, const NetworkJob& job, const Netw
   body << "</section>\n";
 }
 
+// Scale bars and measured distances at the solution (N-4a, N-8).
+void DistancesTable(std::ostringstream& body, const NetworkResult& result) {
+  body << "<section><h2>Scale bars and distances</h2><p class=\"note\">observed: the calibrated length "
+          "corrected to the bar's temperature; adjusted: the distance of the adjusted targets, its u from "
+          "the full covariance.</p><table><tr><th class=\"l\">name</th><th class=\"l\">kind</th>"
+          "<th class=\"l\">from</th><th class=\"l\">to</th><th>observed (m)</th><th>u (um)</th>"
+          "<th>adjusted (m)</th><th>u (um)</th><th>adjusted &minus; observed (um)</th><th>redundancy</th>"
+          "<th>w</th></tr>";
+  for (const AdjustedDistance& d : result.distances) {
+    body << "<tr><td class=\"l\">" << HtmlEscape(d.name) << "</td><td class=\"l\">"
+         << (d.scale_bar ? "scale bar" : "distance") << "</td><td class=\"l\">" << HtmlEscape(d.from)
+         << "</td><td class=\"l\">" << HtmlEscape(d.to) << "</td><td>" << Fixed(d.observed, 7) << "</td><td>"
+         << Fixed(d.u_observed * 1e6, 2) << "</td><td>" << Fixed(d.adjusted, 7) << "</td><td>"
+         << Fixed(d.u_adjusted * 1e6, 2) << "</td><td>" << Fixed((d.adjusted - d.observed) * 1e6, 2)
+         << "</td><td>" << Fixed(d.redundancy, 3) << "</td><td" << (d.outlier ? " class=\"bad\"" : "") << ">"
+         << Fixed(d.w, 2) << "</td></tr>";
+  }
+  body << "</table></section>\n";
+}
+
+// What the robust adjustment removed (N-8a), with w when removed and against the final adjustment.
+void RejectedTable(std::ostringstream& body, const NetworkJob& job, const NetworkResult& result) {
+  body << "<section><h2>Removed by the robust adjustment</h2><p class=\"note\">Iterative data snooping: "
+          "the observation with the largest |w| above "
+       << Fixed(result.rejection_limit, 2) << " (probability " << Num(job.network.robust_alpha)
+       << " of removing any good observation) is removed and the network re-adjusted, until none "
+          "exceeds it. w after: its misfit to the final adjustment, which no longer contains it.</p>";
+  if (result.rejected.empty()) {
+    body << "<p>None.</p>";
+  } else {
+    body << "<table><tr><th>#</th><th class=\"l\">station</th><th class=\"l\">target / distance</th>"
+            "<th class=\"l\">face</th><th class=\"l\">component</th><th>w when removed</th><th>w after</th>"
+            "<th class=\"l\">where</th></tr>";
+    for (std::size_t i = 0; i < result.rejected.size(); ++i) {
+      const RejectedObservation& r = result.rejected[i];
+      body << "<tr><td>" << i + 1 << "</td><td class=\"l\">" << HtmlEscape(r.station) << "</td><td class=\"l\">"
+           << HtmlEscape(r.target) << "</td><td class=\"l\">" << (r.distance ? "" : FaceName(r.face))
+           << "</td><td class=\"l\">" << r.component << "</td><td class=\"bad\">" << Fixed(r.w_before, 2)
+           << "</td><td>" << (r.predicted ? Fixed(r.w_after, 2) : std::string("n/a")) << "</td><td class=\"l\">"
+           << HtmlEscape(r.where) << "</td></tr>";
+    }
+    body << "</table>";
+  }
+  body << "</section>\n";
+}
+
 // report.html: the network in 3-D (stations, targets coloured by |U|, lines of sight, the axes of
 // every target's coverage ellipsoid, exaggerated), then the tables a metrologist signs.
 std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, const NetworkMonteCarlo* mc,
                           const std::vector<NetworkTaskResult>& tasks) {
   std::ostringstream body, script;
   AdjustmentSection(body, job, result, mc);
+  if (!result.warnings.empty()) {
+    body << "<section><h2>Warnings</h2>";
+    for (const std::string& w : result.warnings) body << "<p class=\"bad\">" << HtmlEscape(w) << "</p>";
+    body << "</section>\n";
+  }
   NetworkView(body, script, job, result);
   // Tables.
   TargetsTable(body, result);
@@ -337,7 +389,9 @@ std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, co
   if (!tasks.empty()) TasksTable(body, tasks);
   if (!result.parameters.empty()) SelfCalibratedTable(body, result);
   if (!result.identifiability.empty()) IdentifiabilityTable(body, result);
+  if (!result.distances.empty()) DistancesTable(body, result);
   FlaggedReadings(body, job, result);
+  if (job.network.robust) RejectedTable(body, job, result);
   return report::Page(
       "vlt network — " + job.name,
       job.description.empty() ? "Bundle adjustment of a network of stations" : job.description, body.str(),
@@ -400,6 +454,46 @@ std::string ResidualsCsv(const NetworkResult& result) {
       AppendNum(s, v);
     }
     s += std::string(",") + (r.outlier ? "true" : "false") + "," + Csv(r.where) + "\n";
+  }
+  return s;
+}
+
+std::string DistancesCsv(const NetworkResult& result) {
+  std::string s =
+      "name,kind,from,to,observed_m,u_observed_m,adjusted_m,u_adjusted_m,normalised,redundancy,w,outlier,where\n";
+  for (const AdjustedDistance& d : result.distances) {
+    s += Csv(d.name) + (d.scale_bar ? ",scale_bar," : ",distance,") + Csv(d.from) + "," + Csv(d.to);
+    for (double v : {d.observed, d.u_observed, d.adjusted, d.u_adjusted, d.normalised, d.redundancy, d.w}) {
+      s += ',';
+      AppendNum(s, v);
+    }
+    s += std::string(",") + (d.outlier ? "true" : "false") + "," + Csv(d.where) + "\n";
+  }
+  return s;
+}
+
+// rejected.csv: in the order removed; w_after empty where the target left the network with it.
+std::string RejectedCsv(const NetworkResult& result) {
+  std::string s = "order,kind,station,target,face,component,w_before,w_after,where\n";
+  for (std::size_t i = 0; i < result.rejected.size(); ++i) {
+    const RejectedObservation& r = result.rejected[i];
+    // (Appended piece by piece: GCC 12 warns falsely on a long chain of std::string + at -O3.)
+    s += std::to_string(i + 1);
+    s += r.distance ? ",distance," : ",reading,";
+    s += Csv(r.station);
+    s += ',';
+    s += Csv(r.target);
+    s += ',';
+    if (!r.distance) s += FaceName(r.face);
+    s += ',';
+    s += r.component;
+    s += ',';
+    AppendNum(s, r.w_before);
+    s += ',';
+    if (r.predicted) AppendNum(s, r.w_after);
+    s += ',';
+    s += Csv(r.where);
+    s += '\n';
   }
   return s;
 }
@@ -590,6 +684,43 @@ nlohmann::ordered_json IdentifiabilityJson(const NetworkResult& result) {
   return ident;
 }
 
+nlohmann::ordered_json DistancesJson(const NetworkResult& result) {
+  nlohmann::ordered_json out = nlohmann::ordered_json::array();
+  for (const AdjustedDistance& d : result.distances) {
+    out.push_back({{"name", d.name},
+                   {"kind", d.scale_bar ? "scale_bar" : "distance"},
+                   {"from", d.from},
+                   {"to", d.to},
+                   {"observed", d.observed},
+                   {"u_observed", d.u_observed},
+                   {"adjusted", d.adjusted},
+                   {"u_adjusted", d.u_adjusted},
+                   {"redundancy", d.redundancy},
+                   {"w", d.w},
+                   {"outlier", d.outlier}});
+  }
+  return out;
+}
+
+nlohmann::ordered_json RobustJson(const Network& network, const NetworkResult& result) {
+  nlohmann::ordered_json rejected = nlohmann::ordered_json::array();
+  for (const RejectedObservation& r : result.rejected) {
+    nlohmann::ordered_json o = {{"kind", r.distance ? "distance" : "reading"},
+                                {"station", r.station},
+                                {"target", r.target},
+                                {"component", r.component},
+                                {"w_before", r.w_before}};
+    if (!r.distance) o["face"] = FaceName(r.face);
+    if (r.predicted)
+      o["w_after"] = r.w_after;
+    else
+      o["w_after"] = nullptr;
+    o["where"] = r.where;
+    rejected.push_back(o);
+  }
+  return {{"alpha", network.robust_alpha}, {"rejection_limit", result.rejection_limit}, {"rejected", rejected}};
+}
+
 nlohmann::ordered_json TasksJson(const std::vector<NetworkTaskResult>& tasks) {
   nlohmann::ordered_json task_json = nlohmann::ordered_json::array();
   for (const NetworkTaskResult& t : tasks) {
@@ -640,10 +771,13 @@ std::string ResultsJson(const NetworkJob& job, const NetworkResult& result,
                   {"k", result.k},
                   {"share_noise", result.share_noise},
                   {"share_consider", result.share_consider}};
+  j["warnings"] = result.warnings;
   j["stations"] = StationsJson(job, result);
   j["targets"] = TargetsJson(result);
   j["parameters"] = ParametersJson(result);
   if (!result.identifiability.empty()) j["identifiability"] = IdentifiabilityJson(result);
+  if (!result.distances.empty()) j["distances"] = DistancesJson(result);
+  if (job.network.robust) j["robust"] = RobustJson(job.network, result);
   j["tasks"] = TasksJson(tasks);
   if (mc) {
     j["monte_carlo"] = {{"trials", mc->trials},
@@ -671,6 +805,8 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result,
   files.emplace_back("stations.csv", StationsCsv(result));
   files.emplace_back("residuals.csv", ResidualsCsv(result));
   files.emplace_back("covariance.csv", CovarianceCsv(result));
+  if (!result.distances.empty()) files.emplace_back("distances.csv", DistancesCsv(result));
+  if (!result.rejected.empty()) files.emplace_back("rejected.csv", RejectedCsv(result));
   if (!tasks.empty()) files.emplace_back("tasks.csv", TasksCsv(tasks));
   if (mc) files.emplace_back("mcm.csv", McmCsv(result, *mc));
   if (!result.identifiability.empty()) files.emplace_back("identifiability.csv", IdentifiabilityCsv(result));
@@ -701,6 +837,28 @@ std::string NetworkSummary(const NetworkJob& job, const NetworkResult& result, c
       result.outliers == 1 ? "" : "s", result.k, worst * 1e6, worst_name.c_str(), 100.0 * result.share_noise,
       100.0 * result.share_consider);
   std::string out = std::string(line) + "\n";
+  if (!result.distances.empty()) {
+    const auto worst_w = std::max_element(result.distances.begin(), result.distances.end(),
+                                          [](const AdjustedDistance& a, const AdjustedDistance& b) {
+                                            return std::abs(a.w) < std::abs(b.w);
+                                          });
+    std::snprintf(line, sizeof line, "Scale bars and distances: %zu; largest |w| %.2f at %s (distances.csv)\n",
+                  result.distances.size(), std::abs(worst_w->w), worst_w->name.c_str());
+    out += line;
+  }
+  if (!result.rejected.empty()) {
+    std::snprintf(line, sizeof line,
+                  "Robust adjustment: %zu observation%s removed (|w| above %.2f; rejected.csv):",
+                  result.rejected.size(), result.rejected.size() == 1 ? "" : "s", result.rejection_limit);
+    out += line;
+    for (const RejectedObservation& r : result.rejected) {
+      std::snprintf(line, sizeof line, " %s%s%s (w %.1f)", r.station.c_str(), r.station.empty() ? "" : "/",
+                    r.target.c_str(), r.w_before);
+      out += line;
+    }
+    out += "\n";
+  }
+  for (const std::string& w : result.warnings) out += "Warning: " + w + "\n";
   if (!result.identifiability.empty()) {
     int determined = 0;
     for (const NetworkCombination& c : result.identifiability) determined += c.determined ? 1 : 0;
@@ -774,6 +932,16 @@ Files SimulatedNetworkFiles(const NetworkJob& job, const Network& simulated, std
         t->insert_or_assign("y", simulated.references[r].position(1));
         t->insert_or_assign("z", simulated.references[r].position(2));
       }
+    }
+  }
+ // Scale bars, then distances, in the file's order (the reader's): their simulated lengths.
+  std::size_t next = 0;
+  for (const char* key : {"scale_bar", "distance"}) {
+    toml::array* tables = root[key].as_array();
+    for (std::size_t k = 0; tables && k < tables->size() && next < simulated.distances.size(); ++k, ++next) {
+      const NetworkDistance& d = simulated.distances[next];
+      if (toml::table* t = tables->get(k)->as_table())
+        t->insert_or_assign("length", d.scale_bar ? d.calibrated_length : d.length);
     }
   }
   std::ostringstream os;

@@ -61,6 +61,8 @@ struct NetworkFileReader {
   void ReadStations();
   void ReadDatum();
   void ReadReferences();
+  void ReadDistance(Section& s, bool scale_bar);
+  void ReadDistances();
   void PlanOfflineReadings();
   void ReadNetworkTasks();
 };
@@ -136,8 +138,15 @@ void NetworkFileReader::ReadSelfCalibration(Section& settings) {
 void NetworkFileReader::ReadSettings() {
   Section settings = top.Sub("network", false);
   if (!settings.exists()) return;
-  settings.set_hint("self_calibrate, coverage_probability, outlier_limit, max_iterations, monte_carlo");
+  settings.set_hint(
+      "self_calibrate, coverage_probability, outlier_limit, robust, robust_alpha, max_iterations, monte_carlo");
   ReadValidation(settings);
+  if (const toml::node* n = settings.Get("robust")) net.robust = AsBool(*n, settings.Where("robust"));
+  if (const toml::node* n = settings.Get("robust_alpha")) {
+    net.robust_alpha = AsNumber(*n, settings.Where("robust_alpha"));
+    if (!(net.robust_alpha > 0.0 && net.robust_alpha <= 0.5))
+      throw InputError(settings.Where("robust_alpha") + ": a probability in (0, 0.5]");
+  }
   ReadSelfCalibration(settings);
   ReadCoverageProbability(settings, "coverage_probability", net.coverage_probability);
   ReadOutlierLimit(settings, "outlier_limit", net.outlier_limit);
@@ -310,6 +319,68 @@ void NetworkFileReader::ReadReferences() {
   });
 }
 
+// [[scale_bar]] and [[distance]]: a measured length between two targets (docs/network.md N-4a).
+// A scale bar's length is calibrated at `reference` (20 degC) and corrected to its temperature:
+// L = L_cal (1 + cte (T - T_ref)), with the GUM's first-order u (vlt/network.h). Offline, a length
+// left out is the nominal distance of the two targets.
+void NetworkFileReader::ReadDistance(Section& s, bool scale_bar) {
+  s.set_hint(scale_bar ? "name, from, to, length, u, cte, temperature, reference" : "name, from, to, length, u");
+  NetworkDistance d;
+  d.scale_bar = scale_bar;
+  d.where = s.WhereSelf();
+  d.name = AsString(s.Require("name"), s.Where("name"));
+  if (d.name.empty()) throw InputError(s.Where("name") + ": empty name");
+  for (const NetworkDistance& other : net.distances) {
+    if (other.name == d.name) throw InputError(s.Where("name") + ": '" + d.name + "' defined twice");
+  }
+  d.from = AsString(s.Require("from"), s.Where("from"));
+  d.to = AsString(s.Require("to"), s.Where("to"));
+  if (d.from == d.to) throw InputError(s.Where("to") + ": the same target as `from`");
+  // Offline without a length: the bar is as long as its targets are apart (at its temperature).
+  double nominal_length = 0.0;
+  if (s.Get("length")) {
+    d.calibrated_length = Length(s, "length");
+    if (!(d.calibrated_length > 0.0)) throw InputError(s.Where("length") + ": must be positive");
+  } else if (job.offline) {
+    std::map<std::string, Eigen::Vector3d> nominal(job.nominal.begin(), job.nominal.end());
+    if (!nominal.count(d.from) || !nominal.count(d.to))
+      throw InputError(s.Where("length") + ": required key is missing (a target is not in [targets])");
+    nominal_length = (nominal[d.to] - nominal[d.from]).norm();
+  } else {
+    s.Require("length");
+  }
+  d.u_calibrated_length = AsQuantity(s.Require("u"), Dimension::kLength, s.Where("u"));
+  if (!(d.u_calibrated_length > 0.0) || !std::isfinite(d.u_calibrated_length))
+    throw InputError(s.Where("u") + ": must be positive");
+  if (scale_bar) {
+    UncertainInput cte = MakeInput("cte", "scale_bar", Dimension::kPerKelvin, 0.0, 0.0);
+    UncertainInput temperature = MakeInput("temperature", "scale_bar", Dimension::kTemperature, 20.0, 0.0);
+    if (s.Get("cte")) ReadUncertain(s, "cte", Dimension::kPerKelvin, Dimension::kPerKelvin, cte);
+    if (s.Get("temperature"))
+      ReadUncertain(s, "temperature", Dimension::kTemperature, Dimension::kTemperatureDifference, temperature);
+    if (const toml::node* n = s.Get("reference"))
+      d.reference_temperature = AsQuantity(*n, Dimension::kTemperature, s.Where("reference"));
+    d.cte = cte.estimate;
+    d.u_cte = cte.u;
+    d.temperature = temperature.estimate;
+    d.u_temperature = temperature.u;
+  }
+  const double dt = d.temperature - d.reference_temperature, factor = 1.0 + d.cte * dt;
+  if (!(factor > 0.5 && factor < 1.5))
+    throw InputError(s.Where("cte") + ": the expansion factor 1 + cte (T - T_ref) is not plausible");
+  if (nominal_length > 0.0) d.calibrated_length = nominal_length / factor;
+  if (!(d.calibrated_length > 0.0)) throw InputError(s.Where("length") + ": must be positive");
+  d.length = d.calibrated_length * factor;
+  d.u = std::sqrt(std::pow(factor * d.u_calibrated_length, 2) + std::pow(d.calibrated_length * dt * d.u_cte, 2) +
+                  std::pow(d.calibrated_length * d.cte * d.u_temperature, 2));
+  net.distances.push_back(std::move(d));
+}
+
+void NetworkFileReader::ReadDistances() {
+  ForEachTable(top, path, "scale_bar", [&](Section& s) { ReadDistance(s, true); });
+  ForEachTable(top, path, "distance", [&](Section& s) { ReadDistance(s, false); });
+}
+
 void NetworkFileReader::PlanOfflineReadings() {
   for (std::size_t i = 0; i < net.stations.size(); ++i) {
     if (!net.stations[i].pose_given) {
@@ -342,8 +413,8 @@ NetworkJob LoadNetworkJob(const std::string& path) {
   toml::table root = ParseToml(text, path);
   Section top(root, path, "");
   top.set_hint(
-      "job, tracker, environment, correlations, instrument, network, datum, reference, targets, station, "
-      "task, output");
+      "job, tracker, environment, correlations, instrument, network, datum, reference, scale_bar, distance, "
+      "targets, station, task, output");
   NetworkJob job;
   job.file = path;
   job.text = text;
@@ -359,6 +430,7 @@ NetworkJob LoadNetworkJob(const std::string& path) {
   reader.ReadStations();
   reader.ReadDatum();
   reader.ReadReferences();
+  reader.ReadDistances();
   OutputSettings output;
   ReadOutput(top, output);
   job.output_directory = output.directory;

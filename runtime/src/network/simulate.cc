@@ -102,6 +102,16 @@ Network SimulateNetwork(const Network& network, const TargetList& truth, std::ui
     if (it == where_is.end()) throw InputError(ref.where + ": no true position of '" + ref.target + "'");
     for (int c = 0; c < 3; ++c) ref.position(c) = it->second(c) + ref.u * normal(2, 3 * r + c);
   }
+  // A distance observation: the true distance plus N(0, u^2); a scale bar's calibrated length is the
+  // one that gives it at the bar's temperature (the thermal correction of N-4a undone).
+  for (std::size_t k = 0; k < out.distances.size(); ++k) {
+    NetworkDistance& d = out.distances[k];
+    const auto from = where_is.find(d.from), to = where_is.find(d.to);
+    if (from == where_is.end() || to == where_is.end())
+      throw InputError(d.where + ": no true position of '" + (from == where_is.end() ? d.from : d.to) + "'");
+    d.length = (to->second - from->second).norm() + d.u * normal(3, k);
+    if (d.scale_bar) d.calibrated_length = d.length / (1.0 + d.cte * (d.temperature - d.reference_temperature));
+  }
   return out;
 }
 

@@ -85,6 +85,19 @@ const std::set<std::string>& KnownOutputNames() {
   return names;
 }
 
+// The names a marker lists (one per line after its first): what the run that left it wrote, so a
+// run of the same command into the same directory recognises every file (simulated_<station>.csv,
+// distances.csv, ... beyond the fixed names above).
+std::set<std::string> NamesInMarker(const fs::path& marker) {
+  std::set<std::string> names;
+  std::ifstream in(marker);
+  std::string line;
+  for (bool first = true; std::getline(in, line); first = false) {
+    if (!first && !line.empty()) names.insert(line);
+  }
+  return names;
+}
+
 fs::path Normalised(const fs::path& p) {
   fs::path n = p.lexically_normal();
   if (n.has_filename()) return n;
@@ -119,9 +132,10 @@ OutputDirectory::OutputDirectory(const fs::path& target) : target_(Normalised(ta
     if (!fs::is_directory(status)) {
       throw InputError(target_.string() + ": the output path exists and is not a directory");
     }
+    const std::set<std::string> listed = NamesInMarker(target_ / kOutputMarker);
     for (const fs::directory_entry& e : fs::directory_iterator(target_, ec)) {
       const std::string name = e.path().filename().string();
-      if (name == kOutputMarker) continue;
+      if (name == kOutputMarker || listed.count(name)) continue;
       if (!KnownOutputNames().count(name)) {
         throw InputError(target_.string() + ": the output directory holds '" + name +
                          "', which vlt did not write; vlt replaces its output directory as a whole, so "
@@ -217,8 +231,10 @@ void OutputDirectory::Commit(const std::vector<OutputFile>& files) {
   RemoveQuietly(staging_);
   // Prepare the signal handler's list before anything exists on disk.
   std::vector<OutputFile> all = files;
-  all.emplace_back(kOutputMarker, std::string("written by vlt ") + VLT_VERSION +
-                                      "; vlt replaces this directory as a whole on its next run into it\n");
+  std::string marker = std::string("written by vlt ") + VLT_VERSION +
+                       "; vlt replaces this directory as a whole on its next run into it. Files:\n";
+  for (const OutputFile& f : files) marker += f.name + "\n";
+  all.emplace_back(kOutputMarker, marker);
   g_staging_active = 0;
   int count = 0;
   bool registered = CopyPath(g_staging_dir, staging_) && all.size() <= static_cast<std::size_t>(kMaxStaged);
