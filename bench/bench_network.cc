@@ -13,7 +13,7 @@
 //                                         Monte Carlo validation of `trials` re-adjusted simulated
 //                                         networks on every core (0: none)
 // Counters: unknowns, observations, covariance_MB (the full matrix), peak_rss_MB (the process);
-// wing: rejected, worst_ratio (u_MCM / u_GUM farthest from 1).
+// wing: rejected, worst_ratio (u_MCM / u_GUM farthest from 1), tolerance, agrees (1: within it).
 // Target (issue: networks): 10 stations x 500 targets <= 5 s on one core; the wing with Monte
 // Carlo validation <= 10 s on the 2-core machine (issue 29).
 #include <cmath>
@@ -158,6 +158,8 @@ void BM_WingNetwork(benchmark::State& state) {
   state.counters["observations"] = result.observations;
   state.counters["rejected"] = static_cast<double>(result.rejected.size());
   state.counters["worst_ratio"] = trials > 0 ? mc.worst_ratio : 0.0;
+  state.counters["tolerance"] = trials > 0 ? mc.tolerance : 0.0;
+  state.counters["agrees"] = trials > 0 && mc.agrees ? 1.0 : 0.0;
 }
 
 BENCHMARK(BM_WingNetwork)->Name("network/wing")->Arg(0)->Arg(100)->Unit(benchmark::kMillisecond)->UseRealTime();

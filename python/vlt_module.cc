@@ -12,16 +12,19 @@
 #include <map>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 
 #include <toml++/toml.h>
 
+#include "vlt/calibration.h"
 #include "vlt/custom_job.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
 #include "vlt/inverse.h"
 #include "vlt/job.h"
 #include "vlt/models.h"
+#include "vlt/network.h"
 #include "vlt/results.h"
 
 namespace py = pybind11;
@@ -170,6 +173,13 @@ py::dict QuantityDict(const vlt::QuantityInfo& q, bool defaults) {
     d["default_distribution"] = q.default_distribution;
   }
   return d;
+}
+
+// The file `name` of an all-or-none set of output files (results.json, calibration.toml, ...).
+const std::string& FileNamed(const std::vector<std::pair<std::string, std::string>>& files, const std::string& name) {
+  for (const auto& [file, content] : files)
+    if (file == name) return content;
+  throw std::logic_error("no " + name + " among the outputs");
 }
 
 }  // namespace
@@ -333,4 +343,55 @@ PYBIND11_MODULE(vlt, m) {
       "The GUM of many points at once with the tracker, noise, environment and pose of `job`:\n"
       "readings (N, 3) = range [m], azimuth [rad], elevation [rad] -> dict of 'estimate' (N, 3) m,\n"
       "'covariance' (N, 3, 3) m^2, 'U' (N, 3) m (k of the job's coverage probability), part frame.");
+
+  m.def(
+      "network",
+      [](const std::string& path, std::optional<bool> robust, std::optional<int> threads) {
+        vlt::NetworkJob job = vlt::LoadNetworkJob(path);
+        if (robust) job.network.robust = *robust;
+        std::string json;
+        {
+          py::gil_scoped_release release;
+          const vlt::NetworkResult result = vlt::AdjustNetwork(job.network);
+          std::optional<vlt::NetworkMonteCarlo> mc;
+          if (job.monte_carlo_trials > 0) {
+            mc = vlt::ValidateNetworkByMonteCarlo(job.network, result, job.monte_carlo_trials, job.monte_carlo_seed,
+                                                  threads.value_or(0));
+          }
+          const std::vector<vlt::NetworkTaskResult> tasks = vlt::NetworkTasks(job.tasks, result, job.file);
+          json = FileNamed(vlt::network_outputs::NetworkFiles(job, result, tasks, vlt::RunCreatedTime(),
+                                                              mc ? &*mc : nullptr),
+                           "results.json");
+        }
+        return JsonLoads(json).cast<py::dict>();
+      },
+      py::arg("path"), py::arg("robust") = py::none(), py::arg("threads") = py::none(),
+      "Adjusts a network file like `vlt network` (docs/network.md), without writing files: its\n"
+      "results.json as a dict (\"schema\": \"vlt-network/1\": targets, stations, distances, robust, ...).\n"
+      "robust: override [network] robust (False: keep every observation).");
+
+  m.def(
+      "calibrate",
+      [](const std::string& path) {
+        const vlt::CalibrationJob job = vlt::LoadCalibrationJob(path);
+        py::dict out;
+        std::vector<std::pair<std::string, std::string>> files;
+        {
+          py::gil_scoped_release release;
+          const vlt::CalibrationResult result = vlt::Calibrate(job.data, job.options);
+          vlt::CalibrationProvenance provenance;
+          provenance.instrument = job.instrument;
+          provenance.created = vlt::RunCreatedTime();
+          provenance.vlt_version = VLT_VERSION;
+          for (const std::string& f : job.data_files) provenance.data_files.emplace_back(f, vlt::Sha256File(f));
+          files = vlt::calibration_outputs::CalibrationFiles(job, result, provenance);
+        }
+        out["results"] = JsonLoads(FileNamed(files, "results.json"));
+        out["calibration_toml"] = FileNamed(files, "calibration.toml");
+        return out;
+      },
+      py::arg("path"),
+      "Identifies a tracker's error parameters like `vlt calibrate` (docs/calibration.md), without\n"
+      "writing files: {'results': results.json as a dict, 'calibration_toml': the calibration file's text}\n"
+      "(its [calibration] fits says whether the calibration fits its data).");
 }

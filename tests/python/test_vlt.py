@@ -134,3 +134,39 @@ def test_a_custom_model_job_equals_the_command_line():
     # The published GUM H.2 result: R = 127.732 ohm, u(R) = 0.071 ohm.
     R = [o for o in r["outputs"] if o["name"] == "R"][0]
     assert abs(R["gum"]["estimate"] - 127.732) < 0.0005 and abs(R["gum"]["u"] - 0.071) < 0.0005
+
+
+def _without_run_stamps(results):
+    """results.json minus what differs between two runs of the same input (when, which build)."""
+    return {k: v for k, v in results.items() if k not in ("created", "vlt_commit", "files")}
+
+
+def test_network_equals_the_command_line():
+    plan = os.path.join(SOURCE, "examples", "network", "scale_bar_network.toml")
+    r = vlt.network(plan)
+    assert r["schema"] == "vlt-network/1"
+    assert [d["name"] for d in r["distances"]] == ["SB1", "SB2", "SB3"]
+    with tempfile.TemporaryDirectory() as out:
+        subprocess.run([VLT, "-q", "network", plan, "-o", out], check=True)
+        with open(os.path.join(out, "results.json")) as f:
+            cli = json.load(f)
+    assert _without_run_stamps(r) == _without_run_stamps(cli)
+    # robust=False: the same plan (nothing to remove) without the robust section.
+    off = vlt.network(plan, robust=False)
+    assert "robust" not in off and off["targets"] == r["targets"]
+
+
+def test_calibrate_equals_the_command_line_and_says_whether_it_fits():
+    job = os.path.join(SOURCE, "examples", "calibration", "simulated_calibration.toml")
+    c = vlt.calibrate(job)
+    assert c["results"]["fit"]["observations"] > 0 and c["results"]["fit"]["fits"] is True
+    assert "fits = true" in c["calibration_toml"]
+    with tempfile.TemporaryDirectory() as out:
+        subprocess.run([VLT, "-q", "calibrate", job, "-o", out], check=True)
+        with open(os.path.join(out, "calibration.toml")) as f:
+            cli = f.read()
+    strip = lambda text: [line for line in text.splitlines() if not line.startswith("created")]
+    assert strip(c["calibration_toml"]) == strip(cli)
+    unfit = vlt.calibrate(os.path.join(SOURCE, "tests", "cli", "calibration", "mirror_on_head.toml"))
+    assert "fits = false" in unfit["calibration_toml"] and unfit["results"]["fit"]["fits"] is False
+    assert unfit["results"]["fit"]["fit_problem"].startswith("the data do not fit the model")

@@ -398,7 +398,9 @@ std::string CalibrationResultsJson(const CalibrationJob& job, const CalibrationR
               {"p_value", result.p_value},
               {"outliers", result.outliers},
               {"iterations", result.iterations},
-              {"k", result.k}};
+              {"k", result.k},
+              {"fits", CalibrationFitProblem(result).empty()},
+              {"fit_problem", CalibrationFitProblem(result)}};
   return j.dump(1) + "\n";
 }
 
