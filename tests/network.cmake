@@ -87,6 +87,8 @@ vlt_network_error(missing_instrument missing_instrument.toml
                   "missing_instrument\\.toml: station\\[2\\]\\.instrument: required key is missing [(]the network has several instruments[)]")
 vlt_network_error(scale_bar_same_target scale_bar_same_target.toml
                   "scale_bar_same_target\\.toml: scale_bar\\[0\\]\\.to: the same target as `from`")
+vlt_network_error(scale_bar_unknown_target scale_bar_unknown_target.toml
+                  "scale_bar_unknown_target\\.toml: scale_bar\\[0\\]\\.from: unknown target 'NOPE' [(]not in \\[targets\\][)]")
 vlt_network_error(distance_no_u scale_bar_no_u.toml
                   "scale_bar_no_u\\.toml: distance\\[0\\]\\.u: required key is missing")
 add_test(NAME cli_error_network_simulate_online

@@ -336,15 +336,20 @@ void NetworkFileReader::ReadDistance(Section& s, bool scale_bar) {
   d.from = AsString(s.Require("from"), s.Where("from"));
   d.to = AsString(s.Require("to"), s.Where("to"));
   if (d.from == d.to) throw InputError(s.Where("to") + ": the same target as `from`");
+  std::map<std::string, Eigen::Vector3d> nominal(job.nominal.begin(), job.nominal.end());
+  if (job.offline) {
+    for (const char* key : {"from", "to"}) {
+      const std::string& target = std::string_view(key) == "from" ? d.from : d.to;
+      if (!nominal.count(target))
+        throw InputError(s.Where(key) + ": unknown target '" + target + "' (not in [targets])");
+    }
+  }
   // Offline without a length: the bar is as long as its targets are apart (at its temperature).
   double nominal_length = 0.0;
   if (s.Get("length")) {
     d.calibrated_length = Length(s, "length");
     if (!(d.calibrated_length > 0.0)) throw InputError(s.Where("length") + ": must be positive");
   } else if (job.offline) {
-    std::map<std::string, Eigen::Vector3d> nominal(job.nominal.begin(), job.nominal.end());
-    if (!nominal.count(d.from) || !nominal.count(d.to))
-      throw InputError(s.Where("length") + ": required key is missing (a target is not in [targets])");
     nominal_length = (nominal[d.to] - nominal[d.from]).norm();
   } else {
     s.Require("length");
