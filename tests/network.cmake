@@ -68,6 +68,29 @@ add_test(NAME cli_network_two_instruments
           "-DJSON_KEYS=schema;created;vlt_version;vlt_commit;units;job;summary;stations;targets;parameters;identifiability;tasks;files"
           -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
 
+# Air per station (docs/network.md N-2a): four stations over a shift, two sensors; the plan, its
+# simulated measurement adjusted, each station's air in results.json and the report.
+add_test(NAME cli_network_station_air
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_ex}/hall_air_network.toml;--simulate;5;-o;${_out}/network_air"
+          -DOUT=${_out}/network_air
+          "-DFILES=targets.csv;stations.csv;distances.csv;results.json;report.html;simulated_S4.csv;simulated_network.toml"
+          "-DEXPECT_STDOUT=Planned network 'hall-air-network': 4 stations, 20 targets, [0-9]+ observations.*Birge ratio 0[.]000, 0 outliers"
+          "-DEXPECT_FILE_REGEX=results.json:\"air\": {[^}]*\"temperature\": 21[.]7[^}]*\"u_temperature\": 0[.]6[^}]*\"sensor\": \"WS2\""
+          "-DJSON_KEYS=schema;summary;stations;targets;distances;files"
+          -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_network_station_air PROPERTIES FIXTURES_SETUP vlt_network_air)
+add_test(NAME cli_network_station_air_simulated
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_out}/network_air/simulated_network.toml;-o;${_out}/network_air_simulated"
+          -DOUT=${_out}/network_air_simulated
+          "-DFILES=targets.csv;results.json;report.html"
+          "-DEXPECT_STDOUT=Measured network 'hall-air-network-simulated-5': 4 stations, 20 targets"
+          "-DEXPECT_FILE_REGEX=report.html:<h2>Air per station</h2>"
+          "-DJSON_KEYS=schema;summary;stations;files"
+          -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_network_station_air_simulated PROPERTIES FIXTURES_REQUIRED vlt_network_air)
+
 function(vlt_network_error name file regex)
   add_test(NAME cli_error_network_${name}
     COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
@@ -97,3 +120,7 @@ add_test(NAME cli_error_network_simulate_online
           -DOUT=${_out}/error_network_simulate_online
           "-DEXPECT=simulated_network\\.toml: station: --simulate needs an offline network" -P ${_cli}/expect_error.cmake)
 set_tests_properties(cli_error_network_simulate_online PROPERTIES FIXTURES_REQUIRED vlt_network_plan)
+vlt_network_error(air_unknown_sensor air_unknown_sensor.toml
+                  "air_unknown_sensor\\.toml: station\\[1\\]\\.environment\\.sensor: unknown air sensor 'WS9'")
+vlt_network_error(air_below_sensor air_below_sensor.toml
+                  "air_below_sensor\\.toml: station\\[1\\]\\.environment\\.temperature: u below the u of its sensor 'WS1'")

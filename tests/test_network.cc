@@ -15,6 +15,7 @@
 #include "vlt/error.h"
 #include "vlt/gum.h"
 #include "vlt/network.h"
+#include "vlt/refractive_index.h"
 
 namespace vlt {
 namespace {
@@ -87,6 +88,60 @@ NetworkDistance Distance(const std::string& name, const std::pair<std::string, E
   return d;
 }
 
+// An input of the air (group "environment").
+UncertainInput AirInput(const char* name, const char* unit, double estimate, double u) {
+  UncertainInput in;
+  in.name = name;
+  in.unit = unit;
+  in.group = "environment";
+  in.estimate = estimate;
+  in.u = u;
+  return in;
+}
+
+// Air at a station (N-2a): estimates in degC, Pa, % and their u in K, Pa, %.
+Environment Air(double t, double u_t, double p, double u_p, double h, double u_h) {
+  const auto input = AirInput;
+  Environment air;
+  air.temperature = input("environment.temperature", "degC", t, u_t);
+  air.pressure = input("environment.pressure", "Pa", p, u_p);
+  air.humidity = input("environment.humidity", "%", h, u_h);
+  air.co2 = input("environment.co2", "1", 450e-6, 0.0);
+  return air;
+}
+
+// Stations S1 and S2 read their air from one sensor WS1, S3 its own (N-2a).
+void GiveStationsTheirAir(Network& net) {
+  net.air_sensors.push_back({"WS1", 0.9, 80.0, 5.0, "net.toml: air_sensor[0]"});
+  net.stations[0].environment = Air(19.5, 1.0, 100200.0, 100.0, 50.0, 6.0);
+  net.stations[0].air_sensor = "WS1";
+  net.stations[1].environment = Air(21.0, 1.2, 100150.0, 110.0, 45.0, 6.0);
+  net.stations[1].air_sensor = "WS1";
+  net.stations[2].environment = Air(23.0, 1.5, 100100.0, 120.0, 55.0, 8.0);
+}
+
+// The covariance of the stations' air inputs, built here from the sensor's share: u_i^2 on the
+// diagonal, u_sensor^2 between two stations of one sensor, per quantity (temperature, pressure,
+// humidity), ordered station by station.
+Eigen::MatrixXd AirCovariance(const Network& net) {
+  const int m = 3 * static_cast<int>(net.stations.size());
+  Eigen::MatrixXd sigma = Eigen::MatrixXd::Zero(m, m);
+  auto u = [](const Environment& e, int q) { return q == 0 ? e.temperature.u : q == 1 ? e.pressure.u : e.humidity.u; };
+  const NetworkAirSensor& ws = net.air_sensors[0];
+  const double u_sensor[3] = {ws.u_temperature, ws.u_pressure, ws.u_humidity};
+  for (std::size_t i = 0; i < net.stations.size(); ++i) {
+    for (std::size_t j = 0; j < net.stations.size(); ++j) {
+      for (int q = 0; q < 3; ++q) {
+        const bool shared = i != j && !net.stations[i].air_sensor.empty() &&
+                            net.stations[i].air_sensor == net.stations[j].air_sensor;
+        sigma(3 * i + q, 3 * j + q) = i == j ? std::pow(u(*net.stations[i].environment, q), 2)
+                                             : shared ? u_sensor[q] * u_sensor[q] : 0.0;
+      }
+    }
+  }
+  return sigma;
+}
+
 const AdjustedTarget& Find(const NetworkResult& r, const std::string& name) {
   for (const AdjustedTarget& t : r.targets)
     if (t.name == name) return t;
@@ -114,15 +169,7 @@ TEST(Network, PlannedReadingsGiveTheNominalNetwork) {
 // as the shared inputs do (docs/network.md).
 TEST(Network, OneStationIsTheSingleStationGum) {
   Network net = MakeNetwork(true, 1);
-  auto input = [](const char* name, const char* unit, double estimate, double u) {
-    UncertainInput in;
-    in.name = name;
-    in.unit = unit;
-    in.group = "environment";
-    in.estimate = estimate;
-    in.u = u;
-    return in;
-  };
+  const auto input = AirInput;
   net.instruments[0].setup.environment = Environment{};
   net.instruments[0].setup.environment->temperature = input("environment.temperature", "degC", 20.0, 0.2);
   net.instruments[0].setup.environment->pressure = input("environment.pressure", "Pa", 101325.0, 50.0);
@@ -193,6 +240,9 @@ TEST(Network, CovarianceIsTheFiniteDifferencePropagation) {
   // 6 x 6 block each, inverted as such.
   net.distances.push_back(Distance("D1", targets[1], targets[4], 3e-6));
   net.distances.push_back(Distance("D2", targets[2], targets[6], 2e-6));
+  // Each station has its own air, S1 and S2 from one sensor (N-2a): the planned readings stay
+  // exact (the air correction is 1 at the estimates).
+  GiveStationsTheirAir(net);
   const NetworkResult r = AdjustNetwork(net);
   ASSERT_EQ(r.distances.size(), 2u);
   const int n = r.unknowns;
@@ -244,6 +294,29 @@ TEST(Network, CovarianceIsTheFiniteDifferencePropagation) {
     const Eigen::VectorXd d = (solution(plus) - solution(minus)) / 0.2;
     cov += d * d.transpose();
   }
+  // The stations' air: d x / d q per unit of each quantity, propagated with the covariance the
+  // sensor gives (the correlation between S1 and S2 included). A true air other than the estimate
+  // scales the station's ranges by n(true) / n(estimate) (the tracker converted the optical path
+  // with the estimate's index; docs/gum.md "air"), the estimates staying where they are.
+  Eigen::MatrixXd g(m, 3 * net.stations.size());
+  for (std::size_t i = 0; i < net.stations.size(); ++i) {
+    const Environment& air = *net.stations[i].environment;
+    const AirConditions estimate = AirAtEstimates(air);
+    const double n_estimate = AirRefractiveIndexValue(air.equation, estimate);
+    for (int q = 0; q < 3; ++q) {
+      const double h = 0.1 * (q == 0 ? air.temperature.u : q == 1 ? air.pressure.u : air.humidity.u);
+      auto with_air = [&](double step) {
+        AirConditions actual = estimate;
+        (q == 0 ? actual.temperature : q == 1 ? actual.pressure : actual.humidity) += step;
+        Network changed = net;
+        const double scale = AirRefractiveIndexValue(air.equation, actual) / n_estimate;
+        for (TargetReading& reading : changed.stations[i].readings) reading.readings(0) *= scale;
+        return solution(changed);
+      };
+      g.col(3 * i + q) = (with_air(h) - with_air(-h)) / (2.0 * h);
+    }
+  }
+  cov += g * AirCovariance(net) * g.transpose();
   const int t0 = r.target_offset[0];
   const Eigen::MatrixXd analytic = r.covariance.block(t0, t0, m, m);
   EXPECT_LT((analytic - cov).norm(), 2e-5 * cov.norm()) << "analytic\n"
@@ -525,6 +598,79 @@ TEST(Network, ScaleBarNetworkCoversTheRangeScale) {
   EXPECT_NEAR(sum_z2 / seeds, 1.0, 0.2);
   EXPECT_NEAR(static_cast<double>(inside) / total, 0.95, 0.02);
 }
+
+// Air per station with a known truth (N-2a), 400 seeds. The stations' true air is drawn here: the
+// sensor's error, common to S1 and S2, plus each station's own share. The tracker converted each
+// optical path with the index of the estimated air, so a reading's range is the geometric range
+// times n(true air) / n(estimated air) (docs/gum.md "air"), plus the reading noise. The instrument's
+// parameters are known exactly (u = 0): the air is what the covariance must carry. The adjusted
+// targets fall within k u of the truth at the coverage probability; the same readings adjusted with
+// the sensor forgotten (the stations' air independent, each u unchanged) are covered less often.
+TEST(Network, StationAirCoversTheTruth) {
+  const TargetList truth = Targets();
+  Network plan = MakeNetwork(true);
+  for (UncertainInput& p : plan.instruments[0].setup.params) p.u = 0.0;
+  GiveStationsTheirAir(plan);
+  const MeasurementModel model(plan.instruments[0].setup);
+  const NetworkAirSensor& ws = plan.air_sensors[0];
+  const double u_sensor[3] = {ws.u_temperature, ws.u_pressure, ws.u_humidity};
+  const int seeds = 400;
+  int inside = 0, inside_without_air = 0, total = 0, points = 0;
+  double sum_d2 = 0.0, share_air = 0.0;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    std::mt19937_64 rng(static_cast<std::uint64_t>(seed) * 7919);
+    std::normal_distribution<double> normal;
+    double sensor_error[3];
+    for (int q = 0; q < 3; ++q) sensor_error[q] = u_sensor[q] * normal(rng);
+    Network measured = plan;
+    for (NetworkStation& st : measured.stations) {
+      const Environment& air = *st.environment;
+      const bool shared = !st.air_sensor.empty();
+      AirConditions estimated = AirAtEstimates(air), actual = estimated;
+      double* value[3] = {&actual.temperature, &actual.pressure, &actual.humidity};
+      const double u[3] = {air.temperature.u, air.pressure.u, air.humidity.u};
+      for (int q = 0; q < 3; ++q) {
+        const double own = std::sqrt(u[q] * u[q] - (shared ? u_sensor[q] * u_sensor[q] : 0.0));
+        *value[q] += (shared ? sensor_error[q] : 0.0) + own * normal(rng);
+      }
+      const double scale = AirRefractiveIndexValue(air.equation, actual) /
+                           AirRefractiveIndexValue(air.equation, estimated);
+      for (TargetReading& reading : st.readings) {
+        reading.readings(0) *= scale;
+        const Eigen::Vector3d sigma = model.reading_uncertainty(reading.readings(0));
+        for (int c = 0; c < 3; ++c) reading.readings(c) += sigma(c) * normal(rng);
+      }
+    }
+    for (NetworkReference& ref : measured.references)
+      for (int c = 0; c < 3; ++c) ref.position(c) += ref.u * normal(rng);
+    Network measured_without_air = measured;
+    for (NetworkStation& st : measured_without_air.stations) st.environment.reset();
+    const NetworkResult r = AdjustNetwork(measured), rf = AdjustNetwork(measured_without_air);
+    share_air += r.share_consider;
+    for (const auto& [name, x] : truth) {
+      const AdjustedTarget& t = Find(r, name);
+      const AdjustedTarget& tf = Find(rf, name);  // the air's u left out
+      for (int c = 0; c < 3; ++c) {
+        inside += std::abs(t.position(c) - x(c)) <= r.k * std::sqrt(t.covariance(c, c)) ? 1 : 0;
+        inside_without_air += std::abs(tf.position(c) - x(c)) <= rf.k * std::sqrt(tf.covariance(c, c)) ? 1 : 0;
+        ++total;
+      }
+      const Eigen::Vector3d d = t.position - x;
+      sum_d2 += d.dot(t.covariance.ldlt().solve(d));
+      ++points;
+    }
+  }
+  const double fraction = static_cast<double>(inside) / total;
+  const double fraction_without_air = static_cast<double>(inside_without_air) / total;
+  std::printf("air per station: coverage %d / %d = %.4f, mean d2 %.3f, air's share of the variance %.2f; "
+              "the air ignored %.4f\n",
+              inside, total, fraction, sum_d2 / points, share_air / seeds, fraction_without_air);
+  EXPECT_GT(share_air / seeds, 0.5);  // the air is what the covariance must carry here
+  EXPECT_NEAR(fraction, 0.95, 0.025);
+  EXPECT_NEAR(sum_d2 / points, 3.0, 0.45);
+  EXPECT_LT(fraction_without_air, 0.85);
+}
+
 
 // --- The robust rule (N-8a). Five gross errors of 20 sigma in one component of the readings of
 // five different targets, 100 seeds, every parameter self-calibrated: the five are removed in >= 95 % of the

@@ -51,7 +51,24 @@ struct NetworkStation {
   StationPoseVector pose_u = StationPoseVector::Zero();  // > 0: a prior on that component
   bool datum = false;                                    // held exactly at `pose`: defines the part frame
   std::vector<TargetReading> readings;                   // what the station read (raw readings, both faces)
-  std::string where;                                     // "<file>: station[i]"
+  // The air at this station ([station.environment], docs/network.md N-2a): when given, its inputs are
+  // the station's own ("<station>.environment.temperature", ...) instead of the instrument's, which
+  // keeps its error parameters. `air_sensor` names the NetworkAirSensor that gave it, if any.
+  std::optional<Environment> environment;
+  std::string air_sensor;
+  std::string where;  // "<file>: station[i]"
+};
+
+// An air sensor (a weather station) whose readings give the air of several stations (N-2a): the
+// standard uncertainty of its calibration, common to every station it serves, so that two such
+// stations' air inputs have covariance u_sensor^2 (the rest of each station's u is its own: the
+// air along the beam against the air at the sensor, the time between them).
+struct NetworkAirSensor {
+  std::string name;
+  double u_temperature = 0.0;  // [K]
+  double u_pressure = 0.0;     // [Pa]
+  double u_humidity = 0.0;     // relative humidity [%]
+  std::string where;
 };
 
 // A target with known part-frame coordinates: a pseudo-observation of each coordinate.
@@ -90,6 +107,7 @@ struct Network {
   std::vector<NetworkStation> stations;
   std::vector<NetworkReference> references;
   std::vector<NetworkDistance> distances;  // scale bars and measured distances
+  std::vector<NetworkAirSensor> air_sensors;
   // Shared inputs (NetworkSharedInputNames) estimated from the network with their prior as a
   // pseudo-observation; every other shared input is a consider parameter.
   std::vector<std::string> self_calibrate;
@@ -105,7 +123,8 @@ struct Network {
 };
 
 // The shared inputs of every instrument, in order: each instrument's MeasurementModel names
-// ("lam", "environment.temperature"), prefixed "<instrument>." when the network has several.
+// ("lam", "environment.temperature"), prefixed "<instrument>." when the network has several; then
+// the air of each station that has its own ("S2.environment.temperature", ...).
 std::vector<std::string> NetworkSharedInputNames(const Network& network);
 
 struct AdjustedStation {

@@ -340,7 +340,12 @@ void ReadTracker(Section& top, Job& job) {
 void ReadEnvironment(Section& top, Job& job) {
   Section s = top.Sub("environment", false);
   if (!s.exists()) return;
-  s.set_hint("equation, wavelength, temperature, pressure, humidity, co2");
+  job.setup.environment = ReadAir(s);
+}
+
+Environment ReadAir(Section& s, const std::string& more_keys) {
+  s.set_hint("equation, wavelength, temperature, pressure, humidity, co2" +
+             (more_keys.empty() ? std::string() : ", " + more_keys));
   Environment env;
   if (const toml::node* n = s.Get("equation")) {
     // Every spelling of vlt/refractive_index.h; an unknown one is a one-line error listing them.
@@ -380,7 +385,7 @@ void ReadEnvironment(Section& top, Job& job) {
   // The estimates must lie in the equation's published range of validity (docs/units.md).
   CheckAirValidity(EquationOf(env), AirAtEstimates(env), s.WhereSelf());
   s.Finish();
-  job.setup.environment = env;
+  return env;
 }
 
 void ReadStation(Section& top, Job& job) {

@@ -12,6 +12,10 @@ namespace vlt::job_detail {
 
 void ReadTracker(Section& top, Job& job);       //  [tracker]
 void ReadEnvironment(Section& top, Job& job);   //  [environment]
+// The keys of an existing environment table `s` ([environment], a network's [station.environment]);
+// `more_keys` are the caller's own keys of that table, already read (for the hint of an unknown key).
+// The table is finished.
+Environment ReadAir(Section& s, const std::string& more_keys = "");
 void ReadStation(Section& top, Job& job);       //  [station]
 void ReadPart(Section& top, Job& job);          //  [part]
 void ReadCorrelations(Section& top, Job& job);  //  [correlations] (after the above)

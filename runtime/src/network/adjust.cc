@@ -31,7 +31,7 @@ namespace {
 // One reading of a target by a station, prepared at the prior estimates s0 of the shared inputs.
 struct Observation {
   int station = 0, target = 0, reading = 0;  // reading: index into the station's readings
-  int instrument = 0;
+  int model = 0;  // Instruments::models: the station's instrument, with the station's air if it has its own
   Eigen::Vector3d readings;
   Eigen::Vector3d y0;         // station-frame point at s0 [m]
   Eigen::Vector3d sigma;      // u of range [m], azimuth, elevation [rad]
@@ -43,17 +43,19 @@ struct SharedSplit {
   std::vector<int> estimated, consider;  // indices into the stacked shared vector
 };
 
-// y and d y / d s (3 x stacked size, zero outside the reading's instrument) of one reading at
-// the stacked shared values s.
+// y and d y / d s (3 x stacked size, zero outside the inputs of the reading's model) of one reading
+// at the stacked shared values s.
 void EvaluateReading(const network_internal::Instruments& instruments, const Observation& obs,
                      const Eigen::VectorXd& s, Eigen::Vector3d& y, Eigen::Matrix3d& dy_dr,
                      Eigen::MatrixXd& dy_ds) {
-  const int k = obs.instrument, n = instruments.Size(k);
+  const int k = obs.model, n = instruments.Size(k);
   Eigen::Matrix<double, 3, Eigen::Dynamic> local(3, n);
-  instruments.models[k].EvaluateWithJacobian(obs.readings.data(), instruments.Segment(k, s), y.data(),
-                                             dy_dr.data(), local.data());
+  const Eigen::VectorXd shared = instruments.Local(k, s);
+  instruments.models[k].EvaluateWithJacobian(obs.readings.data(), shared.data(), y.data(), dy_dr.data(),
+                                             local.data());
   dy_ds.setZero(3, s.size());
-  dy_ds.middleCols(instruments.offset[k], n) = local;
+  const std::vector<int>& stacked = instruments.inputs[k];
+  for (int c = 0; c < n; ++c) dy_ds.col(stacked[c]) = local.col(c);
 }
 
 // Residual of one reading (N-3): e = W (y(s) - R^T (x - t)), blocks [pose 6, target 3 (, s_E)].
@@ -218,20 +220,20 @@ SharedSplit SplitSharedInputs(const Network& network, const network_internal::In
   return split;
 }
 
-// Reading r of station i (by `instrument`) prepared at s0 (N-2): its station-frame point y0 and its
+// Reading r of station i (read through `model`) prepared at s0 (N-2): its station-frame point y0 and its
 // whitening W.
 Observation PrepareObservation(const network_internal::Instruments& instruments, const TargetReading& reading,
-                               int instrument, int i, int r, int target) {
+                               int model, int i, int r, int target) {
   Observation obs;
   obs.station = i;
   obs.target = target;
   obs.reading = r;
   obs.readings = reading.readings;
-  obs.instrument = instrument;
+  obs.model = model;
   Eigen::Matrix3d dy_dr;
   Eigen::MatrixXd dy_ds;
   EvaluateReading(instruments, obs, instruments.s0, obs.y0, dy_dr, dy_ds);
-  obs.sigma = instruments.models[obs.instrument].reading_uncertainty(obs.readings(0));
+  obs.sigma = instruments.models[obs.model].reading_uncertainty(obs.readings(0));
   Eigen::FullPivLU<Eigen::Matrix3d> lu(dy_dr);
   if (!lu.isInvertible() || !(obs.sigma.minCoeff() > 0.0)) {
     throw InputError(reading.where + ": the reading of '" + reading.target +
@@ -270,7 +272,7 @@ PreparedReadings PrepareReadings(const Network& network, const network_internal:
         prepared.target_stations.emplace_back();
         prepared.target_readings.push_back(0);
       }
-      Observation obs = PrepareObservation(instruments, reading, st.instrument, i, r, it->second);
+      Observation obs = PrepareObservation(instruments, reading, instruments.station_model[i], i, r, it->second);
       prepared.target_stations[obs.target].insert(i);
       ++prepared.target_readings[obs.target];
       prepared.observations.push_back(std::move(obs));
@@ -991,13 +993,7 @@ struct Adjustment {
   void SelfCalibratedParameters() {
     for (int k = 0; k < E; ++k) {
       const int s = split.estimated[k];
-      int instrument = 0;
-      while (instrument + 1 < static_cast<int>(instruments.models.size()) &&
-             instruments.offset[instrument + 1] <= s)
-        ++instrument;
-      const int in_instrument = s - instruments.offset[instrument];
-      const UncertainInput& in = instruments.models[instrument].shared_inputs()[in_instrument];
-      const ModelInfo& model_info = *instruments.models[instrument].setup().model;
+      const UncertainInput& in = instruments.stacked[s];
       CalibratedParameter cp;
       cp.name = instruments.names[s];
       cp.unit = in.unit;
@@ -1007,7 +1003,7 @@ struct Adjustment {
       cp.u = std::sqrt(std::max(0.0, result.covariance(e_start + k, e_start + k)));
       cp.u_data = cp.u;
       cp.status = ParameterStatus::kIdentified;
-      if (in_instrument < model_info.num_params) cp.quantity = model_info.params[in_instrument].quantity;
+      cp.quantity = instruments.quantities[s];
       result.parameters.push_back(cp);
     }
   }

@@ -1,46 +1,139 @@
 // network/instruments.cc — MakeInstruments (instruments.h) and NetworkSharedInputNames.
 #include "network/instruments.h"
 
+#include <set>
+
 #include "vlt/error.h"
 
 namespace vlt {
 
 namespace network_internal {
 
+namespace {
+
+// A model's shared inputs appended to the stack as a new block: returns their stacked indices.
+std::vector<int> AppendBlock(Instruments& in, const MeasurementModel& m, int first, const std::string& prefix,
+                             const ModelInfo* info) {
+  const int n = m.num_shared() - first, o = in.size();
+  std::vector<int> indices;
+  Eigen::VectorXd s0(o + n);
+  s0 << in.s0, m.shared_estimates().segment(first, n);
+  in.s0 = s0;
+  in.sigma.conservativeResize(o + n, o + n);
+  in.correlation.conservativeResize(o + n, o + n);
+  in.sigma.rightCols(n).setZero();
+  in.sigma.bottomRows(n).setZero();
+  in.correlation.rightCols(n).setZero();
+  in.correlation.bottomRows(n).setZero();
+  for (int i = 0; i < n; ++i) {
+    const UncertainInput& input = m.shared_inputs()[first + i];
+    in.names.push_back(prefix + input.name);
+    in.stacked.push_back(input);
+    const int p = first + i;
+    in.quantities.push_back(info && p < info->num_params ? info->params[p].quantity : std::string());
+    indices.push_back(o + i);
+    for (int j = 0; j < n; ++j) {
+      const double r = m.shared_correlation()(first + i, first + j);
+      in.correlation(o + i, o + j) = r;
+      in.sigma(o + i, o + j) = input.u * r * m.shared_inputs()[first + j].u;
+    }
+  }
+  return indices;
+}
+
+// True when the model's correlation ties one of its air inputs (from index `params` on) to another
+// input: the air of a station replaces those inputs, so the tie would be lost.
+bool AirIsCorrelated(const MeasurementModel& m, int params) {
+  const Eigen::MatrixXd& r = m.shared_correlation();
+  for (int a = params; a < r.rows(); ++a)
+    for (int b = 0; b < r.cols(); ++b)
+      if (a != b && r(a, b) != 0.0) return true;
+  return false;
+}
+
+// Stations reading one air sensor share its calibration error (N-2a): cov = u_sensor^2 per quantity
+// between their air inputs, the rest of each station's u its own.
+void CorrelateSharedSensors(const Network& network, Instruments& in) {
+  const int stations = static_cast<int>(network.stations.size());
+  for (int a = 0; a < stations; ++a) {
+    const NetworkStation& sa = network.stations[a];
+    if (!sa.environment || sa.air_sensor.empty()) continue;
+    const NetworkAirSensor* sensor = nullptr;
+    for (const NetworkAirSensor& s : network.air_sensors)
+      if (s.name == sa.air_sensor) sensor = &s;
+    if (!sensor) throw InputError(sa.where + ".environment.sensor: unknown air sensor '" + sa.air_sensor + "'");
+    const double u_sensor[3] = {sensor->u_temperature, sensor->u_pressure, sensor->u_humidity};
+    for (int b = 0; b < stations; ++b) {
+      const NetworkStation& sb = network.stations[b];
+      if (a == b || !sb.environment || sb.air_sensor != sa.air_sensor) continue;
+      const std::vector<int>& ia = in.inputs[in.station_model[a]];
+      const std::vector<int>& ib = in.inputs[in.station_model[b]];
+      const int air_a = static_cast<int>(ia.size()) - 4, air_b = static_cast<int>(ib.size()) - 4;
+      for (int q = 0; q < 3; ++q) {
+        const int x = ia[air_a + q], y = ib[air_b + q];
+        const double cov = u_sensor[q] * u_sensor[q];
+        in.sigma(x, y) = cov;
+        const double scale = in.stacked[x].u * in.stacked[y].u;
+        in.correlation(x, y) = scale > 0.0 ? cov / scale : 0.0;
+      }
+    }
+  }
+}
+
+}  // namespace
+
+Eigen::VectorXd Instruments::Local(int model, const Eigen::VectorXd& stacked_values) const {
+  const std::vector<int>& index = inputs[model];
+  Eigen::VectorXd local(index.size());
+  for (std::size_t i = 0; i < index.size(); ++i) local(static_cast<Eigen::Index>(i)) = stacked_values(index[i]);
+  return local;
+}
+
 Instruments MakeInstruments(const Network& network) {
   if (network.instruments.empty())
     throw InputError(network.where + ": tracker: the network has no instrument");
+  for (const NetworkStation& st : network.stations) {
+    if (st.instrument < 0 || st.instrument >= static_cast<int>(network.instruments.size())) {
+      throw InputError(st.where + ".instrument: no such instrument");
+    }
+  }
   Instruments in;
-  int total = 0;
+  const bool several = network.instruments.size() > 1;
   for (const NetworkInstrument& instrument : network.instruments) {
     MeasurementSetup setup = instrument.setup;
     setup.pose.reset();
     setup.thermal.reset();
     in.models.emplace_back(setup);
-    in.offset.push_back(total);
-    total += in.models.back().num_shared();
+    in.inputs.push_back(AppendBlock(in, in.models.back(), 0, several ? instrument.name + "." : std::string(),
+                                    setup.model));
   }
-  in.s0.resize(total);
-  in.sigma = Eigen::MatrixXd::Zero(total, total);
-  in.correlation = Eigen::MatrixXd::Zero(total, total);
-  const bool several = network.instruments.size() > 1;
-  for (std::size_t k = 0; k < in.models.size(); ++k) {
-    const MeasurementModel& m = in.models[k];
-    const int o = in.offset[k], n = m.num_shared();
-    in.s0.segment(o, n) = m.shared_estimates();
-    Eigen::VectorXd u(n);
-    for (int i = 0; i < n; ++i) {
-      u(i) = m.shared_inputs()[i].u;
-      in.names.push_back((several ? network.instruments[k].name + "." : std::string()) +
-                         m.shared_inputs()[i].name);
-    }
-    in.correlation.block(o, o, n, n) = m.shared_correlation();
-    in.sigma.block(o, o, n, n) = u.asDiagonal() * m.shared_correlation() * u.asDiagonal();
-  }
+  // Stations with air of their own: the instrument's error parameters, the station's air.
   for (const NetworkStation& st : network.stations) {
-    if (st.instrument < 0 || st.instrument >= static_cast<int>(network.instruments.size())) {
-      throw InputError(st.where + ".instrument: no such instrument");
+    if (!st.environment) {
+      in.station_model.push_back(st.instrument);
+      continue;
     }
+    const MeasurementModel& instrument_model = in.models[st.instrument];
+    const int params = static_cast<int>(network.instruments[st.instrument].setup.params.size());
+    if (AirIsCorrelated(instrument_model, params)) {
+      throw InputError(st.where + ".environment: the instrument's [correlations] tie its air to other inputs; "
+                                  "air per station takes the air's inputs as independent");
+    }
+    MeasurementSetup setup = instrument_model.setup();
+    setup.environment = st.environment;
+    in.models.emplace_back(setup);
+    std::vector<int> indices(in.inputs[st.instrument].begin(), in.inputs[st.instrument].begin() + params);
+    const std::vector<int> air = AppendBlock(in, in.models.back(), params, st.name + ".", nullptr);
+    indices.insert(indices.end(), air.begin(), air.end());
+    in.inputs.push_back(indices);
+    in.station_model.push_back(static_cast<int>(in.models.size()) - 1);
+  }
+  CorrelateSharedSensors(network, in);
+  std::set<std::string> unique;
+  for (const std::string& name : in.names) {
+    if (!unique.insert(name).second)
+      throw InputError(network.where + ": station: two inputs named '" + name +
+                       "' (a station named like an instrument): rename one");
   }
   return in;
 }

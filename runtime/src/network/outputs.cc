@@ -238,6 +238,26 @@ void StationsTable(std::ostringstream& body, const NetworkResult& result) {
   body << "</table></section>\n";
 }
 
+// The air of the stations that have their own (N-2a), with the sensor that gave it.
+void StationAirTable(std::ostringstream& body, const Network& network) {
+  body << "<section><h2>Air per station</h2><p class=\"note\">Each of these stations' ranges are "
+          "corrected with its own air; its u is propagated as the station's own inputs, correlated "
+          "between stations that read one sensor through the sensor's u. Other stations take "
+          "their instrument's air.</p><table><tr><th class=\"l\">station</th><th>temperature / degC</th>"
+          "<th>u / K</th><th>pressure / Pa</th><th>u / Pa</th><th>humidity / %</th><th>u / %</th>"
+          "<th class=\"l\">sensor</th></tr>";
+  for (const NetworkStation& st : network.stations) {
+    if (!st.environment) continue;
+    const Environment& air = *st.environment;
+    body << "<tr><td class=\"l\">" << HtmlEscape(st.name) << "</td><td>" << Fixed(air.temperature.estimate, 2)
+         << "</td><td>" << Fixed(air.temperature.u, 2) << "</td><td>" << Fixed(air.pressure.estimate, 0)
+         << "</td><td>" << Fixed(air.pressure.u, 0) << "</td><td>" << Fixed(air.humidity.estimate, 1)
+         << "</td><td>" << Fixed(air.humidity.u, 1) << "</td><td class=\"l\">"
+         << HtmlEscape(st.air_sensor.empty() ? "-" : st.air_sensor) << "</td></tr>";
+  }
+  body << "</table></section>\n";
+}
+
 // Tasks over adjusted targets, with the ISO 14253-1 decision where a tolerance is given.
 void TasksTable(std::ostringstream& body, const std::vector<NetworkTaskResult>& tasks) {
   body << "<section><h2>Tasks</h2><p class=\"note\">Over adjusted targets, whichever station read them, with "
@@ -386,6 +406,12 @@ std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, co
   // Tables.
   TargetsTable(body, result);
   StationsTable(body, result);
+  for (const NetworkStation& st : job.network.stations) {
+    if (st.environment) {
+      StationAirTable(body, job.network);
+      break;
+    }
+  }
   if (!tasks.empty()) TasksTable(body, tasks);
   if (!result.parameters.empty()) SelfCalibratedTable(body, result);
   if (!result.identifiability.empty()) IdentifiabilityTable(body, result);
@@ -631,6 +657,15 @@ nlohmann::ordered_json StationsJson(const NetworkJob& job, const NetworkResult& 
     std::vector<double> u(6);
     for (int c = 0; c < 6; ++c) u[c] = std::sqrt(st.covariance(c, c));
     o["u"] = u;
+    // The station's own air (N-2a): estimates and u in degC, K, Pa, %; null when it has the instrument's.
+    if (const auto& air = job.network.stations[i].environment) {
+      o["air"] = {{"temperature", air->temperature.estimate}, {"u_temperature", air->temperature.u},
+                  {"pressure", air->pressure.estimate},       {"u_pressure", air->pressure.u},
+                  {"humidity", air->humidity.estimate},       {"u_humidity", air->humidity.u},
+                  {"sensor", job.network.stations[i].air_sensor}};
+    } else {
+      o["air"] = nullptr;
+    }
     stations.push_back(o);
   }
   return stations;
@@ -831,7 +866,7 @@ std::string NetworkSummary(const NetworkJob& job, const NetworkResult& result, c
       line, sizeof line,
       "%s network '%s': %zu stations, %zu targets, %d observations, %d unknowns, dof %d; chi2 %.4g, Birge "
       "ratio %.3f, %d outlier%s; largest |U| (k = %.2f) %.1f um at %s; variance from reading noise and "
-      "references %.0f %%, from the instruments' parameters %.0f %%",
+      "references %.0f %%, from the instruments' errors and the air %.0f %%",
       job.offline ? "Planned" : "Measured", job.name.c_str(), result.stations.size(), result.targets.size(),
       result.observations, result.unknowns, result.dof, result.chi2, result.birge_ratio, result.outliers,
       result.outliers == 1 ? "" : "s", result.k, worst * 1e6, worst_name.c_str(), 100.0 * result.share_noise,

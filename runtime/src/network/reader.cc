@@ -55,6 +55,8 @@ struct NetworkFileReader {
   void ReadTargets();
   int InstrumentOf(Section& s);
   void ReadPose(Section& s, NetworkStation& st);
+  void ReadAirSensors();
+  void ReadStationAir(Section& s, NetworkStation& st);
   void ReadOnlineReadings(Section& s, NetworkStation& st);
   void ReadSightings(Section& s, const toml::node& see);
   void ReadStation(Section& s);
@@ -202,6 +204,72 @@ void NetworkFileReader::ReadPose(Section& s, NetworkStation& st) {
   }
 }
 
+// [[air_sensor]]: a weather station whose calibration error is common to the stations it serves (N-2a).
+void NetworkFileReader::ReadAirSensors() {
+  ForEachTable(top, path, "air_sensor", [&](Section& s) {
+    s.set_hint("name, temperature, pressure, humidity");
+    NetworkAirSensor sensor;
+    sensor.where = s.WhereSelf();
+    sensor.name = AsString(s.Require("name"), s.Where("name"));
+    if (sensor.name.empty()) throw InputError(s.Where("name") + ": empty sensor name");
+    for (const NetworkAirSensor& other : net.air_sensors) {
+      if (other.name == sensor.name)
+        throw InputError(s.Where("name") + ": air sensor '" + sensor.name + "' defined twice");
+    }
+    const struct {
+      const char* key;
+      Dimension dimension;
+      double* u;
+    } quantities[3] = {{"temperature", Dimension::kTemperatureDifference, &sensor.u_temperature},
+                       {"pressure", Dimension::kPressure, &sensor.u_pressure},
+                       {"humidity", Dimension::kHumidity, &sensor.u_humidity}};
+    for (const auto& q : quantities) {
+      if (const toml::node* n = s.Get(q.key)) {
+        *q.u = AsQuantity(*n, q.dimension, s.Where(q.key));
+        CheckUncertainty(*q.u, s.Where(q.key));
+      }
+    }
+    net.air_sensors.push_back(sensor);
+  });
+}
+
+// [station.environment]: the air at the station, read as an [environment]; the wavelength and the
+// equation default to the instrument's (the same laser). `sensor` names an [[air_sensor]], whose u
+// is part of the station's: the station's u of each quantity may not be smaller.
+void NetworkFileReader::ReadStationAir(Section& s, NetworkStation& st) {
+  Section air = s.Sub("environment", false);
+  if (!air.exists()) return;
+  const NetworkAirSensor* sensor = nullptr;
+  if (const toml::node* n = air.Get("sensor")) {
+    st.air_sensor = AsString(*n, air.Where("sensor"));
+    for (const NetworkAirSensor& candidate : net.air_sensors)
+      if (candidate.name == st.air_sensor) sensor = &candidate;
+    if (!sensor)
+      throw InputError(air.Where("sensor") + ": unknown air sensor '" + st.air_sensor + "' (not in [[air_sensor]])");
+  }
+  const bool wavelength = air.table().contains("wavelength"), equation = air.table().contains("equation");
+  Environment env = ReadAir(air, "sensor");
+  if (const auto& own = net.instruments[st.instrument].setup.environment) {
+    if (!wavelength) env.vacuum_wavelength = own->vacuum_wavelength;
+    if (!equation) env.equation = own->equation;
+  }
+  if (sensor) {
+    const struct {
+      const char* key;
+      double station_u, sensor_u;
+    } quantities[3] = {{"temperature", env.temperature.u, sensor->u_temperature},
+                       {"pressure", env.pressure.u, sensor->u_pressure},
+                       {"humidity", env.humidity.u, sensor->u_humidity}};
+    for (const auto& q : quantities) {
+      if (q.station_u < q.sensor_u) {
+        throw InputError(air.Where(q.key) + ": u below the u of its sensor '" + st.air_sensor +
+                         "' (the air at a station is not known better than its sensor knows it)");
+      }
+    }
+  }
+  st.environment = env;
+}
+
 // Online: the CSV of what the station read, with its instrument's reading noise.
 void NetworkFileReader::ReadOnlineReadings(Section& s, NetworkStation& st) {
   any_online = true;
@@ -245,13 +313,14 @@ void NetworkFileReader::ReadSightings(Section& s, const toml::node& see) {
 }
 
 void NetworkFileReader::ReadStation(Section& s) {
-  s.set_hint("name, instrument, rx, ry, rz, tx, ty, tz, readings, sees, face");
+  s.set_hint("name, instrument, rx, ry, rz, tx, ty, tz, environment, readings, sees, face");
   NetworkStation st;
   st.where = s.WhereSelf();
   st.name = AsString(s.Require("name"), s.Where("name"));
   if (st.name.empty()) throw InputError(s.Where("name") + ": empty station name");
   st.instrument = InstrumentOf(s);
   ReadPose(s, st);
+  ReadStationAir(s, st);
   const bool has_readings = s.Get("readings") != nullptr;
   const toml::node* see = s.Get("sees");
   if (has_readings == (see != nullptr)) {
@@ -419,7 +488,7 @@ NetworkJob LoadNetworkJob(const std::string& path) {
   Section top(root, path, "");
   top.set_hint(
       "job, tracker, environment, correlations, instrument, network, datum, reference, scale_bar, distance, "
-      "targets, station, task, output");
+      "air_sensor, targets, station, task, output");
   NetworkJob job;
   job.file = path;
   job.text = text;
@@ -432,6 +501,7 @@ NetworkJob LoadNetworkJob(const std::string& path) {
   reader.ReadInstruments();
   reader.ReadSettings();
   reader.ReadTargets();
+  reader.ReadAirSensors();
   reader.ReadStations();
   reader.ReadDatum();
   reader.ReadReferences();

@@ -36,6 +36,8 @@ void PlanNetworkReadings(Network& network, const TargetList& nominal,
   std::map<std::string, Eigen::Vector3d> where_is(nominal.begin(), nominal.end());
   for (std::size_t i = 0; i < network.stations.size() && i < sees.size(); ++i) {
     NetworkStation& st = network.stations[i];
+    const int k = instruments.station_model[i];
+    const Eigen::VectorXd shared = instruments.Local(k, instruments.s0);
     for (const PlannedSighting& s : sees[i]) {
       const auto it = where_is.find(s.target);
       if (it == where_is.end())
@@ -45,9 +47,7 @@ void PlanNetworkReadings(Network& network, const TargetList& nominal,
       reading.face = s.face;
       reading.where = s.where;
       try {
-        reading.readings =
-            ReadingsAt(instruments.models[st.instrument], instruments.Segment(st.instrument, instruments.s0),
-                       st.pose, it->second, s.face);
+        reading.readings = ReadingsAt(instruments.models[k], shared.data(), st.pose, it->second, s.face);
       } catch (const NumericalError& error) {
         throw InputError(s.where + ": station '" + st.name + "' cannot read '" + s.target +
                          "': " + error.what());
@@ -82,14 +82,16 @@ Network SimulateNetwork(const Network& network, const TargetList& truth, std::ui
   std::map<std::string, Eigen::Vector3d> where_is(truth.begin(), truth.end());
   Network out = network;
   std::uint64_t counter = 0;
-  for (NetworkStation& st : out.stations) {
+  for (std::size_t i = 0; i < out.stations.size(); ++i) {
+    NetworkStation& st = out.stations[i];
+    const int k = instruments.station_model[i];
+    const MeasurementModel& model = instruments.models[k];
+    const Eigen::VectorXd shared = instruments.Local(k, s_true);
     for (TargetReading& reading : st.readings) {
       const auto it = where_is.find(reading.target);
       if (it == where_is.end())
         throw InputError(reading.where + ": no true position of '" + reading.target + "'");
-      const MeasurementModel& model = instruments.models[st.instrument];
-      Eigen::Vector3d m =
-          ReadingsAt(model, instruments.Segment(st.instrument, s_true), st.pose, it->second, reading.face);
+      Eigen::Vector3d m = ReadingsAt(model, shared.data(), st.pose, it->second, reading.face);
       const Eigen::Vector3d sigma = model.reading_uncertainty(m(0));
       for (int c = 0; c < 3; ++c) m(c) += sigma(c) * normal(1, 3 * counter + c);
       ++counter;
