@@ -2,12 +2,12 @@
 # CI stage 3: libFuzzer on the job parser, job + GUM, and the CSV / quantity / map parsers
 # (tests/fuzz/, docs/testing.md "Fuzzing"). Clang with ASan + UBSan + float-cast-overflow, the
 # build of stage 2 (build-sanitize/, scripts/test-sanitizers.sh); each harness runs
-# VLT_FUZZ_SECONDS (default 60) from a seed corpus of the examples and test jobs, as many harnesses
+# VLT_FUZZ_SECONDS (default 40) from a seed corpus of the examples and test jobs, as many harnesses
 # at once as the machine has cores. Long runs: VLT_FUZZ_SECONDS=3600 bash scripts/test-fuzz.sh
 # (findings go to build-sanitize/fuzz/findings/).
 set -euo pipefail
 source "$(dirname "$0")/lib.sh"
-seconds=${VLT_FUZZ_SECONDS:-60}
+seconds=${VLT_FUZZ_SECONDS:-40}
 vlt_build_sanitize
 harnesses="$VLT_ROOT/build-sanitize/tests/fuzz"
 dir="$VLT_ROOT/build-sanitize/fuzz"
