@@ -144,7 +144,7 @@ void BM_PlaneTask(benchmark::State& state, std::size_t n) {
 
 const bool kRegistered = [] {
   using benchmark::RegisterBenchmark;
-  // One thread: the engine runs inline (parallel::ForEachChunk), CPU time of the benchmark thread is the
+  // One thread: the engine runs inline (parallel_internal::ForEachChunk), CPU time of the benchmark thread is the
   // work and stays meaningful on a shared machine; two threads: wall-clock time.
   RegisterBenchmark("gum_engine/evaluate_with_jacobian/env:0", BM_EvaluateWithJacobian, false);
   RegisterBenchmark("gum_engine/evaluate_with_jacobian/env:1", BM_EvaluateWithJacobian, true);

@@ -128,16 +128,16 @@ void NominalJacobiansBatch(const double* readings, double* out, double* d_out_d_
 }
 
 // Forward for kForwardLanes trials at once (vlt/model_info.h ForwardLanesFn): the same template
-// on vlt::lanes::Double4, compiled for AVX2 and for the baseline (chosen when the program
+// on vlt::base_internal::lanes::Double4, compiled for AVX2 and for the baseline (chosen when the program
 // loads; the same operations, no FMA). Quantity q of lane l at [lanes * q + l].
 VLT_LANES_CLONES
 void ForwardLanes(const double* readings, const double* params, double* out) {
-  using Lanes = vlt::lanes::Double4;
+  using Lanes = vlt::base_internal::lanes::Double4;
   Lanes r[3], p[20], o[3];
-  for (int j = 0; j < 3; ++j) r[j] = vlt::lanes::Load(readings + vlt::kForwardLanes * j);
-  for (int k = 0; k < 20; ++k) p[k] = vlt::lanes::Load(params + vlt::kForwardLanes * k);
+  for (int j = 0; j < 3; ++j) r[j] = vlt::base_internal::lanes::Load(readings + vlt::kForwardLanes * j);
+  for (int k = 0; k < 20; ++k) p[k] = vlt::base_internal::lanes::Load(params + vlt::kForwardLanes * k);
   model::Forward<Lanes>(r, p, o);
-  for (int q = 0; q < 3; ++q) vlt::lanes::Store(out + vlt::kForwardLanes * q, o[q]);
+  for (int q = 0; q < 3; ++q) vlt::base_internal::lanes::Store(out + vlt::kForwardLanes * q, o[q]);
 }
 
 const QuantityInfo kReadings[] = {

@@ -290,21 +290,21 @@ void ModelEmitter::SourceNominalBatch() {
 void ModelEmitter::SourceForwardLanes() {
   const std::string lanes = "vlt::kForwardLanes";
   c += "// Forward for kForwardLanes trials at once (vlt/model_info.h ForwardLanesFn): the same template\n"
-       "// on vlt::lanes::Double4, compiled for AVX2 and for the baseline (chosen when the program\n"
+       "// on vlt::base_internal::lanes::Double4, compiled for AVX2 and for the baseline (chosen when the program\n"
        "// loads; the same operations, no FMA). Quantity q of lane l at [lanes * q + l].\n";
   c += "VLT_LANES_CLONES\n";
   c += "void ForwardLanes(const double* readings, const double* params, double* out) {\n";
-  c += "  using Lanes = vlt::lanes::Double4;\n";
+  c += "  using Lanes = vlt::base_internal::lanes::Double4;\n";
   c += "  Lanes r[" + std::to_string(nr) + "], p[" + std::to_string(std::max(np, 1)) + "], o[" +
        std::to_string(no) + "];\n";
-  c += "  for (int j = 0; j < " + std::to_string(nr) + "; ++j) r[j] = vlt::lanes::Load(readings + " + lanes +
+  c += "  for (int j = 0; j < " + std::to_string(nr) + "; ++j) r[j] = vlt::base_internal::lanes::Load(readings + " + lanes +
        " * j);\n";
   if (np > 0) {
-    c += "  for (int k = 0; k < " + std::to_string(np) + "; ++k) p[k] = vlt::lanes::Load(params + " + lanes +
+    c += "  for (int k = 0; k < " + std::to_string(np) + "; ++k) p[k] = vlt::base_internal::lanes::Load(params + " + lanes +
          " * k);\n";
   }
   c += "  model::Forward<Lanes>(r, p, o);\n";
-  c += "  for (int q = 0; q < " + std::to_string(no) + "; ++q) vlt::lanes::Store(out + " + lanes +
+  c += "  for (int q = 0; q < " + std::to_string(no) + "; ++q) vlt::base_internal::lanes::Store(out + " + lanes +
        " * q, o[q]);\n";
   c += "}\n\n";
 }

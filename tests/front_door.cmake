@@ -65,8 +65,10 @@ vlt_front_door_error(thermal_factor_zero "thermal_zero\\.toml: part\\.cte: the t
                      run ${_fd}/thermal_zero.toml -o ${_out}/fd_error_thermal_factor_zero)
 vlt_front_door_error(pressure_in_pa "pressure_pa\\.toml: environment\\.pressure: 1013 Pa .*did you mean \"1013 hPa\""
                      run ${_fd}/pressure_pa.toml -o ${_out}/fd_error_pressure_in_pa)
+# Air outside its equation's range of validity is computed with a warning (as NIST's calculator
+# does), an error under --strict.
 vlt_front_door_error(air_outside_validity "air_invalid\\.toml: environment: temperature 5000 degC is outside the range of validity of the Ciddor equation"
-                     run ${_fd}/air_invalid.toml -o ${_out}/fd_error_air_outside_validity)
+                     --strict run ${_fd}/air_invalid.toml -o ${_out}/fd_error_air_outside_validity)
 vlt_front_door_error(air_unknown_equation "air_equation\\.toml: environment\\.equation: unknown refractive-index equation 'modified-edlen' \\(expected one of: ciddor, edlen, edlen_boensch, boensch_potulski, modified_edlen, birch_downs, edlen_birch_downs\\)"
                      run ${_fd}/air_equation.toml -o ${_out}/fd_error_air_unknown_equation)
 vlt_front_door_error(job_is_a_directory "a_directory\\.toml: is a directory, not the job file"
@@ -88,6 +90,10 @@ add_test(NAME cli_warning_implausible_value
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_fd}/implausible_u.toml;--no-mcm;-o;${_out}/fd_warn"
           -DEXPECT_RC=0 "-DEXPECT_STDERR=^vlt: warning: [^\n]*implausible_u\\.toml: tracker\\.parameters\\.a0: 2\\.063e\\+08 arcsec is implausible"
           -DCLEAN=${_out}/fd_warn -P ${_cli}/expect_run.cmake)
+add_test(NAME cli_warning_air_outside_validity
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_fd}/air_hot_edlen.toml;--no-mcm;-o;${_out}/fd_air_hot"
+          -DEXPECT_RC=0 "-DEXPECT_STDERR=^vlt: warning: [^\n]*air_hot_edlen\\.toml: environment: temperature 60 degC is outside the range of validity of the modified Edlen [(]NIST, Birch-Downs[)] equation [(]0[.][.]40 degC, NIST Engineering Metrology Toolbox[)]: n computed outside it"
+          -DCLEAN=${_out}/fd_air_hot -P ${_cli}/expect_run.cmake)
 add_test(NAME cli_csv_cr_only_line_ends
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_fd}/cr_only.toml;--no-mcm;-o;${_out}/fd_cr"
           -DOUT=${_out}/fd_cr "-DFILES=points.csv" "-DEXPECT_STDOUT=P1 .*P2 " -P ${_cli}/expect_outputs.cmake)

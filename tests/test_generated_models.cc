@@ -309,7 +309,7 @@ TEST(GeneratedModels, NominalJacobiansBatchEqualsNominalJacobiansBitForBit) {
   EXPECT_EQ(trackers, 2);
 }
 
-// The Monte Carlo lanes (the template on vlt::lanes::Double4, vlt's own sin/cos) against the
+// The Monte Carlo lanes (the template on vlt::base_internal::lanes::Double4, vlt's own sin/cos) against the
 // double kernel: tracker models, both faces, short and long ranges, every error parameter drawn
 // at up to 10x a typical size (1e-4 rad, 1e-4 m), 4 unrelated points per call. Outputs agree to
 // 1e-13 m (a few ulp of coordinates up to 60 m); custom models have no lanes kernel.

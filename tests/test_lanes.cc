@@ -12,7 +12,7 @@
 namespace vlt {
 namespace {
 
-using lanes::Double4;
+using base_internal::lanes::Double4;
 
 TEST(Lanes, ArithmeticIsTheScalarArithmeticLaneByLane) {
   std::mt19937_64 rng(3);
@@ -20,8 +20,8 @@ TEST(Lanes, ArithmeticIsTheScalarArithmeticLaneByLane) {
   for (int i = 0; i < 10000; ++i) {
     double a[4], b[4];
     for (int l = 0; l < 4; ++l) a[l] = value(rng), b[l] = value(rng);
-    const Double4 x = lanes::Load(a), y = lanes::Load(b);
-    const Double4 sum = x + y, diff = x - y, prod = x * y, quot = x / y, neg = -x, root = lanes::sqrt(x * x),
+    const Double4 x = base_internal::lanes::Load(a), y = base_internal::lanes::Load(b);
+    const Double4 sum = x + y, diff = x - y, prod = x * y, quot = x / y, neg = -x, root = base_internal::lanes::sqrt(x * x),
                   mixed = 0.5 * x + 1.0;
     for (int l = 0; l < 4; ++l) {
       ASSERT_EQ(sum[l], a[l] + b[l]);
@@ -33,7 +33,7 @@ TEST(Lanes, ArithmeticIsTheScalarArithmeticLaneByLane) {
       ASSERT_EQ(mixed[l], 0.5 * a[l] + 1.0);
     }
     double back[4];
-    lanes::Store(back, x);
+    base_internal::lanes::Store(back, x);
     for (int l = 0; l < 4; ++l) ASSERT_EQ(back[l], a[l]);
   }
 }
@@ -55,7 +55,7 @@ TEST(Lanes, SinCosWithinAFewUlpOfLongDouble) {
   double worst_ulps = 0.0, worst_near_zero = 0.0;
   auto check = [&](double x) {
     Double4 s, c;
-    lanes::SinCos(Double4(x), &s, &c);
+    base_internal::lanes::SinCos(Double4(x), &s, &c);
     const long double exact[2] = {std::sin(static_cast<long double>(x)),
                                   std::cos(static_cast<long double>(x))};
     const double got[2] = {s[0], c[0]};
@@ -88,7 +88,7 @@ TEST(Lanes, SinCosBeyondTheReducedRangeIsLibm) {
   const double xs[4] = {0x1.0p19 * 1.5, -1e10, std::numeric_limits<double>::infinity(),
                         std::numeric_limits<double>::quiet_NaN()};
   Double4 s, c;
-  lanes::SinCos(lanes::Load(xs), &s, &c);
+  base_internal::lanes::SinCos(base_internal::lanes::Load(xs), &s, &c);
   for (int l = 0; l < 2; ++l) {
     EXPECT_EQ(s[l], std::sin(xs[l]));
     EXPECT_EQ(c[l], std::cos(xs[l]));
@@ -99,9 +99,9 @@ TEST(Lanes, SinCosBeyondTheReducedRangeIsLibm) {
   }
   // A lane in range next to one outside is unaffected by it.
   const double mixed[4] = {0.5, 1e10, -2.0, 3.0};
-  lanes::SinCos(lanes::Load(mixed), &s, &c);
+  base_internal::lanes::SinCos(base_internal::lanes::Load(mixed), &s, &c);
   Double4 s1, c1;
-  lanes::SinCos(Double4(0.5), &s1, &c1);
+  base_internal::lanes::SinCos(Double4(0.5), &s1, &c1);
   EXPECT_EQ(s[0], s1[0]);
   EXPECT_EQ(c[0], c1[0]);
   EXPECT_EQ(s[1], std::sin(1e10));

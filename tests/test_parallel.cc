@@ -14,7 +14,7 @@
 
 #include "parallel/pool.h"
 
-namespace vlt::parallel {
+namespace vlt::parallel_internal {
 namespace {
 
 TEST(ParallelForEach, RunsEveryItemOnceOnAValidWorker) {
@@ -120,4 +120,4 @@ TEST(ParallelForEach, WorksInAChildForkedAfterTheWorkersStarted) {
 }
 
 }  // namespace
-}  // namespace vlt::parallel
+}  // namespace vlt::parallel_internal

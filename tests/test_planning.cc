@@ -3,6 +3,10 @@
 // constraints honoured, determinism, bad input; per-source maps adding up to the total; the
 // Monte Carlo map the same for any thread count.
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <cstdio>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -47,6 +51,13 @@ evaluations = 600
 step = "0.1 m"
 )";
 
+// A decimal with one digit after the point, as the job file would write it ("-0.1").
+std::string Fmt1(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.1f", v);
+  return text;
+}
+
 Job SquareJob(const std::string& extra = "") {
   Job job = ParseJob(kSquare + extra, "square.toml", ".");
   for (UncertainInput& p : job.setup.params) p.u = 0.0;
@@ -70,6 +81,54 @@ TEST(Planning, SymmetricCaseFindsTheCentre) {
   const StationEvaluation centre = EvaluateStation(job, Eigen::Vector3d::Zero());
   ASSERT_TRUE(centre.feasible);
   EXPECT_NEAR(centre.objective / closed_form, 1.0, 1e-12);
+}
+
+// planned_job.toml carries the station that was judged, to the bit (issue 36): a recommended
+// station off the 1 um grid (the unrounded optimum, kept when rounding made it infeasible) is
+// written so that reading the file back gives the same doubles, and the file, run, gives the
+// plan's objective exactly.
+TEST(Planning, PlannedJobCarriesTheJudgedStationExactly) {
+  // PlanFiles rewrites the job file itself: the job is read from a file.
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "vlt_test_planned_job";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "square.toml") << kSquare;
+  Job job = LoadJob((dir / "square.toml").string());
+  for (UncertainInput& p : job.setup.params) p.u = 0.0;
+  StationPlan plan = PlanStation(job, 1);
+  ASSERT_TRUE(plan.recommended.feasible);
+  for (const Eigen::Vector3d& station : {Eigen::Vector3d(0.0123456789012345, -0.0000000413, 0.0),
+                                         Eigen::Vector3d(-0.31000004999999, 0.27000005000001, 0.0)}) {
+    plan.recommended = EvaluateStation(job, station);
+    ASSERT_TRUE(plan.recommended.feasible);
+    std::string text;
+    for (const auto& [name, content] : PlanFiles(plan))
+      if (name == "planned_job.toml") text = content;
+    ASSERT_FALSE(text.empty());
+    const Job written = ParseJob(text, "planned_job.toml", ".");
+    ASSERT_TRUE(written.setup.pose.has_value());
+    EXPECT_EQ(written.setup.pose->tx.estimate, station.x());
+    EXPECT_EQ(written.setup.pose->ty.estimate, station.y());
+    EXPECT_EQ(written.setup.pose->tz.estimate, station.z());
+  }
+  std::filesystem::remove_all(dir);
+}
+
+// The station map's nodes are the decimals of the grid (issue 36): floor -0.6 .. 0.7 in steps of
+// 0.1 m has a node at exactly y = -0.1 (min + 5 step in binary lands 2e-17 beside it, inside a
+// box whose edge is there).
+TEST(Planning, MapNodesAreTheDecimalsOfTheGrid) {
+  const StationPlan plan = PlanStation(SquareJob(), 1);
+  int found = 0;
+  for (const Eigen::Vector3d& node : plan.map.nodes) {
+    for (int c = 0; c < 2; ++c) {
+      const double decimal = std::round(node[c] * 10.0) / 10.0;
+      if (std::abs(node[c] - decimal) < 1e-12) {
+        EXPECT_EQ(node[c], std::stod(Fmt1(decimal))) << node.transpose();
+        found += node[c] == -0.1 ? 1 : 0;
+      }
+    }
+  }
+  EXPECT_GT(found, 0);
 }
 
 TEST(Planning, ObjectiveIsWhatRunJobGivesThere) {
@@ -124,6 +183,19 @@ box = "-0.1, 0.1, -0.1, 0.1, -1, 3"
   const StationEvaluation behind = EvaluateStation(job, Eigen::Vector3d(-0.2, -0.2, 0.0));
   EXPECT_FALSE(behind.feasible);
   EXPECT_NE(behind.reason.find("blocked by column"), std::string::npos) << behind.reason;
+  // Too near: the message carries the numbers that decide in full (issue 36), and the failed
+  // constraints are named.
+  const Eigen::Vector3d station_near_a(0.3, 0.7, 0.0);  // 0.76 m from A, in sight of all four
+  const StationEvaluation near = EvaluateStation(job, station_near_a);
+  ASSERT_FALSE(near.feasible);
+  const std::string prefix = "point 'A': range ", suffix = " m below min_range 1.05 m";
+  const std::size_t at = near.reason.find(prefix), end = near.reason.find(suffix);
+  ASSERT_TRUE(at != std::string::npos && end != std::string::npos) << near.reason;
+  EXPECT_EQ(std::stod(near.reason.substr(at + prefix.size(), end - at - prefix.size())),
+            (station_near_a - job.points[0].nominal).norm())
+      << near.reason;
+  EXPECT_EQ(near.failed, std::vector<std::string>{"min_range"});
+  EXPECT_EQ(behind.failed, std::vector<std::string>{"line of sight"});
   // Acceptance: nests facing +x accept a station within 60 deg of +x only: none on this floor
   // sees A (x = 1) from x < 1, so no station is feasible -> one line naming the key.
   const Job facing = SquareJob(R"(
@@ -135,6 +207,9 @@ target_normal = [1, 0, 0]
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("square.toml: optimize: no feasible station"), std::string::npos)
+        << e.what();
+    // The constraint to relax is named with the number of map nodes where it failed: all 196.
+    EXPECT_NE(std::string(e.what()).find("failed: acceptance angle at 196 of the nodes"), std::string::npos)
         << e.what();
   }
   // Facing up, 85 deg: all four corners seen from the centre at elevation 0 are at 90 deg -> no;

@@ -370,6 +370,13 @@ TEST(RefractiveIndex, ValidityRangeAndNames) {
 TEST(RefractiveIndex, ModifiedEdlenValidityRangeAndNames) {
   const AirEquation med = AirEquation::kEdlenBirchDowns;
   EXPECT_NO_THROW(CheckAirValidity(med, NistPoint(), "w"));
+  // Outside the range the problem is a text the readers warn with (issue 36), and n is computed.
+  EXPECT_EQ(AirValidityProblem(med, NistPoint(), "w"), "");
+  const AirConditions hot = Air(633.0, 60.0, 101325.0, 80.0);
+  EXPECT_EQ(AirValidityProblem(med, hot, "w"),
+            "w: temperature 60 degC is outside the range of validity of the modified Edlen (NIST, Birch-Downs) "
+            "equation (0..40 degC, NIST Engineering Metrology Toolbox)");
+  EXPECT_TRUE(std::isfinite(AirRefractiveIndexValue(med, hot, "w")));
   // Range of validity: 350..650 nm, 0..40 degC, 60..140 kPa (as the Edlén of Bönsch-Potulski).
   const auto refused = [&](AirConditions air, const char* what) {
     try {

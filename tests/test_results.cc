@@ -212,7 +212,7 @@ TEST(Results, ModifiedEdlenNamedInInputsAir) {
   // CO2 does not enter this equation: its budget rows carry zero sensitivity and contribution.
   bool found = false;
   const std::size_t first[] = {0};
-  internal::ForEachPointBudget(r, first, [&](std::size_t, const PointUncertainty& g) {
+  results_internal::ForEachPointBudget(r, first, [&](std::size_t, const PointUncertainty& g) {
     for (const BudgetRow& row : g.budget) {
       if (row.input != "environment.co2") continue;
       found = true;
@@ -311,7 +311,7 @@ TEST(Results, CsvHeadersUnitsAndValues) {
   for (const PointUncertainty& g : direct) expected_rows += g.budget.size();
   EXPECT_EQ(static_cast<std::size_t>(rows), expected_rows);
   EXPECT_GE(direct[0].budget.size(), 35u);
-  internal::ForEachPointBudget(r, {}, [&](std::size_t i, const PointUncertainty& g) {
+  results_internal::ForEachPointBudget(r, {}, [&](std::size_t i, const PointUncertainty& g) {
     ASSERT_EQ(g.budget.size(), direct[i].budget.size());
     for (std::size_t b = 0; b < g.budget.size(); ++b) {
       EXPECT_EQ(g.budget[b].input, direct[i].budget[b].input);
@@ -369,7 +369,7 @@ TEST(Results, BudgetSensitivitiesInTheUnitsPeopleRead) {
   const PointUncertainty& a = r.points[0].gum;
   const double rho = a.readings[0], e = a.readings[2];
   for (const BudgetRow& b : a.budget) {
-    const auto [unit, factor] = internal::PracticalSensitivity(b.input_unit);
+    const auto [unit, factor] = results_internal::PracticalSensitivity(b.input_unit);
     const Eigen::Vector3d c = b.sensitivity * factor;
     if (b.input == "range") {
       EXPECT_EQ(unit, "um/um");
@@ -620,7 +620,7 @@ TEST(Results, JobTooLargeForMemoryIsAnInputError) {
 namespace vlt {
 namespace {
 
-// The numbers of every file: internal::Num is specified as the first of "%.6g" ... "%.17g" that
+// The numbers of every file: base_internal::Num is specified as the first of "%.6g" ... "%.17g" that
 // reads back as the value (docs/results.md "Numbers"). The fast version (std::to_chars) must give
 // the same characters: checked against that definition, evaluated with snprintf/strtod, over
 // random bit patterns, values next to powers of two (where the rounding interval is asymmetric),
@@ -674,8 +674,8 @@ TEST(Numbers, FastFormattingEqualsThePrintfDefinition) {
   }
   int mismatches = 0;
   for (double v : values) {
-    if (internal::Num(v) != NumBySpecification(v) && ++mismatches < 5) {
-      ADD_FAILURE() << std::hexfloat << v << ": " << internal::Num(v) << " vs " << NumBySpecification(v);
+    if (base_internal::Num(v) != NumBySpecification(v) && ++mismatches < 5) {
+      ADD_FAILURE() << std::hexfloat << v << ": " << base_internal::Num(v) << " vs " << NumBySpecification(v);
     }
   }
   EXPECT_EQ(mismatches, 0) << "of " << values.size();

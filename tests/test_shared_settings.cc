@@ -23,7 +23,7 @@
 namespace vlt {
 namespace {
 
-using job_detail::Section;
+using base_internal::Section;
 
 const std::string kCoverageMessage = ": must be between 0 and 1 (e.g. 0.95 or \"95 %\")";
 
@@ -31,7 +31,7 @@ const std::string kCoverageMessage = ": must be between 0 and 1 (e.g. 0.95 or \"
 // when it reads; `given` is whether the reader reported the key as present.
 std::string ErrorOf(const std::string& text, const std::function<bool(Section&)>& read,
                     bool* given = nullptr) {
-  const toml::table table = job_detail::ParseToml(text, "x.toml");
+  const toml::table table = base_internal::ParseToml(text, "x.toml");
   Section s(table, "x.toml", "s");
   try {
     const bool g = read(s);

@@ -4,8 +4,12 @@ vlt module and prints the same three lines.
 (demo.toml from `vlt demo --show-job`: the job `vlt demo` runs, named vlt-demo)."""
 import sys
 
-import numpy as np
-import vlt
+if len(sys.argv) != 2:
+    print(__doc__.strip() + "\nusage: python3 consumer.py JOB.toml", file=sys.stderr)
+    sys.exit(2)
+
+import numpy as np  # noqa: E402 (the usage above needs neither)
+import vlt  # noqa: E402
 
 r = vlt.run(sys.argv[1], monte_carlo=False)
 worst = int(np.argmax(np.linalg.norm(r["U"], axis=1)))

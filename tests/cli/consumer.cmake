@@ -52,5 +52,11 @@ if(PYTHON)
   if(NOT out STREQUAL cmake_out)
     message(FATAL_ERROR "the Python consumer differs from the C++ one:\n${cmake_out}\n${out}")
   endif()
+  # Without a job it says how to run it (exit 2), not a Python traceback.
+  execute_process(COMMAND ${PYTHON} ${SOURCE_DIR}/examples/consumer/consumer.py RESULT_VARIABLE rc
+                  OUTPUT_VARIABLE usage_out ERROR_VARIABLE usage_err)
+  if(NOT rc EQUAL 2 OR NOT usage_err MATCHES "usage: python3 consumer.py JOB.toml" OR usage_err MATCHES "Traceback")
+    message(FATAL_ERROR "consumer.py without a job: exit ${rc}, expected 2 and its usage:\n${usage_err}")
+  endif()
 endif()
 message(STATUS "ok:\n${out}")

@@ -1,4 +1,4 @@
-// libFuzzer harness: the small parsers behind a job — CSV (vlt::ParseCsv), quantities with units
+// libFuzzer harness: the small parsers behind a job — CSV (vlt::base_internal::ParseCsv), quantities with units
 // (vlt::ParseQuantity, every dimension) and map grids (ParseMapPlane / ParseMapBox). The input is
 // split at the first two '\n' into three strings. docs/testing.md "Fuzzing".
 #include <cstddef>
@@ -20,7 +20,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       a == std::string_view::npos ? std::string_view() : text.substr(a + 1, b - a - 1);
   const std::string_view third = b == std::string_view::npos ? std::string_view() : text.substr(b + 1);
   try {
-    (void)vlt::ParseCsv(text, "fuzz.csv");
+    (void)vlt::base_internal::ParseCsv(text, "fuzz.csv");
   } catch (const vlt::InputError&) {}
   for (vlt::Dimension d :
        {vlt::Dimension::kLength, vlt::Dimension::kAngle, vlt::Dimension::kRatio, vlt::Dimension::kTemperature,

@@ -12,7 +12,10 @@ in backticks in the last column ("—" for none). Checked:
      use G; a header named internal.h (or *_internal.h) is never included outside its folder;
   4. the command line (runtime/cli) and the Python module (python/) include public headers
      (vlt/*.h) and their own files only;
-  5. calls (with OBJECT_DIR, the object files of the runtime as CMake builds them): every symbol a
+  5. namespaces: a file of runtime/src/F declares its private names in vlt::F_internal (nested
+     namespaces inside it allowed) or extends a namespace of the public headers (vlt/*.h); no
+     other named namespace;
+  6. calls (with OBJECT_DIR, the object files of the runtime as CMake builds them): every symbol a
      folder's objects need that another folder's objects define is a use the rule allows. This is
      what the include check cannot see: a call through a public header vlt/*.h into a folder the
      caller may not use.
@@ -93,6 +96,39 @@ def check_includes(src, rule, folders):
     return problems
 
 
+NAMESPACE = re.compile(r"^\s*namespace\s+([A-Za-z_][\w:]*)\s*\{", re.M)
+
+
+def public_namespaces(top):
+    """The namespaces the public headers (runtime/include/vlt/*.h) declare, below vlt."""
+    names = set()
+    include = os.path.join(top, "runtime", "include", "vlt")
+    for path in source_files(include):
+        for name in NAMESPACE.findall(open(path, encoding="utf-8").read()):
+            parts = [p for p in name.split("::") if p != "vlt"]
+            if parts:
+                names.add(parts[0])
+    return names
+
+
+def check_namespaces(src, top):
+    """Private names of runtime/src/F live in vlt::F_internal (docs/README.md "Namespaces")."""
+    problems = []
+    public = public_namespaces(top)
+    for path in source_files(src):
+        folder = os.path.relpath(path, src).split(os.sep)[0]
+        own = folder + "_internal"
+        for name in NAMESPACE.findall(open(path, encoding="utf-8").read()):
+            parts = [p for p in name.split("::") if p != "vlt"]
+            if not parts or parts[0] == own or parts[0] in public:
+                continue
+            # A namespace nested in the folder's own (namespace lanes { inside vlt::base_internal).
+            if len(name.split("::")) == 1 and re.search(r"namespace\s+(vlt::)?" + own + r"\b", open(path, encoding="utf-8").read()):
+                continue
+            problems.append(f"{os.path.relpath(path, top)}: namespace {name}: {folder}/'s private names belong in vlt::{own}")
+    return problems
+
+
 def check_public_only(top, folders, dirs):
     """The CLI and the Python module include vlt/*.h and files of their own folder only."""
     problems = []
@@ -165,6 +201,7 @@ def main():
     problems += find_cycles(rule)
     problems += check_includes(src, rule, folders)
     problems += check_public_only(top, folders, [os.path.join("runtime", "cli"), "python"])
+    problems += check_namespaces(src, top)
     if len(sys.argv) > 2:
         problems += check_calls(sys.argv[2], rule)
     for p in problems:

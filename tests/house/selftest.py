@@ -37,18 +37,20 @@ def main():
     with tempfile.TemporaryDirectory() as root:
         write(root, "runtime/src/low/a.h", "#pragma once\n")
         write(root, "runtime/src/low/internal.h", "#pragma once\n")
-        write(root, "runtime/src/high/b.cc", '#include "low/a.h"\n#include "low/internal.h"\n')
+        write(root, "runtime/src/high/b.cc", '#include "low/a.h"\n#include "low/internal.h"\n'
+                                            'namespace vlt::low_internal {\n}\n')
         write(root, "runtime/cli/main.cc", '#include "vlt/x.h"\n#include "high/b.h"\n')
         write(root, "python/m.cc", '#include "vlt/x.h"\n')
         write(root, "docs/README.md", table([("low", "`high/`"), ("high", "`low/`")]))
         rc, out = run("check_layering.py", root)
-        for expected in ["cycle in the rule", "low/'s internal header outside low/", "runtime/cli/main.cc: #include \"high/b.h\""]:
+        for expected in ["cycle in the rule", "low/'s internal header outside low/", "runtime/cli/main.cc: #include \"high/b.h\"",
+                         "namespace vlt::low_internal: high/'s private names belong in vlt::high_internal"]:
             if expected not in out:
                 failures.append(f"layering: not reported: {expected}\n{out}")
         if rc == 0:
             failures.append("layering: exit 0 with violations")
         write(root, "docs/README.md", table([("low", "—"), ("high", "`low/`")]))
-        write(root, "runtime/src/high/b.cc", '#include "low/a.h"\n')
+        write(root, "runtime/src/high/b.cc", '#include "low/a.h"\nnamespace vlt::high_internal {\nnamespace {\n}\n}\n')
         write(root, "runtime/cli/main.cc", '#include "vlt/x.h"\n#include "commands.h"\n')
         write(root, "runtime/cli/commands.h", "#pragma once\n")
         rc, out = run("check_layering.py", root)

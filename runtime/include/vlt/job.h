@@ -75,8 +75,10 @@ struct MapSettings {
 
   // Number of grid nodes along each axis (1 along the fixed axis of a plane).
   Eigen::Vector3i counts() const;
-  // Grid node coordinates in row-major order (x fastest, then y, then z).
+  // Grid node coordinates in row-major order (x fastest, then y, then z): min + i step per axis,
+  // snapped to 1 nm so that a node is the decimal the grid means (-0.1, not -0.09999999999999998).
   std::vector<Eigen::Vector3d> Nodes() const;
+  double Node(double from, int index) const;
 };
 
 // Parses the command-line / job-file spellings: plane "z=0" or "z = 1.5 m"; extent

@@ -57,7 +57,7 @@ using NominalJacobiansBatchFn = void (*)(const double* readings, double* outputs
 // Forward for kForwardLanes trials at once (the Monte Carlo engine's job kernel), structure of
 // arrays: quantity q of lane l at [kForwardLanes * q + l] (readings: num_readings quantities,
 // params: num_params, outputs: num_outputs). The templated kernel instantiated on
-// vlt::lanes::Double4 (base/lanes.h), compiled for AVX2 and for the baseline: +, -, *, / and sqrt
+// vlt::base_internal::lanes::Double4 (base/lanes.h), compiled for AVX2 and for the baseline: +, -, *, / and sqrt
 // are ForwardFn's operations lane by lane, sin and cos are vlt's own (within 2.4 ulp, libm's
 // within 1), so a lane may differ from ForwardFn in the last bits, never by more (tests/
 // test_generated_models.cc). Tracker models whose kernel calls only sin, cos and sqrt; nullptr

@@ -35,6 +35,10 @@ struct StationEvaluation {
   bool feasible = false;
   std::string reason;         // why not feasible ("" when feasible), e.g. "point 'P3': range
                               // 0.4 m below min_range 1 m"
+  std::vector<std::string> failed;  // every constraint that failed, once each: "floor", "height",
+                                    // "keep-out 'table'", "min_range", "max_range",
+                                    // "line of sight", "acceptance angle" (and "the readings",
+                                    // "a finite objective" where the model cannot be evaluated)
   double violation = 0.0;     // how far from feasible (m, rad and counts summed; 0 if feasible)
   double objective = 0.0;     // sum of weight * term [m] (feasible only)
   std::vector<double> terms;  // per OptimizeSettings::objective term, unweighted [m]
@@ -46,7 +50,7 @@ StationEvaluation EvaluateStation(const Job& job, const Eigen::Vector3d& station
 struct StationPlan {
   const Job* job = nullptr;
   OptimizeSettings settings;
-  StationEvaluation recommended;  // rounded to 1 um (as written to the planned job)
+  StationEvaluation recommended;  // rounded to 1 um where that stays feasible; written to the planned job exactly
   StationEvaluation job_station;  // at the job's own [station] (tx, ty, tz)
   std::int64_t global_evaluations = 0;
   std::int64_t local_evaluations = 0;

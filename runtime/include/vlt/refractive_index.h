@@ -92,6 +92,10 @@ double AirRefractiveIndexValue(AirEquation equation, const AirConditions& air,
 //   modified Edlén (NIST / Birch-Downs): wavelength 350..650 nm, temperature 0..40 degC,
 //                   pressure 60..140 kPa, humidity 0..100 %; CO2 is not checked (not an input).
 void CheckAirValidity(AirEquation equation, const AirConditions& air, std::string_view where);
+// The same check as a text: "" inside the range of validity, else the message CheckAirValidity
+// would throw (conditions that are physically impossible still throw). The readers of job and
+// network files warn with it and compute (as NIST's calculator does), and `--strict` fails.
+std::string AirValidityProblem(AirEquation equation, const AirConditions& air, std::string_view where);
 
 // Saturation vapour pressure [Pa] at temperature t [degC]: over liquid water by the IAPWS
 // industrial formulation (IAPWS-IF97, eq. 30, as the NIST toolbox, Appendix A-I) for t >= 0,

@@ -51,7 +51,7 @@ struct PointMcm {
 
 struct PointResult {
   JobPoint input;        // name, face, nominal (plan), readings as given
-  PointUncertainty gum;  // budget empty: see internal::ForEachPointBudget
+  PointUncertainty gum;  // budget empty: see results_internal::ForEachPointBudget
   bool has_mcm = false;
   // Set when has_mcm (held apart: a GUM-only scan of 10^6 points does not carry 1.6 kB of empty
   // Monte Carlo fields per point).

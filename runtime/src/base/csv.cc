@@ -62,17 +62,54 @@ std::vector<std::string> SplitLine(std::string_view line, const std::string& whe
   return fields;
 }
 
+// Splits a line of a file whose fields are separated by blanks (a run of spaces and tabs is one
+// separator; a field with a blank is quoted): `name x y z` lists that tracker and CAD software
+// export.
+std::vector<std::string> SplitOnBlanks(std::string_view line, const std::string& where) {
+  std::vector<std::string> fields;
+  std::size_t i = 0;
+  auto blank = [&](std::size_t k) { return line[k] == ' ' || line[k] == '\t' || line[k] == '\r'; };
+  while (true) {
+    while (i < line.size() && blank(i)) ++i;
+    if (i >= line.size()) break;
+    std::string field;
+    if (line[i] == '"') {
+      std::size_t end = i + 1;
+      while (end < line.size() && (line[end] != '"' || (end + 1 < line.size() && line[end + 1] == '"'))) {
+        end += line[end] == '"' ? 2 : 1;
+      }
+      if (end >= line.size()) throw InputError(where + ": unterminated quoted field");
+      field = SplitLine(line.substr(i, end + 1 - i), where, ',')[0];
+      i = end + 1;
+      if (i < line.size() && !blank(i)) throw InputError(where + ": unexpected text after a quoted field");
+    } else {
+      const std::size_t start = i;
+      while (i < line.size() && !blank(i)) ++i;
+      field = std::string(line.substr(start, i - start));
+    }
+    fields.push_back(std::move(field));
+  }
+  return fields;
+}
+
 // The separator of a file, from its header line: ';' (spreadsheets in locales with a decimal
-// comma) or a tab when the header has one outside quotes, else ','.
-char DetectDelimiter(std::string_view header) {
-  bool quoted = false, tab = false;
-  for (char c : header) {
+// comma) or a tab when the header has one outside quotes, else ','. A file without a header line
+// takes it from its first row, where neither ';', a tab nor ',' means blanks (' ').
+char DetectDelimiter(std::string_view line, bool header) {
+  bool quoted = false, tab = false, comma = false;
+  for (char c : line) {
     if (c == '"') quoted = !quoted;
     if (quoted) continue;
     if (c == ';') return ';';
     tab = tab || c == '\t';
+    comma = comma || c == ',';
   }
-  return tab ? '\t' : ',';
+  if (tab) return '\t';
+  return header || comma ? ',' : ' ';
+}
+
+std::string SeparatorName(char delimiter) {
+  return delimiter == '\t' ? "tab" : delimiter == ' ' ? "blanks" : std::string(1, delimiter);
 }
 
 // With ';' or tab separators, "12,5", "-0,25e-3", "1,5 mm" are numbers with a decimal comma: the
@@ -102,6 +139,8 @@ void DecimalCommaToPoint(std::string& field) {
 
 }  // namespace
 
+namespace base_internal {
+
 int CsvTable::Column(std::string_view name) const {
   for (std::size_t k = 0; k < header.size(); ++k) {
     if (header[k] == name) return static_cast<int>(k);
@@ -111,9 +150,12 @@ int CsvTable::Column(std::string_view name) const {
 
 std::string CsvTable::Where(const CsvRow& row) const { return file + ": line " + std::to_string(row.line); }
 
-CsvTable ParseCsv(std::string_view text, const std::string& file) {
+CsvTable ParseCsv(std::string_view text, const std::string& file, const std::vector<std::string>* columns) {
   CsvTable table;
   table.file = file;
+  const bool headerless = columns != nullptr;
+  bool delimiter_known = false;
+  if (headerless) table.header = *columns;
   int line_number = 0;
   std::size_t pos = 0;
   // Skip a UTF-8 byte order mark (spreadsheets write one).
@@ -132,8 +174,12 @@ CsvTable ParseCsv(std::string_view text, const std::string& file) {
       continue;
     }
     std::string where = file + ": line " + std::to_string(line_number);
-    if (table.header.empty()) table.delimiter = DetectDelimiter(line);
-    std::vector<std::string> fields = SplitLine(line, where, table.delimiter);
+    if (!delimiter_known) {
+      table.delimiter = DetectDelimiter(line, !headerless);
+      delimiter_known = true;
+    }
+    std::vector<std::string> fields =
+        table.delimiter == ' ' ? SplitOnBlanks(line, where) : SplitLine(line, where, table.delimiter);
     if (table.delimiter != ',' && !table.header.empty()) {
       for (std::string& field : fields) DecimalCommaToPoint(field);
     }
@@ -148,32 +194,29 @@ CsvTable ParseCsv(std::string_view text, const std::string& file) {
       table.header_line = line_number;
     } else {
       if (fields.size() != table.header.size()) {
-        throw InputError(where + ": " + std::to_string(fields.size()) + " fields, the header has " +
-                         std::to_string(table.header.size()) + " (separator '" +
-                         (table.delimiter == '\t' ? std::string("tab") : std::string(1, table.delimiter)) +
-                         "', taken from the header line)");
+        throw InputError(where + ": " + std::to_string(fields.size()) + " fields, " +
+                         (headerless ? "the columns name " : "the header has ") +
+                         std::to_string(table.header.size()) + " (separator '" + SeparatorName(table.delimiter) +
+                         (headerless ? "', taken from the first row)" : "', taken from the header line)"));
       }
       table.rows.push_back(CsvRow{line_number, std::move(fields)});
     }
     if (end >= text.size()) break;
   }
   if (table.header.empty()) throw InputError(file + ": empty CSV file (no header line)");
+  if (headerless && table.rows.empty()) throw InputError(file + ": empty file (no rows)");
   return table;
 }
 
-CsvTable ReadCsvFile(const std::string& path, const std::string& label) {
+CsvTable ReadCsvFile(const std::string& path, const std::string& label, const std::vector<std::string>* columns) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) throw InputError(label + ": is a directory, not a CSV file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(label + ": cannot read CSV file '" + path + "'");
   std::ostringstream buffer;
   buffer << in.rdbuf();
-  return ParseCsv(buffer.str(), label);
+  return ParseCsv(buffer.str(), label, columns);
 }
-
-}  // namespace vlt
-
-namespace vlt::job_detail {
 
 double CsvQuantity(const std::string& field, std::optional<Dimension> dim, double unit_scale,
                    double unit_offset, const std::string& where) {
@@ -195,4 +238,5 @@ double CsvQuantity(const std::string& field, std::optional<Dimension> dim, doubl
   return ParseQuantity(field, *dim, where);  // a field with its own unit
 }
 
-}  // namespace vlt::job_detail
+}  // namespace base_internal
+}  // namespace vlt

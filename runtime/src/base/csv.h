@@ -16,7 +16,7 @@
 
 #include "vlt/units.h"
 
-namespace vlt {
+namespace vlt::base_internal {
 
 struct CsvRow {
   int line = 0;                     // 1-based line number in the file
@@ -25,8 +25,8 @@ struct CsvRow {
 
 struct CsvTable {
   std::string file;  // path as used in messages
-  int header_line = 0;
-  char delimiter = ',';             // ',', ';' or '\t' (from the header line)
+  int header_line = 0;              // 0: no header line (the caller named the columns)
+  char delimiter = ',';             // ',', ';', '\t' or ' ' (blanks; a file without a header line)
   std::vector<std::string> header;  // column names, trimmed
   std::vector<CsvRow> rows;         // every row has exactly header.size() fields
 
@@ -38,18 +38,19 @@ struct CsvTable {
 
 // Parses CSV text. `file` is used in messages only. Throws InputError for an empty file, an
 // unterminated quote, a duplicate or empty column name, or a row with the wrong number of fields.
-CsvTable ParseCsv(std::string_view text, const std::string& file);
+// With `columns` the text has no header line: every non-blank, non-comment line is a row of those
+// columns (header_line 0), and the separator comes from the first row — ';', a tab or ',' as
+// above, and where it has none of them, runs of blanks (`name x y z` lists).
+CsvTable ParseCsv(std::string_view text, const std::string& file,
+                  const std::vector<std::string>* columns = nullptr);
 
 // Reads and parses `path`; `label` names it in messages (InputError if it cannot be read).
-CsvTable ReadCsvFile(const std::string& path, const std::string& label);
-
-}  // namespace vlt
-
-namespace vlt::job_detail {
+CsvTable ReadCsvFile(const std::string& path, const std::string& label,
+                     const std::vector<std::string>* columns = nullptr);
 
 // A CSV field: a bare decimal number (in the column's unit: value * unit_scale + unit_offset; no
 // hex floats, inf or nan) or, when `dim` is given, a quantity with its own unit.
 double CsvQuantity(const std::string& field, std::optional<Dimension> dim, double unit_scale,
                    double unit_offset, const std::string& where);
 
-}  // namespace vlt::job_detail
+}  // namespace vlt::base_internal

@@ -10,7 +10,7 @@
 
 #include "vlt/results.h"
 
-namespace vlt::internal {
+namespace vlt::base_internal {
 
 double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
@@ -132,7 +132,7 @@ std::string ScriptSafe(const std::string& text) {
   return safe;
 }
 
-}  // namespace vlt::internal
+}  // namespace vlt::base_internal
 
 namespace vlt {
 

@@ -13,7 +13,7 @@ namespace vlt {
 // Safe directory name from a job name ([A-Za-z0-9._-], others -> '_'); public in vlt/results.h.
 std::string SafeFileName(const std::string& name);
 
-namespace internal {
+namespace base_internal {
 
 using vlt::SafeFileName;
 
@@ -38,5 +38,5 @@ std::string HtmlEscape(const std::string& text);
 // JSON for a <script> element: "</", which could close the element, as "<\/" (the same JSON string).
 std::string ScriptSafe(const std::string& text);
 
-}  // namespace internal
+}  // namespace base_internal
 }  // namespace vlt

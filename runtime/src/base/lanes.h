@@ -39,7 +39,7 @@
 #pragma GCC diagnostic ignored "-Wpsabi"
 #endif
 
-namespace vlt::lanes {
+namespace vlt::base_internal::lanes {
 
 inline constexpr int kWidth = 4;
 
@@ -157,4 +157,4 @@ inline Double4 cos(const Double4& x) {
   return c;
 }
 
-}  // namespace vlt::lanes
+}  // namespace vlt::base_internal::lanes

@@ -25,7 +25,7 @@ Dimension DimensionOfQuantity(std::string_view quantity, const std::string& wher
   throw InputError(where + ": the model declares an unknown quantity kind '" + std::string(quantity) + "'");
 }
 
-namespace job_detail {
+namespace base_internal {
 
 std::string Section::Where(std::string_view key) const {
   if (path_.empty()) return file_ + ": " + std::string(key);
@@ -255,6 +255,6 @@ void ReadJobMeta(Section& top, std::string& name, std::string* description, cons
   meta.Finish();
 }
 
-}  // namespace job_detail
+}  // namespace base_internal
 
 }  // namespace vlt

@@ -15,7 +15,7 @@
 #include "vlt/job.h"
 #include "vlt/units.h"
 
-namespace vlt::job_detail {
+namespace vlt::base_internal {
 
 // One TOML table being read. Every key looked up is remembered; Finish() rejects the rest as
 // unknown keys, so that a misspelt key cannot be silently ignored. Messages name
@@ -95,4 +95,4 @@ void ForEachTable(Section& top, const std::string& file, std::string_view key, F
   }
 }
 
-}  // namespace vlt::job_detail
+}  // namespace vlt::base_internal

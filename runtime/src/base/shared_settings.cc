@@ -10,7 +10,7 @@
 #include "vlt/error.h"
 #include "vlt/units.h"
 
-namespace vlt::job_detail {
+namespace vlt::base_internal {
 namespace {
 
 // The integer at `key`; nullopt when absent.
@@ -83,4 +83,4 @@ bool ReadOutlierLimit(Section& s, std::string_view key, double& value) {
   return true;
 }
 
-}  // namespace vlt::job_detail
+}  // namespace vlt::base_internal

@@ -11,7 +11,7 @@
 
 #include "base/section.h"
 
-namespace vlt::job_detail {
+namespace vlt::base_internal {
 
 // A coverage probability p in (0, 1): a ratio, 0.95 or "95 %".
 bool ReadCoverageProbability(Section& s, std::string_view key, double& value);
@@ -33,4 +33,4 @@ bool ReadIterationLimit(Section& s, std::string_view key, int& value);
 // The limit on |w| (normalised residual) above which a reading is flagged: a positive number.
 bool ReadOutlierLimit(Section& s, std::string_view key, double& value);
 
-}  // namespace vlt::job_detail
+}  // namespace vlt::base_internal

@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <string>
 
-namespace vlt::calibration_internal {
+namespace vlt::base_internal {
 
 // "..." with \" \\ \n \t escaped and every other control character as \uXXXX (TOML 1.0 2.5).
 inline std::string TomlQuoted(const std::string& text) {
@@ -31,4 +31,4 @@ inline std::string TomlQuoted(const std::string& text) {
   return out + "\"";
 }
 
-}  // namespace vlt::calibration_internal
+}  // namespace vlt::base_internal

@@ -19,14 +19,14 @@
 
 namespace vlt::calibration_outputs {
 
-using report::Page;
+using output_internal::Page;
 
 namespace {
 
-using internal::Fixed;
-using internal::HtmlEscape;
-using internal::Num;
-std::string Csv(const std::string& s) { return internal::CsvField(s); }
+using base_internal::Fixed;
+using base_internal::HtmlEscape;
+using base_internal::Num;
+std::string Csv(const std::string& s) { return base_internal::CsvField(s); }
 
 constexpr double kArcsec = std::numbers::pi / (180.0 * 3600.0);
 
@@ -256,7 +256,7 @@ std::string SimulatedCalibrationToml(const TestJob& job, const CalibrationData& 
   for (int k = 0; k < P; ++k)
     t << "#   " << model.params[k].name << " = " << Num(job.tracker.params[k].estimate) << " "
       << model.params[k].unit << "\n";
-  using calibration_internal::TomlQuoted;
+  using base_internal::TomlQuoted;
   t << "# Values without a unit are SI (m, rad). Every key: docs/calibration.md.\n\n[job]\nname = "
     << TomlQuoted(job.name + "-calibration") << "\n\n[calibration]\ninstrument = "
     << TomlQuoted("simulated " + std::string(model.name) + " tracker (vlt test, seed " +

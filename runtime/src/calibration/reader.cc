@@ -16,7 +16,9 @@
 
 namespace vlt {
 
-using namespace job_detail;
+using namespace base_internal;
+using namespace instrument_internal;
+using namespace job_internal;  // Section, AsString and the section readers
 
 namespace {
 

@@ -23,7 +23,7 @@ using json = nlohmann::ordered_json;
 
 // JSON has no infinity: an infinite number of degrees of freedom is written as null.
 json Dof(double nu) { return std::isfinite(nu) ? json(nu) : json(nullptr); }
-std::string DofText(double nu) { return std::isfinite(nu) ? internal::Num(nu) : "inf"; }
+std::string DofText(double nu) { return std::isfinite(nu) ? base_internal::Num(nu) : "inf"; }
 
 }  // namespace
 
@@ -55,7 +55,7 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
   } catch (const NumericalError& e) {
     throw NumericalError(job.file + ": " + e.what());
   }
-  r.gum_seconds = internal::Seconds(gum_start);
+  r.gum_seconds = base_internal::Seconds(gum_start);
   r.outputs.resize(model.num_outputs);
   for (int o = 0; o < model.num_outputs; ++o) {
     r.outputs[o].gum = r.gum.outputs[o];
@@ -94,7 +94,7 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
       }
     }
     McmSettings settings =
-        internal::McmSettingsFor(job.monte_carlo, options, options.threads.value_or(job.monte_carlo.threads));
+        results_internal::McmSettingsFor(job.monte_carlo, options, options.threads.value_or(job.monte_carlo.threads));
     for (int o = 0; o < model.num_outputs; ++o) {
       if (job.tolerances[o])
         settings.tolerances.push_back({o, job.tolerances[o]->lower, job.tolerances[o]->upper});
@@ -110,7 +110,7 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
     } catch (const NumericalError& e) {
       throw NumericalError(job.file + ": " + e.what());
     }
-    r.mcm_seconds = internal::Seconds(mcm_start);
+    r.mcm_seconds = base_internal::Seconds(mcm_start);
     r.has_mcm = true;
     std::vector<std::string> outcomes;
     for (int o = 0; o < model.num_outputs; ++o) {
@@ -152,7 +152,7 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
 
 namespace {
 
-using internal::Num;
+using base_internal::Num;
 
 std::string OutputsCsv(const CustomResults& r) {
   std::ostringstream out;
@@ -395,11 +395,11 @@ json ResultsJsonObject(const CustomResults& r) {
   return j;
 }
 
-std::string Esc(const std::string& s) { return internal::HtmlEscape(s); }
+std::string Esc(const std::string& s) { return base_internal::HtmlEscape(s); }
 
 // "k = 2.78" or "none" where the Monte Carlo region could not be formed.
 std::string RegionK(const CustomRegionResult& region) {
-  return region.mcm.has_region ? internal::Sig(region.mcm.coverage_factor, 4)
+  return region.mcm.has_region ? base_internal::Sig(region.mcm.coverage_factor, 4)
                                : std::string("none (singular covariance)");
 }
 
@@ -424,16 +424,16 @@ std::string ReportHtmlText(const CustomResults& r) {
     std::string src = r.sources[i].kind;
     if (src == "type A")
       src += ": " + std::to_string(r.sources[i].observations) +
-             " observations, s = " + internal::Sig(r.sources[i].standard_deviation, 4) + " (" +
+             " observations, s = " + base_internal::Sig(r.sources[i].standard_deviation, 4) + " (" +
              r.sources[i].from + ")";
     std::string dist = r.mcm_inputs[i].distribution;
-    if (r.mcm_inputs[i].shape != 0.0) dist += " (" + internal::Sig(r.mcm_inputs[i].shape, 4) + ")";
+    if (r.mcm_inputs[i].shape != 0.0) dist += " (" + base_internal::Sig(r.mcm_inputs[i].shape, 4) + ")";
     if (const int g = SimultaneousGroup(r, static_cast<int>(i)); g >= 0) {
-      dist = "multivariate t (nu = " + internal::Sig(r.simultaneous_mcm_dof[g], 4) + ", scale " +
-             internal::Sig(r.mcm_inputs[i].u, 4) + ")";
+      dist = "multivariate t (nu = " + base_internal::Sig(r.simultaneous_mcm_dof[g], 4) + ", scale " +
+             base_internal::Sig(r.mcm_inputs[i].u, 4) + ")";
     }
     h << "<tr><td class=l>" << Esc(in.name) << "</td><td class=l>" << Esc(src) << "</td><td>"
-      << Num(in.estimate) << "</td><td>" << internal::Sig(in.u, 4) << "</td><td class=l>" << Esc(in.unit)
+      << Num(in.estimate) << "</td><td>" << base_internal::Sig(in.u, 4) << "</td><td class=l>" << Esc(in.unit)
       << "</td><td>" << DofText(r.dof[i]) << "</td><td class=l>" << Esc(dist) << "</td></tr>\n";
   }
   h << "</table>\n";
@@ -443,7 +443,7 @@ std::string ReportHtmlText(const CustomResults& r) {
       if (r.correlation(a, b) != 0.0) {
         if (!any_corr) h << "<p>Input correlations: ";
         h << (any_corr ? ", " : "") << "r(" << Esc(r.inputs[a].name) << ", " << Esc(r.inputs[b].name)
-          << ") = " << internal::Sig(r.correlation(a, b), 4);
+          << ") = " << base_internal::Sig(r.correlation(a, b), 4);
         any_corr = true;
       }
     }
@@ -456,11 +456,11 @@ std::string ReportHtmlText(const CustomResults& r) {
   for (const CustomOutputResult& o : r.outputs) {
     const CustomOutput& g = o.gum;
     h << "<tr><td class=l>" << Esc(g.name) << "</td><td class=l>" << Esc(g.unit) << "</td><td>"
-      << Num(g.estimate) << "</td><td>" << internal::Sig(g.u, 4) << "</td><td>"
-      << DofText(std::floor(g.dof_effective * (1.0 + 1e-9))) << "</td><td>" << internal::Sig(g.k, 4)
-      << "</td><td>" << internal::Sig(g.U, 4) << "</td>";
+      << Num(g.estimate) << "</td><td>" << base_internal::Sig(g.u, 4) << "</td><td>"
+      << DofText(std::floor(g.dof_effective * (1.0 + 1e-9))) << "</td><td>" << base_internal::Sig(g.k, 4)
+      << "</td><td>" << base_internal::Sig(g.U, 4) << "</td>";
     if (o.has_mcm) {
-      h << "<td>" << Num(o.mcm.mean) << "</td><td>" << internal::Sig(o.mcm.u, 4) << "</td><td>["
+      h << "<td>" << Num(o.mcm.mean) << "</td><td>" << base_internal::Sig(o.mcm.u, 4) << "</td><td>["
         << Num(o.mcm.symmetric.low) << ", " << Num(o.mcm.symmetric.high) << "]</td><td>["
         << Num(o.mcm.shortest.low) << ", " << Num(o.mcm.shortest.high) << "]</td><td class=\"l "
         << (o.validation.outcome == "validated" ? "ok" : "bad") << "\">" << Esc(o.validation.verdict)
@@ -470,24 +470,24 @@ std::string ReportHtmlText(const CustomResults& r) {
     }
     h << "<td class=\"l " << (g.gum_reliable ? "ok" : "bad") << "\">"
       << (g.gum_reliable ? "reliable" : "GUM NOT RELIABLE") << ": second-order terms "
-      << internal::Sig(100.0 * g.second_order_ratio, 3) << " % of u&sup2;, u with them "
-      << internal::Sig(std::sqrt(g.u * g.u + g.second_order_variance), 4) << "</td>";
+      << base_internal::Sig(100.0 * g.second_order_ratio, 3) << " % of u&sup2;, u with them "
+      << base_internal::Sig(std::sqrt(g.u * g.u + g.second_order_variance), 4) << "</td>";
     h << "</tr>\n";
   }
   h << "</table>\n";
   if (r.region) {
-    h << "<p>Output vector (JCGM 102): GUM coverage region k = " << internal::Sig(r.region->gum_k, 4)
+    h << "<p>Output vector (JCGM 102): GUM coverage region k = " << base_internal::Sig(r.region->gum_k, 4)
       << " (sqrt of the chi-square quantile, " << model.num_outputs << " dimensions)";
     if (r.region->has_mcm) {
       h << "; Monte Carlo k = " << RegionK(*r.region) << " (ratio "
-        << (r.region->mcm.has_region ? internal::Sig(r.region->coverage_factor_ratio, 4) : std::string("-"))
-        << "), relative covariance difference " << internal::Sig(r.region->covariance_difference, 3);
+        << (r.region->mcm.has_region ? base_internal::Sig(r.region->coverage_factor_ratio, 4) : std::string("-"))
+        << "), relative covariance difference " << base_internal::Sig(r.region->covariance_difference, 3);
     }
     h << ". Output correlation (GUM): ";
     for (int a = 0; a < model.num_outputs; ++a) {
       for (int b = a + 1; b < model.num_outputs; ++b) {
         h << "r(" << Esc(model.outputs[a].name) << ", " << Esc(model.outputs[b].name)
-          << ") = " << internal::Sig(r.gum.correlation(a, b), 4) << " ";
+          << ") = " << base_internal::Sig(r.gum.correlation(a, b), 4) << " ";
       }
     }
     h << "</p>\n";
@@ -503,9 +503,9 @@ std::string ReportHtmlText(const CustomResults& r) {
       if (!o.conformity) continue;
       h << "<tr><td class=l>" << Esc(o.gum.name) << "</td><td class=l>"
         << Esc(DescribeTolerance(*o.tolerance, o.gum.unit)) << "</td><td>"
-        << internal::Sig(o.conformity->guard_band, 4) << "</td><td class=l>" << Esc(o.conformity->verdict)
-        << "</td><td>" << internal::Sig(*o.conformity->probability_gum, 4) << "</td><td>"
-        << (o.conformity->probability_mcm ? internal::Sig(*o.conformity->probability_mcm, 4)
+        << base_internal::Sig(o.conformity->guard_band, 4) << "</td><td class=l>" << Esc(o.conformity->verdict)
+        << "</td><td>" << base_internal::Sig(*o.conformity->probability_gum, 4) << "</td><td>"
+        << (o.conformity->probability_mcm ? base_internal::Sig(*o.conformity->probability_mcm, 4)
                                           : std::string(""))
         << "</td></tr>\n";
     }
@@ -520,10 +520,10 @@ std::string ReportHtmlText(const CustomResults& r) {
          "<th class=l></th></tr>\n";
     for (const BudgetRow& row : o.gum.budget) {
       const double share = row.share(0);
-      h << "<tr><td class=l>" << Esc(row.input) << "</td><td>" << internal::Sig(row.u, 4) << "</td><td>"
-        << internal::Sig(row.sensitivity(0), 4) << "</td><td class=l>" << Esc(row.sensitivity_unit)
-        << "</td><td>" << internal::Sig(row.contribution(0), 4) << "</td><td>"
-        << internal::Sig(100.0 * share, 3) << " %</td><td class=l><span class=bar style=\"width:"
+      h << "<tr><td class=l>" << Esc(row.input) << "</td><td>" << base_internal::Sig(row.u, 4) << "</td><td>"
+        << base_internal::Sig(row.sensitivity(0), 4) << "</td><td class=l>" << Esc(row.sensitivity_unit)
+        << "</td><td>" << base_internal::Sig(row.contribution(0), 4) << "</td><td>"
+        << base_internal::Sig(100.0 * share, 3) << " %</td><td class=l><span class=bar style=\"width:"
         << Num(std::round(std::max(0.0, share) * 200.0)) << "px\"></span></td></tr>\n";
     }
     h << "</table>\n";
@@ -574,7 +574,7 @@ std::string SummaryText(const CustomResults& r) {
     std::snprintf(line, sizeof line, "%-16s %-6s %17.10g %11.4g %7s %6.3f %11.4g %11s  %s\n", g.name.c_str(),
                   g.unit.c_str(), g.estimate, g.u,
                   DofText(std::floor(g.dof_effective * (1.0 + 1e-9))).c_str(), g.k, g.U,
-                  o.has_mcm ? internal::Sig(o.mcm.u, 4).c_str() : "", verdict.c_str());
+                  o.has_mcm ? base_internal::Sig(o.mcm.u, 4).c_str() : "", verdict.c_str());
     out << line;
   }
   if (r.region) {

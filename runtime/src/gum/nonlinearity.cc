@@ -38,7 +38,7 @@ void CheckSecondOrder(const MeasurementModel& model, std::span<const PointReadin
   // 3 x S x S product per Jacobian (2 (3 + S) Jacobians per point).
   const bool f_is_diagonal = f_shared.isDiagonal(0.0);
   const Eigen::VectorXd f_diagonal = f_shared.diagonal();
-  parallel::ForEachChunk(points.size(), 64, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
+  parallel_internal::ForEachChunk(points.size(), 64, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
     Eigen::Matrix<double, 3, 3> jr;
     Eigen::Matrix<double, 3, Eigen::Dynamic> js(3, S);
     Eigen::Vector3d y;

@@ -301,7 +301,7 @@ std::vector<PointUncertainty> PropagatePoints(const MeasurementModel& model,
   const std::vector<BudgetRow> templates = BudgetTemplates(model);
   const std::vector<BudgetRow>* budget_templates = options.budgets ? &templates : nullptr;
   std::vector<PointUncertainty> results(points.size());
-  parallel::ForEachChunk(points.size(), kChunk, options.threads,
+  parallel_internal::ForEachChunk(points.size(), kChunk, options.threads,
                          [&](std::size_t, std::size_t begin, std::size_t end) {
                            Scratch scratch(model.num_shared());
                            for (std::size_t i = begin; i < end; ++i) {
@@ -321,7 +321,7 @@ void ForEachMapJacobian(const MeasurementModel& model, std::span<const Eigen::Ve
                         Body&& body) {
   const Eigen::VectorXd x = model.shared_estimates();
   const int num_shared = model.num_shared();
-  parallel::ForEachChunk(
+  parallel_internal::ForEachChunk(
       readings.size(), kChunk, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
         Scratch scratch(num_shared);
         for (std::size_t i = begin; i < end; ++i) {
@@ -379,7 +379,7 @@ std::vector<Eigen::Matrix3d> CovarianceField(const MeasurementModel& model,
   const Eigen::VectorXd x = model.shared_estimates();
   const std::vector<double> ones(num_shared, 1.0);  // unit weights: the columns of J F are scaled
   std::vector<Eigen::Matrix3d> field(readings.size());
-  parallel::ForEachChunk(
+  parallel_internal::ForEachChunk(
       readings.size(), kChunk, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
         Scratch scratch(num_shared);
         std::vector<double> js(static_cast<std::size_t>(3 * num_shared * kLanes));

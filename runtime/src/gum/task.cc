@@ -33,7 +33,7 @@ std::vector<Eigen::Vector3d> PointEstimates(const MeasurementModel& model,
                                             std::span<const PointReadings> points, int threads) {
   const Eigen::VectorXd x = model.shared_estimates();
   std::vector<Eigen::Vector3d> y(points.size());
-  parallel::ForEachChunk(
+  parallel_internal::ForEachChunk(
       points.size(), kChunk, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
         for (std::size_t i = begin; i < end; ++i) {
           model.Evaluate(points[i].readings.data(), x.data(), y[i].data());
@@ -57,7 +57,7 @@ void PropagateTaskCovariance(const MeasurementModel& model, std::span<const Poin
   const Eigen::VectorXd x = model.shared_estimates();
   const std::size_t num_chunks = (n + kChunk - 1) / kChunk;
   std::vector<Partial> partials(num_chunks);
-  parallel::ForEachChunk(n, kChunk, options.threads, [&](std::size_t c, std::size_t begin, std::size_t end) {
+  parallel_internal::ForEachChunk(n, kChunk, options.threads, [&](std::size_t c, std::size_t begin, std::size_t end) {
     Partial& p = partials[c];
     p.g_js = Eigen::MatrixXd::Zero(k, num_shared);
     p.cov_readings = Eigen::MatrixXd::Zero(k, k);

@@ -57,10 +57,10 @@ std::string CalibrationFileToml(const CalibrationResult& result, const Calibrati
         "# data), partly (mixes data and prior), held (not determined by the data: prior kept),\n"
         "# fixed (prior kept on purpose). Written by vlt; edit by hand only knowingly.\n\n";
   os << "[calibration]\n";
-  os << "model = " << calibration_internal::TomlQuoted(result.model) << "\n";
-  os << "instrument = " << calibration_internal::TomlQuoted(provenance.instrument) << "\n";
-  os << "created = " << calibration_internal::TomlQuoted(provenance.created) << "\n";
-  os << "vlt_version = " << calibration_internal::TomlQuoted(provenance.vlt_version) << "\n";
+  os << "model = " << base_internal::TomlQuoted(result.model) << "\n";
+  os << "instrument = " << base_internal::TomlQuoted(provenance.instrument) << "\n";
+  os << "created = " << base_internal::TomlQuoted(provenance.created) << "\n";
+  os << "vlt_version = " << base_internal::TomlQuoted(provenance.vlt_version) << "\n";
   os << "observations = " << result.observations << "\n";
   os << "unknowns = " << result.unknowns << "\n";
   os << "chi2 = " << Exact(result.chi2) << "\n";
@@ -70,22 +70,22 @@ std::string CalibrationFileToml(const CalibrationResult& result, const Calibrati
   // A calibration that does not fit its data says so; a job that loads it warns (docs/calibration.md).
   const std::string problem = CalibrationFitProblem(result);
   os << "fits = " << (problem.empty() ? "true" : "false") << "\n";
-  if (!problem.empty()) os << "fit_problem = " << calibration_internal::TomlQuoted(problem) << "\n";
+  if (!problem.empty()) os << "fit_problem = " << base_internal::TomlQuoted(problem) << "\n";
   os << "held = [";
   for (std::size_t i = 0; i < result.held.size(); ++i)
-    os << (i ? ", " : "") << calibration_internal::TomlQuoted(result.held[i].description);
+    os << (i ? ", " : "") << base_internal::TomlQuoted(result.held[i].description);
   os << "]\n\n";
   for (const auto& [file, sha] : provenance.data_files) {
-    os << "[[calibration.data_file]]\nfile = " << calibration_internal::TomlQuoted(file)
-       << "\nsha256 = " << calibration_internal::TomlQuoted(sha) << "\n\n";
+    os << "[[calibration.data_file]]\nfile = " << base_internal::TomlQuoted(file)
+       << "\nsha256 = " << base_internal::TomlQuoted(sha) << "\n\n";
   }
   for (const CalibratedParameter& p : result.parameters) {
     os << "[[parameter]]\n";
-    os << "name = " << calibration_internal::TomlQuoted(p.name) << "\n";
-    os << "unit = " << calibration_internal::TomlQuoted(p.unit) << "\n";
+    os << "name = " << base_internal::TomlQuoted(p.name) << "\n";
+    os << "unit = " << base_internal::TomlQuoted(p.unit) << "\n";
     os << "estimate = " << Exact(p.estimate) << "\n";
     os << "u = " << Exact(p.u) << "\n";
-    os << "status = " << calibration_internal::TomlQuoted(ParameterStatusName(p.status)) << "\n";
+    os << "status = " << base_internal::TomlQuoted(ParameterStatusName(p.status)) << "\n";
     os << "prior_estimate = " << Exact(p.prior_estimate) << "\n";
     os << "prior_u = " << Exact(p.prior_u) << "\n\n";
   }
@@ -102,7 +102,7 @@ std::string CalibrationFileToml(const CalibrationResult& result, const Calibrati
 
 LoadedCalibration LoadCalibrationFile(const std::string& path) {
   const toml::table root =
-      job_detail::ParseToml(job_detail::ReadTextFile(path, "the calibration file"), path);
+      base_internal::ParseToml(base_internal::ReadTextFile(path, "the calibration file"), path);
   LoadedCalibration c;
   const toml::table* meta = root["calibration"].as_table();
   if (!meta) throw InputError(path + ": calibration: not a vlt calibration file (no [calibration] table)");

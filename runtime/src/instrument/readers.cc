@@ -18,7 +18,7 @@
 #include "vlt/refractive_index.h"
 #include "vlt/units.h"
 
-namespace vlt::job_detail {
+namespace vlt::instrument_internal {
 
 // "5 um + 0.5 um/m" -> (a, b). Either term may be absent; a '+' inside an exponent is not a split.
 void ParseLengthPlusRatio(const std::string& text, const std::string& where, double& a, double& b) {
@@ -340,10 +340,10 @@ void ReadTracker(Section& top, Job& job) {
 void ReadEnvironment(Section& top, Job& job) {
   Section s = top.Sub("environment", false);
   if (!s.exists()) return;
-  job.setup.environment = ReadAir(s);
+  job.setup.environment = ReadAir(s, job.warnings);
 }
 
-Environment ReadAir(Section& s, const std::string& more_keys) {
+Environment ReadAir(Section& s, std::vector<std::string>& warnings, const std::string& more_keys) {
   s.set_hint("equation, wavelength, temperature, pressure, humidity, co2" +
              (more_keys.empty() ? std::string() : ", " + more_keys));
   Environment env;
@@ -382,8 +382,10 @@ Environment ReadAir(Section& s, const std::string& more_keys) {
                      " Pa (a bare number is in Pa) is no air pressure at a tracker: did you mean \"" +
                      number + " hPa\"?");
   }
-  // The estimates must lie in the equation's published range of validity (docs/units.md).
-  CheckAirValidity(EquationOf(env), AirAtEstimates(env), s.WhereSelf());
+  // The estimates should lie in the equation's published range of validity (docs/units.md): outside
+  // it n is computed all the same, as NIST's calculator does, and the job says so.
+  const std::string outside = AirValidityProblem(EquationOf(env), AirAtEstimates(env), s.WhereSelf());
+  if (!outside.empty()) warnings.push_back(outside + ": n computed outside it");
   s.Finish();
   return env;
 }
@@ -479,4 +481,4 @@ void ReadCorrelations(Section& top, Job& job) {
   SharedCorrelation(names, setup.correlations);
 }
 
-}  // namespace vlt::job_detail
+}  // namespace vlt::instrument_internal

@@ -4,18 +4,22 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "base/section.h"
 #include "vlt/job.h"
 
-namespace vlt::job_detail {
+namespace vlt::instrument_internal {
+
+using namespace base_internal;  // Section and the readers of values with units
 
 void ReadTracker(Section& top, Job& job);       //  [tracker]
 void ReadEnvironment(Section& top, Job& job);   //  [environment]
 // The keys of an existing environment table `s` ([environment], a network's [station.environment]);
 // `more_keys` are the caller's own keys of that table, already read (for the hint of an unknown key).
-// The table is finished.
-Environment ReadAir(Section& s, const std::string& more_keys = "");
+// The table is finished. Estimates outside the equation's range of validity are computed, with a
+// warning appended to `warnings` (an error under --strict).
+Environment ReadAir(Section& s, std::vector<std::string>& warnings, const std::string& more_keys = "");
 void ReadStation(Section& top, Job& job);       //  [station]
 void ReadPart(Section& top, Job& job);          //  [part]
 void ReadCorrelations(Section& top, Job& job);  //  [correlations] (after the above)
@@ -27,4 +31,4 @@ CorrelationGroup ReadCorrelationGroup(Section& parent, const std::string& name,
 // "5 um + 0.5 um/m" -> (a [m], b [m/m]); either term may be absent.
 void ParseLengthPlusRatio(const std::string& text, const std::string& where, double& a, double& b);
 
-}  // namespace vlt::job_detail
+}  // namespace vlt::instrument_internal

@@ -25,7 +25,9 @@ std::vector<std::string> Job::point_names() const {
   return names;
 }
 
-using namespace job_detail;  // Section, AsString and the section readers
+using namespace base_internal;
+using namespace instrument_internal;
+using namespace job_internal;  // Section, AsString and the section readers
 
 Eigen::Vector3d PartToTrackerNominal(const MeasurementSetup& setup, const Eigen::Vector3d& part) {
   Eigen::Vector3d x = part;

@@ -21,7 +21,12 @@
 #include "vlt/job.h"
 #include "vlt/units.h"
 
-namespace vlt::job_detail {
+namespace vlt::job_internal {
+
+// The job readers are written in terms of the shared section readers (base/) and the
+// instrument's (instrument/).
+using namespace base_internal;
+using namespace instrument_internal;
 
 // points.cc: [plan]; check_reach: every point within range of the job's station and off its
 // vertical axis (a network's [targets] are checked per station instead).
@@ -37,4 +42,4 @@ void ReadMap(Section& top, Job& job);                   // settings.cc: [map]
 void ReadOptimize(Section& top, Job& job);              // optimize.cc: [optimize] (after the tasks)
 void ReadOutput(Section& top, OutputSettings& output);  // settings.cc: [output]
 
-}  // namespace vlt::job_detail
+}  // namespace vlt::job_internal

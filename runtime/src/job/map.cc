@@ -85,6 +85,12 @@ Eigen::Vector3i MapSettings::counts() const {
   return n;
 }
 
+double MapSettings::Node(double from, int index) const {
+  // min + i step lands beside the decimal the grid means (-0.6 + 5 * 0.1 = -0.09999999999999998,
+  // which a box edge at y = -0.1 then contains): snapped to 1 nm, it is the double of "-0.1".
+  return std::round((from + index * step) * 1e9) / 1e9 + 0.0;  // + 0.0: no -0
+}
+
 std::vector<Eigen::Vector3d> MapSettings::Nodes() const {
   Eigen::Vector3i n = counts();
   std::vector<Eigen::Vector3d> nodes;
@@ -92,7 +98,7 @@ std::vector<Eigen::Vector3d> MapSettings::Nodes() const {
   for (int k = 0; k < n[2]; ++k)
     for (int j = 0; j < n[1]; ++j)
       for (int i = 0; i < n[0]; ++i)
-        nodes.emplace_back(min[0] + i * step, min[1] + j * step, min[2] + k * step);
+        nodes.emplace_back(Node(min[0], i), Node(min[1], j), Node(min[2], k));
   return nodes;
 }
 

@@ -12,7 +12,7 @@
 #include "vlt/job.h"
 #include "vlt/units.h"
 
-namespace vlt::job_detail {
+namespace vlt::job_internal {
 namespace {
 
 Eigen::Vector3d UnitVector(const toml::node& node, const std::string& where) {
@@ -262,4 +262,4 @@ void ReadOptimize(Section& top, Job& job) {
   job.optimize = std::move(o);
 }
 
-}  // namespace vlt::job_detail
+}  // namespace vlt::job_internal

@@ -5,6 +5,9 @@
 #include <cmath>
 #include <charconv>
 #include <cstdlib>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "base/csv.h"
 #include <toml++/toml.h>
@@ -16,7 +19,7 @@
 #include "vlt/job.h"
 #include "vlt/units.h"
 
-namespace vlt::job_detail {
+namespace vlt::job_internal {
 
 namespace {
 
@@ -42,10 +45,39 @@ double UnitScale(const std::string& unit, Dimension dim, const std::string& wher
   return one - zero;
 }
 
+// [plan] header = false with columns = [...]: a file without a header line (a `name x y z` list as
+// tracker and CAD software export it), whose columns the job names. Returns the columns, or
+// nothing for a file with its header line.
+std::optional<std::vector<std::string>> PlanColumns(Section& s) {
+  const toml::node* header = s.Get("header");
+  const toml::node* columns = s.Get("columns");
+  const bool has_header = header ? AsBool(*header, s.Where("header")) : true;
+  if (has_header) {
+    if (columns) throw InputError(s.Where("columns") + ": the columns of a file without a header line (header = false)");
+    return std::nullopt;
+  }
+  if (!columns) throw InputError(s.Where("columns") + ": required key is missing (header = false: name the file's columns)");
+  if (!columns->is_array()) throw InputError(s.Where("columns") + ": expected an array such as [\"name\", \"x\", \"y\", \"z\"]");
+  std::vector<std::string> names;
+  for (const toml::node& e : *columns->as_array()) {
+    const std::string name = AsString(e, s.Where("columns"));
+    if (name != "name" && name != "x" && name != "y" && name != "z" && name != "face")
+      throw InputError(s.Where("columns") + ": unknown column '" + name + "' (plan columns: name, x, y, z [, face])");
+    if (std::find(names.begin(), names.end(), name) != names.end())
+      throw InputError(s.Where("columns") + ": column '" + name + "' appears twice");
+    names.push_back(name);
+  }
+  for (const char* required : {"name", "x", "y", "z"}) {
+    if (std::find(names.begin(), names.end(), required) == names.end())
+      throw InputError(s.Where("columns") + ": missing column '" + required + "' (plan columns: name, x, y, z [, face])");
+  }
+  return names;
+}
+
 }  // namespace
 
 void ReadPlan(Section& s, Job& job, bool check_reach) {
-  s.set_hint("unit, csv, point");
+  s.set_hint("unit, csv, header, columns, point");
   std::string unit = "m";
   if (const toml::node* n = s.Get("unit")) unit = AsString(*n, s.Where("unit"));
   double scale = UnitScale(unit, Dimension::kLength, s.Where("unit"));
@@ -56,13 +88,15 @@ void ReadPlan(Section& s, Job& job, bool check_reach) {
     if (!std::filesystem::is_regular_file(path)) {
       throw InputError(s.Where("csv") + ": cannot read '" + path.string() + "'");
     }
-    CsvTable table = ReadCsvFile(path.string(), path.string());
+    const std::optional<std::vector<std::string>> columns = PlanColumns(s);
+    CsvTable table = ReadCsvFile(path.string(), path.string(), columns ? &*columns : nullptr);
     rel = path.string();
     job.input_files.push_back({"plan csv", rel, Sha256File(rel)});
     for (const char* col : {"name", "x", "y", "z"}) {
       if (table.Column(col) < 0) {
         throw InputError(rel + ": line " + std::to_string(table.header_line) + ": missing column '" + col +
-                         "' (plan CSV columns: name, x, y, z [, face])");
+                         "' (plan CSV columns: name, x, y, z [, face]; a file without a header line: "
+                         "header = false and columns = [\"name\", \"x\", \"y\", \"z\"])");
       }
     }
     for (const std::string& col : table.header) {
@@ -256,4 +290,4 @@ void ReadReadings(Section& s, Job& job) {
   if (job.points.empty()) throw InputError(rel + ": no readings (only a header)");
 }
 
-}  // namespace vlt::job_detail
+}  // namespace vlt::job_internal

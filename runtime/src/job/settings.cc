@@ -11,7 +11,7 @@
 #include "vlt/job.h"
 #include "vlt/units.h"
 
-namespace vlt::job_detail {
+namespace vlt::job_internal {
 
 void ReadMonteCarlo(Section& top, MonteCarloSettings& mc) {
   Section s = top.Sub("monte_carlo", false);
@@ -112,4 +112,4 @@ void ReadOutput(Section& top, OutputSettings& output) {
   s.Finish();
 }
 
-}  // namespace vlt::job_detail
+}  // namespace vlt::job_internal

@@ -12,7 +12,7 @@
 #include "vlt/job.h"
 #include "vlt/units.h"
 
-namespace vlt::job_detail {
+namespace vlt::job_internal {
 
 namespace {
 
@@ -86,4 +86,4 @@ void ReadTasks(Section& top, Job& job) {
   }
 }
 
-}  // namespace vlt::job_detail
+}  // namespace vlt::job_internal

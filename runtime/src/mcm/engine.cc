@@ -8,8 +8,8 @@
 // so the result is bit-identical for any number of threads.
 //
 // MPI (docs/mpi.md): the chunks of a batch are shared out over the ranks in contiguous blocks
-// (ranks::Share); after each batch every rank receives every chunk's sums and every trial's values
-// (ranks::AllGather, exact copies), so every rank holds what one process would have held and goes
+// (mpi_internal::Share); after each batch every rank receives every chunk's sums and every trial's values
+// (mpi_internal::AllGather, exact copies), so every rank holds what one process would have held and goes
 // on identically: the result is bit-identical for any number of ranks as well.
 #include <algorithm>
 #include <chrono>
@@ -75,7 +75,7 @@ std::vector<const float*> GroupSeries(const float* base, std::int64_t stride, co
 }
 
 // The share of this rank in an MPI run (docs/mpi.md). Trials: the chunks of each batch, in
-// contiguous blocks (ranks::Share). Outputs: the order statistics of an output (the per-batch
+// contiguous blocks (mpi_internal::Share). Outputs: the order statistics of an output (the per-batch
 // endpoints of 7.9.4, its coverage intervals, its histogram) and the coverage region of a group
 // need every trial of that output, so after each batch the values are exchanged all-to-all and
 // each rank keeps every trial of its own outputs: contiguous blocks of whole groups (a point's
@@ -133,7 +133,7 @@ struct BatchExchange {
   std::vector<float> received;
 
   BatchExchange(int n_chunks, int stride, std::int64_t bh, int n_out, const OutputShare& share) {
-    std::tie(chunk_first, chunk_last) = ranks::Share(n_chunks);
+    std::tie(chunk_first, chunk_last) = mpi_internal::Share(n_chunks);
     trial_first = std::min<std::int64_t>(bh, std::int64_t{chunk_first} * kChunk);
     trial_count = std::min<std::int64_t>(bh, std::int64_t{chunk_last} * kChunk) - trial_first;
     const int count = ranks::Count();
@@ -146,7 +146,7 @@ struct BatchExchange {
                        "use fewer points per job");
     }
     for (int r = 0; r < count; ++r) {
-      const auto [c0, c1] = ranks::ShareOf(n_chunks, r);
+      const auto [c0, c1] = mpi_internal::ShareOf(n_chunks, r);
       const std::int64_t t0 = std::min<std::int64_t>(bh, std::int64_t{c0} * kChunk);
       const std::int64_t t1 = std::min<std::int64_t>(bh, std::int64_t{c1} * kChunk);
       trials_first_of.push_back(t0);
@@ -168,10 +168,10 @@ struct BatchExchange {
     }
     std::copy_n(partial.begin() + static_cast<std::ptrdiff_t>(chunk_first) * stride, sums_mine.size(),
                 sums_mine.begin());
-    ranks::AllGather(std::span<const double>(sums_mine), std::span<double>(partial), sum_counts);
+    mpi_internal::AllGather(std::span<const double>(sums_mine), std::span<double>(partial), sum_counts);
     // `computed` is output-major, so the block for rank s (its outputs, this rank's trials) is
     // contiguous; the blocks received come rank after rank, each [own output][that rank's trials].
-    ranks::AllToAll(std::span<const float>(computed), send_counts, std::span<float>(received),
+    mpi_internal::AllToAll(std::span<const float>(computed), send_counts, std::span<float>(received),
                     receive_counts);
     std::size_t at = 0;
     for (int r = 0; r < ranks::Count(); ++r) {
@@ -407,7 +407,7 @@ struct MonteCarloRun {
         adaptive(settings.trials == 0),
         batch_size(BatchSize(settings, adaptive)),
         y0(OutputsAtEstimates(kernel, spec)),
-        threads(parallel::ResolveThreads(settings.num_threads)),
+        threads(parallel_internal::ResolveThreads(settings.num_threads)),
         scratch(ThreadScratch(kernel, threads)),
         buffers(threads, std::vector<double>(static_cast<std::size_t>(n_out) * kSubBatch, 0.0)),
         rng(settings.seed),
@@ -429,7 +429,7 @@ struct MonteCarloRun {
 
   // Items run on the process's shared workers (parallel/pool.h); `w` picks the per-thread scratch.
   void ParallelFor(int count, const std::function<void(int, int)>& fn) const {
-    parallel::ForEach(static_cast<std::size_t>(count), threads,
+    parallel_internal::ForEach(static_cast<std::size_t>(count), threads,
                       [&fn](std::size_t item, int w) { fn(static_cast<int>(item), w); });
   }
 
@@ -730,7 +730,7 @@ bool MonteCarloRun::Finished(double worst) {
   std::string status;
   if (adaptive) {
     if (batches >= 2) {
-      worst = ranks::Max(worst);  // the largest over every output (exact)
+      worst = mpi_internal::Max(worst);  // the largest over every output (exact)
       if (worst <= 1.0) converged = true;
       status = FormatStatus(worst, "worst 2s/delta (stops at <= 1):");
       convergence_trials.push_back(done);
@@ -866,7 +866,7 @@ void MonteCarloRun::AllValuesPass(McmResult& result, std::vector<McmVectorResult
   }
   const std::size_t n_items =
       n_regions + static_cast<std::size_t>(n_own) * static_cast<std::size_t>(1 + passes);
-  parallel::ForEach(n_items, threads, [&](std::size_t item, int) {
+  parallel_internal::ForEach(n_items, threads, [&](std::size_t item, int) {
     if (item < n_regions) {
       const int gi = share.groups[item];
       CoverageRegion(gi, vectors[gi]);
@@ -968,9 +968,9 @@ void MonteCarloRun::PackOwnRecords(McmResult& result, const std::vector<McmVecto
 
 void MonteCarloRun::ShareRecords(FinalRecords& records, McmResult& result,
                                  std::vector<McmVectorResult>& vectors) const {
-  ranks::AllGather(std::span<const double>(records.own_outputs), std::span<double>(records.all_outputs),
+  mpi_internal::AllGather(std::span<const double>(records.own_outputs), std::span<double>(records.all_outputs),
                    records.output_counts);
-  ranks::AllGather(std::span<const double>(records.own_groups), std::span<double>(records.all_groups),
+  mpi_internal::AllGather(std::span<const double>(records.own_groups), std::span<double>(records.all_groups),
                    records.group_counts);
   for (int o = 0; o < n_out; ++o) {
     UnpackOutput(records.all_outputs.data() + static_cast<std::size_t>(o) * kOutputRecord, result.outputs[o]);

@@ -6,7 +6,7 @@
 
 #include <unistd.h>
 
-namespace vlt {
+namespace vlt::mcm_internal {
 
 ProgressBar::ProgressBar(std::string label, bool quiet)
     : label_(std::move(label)),
@@ -50,4 +50,4 @@ void ProgressBar::Finish() {
   }
 }
 
-}  // namespace vlt
+}  // namespace vlt::mcm_internal

@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <string>
 
-namespace vlt {
+namespace vlt::mcm_internal {
 
 class ProgressBar {
  public:
@@ -35,4 +35,4 @@ class ProgressBar {
   std::chrono::steady_clock::time_point last_draw_;
 };
 
-}  // namespace vlt
+}  // namespace vlt::mcm_internal

@@ -132,7 +132,7 @@ class KeyedStream {
     const double q = (t + 0x1.8p52) - 0x1.8p52;
     const double x = (t - q) * 1.5707963267948966192313216916397514;
     double sin_x, cos_x;
-    lanes::SinCosTaylor(x, &sin_x, &cos_x);
+    base_internal::lanes::SinCosTaylor(x, &sin_x, &cos_x);
     // Quarter turn q: (sin, cos) = (s, c), (c, -s), (-s, -c), (-c, s) for q mod 4 = 0, 1, 2, 3;
     // selects and sign flips only (exact), no branch.
     const int quarter = static_cast<int>(q);

@@ -58,7 +58,7 @@ bool RegionFactor(const std::vector<const float*>& series, std::int64_t n,
   // Row-major copy of L^-1; |w| with w_a = sum_b (L^-1)_ab dev_b summed in b order (RegionDistances).
   const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rows = l_inv;
   std::vector<double, UninitializedAllocator<double>> d(static_cast<std::size_t>(n));
-  parallel::ForEachChunk(
+  parallel_internal::ForEachChunk(
       static_cast<std::size_t>(n), kPassChunk, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
         const float* const* components = series.data();
         if (dim == 3) {

@@ -249,18 +249,19 @@ double AirRefractiveIndexValue(AirEquation equation, const AirConditions& air, s
   return n;
 }
 
-void CheckAirValidity(AirEquation equation, const AirConditions& air, std::string_view where) {
+std::string AirValidityProblem(AirEquation equation, const AirConditions& air, std::string_view where) {
   CheckPhysical(air, where);
   const bool ciddor = equation == AirEquation::kCiddor;
   const std::string eq = ciddor                                      ? "Ciddor"
                          : equation == AirEquation::kEdlenBirchDowns ? "modified Edlen (NIST, Birch-Downs)"
                                                                      : "Edlen (Boensch-Potulski)";
+  std::string problem;
   const auto check = [&](double value, double lo, double hi, const char* what, double scale,
                          const char* unit) {
-    if (value < lo || value > hi) {
-      throw InputError(std::string(where) + ": " + what + " " + Num(value * scale) + " " + unit +
-                       " is outside the range of validity of the " + eq + " equation (" + Num(lo * scale) +
-                       ".." + Num(hi * scale) + " " + unit + ")");
+    if (problem.empty() && (value < lo || value > hi)) {
+      problem = std::string(where) + ": " + what + " " + Num(value * scale) + " " + unit +
+                " is outside the range of validity of the " + eq + " equation (" + Num(lo * scale) + ".." +
+                Num(hi * scale) + " " + unit + ", NIST Engineering Metrology Toolbox)";
     }
   };
   check(air.vacuum_wavelength, ciddor ? 300e-9 : 350e-9, ciddor ? 1700e-9 : 650e-9, "vacuum wavelength", 1e9,
@@ -272,6 +273,12 @@ void CheckAirValidity(AirEquation equation, const AirConditions& air, std::strin
   if (equation != AirEquation::kEdlenBirchDowns) {
     check(air.co2, 0.0, 2000e-6, "CO2 mole fraction", 1e6, "umol/mol");
   }
+  return problem;
+}
+
+void CheckAirValidity(AirEquation equation, const AirConditions& air, std::string_view where) {
+  const std::string problem = AirValidityProblem(equation, air, where);
+  if (!problem.empty()) throw InputError(problem);
 }
 
 double SaturationVapourPressure(double temperature_degc) {

@@ -16,7 +16,7 @@
 
 #include "vlt/error.h"
 
-namespace vlt::ranks {
+namespace vlt {
 namespace {
 
 bool g_mpi = false;  // MPI_Init was called by Session
@@ -90,6 +90,8 @@ void CopyOwn(std::span<const T> mine, std::span<T> all) {
 
 }  // namespace
 
+namespace ranks {
+
 Session::Session([[maybe_unused]] int* argc, [[maybe_unused]] char*** argv) {
 #ifdef VLT_MPI
   if (!LaunchedByMpi()) return;
@@ -114,14 +116,6 @@ Session::~Session() {
 
 int Rank() { return g_rank; }
 int Count() { return g_count; }
-
-std::pair<int, int> ShareOf(int items, int rank) {
-  const int base = items / g_count, extra = items % g_count;
-  const int first = rank * base + std::min(rank, extra);
-  return {first, first + base + (rank < extra ? 1 : 0)};
-}
-
-std::pair<int, int> Share(int items) { return ShareOf(items, g_rank); }
 
 bool FailureAgreed() { return g_agreed; }
 
@@ -155,6 +149,19 @@ void Agree(std::exception_ptr failure) {
   throw std::runtime_error(message);
 #endif
 }
+
+}  // namespace ranks
+
+// The exchanges of the engines (mpi/ranks.h).
+namespace mpi_internal {
+
+std::pair<int, int> ShareOf(int items, int rank) {
+  const int base = items / g_count, extra = items % g_count;
+  const int first = rank * base + std::min(rank, extra);
+  return {first, first + base + (rank < extra ? 1 : 0)};
+}
+
+std::pair<int, int> Share(int items) { return ShareOf(items, g_rank); }
 
 void AllGather(std::span<const double> mine, std::span<double> all, std::span<const std::size_t> counts) {
 #ifdef VLT_MPI
@@ -207,4 +214,5 @@ double Max(double mine) {
   return mine;
 }
 
-}  // namespace vlt::ranks
+}  // namespace mpi_internal
+}  // namespace vlt

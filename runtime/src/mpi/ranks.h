@@ -11,7 +11,7 @@
 
 #include "vlt/mpi.h"
 
-namespace vlt::ranks {
+namespace vlt::mpi_internal {
 
 // This rank's share [first, last) of `items` work items: contiguous blocks in rank order, sizes
 // differing by at most one (the first items % Count() ranks get one more).
@@ -32,4 +32,4 @@ void AllToAll(std::span<const float> send, std::span<const std::size_t> send_cou
 // Collective: the largest of the ranks' values (exact: no rounding in a maximum).
 double Max(double mine);
 
-}  // namespace vlt::ranks
+}  // namespace vlt::mpi_internal

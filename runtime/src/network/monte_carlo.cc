@@ -56,12 +56,12 @@ NetworkMonteCarlo ValidateNetworkByMonteCarlo(const Network& network, const Netw
   // receives every trial's deviations (exact copies), so the reduction is the one of one process.
   const std::size_t width = 3 * T;
   // (Not a structured binding: Clang 14 cannot capture one in the lambda below.)
-  const std::pair<int, int> share = ranks::Share(trials);
+  const std::pair<int, int> share = mpi_internal::Share(trials);
   const int first = share.first, last = share.second;
   std::vector<double> mine(static_cast<std::size_t>(last - first) * width);
   std::exception_ptr failure;
   try {
-    parallel::ForEachChunk(static_cast<std::size_t>(last - first), 1, threads,
+    parallel_internal::ForEachChunk(static_cast<std::size_t>(last - first), 1, threads,
                            [&](std::size_t, std::size_t begin, std::size_t end) {
                              for (std::size_t i = begin; i < end; ++i) {
                                const std::size_t trial = static_cast<std::size_t>(first) + i;
@@ -89,11 +89,11 @@ NetworkMonteCarlo ValidateNetworkByMonteCarlo(const Network& network, const Netw
   ranks::Agree(failure);
   std::vector<std::size_t> counts;
   for (int r = 0; r < ranks::Count(); ++r) {
-    const auto [f, l] = ranks::ShareOf(trials, r);
+    const auto [f, l] = mpi_internal::ShareOf(trials, r);
     counts.push_back(static_cast<std::size_t>(l - f) * width);
   }
   std::vector<double> deviation(static_cast<std::size_t>(trials) * width);
-  ranks::AllGather(std::span<const double>(mine), std::span<double>(deviation), counts);
+  mpi_internal::AllGather(std::span<const double>(mine), std::span<double>(deviation), counts);
   NetworkMonteCarlo mc;
   mc.trials = trials;
   mc.seed = seed;

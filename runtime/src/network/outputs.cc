@@ -25,11 +25,11 @@ namespace vlt::network_outputs {
 
 namespace {
 
-using internal::AppendNum;
-using internal::Fixed;
-using internal::HtmlEscape;
-using internal::Num;
-std::string Csv(const std::string& s) { return internal::CsvField(s); }
+using base_internal::AppendNum;
+using base_internal::Fixed;
+using base_internal::HtmlEscape;
+using base_internal::Num;
+std::string Csv(const std::string& s) { return base_internal::CsvField(s); }
 
 constexpr double kArcsec = std::numbers::pi / (180.0 * 3600.0);
 
@@ -61,7 +61,7 @@ void AdjustmentSection(std::ostringstream& body, const NetworkJob& job, const Ne
        << "<tr><th class=\"l\">observations / unknowns / dof</th><td class=\"l\">" << result.observations
        << " / " << result.unknowns << " / " << result.dof << "</td></tr>"
        << "<tr><th class=\"l\">chi-square, Birge ratio, p</th><td class=\"l\">"
-       << internal::Sig(result.chi2, 4) << ", " << Fixed(result.birge_ratio, 3) << ", "
+       << base_internal::Sig(result.chi2, 4) << ", " << Fixed(result.birge_ratio, 3) << ", "
        << Fixed(result.p_value, 3) << "</td></tr>"
        << "<tr><th class=\"l\">outliers (|w| &gt; " << Fixed(job.network.outlier_limit, 2)
        << ")</th><td class=\"l\">" << result.outliers << "</td></tr>"
@@ -275,8 +275,8 @@ void TasksTable(std::ostringstream& body, const std::vector<NetworkTaskResult>& 
       body << "<tr><td class=\"l\">" << HtmlEscape(t.name) << "</td><td class=\"l\">"
            << HtmlEscape(t.quantities[q]) << "</td><td>"
            << (length ? Fixed(t.value(q) * 1e6, 1) : Fixed(t.value(q), 8)) << "</td><td>"
-           << (t.differentiable[q] ? internal::Sig(t.u(q) * f, 3) : "n/a") << "</td><td>"
-           << (t.differentiable[q] ? internal::Sig(t.U(q) * f, 3) : "n/a") << "</td><td class=\"l\">"
+           << (t.differentiable[q] ? base_internal::Sig(t.u(q) * f, 3) : "n/a") << "</td><td>"
+           << (t.differentiable[q] ? base_internal::Sig(t.U(q) * f, 3) : "n/a") << "</td><td class=\"l\">"
            << (length ? "um" : "1") << "</td><td class=\"l\">" << HtmlEscape(t.tolerance[q])
            << "</td><td class=\"l\">" << (t.conformity[q] ? HtmlEscape(t.conformity[q]->verdict) : "")
            << "</td></tr>";
@@ -310,8 +310,8 @@ void IdentifiabilityTable(std::ostringstream& body, const NetworkResult& result)
           "<th>data u / prior u</th><th class=\"l\">determined</th><th class=\"l\">combination</th></tr>";
   for (std::size_t i = 0; i < result.identifiability.size(); ++i) {
     const NetworkCombination& c = result.identifiability[i];
-    body << "<tr><td>" << i + 1 << "</td><td>" << internal::Sig(c.singular_value, 4) << "</td><td>"
-         << (std::isfinite(c.ratio) ? internal::Sig(c.ratio, 3) : std::string("inf")) << "</td><td class=\"l "
+    body << "<tr><td>" << i + 1 << "</td><td>" << base_internal::Sig(c.singular_value, 4) << "</td><td>"
+         << (std::isfinite(c.ratio) ? base_internal::Sig(c.ratio, 3) : std::string("inf")) << "</td><td class=\"l "
          << (c.determined ? "ok" : "na") << "\">" << (c.determined ? "yes" : "no") << "</td><td class=\"l\">"
          << HtmlEscape(c.description) << "</td></tr>";
   }
@@ -418,7 +418,7 @@ std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, co
   if (!result.distances.empty()) DistancesTable(body, result);
   FlaggedReadings(body, job, result);
   if (job.network.robust) RejectedTable(body, job, result);
-  return report::Page(
+  return output_internal::Page(
       "vlt network — " + job.name,
       job.description.empty() ? "Bundle adjustment of a network of stations" : job.description, body.str(),
       script.str());
@@ -939,7 +939,7 @@ Files SimulatedNetworkFiles(const NetworkJob& job, const Network& simulated, std
   toml::array* stations = root["station"].as_array();
   for (std::size_t i = 0; i < simulated.stations.size(); ++i) {
     const NetworkStation& st = simulated.stations[i];
-    const std::string csv = "simulated_" + internal::SafeFileName(st.name) + ".csv";
+    const std::string csv = "simulated_" + base_internal::SafeFileName(st.name) + ".csv";
     std::string s = "name,range,azimuth,elevation,face\n";
     for (const TargetReading& r : st.readings) {
       s += Csv(r.target);

@@ -16,7 +16,9 @@
 
 namespace vlt {
 
-using namespace job_detail;
+using namespace base_internal;
+using namespace instrument_internal;
+using namespace job_internal;  // Section, AsString and the section readers
 
 namespace {
 
@@ -248,7 +250,7 @@ void NetworkFileReader::ReadStationAir(Section& s, NetworkStation& st) {
       throw InputError(air.Where("sensor") + ": unknown air sensor '" + st.air_sensor + "' (not in [[air_sensor]])");
   }
   const bool wavelength = air.table().contains("wavelength"), equation = air.table().contains("equation");
-  Environment env = ReadAir(air, "sensor");
+  Environment env = ReadAir(air, job.warnings, "sensor");
   if (const auto& own = net.instruments[st.instrument].setup.environment) {
     if (!wavelength) env.vacuum_wavelength = own->vacuum_wavelength;
     if (!equation) env.equation = own->equation;

@@ -3,11 +3,11 @@
 
 #include <string_view>
 
-namespace vlt::report {
+namespace vlt::output_internal {
 
 std::string_view PlotlyJs();        // plotly.min.js, the exact bytes of the pinned npm package
 std::string_view PlotlyVersion();   // e.g. "v4.1.2"
 std::string_view PlotlyLicense();   // its MIT licence text, carried into every page that embeds it
 std::string_view ReportTemplate();  // runtime/src/output/report.html.in
 
-}  // namespace vlt::report
+}  // namespace vlt::output_internal

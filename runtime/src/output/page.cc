@@ -7,9 +7,9 @@
 #include "output/assets.h"
 #include "base/format.h"
 
-namespace vlt::report {
+namespace vlt::output_internal {
 
-using internal::HtmlEscape;
+using base_internal::HtmlEscape;
 
 // A self-contained page: header, sections of server-side tables, plotly.js for the figures. The
 // element #vlt-status carries data-errors / data-plots for the browser tests (as report.html).
@@ -34,12 +34,12 @@ std::string Page(const std::string& title, const std::string& subtitle, const st
         "color:#777}"
         ".note{font-size:12px;color:#555;max-width:1100px}.plot{width:100%;height:560px}"
         "@media print{section{break-inside:avoid}.plot{height:420px}}</style>\n<script>"
-     << report::PlotlyJs() << "</script></head><body><header><h1>" << HtmlEscape(title) << "</h1><p>"
+     << output_internal::PlotlyJs() << "</script></head><body><header><h1>" << HtmlEscape(title) << "</h1><p>"
      << HtmlEscape(subtitle)
      << "</p></header><main><div id=\"vlt-status\" data-errors=\"0\" data-plots=\"0\" "
         "style=\"display:none\">pending</div>\n"
      << body << "</main><footer class=\"note\" style=\"padding:0 28px 20px\">vlt " << VLT_VERSION
-     << " — plotly.js " << report::PlotlyVersion()
+     << " — plotly.js " << output_internal::PlotlyVersion()
      << " (MIT licence) is embedded in this page.</footer>\n<script>\n"
      << "(function(){var plots=0;function done(){plots++;var s=document.getElementById('vlt-status');"
         "s.setAttribute('data-plots',String(plots));if(window.vltErrors.length===0)s.textContent='plots-ok';}"
@@ -48,4 +48,4 @@ std::string Page(const std::string& title, const std::string& subtitle, const st
   return os.str();
 }
 
-}  // namespace vlt::report
+}  // namespace vlt::output_internal

@@ -6,9 +6,9 @@
 
 #include <string>
 
-namespace vlt::report {
+namespace vlt::output_internal {
 
 std::string Page(const std::string& title, const std::string& subtitle, const std::string& body,
                  const std::string& script);
 
-}  // namespace vlt::report
+}  // namespace vlt::output_internal

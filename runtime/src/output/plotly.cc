@@ -42,7 +42,7 @@ extern const char vlt_asset_template_start[];
 extern const char vlt_asset_template_end[];
 }
 
-namespace vlt::report {
+namespace vlt::output_internal {
 
 std::string_view PlotlyJs() {
   return {vlt_asset_plotly_start, static_cast<std::size_t>(vlt_asset_plotly_end - vlt_asset_plotly_start)};
@@ -60,4 +60,4 @@ std::string_view ReportTemplate() {
           static_cast<std::size_t>(vlt_asset_template_end - vlt_asset_template_start)};
 }
 
-}  // namespace vlt::report
+}  // namespace vlt::output_internal

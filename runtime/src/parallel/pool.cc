@@ -16,7 +16,7 @@
 
 #include <pthread.h>
 
-namespace vlt::parallel {
+namespace vlt::parallel_internal {
 
 int ResolveThreads(int requested) {
   if (requested > 0) return requested;
@@ -180,4 +180,4 @@ void ForEachChunk(std::size_t n, std::size_t chunk, int threads,
   ForEach(num_chunks, threads, [&](std::size_t c, int) { body(c, c * chunk, std::min(n, (c + 1) * chunk)); });
 }
 
-}  // namespace vlt::parallel
+}  // namespace vlt::parallel_internal

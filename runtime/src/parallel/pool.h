@@ -15,7 +15,7 @@
 #include <cstddef>
 #include <functional>
 
-namespace vlt::parallel {
+namespace vlt::parallel_internal {
 
 // The number of threads for a request: `requested` when positive, else the hardware concurrency
 // (at least 1).
@@ -41,4 +41,4 @@ void ForEachChunk(
     std::size_t n, std::size_t chunk, int threads,
     const std::function<void(std::size_t chunk_index, std::size_t begin, std::size_t end)>& body);
 
-}  // namespace vlt::parallel
+}  // namespace vlt::parallel_internal

@@ -97,11 +97,11 @@ std::string StationMapCsv(const MapResult& map) {
   std::size_t skipped = 0;
   for (std::size_t i = 0; i < map.nodes.size(); ++i) {
     for (int k = 0; k < 3; ++k) {
-      internal::AppendNum(out, map.nodes[i][k]);
+      base_internal::AppendNum(out, map.nodes[i][k]);
       out += ',';
     }
     if (map.computed[i]) {
-      internal::AppendNum(out, map.U_norm[i] * kUm);
+      base_internal::AppendNum(out, map.U_norm[i] * kUm);
       out += ",ok\n";
     } else {
       std::string reason = skipped < map.skipped.size() ? map.skipped[skipped] : "infeasible";
@@ -153,13 +153,15 @@ std::string PlannedJob(const StationPlan& plan) {
   if (!doc["station"].as_table()) doc.insert_or_assign("station", toml::table{});
   toml::table& station = *doc["station"].as_table();
   const char* keys[3] = {"tx", "ty", "tz"};
+  // The station that was judged, to the bit (shortest round-trip digits: "1.234567 m" for a
+  // station on the 1 um grid; all 17 digits for the unrounded optimum kept when rounding made it
+  // infeasible): `vlt run planned_job.toml` then reproduces the plan exactly.
   for (int k = 0; k < 3; ++k) {
-    char value[64];
-    std::snprintf(value, sizeof value, "%.6f m", plan.recommended.station[k]);
+    const std::string value = base_internal::Num(plan.recommended.station[k]) + " m";
     if (toml::table* t = station[keys[k]].as_table()) {
-      t->insert_or_assign("estimate", std::string(value));
+      t->insert_or_assign("estimate", value);
     } else {
-      station.insert_or_assign(keys[k], std::string(value));
+      station.insert_or_assign(keys[k], value);
     }
   }
   std::ostringstream out;

@@ -5,9 +5,11 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
 
 #include <nlopt.hpp>
 
+#include "base/format.h"
 #include "parallel/pool.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
@@ -117,39 +119,46 @@ StationEvaluation EvaluateStation(const Job& job, const Eigen::Vector3d& station
   const OptimizeSettings& o = *job.optimize;
   StationEvaluation e;
   e.station = station;
-  auto fail = [&](const std::string& why, double amount) {
+  auto fail = [&](const std::string& constraint, const std::string& why, double amount) {
     if (e.reason.empty()) e.reason = why;
+    if (std::find(e.failed.begin(), e.failed.end(), constraint) == e.failed.end()) e.failed.push_back(constraint);
     e.violation += amount;
   };
+  // The numbers that decide, in full (a range 0.99999994 m against a min_range of 1 m).
+  const auto exact = [](double v) { return base_internal::Num(v); };
   // The region: floor polygon, height range, keep-out boxes.
   const double outside = OutsidePolygon(o.floor, station.head<2>());
-  if (outside > 0.0) fail("outside the floor by " + Fmt("%.3g", outside) + " m", outside);
+  if (outside > 0.0) fail("floor", "outside the floor by " + Fmt("%.3g", outside) + " m", outside);
   const double below = o.z_min - station.z(), above = station.z() - o.z_max;
-  if (below > 1e-12) fail("below the height range by " + Fmt("%.3g", below) + " m", below);
-  if (above > 1e-12) fail("above the height range by " + Fmt("%.3g", above) + " m", above);
+  if (below > 1e-12) fail("height", "below the height range by " + Fmt("%.3g", below) + " m", below);
+  if (above > 1e-12) fail("height", "above the height range by " + Fmt("%.3g", above) + " m", above);
   for (const KeepOutBox& box : o.keep_out) {
     const double depth = DepthInside(box, station);
-    if (depth > 0.0) fail(std::string(station.z() < box.max.z() ? "inside " : "above ") + box.name, depth);
+    if (depth > 0.0)
+      fail("keep-out '" + box.name + "'", std::string(station.z() < box.max.z() ? "inside " : "above ") + box.name, depth);
   }
   // Every point: range, line of sight, acceptance angle.
   for (const JobPoint& p : job.points) {
     const Eigen::Vector3d d = station - p.nominal;
     const double range = d.norm();
     if (range < o.min_range)
-      fail("point '" + p.name + "': range " + Fmt("%.4g", range) + " m below min_range", o.min_range - range);
+      fail("min_range", "point '" + p.name + "': range " + exact(range) + " m below min_range " + exact(o.min_range) + " m",
+           o.min_range - range);
     if (range > o.max_range)
-      fail("point '" + p.name + "': range " + Fmt("%.4g", range) + " m above max_range", range - o.max_range);
+      fail("max_range", "point '" + p.name + "': range " + exact(range) + " m above max_range " + exact(o.max_range) + " m",
+           range - o.max_range);
     for (const KeepOutBox& box : o.keep_out) {
       if (Blocks(box, station, p.nominal))
-        fail("point '" + p.name + "': line of sight blocked by " + box.name, 0.1);
+        fail("line of sight", "point '" + p.name + "': line of sight blocked by " + box.name, 0.1);
     }
     if (o.acceptance_angle > 0.0 && range > 0.0) {
       const Eigen::Vector3d n = NormalOf(o, p.name);
       if (!n.isZero()) {
         const double angle = std::acos(std::clamp(n.dot(d) / range, -1.0, 1.0));
         if (angle > o.acceptance_angle) {
-          fail("point '" + p.name + "': incidence " + Fmt("%.1f", angle * 180.0 / std::acos(-1.0)) +
-                   " deg beyond the acceptance angle",
+          fail("acceptance angle",
+               "point '" + p.name + "': incidence " + Fmt("%.1f", angle * 180.0 / std::acos(-1.0)) +
+                   " deg beyond the acceptance angle " + Fmt("%g", o.acceptance_angle * 180.0 / std::acos(-1.0)) + " deg",
                angle - o.acceptance_angle);
         }
       }
@@ -168,7 +177,7 @@ StationEvaluation EvaluateStation(const Job& job, const Eigen::Vector3d& station
     try {
       r.readings = ReadingsForPartPoint(model, p.nominal, p.face == Face::kBack, p.name);
     } catch (const NumericalError& error) {
-      fail(error.what(), 1e-3);
+      fail("the readings", error.what(), 1e-3);
       return e;
     }
     readings.push_back(std::move(r));
@@ -198,7 +207,7 @@ StationEvaluation EvaluateStation(const Job& job, const Eigen::Vector3d& station
   }
   for (std::size_t i = 0; i < o.objective.size(); ++i) e.objective += o.objective[i].weight * e.terms[i];
   if (!std::isfinite(e.objective)) {
-    fail("the objective is not finite here", 1.0);
+    fail("a finite objective", "the objective is not finite here", 1.0);
     e.objective = 0.0;
     return e;
   }
@@ -242,6 +251,7 @@ struct StationSearch {
   std::vector<double> lower, upper;
   StationEvaluation best;
   double best_score = std::numeric_limits<double>::infinity();
+  std::map<std::string, int> failed_at_nodes;  // constraint -> map nodes where it failed
   std::int64_t* counter = nullptr;
 
   StationSearch(const Job& job, StationPlan& plan);
@@ -354,7 +364,7 @@ std::vector<StationEvaluation> StationSearch::MapStations(int threads) {
   map.nodes = grid.Nodes();
   const std::size_t n = map.nodes.size();
   std::vector<StationEvaluation> at(n);
-  parallel::ForEachChunk(n, 64, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
+  parallel_internal::ForEachChunk(n, 64, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) at[i] = EvaluateStation(job, map.nodes[i]);
   });
   plan.map_evaluations = static_cast<std::int64_t>(n);
@@ -393,16 +403,25 @@ void StationSearch::KeepFeasibleNodes(const std::vector<StationEvaluation>& at) 
       std::snprintf(node, sizeof node, "%.6g,%.6g,%.6g m: ", map.nodes[i].x(), map.nodes[i].y(),
                     map.nodes[i].z());
       map.skipped.push_back(node + at[i].reason);
+      for (const std::string& constraint : at[i].failed) ++failed_at_nodes[constraint];
     }
   }
 }
 
 void StationSearch::Recommend(std::size_t map_nodes) {
   if (!best.feasible) {
+    // Which constraints rule the region out, and at how many map nodes each: the one at every
+    // node is the one to relax.
+    std::vector<std::pair<int, std::string>> tally;
+    for (const auto& [constraint, nodes] : failed_at_nodes) tally.emplace_back(nodes, constraint);
+    std::sort(tally.begin(), tally.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    std::string failed;
+    for (const auto& [nodes, constraint] : tally)
+      failed += (failed.empty() ? "" : ", ") + constraint + " at " + std::to_string(nodes);
     throw InputError(o.where + ": no feasible station in the region (" +
                      std::to_string(plan.global_evaluations) + " positions searched and " +
-                     std::to_string(map_nodes) + " map nodes; e.g. " +
-                     (best.reason.empty() ? std::string("none evaluated") : best.reason) + ")");
+                     std::to_string(map_nodes) + " map nodes; failed: " + (failed.empty() ? "-" : failed) +
+                     " of the nodes; e.g. " + (best.reason.empty() ? std::string("none evaluated") : best.reason) + ")");
   }
   // The recommendation as it is written (1 um): evaluated there, so that `vlt run` on the planned
   // job reproduces its objective.

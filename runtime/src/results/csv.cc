@@ -10,13 +10,13 @@
 namespace vlt {
 namespace {
 
-using internal::Num;
+using base_internal::Num;
 
 constexpr double kMm = 1e3;  // m -> mm
 constexpr double kUm = 1e6;  // m -> um
 constexpr double kDeg = 180.0 / 3.14159265358979323846;
 
-std::string Csv(const std::string& field) { return internal::CsvField(field); }
+std::string Csv(const std::string& field) { return base_internal::CsvField(field); }
 
 class Row {
  public:
@@ -24,7 +24,7 @@ class Row {
   Row& operator<<(const char* s) { return Add(Csv(s)); }
   Row& operator<<(double v) {
     Separate();
-    internal::AppendNum(line_, v);
+    base_internal::AppendNum(line_, v);
     return *this;
   }
   Row& operator<<(int v) { return Add(std::to_string(v)); }
@@ -49,7 +49,7 @@ class Row {
 // Rows of a per-point file, formatted into a buffer that is written every kWriteBufferBytes.
 class RowBuffer {
  public:
-  explicit RowBuffer(OutputText& out) : out_(out) { buffer_.reserve(internal::kWriteBufferBytes + 4096); }
+  explicit RowBuffer(OutputText& out) : out_(out) { buffer_.reserve(results_internal::kWriteBufferBytes + 4096); }
   ~RowBuffer() { out_.Write(buffer_); }
   RowBuffer(const RowBuffer&) = delete;
   RowBuffer& operator=(const RowBuffer&) = delete;
@@ -60,7 +60,7 @@ class RowBuffer {
   RowBuffer& operator<<(const Row& row) {
     buffer_ += row.line();
     buffer_ += '\n';
-    if (buffer_.size() >= internal::kWriteBufferBytes) {
+    if (buffer_.size() >= results_internal::kWriteBufferBytes) {
       out_.Write(buffer_);
       buffer_.clear();
     }
@@ -127,7 +127,7 @@ void WritePointsCsv(const Results& r, OutputText& text) {
   }
 }
 
-namespace internal {
+namespace results_internal {
 
 std::pair<std::string, double> PracticalSensitivity(const std::string& input_unit) {
   constexpr double kArcsec = 3.14159265358979323846 / (180.0 * 3600.0);
@@ -141,7 +141,7 @@ std::pair<std::string, double> PracticalSensitivity(const std::string& input_uni
   return {"um/" + input_unit, 1e6};
 }
 
-}  // namespace internal
+}  // namespace results_internal
 
 void WriteBudgetCsv(const Results& r, OutputText& out) {
   out.Write(
@@ -149,7 +149,7 @@ void WriteBudgetCsv(const Results& r, OutputText& out) {
       "sensitivity_unit,sensitivity_practical_x,sensitivity_practical_y,sensitivity_practical_z,"
       "sensitivity_practical_unit,contribution_x_um,contribution_y_um,contribution_z_um,"
       "share_x,share_y,share_z,share_total\n");
-  internal::WritePointBudgets(
+  results_internal::WritePointBudgets(
       r, out, [&](std::size_t first, std::span<const PointUncertainty> points, std::string& text) {
         for (std::size_t i = 0; i < points.size(); ++i) {
           int rank = 0;
@@ -162,7 +162,7 @@ void WriteBudgetCsv(const Results& r, OutputText& out) {
             if (b.group == "correlation") {
               row.Empty().Empty().Empty().Empty();
             } else {
-              const auto [unit, factor] = internal::PracticalSensitivity(b.input_unit);
+              const auto [unit, factor] = results_internal::PracticalSensitivity(b.input_unit);
               for (int a = 0; a < 3; ++a) row << b.sensitivity[a] * factor;
               row << unit;
             }

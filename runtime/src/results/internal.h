@@ -14,7 +14,9 @@
 #include "vlt/mcm.h"
 #include "vlt/results.h"
 
-namespace vlt::internal {
+namespace vlt::results_internal {
+
+using namespace base_internal;  // number and file-name formatting (base/format.h)
 
 // The Monte Carlo version of a task: refits the drawn points every trial with the same function
 // (vlt/fits.h) the GUM engine linearises. Outputs: "<task>.<output>" for every TaskOutputs(kind).
@@ -60,4 +62,4 @@ void WritePointBudgets(
     const Results& results, OutputText& out,
     const std::function<void(std::size_t, std::span<const PointUncertainty>, std::string&)>& format);
 
-}  // namespace vlt::internal
+}  // namespace vlt::results_internal

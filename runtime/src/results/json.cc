@@ -190,9 +190,9 @@ json Budget(const BudgetRow& b) {
       {"sensitivity_unit", b.sensitivity_unit},
       {"sensitivity_practical",
        b.group == "correlation" ? json(nullptr)
-                                : Vec(b.sensitivity * internal::PracticalSensitivity(b.input_unit).second)},
+                                : Vec(b.sensitivity * results_internal::PracticalSensitivity(b.input_unit).second)},
       {"sensitivity_practical_unit",
-       b.group == "correlation" ? std::string() : internal::PracticalSensitivity(b.input_unit).first},
+       b.group == "correlation" ? std::string() : results_internal::PracticalSensitivity(b.input_unit).first},
       {"contribution", Vec(b.contribution)},
       {"variance", Vec(b.variance)},
       {"share", Vec(b.share)},
@@ -377,7 +377,7 @@ json Map(const MapResult& m) {
   };
   // Per-source layers (docs/results.md): in results.json and the HTML only while the grid is
   // small enough to draw (kMaxMapLayerValues); map.csv has them always.
-  const bool layers = (m.sources.size() + m.groups.size()) * m.nodes.size() <= internal::kMaxMapLayerValues;
+  const bool layers = (m.sources.size() + m.groups.size()) * m.nodes.size() <= results_internal::kMaxMapLayerValues;
   j["layers_included"] = layers;
   json groups = json::array(), sources = json::array();
   if (layers) {
@@ -485,12 +485,12 @@ json MonteCarloJson(const Results& r) {
 std::vector<std::size_t> LargestPoints(const Results& r) {
   std::vector<std::size_t> order(r.points.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::partial_sort(order.begin(), order.begin() + internal::kReportDetailedPoints, order.end(),
+  std::partial_sort(order.begin(), order.begin() + results_internal::kReportDetailedPoints, order.end(),
                     [&](std::size_t a, std::size_t b) {
                       const double ua = r.points[a].gum.U_part.norm(), ub = r.points[b].gum.U_part.norm();
                       return ua != ub ? ua > ub : a < b;
                     });
-  order.resize(internal::kReportDetailedPoints);
+  order.resize(results_internal::kReportDetailedPoints);
   std::sort(order.begin(), order.end());
   return order;
 }
@@ -498,13 +498,13 @@ std::vector<std::size_t> LargestPoints(const Results& r) {
 // The points serialised into the document, and for a scan in report.html its overview.
 std::vector<std::size_t> PointsShown(const Results& r, bool for_html, json& j) {
   std::vector<std::size_t> point_indices;
-  if (for_html && r.points.size() > internal::kReportDetailedPoints) {
+  if (for_html && r.points.size() > results_internal::kReportDetailedPoints) {
     // A scan in report.html (docs/results.md "report.html"): the points with the largest |U| in
     // full (table, budgets, ellipsoids), an overview of at most kReportOverviewPoints points
     // (every s-th, in job order) for the 3-D plot; every point stays in points.csv / budget.csv.
     point_indices = LargestPoints(r);
     const std::size_t stride =
-        (r.points.size() + internal::kReportOverviewPoints - 1) / internal::kReportOverviewPoints;
+        (r.points.size() + results_internal::kReportOverviewPoints - 1) / results_internal::kReportOverviewPoints;
     json ox = json::array(), oy = json::array(), oz = json::array(), ou = json::array();
     for (std::size_t i = 0; i < r.points.size(); i += stride) {
       const PointUncertainty& g = r.points[i].gum;
@@ -551,7 +551,7 @@ std::string WithPoints(const Results& r, const json& j, int indent,
                        const std::vector<std::size_t>& point_indices) {
   // The points' budgets are not held in Results: recomputed for the points drawn.
   std::vector<std::vector<BudgetRow>> budgets(point_indices.size());
-  internal::ForEachPointBudget(r, point_indices,
+  results_internal::ForEachPointBudget(r, point_indices,
                                [&](std::size_t n, const PointUncertainty& g) { budgets[n] = g.budget; });
   const std::string outer = j.dump(indent, ' ', false, json::error_handler_t::replace);
   const std::string quoted = std::string("\"") + kPointsPlaceholder + "\"";
@@ -590,7 +590,7 @@ std::string WithPoints(const Results& r, const json& j, int indent,
 
 }  // namespace
 
-std::string internal::ResultsJsonText(const Results& r, int indent, bool for_html) {
+std::string results_internal::ResultsJsonText(const Results& r, int indent, bool for_html) {
   json j;
   j["schema"] = "vlt-results/2";
   j["vlt_version"] = r.vlt_version;
@@ -619,10 +619,10 @@ std::string internal::ResultsJsonText(const Results& r, int indent, bool for_htm
   return ScriptSafe(WithPoints(r, j, indent, point_indices));
 }
 
-std::string ResultsJson(const Results& r, int indent) { return internal::ResultsJsonText(r, indent, false); }
+std::string ResultsJson(const Results& r, int indent) { return results_internal::ResultsJsonText(r, indent, false); }
 
 void WritePointsJsonl(const Results& r, OutputText& out) {
-  internal::WriteInBlocks(
+  results_internal::WriteInBlocks(
       out, r.points.size(), r.threads, [&](std::size_t begin, std::size_t end, std::string& text) {
         for (std::size_t i = begin; i < end; ++i) {
           text += Point(r, r.points[i], nullptr).dump(-1, ' ', false, json::error_handler_t::replace);

@@ -16,7 +16,7 @@ namespace {
 // never scanned again, so nothing in the data or in plotly.js can be mistaken for a placeholder).
 std::string Fill(std::string_view tpl, const std::vector<std::pair<std::string, std::string_view>>& values) {
   std::string out;
-  out.reserve(tpl.size() + report::PlotlyJs().size() + 1024 * 1024);
+  out.reserve(tpl.size() + output_internal::PlotlyJs().size() + 1024 * 1024);
   std::size_t pos = 0;
   while (pos < tpl.size()) {
     std::size_t at = tpl.find('@', pos);
@@ -42,7 +42,7 @@ std::string Fill(std::string_view tpl, const std::vector<std::pair<std::string, 
 }
 
 std::string_view CheckedPlotly() {
-  std::string_view js = report::PlotlyJs();
+  std::string_view js = output_internal::PlotlyJs();
   // An inline script ends at the first "</script"; the pinned plotly.js has none (checked here so
   // that a future version that does fails loudly instead of writing a broken page).
   if (js.size() < 1000 || js.find("</script") != std::string_view::npos) {
@@ -52,33 +52,33 @@ std::string_view CheckedPlotly() {
 }
 
 std::string Page(const std::string& title, const std::string& data) {
-  std::string escaped_title = internal::HtmlEscape(title);
+  std::string escaped_title = base_internal::HtmlEscape(title);
   std::string version = VLT_VERSION;
-  return Fill(report::ReportTemplate(), {{"VLT_TITLE", escaped_title},
+  return Fill(output_internal::ReportTemplate(), {{"VLT_TITLE", escaped_title},
                                          {"VLT_PLOTLY_JS", CheckedPlotly()},
-                                         {"VLT_PLOTLY_LICENSE", report::PlotlyLicense()},
+                                         {"VLT_PLOTLY_LICENSE", output_internal::PlotlyLicense()},
                                          {"VLT_DATA", data},
                                          {"VLT_VERSION", version},
-                                         {"VLT_PLOTLY_VERSION", report::PlotlyVersion()}});
+                                         {"VLT_PLOTLY_VERSION", output_internal::PlotlyVersion()}});
 }
 
 }  // namespace
 
 std::string ReportHtml(const Results& results) {
-  return Page("vlt report — " + results.job_name, internal::ResultsJsonText(results, -1, true));
+  return Page("vlt report — " + results.job_name, results_internal::ResultsJsonText(results, -1, true));
 }
 
 std::string MapHtml(const MapResult& map, const std::string& title) {
   // The map-only page: the same template with {"kind": "map", "title", "map"}.
   Results holder;
   holder.map = map;
-  nlohmann::ordered_json j = nlohmann::ordered_json::parse(internal::ResultsJsonText(holder, -1, false));
+  nlohmann::ordered_json j = nlohmann::ordered_json::parse(results_internal::ResultsJsonText(holder, -1, false));
   nlohmann::ordered_json page;
   page["kind"] = "map";
   page["title"] = title;
   page["map"] = j["map"];
   std::string text = page.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
-  const std::string safe = internal::ScriptSafe(text);
+  const std::string safe = base_internal::ScriptSafe(text);
   return Page("vlt map — " + title, safe);
 }
 

@@ -36,7 +36,7 @@ std::string RunCreatedTime() {
   return buffer;
 }
 
-McmSettings internal::McmSettingsFor(const MonteCarloSettings& job, const RunOptions& options, int threads) {
+McmSettings results_internal::McmSettingsFor(const MonteCarloSettings& job, const RunOptions& options, int threads) {
   McmSettings settings;
   settings.seed = options.seed.value_or(job.seed);
   settings.trials = options.trials.value_or(job.adaptive ? 0 : job.trials);
@@ -100,7 +100,7 @@ MapResult ComputeMap(const MeasurementModel& model, const MapSettings& settings,
         reason = e.what();
       }
     }
-    map.skipped.push_back(internal::FormatNode(node) + ": " + reason);
+    map.skipped.push_back(base_internal::FormatNode(node) + ": " + reason);
   }
   std::vector<Eigen::Vector3d> field =
       ExpandedUncertaintyField(model, readings, coverage_probability, threads);
@@ -110,7 +110,7 @@ MapResult ComputeMap(const MeasurementModel& model, const MapSettings& settings,
     map.U[i] = field[j];
     map.U_norm[i] = field[j].norm();
     if (!std::isfinite(map.U_norm[i])) {
-      throw NumericalError("map node " + internal::FormatNode(map.nodes[i]) + ": non-finite uncertainty");
+      throw NumericalError("map node " + base_internal::FormatNode(map.nodes[i]) + ": non-finite uncertainty");
     }
   }
   // Per source and per group: the columns of [J_r U_r^1/2 | J_s F] (vlt/gum.h), in quadrature.
@@ -173,7 +173,7 @@ void AddMonteCarloToMap(const Job& job, const RunOptions& options, MapResult& ma
     JobPoint p;
     p.name = "node " + std::to_string(i);
     p.nominal = map.nodes[i];
-    p.where = job.file + ": map: node " + internal::FormatNode(map.nodes[i]);
+    p.where = job.file + ": map: node " + base_internal::FormatNode(map.nodes[i]);
     nodes.points.push_back(std::move(p));
     index.push_back(i);
   }
@@ -335,7 +335,7 @@ std::vector<PointUncertainty> BudgetsOf(const Results& r, const MeasurementModel
 
 }  // namespace
 
-void internal::WriteInBlocks(OutputText& out, std::size_t n, int threads,
+void results_internal::WriteInBlocks(OutputText& out, std::size_t n, int threads,
                              const std::function<void(std::size_t, std::size_t, std::string&)>& format) {
   // Blocks of kParts parts of kPart items: the parts of a block are formatted in parallel, each
   // into its own text, then written in order; the text does not depend on the thread count.
@@ -343,7 +343,7 @@ void internal::WriteInBlocks(OutputText& out, std::size_t n, int threads,
   std::vector<std::string> parts(kParts);
   for (std::size_t block = 0; block < n; block += kPart * kParts) {
     const std::size_t len = std::min(n - block, kPart * kParts);
-    parallel::ForEachChunk(len, kPart, threads, [&](std::size_t c, std::size_t b, std::size_t e) {
+    parallel_internal::ForEachChunk(len, kPart, threads, [&](std::size_t c, std::size_t b, std::size_t e) {
       parts[c].clear();
       format(block + b, block + e, parts[c]);
     });
@@ -351,7 +351,7 @@ void internal::WriteInBlocks(OutputText& out, std::size_t n, int threads,
   }
 }
 
-void internal::WritePointBudgets(
+void results_internal::WritePointBudgets(
     const Results& r, OutputText& out,
     const std::function<void(std::size_t, std::span<const PointUncertainty>, std::string&)>& format) {
   if (r.points.empty()) return;
@@ -361,7 +361,7 @@ void internal::WritePointBudgets(
   });
 }
 
-void internal::ForEachPointBudget(const Results& r, std::span<const std::size_t> indices,
+void results_internal::ForEachPointBudget(const Results& r, std::span<const std::size_t> indices,
                                   const std::function<void(std::size_t, const PointUncertainty&)>& visit) {
   if (r.points.empty()) return;
   const MeasurementModel model(r.setup);
@@ -539,14 +539,14 @@ void RunMonteCarlo(const Job& job, const RunOptions& options, const MeasurementM
   mcm_job.model = &model;
   for (const PointReadings& r : readings) mcm_job.points.push_back(McmPoint{r.name, r.readings});
   for (const TaskResult& task : results.tasks) {
-    mcm_job.tasks.push_back(internal::MakeMcmTask(task.spec, task.point_indices, task.gum));
+    mcm_job.tasks.push_back(results_internal::MakeMcmTask(task.spec, task.point_indices, task.gum));
   }
   const std::vector<std::size_t> task_first_output = TaskFirstOutputs(mcm_job, readings.size());
-  McmSettings settings = internal::McmSettingsFor(job.monte_carlo, options, threads);
+  McmSettings settings = results_internal::McmSettingsFor(job.monte_carlo, options, threads);
   AddTaskTolerances(results, mcm_job, task_first_output, settings);
   auto mcm_start = std::chrono::steady_clock::now();
   McmResult mcm = RunMcm(mcm_job, settings);
-  results.mcm_seconds = internal::Seconds(mcm_start);
+  results.mcm_seconds = base_internal::Seconds(mcm_start);
   results.has_mcm = true;
 
   const std::size_t np = results.points.size();
@@ -582,7 +582,7 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
   results.threads = threads;
   PropagateJobPoints(job, model, readings, gum_options, results);
   PropagateJobTasks(job, model, readings, gum_options, results);
-  results.gum_seconds = internal::Seconds(gum_start);
+  results.gum_seconds = base_internal::Seconds(gum_start);
 
   if (options.monte_carlo && job.monte_carlo.enabled) {
     RunMonteCarlo(job, options, model, readings, threads, results);

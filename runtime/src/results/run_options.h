@@ -6,9 +6,9 @@
 #include "vlt/mcm.h"
 #include "vlt/results.h"
 
-namespace vlt::internal {
+namespace vlt::results_internal {
 
 // The Monte Carlo settings of a run: the job's [monte_carlo] with the command line's overrides.
 McmSettings McmSettingsFor(const MonteCarloSettings& job, const RunOptions& options, int threads);
 
-}  // namespace vlt::internal
+}  // namespace vlt::results_internal

@@ -10,7 +10,7 @@
 #include "results/internal.h"
 #include "vlt/fits.h"
 
-namespace vlt::internal {
+namespace vlt::results_internal {
 
 McmTask MakeMcmTask(const TaskSpec& spec, const std::vector<int>& point_indices, const TaskUncertainty& gum) {
   McmTask task;
@@ -49,4 +49,4 @@ McmTask MakeMcmTask(const TaskSpec& spec, const std::vector<int>& point_indices,
   return task;
 }
 
-}  // namespace vlt::internal
+}  // namespace vlt::results_internal

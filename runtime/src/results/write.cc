@@ -127,7 +127,7 @@ std::string TaskRow(const TaskResult& t, std::size_t q) {
                   std::abs(t.gum.value[i]) < 1e-12 ? 0.0 : t.gum.value[i]);
   }
   std::string value = value_text;
-  std::string big_u = internal::Sig(t.gum.U[i] * us, 3) + (length ? " um" : "");
+  std::string big_u = base_internal::Sig(t.gum.U[i] * us, 3) + (length ? " um" : "");
   std::string interval = "-", verdict = "not run";
   if (t.has_mcm && q < t.validation.size()) {
     char buffer[96];

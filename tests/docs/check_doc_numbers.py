@@ -1,0 +1,48 @@
+#!/usr/bin/env python3
+"""Numbers the docs quote from vlt's own runs, checked against a run (issue 36: docs that cannot
+drift from the code).
+
+Usage: check_doc_numbers.py VLT SOURCE_DIR OUT_DIR
+
+Each check runs one example with the `vlt` given, reads its results.json and requires the doc to
+contain the numbers formatted as the doc quotes them. Exit 1 with the expected text when a doc
+quotes something else.
+"""
+import json
+import os
+import subprocess
+import sys
+
+
+def run(vlt, example, out):
+    subprocess.run([vlt, "run", example, "-o", out], check=True, stdout=subprocess.DEVNULL)
+    with open(os.path.join(out, "results.json"), encoding="utf-8") as f:
+        return json.load(f)
+
+
+def jcgm101_mass(results):
+    """docs/custom-models.md, JCGM 101 9.3 (table 7): GUM u, MCM u and the shortest 95 % interval."""
+    output = results["outputs"][0]
+    low, high = output["mcm"]["shortest_interval"]
+    return (f"{output['gum']['u']:.5f} mg; {output['mcm']['u']:.4f} mg, [{low:.4f}, {high:.4f}] mg "
+            "(10⁶ trials, seed 1)")
+
+
+CHECKS = [("docs/custom-models.md", "examples/custom/jcgm101_mass.toml", jcgm101_mass)]
+
+
+def main():
+    vlt, top, out = sys.argv[1], sys.argv[2], sys.argv[3]
+    failures = 0
+    for doc, example, quote in CHECKS:
+        expected = quote(run(vlt, os.path.join(top, example), os.path.join(out, os.path.basename(example))))
+        with open(os.path.join(top, doc), encoding="utf-8") as f:
+            if expected not in f.read():
+                print(f"{doc}: does not quote the run of {example}: expected '{expected}'")
+                failures += 1
+    print(f"doc numbers: {len(CHECKS)} checked, {failures} differ")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
