@@ -24,6 +24,7 @@
 #include "vlt/inverse.h"
 #include "vlt/job.h"
 #include "vlt/models.h"
+#include "vlt/planning.h"
 #include "vlt/network.h"
 #include "vlt/results.h"
 
@@ -369,6 +370,29 @@ PYBIND11_MODULE(vlt, m) {
       "Adjusts a network file like `vlt network` (docs/network.md), without writing files: its\n"
       "results.json as a dict (\"schema\": \"vlt-network/1\": targets, stations, distances, robust, ...).\n"
       "robust: override [network] robust (False: keep every observation).");
+
+  m.def(
+      "plan",
+      [](const std::string& path, std::optional<int> threads) {
+        vlt::Job job = vlt::LoadJob(path);
+        if (!job.optimize)
+          throw vlt::InputError(job.file + ": optimize: the job has no [optimize] section (docs/planning.md)");
+        py::dict out;
+        std::vector<std::pair<std::string, std::string>> files;
+        {
+          py::gil_scoped_release release;
+          const vlt::StationPlan plan = vlt::PlanStation(job, threads.value_or(job.monte_carlo.threads));
+          files = vlt::PlanFiles(plan);
+        }
+        out["plan"] = JsonLoads(FileNamed(files, "plan.json"));
+        out["planned_job_toml"] = FileNamed(files, "planned_job.toml");
+        out["warnings"] = job.warnings;
+        return out;
+      },
+      py::arg("path"), py::arg("threads") = py::none(),
+      "Plans the station of a job with [optimize] like `vlt plan` (docs/planning.md), without writing\n"
+      "files: {'plan': plan.json as a dict (recommended station, objective, search, map), 'planned_job_toml':\n"
+      "the job with the recommended station, 'warnings': the job's warnings}.");
 
   m.def(
       "calibrate",

@@ -170,3 +170,23 @@ def test_calibrate_equals_the_command_line_and_says_whether_it_fits():
     unfit = vlt.calibrate(os.path.join(SOURCE, "tests", "cli", "calibration", "mirror_on_head.toml"))
     assert "fits = false" in unfit["calibration_toml"] and unfit["results"]["fit"]["fits"] is False
     assert unfit["results"]["fit"]["fit_problem"].startswith("the data do not fit the model")
+
+
+def test_plan_equals_the_command_line():
+    job = os.path.join(SOURCE, "examples", "station_plan.toml")
+    p = vlt.plan(job, threads=2)
+    assert p["plan"]["recommended"]["feasible"] is True
+    assert "[station]" in p["planned_job_toml"]
+    with tempfile.TemporaryDirectory() as out:
+        subprocess.run([VLT, "-q", "plan", job, "--threads", "2", "-o", out], check=True)
+        with open(os.path.join(out, "plan.json")) as f:
+            cli = json.load(f)
+        with open(os.path.join(out, "planned_job.toml")) as f:
+            cli_job = f.read()
+    # The same search (seeded): the same station, objective and map; only the run's own time differs.
+    for key in ("recommended", "job_station", "map"):
+        assert p["plan"][key] == cli[key], key
+    assert p["plan"]["search"]["evaluations"] == cli["search"]["evaluations"]
+    assert p["planned_job_toml"] == cli_job
+    with pytest.raises(ValueError, match="optimize: the job has no \\[optimize\\] section"):
+        vlt.plan(os.path.join(SOURCE, "examples", "b89_length.toml"))
