@@ -28,7 +28,39 @@ def jcgm101_mass(results):
             "(10⁶ trials, seed 1)")
 
 
-CHECKS = [("docs/custom-models.md", "examples/custom/jcgm101_mass.toml", jcgm101_mass)]
+def signed(v, decimals):
+    """A number as the docs print it: the minus sign U+2212."""
+    return f"{v:.{decimals}f}".replace("-", "\u2212")
+
+
+def gum_h1(results):
+    """docs/custom-models.md, GUM H.1: l in mm, u in nm, nu_eff, k, U in nm."""
+    gum = results["outputs"][0]["gum"]
+    nu = gum["dof_effective"]
+    return (f"{gum['estimate'] * 1e3:.6f} mm, {gum['u'] * 1e9:.1f} nm, {nu:.2f} \u2192 {int(nu)}, "
+            f"{gum['k']:.3f}, {gum['U'] * 1e9:.1f} nm")
+
+
+def jcgm101_additive_rectangular(results):
+    """docs/custom-models.md, JCGM 101 9.2.3: GUM U; MCM u and the probabilistically symmetric interval."""
+    output = results["outputs"][0]
+    low, high = output["mcm"]["symmetric_interval"]
+    return f"\u00b1{output['gum']['U']:.3f}; {output['mcm']['u']:.3f}, [{signed(low, 3)}, {signed(high, 3)}]"
+
+
+def jcgm101_additive_dominant(results):
+    """docs/custom-models.md, JCGM 101 9.2.4: GUM u and U; the MCM probabilistically symmetric interval."""
+    output = results["outputs"][0]
+    low, high = output["mcm"]["symmetric_interval"]
+    return f"{output['gum']['u']:.3f}, \u00b1{output['gum']['U']:.3f}; [{signed(low, 2)}, {signed(high, 2)}]"
+
+
+CHECKS = [
+    ("docs/custom-models.md", "examples/custom/gum_h1_end_gauge.toml", gum_h1),
+    ("docs/custom-models.md", "examples/custom/jcgm101_additive_rectangular.toml", jcgm101_additive_rectangular),
+    ("docs/custom-models.md", "examples/custom/jcgm101_additive_dominant.toml", jcgm101_additive_dominant),
+    ("docs/custom-models.md", "examples/custom/jcgm101_mass.toml", jcgm101_mass),
+]
 
 
 def main():
