@@ -5,12 +5,16 @@
 //                                         and the JCGM 102 coverage region
 //   mcm/run/plane36/...                   the demo job's 36 panel points + the plane fit refitted
 //                                         in every trial (items = trials; point_evals/s counter)
+//   mcm/scaling/{point,plane36}/...      the same at 10^7 (point) and 10^6 (plane36) trials on 1, 2,
+//                                         4, 8, 16 threads, up to the machine's cores
 //   mcm/ceiling/*                         a tight loop of the same per-trial work without the
 //                                         engine: 23 SIMD Box-Muller normals + ForwardLanes
 // Wall-clock time (UseRealTime): the engine runs its own threads.
 #include <array>
 #include <cstdint>
+#include <algorithm>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <benchmark/benchmark.h>
@@ -146,6 +150,20 @@ const bool kRegistered = [] {
     name += std::to_string(threads);
     RegisterBenchmark(name.c_str(), BM_McmPlane36, 10000, threads)
         ->UseRealTime()
+        ->Unit(benchmark::kMillisecond);
+  }
+  // Thread scaling (issue 33): 1, 2, 4, 8, 16 threads, as many as the machine has cores.
+  const int cores = static_cast<int>(std::thread::hardware_concurrency());
+  for (int threads : {1, 2, 4, 8, 16}) {
+    if (threads > std::max(cores, 1)) break;
+    const std::string t = "/threads:" + std::to_string(threads);
+    RegisterBenchmark(("mcm/scaling/point/M:10000000" + t).c_str(), BM_McmPoint, 10000000, threads)
+        ->UseRealTime()
+        ->Iterations(1)
+        ->Unit(benchmark::kMillisecond);
+    RegisterBenchmark(("mcm/scaling/plane36/M:1000000" + t).c_str(), BM_McmPlane36, 1000000, threads)
+        ->UseRealTime()
+        ->Iterations(1)
         ->Unit(benchmark::kMillisecond);
   }
   RegisterBenchmark("mcm/ceiling/normals_and_forward", BM_McmCeiling<true, true>);

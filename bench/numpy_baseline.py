@@ -15,7 +15,9 @@
 #    65536; mean, covariance (JCGM 102 7.6), both 95 % coverage intervals per coordinate (7.7,
 #    sorted values) and the JCGM 102 coverage-region factor (7.7.3). One thread (numpy's
 #    arithmetic here is single-threaded; the BLAS is not used by these operations).
-# 4. Runs the C++ benchmark in the same invocation (build/bench/vlt_bench) and prints the ratio.
+#    Twice: the straightforward port (Philox, float64 values) and the careful one (numpy's default
+#    PCG64, float32 deviations from the value at the estimates, as vlt stores them; issue 33).
+# 4. Runs the C++ benchmark in the same invocation (build/bench/vlt_bench) and prints both ratios.
 #
 # Usage: /usr/bin/python3 bench/numpy_baseline.py [--build build] [--model mirror] [--trials 1000000]
 # Requires Debian's python3-numpy (scripts/lib.sh installs it).
@@ -138,14 +140,20 @@ def unit_of(model, names):
     return {p["name"]: p["unit"] for p in spec["parameter"]}
 
 
-def mcm_point(forward, names, u_params, readings0, trials, chunk=65536, seed=20260101, p=0.95):
-    """A JCGM 101 / 102 run of one point; returns (seconds, summary)."""
+def mcm_point(forward, names, u_params, readings0, trials, chunk=65536, seed=20260101, p=0.95, careful=False):
+    """A JCGM 101 / 102 run of one point; returns (seconds, summary).
+
+    careful=False: the straightforward port (Philox, every value a float64 coordinate).
+    careful=True: what a careful researcher writes (issue 33): numpy's default PCG64 generator,
+    the values stored as float32 deviations from the value at the estimates (as vlt stores them:
+    half the memory traffic and faster sorts, no loss of the um digits), the sums in float64."""
     index = {n: i for i, n in enumerate(names)}
-    rng = np.random.Generator(np.random.Philox(seed))
+    rng = np.random.Generator(np.random.PCG64(seed) if careful else np.random.Philox(seed))
     n_params = len(names)
     u_read = np.array([5e-6 + 0.5e-6 * readings0[0], 0.5 * ARCSEC, 0.5 * ARCSEC])
     t0 = time.perf_counter()
-    values = np.empty((3, trials))
+    y0 = np.array(forward(readings0[:, None], np.zeros((n_params, 1)), index)).ravel()
+    values = np.empty((3, trials), dtype=np.float32 if careful else np.float64)
     done = 0
     while done < trials:
         n = min(chunk, trials - done)
@@ -153,12 +161,18 @@ def mcm_point(forward, names, u_params, readings0, trials, chunk=65536, seed=202
         readings = readings0[:, None] + u_read[:, None] * z[:3]
         params = u_params[:, None] * z[3:]
         x, y, zc = forward(readings, params, index)
-        values[0, done:done + n] = x
-        values[1, done:done + n] = y
-        values[2, done:done + n] = zc
+        if careful:
+            values[0, done:done + n] = x - y0[0]
+            values[1, done:done + n] = y - y0[1]
+            values[2, done:done + n] = zc - y0[2]
+        else:
+            values[0, done:done + n] = x
+            values[1, done:done + n] = y
+            values[2, done:done + n] = zc
         done += n
-    mean = values.mean(axis=1)
-    cov = np.cov(values)                      # divisor M - 1 (JCGM 102 7.6)
+    offset = y0 if careful else np.zeros(3)
+    mean = values.mean(axis=1, dtype=np.float64)
+    cov = np.cov(values.astype(np.float64)) if not careful else np.cov(values, dtype=np.float64)
     q = int(math.floor(p * trials + 0.5))     # JCGM 101 7.7.1
     r_sym = (trials - q) // 2 if (trials - q) % 2 == 0 else (trials - q + 1) // 2
     intervals = []
@@ -167,12 +181,12 @@ def mcm_point(forward, names, u_params, readings0, trials, chunk=65536, seed=202
         sym = (s[r_sym - 1], s[r_sym + q - 1])
         widths = s[q:] - s[:trials - q]
         r = int(np.argmin(widths))
-        intervals.append((sym, (s[r], s[r + q])))
+        intervals.append(((offset[a] + sym[0], offset[a] + sym[1]), (offset[a] + s[r], offset[a] + s[r + q])))
     l_inv = np.linalg.inv(np.linalg.cholesky(cov))
-    d = np.linalg.norm(l_inv @ (values - mean[:, None]), axis=0)
+    d = np.linalg.norm(l_inv @ (values - mean[:, None].astype(values.dtype)), axis=0)
     k_p = np.partition(d, q - 1)[q - 1]       # JCGM 102 7.7.3
     seconds = time.perf_counter() - t0
-    return seconds, {"mean": mean, "u": np.sqrt(np.diag(cov)), "intervals": intervals, "k_p": k_p}
+    return seconds, {"mean": offset + mean, "u": np.sqrt(np.diag(cov)), "intervals": intervals, "k_p": k_p}
 
 
 def cpp_benchmark(build, trials):
@@ -211,17 +225,21 @@ def main():
     sim = simulate(vlt, args.model, (5.0, 0.25, -0.8), [])
     r = sim["readings"]
     readings0 = np.array([r["range_m"], r["azimuth_rad"], r["elevation_rad"]])
-    times = []
-    for _ in range(args.repetitions):
-        seconds, summary = mcm_point(forward, names, u_params, readings0, args.trials)
-        times.append(seconds)
-    numpy_s = sorted(times)[len(times) // 2]
-    print(f"numpy: {args.trials} trials in {numpy_s:.3f} s (median of {args.repetitions}): "
-          f"{args.trials / numpy_s / 1e6:.2f} M trials/s; u = {summary['u'] * 1e6} um, k_p = {summary['k_p']:.4f}")
+    medians = {}
+    for careful, label in ((False, "numpy (Philox, float64 values)"), (True, "numpy (PCG64, float32 deviations)")):
+        times = []
+        for _ in range(args.repetitions):
+            seconds, summary = mcm_point(forward, names, u_params, readings0, args.trials, careful=careful)
+            times.append(seconds)
+        medians[careful] = sorted(times)[len(times) // 2]
+        print(f"{label}: {args.trials} trials in {medians[careful]:.3f} s (median of {args.repetitions}): "
+              f"{args.trials / medians[careful] / 1e6:.2f} M trials/s; u = {summary['u'] * 1e6} um, "
+              f"k_p = {summary['k_p']:.4f}")
     cpp_s, bench = cpp_benchmark(args.build, args.trials)
     print(f"vlt:   {args.trials} trials in {cpp_s:.3f} s (median of 3, mcm/run/point threads:1): "
           f"{args.trials / cpp_s / 1e6:.2f} M trials/s; u_x = {bench.get('u_x_um', float('nan')):.3f} um")
-    print(f"ratio vlt / numpy (same outputs, one core): {numpy_s / cpp_s:.2f}x")
+    print(f"ratio vlt / numpy (same outputs, one core): {medians[False] / cpp_s:.2f}x")
+    print(f"ratio vlt / careful numpy (PCG64, float32 storage; one core): {medians[True] / cpp_s:.2f}x")
     print(f"load average: {open('/proc/loadavg').read().split()[:3]}")
 
 

@@ -17,6 +17,7 @@
 
 #include "mcm/engine.h"
 #include "mcm/order.h"
+#include "parallel/pool.h"
 #include "test_mcm_helpers.h"
 #include "vlt/distributions.h"
 #include "vlt/error.h"
@@ -205,6 +206,61 @@ TEST(McmReproducibility, TrackerJobSameForOneAndTwoThreads) {
   const McmResult other = RunMcm(job, Fixed(20'001, 4, 2));
   EXPECT_TRUE(BitIdentical(one, two));
   EXPECT_FALSE(BitIdentical(one, other));
+}
+
+// Issue 33: the results do not depend on the number of threads, whatever the waves of batches
+// (more batches in flight with more threads) and however the final passes are shared: a tracker
+// job (points, a plane, a distance) at a fixed M that is not a multiple of the batch, and an
+// adaptive run (speculative batches beyond the stopping point dropped).
+TEST(McmReproducibility, SameBitsForOneTwoThreeAndSixteenThreads) {
+  const MeasurementModel model(test::MirrorSetup());
+  const McmJob job = MirrorJob(model);
+  const McmResult one = RunMcm(job, Fixed(100'003, 3, 1));
+  const std::vector<UncertainInput> in = {Input("x1", 0, 1), Input("x2", 0, 1, "rectangular"),
+                                          Input("x3", 0, 1, "student_t", 4.0), Input("x4", 0, 1, "arcsine")};
+  McmSettings adaptive = Fixed(0, 5, 1);
+  adaptive.significant_digits = 2;
+  const McmResult adaptive_one = RunMcmCustom(Additive(), in, {}, adaptive);
+  for (int threads : {2, 3, 16}) {
+    const McmResult other = RunMcm(job, Fixed(100'003, 3, threads));
+    EXPECT_EQ(other.threads, threads);
+    EXPECT_TRUE(BitIdentical(one, other)) << threads << " threads";
+    adaptive.num_threads = threads;
+    const McmResult adaptive_other = RunMcmCustom(Additive(), in, {}, adaptive);
+    EXPECT_TRUE(BitIdentical(adaptive_one, adaptive_other)) << threads << " threads, adaptive";
+    EXPECT_EQ(adaptive_one.batches, adaptive_other.batches);
+    EXPECT_EQ(adaptive_one.convergence_ratio, adaptive_other.convergence_ratio);
+  }
+  EXPECT_GE(adaptive_one.batches, 4);  // enough batches for a wave to pass the stopping point
+}
+
+// Issue 33: every parallel phase of a run of 10^6 trials (one point; a job of points and tasks)
+// offers at least 8 items to each of 16 threads, so that a 16-core machine is not left waiting
+// on a few long items (one batch of 10^4 trials has only 4 chunks), but for the sorts of the
+// tails when there are few outputs.
+TEST(McmThreads, EveryPhaseOffersEightItemsToEachOfSixteenThreads) {
+  const MeasurementModel model(test::MirrorSetup());
+  McmJob point;
+  point.model = &model;
+  point.points = {test::SomePoints()[1]};
+  const McmJob points_and_tasks = MirrorJob(model);
+  for (const McmJob* job : {static_cast<const McmJob*>(&point), &points_and_tasks}) {
+    std::vector<std::size_t> counts;
+    parallel_internal::RecordItemCounts(&counts);
+    const McmResult r = RunMcm(*job, Fixed(1'000'000, 3, 16));
+    parallel_internal::RecordItemCounts(nullptr);
+    EXPECT_EQ(r.trials, 1'000'000);
+    ASSERT_GE(counts.size(), 4u);  // waves of chunks and statistics, the final passes
+    // The one exception, by design: the sorts of the tails of the order statistics, two per
+    // output and one per coverage region (each of at most 5 % of the values at p = 0.95), side
+    // by side after the passes over all the values.
+    const std::size_t sorts = 2 * r.outputs.size() + r.points.size() + r.vectors.size();
+    int sort_phases = 0;
+    for (std::size_t i = 0; i < counts.size(); ++i) {
+      if (counts[i] == sorts && sort_phases++ == 0) continue;
+      EXPECT_GE(counts[i], 8u * 16u) << "phase " << i << " of " << counts.size();
+    }
+  }
 }
 
 TEST(McmJob, OutputsPointsAndFittedTasks) {

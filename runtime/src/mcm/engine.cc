@@ -5,7 +5,9 @@
 // (random.h). A batch is split into chunks of kChunk trials; each chunk sums its own deviations
 // sequentially, and the chunk sums are added in chunk order, the batch sums in batch order. The
 // values are stored at their trial's position. Nothing depends on which thread ran which chunk,
-// so the result is bit-identical for any number of threads.
+// so the result is bit-identical for any number of threads. Several batches are computed at once
+// (a wave, sized for the threads: kItemsPerThread) and then accumulated one by one in batch order,
+// so the wave's size does not change a bit either.
 //
 // MPI (docs/mpi.md): the chunks of a batch are shared out over the ranks in contiguous blocks
 // (mpi_internal::Share); after each batch every rank receives every chunk's sums and every trial's values
@@ -339,8 +341,23 @@ struct Batch {
   std::vector<double> partial;  // the sums of each chunk, chunk-major
   std::vector<float> vals;      // [o - own_first][trial] after the exchange
   std::vector<double> batch_sums;
+  // 7.9.4 c), d) of a full batch, per own output: mean, u, y_low, y_high (kStatsPerOutput each),
+  // computed with the other batches of its wave and added to `stats` when the batch is accumulated.
+  std::vector<double> own_stats;
   double worst = 0.0;  // adaptive: this rank's worst 2 s / delta
 };
+
+constexpr int kStatsPerOutput = 4;
+
+// Batches computed together (a wave): one batch of 10^4 trials has only 4 chunks, so one batch at
+// a time kept at most 4 threads busy. A wave holds enough batches for kItemsPerThread chunks (and
+// per-batch statistics) per thread; its batches are then accumulated and checked (7.9.4 g) one
+// after the other in trial order, exactly as one batch at a time: the run stops at the same batch
+// and gives the same bits. An adaptive run computes at most a wave less one batch in vain.
+constexpr int kItemsPerThread = 8;
+// Batches that are not written in place (adaptive runs, MPI) hold their values until they are
+// accumulated: a wave holds at most this many bytes of them (and at least one batch).
+constexpr std::int64_t kWaveBytes = std::int64_t{256} << 20;
 
 // The records of the final pass that every rank shares: its own, then everybody's.
 struct FinalRecords {
@@ -434,9 +451,13 @@ struct MonteCarloRun {
   }
 
   void RunBatches();
-  Batch NextBatch() const;
-  void ComputeBatch(Batch& batch);
+  std::int64_t WaveSize() const;
+  std::vector<Batch> NextWave() const;
+  void ComputeWave(std::vector<Batch>& wave);
   void RunChunk(int c, int w, Batch& batch, const BatchExchange& exchange, std::vector<float>& computed);
+  void WaveStatistics(std::vector<Batch>& wave);
+  void BatchStatistics(Batch& batch, int i, int w);
+  bool AccumulateWave(std::vector<Batch>& wave);
   template <class Destination>
   void AccumulateSubBatch(const double* out, int n, std::int64_t trial, const Destination& destination,
                           double* part) const;
@@ -445,7 +466,6 @@ struct MonteCarloRun {
   void SwitchToBatchEndpoints(std::int64_t bh);
   void KeptBatchSums(std::int64_t b0, std::vector<float>& old, std::vector<double>& old_sums) const;
   void BatchExtras(std::vector<float>& vals, std::int64_t bh, const std::vector<double>& batch_sums);
-  void BatchStatistics(const Batch& batch);
   double WorstRatio() const;
   bool Finished(double worst);
 
@@ -456,7 +476,9 @@ struct MonteCarloRun {
   void SizeFinalExchange(FinalRecords& records) const;
   McmOutputResult::Histogram* HistogramOf(McmResult& result, int i) const;
   void AllValuesPass(McmResult& result, std::vector<McmVectorResult>& vectors);
+  std::vector<const float*> RegionSeries(int gi, const McmVectorResult& r, Eigen::VectorXd* offset) const;
   void CoverageRegion(int gi, McmVectorResult& r) const;
+  void SharedOrderStatistics(McmResult& result, std::vector<McmVectorResult>& vectors) const;
   void CountHistogramPass(McmResult& result, std::size_t item, std::int64_t passes,
                           std::vector<std::int64_t>& cells) const;
   void AddHistogramPasses(McmResult& result, std::int64_t passes,
@@ -470,45 +492,75 @@ struct MonteCarloRun {
 
 void MonteCarloRun::RunBatches() {
   for (;;) {
-    Batch batch = NextBatch();
-    ComputeBatch(batch);
-    std::exception_ptr failure;
-    try {
-      AccumulateBatch(batch);
-    } catch (...) {
-      failure = std::current_exception();
-    }
-    ranks::Agree(failure);
-    if (Finished(batch.worst)) break;
+    std::vector<Batch> wave = NextWave();
+    ComputeWave(wave);
+    WaveStatistics(wave);
+    if (AccumulateWave(wave)) break;
   }
   progress.Finish();
 }
 
-Batch MonteCarloRun::NextBatch() const {
-  Batch batch;
-  batch.first = done;
-  batch.bh = adaptive ? batch_size : std::min(batch_size, settings.trials - done);
-  batch.n_chunks = static_cast<int>((batch.bh + kChunk - 1) / kChunk);
-  batch.partial.assign(static_cast<std::size_t>(batch.n_chunks) * stride, 0.0);
-  batch.batch_sums.assign(stride, 0.0);
-  return batch;
+// The batches of the next wave: kItemsPerThread items per thread in its parallel phases (the
+// chunks, and the per-batch statistics of the own outputs), no batch past the run's end (fixed
+// M) or past max_trials (adaptive), and no more values held for accumulation than kWaveBytes.
+std::int64_t MonteCarloRun::WaveSize() const {
+  const std::int64_t chunks_per_batch = (batch_size + kChunk - 1) / kChunk;
+  const std::int64_t items_per_batch = std::max<std::int64_t>(1, std::min<std::int64_t>(chunks_per_batch, n_own));
+  std::int64_t wave = (std::int64_t{kItemsPerThread} * threads + items_per_batch - 1) / items_per_batch;
+  if (!direct) {
+    const std::int64_t batch_bytes = std::int64_t{n_out} * batch_size * static_cast<std::int64_t>(sizeof(float));
+    wave = std::min(wave, std::max<std::int64_t>(1, kWaveBytes / std::max<std::int64_t>(1, batch_bytes)));
+  }
+  const std::int64_t left = adaptive ? (settings.max_trials - done) / batch_size
+                                     : (settings.trials - done + batch_size - 1) / batch_size;
+  if (left <= wave || !direct) return std::max<std::int64_t>(1, std::min(wave, left));
+  // Fixed M, values in place: the batches left in waves of at least `wave` batches, as equal as
+  // can be, so that the last wave is not a short one with too few items for the threads.
+  const std::int64_t waves_left = left / wave;
+  return (left + waves_left - 1) / waves_left;
 }
 
-// This rank's chunks, for every output; a failure (a non-finite trial, no memory) is agreed
-// with the other ranks before any of them waits for this rank's values.
-void MonteCarloRun::ComputeBatch(Batch& batch) {
+std::vector<Batch> MonteCarloRun::NextWave() const {
+  std::vector<Batch> wave(static_cast<std::size_t>(WaveSize()));
+  std::int64_t first = done;
+  for (Batch& batch : wave) {
+    batch.first = first;
+    batch.bh = adaptive ? batch_size : std::min(batch_size, settings.trials - first);
+    batch.n_chunks = static_cast<int>((batch.bh + kChunk - 1) / kChunk);
+    batch.partial.assign(static_cast<std::size_t>(batch.n_chunks) * stride, 0.0);
+    batch.batch_sums.assign(stride, 0.0);
+    first += batch.bh;
+  }
+  return wave;
+}
+
+// This rank's chunks of every batch of the wave, for every output, as one parallel phase; a
+// failure (a non-finite trial, no memory) is agreed with the other ranks before any of them waits
+// for this rank's values. Each batch is then exchanged on its own (MPI).
+void MonteCarloRun::ComputeWave(std::vector<Batch>& wave) {
   std::exception_ptr failure;
   bool computed_here = false;  // past this rank's chunks: a failure now was agreed or is alike on every rank
   try {
-    BatchExchange exchange(batch.n_chunks, stride, batch.bh, n_out, share);
-    std::vector<float> computed(direct ? 0 : static_cast<std::size_t>(n_out) * exchange.trial_count);
-    if (ranks::Count() > 1) batch.vals.resize(static_cast<std::size_t>(n_own) * batch.bh);
-    ParallelFor(exchange.chunk_last - exchange.chunk_first, [&](int item, int w) {
-      RunChunk(exchange.chunk_first + item, w, batch, exchange, computed);
+    std::vector<BatchExchange> exchanges;
+    std::vector<std::vector<float>> computed(wave.size());
+    std::vector<std::pair<int, int>> items;  // (batch, chunk) in trial order
+    exchanges.reserve(wave.size());
+    for (std::size_t b = 0; b < wave.size(); ++b) {
+      Batch& batch = wave[b];
+      const BatchExchange& exchange = exchanges.emplace_back(batch.n_chunks, stride, batch.bh, n_out, share);
+      if (!direct) computed[b].resize(static_cast<std::size_t>(n_out) * exchange.trial_count);
+      if (ranks::Count() > 1) batch.vals.resize(static_cast<std::size_t>(n_own) * batch.bh);
+      for (int c = exchange.chunk_first; c < exchange.chunk_last; ++c) items.emplace_back(static_cast<int>(b), c);
+    }
+    ParallelFor(static_cast<int>(items.size()), [&](int item, int w) {
+      const auto [b, c] = items[item];
+      RunChunk(c, w, wave[b], exchanges[b], computed[b]);
     });
     computed_here = true;
     ranks::Agree();
-    exchange.Exchange(batch.partial, stride, computed, batch.vals, batch.bh, n_own);
+    for (std::size_t b = 0; b < wave.size(); ++b) {
+      exchanges[b].Exchange(wave[b].partial, stride, computed[b], wave[b].vals, wave[b].bh, n_own);
+    }
   } catch (...) {
     if (computed_here) throw;
     failure = std::current_exception();
@@ -572,6 +624,40 @@ void MonteCarloRun::AccumulateSubBatch(const double* out, int n, std::int64_t tr
   }
 }
 
+// Every batch's sums (its chunks' in chunk order), then 7.9.4 c), d) for every full batch and own
+// output of the wave: one parallel phase of (batch, output) items.
+void MonteCarloRun::WaveStatistics(std::vector<Batch>& wave) {
+  for (Batch& batch : wave) {
+    for (int c = 0; c < batch.n_chunks; ++c) {
+      for (int k = 0; k < stride; ++k) {
+        batch.batch_sums[k] += batch.partial[static_cast<std::size_t>(c) * stride + k];
+      }
+    }
+    if (batch.bh == batch_size) batch.own_stats.resize(static_cast<std::size_t>(n_own) * kStatsPerOutput);
+  }
+  ParallelFor(static_cast<int>(wave.size()) * n_own, [&](int item, int w) {
+    Batch& batch = wave[static_cast<std::size_t>(item / n_own)];
+    // Only full batches count: the short last batch of a fixed-M run would weigh as much as a full one.
+    if (batch.bh == batch_size) BatchStatistics(batch, item % n_own, w);
+  });
+}
+
+// The batches of the wave in trial order, each as if it were computed alone; true when the run
+// ends (the batches after that one are dropped).
+bool MonteCarloRun::AccumulateWave(std::vector<Batch>& wave) {
+  for (Batch& batch : wave) {
+    std::exception_ptr failure;
+    try {
+      AccumulateBatch(batch);
+    } catch (...) {
+      failure = std::current_exception();
+    }
+    ranks::Agree(failure);
+    if (Finished(batch.worst)) return true;
+  }
+  return false;
+}
+
 // From here every rank holds the sums of every chunk and every value of its own outputs.
 void MonteCarloRun::AccumulateBatch(Batch& batch) {
   AddBatchSums(batch);
@@ -587,20 +673,21 @@ void MonteCarloRun::AccumulateBatch(Batch& batch) {
   } else if (batch.bh == batch_size) {
     BatchExtras(batch.vals, batch.bh, batch.batch_sums);
   }
-  // Only full batches count: the short last batch of a fixed-M run would weigh as much as a full one.
-  if (batch.bh == batch_size) BatchStatistics(batch);
+  for (int i = 0; i < static_cast<int>(batch.own_stats.size()) / kStatsPerOutput; ++i) {
+    const double* st = batch.own_stats.data() + static_cast<std::size_t>(i) * kStatsPerOutput;
+    BatchStats& to = stats[own_first + i];
+    to.mean.push_back(st[0]);
+    to.u.push_back(st[1]);
+    to.low.push_back(st[2]);
+    to.high.push_back(st[3]);
+  }
   // 7.9.4 e)-i): stop when 2 s <= delta for the mean, u, y_low and y_high of every output,
   // delta from u(y) of all h M values (this rank's outputs; the maximum over the ranks in Finished).
   if (adaptive && batches >= 2) batch.worst = WorstRatio();
 }
 
-// Chunk sums in chunk order, then into the run total in batch order.
+// The batch's sums (WaveStatistics) into the run total in batch order.
 void MonteCarloRun::AddBatchSums(Batch& batch) {
-  for (int c = 0; c < batch.n_chunks; ++c) {
-    for (int k = 0; k < stride; ++k) {
-      batch.batch_sums[k] += batch.partial[static_cast<std::size_t>(c) * stride + k];
-    }
-  }
   for (int k = 0; k < stride; ++k) total[k] += batch.batch_sums[k];
   done += batch.bh;
   ++batches;
@@ -680,27 +767,26 @@ void MonteCarloRun::BatchExtras(std::vector<float>& vals, std::int64_t bh,
   });
 }
 
-// 7.9.4 c), d): the batch's estimate, standard uncertainty and symmetric interval.
-void MonteCarloRun::BatchStatistics(const Batch& batch) {
+// 7.9.4 c), d): the batch's estimate, standard uncertainty and symmetric interval for own output
+// i, on worker w, into batch.own_stats.
+void MonteCarloRun::BatchStatistics(Batch& batch, int i, int w) {
   const std::int64_t bh = batch.bh;
   const double dbh = static_cast<double>(bh);
-  ParallelFor(n_own, [&](int i, int w) {
-    const int o = own_first + i;
-    const double s1 = batch.batch_sums[layout.sum(o)], s2 = batch.batch_sums[layout.sum2(o)];
-    stats[o].mean.push_back(y0[o] + s1 / dbh);
-    stats[o].u.push_back(bh > 1 ? std::sqrt(std::max(0.0, (s2 - s1 * s1 / dbh) / (dbh - 1.0))) : 0.0);
-    // y_(r) and y_(r+q) of 7.7.1: the largest of the r smallest values and the smallest of
-    // the bh - r - q + 1 largest (mcm/order.h: one pass over the batch, then short sorts).
-    const float* batch_values =
-        direct ? series[i].data() + batch.first : batch.vals.data() + static_cast<std::size_t>(i) * bh;
-    const std::int64_t q = CoverageCount(bh, p);
-    const std::int64_t r = (bh - q) % 2 == 0 ? (bh - q) / 2 : (bh - q + 1) / 2;
-    Tails<float>& tails = batch_tails[w];
-    SortedTails(std::span<const float>(batch_values, static_cast<std::size_t>(bh)), r, bh - r - q + 1,
-                &tails);
-    stats[o].low.push_back(y0[o] + static_cast<double>(tails.low_values.back()));
-    stats[o].high.push_back(y0[o] + static_cast<double>(tails.high_values.front()));
-  });
+  const int o = own_first + i;
+  double* st = batch.own_stats.data() + static_cast<std::size_t>(i) * kStatsPerOutput;
+  const double s1 = batch.batch_sums[layout.sum(o)], s2 = batch.batch_sums[layout.sum2(o)];
+  st[0] = y0[o] + s1 / dbh;
+  st[1] = bh > 1 ? std::sqrt(std::max(0.0, (s2 - s1 * s1 / dbh) / (dbh - 1.0))) : 0.0;
+  // y_(r) and y_(r+q) of 7.7.1: the largest of the r smallest values and the smallest of
+  // the bh - r - q + 1 largest (mcm/order.h: one pass over the batch, then short sorts).
+  const float* batch_values =
+      direct ? series[i].data() + batch.first : batch.vals.data() + static_cast<std::size_t>(i) * bh;
+  const std::int64_t q = CoverageCount(bh, p);
+  const std::int64_t r = (bh - q) % 2 == 0 ? (bh - q) / 2 : (bh - q + 1) / 2;
+  Tails<float>& tails = batch_tails[w];
+  SortedTails(std::span<const float>(batch_values, static_cast<std::size_t>(bh)), r, bh - r - q + 1, &tails);
+  st[2] = y0[o] + static_cast<double>(tails.low_values.back());
+  st[3] = y0[o] + static_cast<double>(tails.high_values.front());
 }
 
 // The largest 2 s / delta of 7.9.4 g) over this rank's outputs.
@@ -848,11 +934,12 @@ McmOutputResult::Histogram* MonteCarloRun::HistogramOf(McmResult& result, int i)
   return out.u > 0.0 && std::isfinite(out.u) ? &out.histogram : nullptr;
 }
 
-// One pass over all M stored values, its items shared over the threads and each only
-// reading the values: the coverage region of every own group (JCGM 102 7.7.3, the largest
-// items, first), both coverage intervals of every own output (JCGM 101 7.7) and its
-// histogram (McmOutputResult::histogram) in passes of kPassChunk values, the passes' counts
-// added up per output afterwards (integers: exact in any order).
+// The passes over all M stored values, each only reading them: the coverage region of every own
+// group (JCGM 102 7.7.3), both coverage intervals of every own output (JCGM 101 7.7) and its
+// histogram (McmOutputResult::histogram) in passes of kPassChunk values, the passes' counts added
+// up per output afterwards (integers: exact in any order). With enough outputs for every thread,
+// each region and pair of intervals is one item (the largest first); with few (one point: three
+// outputs, one region), they are computed one after the other, each shared over the threads.
 void MonteCarloRun::AllValuesPass(McmResult& result, std::vector<McmVectorResult>& vectors) {
   const std::size_t n_regions = share.groups.size();
   const std::int64_t passes = (done + kPassChunk - 1) / kPassChunk;
@@ -864,36 +951,85 @@ void MonteCarloRun::AllValuesPass(McmResult& result, std::vector<McmVectorResult
       h->width = 10.0 * out.u / kHistogramBins;
     }
   }
-  const std::size_t n_items =
-      n_regions + static_cast<std::size_t>(n_own) * static_cast<std::size_t>(1 + passes);
+  auto intervals = [&](std::size_t i) {
+    const int o = own_first + static_cast<int>(i);
+    CoverageIntervals(series[i], y0[o], p, &result.outputs[o].symmetric, &result.outputs[o].shortest);
+  };
+  const bool item_per_output =
+      n_regions + static_cast<std::size_t>(n_own) >= static_cast<std::size_t>(kItemsPerThread) * threads;
+  if (!item_per_output) SharedOrderStatistics(result, vectors);
+  const std::size_t n_first = item_per_output ? n_regions + static_cast<std::size_t>(n_own) : 0;
+  const std::size_t n_items = n_first + static_cast<std::size_t>(n_own) * static_cast<std::size_t>(passes);
   parallel_internal::ForEach(n_items, threads, [&](std::size_t item, int) {
-    if (item < n_regions) {
-      const int gi = share.groups[item];
-      CoverageRegion(gi, vectors[gi]);
+    if (item < n_first) {
+      if (item < n_regions) {
+        CoverageRegion(share.groups[item], vectors[share.groups[item]]);
+      } else {
+        intervals(item - n_regions);
+      }
       return;
     }
-    item -= n_regions;
-    if (item < static_cast<std::size_t>(n_own)) {
-      const int o = own_first + static_cast<int>(item);
-      CoverageIntervals(series[item], y0[o], p, &result.outputs[o].symmetric, &result.outputs[o].shortest);
-      return;
-    }
-    item -= static_cast<std::size_t>(n_own);
-    CountHistogramPass(result, item, passes, cells);
+    CountHistogramPass(result, item - n_first, passes, cells);
   });
   AddHistogramPasses(result, passes, cells);
 }
 
-// k_p of the coverage region of group gi (JCGM 102 7.7.3) from all its stored values.
-void MonteCarloRun::CoverageRegion(int gi, McmVectorResult& r) const {
+// The inputs of the coverage region of group gi (JCGM 102 7.7.3): its components' stored values
+// and its mean less y0.
+std::vector<const float*> MonteCarloRun::RegionSeries(int gi, const McmVectorResult& r,
+                                                      Eigen::VectorXd* offset) const {
   const OutputGroup& g = spec.groups[gi];
-  Eigen::VectorXd offset(g.dim);
-  for (int a = 0; a < g.dim; ++a) offset(a) = r.mean(a) - y0[g.first + a];
+  offset->resize(g.dim);
   std::vector<const float*> components;
-  for (int a = 0; a < g.dim; ++a) components.push_back(series[g.first - own_first + a].data());
+  for (int a = 0; a < g.dim; ++a) {
+    (*offset)(a) = r.mean(a) - y0[g.first + a];
+    components.push_back(series[g.first - own_first + a].data());
+  }
+  return components;
+}
+
+// k_p of the coverage region of group gi from all its stored values, on this thread.
+void MonteCarloRun::CoverageRegion(int gi, McmVectorResult& r) const {
+  Eigen::VectorXd offset;
+  const std::vector<const float*> components = RegionSeries(gi, r, &offset);
   double k = 0.0;
-  r.has_region = RegionFactor(components, done, offset, r.covariance, p, threads, &k);
+  r.has_region = RegionFactor(components, done, offset, r.covariance, p, 1, &k);
   r.coverage_factor = r.has_region ? k : 0.0;
+}
+
+// Few outputs for the threads (one point: three outputs and one region): each pass over a series
+// (the region's distances, the gathering of the tails) is shared over the threads, one series
+// after the other; then the sorts of every tail run side by side (two per output, one per region:
+// each at most M - q values), and the endpoints are read off (mcm/order.h: the same values as
+// one item per output).
+void MonteCarloRun::SharedOrderStatistics(McmResult& result, std::vector<McmVectorResult>& vectors) const {
+  const int n_regions = static_cast<int>(share.groups.size());
+  std::vector<Tails<double>> region_tails(static_cast<std::size_t>(n_regions));
+  std::vector<char> has_region(static_cast<std::size_t>(n_regions), 0);
+  for (int j = 0; j < n_regions; ++j) {
+    const int gi = share.groups[j];
+    Eigen::VectorXd offset;
+    const std::vector<const float*> components = RegionSeries(gi, vectors[gi], &offset);
+    has_region[j] = GatherRegionTail(components, done, offset, vectors[gi].covariance, p, threads, &region_tails[j]);
+  }
+  std::vector<Tails<float>> output_tails(static_cast<std::size_t>(n_own));
+  for (int i = 0; i < n_own; ++i) GatherIntervalTails(std::span<const float>(series[i]), p, threads, &output_tails[i]);
+  ParallelFor(2 * n_own + n_regions, [&](int item, int) {
+    if (item < 2 * n_own) {
+      FinishTail(&output_tails[item / 2], item % 2);
+    } else if (has_region[item - 2 * n_own]) {
+      FinishTail(&region_tails[item - 2 * n_own], 1);
+    }
+  });
+  for (int j = 0; j < n_regions; ++j) {
+    McmVectorResult& r = vectors[share.groups[j]];
+    r.has_region = has_region[j] != 0;
+    r.coverage_factor = r.has_region ? region_tails[j].high_values.front() : 0.0;
+  }
+  for (int i = 0; i < n_own; ++i) {
+    McmOutputResult& out = result.outputs[own_first + i];
+    IntervalsFromTails(output_tails[i], done, y0[own_first + i], p, &out.symmetric, &out.shortest);
+  }
 }
 
 // The histogram counts of one pass (item = own output i times passes + pass) into its cells.

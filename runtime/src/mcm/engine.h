@@ -13,6 +13,7 @@
 
 #include <Eigen/Core>
 
+#include "mcm/order.h"
 #include "mcm/random.h"
 #include "vlt/distributions.h"
 #include "vlt/mcm.h"
@@ -116,11 +117,21 @@ struct OutputSpec {
 McmResult RunEngine(const TrialKernel& kernel, const OutputSpec& spec, const McmSettings& settings);
 
 // Both coverage intervals (JCGM 101 7.7) of the values `reference + values[i]` (partial sorts of
-// the two tails only: O(M) + O((M - q) log(M - q))). `values` is only read.
+// the two tails only: O(M) + O((M - q) log(M - q))). `values` is only read. threads > 1: the pass
+// over the values is shared over the workers (SortedTails); the intervals are the same.
 void CoverageIntervals(std::span<const float> values, double reference, double p, CoverageInterval* symmetric,
-                       CoverageInterval* shortest);
+                       CoverageInterval* shortest, int threads = 1);
 void CoverageIntervals(std::span<const double> values, double reference, double p,
-                       CoverageInterval* symmetric, CoverageInterval* shortest);
+                       CoverageInterval* symmetric, CoverageInterval* shortest, int threads = 1);
+
+// CoverageIntervals in steps, so that the passes and sorts of several outputs can share the
+// threads (the engine's final pass): GatherIntervalTails (the pass over the values, mcm/order.h
+// GatherTails), FinishTail(0) and (1) (the sorts; on any threads), then IntervalsFromTails (the
+// endpoints; m values in all). The same intervals as CoverageIntervals.
+template <typename T>
+void GatherIntervalTails(std::span<const T> values, double p, int threads, Tails<T>* tails);
+void IntervalsFromTails(const Tails<float>& tails, std::int64_t m, double reference, double p,
+                        CoverageInterval* symmetric, CoverageInterval* shortest);
 
 // k_p of JCGM 102 7.7.3 from the deviations (float, relative to y0) of n trials of one group
 // (mcm/region.cc): the q-th smallest |L^-1 (y_r - mean)|, L L^T = cov; series[a] holds
@@ -129,5 +140,10 @@ void CoverageIntervals(std::span<const double> values, double reference, double 
 bool RegionFactor(const std::vector<const float*>& series, std::int64_t n,
                   const Eigen::VectorXd& mean_minus_y0, const Eigen::MatrixXd& cov, double p, int threads,
                   double* k);
+// RegionFactor in steps: the distances and the pass that gathers their high tail (false: the
+// covariance is not positive definite), then FinishTail(tails, 1); k_p = tails->high_values.front().
+bool GatherRegionTail(const std::vector<const float*>& series, std::int64_t n,
+                      const Eigen::VectorXd& mean_minus_y0, const Eigen::MatrixXd& cov, double p, int threads,
+                      Tails<double>* tails);
 
 }  // namespace vlt::mcm_internal

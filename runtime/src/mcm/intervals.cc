@@ -79,19 +79,25 @@ double NumericalTolerance(double u, int significant_digits) {
 
 namespace mcm_internal {
 
+template <typename T>
+void GatherIntervalTails(std::span<const T> values, double p, int threads, Tails<T>* tails) {
+  const auto m = static_cast<std::int64_t>(values.size());
+  const std::int64_t tail = m - CoverageCount(m, p);
+  GatherTails(values, tail, tail, tails, threads);
+}
+
+template void GatherIntervalTails<float>(std::span<const float>, double, int, Tails<float>*);
+template void GatherIntervalTails<double>(std::span<const double>, double, int, Tails<double>*);
+
 namespace {
 
+// The endpoints of both intervals from the sorted tails y_(1..M-q) and y_(q+1..M) of M values.
 template <typename T>
-void CoverageIntervalsOf(std::span<const T> values, double reference, double p, CoverageInterval* symmetric,
-                         CoverageInterval* shortest) {
-  const auto m = static_cast<std::int64_t>(values.size());
+void IntervalsFromTailsOf(const Tails<T>& tails, std::int64_t m, double reference, double p,
+                          CoverageInterval* symmetric, CoverageInterval* shortest) {
   const std::int64_t q = CoverageCount(m, p);
   const std::int64_t r = SymmetricR(m, q);
   const std::int64_t tail = m - q;  // the shortest interval's r ranges over 1..M-q
-  // Only y_(1..M-q) and y_(q+1..M) are needed: every endpoint below is in these tails (r <= M - q,
-  // r + q >= q + 1), which SortedTails sorts without sorting the middle.
-  Tails<T> tails;
-  SortedTails(values, tail, tail, &tails);
   // The k-th smallest value (1-based) for k <= M - q or k >= q + 1.
   auto order = [&](std::int64_t k) -> T {
     return k <= tail ? tails.low_values[k - 1] : tails.high_values[k - q - 1];
@@ -109,16 +115,33 @@ void CoverageIntervalsOf(std::span<const T> values, double reference, double p, 
   *shortest = {y(best), y(best + q)};
 }
 
+template <typename T>
+void CoverageIntervalsOf(std::span<const T> values, double reference, double p, CoverageInterval* symmetric,
+                         CoverageInterval* shortest, int threads) {
+  // Only y_(1..M-q) and y_(q+1..M) are needed: every endpoint is in these tails (r <= M - q,
+  // r + q >= q + 1), which SortedTails sorts without sorting the middle.
+  Tails<T> tails;
+  GatherIntervalTails(values, p, threads, &tails);
+  FinishTail(&tails, 0);
+  FinishTail(&tails, 1);
+  IntervalsFromTailsOf(tails, static_cast<std::int64_t>(values.size()), reference, p, symmetric, shortest);
+}
+
 }  // namespace
 
+void IntervalsFromTails(const Tails<float>& tails, std::int64_t m, double reference, double p,
+                        CoverageInterval* symmetric, CoverageInterval* shortest) {
+  IntervalsFromTailsOf(tails, m, reference, p, symmetric, shortest);
+}
+
 void CoverageIntervals(std::span<const float> values, double reference, double p, CoverageInterval* symmetric,
-                       CoverageInterval* shortest) {
-  CoverageIntervalsOf(values, reference, p, symmetric, shortest);
+                       CoverageInterval* shortest, int threads) {
+  CoverageIntervalsOf(values, reference, p, symmetric, shortest, threads);
 }
 
 void CoverageIntervals(std::span<const double> values, double reference, double p,
-                       CoverageInterval* symmetric, CoverageInterval* shortest) {
-  CoverageIntervalsOf(values, reference, p, symmetric, shortest);
+                       CoverageInterval* symmetric, CoverageInterval* shortest, int threads) {
+  CoverageIntervalsOf(values, reference, p, symmetric, shortest, threads);
 }
 
 }  // namespace mcm_internal

@@ -22,6 +22,8 @@ template <typename T>
 struct Tails {
   std::vector<T> low_values, high_values;
   std::vector<T> sample, work;  // reused between calls
+  std::int64_t low = 0, high = 0;  // the tails' lengths asked for
+  bool sorted = false;             // GatherTails sorted every value (no FinishTail needed)
 };
 
 // Fills tails->low_values / high_values for `values` (finite; low + high <= M). For a large M
@@ -29,7 +31,20 @@ struct Tails {
 // margin beyond the tail fractions, and every value beyond a threshold gathered (branch-free);
 // then only the gathered values are sorted. A count short of its tail (a sample that misled)
 // falls back to sorting a copy of every value, so the result is exact in every case.
+// threads > 1: the gathering pass runs in blocks of kPassChunk values on the process's workers
+// (inline when called from inside a parallel item); the gathered values, sorted, are the same.
 template <typename T>
-void SortedTails(std::span<const T> values, std::int64_t low, std::int64_t high, Tails<T>* tails);
+void SortedTails(std::span<const T> values, std::int64_t low, std::int64_t high, Tails<T>* tails,
+                 int threads = 1);
+
+// SortedTails in two steps, so that the sorts of several series can run side by side (the
+// engine's final pass): GatherTails leaves in low_values / high_values every value beyond the
+// thresholds, unsorted (or the exact tails, `sorted`, when it sorted every value); FinishTail(0)
+// and FinishTail(1), which may run on different threads, then sort and trim the low and the high
+// tail. The result is SortedTails's.
+template <typename T>
+void GatherTails(std::span<const T> values, std::int64_t low, std::int64_t high, Tails<T>* tails, int threads);
+template <typename T>
+void FinishTail(Tails<T>* tails, int which);
 
 }  // namespace vlt::mcm_internal

@@ -46,10 +46,10 @@ void RegionDistances(int dim, const float* const* series, const double* mean_min
 // k_p of JCGM 102 7.7.3 from the deviations (float, relative to y0) of n trials of one group:
 // the q-th smallest |L^-1 (y_r - mean)|. series[a] holds component a. Returns false when the
 // covariance is not positive definite. The distances are computed in parallel (each on its own:
-// the same bits for any thread count), the order statistic on one thread (mcm/order.h).
-bool RegionFactor(const std::vector<const float*>& series, std::int64_t n,
-                  const Eigen::VectorXd& mean_minus_y0, const Eigen::MatrixXd& cov, double p, int threads,
-                  double* k) {
+// the same bits for any thread count), and so is the pass of the order statistic (mcm/order.h).
+bool GatherRegionTail(const std::vector<const float*>& series, std::int64_t n,
+                      const Eigen::VectorXd& mean_minus_y0, const Eigen::MatrixXd& cov, double p, int threads,
+                      Tails<double>* tails) {
   const int dim = static_cast<int>(series.size());
   Eigen::LLT<Eigen::MatrixXd> llt(cov);
   if (llt.info() != Eigen::Success || !(cov.diagonal().minCoeff() > 0.0)) return false;
@@ -69,8 +69,16 @@ bool RegionFactor(const std::vector<const float*>& series, std::int64_t n,
       });
   // The q-th smallest distance is the smallest of the n - q + 1 largest.
   const std::int64_t q = CoverageCount(n, p);
+  GatherTails(std::span<const double>(d.data(), d.size()), 0, n - q + 1, tails, threads);
+  return true;
+}
+
+bool RegionFactor(const std::vector<const float*>& series, std::int64_t n,
+                  const Eigen::VectorXd& mean_minus_y0, const Eigen::MatrixXd& cov, double p, int threads,
+                  double* k) {
   Tails<double> tails;
-  SortedTails(std::span<const double>(d.data(), d.size()), 0, n - q + 1, &tails);
+  if (!GatherRegionTail(series, n, mean_minus_y0, cov, p, threads, &tails)) return false;
+  FinishTail(&tails, 1);
   *k = tails.high_values.front();
   return true;
 }

@@ -61,7 +61,9 @@ struct UninitializedAllocator : std::allocator<T> {
 // The stored values of one output: deviations from the value at the estimates, one per trial.
 using ValueSeries = std::vector<float, UninitializedAllocator<float>>;
 
-// Trials per item when a pass over all the stored values of a run is shared over the threads.
-inline constexpr std::int64_t kPassChunk = std::int64_t{1} << 16;
+// Trials per item when a pass over all the stored values of a run is shared over the threads:
+// small enough that 10^6 trials give 8 items for each of 16 threads (issue 33), large enough that
+// handing an item out (a few hundred ns) is lost in its work (about 10 us).
+inline constexpr std::int64_t kPassChunk = std::int64_t{1} << 12;
 
 }  // namespace vlt::mcm_internal

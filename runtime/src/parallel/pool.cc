@@ -161,7 +161,16 @@ Pool& SharedPool() {
 
 }  // namespace
 
+namespace {
+std::atomic<std::vector<std::size_t>*> recorded_counts{nullptr};
+}  // namespace
+
+void RecordItemCounts(std::vector<std::size_t>* counts) { recorded_counts.store(counts); }
+
 void ForEach(std::size_t count, int threads, const std::function<void(std::size_t, int)>& fn) {
+  if (std::vector<std::size_t>* counts = recorded_counts.load(std::memory_order_relaxed); counts && !tl_inside_job) {
+    counts->push_back(count);
+  }
   Job job;
   job.fn = &fn;
   job.count = count;

@@ -14,6 +14,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <vector>
 
 namespace vlt::parallel_internal {
 
@@ -33,6 +34,11 @@ int ResolveThreads(int requested);
 // A call from inside fn (nested parallelism) runs its items on the calling thread. Calls from
 // several outside threads at once are served one after the other.
 void ForEach(std::size_t count, int threads, const std::function<void(std::size_t item, int worker)>& fn);
+
+// For the tests of the work offered to the threads: while `counts` is set, the item count of every
+// ForEach called from outside a parallel item (a phase of an engine) is appended to it; nullptr
+// stops the recording. Not for use while other threads call ForEach.
+void RecordItemCounts(std::vector<std::size_t>* counts);
 
 // ForEach over the chunks [c * chunk, min(n, (c + 1) * chunk)) of [0, n): body(c, begin, end).
 // Chunks are fixed by n and chunk alone, so results combined per chunk in chunk order do not depend

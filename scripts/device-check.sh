@@ -1,0 +1,141 @@
+#!/usr/bin/env bash
+# The checks that need a machine this project only borrows (a 16-core host with a GPU; DEVELOPERS.md,
+# docs/performance.md 4.7): thread scaling of the Monte Carlo engine (one point, plane36, the command
+# line, a Monte Carlo map) and of a GUM scan, the same bits for every thread count, and what the GPU
+# and its run-time compiler offer (bench/experiments/gpu_probe.cc: the issue 37 groundwork).
+#
+#   scripts/device-check.sh pack   here, after a Release build in build/: packs vlt, vlt_bench, the
+#                                  probe, every non-libc library they load and the jobs the checks
+#                                  run into .devcarry/bundle.tar.xz (ignored by git; the device tool
+#                                  carries at most 64 MiB, the files unpacked are about 70 MiB);
+#                                  VLT_BASELINE=<vlt binary> adds a baseline build to compare with
+#   scripts/device-check.sh run    there (the device tool: carry .devcarry, OUT set): runs every
+#                                  check within about five minutes, writing logs and JSON to $OUT
+set -euo pipefail
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+CARRY=/tmp/vlt-devcarry  # the unpacked bundle, here while packing and there while running
+
+pack() {
+  rm -rf "$CARRY" "$ROOT/.devcarry"
+  mkdir -p "$CARRY/lib" "$CARRY/jobs" "$ROOT/.devcarry"
+  grep -qx '/.devcarry/' "$ROOT/.git/info/exclude" 2>/dev/null || echo '/.devcarry/' >>"$ROOT/.git/info/exclude"
+  cp "$ROOT/build/runtime/vlt" "$ROOT/build/bench/vlt_bench" "$CARRY/"
+  [[ -n "${VLT_BASELINE:-}" ]] && cp "$VLT_BASELINE" "$CARRY/vlt_baseline"
+  g++ -O2 -std=c++20 -ffp-contract=off "$ROOT/bench/experiments/gpu_probe.cc" -ldl -o "$CARRY/gpu_probe"
+  for bin in "$CARRY"/vlt "$CARRY"/vlt_bench; do
+    ldd "$bin" | awk '/=> \// {print $3}' |
+      grep -v -E '/(libc|libm|libpthread|libdl|librt|ld-linux[^/]*)\.so' |
+      while read -r lib; do cp -L "$lib" "$CARRY/lib/"; done
+  done
+  # One point, 10^7 trials (the issue's one-point job), and the demo job at 10^6 trials.
+  cp "$ROOT/examples/panel_station.toml" "$ROOT/examples/panel_station_plan.csv" "$CARRY/jobs/"
+  sed -e 's/^csv = .*/csv = "one_point.csv"/' -e '/^\[\[task\]\]/,$d' "$ROOT/examples/panel_station.toml" \
+    >"$CARRY/jobs/one_point.toml"
+  printf '[monte_carlo]\ntrials = 10000000\nseed = 1\n' >>"$CARRY/jobs/one_point.toml"
+  printf 'name,x,y,z\nP,1500,400,0\n' >"$CARRY/jobs/one_point.csv"
+  # A Monte Carlo map (357 nodes, docs/performance.md 4.6) and a scan of 10^5 points (GUM only).
+  cp "$ROOT/examples/online_readings.toml" "$ROOT/examples/online_readings.csv" "$CARRY/jobs/"
+  python3 "$ROOT/tests/cli/make_scan.py" 100000 "$CARRY/jobs/scan"
+  tar -C "$CARRY" -cJf "$ROOT/.devcarry/bundle.tar.xz" .
+  du -sh "$CARRY" "$ROOT/.devcarry/bundle.tar.xz"
+}
+
+# Results of a run without the timings, for comparing two runs byte for byte.
+strip_timings() {
+  python3 -c '
+import json, sys
+drop = {"seconds", "gum_seconds", "mcm_seconds", "created", "threads"}
+def strip(o):
+    if isinstance(o, dict): return {k: strip(v) for k, v in o.items() if k not in drop}
+    if isinstance(o, list): return [strip(x) for x in o]
+    return o
+print(json.dumps(strip(json.load(open(sys.argv[1]))), sort_keys=True))' "$1"
+}
+
+# timed LABEL COMMAND...: runs the command, its output dropped, and appends its wall time and peak
+# memory (or that it failed) to $OUT/cli_times.txt.
+timed() {
+  local label=$1; shift
+  /usr/bin/time -f "$label wall %e s, max RSS %M KB" "$@" >/dev/null 2>>"$OUT/cli_times.txt" ||
+    echo "$label FAILED" >>"$OUT/cli_times.txt"
+}
+
+# same LABEL FILE REFERENCE: appends whether FILE holds the same bytes as REFERENCE.
+same() {
+  if cmp -s "$2" "$3"; then echo "$1: the same bytes as $3"; else echo "$1: DIFFERS from $3"; fi \
+    >>"$OUT/cli_times.txt"
+}
+
+# for_builds_and_threads CHECK ARGS...: CHECK ARGS... BUILD THREADS for this build and the baseline,
+# on 1, 4 and 16 threads.
+for_builds_and_threads() {
+  local bin threads
+  for bin in vlt vlt_baseline; do
+    [[ -x "$CARRY/$bin" ]] || continue
+    for threads in 1 4 16; do "$@" "$bin" "$threads"; done
+  done
+}
+
+# cli_job JOB BUILD THREADS: `vlt run` of a job (one point at 10^7 trials, the demo panel at 10^6);
+# its results without the timings must be those of 1 thread, bit for bit.
+cli_job() {
+  local job=$1 bin=$2 threads=$3 trials=10000000
+  [[ $job == panel_station ]] && trials=1000000
+  local dir="/tmp/vlt-$job-$bin-$threads"
+  rm -rf "$dir"
+  timed "$job $bin threads=$threads" \
+    "$CARRY/$bin" run "$CARRY/jobs/$job.toml" --trials "$trials" --threads "$threads" -o "$dir" --quiet
+  strip_timings "$dir/results.json" >"/tmp/$job-$bin-$threads.json" 2>/dev/null || true
+  [[ $threads == 1 ]] || same "$job $bin threads=$threads" "/tmp/$job-$bin-$threads.json" "/tmp/$job-$bin-1.json"
+}
+
+# mcm_map BUILD THREADS: a Monte Carlo map (357 nodes, 10^5 trials); map.csv must be the bytes of
+# this build on 1 thread.
+mcm_map() {
+  local bin=$1 threads=$2 dir="/tmp/vlt-map-$1-$2"
+  rm -rf "$dir"
+  timed "mcm map $bin threads=$threads" \
+    "$CARRY/$bin" map "$CARRY/jobs/online_readings.toml" --plane z=0 --extent 1,6,-2,2 --step 0.25m \
+    --mcm --trials 100000 --threads "$threads" -o "$dir" --quiet
+  [[ $bin == vlt && $threads == 1 ]] || same "mcm map $bin threads=$threads" "$dir/map.csv" /tmp/vlt-map-vlt-1/map.csv
+}
+
+run() {
+  : "${OUT:?OUT must name the folder for the results}"
+  rm -rf "$CARRY" && mkdir -p "$CARRY" && tar -C "$CARRY" -xJf "$ROOT/.devcarry/bundle.tar.xz"
+  export LD_LIBRARY_PATH="$CARRY/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+  {
+    date -u; uptime; nproc
+    lscpu | grep -E 'Model name|^CPU\(s\)|Thread|Core|Socket|NUMA node\(s\)|Flags' | sed 's/Flags:.*avx512f.*/Flags: ... avx512f .../'
+    nvidia-smi -L || true
+  } 2>&1 | tee "$OUT/machine.txt"
+  "$CARRY/gpu_probe" 2>&1 | tee "$OUT/gpu_probe.txt" || true
+  # Monte Carlo thread scaling (bench/bench_mcm.cc mcm/scaling/*): three repetitions, their median.
+  "$CARRY/vlt_bench" --benchmark_filter='mcm/scaling' --benchmark_repetitions=3 \
+    --benchmark_out="$OUT/mcm_scaling.json" --benchmark_out_format=json 2>&1 | grep -E '^mcm' |
+    tee "$OUT/mcm_scaling.txt"
+  # The command line: one point at 10^7 trials and the demo job at 10^6, on 1, 4 and 16 threads,
+  # this build against the baseline build in the same session; the results of every thread count
+  # must be the same bits.
+  local job threads
+  for job in one_point panel_station; do
+    for_builds_and_threads cli_job "$job"
+  done
+  # The Monte Carlo map, this build against the baseline: map.csv must be the same bytes for every
+  # thread count and both builds.
+  for_builds_and_threads mcm_map
+  # The scan of 10^5 points (GUM, every per-point file), this build.
+  for threads in 1 4 16; do
+    rm -rf /tmp/vlt-scan
+    timed "scan 1e5 vlt threads=$threads" \
+      "$CARRY/vlt" run "$CARRY/jobs/scan/scan.toml" --threads "$threads" -o /tmp/vlt-scan --quiet
+  done
+  du -sh /tmp/vlt-scan >>"$OUT/cli_times.txt"
+  cat "$OUT/cli_times.txt"
+}
+
+case "${1:-}" in
+  pack) pack ;;
+  run) run ;;
+  *) echo "usage: $0 pack|run" >&2; exit 2 ;;
+esac
