@@ -22,6 +22,8 @@ endfunction()
 # or line, and that nothing was written.
 vlt_cli_error(toml_syntax syntax_error.toml "syntax_error\\.toml: line 10, column [0-9]+: TOML syntax error")
 vlt_cli_error(unknown_key unknown_key.toml "unknown_key\\.toml: tracker\\.noise\\.azimth: unknown key")
+vlt_cli_error(bad_ranging bad_ranging.toml
+              "bad_ranging\\.toml: tracker\\.ranging: unknown ranging principle 'ADM-2' [(]expected one of: ifm, adm, aifm[)]")
 vlt_cli_error(missing_key missing_key.toml "missing_key\\.toml: tracker\\.model: required key is missing")
 vlt_cli_error(unknown_parameter unknown_parameter.toml
               "unknown_parameter\\.toml: tracker\\.parameters\\.tmx: unknown parameter 'tmx' of model 'mirror'")

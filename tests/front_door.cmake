@@ -94,6 +94,12 @@ add_test(NAME cli_warning_air_outside_validity
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_fd}/air_hot_edlen.toml;--no-mcm;-o;${_out}/fd_air_hot"
           -DEXPECT_RC=0 "-DEXPECT_STDERR=^vlt: warning: [^\n]*air_hot_edlen\\.toml: environment: temperature 60 degC is outside the range of validity of the modified Edlen [(]NIST, Birch-Downs[)] equation [(]0[.][.]40 degC, NIST Engineering Metrology Toolbox[)]: n computed outside it"
           -DCLEAN=${_out}/fd_air_hot -P ${_cli}/expect_run.cmake)
+# An absolute distance meter: the range correction uses the group index (docs/units.md).
+add_test(NAME cli_adm_group_index
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_fd}/adm_group_index.toml;--no-mcm;-o;${_out}/fd_adm"
+          -DOUT=${_out}/fd_adm "-DFILES=points.csv;results.json"
+          "-DEXPECT_FILE_REGEX=results.json:\"ranging\": \"adm\",[^}]*\"range_correction_uses\": \"n_group\""
+          -P ${_cli}/expect_outputs.cmake)
 add_test(NAME cli_csv_cr_only_line_ends
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_fd}/cr_only.toml;--no-mcm;-o;${_out}/fd_cr"
           -DOUT=${_out}/fd_cr "-DFILES=points.csv" "-DEXPECT_STDOUT=P1 .*P2 " -P ${_cli}/expect_outputs.cmake)

@@ -191,6 +191,40 @@ TEST(MeasurementModel, EnvironmentScalesRangeAndJacobianMatchesFiniteDifferences
   }
 }
 
+// An absolute distance meter's range is optical path over the GROUP index (docs/units.md "Group
+// index"): the model's index at the estimates is the group index, and warmer air lengthens the
+// range by -(dn_g/dT) / n_g per K instead of -(dn/dT) / n (about 3 % more at 633 nm); the Jacobian is
+// still right (finite differences), and an interferometer keeps the phase index.
+TEST(MeasurementModel, AbsoluteDistanceMeterUsesTheGroupIndex) {
+  const double readings[3] = {12.0, -0.8, 0.1};
+  double growth[2] = {0.0, 0.0};
+  for (const Ranging ranging : {Ranging::kInterferometer, Ranging::kAbsoluteDistanceMeter}) {
+    MeasurementSetup s = IdealSetup(true, true, true);
+    s.ranging = ranging;
+    MeasurementModel m(s);
+    const RangingIndex index = IndexOf(ranging);
+    const RefractiveIndex n = AirRefractiveIndex(EquationOf(*s.environment), AirAtEstimates(*s.environment),
+                                                 "test", index);
+    EXPECT_EQ(m.refractive_index_estimate(), n.n);
+    Eigen::VectorXd x = m.shared_estimates();
+    CheckJacobian(m, readings, x.data(), 1e-6);
+    double xt[3], xt0[3];
+    m.EvaluateTracker(readings, x.data(), xt0);
+    x(4) += 0.01;  // K
+    m.EvaluateTracker(readings, x.data(), xt);
+    const double dr = Eigen::Map<Eigen::Vector3d>(xt).norm() - Eigen::Map<Eigen::Vector3d>(xt0).norm();
+    // range' = range n(T0) / n(T0 + dT): to first order d range / range = -(dn/dT) / n dT (the
+    // second order is 3e-5 of it at dT = 0.01 K).
+    EXPECT_NEAR(dr / Eigen::Map<Eigen::Vector3d>(xt0).norm() / 0.01, -n.dn_dtemperature / n.n,
+                1e-3 * std::abs(n.dn_dtemperature));
+    growth[ranging == Ranging::kInterferometer ? 0 : 1] = dr;
+  }
+  EXPECT_NEAR(growth[1] / growth[0], 1.03, 0.005);
+  EXPECT_EQ(ParseRanging("adm", "t"), Ranging::kAbsoluteDistanceMeter);
+  EXPECT_EQ(IndexOf(Ranging::kAbsoluteInterferometer), RangingIndex::kGroup);
+  EXPECT_THROW(ParseRanging("laser", "t"), InputError);
+}
+
 TEST(MeasurementModel, JacobianAwayFromEstimates) {
   // The MCM evaluates at sampled inputs: the Jacobian must be right there too.
   MeasurementModel m(IdealSetup(true, true, false));

@@ -475,7 +475,53 @@ TEST(AirIndexReport, GroupIndexOfEdlenBoenschAgainstTheAnalyticDispersion) {
   const double u_tp[4] = {0.1, 10.0, 0.0, 0.0};
   const AirIndexReport d = AirIndexWithUncertainty(AirEquation::kEdlenBoensch, air, u_tp);
   const double relative = d.u_phase / (d.n_phase - 1.0);
-  EXPECT_NEAR(d.u_group / (d.n_group - 1.0), relative, 2e-4 * relative);  // finite differences of n_g
+  EXPECT_NEAR(d.u_group / (d.n_group - 1.0), relative, 1e-12 * relative);  // exact derivatives of n_g
+}
+
+// The group index n_g = n - lambda dn/dlambda of every equation, computed exactly from the
+// dispersion terms, against a central difference of the phase index over the vacuum wavelength
+// (an independent reference), in humid air (the water-vapour terms disperse too) and at the
+// wavelengths of interferometers and absolute distance meters; and its derivatives against central
+// differences of the group index itself.
+TEST(RefractiveIndex, GroupIndexIsNMinusLambdaDnDlambdaForEveryEquation) {
+  struct Case {
+    AirEquation equation;
+    double lambda;
+  };
+  for (const Case c : {Case{AirEquation::kCiddor, 633e-9}, Case{AirEquation::kCiddor, 780e-9},
+                       Case{AirEquation::kCiddor, 1550e-9}, Case{AirEquation::kEdlenBoensch, 633e-9},
+                       Case{AirEquation::kEdlenBoensch, 400e-9}, Case{AirEquation::kEdlenBirchDowns, 633e-9}}) {
+    AirConditions air = Air(c.lambda * 1e9, 23.0, 99000.0, 60.0);
+    const RefractiveIndex group = AirRefractiveIndex(c.equation, air, "test", RangingIndex::kGroup);
+    const double h = 1e-4 * c.lambda;
+    AirConditions plus = air, minus = air;
+    plus.vacuum_wavelength += h;
+    minus.vacuum_wavelength -= h;
+    const double dn_dlambda =
+        (AirRefractiveIndexValue(c.equation, plus) - AirRefractiveIndexValue(c.equation, minus)) / (2.0 * h);
+    const double n = AirRefractiveIndexValue(c.equation, air);
+    // Truncation of the central difference ~1e-8 of the dispersion term (~1e-5): 1e-12 is ample,
+    // a wrong group term would be off by 1e-7 or more.
+    EXPECT_NEAR(group.n, n - c.lambda * dn_dlambda, 1e-12) << AirEquationName(c.equation) << " " << c.lambda;
+    EXPECT_EQ(AirRefractiveIndexValue(c.equation, air, "test", RangingIndex::kGroup), group.n);
+    // At 633 nm the group index is about 3 % further from 1 than the phase index.
+    if (c.lambda == 633e-9) {
+      EXPECT_NEAR((group.n - 1.0) / (n - 1.0), 1.03, 0.005);
+    }
+    const double steps[4] = {0.01, 1.0, 0.1, 1e-6};
+    const double ad[4] = {group.dn_dtemperature, group.dn_dpressure, group.dn_dhumidity, group.dn_dco2};
+    for (int k = 0; k < 4; ++k) {
+      AirConditions up = air, down = air;
+      double* u = k == 0 ? &up.temperature : k == 1 ? &up.pressure : k == 2 ? &up.humidity : &up.co2;
+      double* d = k == 0 ? &down.temperature : k == 1 ? &down.pressure : k == 2 ? &down.humidity : &down.co2;
+      *u += steps[k];
+      *d -= steps[k];
+      const double fd = (AirRefractiveIndexValue(c.equation, up, "test", RangingIndex::kGroup) -
+                         AirRefractiveIndexValue(c.equation, down, "test", RangingIndex::kGroup)) /
+                        (2.0 * steps[k]);
+      EXPECT_NEAR(ad[k], fd, 1e-5 * std::abs(fd) + 1e-18) << AirEquationName(c.equation) << " input " << k;
+    }
+  }
 }
 
 TEST(AirIndexReport, ModifiedEdlenGroupIndexAndNoCo2Contribution) {

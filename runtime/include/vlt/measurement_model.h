@@ -101,8 +101,24 @@ struct CorrelationGroup {
   std::string where_matrix;
 };
 
+// How the tracker measures range, which decides the refractive index that converts its optical
+// path to range (vlt/refractive_index.h, docs/units.md "Group index"): an interferometer counts
+// fringes (phase index n); an absolute distance meter and an absolute interferometer (frequency
+// scanning or several wavelengths) measure a phase against optical frequency, a group delay
+// (group index n_g: at 633 nm in standard air about 8e-6 above n, its sensitivities to the air
+// about 3 % larger).
+enum class Ranging { kInterferometer, kAbsoluteDistanceMeter, kAbsoluteInterferometer };
+
+// "ifm", "adm", "aifm" (the spellings of job files and results.json), and the inverse; an unknown
+// one is InputError "<where>: unknown ranging principle '<text>' (expected one of: ifm, adm, aifm)".
+std::string_view RangingName(Ranging ranging);
+Ranging ParseRanging(std::string_view text, std::string_view where);
+// The index of a ranging principle: phase for an interferometer, group otherwise.
+RangingIndex IndexOf(Ranging ranging);
+
 struct MeasurementSetup {
   const ModelInfo* model = nullptr;            // a tracker model (3 readings)
+  Ranging ranging = Ranging::kInterferometer;  // [tracker] ranging (docs/job-file.md)
   std::vector<UncertainInput> params;          // one per model->params, same order
   std::vector<CorrelationGroup> correlations;  // empty = every shared input independent
   ReadingNoise noise;

@@ -1,9 +1,11 @@
 // vlt/refractive_index.h — phase refractive index of moist air and its sensitivities.
 //
 // A laser tracker measures optical path; the range is the optical path divided by the refractive
-// index of the air along the beam. The measurement model uses the PHASE index (what an
-// interferometer's wavelength-in-air compensation uses); AirIndexWithUncertainty also reports the
-// GROUP index n_g = n - lambda dn/dlambda (docs/units.md).
+// index of the air along the beam: the PHASE index n for an interferometer (fringes travel at the
+// phase velocity), the GROUP index n_g = n - lambda dn/dlambda for an absolute distance meter
+// (its modulation travels at the group velocity; Ciddor & Hill, Appl. Opt. 38 (1999) 1663). The
+// measurement model uses the index of the tracker's ranging principle (MeasurementSetup::ranging,
+// docs/units.md "Group index").
 //
 // Three equations (docs/units.md, "Refractive index of air"):
 //  - kEdlenBoensch: Edlén's equation as updated by G. Bönsch and E. Potulski, Metrologia 35 (1998)
@@ -30,6 +32,10 @@ namespace vlt {
 
 enum class AirEquation { kEdlenBoensch, kCiddor, kEdlenBirchDowns };
 
+// Which index: the phase index n, or the group index n_g = n - lambda dn/dlambda, computed exactly
+// from each equation's dispersion terms (every equation is linear in them).
+enum class RangingIndex { kPhase, kGroup };
+
 // "edlen", "ciddor" or "modified_edlen" (the spellings job files use and results.json writes).
 std::string_view AirEquationName(AirEquation equation);
 // Inverse of AirEquationName; also accepts the aliases "edlen_boensch", "boensch_potulski"
@@ -47,9 +53,9 @@ struct AirConditions {
   double co2 = 450e-6;                // CO2 mole fraction, 1 (450e-6 = 450 umol/mol)
 };
 
-// n and its partial derivatives with respect to the four environmental inputs.
+// n (phase or group) and its partial derivatives with respect to the four environmental inputs.
 struct RefractiveIndex {
-  double n = 1.0;                // phase refractive index, 1
+  double n = 1.0;                // refractive index, 1
   double dn_dtemperature = 0.0;  // 1/K     (about -9.5e-7 /K near 20 degC, 633 nm)
   double dn_dpressure = 0.0;     // 1/Pa    (about +2.7e-9 /Pa)
   double dn_dhumidity = 0.0;     // 1/%RH   (about -8.5e-9 per %RH at 20 degC)
@@ -64,14 +70,14 @@ struct RefractiveIndex {
 // slightly outside); CheckAirValidity does that for the estimates a user gives.
 // Throws NumericalError if the result is not finite (e.g. a wavelength on a dispersion pole).
 RefractiveIndex AirRefractiveIndex(AirEquation equation, const AirConditions& air,
-                                   std::string_view where = "refractive index");
+                                   std::string_view where = "refractive index",
+                                   RangingIndex index = RangingIndex::kPhase);
 
 // The refractive index a job reports (results.json inputs.air, docs/units.md "Group index"):
 // the phase index n and the group index n_g = n - lambda dn/dlambda (what the pulses or the
 // modulation of an absolute distance meter travel with), each with its standard uncertainty from
 // the standard uncertainties u[4] of temperature [K], pressure [Pa], humidity [%] and CO2 [1]
-// (JCGM 100 5.1.2, independent inputs; dn/dx exact by automatic differentiation, dn_g/dx and
-// dn/dlambda by central differences).
+// (JCGM 100 5.1.2, independent inputs; dn/dx and dn_g/dx exact by automatic differentiation).
 struct AirIndexReport {
   double n_phase = 1.0, u_phase = 0.0;
   double n_group = 1.0, u_group = 0.0;
@@ -81,7 +87,8 @@ AirIndexReport AirIndexWithUncertainty(AirEquation equation, const AirConditions
 
 // Only n (same checks): the cheap path for Monte Carlo trials.
 double AirRefractiveIndexValue(AirEquation equation, const AirConditions& air,
-                               std::string_view where = "refractive index");
+                               std::string_view where = "refractive index",
+                               RangingIndex index = RangingIndex::kPhase);
 
 // Refuses (InputError "<where>: <quantity> <value> is outside the range of validity of the
 // <equation> equation (<range>)") conditions outside the published range of validity:

@@ -322,9 +322,14 @@ void WarnImplausibleNoise(const Section& noise, const ReadingNoise& reading_nois
 
 void ReadTracker(Section& top, Job& job) {
   Section tracker = top.Sub("tracker", true);
-  tracker.set_hint("model, calibration, parameters, correlations, noise");
+  tracker.set_hint("model, ranging, calibration, parameters, correlations, noise");
   TrackerReader reader(tracker, job);
   reader.FindTrackerModel();
+  // The ranging principle decides the refractive index of the range correction (docs/units.md
+  // "Group index"): "ifm" (phase index, the default), "adm" or "aifm" (group index).
+  if (const toml::node* n = tracker.Get("ranging")) {
+    job.setup.ranging = ParseRanging(AsString(*n, tracker.Where("ranging")), tracker.Where("ranging"));
+  }
   reader.SetDefaultParameters();
   reader.ReadCalibrationFile();
   reader.ReadParameterOverrides();

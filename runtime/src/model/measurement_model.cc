@@ -197,6 +197,27 @@ AirEquation Equation(const Environment& e) { return EquationOf(e); }
 
 AirEquation EquationOf(const Environment& e) { return e.equation; }
 
+std::string_view RangingName(Ranging ranging) {
+  switch (ranging) {
+    case Ranging::kAbsoluteDistanceMeter: return "adm";
+    case Ranging::kAbsoluteInterferometer: return "aifm";
+    case Ranging::kInterferometer: break;
+  }
+  return "ifm";
+}
+
+Ranging ParseRanging(std::string_view text, std::string_view where) {
+  for (Ranging r : {Ranging::kInterferometer, Ranging::kAbsoluteDistanceMeter, Ranging::kAbsoluteInterferometer}) {
+    if (text == RangingName(r)) return r;
+  }
+  throw InputError(std::string(where) + ": unknown ranging principle '" + std::string(text) +
+                   "' (expected one of: ifm, adm, aifm)");
+}
+
+RangingIndex IndexOf(Ranging ranging) {
+  return ranging == Ranging::kInterferometer ? RangingIndex::kPhase : RangingIndex::kGroup;
+}
+
 AirConditions AirAtEstimates(const Environment& e) {
   const double estimates[4] = {e.temperature.estimate, e.pressure.estimate, e.humidity.estimate,
                                e.co2.estimate};
@@ -205,7 +226,7 @@ AirConditions AirAtEstimates(const Environment& e) {
 
 double MeasurementModel::AirIndex(const double* env, double* gradient) const {
   const Environment& e = *setup_.environment;
-  const RefractiveIndex n = AirRefractiveIndex(Equation(e), Air(e, env), "environment");
+  const RefractiveIndex n = AirRefractiveIndex(Equation(e), Air(e, env), "environment", IndexOf(setup_.ranging));
   gradient[0] = n.dn_dtemperature;
   gradient[1] = n.dn_dpressure;
   gradient[2] = n.dn_dhumidity;
@@ -235,9 +256,11 @@ double MeasurementModel::ThermalScale(const double* shared) const {
 double MeasurementModel::RangeScale(const double* shared) const {
   if (env_offset_ < 0) return 1.0;
   // The tracker converted optical path to range with n_est; the true geometric range is
-  // optical path / n = rho n_est / n (range scale error mu_env = n_est / n - 1).
+  // optical path / n = rho n_est / n (range scale error mu_env = n_est / n - 1); n is the phase
+  // or the group index by the tracker's ranging principle.
   const Environment& e = *setup_.environment;
-  return n_est_ / AirRefractiveIndexValue(Equation(e), Air(e, shared + env_offset_), "environment");
+  return n_est_ /
+         AirRefractiveIndexValue(Equation(e), Air(e, shared + env_offset_), "environment", IndexOf(setup_.ranging));
 }
 
 void MeasurementModel::TrackerPoint(double range_scale, const double* readings, const double* shared,

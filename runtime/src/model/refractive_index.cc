@@ -68,9 +68,20 @@ T Svp(const T& t_degc) {
   return Value(t_degc) >= 0.0 ? SvpOverWater(t_degc) : SvpOverIce(t_degc);
 }
 
+double Sq(double x) { return x * x; }
+
+// A dispersion term g of the equations below, a function of sigma^2 (sigma = 1 / vacuum wavelength,
+// in 1/um): itself for the phase index; for the group index n_g = n - lambda dn/dlambda =
+// n + sigma dn/dsigma, g + sigma dg/dsigma = g + 2 sigma^2 dg/d(sigma^2) (Ciddor & Hill, Appl.
+// Opt. 38 (1999) 1663, eq. (2): every equation here is linear in its dispersion terms, whose
+// factors depend on temperature, pressure, humidity and CO2 only). dg: dg/d(sigma^2), exact.
+double Group(RangingIndex index, double sigma2, double g, double dg) {
+  return index == RangingIndex::kGroup ? g + 2.0 * sigma2 * dg : g;
+}
+
 // --- Ciddor 1996 (NIST Appendix A-III) ----------------------------------------------------------
 template <typename T>
-T Ciddor(double sigma2, const T& t, const T& p, const T& h, const T& co2) {
+T Ciddor(double sigma2, RangingIndex index, const T& t, const T& p, const T& h, const T& co2) {
   // Dispersion of standard dry air (15 degC, 101325 Pa, 450 umol/mol CO2), Ciddor eq. (1), and of
   // pure water vapour (20 degC, 1333 Pa), eq. (3) with the 1.022 correction factor.
   constexpr double k0 = 238.0185, k1 = 5792105.0, k2 = 57.362, k3 = 167917.0;
@@ -90,9 +101,13 @@ T Ciddor(double sigma2, const T& t, const T& p, const T& h, const T& co2) {
   const T x_v = (h / 100.0) * f * Svp(t) / p;  // water vapour mole fraction
   const T x_c = co2 * 1e6;                     // CO2 in umol/mol
 
-  const double n_as1 = 1e-8 * (k1 / (k0 - sigma2) + k3 / (k2 - sigma2));
+  // Phase: the dispersion terms g(sigma^2); group: g + 2 sigma^2 g' (Group below).
+  const double n_as1 = Group(index, sigma2, 1e-8 * (k1 / (k0 - sigma2) + k3 / (k2 - sigma2)),
+                             1e-8 * (k1 / Sq(k0 - sigma2) + k3 / Sq(k2 - sigma2)));
   const T n_axs1 = n_as1 * (1.0 + 0.534e-6 * (x_c - 450.0));  // eq. (2)
-  const double n_ws1 = 1.022e-8 * (w0 + w1 * sigma2 + w2 * sigma2 * sigma2 + w3 * sigma2 * sigma2 * sigma2);
+  const double n_ws1 = Group(index, sigma2,
+                             1.022e-8 * (w0 + w1 * sigma2 + w2 * sigma2 * sigma2 + w3 * sigma2 * sigma2 * sigma2),
+                             1.022e-8 * (w1 + 2.0 * w2 * sigma2 + 3.0 * w3 * sigma2 * sigma2));
   const T m_a = 0.0289635 + 1.2011e-8 * (x_c - 400.0);  // eq. (4), kg/mol
 
   const T pt = p / temperature;
@@ -106,14 +121,16 @@ T Ciddor(double sigma2, const T& t, const T& p, const T& h, const T& co2) {
 
 // --- Edlén as updated by Bönsch & Potulski 1998 ------------------------------------------------
 template <typename T>
-T EdlenBoensch(double sigma2, const T& t, const T& p, const T& h, const T& co2) {
+T EdlenBoensch(double sigma2, RangingIndex index, const T& t, const T& p, const T& h, const T& co2) {
   // Standard air (15 degC, 101325 Pa, 400 umol/mol CO2, dry), B&P eq. (6).
-  const double n_n1 = 1e-8 * (8091.37 + 2333983.0 / (130.0 - sigma2) + 15518.0 / (38.9 - sigma2));
+  const double n_n1 = Group(index, sigma2, 1e-8 * (8091.37 + 2333983.0 / (130.0 - sigma2) + 15518.0 / (38.9 - sigma2)),
+                            1e-8 * (2333983.0 / Sq(130.0 - sigma2) + 15518.0 / Sq(38.9 - sigma2)));
+  const double water = Group(index, sigma2, 3.8020 - 0.0384 * sigma2, -0.0384);
   const T n_x1 = n_n1 * (1.0 + 0.5327 * (co2 - 0.0004));  // eq. (7)
   const T n_tp1 =
       n_x1 * p * (1.0 + 1e-8 * (0.5953 - 0.009876 * t) * p) / (93214.60 * (1.0 + 0.0036610 * t));  // eq. (8)
   const T f = (h / 100.0) * Svp(t);                             // water vapour partial pressure, Pa
-  return 1.0 + n_tp1 - f * (3.8020 - 0.0384 * sigma2) * 1e-10;  // eq. (9)
+  return 1.0 + n_tp1 - f * water * 1e-10;  // eq. (9)
 }
 
 // --- Modified Edlén (NIST Appendix A-IV): Birch & Downs 1993/1994 with NIST's water term -------
@@ -122,25 +139,28 @@ T EdlenBoensch(double sigma2, const T& t, const T& p, const T& h, const T& co2) 
 // B&D's water-vapour term by 292.75 K / T (so that it stays right away from 20 degC,
 // "shop-floor" use).
 template <typename T>
-T EdlenBirchDowns(double sigma2, const T& t, const T& p, const T& h) {
-  constexpr double A = 8342.54, B = 2406147.0, C = 15998.0;                     // dispersion
-  constexpr double D = 96095.43, E = 0.601, F = 0.00972, G = 0.003661;          // density (t, p)
-  const double n_s1 = 1e-8 * (A + B / (130.0 - sigma2) + C / (38.9 - sigma2));  // (n_s - 1)
+T EdlenBirchDowns(double sigma2, RangingIndex index, const T& t, const T& p, const T& h) {
+  constexpr double A = 8342.54, B = 2406147.0, C = 15998.0;             // dispersion
+  constexpr double D = 96095.43, E = 0.601, F = 0.00972, G = 0.003661;  // density (t, p)
+  const double n_s1 = Group(index, sigma2, 1e-8 * (A + B / (130.0 - sigma2) + C / (38.9 - sigma2)),
+                            1e-8 * (B / Sq(130.0 - sigma2) + C / Sq(38.9 - sigma2)));  // (n_s - 1)
+  const double water = Group(index, sigma2, 3.7345 - 0.0401 * sigma2, -0.0401);
   const T x = (1.0 + 1e-8 * (E - F * t) * p) / (1.0 + G * t);
   const T n_tp1 = p * n_s1 * x / D;    // (n_tp - 1)
   const T p_v = (h / 100.0) * Svp(t);  // water vapour partial pressure, Pa (NIST A-II)
-  return 1.0 + n_tp1 - 1e-10 * (292.75 / (t + kZeroCelsius)) * (3.7345 - 0.0401 * sigma2) * p_v;
+  return 1.0 + n_tp1 - 1e-10 * (292.75 / (t + kZeroCelsius)) * water * p_v;
 }
 
 template <typename T>
-T Evaluate(AirEquation equation, double sigma2, const T& t, const T& p, const T& h, const T& co2) {
+T Evaluate(AirEquation equation, double sigma2, RangingIndex index, const T& t, const T& p, const T& h,
+           const T& co2) {
   switch (equation) {
-    case AirEquation::kCiddor: return Ciddor(sigma2, t, p, h, co2);
+    case AirEquation::kCiddor: return Ciddor(sigma2, index, t, p, h, co2);
     case AirEquation::kEdlenBirchDowns:
-      return EdlenBirchDowns(sigma2, t, p, h);  // CO2 is not an input of this equation
+      return EdlenBirchDowns(sigma2, index, t, p, h);  // CO2 is not an input of this equation
     case AirEquation::kEdlenBoensch: break;
   }
-  return EdlenBoensch(sigma2, t, p, h, co2);
+  return EdlenBoensch(sigma2, index, t, p, h, co2);
 }
 
 std::string Num(double x) {
@@ -221,14 +241,15 @@ AirEquation ParseAirEquation(std::string_view text, std::string_view where) {
                    "' (expected one of: " + expected + ")");
 }
 
-RefractiveIndex AirRefractiveIndex(AirEquation equation, const AirConditions& air, std::string_view where) {
+RefractiveIndex AirRefractiveIndex(AirEquation equation, const AirConditions& air, std::string_view where,
+                                   RangingIndex index) {
   const double sigma2 = CheckPhysical(air, where);
   // Seed one derivative direction per environmental input.
   const Dual t(air.temperature, 4, 0);
   const Dual p(air.pressure, 4, 1);
   const Dual h(air.humidity, 4, 2);
   const Dual co2(air.co2, 4, 3);
-  const Dual n = Evaluate(equation, sigma2, t, p, h, co2);
+  const Dual n = Evaluate(equation, sigma2, index, t, p, h, co2);
   RefractiveIndex result;
   result.n = n.value();
   result.dn_dtemperature = n.derivatives()(0);
@@ -242,9 +263,10 @@ RefractiveIndex AirRefractiveIndex(AirEquation equation, const AirConditions& ai
   return result;
 }
 
-double AirRefractiveIndexValue(AirEquation equation, const AirConditions& air, std::string_view where) {
+double AirRefractiveIndexValue(AirEquation equation, const AirConditions& air, std::string_view where,
+                               RangingIndex index) {
   const double sigma2 = CheckPhysical(air, where);
-  const double n = Evaluate(equation, sigma2, air.temperature, air.pressure, air.humidity, air.co2);
+  const double n = Evaluate(equation, sigma2, index, air.temperature, air.pressure, air.humidity, air.co2);
   CheckFinite(n, where);
   return n;
 }
@@ -288,48 +310,19 @@ double SaturationVapourPressure(double temperature_degc) {
   return Svp(temperature_degc);
 }
 
-namespace {
-
-// n_g = n - lambda dn/dlambda by a central difference over the vacuum wavelength (relative step
-// 1e-4: truncation ~1e-8 of the dispersion term, rounding ~1e-12 of it).
-double GroupIndex(AirEquation equation, const AirConditions& air, std::string_view where) {
-  const double h = 1e-4 * air.vacuum_wavelength;
-  AirConditions plus = air, minus = air;
-  plus.vacuum_wavelength += h;
-  minus.vacuum_wavelength -= h;
-  const double dn =
-      (AirRefractiveIndexValue(equation, plus, where) - AirRefractiveIndexValue(equation, minus, where)) /
-      (2.0 * h);
-  return AirRefractiveIndexValue(equation, air, where) - air.vacuum_wavelength * dn;
-}
-
-}  // namespace
-
 AirIndexReport AirIndexWithUncertainty(AirEquation equation, const AirConditions& estimates,
                                        const double u[4], std::string_view where) {
   AirIndexReport r;
-  const RefractiveIndex n = AirRefractiveIndex(equation, estimates, where);
-  r.n_phase = n.n;
-  const double grad[4] = {n.dn_dtemperature, n.dn_dpressure, n.dn_dhumidity, n.dn_dco2};
-  r.n_group = GroupIndex(equation, estimates, where);
-  // Steps for d n_g / d x: small against any realistic u, large against rounding.
-  const double steps[4] = {0.01, 1.0, 0.1, 1e-6};
+  const RefractiveIndex phase = AirRefractiveIndex(equation, estimates, where, RangingIndex::kPhase);
+  const RefractiveIndex group = AirRefractiveIndex(equation, estimates, where, RangingIndex::kGroup);
+  r.n_phase = phase.n;
+  r.n_group = group.n;
+  const double d_phase[4] = {phase.dn_dtemperature, phase.dn_dpressure, phase.dn_dhumidity, phase.dn_dco2};
+  const double d_group[4] = {group.dn_dtemperature, group.dn_dpressure, group.dn_dhumidity, group.dn_dco2};
   double var_phase = 0.0, var_group = 0.0;
   for (int k = 0; k < 4; ++k) {
-    AirConditions plus = estimates, minus = estimates;
-    double* p = k == 0 ? &plus.temperature : k == 1 ? &plus.pressure : k == 2 ? &plus.humidity : &plus.co2;
-    double* m = k == 0   ? &minus.temperature
-                : k == 1 ? &minus.pressure
-                : k == 2 ? &minus.humidity
-                         : &minus.co2;
-    *p += steps[k];
-    *m -= steps[k];
-    if (k == 2) *m = std::max(*m, 0.0), *p = std::min(*p, 100.0);
-    if (k == 3) *m = std::max(*m, 0.0);
-    const double d_group =
-        (GroupIndex(equation, plus, where) - GroupIndex(equation, minus, where)) / (*p - *m);
-    var_phase += grad[k] * grad[k] * u[k] * u[k];
-    var_group += d_group * d_group * u[k] * u[k];
+    var_phase += d_phase[k] * d_phase[k] * u[k] * u[k];
+    var_group += d_group[k] * d_group[k] * u[k] * u[k];
   }
   r.u_phase = std::sqrt(var_phase);
   r.u_group = std::sqrt(var_group);

@@ -176,7 +176,8 @@ json AirJson(const MeasurementSetup& s) {
               {"u_n_phase", r.u_phase},
               {"n_group", r.n_group},
               {"u_n_group", r.u_group},
-              {"range_correction_uses", "n_phase"}};
+              {"ranging", std::string(RangingName(s.ranging))},
+              {"range_correction_uses", IndexOf(s.ranging) == RangingIndex::kPhase ? "n_phase" : "n_group"}};
 }
 
 json Budget(const BudgetRow& b) {
