@@ -30,6 +30,21 @@ add_test(NAME report_browser_network
   COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/network_simulated/report.html -DPROFILE=${_out}/chromium-profile-network
           -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
 set_tests_properties(report_browser_network PROPERTIES FIXTURES_REQUIRED vlt_network_simulated TIMEOUT 300)
+# A hostile station name (issue 32): shown literally in the report's tables; in the browser the
+# page draws with no script error, which fails if the name closes the figures' <script> (its own
+# script would run, the page's would break).
+add_test(NAME cli_network_hostile_names
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_cli}/network/hostile_names.toml;-o;${_out}/network_hostile"
+          -DOUT=${_out}/network_hostile "-DFILES=results.json;report.html"
+          "-DEXPECT_FILE_REGEX=report.html:&lt;/script&gt;&lt;script&gt;window[.]vltErrors[.]push"
+          "-DJSON_KEYS=schema;summary;stations;targets;files" -DSCHEMA=vlt-network/1
+          -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_network_hostile_names PROPERTIES FIXTURES_SETUP vlt_network_hostile)
+add_test(NAME report_browser_network_hostile
+  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/network_hostile/report.html -DPROFILE=${_out}/chromium-profile-hostile
+          -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
+set_tests_properties(report_browser_network_hostile PROPERTIES FIXTURES_REQUIRED vlt_network_hostile TIMEOUT 300)
 
 # Scale bars (docs/network.md N-4a): a plan held by S1 whose scale the bars give, its simulated
 # measurement adjusted (distances.csv), and a second run into the same directory (the marker lists

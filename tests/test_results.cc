@@ -18,6 +18,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "base/format.h"
 #include "results/internal.h"
 #include "vlt/error.h"
 #include "vlt/fits.h"
@@ -181,6 +182,15 @@ TEST(Results, JsonSchemaKeys) {
   // The JSON holds exactly the GUM numbers (SI).
   EXPECT_DOUBLE_EQ(p["gum"]["U"][1].get<double>(), r.points[0].gum.U_part[1]);
   EXPECT_DOUBLE_EQ(j["tasks"][0]["gum"]["U"][0].get<double>(), r.tasks[0].gum.U[0]);
+}
+
+// The one escaping layer of every report's scripts (issue 32): the JSON of a hostile name keeps its
+// value but holds no '<', so nothing in it can close or change the <script> element it is in.
+TEST(Results, ScriptSafeJsonCannotEndItsScriptElement) {
+  const std::string hostile = "</script><script>alert(1)</script><!--<script> \u2028 & \"q\" 'a' <img onerror=x>";
+  const std::string safe = base_internal::ScriptSafe(nlohmann::json(hostile).dump());
+  EXPECT_EQ(safe.find('<'), std::string::npos);
+  EXPECT_EQ(nlohmann::json::parse(safe).get<std::string>(), hostile);
 }
 
 TEST(Results, ModifiedEdlenNamedInInputsAir) {

@@ -41,6 +41,14 @@ def gum_h1(results):
             f"{gum['k']:.3f}, {gum['U'] * 1e9:.1f} nm")
 
 
+def gum_h2(results):
+    """docs/custom-models.md, GUM H.2 (table H.3): R, X, Z with u in ohm; r(R,X), r(R,Z), r(X,Z)."""
+    gum = [output["gum"] for output in results["outputs"]]
+    r = results["output_correlation"]
+    values = ", ".join(f"{g['estimate']:.4f} ({g['u']:.4f})" for g in gum)
+    return f"{values}; {signed(r[0][1], 3)}, {signed(r[0][2], 3)}, {signed(r[1][2], 3)}"
+
+
 def jcgm101_additive_rectangular(results):
     """docs/custom-models.md, JCGM 101 9.2.3: GUM U; MCM u and the probabilistically symmetric interval."""
     output = results["outputs"][0]
@@ -57,6 +65,7 @@ def jcgm101_additive_dominant(results):
 
 CHECKS = [
     ("docs/custom-models.md", "examples/custom/gum_h1_end_gauge.toml", gum_h1),
+    ("docs/custom-models.md", "examples/custom/gum_h2_impedance.toml", gum_h2),
     ("docs/custom-models.md", "examples/custom/jcgm101_additive_rectangular.toml", jcgm101_additive_rectangular),
     ("docs/custom-models.md", "examples/custom/jcgm101_additive_dominant.toml", jcgm101_additive_dominant),
     ("docs/custom-models.md", "examples/custom/jcgm101_mass.toml", jcgm101_mass),

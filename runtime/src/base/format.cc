@@ -119,14 +119,16 @@ std::string Fixed(double v, int decimals) {
 }
 
 std::string ScriptSafe(const std::string& text) {
+  // Every '<' as the JSON escape \u003c (the same string once parsed; outside strings JSON has no
+  // '<'): no "</script", "<!--" or "<script" can then change how the HTML parser reads the
+  // element, whatever a name holds (issue 32).
   std::string safe;
   safe.reserve(text.size());
-  for (std::size_t i = 0; i < text.size(); ++i) {
-    if (text[i] == '<' && i + 1 < text.size() && text[i + 1] == '/') {
-      safe += "<\\/";
-      ++i;
+  for (const char c : text) {
+    if (c == '<') {
+      safe += "\\u003c";
     } else {
-      safe += text[i];
+      safe += c;
     }
   }
   return safe;

@@ -35,7 +35,9 @@ std::string Fixed(double v, int decimals);
 std::string CsvField(const std::string& field);
 // Text for HTML: & < > " ' escaped.
 std::string HtmlEscape(const std::string& text);
-// JSON for a <script> element: "</", which could close the element, as "<\/" (the same JSON string).
+// JSON text for a <script> element (inline code or application/json): every '<' as \u003c, so
+// that no text inside a string ("</script>", "<!--") can close or change the element; the parsed
+// values are the same. The one escaping layer of every report's scripts.
 std::string ScriptSafe(const std::string& text);
 
 }  // namespace base_internal

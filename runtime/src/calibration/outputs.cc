@@ -19,6 +19,8 @@
 
 namespace vlt::calibration_outputs {
 
+using output_internal::ScriptJson;
+
 using output_internal::Page;
 
 namespace {
@@ -227,8 +229,8 @@ void SensitivityHeatmap(std::ostringstream& body, std::ostringstream& script, co
                     DisplayUnit(model.params[k].quantity, model.params[k].unit).second);
     z.push_back(row);
   }
-  script << "Plotly.newPlot('sens',[{type:'heatmap',colorscale:'Viridis',x:" << x.dump() << ",y:" << y.dump()
-         << ",z:" << z.dump()
+  script << "Plotly.newPlot('sens',[{type:'heatmap',colorscale:'Viridis',x:" << ScriptJson(x) << ",y:" << ScriptJson(y)
+         << ",z:" << ScriptJson(z)
          << ",hovertemplate:'%{y}<br>%{x}: "
             "%{z:.4g}<extra></extra>'}],{margin:{l:140,b:140},yaxis:{autorange:'reversed'}},"
             "{responsive:true}).then(done);";
@@ -447,12 +449,12 @@ void ParametersSection(std::ostringstream& body, std::ostringstream& script,
     prior.push_back(result.k * p.prior_u * per);
   }
   body << "</table><div id=\"params\" class=\"plot\"></div></section>\n";
-  script << "Plotly.newPlot('params',[{type:'bar',name:'prior ±U',x:" << names.dump()
-         << ",y:" << nlohmann::json(std::vector<double>(P, 0.0)).dump()
-         << ",error_y:{type:'data',array:" << prior.dump()
+  script << "Plotly.newPlot('params',[{type:'bar',name:'prior ±U',x:" << ScriptJson(names)
+         << ",y:" << ScriptJson(nlohmann::json(std::vector<double>(P, 0.0)))
+         << ",error_y:{type:'data',array:" << ScriptJson(prior)
          << ",color:'#aaa'},marker:{color:'rgba(0,0,0,0)'}},{type:'scatter',mode:'markers',"
             "name:'estimate ±U',x:"
-         << names.dump() << ",y:" << est.dump() << ",error_y:{type:'data',array:" << err.dump()
+         << ScriptJson(names) << ",y:" << ScriptJson(est) << ",error_y:{type:'data',array:" << ScriptJson(err)
          << "}}],{margin:{b:140},yaxis:{title:'um, arcsec, ppm'}},{responsive:true}).then(done);";
 }
 

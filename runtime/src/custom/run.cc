@@ -534,9 +534,7 @@ std::string ReportHtmlText(const CustomResults& r) {
       << Esc(r.mcm.interval_method) << ".</p>\n";
   }
   h << "<script type=\"application/json\" id=\"results\">";
-  std::string text = ResultsJsonObject(r).dump();
-  for (std::size_t p = 0; (p = text.find("</", p)) != std::string::npos; p += 3) text.replace(p, 2, "<\\/");
-  h << text << "</script>\n</body></html>\n";
+  h << base_internal::ScriptSafe(ResultsJsonObject(r).dump()) << "</script>\n</body></html>\n";
   return h.str();
 }
 

@@ -22,6 +22,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <span>
 #include <string>
 #include <tuple>
@@ -345,6 +346,11 @@ struct Batch {
   // computed with the other batches of its wave and added to `stats` when the batch is accumulated.
   std::vector<double> own_stats;
   double worst = 0.0;  // adaptive: this rank's worst 2 s / delta
+  // A chunk that failed (a non-finite trial): its exception, raised when the batch is accumulated —
+  // never for a batch of the wave beyond the one the run stops at, which one batch at a time would
+  // not have computed. The lowest failing chunk's, as one batch at a time would report.
+  std::exception_ptr failure;
+  int failed_chunk = INT_MAX;
 };
 
 constexpr int kStatsPerOutput = 4;
@@ -552,9 +558,15 @@ void MonteCarloRun::ComputeWave(std::vector<Batch>& wave) {
       if (ranks::Count() > 1) batch.vals.resize(static_cast<std::size_t>(n_own) * batch.bh);
       for (int c = exchange.chunk_first; c < exchange.chunk_last; ++c) items.emplace_back(static_cast<int>(b), c);
     }
+    std::mutex failures;
     ParallelFor(static_cast<int>(items.size()), [&](int item, int w) {
       const auto [b, c] = items[item];
-      RunChunk(c, w, wave[b], exchanges[b], computed[b]);
+      try {
+        RunChunk(c, w, wave[b], exchanges[b], computed[b]);
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(failures);
+        if (c < wave[b].failed_chunk) wave[b].failed_chunk = c, wave[b].failure = std::current_exception();
+      }
     });
     computed_here = true;
     ranks::Agree();
@@ -638,7 +650,7 @@ void MonteCarloRun::WaveStatistics(std::vector<Batch>& wave) {
   ParallelFor(static_cast<int>(wave.size()) * n_own, [&](int item, int w) {
     Batch& batch = wave[static_cast<std::size_t>(item / n_own)];
     // Only full batches count: the short last batch of a fixed-M run would weigh as much as a full one.
-    if (batch.bh == batch_size) BatchStatistics(batch, item % n_own, w);
+    if (batch.bh == batch_size && !batch.failure) BatchStatistics(batch, item % n_own, w);
   });
 }
 
@@ -646,9 +658,9 @@ void MonteCarloRun::WaveStatistics(std::vector<Batch>& wave) {
 // ends (the batches after that one are dropped).
 bool MonteCarloRun::AccumulateWave(std::vector<Batch>& wave) {
   for (Batch& batch : wave) {
-    std::exception_ptr failure;
+    std::exception_ptr failure = batch.failure;
     try {
-      AccumulateBatch(batch);
+      if (!failure) AccumulateBatch(batch);
     } catch (...) {
       failure = std::current_exception();
     }
@@ -1000,8 +1012,8 @@ void MonteCarloRun::CoverageRegion(int gi, McmVectorResult& r) const {
 // Few outputs for the threads (one point: three outputs and one region): each pass over a series
 // (the region's distances, the gathering of the tails) is shared over the threads, one series
 // after the other; then the sorts of every tail run side by side (two per output, one per region:
-// each at most M - q values), and the endpoints are read off (mcm/order.h: the same values as
-// one item per output).
+// each at most M - q values), then the endpoints of each output (the shortest interval's scan over
+// M - q values) side by side (mcm/order.h: the same values as one item per output).
 void MonteCarloRun::SharedOrderStatistics(McmResult& result, std::vector<McmVectorResult>& vectors) const {
   const int n_regions = static_cast<int>(share.groups.size());
   std::vector<Tails<double>> region_tails(static_cast<std::size_t>(n_regions));
@@ -1026,10 +1038,10 @@ void MonteCarloRun::SharedOrderStatistics(McmResult& result, std::vector<McmVect
     r.has_region = has_region[j] != 0;
     r.coverage_factor = r.has_region ? region_tails[j].high_values.front() : 0.0;
   }
-  for (int i = 0; i < n_own; ++i) {
+  ParallelFor(n_own, [&](int i, int) {
     McmOutputResult& out = result.outputs[own_first + i];
     IntervalsFromTails(output_tails[i], done, y0[own_first + i], p, &out.symmetric, &out.shortest);
-  }
+  });
 }
 
 // The histogram counts of one pass (item = own output i times passes + pass) into its cells.

@@ -23,6 +23,8 @@
 
 namespace vlt::network_outputs {
 
+using output_internal::ScriptJson;
+
 namespace {
 
 using base_internal::AppendNum;
@@ -96,7 +98,7 @@ struct Trace3d {
     y.push_back(nullptr);
     z.push_back(nullptr);
   }
-  std::string Xyz() const { return "x:" + x.dump() + ",y:" + y.dump() + ",z:" + z.dump(); }
+  std::string Xyz() const { return "x:" + ScriptJson(x) + ",y:" + ScriptJson(y) + ",z:" + ScriptJson(z); }
 };
 
 // Enlargement of the coverage ellipsoids: the largest axis drawn at 4 % of the network's extent.
@@ -189,11 +191,11 @@ void NetworkView(std::ostringstream& body, std::ostringstream& script, const Net
          << "{type:'scatter3d',mode:'lines',name:'coverage ellipsoid "
             "axes',hoverinfo:'skip',line:{color:'#b42318',width:3},"
          << EllipsoidAxes(result, scale).Xyz() << "},"
-         << "{type:'scatter3d',mode:'markers',name:'targets',text:" << tn.dump() << "," << targets.Xyz()
-         << ",marker:{size:4,color:" << tc.dump()
+         << "{type:'scatter3d',mode:'markers',name:'targets',text:" << ScriptJson(tn) << "," << targets.Xyz()
+         << ",marker:{size:4,color:" << ScriptJson(tc)
          << ",colorscale:'Viridis',colorbar:{title:'|U| / um',x:1.02}},hovertemplate:'%{text}<br>|U| "
             "%{marker.color:.1f} um<extra></extra>'},"
-         << "{type:'scatter3d',mode:'markers+text',name:'stations',text:" << sn.dump() << ","
+         << "{type:'scatter3d',mode:'markers+text',name:'stations',text:" << ScriptJson(sn) << ","
          << stations.Xyz() << ",marker:{size:7,symbol:'diamond',color:'#1f3a5f'}}"
          << "],{margin:{l:0,r:0,t:10,b:0},legend:{x:0,y:1},scene:{aspectmode:'data',xaxis:{title:'x / "
             "m'},yaxis:{title:'y / m'},zaxis:{title:'z / m'}}},{responsive:true}).then(done);";

@@ -11,6 +11,8 @@ namespace vlt::output_internal {
 
 using base_internal::HtmlEscape;
 
+std::string ScriptJson(const nlohmann::json& value) { return base_internal::ScriptSafe(value.dump()); }
+
 // A self-contained page: header, sections of server-side tables, plotly.js for the figures. The
 // element #vlt-status carries data-errors / data-plots for the browser tests (as report.html).
 std::string Page(const std::string& title, const std::string& subtitle, const std::string& body,

@@ -6,7 +6,13 @@
 
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 namespace vlt::output_internal {
+
+// A value as JSON text for a figure's script: base_internal::ScriptSafe of its JSON, so that no
+// name (a station's, a test's) can end the <script> element and run its own (issue 32).
+std::string ScriptJson(const nlohmann::json& value);
 
 std::string Page(const std::string& title, const std::string& subtitle, const std::string& body,
                  const std::string& script);
