@@ -511,7 +511,9 @@ void MonteCarloRun::RunBatches() {
 // M) or past max_trials (adaptive), and no more values held for accumulation than kWaveBytes.
 std::int64_t MonteCarloRun::WaveSize() const {
   const std::int64_t chunks_per_batch = (batch_size + kChunk - 1) / kChunk;
-  const std::int64_t items_per_batch = std::max<std::int64_t>(1, std::min<std::int64_t>(chunks_per_batch, n_own));
+  // n_out, not this rank's outputs: every rank must compute the same waves (each batch is exchanged
+  // and agreed on by all ranks together).
+  const std::int64_t items_per_batch = std::max<std::int64_t>(1, std::min<std::int64_t>(chunks_per_batch, n_out));
   std::int64_t wave = (std::int64_t{kItemsPerThread} * threads + items_per_batch - 1) / items_per_batch;
   if (!direct) {
     const std::int64_t batch_bytes = std::int64_t{n_out} * batch_size * static_cast<std::int64_t>(sizeof(float));
