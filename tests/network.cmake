@@ -139,3 +139,29 @@ vlt_network_error(air_unknown_sensor air_unknown_sensor.toml
                   "air_unknown_sensor\\.toml: station\\[1\\]\\.environment\\.sensor: unknown air sensor 'WS9'")
 vlt_network_error(air_below_sensor air_below_sensor.toml
                   "air_below_sensor\\.toml: station\\[1\\]\\.environment\\.temperature: u below the u of its sensor 'WS1'")
+
+# Drift (docs/network.md N-12): S2 drifts over 2 h 15 min with three drift checks; the adjustment
+# estimates the drift at every knot (drift.csv, results.json stations[].drift, the report's chart)
+# and the Monte Carlo validation re-adjusts networks whose drift is drawn from its prior.
+add_test(NAME cli_network_drift
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_ex}/drift_network.toml;-o;${_out}/network_drift"
+          -DOUT=${_out}/network_drift
+          "-DFILES=targets.csv;stations.csv;residuals.csv;drift.csv;covariance.csv;tasks.csv;mcm.csv;results.json;report.html"
+          "-DEXPECT_STDOUT=Measured network 'drift-network': 3 stations, 18 targets, 216 observations, 84 unknowns, dof 132.*Drift of station S2 over 2[.]25 h [(]4 knots[)]: [0-9.]+ um, U [0-9.]+ um.*the GUM agrees"
+          "-DEXPECT_FILE_REGEX=results.json:\"drift\": {[^}]*\"model\": \"linear\",[^}]*\"translation_rate\": 2[.]7[0-9]*e-09"
+          "-DJSON_KEYS=schema;summary;stations;targets;monte_carlo;files"
+          -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_network_drift PROPERTIES FIXTURES_SETUP vlt_network_drift)
+add_test(NAME report_browser_network_drift
+  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/network_drift/report.html -DPROFILE=${_out}/chromium-profile-drift
+          -DMIN_PLOTS=2 -P ${_cli}/report_browser.cmake)
+set_tests_properties(report_browser_network_drift PROPERTIES FIXTURES_REQUIRED vlt_network_drift TIMEOUT 300)
+vlt_network_error(drift_check_still drift_check_still.toml
+                  "drift_check_still\\.toml: drift_check\\[0\\]\\.station: station 'S2' has no drift model")
+vlt_network_error(drift_no_time drift_no_time.toml
+                  "drift_S2_check1\\.csv: line 2: station 'S2' has a drift model: every reading needs its time")
+vlt_network_error(drift_mixed_times drift_mixed_times.toml
+                  "drift_S2_check1\\.csv: line 2: time: a time without a date, but .*drift_S1\\.csv: line 2 gives a date and time")
+vlt_network_error(drift_bad_rate drift_bad_rate.toml
+                  "drift_bad_rate\\.toml: station\\[1\\]\\.drift\\.translation_rate: expected a rate such as \"10 um/h\"")

@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include "base/csv.h"
+#include "base/time.h"
 #include "vlt/error.h"
 #include "vlt/models.h"
 
@@ -756,6 +757,27 @@ TEST(Job, DefaultJobParses) {
   EXPECT_GE(job.points.size(), 36u);
   EXPECT_EQ(job.tasks.size(), 4u);
   EXPECT_TRUE(job.map.has_value());
+}
+
+// Times of readings (base/time.h): dates against Python's calendar.timegm (an independent count
+// of the days since 1970), zones, clock times, quantities; malformed text is an InputError.
+TEST(Times, DatesClockTimesAndQuantities) {
+  using base_internal::ParseTime;
+  EXPECT_DOUBLE_EQ(ParseTime("2026-11-26T10:15:30Z", 1.0, "t").seconds, 1795688130.0);
+  EXPECT_TRUE(ParseTime("2026-11-26T10:15:30Z", 1.0, "t").absolute);
+  EXPECT_DOUBLE_EQ(ParseTime("2026-11-26 10:15:30", 1.0, "t").seconds, 1795688130.0);
+  EXPECT_DOUBLE_EQ(ParseTime("2026-11-26T10:15:30+01:00", 1.0, "t").seconds, 1795684530.0);
+  EXPECT_DOUBLE_EQ(ParseTime("2024-02-29T23:59:59", 1.0, "t").seconds, 1709251199.0);
+  EXPECT_DOUBLE_EQ(ParseTime("1970-01-01T00:00:00.25", 1.0, "t").seconds, 0.25);
+  EXPECT_DOUBLE_EQ(ParseTime(" 10:15:30.5 ", 1.0, "t").seconds, 36930.5);
+  EXPECT_FALSE(ParseTime("10:15", 1.0, "t").absolute);
+  EXPECT_DOUBLE_EQ(ParseTime("10:15", 1.0, "t").seconds, 36900.0);
+  EXPECT_DOUBLE_EQ(ParseTime("90 min", 1.0, "t").seconds, 5400.0);
+  EXPECT_DOUBLE_EQ(ParseTime("1.5", 3600.0, "t").seconds, 5400.0);
+  for (const char* bad : {"2026-02-30T10:00:00", "2026-11-26T25:00:00", "2026-11-26", "10:61", "ten", "1e300",
+                          "", "12 um", "2026-11-26T10:15:30+1", "nan"}) {
+    EXPECT_THROW(ParseTime(bad, 1.0, "r.csv: line 3: time"), InputError) << bad;
+  }
 }
 
 }  // namespace

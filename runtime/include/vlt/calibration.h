@@ -31,6 +31,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -51,6 +52,10 @@ struct TargetReading {
   Face face = Face::kFront;
   Eigen::Vector3d readings = Eigen::Vector3d::Zero();  // range [m], azimuth [rad], elevation [rad]
   std::string where;                                   // "<file>: line N" for messages
+  // When it was read [s] (a readings file's time column; a drift check's time), if known; absolute:
+  // seconds since 1970-01-01. A station's drift model (vlt/network.h) needs it.
+  std::optional<double> time;
+  bool absolute_time = false;
 };
 
 // A calibrated reference length (scale bar) measured in several positions; each position names

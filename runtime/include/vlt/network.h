@@ -43,6 +43,28 @@ struct NetworkInstrument {
   MeasurementSetup setup;
 };
 
+// A station's drift (docs/network.md N-12): the station moves during its readings (floor, tripod,
+// temperature), so its pose is a function of time, piecewise linear between knots t_0 < ... < t_K
+// (the first reading, each drift check, the last reading):
+//     pose(t) = pose + sum_k b_k(t) D_k,   b_k(t) = clamp((t - t_k) / (t_{k+1} - t_k), 0, 1),
+// `pose` the pose at t_0 and D_k the pose change over segment k. Each D_k is an unknown of the
+// adjustment with the prior D_k ~ N(0, (rate Delta t_k)^2) per component: the segment's rate of
+// drift is unknown, zero on average, with the stated standard uncertainty. A reading's time is
+// then needed (TargetReading::time).
+struct NetworkDrift {
+  bool enabled = false;
+  double translation_rate = 0.0;  // u of each segment's rate of tx, ty, tz [m/s], > 0
+  double rotation_rate = 0.0;     // u of each segment's rate of rx, ry, rz [rad/s], > 0
+  std::vector<double> knots;      // t_0 < t_1 < ... [s], at least 2
+  // The true D_k of a simulation (SimulateNetwork; one per segment); empty: drawn from the prior.
+  std::vector<StationPoseVector> increments;
+  std::string where;  // "<file>: station[i].drift"
+};
+
+// The pose of `drift`'s station at time t: pose + sum_k b_k(t) increments_k (zero increments when
+// none are given).
+StationPoseVector DriftedPose(const StationPoseVector& pose, const NetworkDrift& drift, double t);
+
 struct NetworkStation {
   std::string name;
   int instrument = 0;                                  // index into Network::instruments
@@ -56,7 +78,8 @@ struct NetworkStation {
   // keeps its error parameters. `air_sensor` names the NetworkAirSensor that gave it, if any.
   std::optional<Environment> environment;
   std::string air_sensor;
-  std::string where;  // "<file>: station[i]"
+  NetworkDrift drift;  // [station.drift] (N-12); disabled: one pose for all its readings
+  std::string where;   // "<file>: station[i]"
 };
 
 // An air sensor (a weather station) whose readings give the air of several stations (N-2a): the
@@ -127,12 +150,21 @@ struct Network {
 // the air of each station that has its own ("S2.environment.temperature", ...).
 std::vector<std::string> NetworkSharedInputNames(const Network& network);
 
+// A drifting station at one knot t_k of its drift model (N-12): its pose change since t_0,
+// sum_{j<k} D_j, with its covariance (the full covariance of the D_j, consider parameters included).
+struct AdjustedDriftEpoch {
+  double time = 0.0;  // t_k [s] (the reading times' own origin, or seconds since 1970 for dates)
+  StationPoseVector offset = StationPoseVector::Zero();
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+};
+
 struct AdjustedStation {
   std::string name;
-  StationPoseVector pose = StationPoseVector::Zero();
+  StationPoseVector pose = StationPoseVector::Zero();  // at t_0 for a drifting station
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
   int readings = 0;
   bool datum = false;
+  std::vector<AdjustedDriftEpoch> drift;  // a drifting station: every knot, the first with offset 0
 };
 
 struct AdjustedTarget {
@@ -200,8 +232,9 @@ struct NetworkResult {
   std::vector<CalibratedParameter> parameters;      // the self-calibrated shared inputs
   std::vector<NetworkCombination> identifiability;  // self-calibration: best determined first
   // Full covariance of every unknown [m, rad, SI]: the free station poses (6 each, network
-  // order, datum stations left out), then the targets (3 each), then the self-calibrated inputs.
-  std::vector<std::string> unknown_names;  // "S2.rx", "T1.x", "tmv"
+  // order, datum stations left out), the drift segments (6 each, N-12), then the targets (3 each),
+  // then the self-calibrated inputs.
+  std::vector<std::string> unknown_names;  // "S2.rx", "S2.drift1.tx", "T1.x", "tmv"
   Eigen::MatrixXd covariance;
   std::vector<int> station_offset;  // per station: first index in covariance, -1 datum
   std::vector<int> target_offset;   // per target

@@ -246,7 +246,7 @@ CalibrationJob LoadCalibrationJob(const std::string& path) {
   }
   data.noise = holder.setup.noise;
   for (const JobPoint& p : holder.points) {
-    data.readings.push_back({p.name, p.face, p.readings, p.where});
+    data.readings.push_back({p.name, p.face, p.readings, p.where, p.time, p.absolute_time});
   }
 
   Section cal = top.Sub("calibration", false);

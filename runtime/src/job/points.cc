@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "base/csv.h"
+#include "base/time.h"
 #include <toml++/toml.h>
 
 #include "job/job_detail.h"
@@ -181,12 +182,16 @@ void ReadReadings(Section& s, Job& job) {
   static const char* const kCartesian[5] = {"name", "x", "y", "z", "face"};
   const char* const* keys = cartesian ? kCartesian : kSpherical;
   std::vector<std::string> names(keys, keys + 5);
+  // An optional time column (docs/job-file.md): when each reading was taken, for a station's drift
+  // model in a network (vlt run carries it and does not use it).
+  std::string time_name = "time", time_unit = "s";
   Section cols = s.Sub("columns", false);
   if (cols.exists()) {
-    cols.set_hint(cartesian ? "name, x, y, z, face" : "name, range, azimuth, elevation, face");
+    cols.set_hint(cartesian ? "name, x, y, z, face, time" : "name, range, azimuth, elevation, face, time");
     for (int k = 0; k < 5; ++k) {
       if (const toml::node* n = cols.Get(keys[k])) names[k] = AsString(*n, cols.Where(keys[k]));
     }
+    if (const toml::node* n = cols.Get("time")) time_name = AsString(*n, cols.Where("time"));
     cols.Finish();
   }
   std::string units[3] = {"m", "rad", "rad"};
@@ -198,12 +203,14 @@ void ReadReadings(Section& s, Job& job) {
   Section us = s.Sub("units", false);
   double scales[3];
   if (us.exists()) {
-    us.set_hint(cartesian ? "x, y, z" : "range, azimuth, elevation");
+    us.set_hint(cartesian ? "x, y, z, time" : "range, azimuth, elevation, time");
     for (int k = 0; k < 3; ++k) {
       if (const toml::node* n = us.Get(keys[k + 1])) units[k] = AsString(*n, us.Where(keys[k + 1]));
     }
+    if (const toml::node* n = us.Get("time")) time_unit = AsString(*n, us.Where("time"));
     us.Finish();
   }
+  const double time_scale = UnitScale(time_unit, Dimension::kTime, s.Where("units.time"));
   for (int k = 0; k < 3; ++k)
     scales[k] = UnitScale(units[k], dims[k], s.Where(std::string("units.") + keys[k + 1]));
   bool zenith = false;
@@ -235,11 +242,25 @@ void ReadReadings(Section& s, Job& job) {
                        "' (declared by readings.columns." + keys[k] + ")");
     }
   }
+  const int time_col = table.Column(time_name);
+  if (time_col < 0 && time_name != "time") {
+    throw InputError(rel + ": line " + std::to_string(table.header_line) + ": missing column '" + time_name +
+                     "' (declared by readings.columns.time)");
+  }
   for (const CsvRow& row : table.rows) {
     JobPoint p;
     p.where = table.Where(row);
     p.name = row.fields[col[0]];
     if (p.name.empty()) throw InputError(p.where + ": empty point name");
+    if (time_col >= 0) {
+      const TimeValue t = ParseTime(row.fields[time_col], time_scale, p.where + ": " + time_name);
+      if (!job.points.empty() && job.points.front().absolute_time != t.absolute) {
+        throw InputError(p.where + ": " + time_name +
+                         ": a date and time among clock times or seconds (one kind of time per file)");
+      }
+      p.time = t.seconds;
+      p.absolute_time = t.absolute;
+    }
     double r[3];
     for (int k = 0; k < 3; ++k) {
       r[k] = CsvQuantity(row.fields[col[k + 1]], dims[k], scales[k], 0, p.where + ": " + names[k + 1]);

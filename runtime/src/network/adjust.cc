@@ -21,6 +21,7 @@
 
 #include "vlt/error.h"
 #include "vlt/gum.h"
+#include "network/drift.h"
 #include "network/instruments.h"
 #include "vlt/network.h"
 
@@ -36,6 +37,9 @@ struct Observation {
   Eigen::Vector3d y0;         // station-frame point at s0 [m]
   Eigen::Vector3d sigma;      // u of range [m], azimuth, elevation [rad]
   Eigen::Matrix3d whitening;  // W = S^-1/2 J_r^-1 (N-2): W^T W = (J_r S J_r^T)^-1
+  // The pose of the reading (N-12): (block, weight) of the poses it combines, -1 the station's pose,
+  // g >= 0 the pose at the end of drift segment g (DriftSegments); {(-1, 1)} without drift.
+  std::vector<std::pair<int, double>> poses = {{-1, 1.0}};
 };
 
 // The stacked shared inputs' split: estimated (self-calibration) and consider parameters.
@@ -58,49 +62,57 @@ void EvaluateReading(const network_internal::Instruments& instruments, const Obs
   for (int c = 0; c < n; ++c) dy_ds.col(stacked[c]) = local.col(c);
 }
 
-// Residual of one reading (N-3): e = W (y(s) - R^T (x - t)), blocks [pose 6, target 3 (, s_E)].
+// Residual of one reading (N-3): e = W (y(s) - R^T (x - t)), blocks [target 3 (, s_E) (, one pose
+// of 6 per term of obs.poses)], R and t of the reading's pose sum_j w_j P_j (one term, the
+// station's pose, without drift; the poses at the knots around the reading's time with drift,
+// N-12).
 class ReadingCost : public ceres::CostFunction {
  public:
   ReadingCost(const network_internal::Instruments& instruments, const Observation& obs,
               const SharedSplit& split)
       : instruments_(instruments), obs_(obs), split_(split), e_(static_cast<int>(split.estimated.size())) {
     set_num_residuals(3);
-    mutable_parameter_block_sizes()->push_back(6);
     mutable_parameter_block_sizes()->push_back(3);
     if (e_ > 0) mutable_parameter_block_sizes()->push_back(e_);
+    for (std::size_t j = 0; j < obs.poses.size(); ++j) mutable_parameter_block_sizes()->push_back(6);
   }
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    const double* pose = parameters[0];
-    const Eigen::Map<const Eigen::Vector3d> x(parameters[1]);
+    const int first_pose = e_ > 0 ? 2 : 1;
+    StationPoseVector pose = StationPoseVector::Zero();
+    for (std::size_t j = 0; j < obs_.poses.size(); ++j)
+      pose += obs_.poses[j].second * Eigen::Map<const StationPoseVector>(parameters[first_pose + j]);
+    const Eigen::Map<const Eigen::Vector3d> x(parameters[0]);
     Eigen::Vector3d y = obs_.y0;
     Eigen::MatrixXd dy_ds;
     if (e_ > 0) {
       Eigen::VectorXd s = instruments_.s0;
-      for (int k = 0; k < e_; ++k) s(split_.estimated[k]) = parameters[2][k];
+      for (int k = 0; k < e_; ++k) s(split_.estimated[k]) = parameters[1][k];
       Eigen::Matrix3d dy_dr;
       EvaluateReading(instruments_, obs_, s, y, dy_dr, dy_ds);
     }
-    const Eigen::Matrix3d rotation = PoseRotationMatrix(pose[0], pose[1], pose[2]);
-    const Eigen::Vector3d d = x - Eigen::Vector3d(pose[3], pose[4], pose[5]);
+    const Eigen::Matrix3d rotation = PoseRotationMatrix(pose(0), pose(1), pose(2));
+    const Eigen::Vector3d d = x - pose.tail<3>();
     Eigen::Map<Eigen::Vector3d> residual(residuals);
     residual = obs_.whitening * (y - rotation.transpose() * d);
     if (!jacobians) return true;
     const Eigen::Matrix3d w_rt = obs_.whitening * rotation.transpose();
     if (jacobians[0]) {
-      Eigen::Map<Eigen::Matrix<double, 3, 6, Eigen::RowMajor>> j(jacobians[0]);
-      Eigen::Matrix3d d_rotation[3];
-      PoseRotationDerivatives(pose[0], pose[1], pose[2], d_rotation);
-      for (int k = 0; k < 3; ++k) j.col(k) = -obs_.whitening * (d_rotation[k].transpose() * d);
-      j.rightCols<3>() = w_rt;
-    }
-    if (jacobians[1]) {
-      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> j(jacobians[1]);
+      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> j(jacobians[0]);
       j = -w_rt;
     }
-    if (e_ > 0 && jacobians[2]) {
-      Eigen::Map<Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor>> j(jacobians[2], 3, e_);
+    if (e_ > 0 && jacobians[1]) {
+      Eigen::Map<Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor>> j(jacobians[1], 3, e_);
       for (int k = 0; k < e_; ++k) j.col(k) = obs_.whitening * dy_ds.col(split_.estimated[k]);
+    }
+    Eigen::Matrix<double, 3, 6> j_pose;
+    Eigen::Matrix3d d_rotation[3];
+    PoseRotationDerivatives(pose(0), pose(1), pose(2), d_rotation);
+    for (int k = 0; k < 3; ++k) j_pose.col(k) = -obs_.whitening * (d_rotation[k].transpose() * d);
+    j_pose.rightCols<3>() = w_rt;
+    using PoseJacobian = Eigen::Map<Eigen::Matrix<double, 3, 6, Eigen::RowMajor>>;
+    for (std::size_t j = 0; j < obs_.poses.size(); ++j) {
+      if (jacobians[first_pose + j]) PoseJacobian{jacobians[first_pose + j]} = obs_.poses[j].second * j_pose;
     }
     return true;
   }
@@ -110,6 +122,27 @@ class ReadingCost : public ceres::CostFunction {
   const Observation& obs_;
   const SharedSplit& split_;
   int e_;
+};
+
+// The drift prior of one segment (N-12): W (P_to - P_from), W = diag(1 / (rate Delta t)), blocks
+// [from 6, to 6] (the poses at the segment's two knots).
+class DriftPriorCost : public ceres::SizedCostFunction<6, 6, 6> {
+ public:
+  explicit DriftPriorCost(const StationPoseVector& w) : w_(w) {}
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    Eigen::Map<StationPoseVector> r(residuals);
+    r = w_.cwiseProduct(Eigen::Map<const StationPoseVector>(parameters[1]) -
+                        Eigen::Map<const StationPoseVector>(parameters[0]));
+    for (int block = 0; block < 2; ++block) {
+      if (!jacobians || !jacobians[block]) continue;
+      Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>> j(jacobians[block]);
+      j = (block == 0 ? -w_ : w_).asDiagonal();
+    }
+    return true;
+  }
+
+ private:
+  StationPoseVector w_;
 };
 
 // A linear pseudo-observation L^-1 (v - v0) of a block (references, pose priors, self-calibration
@@ -255,7 +288,20 @@ struct PreparedReadings {
   std::vector<Observation> observations;
 };
 
-PreparedReadings PrepareReadings(const Network& network, const network_internal::Instruments& instruments) {
+// The poses a reading of station i combines (Observation::poses, N-12); InputError without its time.
+std::vector<std::pair<int, double>> ReadingPoses(const Network& network, const network_internal::DriftSegments& segments,
+                                                 int i, const TargetReading& reading) {
+  const NetworkStation& st = network.stations[i];
+  if (!st.drift.enabled) return {{-1, 1.0}};
+  if (!reading.time) {
+    throw InputError(reading.where + ": station '" + st.name +
+                     "' has a drift model: its readings need their time (a time column, docs/network.md N-12)");
+  }
+  return network_internal::PoseTerms(st.drift, *reading.time, segments.first[i]);
+}
+
+PreparedReadings PrepareReadings(const Network& network, const network_internal::Instruments& instruments,
+                                 const network_internal::DriftSegments& segments) {
   PreparedReadings prepared;
   std::set<std::string> station_names;
   for (int i = 0; i < static_cast<int>(network.stations.size()); ++i) {
@@ -273,6 +319,7 @@ PreparedReadings PrepareReadings(const Network& network, const network_internal:
         prepared.target_readings.push_back(0);
       }
       Observation obs = PrepareObservation(instruments, reading, instruments.station_model[i], i, r, it->second);
+      obs.poses = ReadingPoses(network, segments, i, reading);
       prepared.target_stations[obs.target].insert(i);
       ++prepared.target_readings[obs.target];
       prepared.observations.push_back(std::move(obs));
@@ -509,6 +556,7 @@ struct Adjustment {
   const Eigen::VectorXd u_shared;
   const SharedSplit split;
   const int E, C;
+  const network_internal::DriftSegments segments;
   const PreparedReadings readings;
   const std::vector<Observation>& observations;
   const int T, P;
@@ -519,19 +567,25 @@ struct Adjustment {
   std::vector<std::vector<const Observation*>> by_station;
   std::vector<Eigen::Vector3d> x;
   std::vector<StationPoseVector> pose;
-  // Unknowns, internal order [free poses | s_E | targets].
-  std::vector<int> pose_offset;
+  std::vector<StationPoseVector> knot;  // the pose at the end of every drift segment (N-12)
+  // Unknowns, internal order [free poses | poses at the drift knots | s_E | targets].
+  std::vector<int> pose_offset, knot_offset;
   int a = 0, e_offset = 0, n = 0;
   Eigen::VectorXd s_est;
   // The solve: the problem owns the costs the priors point to.
   std::unique_ptr<ceres::Problem> problem;
   std::vector<Prior> priors;
+  struct DriftPrior {
+    int from_offset, to_offset;  // -1: a held pose
+    const double *from, *to;
+    StationPoseVector w;
+  };
+  std::vector<DriftPrior> drift_priors;
   Eigen::MatrixXd prior_factor;  // L, Sigma_E = L L^T (self-calibration prior)
   // Normal matrix, blockwise, and what the residuals need of it.
   Eigen::MatrixXd n_aa, n_at, g;
   std::vector<Eigen::MatrixXd> n_gg;  // per target group (3 x 3 without distances)
   Eigen::VectorXd e, e_distance;
-  int local = 0;
   std::vector<Eigen::MatrixXd> j_local;
   std::vector<Eigen::Matrix<double, 3, Eigen::Dynamic>> b_consider;
   double chi2 = 0.0;
@@ -553,7 +607,8 @@ struct Adjustment {
         split(SplitSharedInputs(net, instruments, u_shared)),
         E(static_cast<int>(split.estimated.size())),
         C(static_cast<int>(split.consider.size())),
-        readings(PrepareReadings(net, instruments)),
+        segments(network_internal::NumberDriftSegments(net)),
+        readings(PrepareReadings(net, instruments, segments)),
         observations(readings.observations),
         T(static_cast<int>(readings.target_names.size())),
         P(static_cast<int>(net.stations.size())),
@@ -577,10 +632,13 @@ struct Adjustment {
     start.FromGivenPoses();
     x = std::move(start.x);
     pose = std::move(start.pose);
+    knot.resize(segments.count());
+    for (int g = 0; g < segments.count(); ++g) knot[g] = pose[segments.station[g]];
   }
 
-  // --- Unknowns: free poses (6 each), self-calibrated inputs (E), targets (3 each): the
-  // order of the normal matrix (targets last, eliminated by the Schur complement, N-5).
+  // --- Unknowns: free poses (6 each), drift segments (6 each, N-12), self-calibrated inputs (E),
+  // targets (3 each): the order of the normal matrix (targets last, eliminated by the Schur
+  // complement, N-5).
   void NumberUnknowns() {
     pose_offset.assign(P, -1);
     for (int i = 0; i < P; ++i) {
@@ -588,6 +646,10 @@ struct Adjustment {
         pose_offset[i] = a;
         a += 6;
       }
+    }
+    for (int g = 0; g < segments.count(); ++g) {
+      knot_offset.push_back(a);
+      a += 6;
     }
     e_offset = a;
     a += E;
@@ -618,7 +680,22 @@ struct Adjustment {
       problem->AddResidualBlock(cost, nullptr, pose[i].data());
       priors.push_back({pose_offset[i], cost, pose[i].data()});
     }
+    AddDriftPriors();
     if (E > 0) AddSelfCalibrationPrior();
+  }
+
+  // N-12: the pose change over segment g, D_g = P_to - P_from ~ N(0, (rate Delta t_g)^2) per
+  // component, a pseudo-observation 0 of each segment.
+  void AddDriftPriors() {
+    for (int g = 0; g < segments.count(); ++g) {
+      const int i = segments.station[g];
+      const NetworkDrift& drift = network.stations[i].drift;
+      const StationPoseVector w = network_internal::DriftPriorU(drift, segments.duration[g]).cwiseInverse();
+      const bool first = g == segments.first[i];
+      double* from = first ? pose[i].data() : knot[g - 1].data();
+      problem->AddResidualBlock(new DriftPriorCost(w), nullptr, from, knot[g].data());
+      drift_priors.push_back({first ? pose_offset[i] : knot_offset[g - 1], knot_offset[g], from, knot[g].data(), w});
+    }
   }
 
   void AddSelfCalibrationPrior() {
@@ -646,19 +723,18 @@ struct Adjustment {
     problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
     problem = std::make_unique<ceres::Problem>(problem_options);
     for (const Observation& obs : observations) {
-      auto* cost = new ReadingCost(instruments, obs, split);
-      if (E > 0)
-        problem->AddResidualBlock(cost, nullptr, pose[obs.station].data(), x[obs.target].data(),
-                                  s_est.data());
-      else
-        problem->AddResidualBlock(cost, nullptr, pose[obs.station].data(), x[obs.target].data());
+      std::vector<double*> blocks = {x[obs.target].data()};
+      if (E > 0) blocks.push_back(s_est.data());
+      for (const auto& [block, w] : obs.poses) blocks.push_back(PoseBlock(obs.station, block));
+      problem->AddResidualBlock(new ReadingCost(instruments, obs, split), nullptr, blocks);
     }
     for (const DistanceObservation& d : distances)
       problem->AddResidualBlock(new DistanceCost(d.length, d.u), nullptr, x[d.from].data(), x[d.to].data());
-    for (int i = 0; i < P; ++i) {
-      if (network.stations[i].datum) problem->SetParameterBlockConstant(pose[i].data());
-    }
     AddPriors();
+    for (int i = 0; i < P; ++i) {
+      if (network.stations[i].datum && problem->HasParameterBlock(pose[i].data()))
+        problem->SetParameterBlockConstant(pose[i].data());
+    }
     ceres::Solver::Options options;
     // Schur elimination of the targets needs something left to reduce to (free poses or s_E).
     options.linear_solver_type = a > 0 ? ceres::DENSE_SCHUR : ceres::DENSE_QR;
@@ -676,13 +752,21 @@ struct Adjustment {
     }
   }
 
-  // Global index of each column of a reading's local Jacobian [pose 6 | s_E | target 3], -1 absent.
+  // A pose block of station i: -1 its pose, g >= 0 the pose at the end of drift segment g.
+  double* PoseBlock(int i, int block) { return block < 0 ? pose[i].data() : knot[block].data(); }
+  const double* PoseBlock(int i, int block) const { return block < 0 ? pose[i].data() : knot[block].data(); }
+  int PoseOffset(int i, int block) const { return block < 0 ? pose_offset[i] : knot_offset[block]; }
+
+  // Global index of each column of a reading's local Jacobian [target 3 | s_E | 6 per pose term],
+  // -1 absent (a held pose).
   std::vector<int> LocalIndex(const Observation& obs) const {
     std::vector<int> index;
-    for (int c = 0; c < 6; ++c)
-      index.push_back(pose_offset[obs.station] >= 0 ? pose_offset[obs.station] + c : -1);
-    for (int c = 0; c < E; ++c) index.push_back(e_offset + c);
     for (int c = 0; c < 3; ++c) index.push_back(a + 3 * obs.target + c);
+    for (int c = 0; c < E; ++c) index.push_back(e_offset + c);
+    for (const auto& [block, w] : obs.poses) {
+      const int offset = PoseOffset(obs.station, block);
+      for (int c = 0; c < 6; ++c) index.push_back(offset >= 0 ? offset + c : -1);
+    }
     return index;
   }
 
@@ -698,8 +782,6 @@ struct Adjustment {
     }
     g = Eigen::MatrixXd::Zero(n, C);  // J^T B_c
     e.resize(3 * observations.size());
-    // Local Jacobian of one reading: columns [pose 6 | s_E | target 3].
-    local = 6 + E + 3;
     j_local.resize(observations.size());
     b_consider.resize(observations.size());
     Eigen::VectorXd s_hat = s0;
@@ -709,6 +791,22 @@ struct Adjustment {
     e_distance.resize(static_cast<int>(distances.size()));
     for (std::size_t k = 0; k < distances.size(); ++k) AddDistance(k);
     for (const Prior& prior : priors) AddPrior(prior);
+    for (const DriftPrior& prior : drift_priors) AddDriftPrior(prior);
+  }
+
+  // A segment's drift prior (N-12): J = [-W, W] over its two poses (a held one has no column).
+  void AddDriftPrior(const DriftPrior& prior) {
+    const StationPoseVector r = prior.w.cwiseProduct(Eigen::Map<const StationPoseVector>(prior.to) -
+                                                     Eigen::Map<const StationPoseVector>(prior.from));
+    chi2 += r.squaredNorm();
+    const int offsets[2] = {prior.from_offset, prior.to_offset};
+    const double signs[2] = {-1.0, 1.0};
+    for (int p = 0; p < 2; ++p) {
+      for (int q = 0; q < 2; ++q) {
+        if (offsets[p] < 0 || offsets[q] < 0) continue;
+        for (int c = 0; c < 6; ++c) n_aa(offsets[p] + c, offsets[q] + c) += signs[p] * signs[q] * prior.w(c) * prior.w(c);
+      }
+    }
   }
 
   // A distance observation (N-4a): J = [-u^T, u^T] / u_L over [from, to], u the unit vector.
@@ -726,25 +824,31 @@ struct Adjustment {
   }
 
   // A reading's whitened residual (3, into `residual`) and its Jacobian over the local unknowns
-  // [pose 6 | s_E | target 3] at the current estimates.
+  // [target 3 | s_E | 6 per pose term] (LocalIndex) at the current estimates.
   Eigen::MatrixXd ReadingJacobian(const Observation& obs, double* residual) const {
     ReadingCost cost(instruments, obs, split);
-    const double* params[3] = {pose[obs.station].data(), x[obs.target].data(), s_est.data()};
-    Eigen::Matrix<double, 3, 6, Eigen::RowMajor> jp;
+    const int m = static_cast<int>(obs.poses.size());
+    std::vector<const double*> params = {x[obs.target].data()};
+    if (E > 0) params.push_back(s_est.data());
+    for (const auto& [block, w] : obs.poses) params.push_back(PoseBlock(obs.station, block));
     Eigen::Matrix<double, 3, 3, Eigen::RowMajor> jx;
     Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor> je(3, std::max(E, 1));
-    double* jac[3] = {jp.data(), jx.data(), je.data()};
-    cost.Evaluate(params, residual, jac);
-    Eigen::MatrixXd j = Eigen::MatrixXd::Zero(3, local);
-    if (pose_offset[obs.station] >= 0) j.leftCols(6) = jp;
-    if (E > 0) j.middleCols(6, E) = je.leftCols(E);
-    j.rightCols(3) = jx;
+    std::vector<Eigen::Matrix<double, 3, 6, Eigen::RowMajor>> jp(m);
+    std::vector<double*> jac = {jx.data()};
+    if (E > 0) jac.push_back(je.data());
+    for (int k = 0; k < m; ++k) jac.push_back(jp[k].data());
+    cost.Evaluate(params.data(), residual, jac.data());
+    Eigen::MatrixXd j(3, 3 + E + 6 * m);
+    j.leftCols(3) = jx;
+    if (E > 0) j.middleCols(3, E) = je.leftCols(E);
+    for (int k = 0; k < m; ++k) j.middleCols(3 + E + 6 * k, 6) = jp[k];
     return j;
   }
 
   // J C J^T of a reading's local Jacobian over the noise part of the covariance (N-8).
   Eigen::Matrix3d ReadingHat(const Observation& obs, const Eigen::MatrixXd& j) const {
     const std::vector<int> index = LocalIndex(obs);
+    const int local = static_cast<int>(index.size());
     Eigen::MatrixXd c_local = Eigen::MatrixXd::Zero(local, local);
     for (int r = 0; r < local; ++r)
       for (int c = 0; c < local; ++c)
@@ -765,6 +869,7 @@ struct Adjustment {
     for (int c = 0; c < C; ++c) b_consider[o].col(c) = obs.whitening * dy_ds.col(split.consider[c]);
     // Scatter into the normal matrix.
     const std::vector<int> index = LocalIndex(obs);
+    const int local = static_cast<int>(index.size());
     const Eigen::MatrixXd jtj = j.transpose() * j;
     const Eigen::MatrixXd jtb = j.transpose() * b_consider[o];
     for (int r = 0; r < local; ++r) {
@@ -902,10 +1007,6 @@ struct Adjustment {
     return description;
   }
 
-  // Order of the result: [free poses | targets | s_E].
-  int OutIndex(int gi) const {
-    return gi < e_offset ? gi : (gi < a ? e_start + (gi - e_offset) : target_start + (gi - a));
-  }
 
   void Covariance() {
     target_start = e_offset;  // after the poses
@@ -930,14 +1031,20 @@ struct Adjustment {
     Eigen::MatrixXd sigma_c(C, C);
     for (int p = 0; p < C; ++p)
       for (int q = 0; q < C; ++q) sigma_c(p, q) = sigma_shared(split.consider[p], split.consider[q]);
-    consider_part = gain * sigma_c * gain.transpose();
-
-    std::vector<int> perm(n);
-    for (int gi = 0; gi < n; ++gi) perm[gi] = OutIndex(gi);
+    if (C > 0) consider_part = gain * sigma_c * gain.transpose();
+    // The result's order [poses | targets | s_E] from the internal [poses | s_E | targets], block by
+    // block.
+    const int in_start[3] = {0, a, e_offset}, out_start[3] = {0, target_start, e_start},
+              length[3] = {e_offset, 3 * T, E};
     result.covariance.resize(n, n);
-    for (int r = 0; r < n; ++r)
-      for (int c = 0; c < n; ++c)
-        result.covariance(perm[r], perm[c]) = cov_internal(r, c) + consider_part(r, c);
+    for (int p = 0; p < 3; ++p) {
+      for (int q = 0; q < 3; ++q) {
+        if (length[p] == 0 || length[q] == 0) continue;
+        auto out = result.covariance.block(out_start[p], out_start[q], length[p], length[q]);
+        out = cov_internal.block(in_start[p], in_start[q], length[p], length[q]);
+        if (C > 0) out += consider_part.block(in_start[p], in_start[q], length[p], length[q]);
+      }
+    }
   }
 
   void NameUnknowns() {
@@ -947,6 +1054,11 @@ struct Adjustment {
       if (pose_offset[i] < 0) continue;
       for (int c = 0; c < 6; ++c)
         result.unknown_names[pose_offset[i] + c] = network.stations[i].name + "." + kPoseNames[c];
+    }
+    for (int g = 0; g < segments.count(); ++g) {
+      const int i = segments.station[g];
+      const std::string at = network.stations[i].name + ".knot" + std::to_string(g - segments.first[i] + 1);
+      for (int c = 0; c < 6; ++c) result.unknown_names[knot_offset[g] + c] = at + "." + kPoseNames[c];
     }
     static const char* kAxis[3] = {"x", "y", "z"};
     for (int t = 0; t < T; ++t) {
@@ -968,7 +1080,7 @@ struct Adjustment {
       at.readings = readings.target_readings[t];
       at.reference = reference_names.count(at.name) > 0;
       trace_noise += cov_internal.block<3, 3>(a + 3 * t, a + 3 * t).trace();
-      trace_consider += consider_part.block<3, 3>(a + 3 * t, a + 3 * t).trace();
+      if (C > 0) trace_consider += consider_part.block<3, 3>(a + 3 * t, a + 3 * t).trace();
       if (!at.position.allFinite() || !at.covariance.allFinite())
         throw NumericalError(file + ": target '" + at.name + "' came out non-finite");
       result.targets.push_back(at);
@@ -986,8 +1098,30 @@ struct Adjustment {
       as.datum = network.stations[i].datum;
       as.readings = static_cast<int>(by_station[i].size());
       if (pose_offset[i] >= 0) as.covariance = result.covariance.block<6, 6>(pose_offset[i], pose_offset[i]);
+      if (segments.first[i] >= 0) as.drift = DriftEpochs(i);
       result.stations.push_back(as);
     }
+  }
+
+  // Station i's pose change at each knot since t_0, P_k - P_0, and its covariance (result order:
+  // the knots' poses sit where NumberUnknowns put them, before the targets; a held P_0 has none).
+  std::vector<AdjustedDriftEpoch> DriftEpochs(int i) const {
+    const NetworkDrift& drift = network.stations[i].drift;
+    std::vector<AdjustedDriftEpoch> epochs(drift.knots.size());
+    const int o0 = pose_offset[i];
+    for (std::size_t k = 0; k < epochs.size(); ++k) {
+      epochs[k].time = drift.knots[k];
+      if (k == 0) continue;
+      const int g = segments.first[i] + static_cast<int>(k) - 1, ok = knot_offset[g];
+      epochs[k].offset = knot[g] - pose[i];
+      Eigen::Matrix<double, 6, 6> c = result.covariance.block<6, 6>(ok, ok);
+      if (o0 >= 0) {
+        c += result.covariance.block<6, 6>(o0, o0) - result.covariance.block<6, 6>(ok, o0) -
+             result.covariance.block<6, 6>(o0, ok);
+      }
+      epochs[k].covariance = 0.5 * (c + c.transpose());
+    }
+    return epochs;
   }
 
   void SelfCalibratedParameters() {
@@ -1012,6 +1146,7 @@ struct Adjustment {
   void Residuals() {
     int observations_count = static_cast<int>(e.size() + e_distance.size());
     for (const Prior& prior : priors) observations_count += static_cast<int>(prior.cost->whitening().rows());
+    observations_count += 6 * static_cast<int>(drift_priors.size());
     result.observations = observations_count;
     result.unknowns = n;
     result.dof = observations_count - n;
@@ -1074,8 +1209,9 @@ struct Adjustment {
     static const char* kReading[3] = {"range", "azimuth", "elevation"};
     const auto it = readings.target_index.find(reading.target);
     if (it == readings.target_index.end()) return false;
-    const Observation obs =
-        PrepareObservation(instruments, reading, network.stations[station].instrument, station, 0, it->second);
+    Observation obs =
+        PrepareObservation(instruments, reading, instruments.station_model[station], station, 0, it->second);
+    obs.poses = ReadingPoses(network, segments, station, reading);
     Eigen::Vector3d residual;
     const Eigen::MatrixXd j = ReadingJacobian(obs, residual.data());
     const Eigen::Matrix3d hat = ReadingHat(obs, j);

@@ -46,8 +46,15 @@ NetworkMonteCarlo ValidateNetworkByMonteCarlo(const Network& network, const Netw
   if (trials < 2) throw InputError(network.where + ": network.monte_carlo.trials: at least 2");
   // The truth: the adjusted targets and station poses.
   Network truth_network = KeptObservations(network, result);
-  for (std::size_t i = 0; i < network.stations.size(); ++i)
+  // A drifting station's drift is drawn in every trial from its prior (N-12): the prior's
+  // pseudo-observation D_k = 0 is then as far from the truth as the adjustment assumes.
+  // Each trial starts from the truth's poses (its targets then start from its readings): the same
+  // converged solution as from the chained starting values (N-1), in fewer iterations.
+  for (std::size_t i = 0; i < network.stations.size(); ++i) {
     truth_network.stations[i].pose = result.stations[i].pose;
+    truth_network.stations[i].pose_given = true;
+    truth_network.stations[i].drift.increments.clear();
+  }
   std::vector<std::pair<std::string, Eigen::Vector3d>> truth;
   for (const AdjustedTarget& t : result.targets) truth.emplace_back(t.name, t.position);
   const std::size_t T = result.targets.size();

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <set>
 #include <numbers>
@@ -260,6 +261,72 @@ void StationAirTable(std::ostringstream& body, const Network& network) {
   body << "</table></section>\n";
 }
 
+// The earliest time of the network's readings: the origin of the elapsed hours in drift.csv and the
+// drift chart (N-12).
+double TimeOrigin(const Network& network) {
+  double origin = std::numeric_limits<double>::infinity();
+  for (const NetworkStation& st : network.stations)
+    for (const TargetReading& r : st.readings)
+      if (r.time) origin = std::min(origin, *r.time);
+  return std::isfinite(origin) ? origin : 0.0;
+}
+
+bool AnyDrift(const NetworkResult& result) {
+  return std::any_of(result.stations.begin(), result.stations.end(),
+                     [](const AdjustedStation& st) { return !st.drift.empty(); });
+}
+
+// |U| of a drift offset's translation: k sqrt(trace of its 3 x 3 block) [m].
+double DriftTranslationU(const NetworkResult& result, const AdjustedDriftEpoch& epoch) {
+  return result.k * std::sqrt(std::max(0.0, epoch.covariance.bottomRightCorner<3, 3>().trace()));
+}
+
+// Drift vs time (N-12): each drifting station's translation change since its first knot, per axis,
+// with error bars U = k u, and the knots' table.
+void DriftSection(std::ostringstream& body, std::ostringstream& script, const NetworkJob& job,
+                  const NetworkResult& result) {
+  const double origin = TimeOrigin(job.network);
+  body << "<section><h2>Drift</h2><p class=\"note\">Each drifting station's pose change since its first "
+          "reading (docs/network.md N-12: piecewise linear between its knots — first reading, drift checks, "
+          "last reading — each segment's rate an unknown with the stated prior). Translation in um with "
+          "error bars U = k u (k = "
+       << Fixed(result.k, 2) << "), hours from the network's first reading. The poses of every reading "
+          "between two knots are interpolated, and their uncertainty is in every target.</p>"
+          "<div id=\"drift\" class=\"plot\" style=\"height:420px\"></div><table><tr><th class=\"l\">station</th>"
+          "<th>knot</th><th>time / h</th><th>&Delta;tx / um</th><th>&Delta;ty / um</th><th>&Delta;tz / um</th>"
+          "<th>U(&Delta;t) / um</th><th>&Delta;rx / arcsec</th><th>&Delta;ry / arcsec</th><th>&Delta;rz / "
+          "arcsec</th></tr>";
+  std::ostringstream traces;
+  static const char* kAxis[3] = {"x", "y", "z"};
+  for (const AdjustedStation& st : result.stations) {
+    if (st.drift.empty()) continue;
+    for (std::size_t k = 0; k < st.drift.size(); ++k) {
+      const AdjustedDriftEpoch& e = st.drift[k];
+      body << "<tr><td class=\"l\">" << HtmlEscape(st.name) << "</td><td>" << k << "</td><td>"
+           << Fixed((e.time - origin) / 3600.0, 3) << "</td>";
+      for (int c = 3; c < 6; ++c) body << "<td>" << Fixed(e.offset(c) * 1e6, 1) << "</td>";
+      body << "<td>" << Fixed(DriftTranslationU(result, e) * 1e6, 1) << "</td>";
+      for (int c = 0; c < 3; ++c) body << "<td>" << Fixed(e.offset(c) / std::numbers::pi * 180.0 * 3600.0, 2) << "</td>";
+      body << "</tr>";
+    }
+    for (int c = 0; c < 3; ++c) {
+      nlohmann::json t = nlohmann::json::array(), v = nlohmann::json::array(), U = nlohmann::json::array();
+      for (const AdjustedDriftEpoch& e : st.drift) {
+        t.push_back((e.time - origin) / 3600.0);
+        v.push_back(e.offset(3 + c) * 1e6);
+        U.push_back(result.k * std::sqrt(std::max(0.0, e.covariance(3 + c, 3 + c))) * 1e6);
+      }
+      traces << "{type:'scatter',mode:'lines+markers',name:" << ScriptJson(nlohmann::json(st.name + " t" + kAxis[c]))
+             << ",x:" << ScriptJson(t) << ",y:" << ScriptJson(v) << ",error_y:{type:'data',array:" << ScriptJson(U)
+             << ",visible:true}},";
+    }
+  }
+  body << "</table></section>\n";
+  script << "Plotly.newPlot('drift',[" << traces.str()
+         << "],{margin:{l:60,r:10,t:10,b:50},xaxis:{title:'time / h'},yaxis:{title:'drift / um'}},"
+            "{responsive:true}).then(done);";
+}
+
 // Tasks over adjusted targets, with the ISO 14253-1 decision where a tolerance is given.
 void TasksTable(std::ostringstream& body, const std::vector<NetworkTaskResult>& tasks) {
   body << "<section><h2>Tasks</h2><p class=\"note\">Over adjusted targets, whichever station read them, with "
@@ -408,6 +475,7 @@ std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, co
   // Tables.
   TargetsTable(body, result);
   StationsTable(body, result);
+  if (AnyDrift(result)) DriftSection(body, script, job, result);
   for (const NetworkStation& st : job.network.stations) {
     if (st.environment) {
       StationAirTable(body, job.network);
@@ -469,6 +537,33 @@ std::string StationsCsv(const NetworkResult& result) {
     s += ',';
     s += std::to_string(st.readings);
     s += '\n';
+  }
+  return s;
+}
+
+// drift.csv (N-12): every knot of every drifting station.
+std::string DriftCsv(const NetworkJob& job, const NetworkResult& result) {
+  std::string s =
+      "station,knot,time_s,elapsed_h,drx_rad,dry_rad,drz_rad,dtx_m,dty_m,dtz_m,u_drx_rad,u_dry_rad,u_drz_rad,"
+      "u_dtx_m,u_dty_m,u_dtz_m\n";
+  const double origin = TimeOrigin(job.network);
+  for (const AdjustedStation& st : result.stations) {
+    for (std::size_t k = 0; k < st.drift.size(); ++k) {
+      const AdjustedDriftEpoch& e = st.drift[k];
+      s += Csv(st.name) + "," + std::to_string(k) + ",";
+      AppendNum(s, e.time);
+      s += ',';
+      AppendNum(s, (e.time - origin) / 3600.0);
+      for (int c = 0; c < 6; ++c) {
+        s += ',';
+        AppendNum(s, e.offset(c));
+      }
+      for (int c = 0; c < 6; ++c) {
+        s += ',';
+        AppendNum(s, std::sqrt(std::max(0.0, e.covariance(c, c))));
+      }
+      s += '\n';
+    }
   }
   return s;
 }
@@ -646,6 +741,26 @@ nlohmann::ordered_json JobJson(const NetworkJob& job) {
   return meta;
 }
 
+// A station's drift model and its knots (N-12); null without one.
+nlohmann::ordered_json DriftJson(const NetworkDrift& drift, const AdjustedStation& st, double origin) {
+  if (!drift.enabled) return nullptr;
+  nlohmann::ordered_json o;
+  o["model"] = "linear";
+  o["translation_rate"] = drift.translation_rate;
+  o["rotation_rate"] = drift.rotation_rate;
+  nlohmann::ordered_json knots = nlohmann::ordered_json::array();
+  for (const AdjustedDriftEpoch& e : st.drift) {
+    std::vector<double> offset(6), u(6);
+    for (int c = 0; c < 6; ++c) {
+      offset[c] = e.offset(c);
+      u[c] = std::sqrt(std::max(0.0, e.covariance(c, c)));
+    }
+    knots.push_back({{"time", e.time}, {"elapsed_h", (e.time - origin) / 3600.0}, {"offset", offset}, {"u", u}});
+  }
+  o["knots"] = knots;
+  return o;
+}
+
 nlohmann::ordered_json StationsJson(const NetworkJob& job, const NetworkResult& result) {
   nlohmann::ordered_json stations = nlohmann::ordered_json::array();
   for (std::size_t i = 0; i < result.stations.size(); ++i) {
@@ -668,6 +783,7 @@ nlohmann::ordered_json StationsJson(const NetworkJob& job, const NetworkResult& 
     } else {
       o["air"] = nullptr;
     }
+    o["drift"] = DriftJson(job.network.stations[i].drift, st, TimeOrigin(job.network));
     stations.push_back(o);
   }
   return stations;
@@ -841,6 +957,7 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result,
   files.emplace_back("targets.csv", TargetsCsv(result));
   files.emplace_back("stations.csv", StationsCsv(result));
   files.emplace_back("residuals.csv", ResidualsCsv(result));
+  if (AnyDrift(result)) files.emplace_back("drift.csv", DriftCsv(job, result));
   files.emplace_back("covariance.csv", CovarianceCsv(result));
   if (!result.distances.empty()) files.emplace_back("distances.csv", DistancesCsv(result));
   if (!result.rejected.empty()) files.emplace_back("rejected.csv", RejectedCsv(result));
@@ -894,6 +1011,15 @@ std::string NetworkSummary(const NetworkJob& job, const NetworkResult& result, c
       out += line;
     }
     out += "\n";
+  }
+  for (const AdjustedStation& st : result.stations) {
+    if (st.drift.empty()) continue;
+    const AdjustedDriftEpoch& last = st.drift.back();
+    std::snprintf(line, sizeof line,
+                  "Drift of station %s over %.2f h (%zu knots): %.1f um, U %.1f um (k = %.2f; drift.csv)\n",
+                  st.name.c_str(), (last.time - st.drift.front().time) / 3600.0, st.drift.size(),
+                  last.offset.tail<3>().norm() * 1e6, DriftTranslationU(result, last) * 1e6, result.k);
+    out += line;
   }
   for (const std::string& w : result.warnings) out += "Warning: " + w + "\n";
   if (!result.identifiability.empty()) {

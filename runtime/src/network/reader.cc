@@ -2,7 +2,9 @@
 // instrument. It reuses the job's readers for [tracker], [environment], [correlations], the
 // readings CSV of each station ([readings] keys) and the nominal targets ([plan] keys), so a
 // tracker, its readings and a plan are written the same way everywhere. Keys: docs/network.md.
+#include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <map>
 #include <set>
 
@@ -10,6 +12,7 @@
 
 #include "job/job_detail.h"
 #include "base/shared_settings.h"
+#include "base/time.h"
 #include "vlt/error.h"
 #include "vlt/network.h"
 #include "vlt/units.h"
@@ -30,6 +33,42 @@ double Length(Section& s, std::string_view key) {
   return v;
 }
 
+// A time of a TOML value (docs/network.md N-12): a number of seconds, a string ParseTime reads
+// ("90 min", "10:30:00", "2026-11-26T10:30:00Z") or a TOML date-time / time.
+TimeValue Time(const toml::node& node, const std::string& where) {
+  if (node.is_number()) {
+    const double seconds = AsNumber(node, where);
+    if (!std::isfinite(seconds) || std::abs(seconds) > 1e10) throw InputError(where + ": not a plausible time");
+    return {seconds, false};
+  }
+  if (node.is_date_time() || node.is_time()) {
+    std::ostringstream text;
+    if (node.is_date_time())
+      text << *node.as_date_time();
+    else
+      text << *node.as_time();
+    return ParseTime(text.str(), 1.0, where);
+  }
+  return ParseTime(AsString(node, where), 1.0, where);
+}
+
+// A rate of drift [m/s or rad/s]: a number in SI or "<quantity>/<time unit>" ("10 um/h",
+// "2 arcsec/h").
+double Rate(Section& s, std::string_view key, Dimension dimension) {
+  const toml::node& node = s.Require(key);
+  const std::string where = s.Where(key);
+  if (node.is_number()) return AsNumber(node, where);
+  const std::string text = AsString(node, where);
+  const std::size_t slash = text.rfind('/');
+  if (slash == std::string::npos) {
+    throw InputError(where + ": expected a rate such as \"" +
+                     std::string(dimension == Dimension::kLength ? "10 um/h" : "2 arcsec/h") + "\"");
+  }
+  const double amount = ParseQuantity(text.substr(0, slash), dimension, where);
+  const double per = ParseQuantity("1 " + text.substr(slash + 1), Dimension::kTime, where);
+  return amount / per;
+}
+
 // The reading of one network file: the job being filled and what the sections read later need
 // from the earlier ones (the instruments of the stations, the targets the offline ones see).
 struct NetworkFileReader {
@@ -42,6 +81,13 @@ struct NetworkFileReader {
   bool has_targets = false;
   std::vector<std::vector<PlannedSighting>> sees;
   bool any_online = false, any_offline = false;
+  struct CheckTime {
+    const NetworkStation* station;
+    double seconds;
+    bool absolute;
+    std::string where;
+  };
+  std::vector<CheckTime> check_times;  // [[drift_check]] times, knots of their stations' drift
 
   NetworkFileReader(const std::string& path, Section& top, NetworkJob& job)
       : path(path), top(top), job(job), net(job.network) {
@@ -69,6 +115,10 @@ struct NetworkFileReader {
   void ReadDistances();
   void PlanOfflineReadings();
   void ReadNetworkTasks();
+  void ReadDrift(Section& s, NetworkStation& st);
+  void ReadDriftChecks();
+  void DriftKnots();
+  void CheckTimes();
 };
 
 // The instruments: [[instrument]] tables (each with its own [instrument.tracker],
@@ -281,7 +331,7 @@ void NetworkFileReader::ReadOnlineReadings(Section& s, NetworkStation& st) {
   r.base_dir = holder.base_dir;
   r.setup = net.instruments[st.instrument].setup;
   ReadReadings(readings, r);
-  for (const JobPoint& p : r.points) st.readings.push_back({p.name, p.face, p.readings, p.where});
+  for (const JobPoint& p : r.points) st.readings.push_back({p.name, p.face, p.readings, p.where, p.time, p.absolute_time});
   job.input_files.emplace_back("readings csv", r.readings_file);
   for (const std::string& w : r.warnings) job.warnings.push_back(w);
   sees.emplace_back();
@@ -315,7 +365,7 @@ void NetworkFileReader::ReadSightings(Section& s, const toml::node& see) {
 }
 
 void NetworkFileReader::ReadStation(Section& s) {
-  s.set_hint("name, instrument, rx, ry, rz, tx, ty, tz, environment, readings, sees, face");
+  s.set_hint("name, instrument, rx, ry, rz, tx, ty, tz, environment, drift, readings, sees, face");
   NetworkStation st;
   st.where = s.WhereSelf();
   st.name = AsString(s.Require("name"), s.Where("name"));
@@ -341,6 +391,7 @@ void NetworkFileReader::ReadStation(Section& s) {
   } else {
     ReadSightings(s, *see);
   }
+  ReadDrift(s, st);
   net.stations.push_back(std::move(st));
 }
 
@@ -468,6 +519,115 @@ void NetworkFileReader::PlanOfflineReadings() {
   PlanNetworkReadings(net, job.nominal, sees);
 }
 
+// [station.drift] (N-12): the rates of the piecewise-linear drift model; the knots follow from the
+// readings' times and the drift checks (DriftKnots).
+void NetworkFileReader::ReadDrift(Section& s, NetworkStation& st) {
+  Section drift = s.Sub("drift", false);
+  if (!drift.exists()) return;
+  drift.set_hint("model, translation_rate, rotation_rate");
+  if (any_offline) {
+    throw InputError(drift.WhereSelf() +
+                     ": a drift model needs measured readings with their times (an online network)");
+  }
+  if (const toml::node* n = drift.Get("model")) {
+    const std::string model = AsString(*n, drift.Where("model"));
+    if (model != "linear")
+      throw InputError(drift.Where("model") + ": unknown drift model '" + model + "' (linear)");
+  }
+  st.drift.enabled = true;
+  st.drift.where = drift.WhereSelf();
+  st.drift.translation_rate = Rate(drift, "translation_rate", Dimension::kLength);
+  st.drift.rotation_rate = Rate(drift, "rotation_rate", Dimension::kAngle);
+  if (!(st.drift.translation_rate > 0.0) || !std::isfinite(st.drift.translation_rate))
+    throw InputError(drift.Where("translation_rate") + ": must be positive");
+  if (!(st.drift.rotation_rate > 0.0) || !std::isfinite(st.drift.rotation_rate))
+    throw InputError(drift.Where("rotation_rate") + ": must be positive");
+  drift.Finish();
+}
+
+// [[drift_check]] (N-12): a drifting station re-reads chosen targets (drift nests) at a stated
+// time; the readings join the station's, each at the check's time unless its file has a time
+// column, and the time becomes a knot of the station's drift model.
+void NetworkFileReader::ReadDriftChecks() {
+  ForEachTable(top, path, "drift_check", [&](Section& s) {
+    s.set_hint("station, time, readings");
+    const std::string name = AsString(s.Require("station"), s.Where("station"));
+    NetworkStation* st = nullptr;
+    for (NetworkStation& candidate : net.stations)
+      if (candidate.name == name) st = &candidate;
+    if (!st) throw InputError(s.Where("station") + ": unknown station '" + name + "'");
+    if (!st->drift.enabled) {
+      throw InputError(s.Where("station") + ": station '" + name +
+                       "' has no drift model: give it [station.drift] (translation_rate, rotation_rate)");
+    }
+    const TimeValue time = Time(s.Require("time"), s.Where("time"));
+    Section readings = s.Sub("readings", true);
+    Job r;
+    r.file = path;
+    r.base_dir = holder.base_dir;
+    r.setup = net.instruments[st->instrument].setup;
+    ReadReadings(readings, r);
+    for (const JobPoint& p : r.points) {
+      st->readings.push_back({p.name, p.face, p.readings, p.where, p.time ? p.time : time.seconds,
+                              p.time ? p.absolute_time : time.absolute});
+    }
+    job.input_files.emplace_back("readings csv", r.readings_file);
+    for (const std::string& w : r.warnings) job.warnings.push_back(w);
+    check_times.push_back({st, time.seconds, time.absolute, s.Where("time")});
+    s.Finish();
+  });
+}
+
+// One kind of time in a file (N-12): dates and times, or seconds / clock times, not both.
+void NetworkFileReader::CheckTimes() {
+  const TargetReading* first = nullptr;
+  for (const NetworkStation& st : net.stations) {
+    for (const TargetReading& r : st.readings) {
+      if (!r.time) continue;
+      if (!first) first = &r;
+      if (r.absolute_time != first->absolute_time) {
+        throw InputError(r.where + ": time: " + (r.absolute_time ? "a date and time" : "a time without a date") +
+                         ", but " + first->where + " gives " +
+                         (first->absolute_time ? "a date and time" : "one without a date") +
+                         " (one kind of time in a network)");
+      }
+    }
+  }
+}
+
+// The knots of each drifting station: its first reading, its drift checks, its last reading.
+void NetworkFileReader::DriftKnots() {
+  for (NetworkStation& st : net.stations) {
+    if (!st.drift.enabled) continue;
+    std::set<double> knots;
+    for (const TargetReading& r : st.readings) {
+      if (!r.time) {
+        throw InputError(r.where + ": station '" + st.name +
+                         "' has a drift model: every reading needs its time (readings.columns.time)");
+      }
+    }
+    const auto [earliest, latest] = std::minmax_element(
+        st.readings.begin(), st.readings.end(),
+        [](const TargetReading& a, const TargetReading& b) { return *a.time < *b.time; });
+    knots.insert(*earliest->time);
+    knots.insert(*latest->time);
+    for (const CheckTime& check : check_times) {
+      if (check.station != &st) continue;
+      if (check.absolute != earliest->absolute_time) {
+        throw InputError(check.where + ": " + (check.absolute ? "a date and time" : "a time without a date") +
+                         ", but the station's readings give " +
+                         (earliest->absolute_time ? "dates and times" : "times without a date"));
+      }
+      knots.insert(check.seconds);
+    }
+    st.drift.knots.assign(knots.begin(), knots.end());
+    if (st.drift.knots.size() < 2) {
+      throw InputError(st.drift.where + ": station '" + st.name +
+                       "' read everything at one time: nothing can drift (give the readings' times)");
+    }
+  }
+}
+
 // [[task]] as in a job, over the targets the stations read (in order of first reading).
 void NetworkFileReader::ReadNetworkTasks() {
   Job tasks;
@@ -475,7 +635,11 @@ void NetworkFileReader::ReadNetworkTasks() {
   std::set<std::string> read;
   for (const NetworkStation& st : net.stations) {
     for (const TargetReading& r : st.readings) {
-      if (read.insert(r.target).second) tasks.points.push_back({r.target, Face::kFront, {}, {}, r.where});
+      if (!read.insert(r.target).second) continue;
+      JobPoint point;
+      point.name = r.target;
+      point.where = r.where;
+      tasks.points.push_back(std::move(point));
     }
   }
   ReadTasks(top, tasks);
@@ -490,7 +654,7 @@ NetworkJob LoadNetworkJob(const std::string& path) {
   Section top(root, path, "");
   top.set_hint(
       "job, tracker, environment, correlations, instrument, network, datum, reference, scale_bar, distance, "
-      "air_sensor, targets, station, task, output");
+      "air_sensor, targets, station, drift_check, task, output");
   NetworkJob job;
   job.file = path;
   job.text = text;
@@ -505,6 +669,9 @@ NetworkJob LoadNetworkJob(const std::string& path) {
   reader.ReadTargets();
   reader.ReadAirSensors();
   reader.ReadStations();
+  reader.ReadDriftChecks();
+  reader.CheckTimes();
+  reader.DriftKnots();
   reader.ReadDatum();
   reader.ReadReferences();
   reader.ReadDistances();

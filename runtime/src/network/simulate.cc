@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "mcm/random.h"
+#include "network/drift.h"
 #include "network/instruments.h"
 #include "vlt/error.h"
 #include "vlt/network.h"
@@ -26,6 +27,24 @@ Eigen::Vector3d ReadingsAt(const MeasurementModel& model, const double* shared, 
                                                   {local(0), local(1), local(2)}, face);
   const double scale = model.PrepareShared(shared).range_scale;
   return {m[0] / scale, m[1], m[2]};
+}
+
+// The true drift of every drifting station (N-12): its given increments, or, without them, drawn
+// from the drift prior N(0, (rate Delta t_k)^2) (stream 4 of the simulation's key).
+template <class Normal>
+void DrawDrift(Network& network, const Normal& normal) {
+  const network_internal::DriftSegments segments = network_internal::NumberDriftSegments(network);
+  for (std::size_t i = 0; i < network.stations.size(); ++i) {
+    NetworkDrift& drift = network.stations[i].drift;
+    if (!drift.enabled || !drift.increments.empty()) continue;
+    for (std::size_t k = 0; k + 1 < drift.knots.size(); ++k) {
+      const std::uint64_t segment = static_cast<std::uint64_t>(segments.first[i]) + k;
+      const StationPoseVector u = network_internal::DriftPriorU(drift, drift.knots[k + 1] - drift.knots[k]);
+      StationPoseVector d;
+      for (int c = 0; c < 6; ++c) d(c) = u(c) * normal(4, 6 * segment + static_cast<std::uint64_t>(c));
+      drift.increments.push_back(d);
+    }
+  }
 }
 
 }  // namespace
@@ -81,6 +100,7 @@ Network SimulateNetwork(const Network& network, const TargetList& truth, std::ui
 
   std::map<std::string, Eigen::Vector3d> where_is(truth.begin(), truth.end());
   Network out = network;
+  DrawDrift(out, normal);
   std::uint64_t counter = 0;
   for (std::size_t i = 0; i < out.stations.size(); ++i) {
     NetworkStation& st = out.stations[i];
@@ -91,7 +111,10 @@ Network SimulateNetwork(const Network& network, const TargetList& truth, std::ui
       const auto it = where_is.find(reading.target);
       if (it == where_is.end())
         throw InputError(reading.where + ": no true position of '" + reading.target + "'");
-      Eigen::Vector3d m = ReadingsAt(model, shared.data(), st.pose, it->second, reading.face);
+      const StationPoseVector pose =
+          st.drift.enabled ? DriftedPose(st.pose, st.drift, reading.time.value_or(st.drift.knots.front()))
+                           : st.pose;
+      Eigen::Vector3d m = ReadingsAt(model, shared.data(), pose, it->second, reading.face);
       const Eigen::Vector3d sigma = model.reading_uncertainty(m(0));
       for (int c = 0; c < 3; ++c) m(c) += sigma(c) * normal(1, 3 * counter + c);
       ++counter;
