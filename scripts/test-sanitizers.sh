@@ -20,6 +20,7 @@ studies=(
   Network.ScaleBarNetworkCoversTheRangeScale
   Network.StationAirCoversTheTruth
   Network.RobustRuleRemovesGrossErrors
+  Network.DriftModelCoversTheTargetsReadBetweenChecks
   cli_run_scan_large
   McmThreads.EveryPhaseOffersEightItemsToEachOfSixteenThreads
 )
