@@ -20,6 +20,7 @@
 #include "vlt/calibration.h"
 #include "vlt/custom_job.h"
 #include "vlt/error.h"
+#include "vlt/input_file.h"
 #include "vlt/gum.h"
 #include "vlt/inverse.h"
 #include "vlt/job.h"
@@ -100,12 +101,9 @@ JobText JobTextOf(const py::object& job, const std::string& base_dir) {
   }
   if (py::isinstance<py::str>(job) || py::hasattr(job, "__fspath__")) {
     const std::string path = py::str(job).cast<std::string>();
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw vlt::InputError(path + ": cannot read the job file");
-    std::ostringstream text;
-    text << in.rdbuf();
+    const std::string text = vlt::ReadInputFile(path, path, "cannot read the job file");
     const std::filesystem::path parent = std::filesystem::path(path).parent_path();
-    return {text.str(), path, parent.empty() ? std::filesystem::path(".") : parent};
+    return {text, path, parent.empty() ? std::filesystem::path(".") : parent};
   }
   throw vlt::InputError("job: expected a path to a job file or a dict");
 }

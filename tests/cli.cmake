@@ -250,3 +250,10 @@ if(NOT VLT_SANITIZE AND NOT VLT_FUZZ)
             $<$<TARGET_EXISTS:vlt_python>:-DPYTHON=${Python3_EXECUTABLE}> -P ${_cli}/consumer.cmake)
   set_tests_properties(cli_consumer_install PROPERTIES TIMEOUT 600)
 endif()
+
+# Files that are not files (issue 32 item 2): a symbolic-link loop, a name over 255 bytes, a FIFO,
+# /dev/zero, a directory and a missing file, as the job file, a readings CSV, a plan CSV, a
+# calibration file and a network station's readings: each one line, exit 2, nothing written, no wait.
+add_test(NAME cli_hostile_files
+  COMMAND bash ${_cli}/hostile_files.sh $<TARGET_FILE:vlt> ${CMAKE_SOURCE_DIR} ${_out}/hostile_files)
+set_tests_properties(cli_hostile_files PROPERTIES TIMEOUT 300)

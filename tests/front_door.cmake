@@ -71,7 +71,7 @@ vlt_front_door_error(air_outside_validity "air_invalid\\.toml: environment: temp
                      --strict run ${_fd}/air_invalid.toml -o ${_out}/fd_error_air_outside_validity)
 vlt_front_door_error(air_unknown_equation "air_equation\\.toml: environment\\.equation: unknown refractive-index equation 'modified-edlen' \\(expected one of: ciddor, edlen, edlen_boensch, boensch_potulski, modified_edlen, birch_downs, edlen_birch_downs\\)"
                      run ${_fd}/air_equation.toml -o ${_out}/fd_error_air_unknown_equation)
-vlt_front_door_error(job_is_a_directory "a_directory\\.toml: is a directory, not the job file"
+vlt_front_door_error(job_is_a_directory "a_directory\\.toml: cannot read the job file: a directory, not a file"
                      run ${_fd}/a_directory.toml -o ${_out}/fd_error_job_is_a_directory)
 vlt_front_door_error(hex_float_in_csv "hex\\.csv: line 2: range: .*'0x1p1'"
                      run ${_fd}/hex.toml -o ${_out}/fd_error_hex_float_in_csv)

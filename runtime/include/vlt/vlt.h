@@ -5,6 +5,7 @@
 // Errors, units and quantities; distributions and coverage factors.
 #include "vlt/error.h"
 #include "vlt/units.h"
+#include "vlt/input_file.h"
 #include "vlt/distributions.h"
 // The instrument: generated models, the measurement model of a point, readings from a point, air.
 #include "vlt/model_info.h"

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "vlt/error.h"
+#include "vlt/input_file.h"
 #include "vlt/units.h"
 
 namespace vlt {
@@ -209,13 +210,7 @@ CsvTable ParseCsv(std::string_view text, const std::string& file, const std::vec
 }
 
 CsvTable ReadCsvFile(const std::string& path, const std::string& label, const std::vector<std::string>* columns) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw InputError(label + ": is a directory, not a CSV file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(label + ": cannot read CSV file '" + path + "'");
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return ParseCsv(buffer.str(), label, columns);
+  return ParseCsv(ReadInputFile(path, label, "cannot read CSV file '" + path + "'"), label, columns);
 }
 
 double CsvQuantity(const std::string& field, std::optional<Dimension> dim, double unit_scale,

@@ -11,6 +11,7 @@
 #include "base/section.h"
 #include "vlt/distributions.h"
 #include "vlt/error.h"
+#include "vlt/input_file.h"
 #include "vlt/units.h"
 
 namespace vlt {
@@ -227,13 +228,7 @@ toml::table ParseToml(std::string_view text, const std::string& file) {
 }
 
 std::string ReadTextFile(const std::string& path, const std::string& what) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw InputError(path + ": is a directory, not " + what);
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot read " + what);
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
+  return ReadInputFile(path, path, "cannot read " + what);
 }
 
 std::filesystem::path BaseDirectory(const std::string& path) {

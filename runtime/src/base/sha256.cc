@@ -8,6 +8,7 @@
 
 #include "vlt/calibration.h"
 #include "vlt/error.h"
+#include "vlt/input_file.h"
 
 namespace vlt {
 
@@ -38,15 +39,8 @@ std::string Sha256Hex(Feed&& feed) {
 }  // namespace
 
 std::string Sha256File(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot read the file to hash it");
-  return Sha256Hex([&](auto&& update) {
-    char buffer[1 << 16];
-    while (in) {
-      in.read(buffer, sizeof buffer);
-      if (in.gcount() > 0) update(buffer, static_cast<std::size_t>(in.gcount()));
-    }
-  });
+  const std::string bytes = ReadInputFile(path, path, "cannot read the file to hash it");
+  return Sha256Bytes(bytes);
 }
 
 std::string Sha256Bytes(std::string_view bytes) {

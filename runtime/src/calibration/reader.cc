@@ -12,6 +12,7 @@
 #include "base/shared_settings.h"
 #include "vlt/calibration.h"
 #include "vlt/error.h"
+#include "vlt/input_file.h"
 #include "vlt/units.h"
 
 namespace vlt {
@@ -186,8 +187,8 @@ TestJob LoadTestJob(const std::string& path) {
   tests.set_hint("layout, mpe, coverage_probability, simulate");
   const std::string layout = AsString(tests.Require("layout"), tests.Where("layout"));
   const std::filesystem::path layout_path = holder.base_dir / layout;
-  if (!std::filesystem::is_regular_file(layout_path)) {
-    throw InputError(tests.Where("layout") + ": cannot read '" + layout_path.string() + "'");
+  if (const std::string problem = InputFileProblem(layout_path.string()); !problem.empty()) {
+    throw InputError(tests.Where("layout") + ": cannot read '" + layout_path.string() + "': " + problem);
   }
   job.layout = LoadTestLayout(layout_path.string());
   Section mpe = tests.Sub("mpe", false);

@@ -14,6 +14,7 @@
 #include "vlt/custom_job.h"
 #include "vlt/distributions.h"
 #include "vlt/error.h"
+#include "vlt/input_file.h"
 #include "vlt/models.h"
 
 namespace vlt {
@@ -163,8 +164,8 @@ void CustomJobReader::ReadObservationsFile() {
   const std::string rel = AsString(obs_section.Require("file"), obs_section.Where("file"));
   std::filesystem::path path = rel;
   if (path.is_relative()) path = job.base_dir / path;
-  if (!std::filesystem::is_regular_file(path)) {
-    throw InputError(obs_section.Where("file") + ": cannot read '" + path.string() + "'");
+  if (const std::string problem = InputFileProblem(path.string()); !problem.empty()) {
+    throw InputError(obs_section.Where("file") + ": cannot read '" + path.string() + "': " + problem);
   }
   table = ReadCsvFile(path.string(), path.string());
   if (table->rows.empty()) throw InputError(table->file + ": no observations (only a header)");

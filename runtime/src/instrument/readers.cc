@@ -12,6 +12,7 @@
 #include "base/section.h"
 #include "instrument/readers.h"
 #include "vlt/error.h"
+#include "vlt/input_file.h"
 #include "vlt/job.h"
 #include "vlt/calibration.h"
 #include "vlt/models.h"
@@ -168,8 +169,8 @@ void TrackerReader::ReadCalibrationFile() {
   MeasurementSetup& setup = job.setup;
   const std::string where = tracker.Where("calibration");
   const std::filesystem::path path = job.base_dir / AsString(*n, where);
-  if (!std::filesystem::is_regular_file(path))
-    throw InputError(where + ": cannot read '" + path.string() + "'");
+  if (const std::string problem = InputFileProblem(path.string()); !problem.empty())
+    throw InputError(where + ": cannot read '" + path.string() + "': " + problem);
   LoadedCalibration c = LoadCalibrationFile(path.string());
   if (!c.fits) {
     job.warnings.push_back(where + ": '" + path.string() + "' is a calibration that does not fit its data (" +

@@ -16,6 +16,7 @@
 #include "job/job_detail.h"
 #include "vlt/calibration.h"
 #include "vlt/error.h"
+#include "vlt/input_file.h"
 #include "vlt/inverse.h"
 #include "vlt/job.h"
 #include "vlt/units.h"
@@ -86,8 +87,8 @@ void ReadPlan(Section& s, Job& job, bool check_reach) {
   if (const toml::node* n = s.Get("csv")) {
     std::string rel = AsString(*n, s.Where("csv"));
     std::filesystem::path path = job.base_dir / rel;
-    if (!std::filesystem::is_regular_file(path)) {
-      throw InputError(s.Where("csv") + ": cannot read '" + path.string() + "'");
+    if (const std::string problem = InputFileProblem(path.string()); !problem.empty()) {
+      throw InputError(s.Where("csv") + ": cannot read '" + path.string() + "': " + problem);
     }
     const std::optional<std::vector<std::string>> columns = PlanColumns(s);
     CsvTable table = ReadCsvFile(path.string(), path.string(), columns ? &*columns : nullptr);
@@ -227,8 +228,8 @@ void ReadReadings(Section& s, Job& job) {
   s.Finish();
 
   std::filesystem::path path = job.base_dir / rel;
-  if (!std::filesystem::is_regular_file(path)) {
-    throw InputError(s.Where("csv") + ": cannot read '" + path.string() + "'");
+  if (const std::string problem = InputFileProblem(path.string()); !problem.empty()) {
+    throw InputError(s.Where("csv") + ": cannot read '" + path.string() + "': " + problem);
   }
   CsvTable table = ReadCsvFile(path.string(), path.string());
   rel = path.string();

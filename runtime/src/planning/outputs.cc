@@ -12,6 +12,7 @@
 
 #include "base/format.h"
 #include "vlt/error.h"
+#include "vlt/input_file.h"
 #include "vlt/planning.h"
 
 namespace vlt {
@@ -128,13 +129,10 @@ std::string StationMapCsv(const MapResult& map) {
 // original are not kept.
 std::string PlannedJob(const StationPlan& plan) {
   const Job& job = *plan.job;
-  std::ifstream in(job.file, std::ios::binary);
-  if (!in) throw InputError(job.file + ": cannot read the job file again to write the planned job");
-  std::ostringstream text;
-  text << in.rdbuf();
+  const std::string text = ReadInputFile(job.file, job.file, "cannot read the job file again to write the planned job");
   toml::table doc;
   try {
-    doc = toml::parse(text.str(), job.file);
+    doc = toml::parse(text, job.file);
   } catch (const toml::parse_error& e) {
     throw InputError(job.file + ": changed while planning: " + std::string(e.description()));
   }
