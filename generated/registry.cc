@@ -12,6 +12,7 @@ extern const ModelInfo kModel_head;
 extern const ModelInfo kModel_jcgm101_additive;
 extern const ModelInfo kModel_jcgm101_mass;
 extern const ModelInfo kModel_mirror;
+extern const ModelInfo kModel_total_station;
 
 extern const ModelInfo* const kModels[] = {
     &kModel_gum_h1_end_gauge,
@@ -20,7 +21,8 @@ extern const ModelInfo* const kModels[] = {
     &kModel_jcgm101_additive,
     &kModel_jcgm101_mass,
     &kModel_mirror,
+    &kModel_total_station,
 };
-extern const std::size_t kNumModels = 6;
+extern const std::size_t kNumModels = 7;
 
 }  // namespace vlt::generated

@@ -165,3 +165,29 @@ vlt_network_error(drift_mixed_times drift_mixed_times.toml
                   "drift_S2_check1\\.csv: line 2: time: a time without a date, but .*drift_S1\\.csv: line 2 gives a date and time")
 vlt_network_error(drift_bad_rate drift_bad_rate.toml
                   "drift_bad_rate\\.toml: station\\[1\\]\\.drift\\.translation_rate: expected a rate such as \"10 um/h\"")
+
+# A tracker and a total station (issue 29 item 5, models/total_station.toml): the plan with its
+# simulated measurement, which adjusts and validates by Monte Carlo; the report in the browser.
+add_test(NAME cli_network_total_station
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_ex}/tracker_total_station.toml;--simulate;3;-o;${_out}/network_ts"
+          -DOUT=${_out}/network_ts
+          "-DFILES=targets.csv;parameters.csv;identifiability.csv;mcm.csv;results.json;report.html;simulated_S3.csv;simulated_network.toml"
+          "-DEXPECT_STDOUT=Planned network 'tracker-total-station': 4 stations, 18 targets, 327 observations, 75 unknowns, dof 252.*Self-calibration: 3 of 3 combinations.*the GUM agrees"
+          "-DEXPECT_FILE_REGEX=results.json:\"model\": \"total_station\""
+          "-DJSON_KEYS=schema;summary;stations;targets;parameters;identifiability;monte_carlo;files"
+          -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_network_total_station PROPERTIES FIXTURES_SETUP vlt_network_ts)
+add_test(NAME cli_network_total_station_measured
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_out}/network_ts/simulated_network.toml;-o;${_out}/network_ts_measured"
+          -DOUT=${_out}/network_ts_measured
+          "-DFILES=targets.csv;parameters.csv;mcm.csv;results.json;report.html"
+          "-DEXPECT_STDOUT=Measured network 'tracker-total-station-simulated-3': 4 stations, 18 targets, 327 observations.*the GUM agrees"
+          "-DJSON_KEYS=schema;summary;parameters;monte_carlo;files"
+          -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_network_total_station_measured PROPERTIES FIXTURES_REQUIRED vlt_network_ts FIXTURES_SETUP vlt_network_ts_measured)
+add_test(NAME report_browser_network_total_station
+  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/network_ts_measured/report.html -DPROFILE=${_out}/chromium-profile-ts
+          -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
+set_tests_properties(report_browser_network_total_station PROPERTIES FIXTURES_REQUIRED vlt_network_ts_measured TIMEOUT 300)
