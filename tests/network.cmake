@@ -191,3 +191,27 @@ add_test(NAME report_browser_network_total_station
   COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/network_ts_measured/report.html -DPROFILE=${_out}/chromium-profile-ts
           -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
 set_tests_properties(report_browser_network_total_station PROPERTIES FIXTURES_REQUIRED vlt_network_ts_measured TIMEOUT 300)
+
+# The ISO 10360-10 length test from the network (issue 29 item 6, docs/network.md N-13): the plan
+# (E = 0 for every length) and its simulated measurement (the drawn instrument errors give E).
+add_test(NAME cli_network_length_test
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_ex}/length_test_network.toml;--simulate;4;-o;${_out}/network_lt"
+          -DOUT=${_out}/network_lt
+          "-DFILES=length_test.csv;identifiability.csv;results.json;report.html;simulated_network.toml"
+          "-DEXPECT_STDOUT=Length test [(]ISO 10360-10 from the network, MPE 15[.]0 um [+] 6[.]00 um/m[)]: 760 lengths of at least 1[.]00 m, 760 conform, 0 do not, 0 undetermined; largest [|]E[|] / MPE 0[.]000 .*E 0[.]0 um.*: conforms"
+          "-DEXPECT_FILE_REGEX=results.json:\"length_test\": {[^}]*\"lengths\": 760,[^}]*\"verdict\": \"conforms\""
+          "-DJSON_KEYS=schema;summary;length_test;files"
+          -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_network_length_test PROPERTIES FIXTURES_SETUP vlt_network_lt)
+add_test(NAME cli_network_length_test_measured
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_out}/network_lt/simulated_network.toml;-o;${_out}/network_lt_measured"
+          -DOUT=${_out}/network_lt_measured "-DFILES=length_test.csv;results.json;report.html"
+          "-DEXPECT_STDOUT=Length test [(]ISO 10360-10 from the network.*760 lengths of at least 1[.]00 m, [0-9]+ conform"
+          "-DEXPECT_FILE_REGEX=report.html:<h2>Length test from the network [(]ISO 10360-10[)]</h2>"
+          "-DJSON_KEYS=schema;summary;length_test;files"
+          -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_network_length_test_measured PROPERTIES FIXTURES_REQUIRED vlt_network_lt)
+vlt_network_error(length_test_bad_mpe length_test_bad_mpe.toml
+                  "length_test_bad_mpe\\.toml: network\\.length_test\\.mpe: '15 arcsec' is neither a length nor a ratio")

@@ -2,6 +2,7 @@
 // the planned truth, the single-station GUM, finite differences of the adjustment itself, and
 // simulations with a known truth over many seeds (coverage, Birge ratio, self-calibration).
 #include <cmath>
+#include <map>
 #include <cstdio>
 #include <numbers>
 #include <random>
@@ -946,6 +947,44 @@ TEST(Network, TrackerAndTotalStationCoverTheTruth) {
   EXPECT_NEAR(fraction, 0.95, 0.025);
   EXPECT_NEAR(p_fraction, 0.95, 0.03);
   EXPECT_LT(ratio_gamma, 0.5);
+}
+
+// The ISO 10360-10 length test from the network (N-13). A plan (readings at the instrument's
+// estimates, no noise) gives E = 0 for every length; with a known truth (every error parameter drawn
+// from its prior, all self-calibrated) each station's true error E_true = L_station - L_true differs
+// from E = L_station - L_ref by L_true - L_ref, which the reference's U covers at 0.95.
+TEST(Network, LengthTestErrorsAgainstTheNetworksLengths) {
+  const TargetList truth = Targets();
+  Network plan = MakeNetwork(true);
+  for (const UncertainInput& p : plan.instruments[0].setup.params)
+    if (p.u > 0.0) plan.self_calibrate.push_back(p.name);
+  NetworkLengthTest test;
+  test.mpe_a = 15e-6;
+  test.mpe_b = 6e-6;
+  test.min_length = 1.0;
+  const NetworkResult planned = AdjustNetwork(plan);
+  const std::vector<NetworkLengthError> exact = NetworkLengthErrors(plan, planned, test);
+  // 66 pairs of the 12 targets per station, of which T9 - T11 (0.71 m) is shorter than 1 m.
+  ASSERT_EQ(exact.size(), 3u * 65u);
+  for (const NetworkLengthError& e : exact) {
+    EXPECT_NEAR(e.error, 0.0, 1e-10) << e.station << " " << e.from << "-" << e.to;
+    EXPECT_EQ(e.decision.verdict, "conforms");
+    EXPECT_DOUBLE_EQ(e.mpe, 15e-6 + 6e-6 * e.length);
+  }
+  std::map<std::string, Eigen::Vector3d> at(truth.begin(), truth.end());
+  int inside = 0, total = 0;
+  for (int seed = 1; seed <= 100; ++seed) {
+    const Network sim = SimulateNetwork(plan, truth, static_cast<std::uint64_t>(seed));
+    const NetworkResult r = AdjustNetwork(sim);
+    for (const NetworkLengthError& e : NetworkLengthErrors(sim, r, test)) {
+      const double true_error = e.error + e.length - (at[e.to] - at[e.from]).norm();
+      inside += std::abs(e.error - true_error) <= e.U ? 1 : 0;
+      ++total;
+    }
+  }
+  const double fraction = static_cast<double>(inside) / total;
+  std::printf("length test: E within U of the true error %d / %d = %.4f\n", inside, total, fraction);
+  EXPECT_NEAR(fraction, 0.95, 0.03);
 }
 
 }  // namespace

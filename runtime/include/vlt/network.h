@@ -322,6 +322,34 @@ struct NetworkTaskResult {
 std::vector<NetworkTaskResult> NetworkTasks(const std::vector<TaskSpec>& tasks, const NetworkResult& result,
                                             const std::string& where);
 
+// The ISO 10360-10 length test from the network (docs/network.md N-13; Wang, Muralikrishnan et
+// al., Measurement 165 (2020) 108165): the network, with the instruments' errors it determines,
+// gives the reference length L_ref = |x_b - x_a| of every pair of targets; each station measures the
+// same length by itself, L = |y_b - y_a| of its own readings through its instrument as it stands
+// (the model at the instrument's estimates: its compensation). E = L - L_ref is that station's
+// length-measurement error, judged against the MPE A + B L_ref by ISO 14253-1 with the reference's
+// expanded uncertainty U = k u(L_ref) (u from the network's full covariance) as the guard band.
+struct NetworkLengthTest {
+  double mpe_a = 0.0;       // [m]
+  double mpe_b = 0.0;       // [1] (m/m)
+  double min_length = 1.0;  // pairs with L_ref >= min_length [m]
+};
+
+struct NetworkLengthError {
+  std::string station, from, to;
+  double length = 0.0;  // L_ref [m]
+  double error = 0.0;   // E = L_station - L_ref [m]
+  double u = 0.0, U = 0.0;  // of L_ref [m]
+  double mpe = 0.0;     // A + B L_ref [m]
+  ConformityDecision decision;  // E against [-MPE, MPE], guard band U
+};
+
+// Every pair of targets (both read by the station, L_ref >= min_length) of every station, in
+// station order, then the targets' order of first reading. Readings the robust rule removed are
+// left out; a target read several times (both faces) is the mean of its points.
+std::vector<NetworkLengthError> NetworkLengthErrors(const Network& network, const NetworkResult& result,
+                                                    const NetworkLengthTest& test);
+
 // ---------------------------------------------------------------------------------------------
 // The network file (TOML, docs/network.md): [job], [tracker] and [environment] as in a job,
 // [network] settings, [datum], [[reference]], [[station]] with its pose and either its readings
@@ -336,6 +364,7 @@ struct NetworkJob {
   std::vector<std::pair<std::string, std::string>> input_files;  // (role, path): the file, CSVs
   std::vector<std::string> warnings;
   std::string output_directory;  // [output] directory, "" = default
+  std::optional<NetworkLengthTest> length_test;  // [network.length_test] (N-13)
   int monte_carlo_trials = 0;    // [network.monte_carlo] trials (0: no validation)
   std::uint64_t monte_carlo_seed = 20090101;
   std::string text;                // the file's text (for simulated_network.toml)

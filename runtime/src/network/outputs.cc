@@ -327,6 +327,59 @@ void DriftSection(std::ostringstream& body, std::ostringstream& script, const Ne
             "{responsive:true}).then(done);";
 }
 
+// The length test (N-13): counts of the ISO 14253-1 verdicts and the length with the largest
+// |E| / MPE, overall and per station.
+struct LengthTestSummary {
+  int conforms = 0, fails = 0, undetermined = 0;
+  const NetworkLengthError* worst = nullptr;
+  void Add(const NetworkLengthError& e) {
+    if (e.decision.verdict == "conforms")
+      ++conforms;
+    else if (e.decision.verdict == "does not conform")
+      ++fails;
+    else
+      ++undetermined;
+    if (!worst || std::abs(e.error) / e.mpe > std::abs(worst->error) / worst->mpe) worst = &e;
+  }
+  int count() const { return conforms + fails + undetermined; }
+  // The test's verdict: every length conforms; one that does not fails it; otherwise undetermined.
+  std::string Verdict() const {
+    return fails > 0 ? "does not conform" : undetermined > 0 ? "undetermined" : "conforms";
+  }
+};
+
+void LengthTestSection(std::ostringstream& body, const NetworkJob& job, const std::vector<NetworkLengthError>& errors) {
+  const NetworkLengthTest& test = *job.length_test;
+  body << "<section><h2>Length test from the network (ISO 10360-10)</h2><p class=\"note\">Each station's own "
+          "length between two targets (its readings through the instrument as it stands) against the "
+          "network's calibrated length (docs/network.md N-13; Wang, Muralikrishnan et al. 2020). E in um; "
+          "MPE = "
+       << Fixed(test.mpe_a * 1e6, 1) << " um + " << Fixed(test.mpe_b * 1e6, 2)
+       << " um/m; U the network length's expanded uncertainty, the guard band of the ISO 14253-1 "
+          "decision. Lengths from "
+       << Fixed(test.min_length, 2) << " m; every length in length_test.csv.</p><table><tr><th class=\"l\">station</th>"
+          "<th>lengths</th><th>conform</th><th>do not conform</th><th>undetermined</th><th>largest |E| / MPE</th>"
+          "<th class=\"l\">at</th><th>L / m</th><th>E / um</th><th>U / um</th><th class=\"l\">verdict</th></tr>";
+  std::vector<std::string> order;
+  std::map<std::string, LengthTestSummary> by_station;
+  for (const NetworkLengthError& e : errors) {
+    if (!by_station.count(e.station)) order.push_back(e.station);
+    by_station[e.station].Add(e);
+  }
+  for (const std::string& name : order) {
+    const LengthTestSummary& s = by_station[name];
+    const NetworkLengthError& w = *s.worst;
+    const std::string verdict = s.Verdict();
+    body << "<tr><td class=\"l\">" << HtmlEscape(name) << "</td><td>" << s.count() << "</td><td>" << s.conforms
+         << "</td><td>" << s.fails << "</td><td>" << s.undetermined << "</td><td>"
+         << Fixed(std::abs(w.error) / w.mpe, 3) << "</td><td class=\"l\">" << HtmlEscape(w.from + " - " + w.to)
+         << "</td><td>" << Fixed(w.length, 3) << "</td><td>" << Fixed(w.error * 1e6, 1) << "</td><td>"
+         << Fixed(w.U * 1e6, 1) << "</td><td class=\"l " << (verdict == "conforms" ? "ok" : "bad") << "\">"
+         << verdict << "</td></tr>";
+  }
+  body << "</table></section>\n";
+}
+
 // Tasks over adjusted targets, with the ISO 14253-1 decision where a tolerance is given.
 void TasksTable(std::ostringstream& body, const std::vector<NetworkTaskResult>& tasks) {
   body << "<section><h2>Tasks</h2><p class=\"note\">Over adjusted targets, whichever station read them, with "
@@ -476,6 +529,7 @@ std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, co
   TargetsTable(body, result);
   StationsTable(body, result);
   if (AnyDrift(result)) DriftSection(body, script, job, result);
+  if (job.length_test) LengthTestSection(body, job, NetworkLengthErrors(job.network, result, *job.length_test));
   for (const NetworkStation& st : job.network.stations) {
     if (st.environment) {
       StationAirTable(body, job.network);
@@ -539,6 +593,66 @@ std::string StationsCsv(const NetworkResult& result) {
     s += '\n';
   }
   return s;
+}
+
+// length_test.csv (N-13): every length of every station.
+std::string LengthTestCsv(const std::vector<NetworkLengthError>& errors) {
+  std::string s = "station,from,to,length_m,error_m,u_m,U_m,mpe_m,error_over_mpe,decision\n";
+  for (const NetworkLengthError& e : errors) {
+    s += Csv(e.station) + "," + Csv(e.from) + "," + Csv(e.to);
+    for (double v : {e.length, e.error, e.u, e.U, e.mpe, std::abs(e.error) / e.mpe}) {
+      s += ',';
+      AppendNum(s, v);
+    }
+    s += "," + e.decision.verdict + "\n";
+  }
+  return s;
+}
+
+nlohmann::ordered_json LengthTestJson(const NetworkLengthTest& test, const std::vector<NetworkLengthError>& errors) {
+  LengthTestSummary all;
+  for (const NetworkLengthError& e : errors) all.Add(e);
+  nlohmann::ordered_json o;
+  o["mpe_a"] = test.mpe_a;
+  o["mpe_b"] = test.mpe_b;
+  o["min_length"] = test.min_length;
+  o["lengths"] = all.count();
+  o["conforms"] = all.conforms;
+  o["does_not_conform"] = all.fails;
+  o["undetermined"] = all.undetermined;
+  o["verdict"] = all.count() > 0 ? nlohmann::ordered_json(all.Verdict()) : nlohmann::ordered_json(nullptr);
+  if (all.worst) {
+    const NetworkLengthError& w = *all.worst;
+    o["worst"] = {{"station", w.station}, {"from", w.from},   {"to", w.to},   {"length", w.length},
+                  {"error", w.error},     {"U", w.U},         {"mpe", w.mpe}, {"decision", w.decision.verdict}};
+  } else {
+    o["worst"] = nullptr;
+  }
+  return o;
+}
+
+// The summary's line of the length test (N-13).
+std::string LengthTestLine(const NetworkJob& job, const NetworkResult& result) {
+  LengthTestSummary all;
+  const std::vector<NetworkLengthError> lengths = NetworkLengthErrors(job.network, result, *job.length_test);
+  for (const NetworkLengthError& e : lengths) all.Add(e);
+  char line[768];
+  if (!all.worst) {
+    std::snprintf(line, sizeof line, "Length test: no pair of targets read by one station is %.2f m or longer\n",
+                  job.length_test->min_length);
+    return line;
+  }
+  // A difference that rounds to 0.0 um prints as 0.0, not -0.0.
+  const double e_um = std::abs(all.worst->error) < 5e-8 ? 0.0 : all.worst->error * 1e6;
+  std::snprintf(line, sizeof line,
+                "Length test (ISO 10360-10 from the network, MPE %.1f um + %.2f um/m): %d lengths of at least %.2f m, "
+                "%d conform, %d do not, %d undetermined; largest |E| / MPE %.3f (%s, %.40s - %.40s: E %.1f um, U "
+                "%.1f um): %s (length_test.csv)\n",
+                job.length_test->mpe_a * 1e6, job.length_test->mpe_b * 1e6, all.count(), job.length_test->min_length,
+                all.conforms, all.fails, all.undetermined, std::abs(all.worst->error) / all.worst->mpe,
+                all.worst->station.c_str(), all.worst->from.c_str(), all.worst->to.c_str(), e_um,
+                all.worst->U * 1e6, all.Verdict().c_str());
+  return line;
 }
 
 // drift.csv (N-12): every knot of every drifting station.
@@ -904,7 +1018,8 @@ nlohmann::ordered_json TasksJson(const std::vector<NetworkTaskResult>& tasks) {
 // results.json (schema vlt-network/1, docs/network.md); `files` are the files written before it.
 std::string ResultsJson(const NetworkJob& job, const NetworkResult& result,
                         const std::vector<NetworkTaskResult>& tasks, const std::string& created,
-                        const NetworkMonteCarlo* mc, const Files& files) {
+                        const NetworkMonteCarlo* mc, const Files& files,
+                        const std::vector<NetworkLengthError>& lengths) {
   nlohmann::ordered_json j;
   j["schema"] = "vlt-network/1";
   j["created"] = created;
@@ -932,6 +1047,7 @@ std::string ResultsJson(const NetworkJob& job, const NetworkResult& result,
   if (!result.distances.empty()) j["distances"] = DistancesJson(result);
   if (job.network.robust) j["robust"] = RobustJson(job.network, result);
   j["tasks"] = TasksJson(tasks);
+  if (job.length_test) j["length_test"] = LengthTestJson(*job.length_test, lengths);
   if (mc) {
     j["monte_carlo"] = {{"trials", mc->trials},
                         {"seed", mc->seed},
@@ -958,6 +1074,11 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result,
   files.emplace_back("stations.csv", StationsCsv(result));
   files.emplace_back("residuals.csv", ResidualsCsv(result));
   if (AnyDrift(result)) files.emplace_back("drift.csv", DriftCsv(job, result));
+  std::vector<NetworkLengthError> lengths;
+  if (job.length_test) {
+    lengths = NetworkLengthErrors(job.network, result, *job.length_test);
+    files.emplace_back("length_test.csv", LengthTestCsv(lengths));
+  }
   files.emplace_back("covariance.csv", CovarianceCsv(result));
   if (!result.distances.empty()) files.emplace_back("distances.csv", DistancesCsv(result));
   if (!result.rejected.empty()) files.emplace_back("rejected.csv", RejectedCsv(result));
@@ -966,7 +1087,7 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result,
   if (!result.identifiability.empty()) files.emplace_back("identifiability.csv", IdentifiabilityCsv(result));
   if (!result.parameters.empty()) files.emplace_back("parameters.csv", ParametersCsv(result));
   files.emplace_back("report.html", NetworkReport(job, result, mc, tasks));
-  files.emplace_back("results.json", ResultsJson(job, result, tasks, created, mc, files));
+  files.emplace_back("results.json", ResultsJson(job, result, tasks, created, mc, files, lengths));
   return files;
 }
 
@@ -1012,6 +1133,7 @@ std::string NetworkSummary(const NetworkJob& job, const NetworkResult& result, c
     }
     out += "\n";
   }
+  if (job.length_test) out += LengthTestLine(job, result);
   for (const AdjustedStation& st : result.stations) {
     if (st.drift.empty()) continue;
     const AdjustedDriftEpoch& last = st.drift.back();

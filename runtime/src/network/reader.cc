@@ -99,6 +99,7 @@ struct NetworkFileReader {
   void ReadInstruments();
   void ReadValidation(Section& settings);
   void ReadSelfCalibration(Section& settings);
+  void ReadLengthTest(Section& settings);
   void ReadSettings();
   void ReadTargets();
   int InstrumentOf(Section& s);
@@ -169,6 +170,24 @@ void NetworkFileReader::ReadValidation(Section& settings) {
   mc.Finish();
 }
 
+// [network.length_test] (N-13): the MPE of the length-measurement error "A + B" and the shortest
+// length tested.
+void NetworkFileReader::ReadLengthTest(Section& settings) {
+  Section test = settings.Sub("length_test", false);
+  if (!test.exists()) return;
+  test.set_hint("mpe, min_length");
+  NetworkLengthTest t;
+  ParseLengthPlusRatio(AsString(test.Require("mpe"), test.Where("mpe")), test.Where("mpe"), t.mpe_a, t.mpe_b);
+  if (!(t.mpe_a > 0.0 || t.mpe_b > 0.0)) throw InputError(test.Where("mpe") + ": must be positive");
+  if (const toml::node* n = test.Get("min_length")) {
+    t.min_length = AsQuantity(*n, Dimension::kLength, test.Where("min_length"));
+    if (!(t.min_length >= 0.0) || !(t.min_length <= kMaxRange))
+      throw InputError(test.Where("min_length") + ": a length in [0, 10 km]");
+  }
+  test.Finish();
+  job.length_test = t;
+}
+
 void NetworkFileReader::ReadSelfCalibration(Section& settings) {
   const toml::node* n = settings.Get("self_calibrate");
   if (!n) return;
@@ -193,8 +212,10 @@ void NetworkFileReader::ReadSettings() {
   Section settings = top.Sub("network", false);
   if (!settings.exists()) return;
   settings.set_hint(
-      "self_calibrate, coverage_probability, outlier_limit, robust, robust_alpha, max_iterations, monte_carlo");
+      "self_calibrate, coverage_probability, outlier_limit, robust, robust_alpha, max_iterations, monte_carlo, "
+      "length_test");
   ReadValidation(settings);
+  ReadLengthTest(settings);
   if (const toml::node* n = settings.Get("robust")) net.robust = AsBool(*n, settings.Where("robust"));
   if (const toml::node* n = settings.Get("robust_alpha")) {
     net.robust_alpha = AsNumber(*n, settings.Where("robust_alpha"));
