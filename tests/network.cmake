@@ -162,7 +162,7 @@ vlt_network_error(drift_check_still drift_check_still.toml
 vlt_network_error(drift_no_time drift_no_time.toml
                   "drift_S2_check1\\.csv: line 2: station 'S2' has a drift model: every reading needs its time")
 vlt_network_error(drift_mixed_times drift_mixed_times.toml
-                  "drift_S2_check1\\.csv: line 2: time: a time without a date, but .*drift_S1\\.csv: line 2 gives a date and time")
+                  "drift_S2_check1\\.csv: line 2: time: a clock time, but .*drift_S1\\.csv: line 2 gives a date and time")
 vlt_network_error(drift_bad_rate drift_bad_rate.toml
                   "drift_bad_rate\\.toml: station\\[1\\]\\.drift\\.translation_rate: expected a rate such as \"10 um/h\"")
 

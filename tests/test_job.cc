@@ -764,13 +764,14 @@ TEST(Job, DefaultJobParses) {
 TEST(Times, DatesClockTimesAndQuantities) {
   using base_internal::ParseTime;
   EXPECT_DOUBLE_EQ(ParseTime("2026-11-26T10:15:30Z", 1.0, "t").seconds, 1795688130.0);
-  EXPECT_TRUE(ParseTime("2026-11-26T10:15:30Z", 1.0, "t").absolute);
+  EXPECT_EQ(ParseTime("2026-11-26T10:15:30Z", 1.0, "t").kind, TimeKind::kDateTime);
   EXPECT_DOUBLE_EQ(ParseTime("2026-11-26 10:15:30", 1.0, "t").seconds, 1795688130.0);
   EXPECT_DOUBLE_EQ(ParseTime("2026-11-26T10:15:30+01:00", 1.0, "t").seconds, 1795684530.0);
   EXPECT_DOUBLE_EQ(ParseTime("2024-02-29T23:59:59", 1.0, "t").seconds, 1709251199.0);
   EXPECT_DOUBLE_EQ(ParseTime("1970-01-01T00:00:00.25", 1.0, "t").seconds, 0.25);
   EXPECT_DOUBLE_EQ(ParseTime(" 10:15:30.5 ", 1.0, "t").seconds, 36930.5);
-  EXPECT_FALSE(ParseTime("10:15", 1.0, "t").absolute);
+  EXPECT_EQ(ParseTime("10:15", 1.0, "t").kind, TimeKind::kClockTime);
+  EXPECT_EQ(ParseTime("90 min", 1.0, "t").kind, TimeKind::kSeconds);
   EXPECT_DOUBLE_EQ(ParseTime("10:15", 1.0, "t").seconds, 36900.0);
   EXPECT_DOUBLE_EQ(ParseTime("90 min", 1.0, "t").seconds, 5400.0);
   EXPECT_DOUBLE_EQ(ParseTime("1.5", 3600.0, "t").seconds, 5400.0);

@@ -42,6 +42,7 @@
 #include "vlt/inverse.h"
 #include "vlt/measurement_model.h"
 #include "vlt/model_info.h"
+#include "vlt/units.h"
 
 namespace vlt {
 
@@ -52,10 +53,10 @@ struct TargetReading {
   Face face = Face::kFront;
   Eigen::Vector3d readings = Eigen::Vector3d::Zero();  // range [m], azimuth [rad], elevation [rad]
   std::string where;                                   // "<file>: line N" for messages
-  // When it was read [s] (a readings file's time column; a drift check's time), if known; absolute:
-  // seconds since 1970-01-01. A station's drift model (vlt/network.h) needs it.
+  // When it was read [s] (a readings file's time column; a drift check's time), if known, of the
+  // kind time_kind (its origin). A station's drift model (vlt/network.h) needs it.
   std::optional<double> time;
-  bool absolute_time = false;
+  TimeKind time_kind = TimeKind::kSeconds;
 };
 
 // A calibrated reference length (scale bar) measured in several positions; each position names

@@ -21,6 +21,7 @@
 #include "vlt/inverse.h"
 #include "vlt/measurement_model.h"
 #include "vlt/tasks.h"
+#include "vlt/units.h"
 
 namespace vlt {
 
@@ -40,10 +41,10 @@ struct JobPoint {
   // back-face readings are the raw ones (elevation in (pi/2, 3pi/2)).
   Eigen::Vector3d readings = Eigen::Vector3d::Zero();
   std::string where;  // where it was defined, for messages: "job.toml: plan.point[2]", "r.csv: line 7"
-  // kReadings with a time column: when it was read [s] (docs/job-file.md "Readings"); absolute:
-  // seconds since 1970-01-01 (a date and time), else from the file's own origin.
+  // kReadings with a time column: when it was read [s] (docs/job-file.md "Readings"), of the kind
+  // time_kind (its origin).
   std::optional<double> time;
-  bool absolute_time = false;
+  TimeKind time_kind = TimeKind::kSeconds;
 };
 
 // JCGM 101 7.2 / 7.9: fixed number of trials or the adaptive procedure.

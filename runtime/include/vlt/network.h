@@ -47,8 +47,9 @@ struct NetworkInstrument {
 // temperature), so its pose is a function of time, piecewise linear between knots t_0 < ... < t_K
 // (the first reading, each drift check, the last reading):
 //     pose(t) = pose + sum_k b_k(t) D_k,   b_k(t) = clamp((t - t_k) / (t_{k+1} - t_k), 0, 1),
-// `pose` the pose at t_0 and D_k the pose change over segment k. Each D_k is an unknown of the
-// adjustment with the prior D_k ~ N(0, (rate Delta t_k)^2) per component: the segment's rate of
+// `pose` the pose at t_0 and D_k the pose change over segment k. The adjustment's unknowns are the
+// poses at the knots P_k = pose + sum_{j<k} D_j (a reading combines the two around its time), with
+// the prior D_k = P_{k+1} - P_k ~ N(0, (rate Delta t_k)^2) per component: the segment's rate of
 // drift is unknown, zero on average, with the stated standard uncertainty. A reading's time is
 // then needed (TargetReading::time).
 struct NetworkDrift {
@@ -232,9 +233,9 @@ struct NetworkResult {
   std::vector<CalibratedParameter> parameters;      // the self-calibrated shared inputs
   std::vector<NetworkCombination> identifiability;  // self-calibration: best determined first
   // Full covariance of every unknown [m, rad, SI]: the free station poses (6 each, network
-  // order, datum stations left out), the drift segments (6 each, N-12), then the targets (3 each),
-  // then the self-calibrated inputs.
-  std::vector<std::string> unknown_names;  // "S2.rx", "S2.drift1.tx", "T1.x", "tmv"
+  // order, datum stations left out), the poses at the drift knots (6 each, N-12), then the targets
+  // (3 each), then the self-calibrated inputs.
+  std::vector<std::string> unknown_names;  // "S2.rx", "S2.knot1.tx", "T1.x", "tmv"
   Eigen::MatrixXd covariance;
   std::vector<int> station_offset;  // per station: first index in covariance, -1 datum
   std::vector<int> target_offset;   // per target

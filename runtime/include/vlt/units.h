@@ -43,6 +43,13 @@ std::string_view DimensionName(Dimension dimension);
 // "m", "rad", "1", "degC", "K", "Pa", "%", "1", "1/K", "1", "s".
 std::string_view SiUnit(Dimension dimension);
 
+// The kind of a time of a reading (docs/job-file.md "Readings"): seconds from a file's own origin
+// (a number, "90 min"), a clock time of day (seconds from midnight), or a date and time (seconds
+// since 1970-01-01). Times of different kinds have different origins and are never mixed.
+enum class TimeKind { kSeconds, kClockTime, kDateTime };
+// "seconds", "a clock time", "a date and time".
+std::string_view TimeKindName(TimeKind kind);
+
 // The units ParseQuantity accepts for `dimension` (for help texts and docs), in ASCII spelling;
 // the spellings with the micro sign / Greek mu ("µm", "μm") and the degree sign ("°", "°C") are
 // accepted as well.

@@ -101,9 +101,9 @@ TimeValue ParseTime(std::string_view text, double unit_scale, const std::string&
   while (!text.empty() && std::isspace(static_cast<unsigned char>(text.front()))) text.remove_prefix(1);
   while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back()))) text.remove_suffix(1);
   if (text.empty()) throw InputError(where + ": empty time");
-  if (const auto absolute = DateTime(text)) return {*absolute, true};
+  if (const auto absolute = DateTime(text)) return {*absolute, TimeKind::kDateTime};
   std::size_t at = 0;
-  if (const auto clock = ClockTime(text, at); clock && at == text.size()) return {*clock, false};
+  if (const auto clock = ClockTime(text, at); clock && at == text.size()) return {*clock, TimeKind::kClockTime};
   // A number in the column's unit, or a quantity with its own unit ("90 min").
   double seconds = 0.0;
   try {
@@ -114,7 +114,7 @@ TimeValue ParseTime(std::string_view text, double unit_scale, const std::string&
   }
   if (!std::isfinite(seconds) || std::abs(seconds) > 1e10)
     throw InputError(where + ": not a plausible time");
-  return {seconds, false};
+  return {seconds, TimeKind::kSeconds};
 }
 
 }  // namespace vlt::base_internal

@@ -6,16 +6,17 @@
 #include <string>
 #include <string_view>
 
+#include "vlt/units.h"
+
 namespace vlt::base_internal {
 
-// A time in seconds. `absolute`: from a date ("2026-11-26T10:15:30"), seconds since
-// 1970-01-01 00:00 (UTC when the text gives a zone: "Z" or "+01:00"; without one the clock's own
-// time, the same for every reading of a file). Otherwise relative: seconds from the file's own
-// origin (a number, a quantity, or a clock time of day counted from midnight). A network mixes
-// neither kind: its reader checks it.
+// A time in seconds and its kind (vlt/units.h TimeKind): a date and time ("2026-11-26T10:15:30"),
+// seconds since 1970-01-01 00:00 (UTC when the text gives a zone: "Z" or "+01:00"; without one the
+// clock's own time); a clock time ("10:15:30"), seconds from midnight; or seconds from the file's
+// own origin (a number, a quantity). The readers never mix kinds.
 struct TimeValue {
   double seconds = 0.0;
-  bool absolute = false;
+  TimeKind kind = TimeKind::kSeconds;
 };
 
 // One field: a bare number in the column's unit (seconds x unit_scale), a quantity with its own

@@ -209,6 +209,15 @@ std::size_t NumberLength(std::string_view s) {
 
 }  // namespace
 
+std::string_view TimeKindName(TimeKind kind) {
+  switch (kind) {
+    case TimeKind::kSeconds: return "seconds";
+    case TimeKind::kClockTime: return "a clock time";
+    case TimeKind::kDateTime: return "a date and time";
+  }
+  return "seconds";
+}
+
 std::string_view DimensionName(Dimension dimension) {
   switch (dimension) {
     case Dimension::kLength: return "length";

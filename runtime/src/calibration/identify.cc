@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <limits>
 #include <memory>
+#include <numbers>
 
 #include <Eigen/Cholesky>
 #include <Eigen/QR>
@@ -15,6 +16,7 @@
 #include "calibration/observations.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
+#include "vlt/inverse.h"
 
 namespace vlt {
 
@@ -251,9 +253,30 @@ struct Calibration {
     return vz;
   }
 
-  // --- Identifiability at the prior (docs/calibration.md, eq. I-1..I-3).
+  // The design of the data (I-2): every reading replaced by the model's exact readings of its
+  // target's start position at the prior, in the reading's face — the same geometry without the
+  // readings' noise, so that a combination the design cannot see (the range offset of two-face
+  // data, whose front and back readings of a target move alike) comes out exactly blind instead of
+  // "held, data alone 1e4 x prior" by the noise's inconsistency. The data itself where the inverse
+  // fails (a reading the prior model cannot reproduce).
+  IndexedProblem Design() const {
+    IndexedProblem design = problem;
+    try {
+      for (ReadingObservation& obs : design.readings) {
+        const Face face = obs.readings(2) > std::numbers::pi / 2 ? Face::kBack : Face::kFront;
+        const Eigen::Vector3d x = targets.segment<3>(3 * obs.target);
+        const std::array<double, 3> r = InverseReadings(*problem.model, problem.p0.data(), {x(0), x(1), x(2)}, face);
+        obs.readings = Eigen::Vector3d(r[0], r[1], r[2]);
+      }
+    } catch (const NumericalError&) {
+      return problem;
+    }
+    return design;
+  }
+
+  // --- Identifiability at the prior (docs/calibration.md, eq. I-1..I-3), from the design.
   void Identifiability() {
-    DenseSystem(problem, problem.p0, targets, bars, e, jac);
+    DenseSystem(Design(), problem.p0, targets, bars, e, jac);
     const Eigen::MatrixXd j_nuisance = jac.rightCols(nuisance);
     Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr_n(j_nuisance);
     if (qr_n.rank() < nuisance) {

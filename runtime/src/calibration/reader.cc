@@ -247,7 +247,7 @@ CalibrationJob LoadCalibrationJob(const std::string& path) {
   }
   data.noise = holder.setup.noise;
   for (const JobPoint& p : holder.points) {
-    data.readings.push_back({p.name, p.face, p.readings, p.where, p.time, p.absolute_time});
+    data.readings.push_back({p.name, p.face, p.readings, p.where, p.time, p.time_kind});
   }
 
   Section cal = top.Sub("calibration", false);

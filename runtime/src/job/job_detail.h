@@ -31,7 +31,9 @@ using namespace instrument_internal;
 // points.cc: [plan]; check_reach: every point within range of the job's station and off its
 // vertical axis (a network's [targets] are checked per station instead).
 void ReadPlan(Section& plan, Job& job, bool check_reach = true);
-void ReadReadings(Section& readings, Job& job);                   // points.cc: [readings]
+// points.cc: [readings]. The time column is read when `columns.time` names it, or, with
+// `times_by_default` (a network, whose drift models need times), when a column is called "time".
+void ReadReadings(Section& readings, Job& job, bool times_by_default = false);
 void ReadTasks(Section& top, Job& job);                           // tasks.cc: [[task]]
 void ReadMonteCarlo(Section& top, MonteCarloSettings& settings);  // settings.cc: [monte_carlo]
 // "a,b,c,d" or an array of numbers / quantity strings, as one comma-separated text (settings.cc).

@@ -164,7 +164,18 @@ void ReadPlan(Section& s, Job& job, bool check_reach) {
   }
 }
 
-void ReadReadings(Section& s, Job& job) {
+// A reading's time (the time column), of the same kind as the file's first.
+void ReadReadingTime(const std::string& field, double scale, const std::string& column, const Job& job, JobPoint& p) {
+  const TimeValue t = ParseTime(field, scale, p.where + ": " + column);
+  if (!job.points.empty() && job.points.front().time_kind != t.kind) {
+    throw InputError(p.where + ": " + column + ": " + std::string(TimeKindName(t.kind)) + " after " +
+                     std::string(TimeKindName(job.points.front().time_kind)) + " (one kind of time per file)");
+  }
+  p.time = t.seconds;
+  p.time_kind = t.kind;
+}
+
+void ReadReadings(Section& s, Job& job, bool times_by_default) {
   s.set_hint("csv, coordinates, columns, units, vertical_angle");
   std::string rel = AsString(s.Require("csv"), s.Where("csv"));
   // Spherical readings (range, azimuth, elevation) as the tracker measured them, or Cartesian
@@ -184,15 +195,20 @@ void ReadReadings(Section& s, Job& job) {
   const char* const* keys = cartesian ? kCartesian : kSpherical;
   std::vector<std::string> names(keys, keys + 5);
   // An optional time column (docs/job-file.md): when each reading was taken, for a station's drift
-  // model in a network (vlt run carries it and does not use it).
+  // model in a network. A job reads it only when columns.time names it (a "time" column of
+  // another format in an existing export stays ignored).
   std::string time_name = "time", time_unit = "s";
+  bool time_declared = false;
   Section cols = s.Sub("columns", false);
   if (cols.exists()) {
     cols.set_hint(cartesian ? "name, x, y, z, face, time" : "name, range, azimuth, elevation, face, time");
     for (int k = 0; k < 5; ++k) {
       if (const toml::node* n = cols.Get(keys[k])) names[k] = AsString(*n, cols.Where(keys[k]));
     }
-    if (const toml::node* n = cols.Get("time")) time_name = AsString(*n, cols.Where("time"));
+    if (const toml::node* n = cols.Get("time")) {
+      time_name = AsString(*n, cols.Where("time"));
+      time_declared = true;
+    }
     cols.Finish();
   }
   std::string units[3] = {"m", "rad", "rad"};
@@ -243,8 +259,8 @@ void ReadReadings(Section& s, Job& job) {
                        "' (declared by readings.columns." + keys[k] + ")");
     }
   }
-  const int time_col = table.Column(time_name);
-  if (time_col < 0 && time_name != "time") {
+  const int time_col = times_by_default || time_declared ? table.Column(time_name) : -1;
+  if (time_col < 0 && time_declared) {
     throw InputError(rel + ": line " + std::to_string(table.header_line) + ": missing column '" + time_name +
                      "' (declared by readings.columns.time)");
   }
@@ -253,15 +269,7 @@ void ReadReadings(Section& s, Job& job) {
     p.where = table.Where(row);
     p.name = row.fields[col[0]];
     if (p.name.empty()) throw InputError(p.where + ": empty point name");
-    if (time_col >= 0) {
-      const TimeValue t = ParseTime(row.fields[time_col], time_scale, p.where + ": " + time_name);
-      if (!job.points.empty() && job.points.front().absolute_time != t.absolute) {
-        throw InputError(p.where + ": " + time_name +
-                         ": a date and time among clock times or seconds (one kind of time per file)");
-      }
-      p.time = t.seconds;
-      p.absolute_time = t.absolute;
-    }
+    if (time_col >= 0) ReadReadingTime(row.fields[time_col], time_scale, time_name, job, p);
     double r[3];
     for (int k = 0; k < 3; ++k) {
       r[k] = CsvQuantity(row.fields[col[k + 1]], dims[k], scales[k], 0, p.where + ": " + names[k + 1]);

@@ -955,6 +955,10 @@ struct Adjustment {
       if (pose_offset[i] >= 0 && worst >= pose_offset[i] && worst < pose_offset[i] + 6)
         what = "station '" + network.stations[i].name + "'";
     }
+    for (int g = 0; g < segments.count(); ++g) {  // a drifting station floats with its knots' poses
+      if (worst >= knot_offset[g] && worst < knot_offset[g] + 6)
+        what = "station '" + network.stations[segments.station[g]].name + "'";
+    }
     throw InputError(file + ": datum: the network does not determine " + what +
                      " (collinear references or common targets, or a datum that leaves a rotation free)");
   }
@@ -1099,6 +1103,10 @@ struct Adjustment {
       as.readings = static_cast<int>(by_station[i].size());
       if (pose_offset[i] >= 0) as.covariance = result.covariance.block<6, 6>(pose_offset[i], pose_offset[i]);
       if (segments.first[i] >= 0) as.drift = DriftEpochs(i);
+      for (const AdjustedDriftEpoch& e : as.drift) {
+        if (!e.offset.allFinite() || !e.covariance.allFinite())
+          throw NumericalError(file + ": the drift of station '" + as.name + "' came out non-finite");
+      }
       result.stations.push_back(as);
     }
   }

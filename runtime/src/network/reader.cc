@@ -39,7 +39,7 @@ TimeValue Time(const toml::node& node, const std::string& where) {
   if (node.is_number()) {
     const double seconds = AsNumber(node, where);
     if (!std::isfinite(seconds) || std::abs(seconds) > 1e10) throw InputError(where + ": not a plausible time");
-    return {seconds, false};
+    return {seconds, TimeKind::kSeconds};
   }
   if (node.is_date_time() || node.is_time()) {
     std::ostringstream text;
@@ -84,7 +84,7 @@ struct NetworkFileReader {
   struct CheckTime {
     const NetworkStation* station;
     double seconds;
-    bool absolute;
+    TimeKind kind;
     std::string where;
   };
   std::vector<CheckTime> check_times;  // [[drift_check]] times, knots of their stations' drift
@@ -351,8 +351,8 @@ void NetworkFileReader::ReadOnlineReadings(Section& s, NetworkStation& st) {
   r.file = path;
   r.base_dir = holder.base_dir;
   r.setup = net.instruments[st.instrument].setup;
-  ReadReadings(readings, r);
-  for (const JobPoint& p : r.points) st.readings.push_back({p.name, p.face, p.readings, p.where, p.time, p.absolute_time});
+  ReadReadings(readings, r, true);
+  for (const JobPoint& p : r.points) st.readings.push_back({p.name, p.face, p.readings, p.where, p.time, p.time_kind});
   job.input_files.emplace_back("readings csv", r.readings_file);
   for (const std::string& w : r.warnings) job.warnings.push_back(w);
   sees.emplace_back();
@@ -559,10 +559,12 @@ void NetworkFileReader::ReadDrift(Section& s, NetworkStation& st) {
   st.drift.where = drift.WhereSelf();
   st.drift.translation_rate = Rate(drift, "translation_rate", Dimension::kLength);
   st.drift.rotation_rate = Rate(drift, "rotation_rate", Dimension::kAngle);
-  if (!(st.drift.translation_rate > 0.0) || !std::isfinite(st.drift.translation_rate))
-    throw InputError(drift.Where("translation_rate") + ": must be positive");
-  if (!(st.drift.rotation_rate > 0.0) || !std::isfinite(st.drift.rotation_rate))
-    throw InputError(drift.Where("rotation_rate") + ": must be positive");
+  // From 1 nm/h and 1e-6 arcsec/h (below, the prior's weights overflow; hold the station still
+  // instead) to 1 m/s and 1 rad/s.
+  if (!(st.drift.translation_rate >= 1e-9 / 3600.0) || !(st.drift.translation_rate <= 1.0))
+    throw InputError(drift.Where("translation_rate") + ": from 1 nm/h to 1 m/s");
+  if (!(st.drift.rotation_rate >= 4.8e-12 / 3600.0) || !(st.drift.rotation_rate <= 1.0))
+    throw InputError(drift.Where("rotation_rate") + ": from 1e-6 arcsec/h to 1 rad/s");
   drift.Finish();
 }
 
@@ -587,14 +589,14 @@ void NetworkFileReader::ReadDriftChecks() {
     r.file = path;
     r.base_dir = holder.base_dir;
     r.setup = net.instruments[st->instrument].setup;
-    ReadReadings(readings, r);
+    ReadReadings(readings, r, true);
     for (const JobPoint& p : r.points) {
       st->readings.push_back({p.name, p.face, p.readings, p.where, p.time ? p.time : time.seconds,
-                              p.time ? p.absolute_time : time.absolute});
+                              p.time ? p.time_kind : time.kind});
     }
     job.input_files.emplace_back("readings csv", r.readings_file);
     for (const std::string& w : r.warnings) job.warnings.push_back(w);
-    check_times.push_back({st, time.seconds, time.absolute, s.Where("time")});
+    check_times.push_back({st, time.seconds, time.kind, s.Where("time")});
     s.Finish();
   });
 }
@@ -606,11 +608,10 @@ void NetworkFileReader::CheckTimes() {
     for (const TargetReading& r : st.readings) {
       if (!r.time) continue;
       if (!first) first = &r;
-      if (r.absolute_time != first->absolute_time) {
-        throw InputError(r.where + ": time: " + (r.absolute_time ? "a date and time" : "a time without a date") +
-                         ", but " + first->where + " gives " +
-                         (first->absolute_time ? "a date and time" : "one without a date") +
-                         " (one kind of time in a network)");
+      if (r.time_kind != first->time_kind) {
+        throw InputError(r.where + ": time: " + std::string(TimeKindName(r.time_kind)) + ", but " + first->where +
+                         " gives " + std::string(TimeKindName(first->time_kind)) +
+                         " (one kind of time, one origin, in a network)");
       }
     }
   }
@@ -634,14 +635,20 @@ void NetworkFileReader::DriftKnots() {
     knots.insert(*latest->time);
     for (const CheckTime& check : check_times) {
       if (check.station != &st) continue;
-      if (check.absolute != earliest->absolute_time) {
-        throw InputError(check.where + ": " + (check.absolute ? "a date and time" : "a time without a date") +
-                         ", but the station's readings give " +
-                         (earliest->absolute_time ? "dates and times" : "times without a date"));
+      if (check.kind != earliest->time_kind) {
+        throw InputError(check.where + ": " + std::string(TimeKindName(check.kind)) +
+                         ", but the station's readings give " + std::string(TimeKindName(earliest->time_kind)) +
+                         " (one kind of time, one origin, in a network)");
       }
       knots.insert(check.seconds);
     }
-    st.drift.knots.assign(knots.begin(), knots.end());
+    // Knots closer than 1 s are one (a check written at the first reading's time in another
+    // spelling): a segment of a rounding step would carry a prior of 1e11 / rate.
+    st.drift.knots.clear();
+    for (double t : knots)
+      if (st.drift.knots.empty() || t - st.drift.knots.back() >= 1.0) st.drift.knots.push_back(t);
+    if (st.drift.knots.size() >= 2 && *latest->time - st.drift.knots.back() > 0.0)
+      st.drift.knots.back() = std::max(st.drift.knots.back(), *latest->time);
     if (st.drift.knots.size() < 2) {
       throw InputError(st.drift.where + ": station '" + st.name +
                        "' read everything at one time: nothing can drift (give the readings' times)");
