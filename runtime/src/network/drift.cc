@@ -10,15 +10,6 @@ namespace vlt {
 
 namespace network_internal {
 
-std::vector<std::pair<int, double>> DriftWeights(const NetworkDrift& drift, double t, int first) {
-  std::vector<std::pair<int, double>> weights;
-  for (std::size_t k = 0; k + 1 < drift.knots.size(); ++k) {
-    const double b = std::clamp((t - drift.knots[k]) / (drift.knots[k + 1] - drift.knots[k]), 0.0, 1.0);
-    if (b > 0.0) weights.emplace_back(first + static_cast<int>(k), b);
-  }
-  return weights;
-}
-
 std::vector<std::pair<int, double>> PoseTerms(const NetworkDrift& drift, double t, int first) {
   const std::vector<double>& knots = drift.knots;
   const int last = static_cast<int>(knots.size()) - 1;
@@ -75,9 +66,13 @@ StationPoseVector DriftPriorU(const NetworkDrift& drift, double duration) {
 }  // namespace network_internal
 
 StationPoseVector DriftedPose(const StationPoseVector& pose, const NetworkDrift& drift, double t) {
-  StationPoseVector drifted = pose;
-  if (!drift.enabled || drift.increments.empty()) return drifted;
-  for (const auto& [k, b] : network_internal::DriftWeights(drift, t)) drifted += b * drift.increments[k];
+  if (!drift.enabled || drift.increments.empty()) return pose;
+  // The poses at the knots, P_0 = pose and P_{k+1} = P_k + increments_k, combined as the adjustment
+  // combines them (PoseTerms).
+  std::vector<StationPoseVector> knots = {pose};
+  for (const StationPoseVector& d : drift.increments) knots.push_back(knots.back() + d);
+  StationPoseVector drifted = StationPoseVector::Zero();
+  for (const auto& [block, w] : network_internal::PoseTerms(drift, t, 0)) drifted += w * knots[block + 1];
   return drifted;
 }
 

@@ -11,11 +11,6 @@
 
 namespace vlt::network_internal {
 
-// (segment k, b_k(t)) for every segment of `drift` with b_k(t) > 0, k counted from `first`:
-// b_k(t) = clamp((t - t_k) / (t_{k+1} - t_k), 0, 1). Before t_0 the pose is the one at t_0, after
-// the last knot the one at the last knot.
-std::vector<std::pair<int, double>> DriftWeights(const NetworkDrift& drift, double t, int first = 0);
-
 // The pose of a reading at time t as the adjustment has it (N-12): a combination of the poses at
 // the knots around t (hat functions), each term (block, weight) with block -1 = the station's pose
 // at t_0 and block first + k - 1 = its pose at knot k >= 1; weights > 0 and summing to 1.

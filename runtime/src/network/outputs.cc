@@ -516,7 +516,7 @@ void RejectedTable(std::ostringstream& body, const NetworkJob& job, const Networ
 // report.html: the network in 3-D (stations, targets coloured by |U|, lines of sight, the axes of
 // every target's coverage ellipsoid, exaggerated), then the tables a metrologist signs.
 std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, const NetworkMonteCarlo* mc,
-                          const std::vector<NetworkTaskResult>& tasks) {
+                          const std::vector<NetworkTaskResult>& tasks, const std::vector<NetworkLengthError>& lengths) {
   std::ostringstream body, script;
   AdjustmentSection(body, job, result, mc);
   if (!result.warnings.empty()) {
@@ -529,7 +529,7 @@ std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, co
   TargetsTable(body, result);
   StationsTable(body, result);
   if (AnyDrift(result)) DriftSection(body, script, job, result);
-  if (job.length_test) LengthTestSection(body, job, NetworkLengthErrors(job.network, result, *job.length_test));
+  if (job.length_test) LengthTestSection(body, job, lengths);
   for (const NetworkStation& st : job.network.stations) {
     if (st.environment) {
       StationAirTable(body, job.network);
@@ -876,6 +876,7 @@ nlohmann::ordered_json DriftJson(const NetworkDrift& drift, const AdjustedStatio
 }
 
 nlohmann::ordered_json StationsJson(const NetworkJob& job, const NetworkResult& result) {
+  const double origin = TimeOrigin(job.network);  // of the drift knots' elapsed hours
   nlohmann::ordered_json stations = nlohmann::ordered_json::array();
   for (std::size_t i = 0; i < result.stations.size(); ++i) {
     const AdjustedStation& st = result.stations[i];
@@ -897,7 +898,7 @@ nlohmann::ordered_json StationsJson(const NetworkJob& job, const NetworkResult& 
     } else {
       o["air"] = nullptr;
     }
-    o["drift"] = DriftJson(job.network.stations[i].drift, st, TimeOrigin(job.network));
+    o["drift"] = DriftJson(job.network.stations[i].drift, st, origin);
     stations.push_back(o);
   }
   return stations;
@@ -1086,7 +1087,7 @@ Files NetworkFiles(const NetworkJob& job, const NetworkResult& result,
   if (mc) files.emplace_back("mcm.csv", McmCsv(result, *mc));
   if (!result.identifiability.empty()) files.emplace_back("identifiability.csv", IdentifiabilityCsv(result));
   if (!result.parameters.empty()) files.emplace_back("parameters.csv", ParametersCsv(result));
-  files.emplace_back("report.html", NetworkReport(job, result, mc, tasks));
+  files.emplace_back("report.html", NetworkReport(job, result, mc, tasks, lengths));
   files.emplace_back("results.json", ResultsJson(job, result, tasks, created, mc, files, lengths));
   return files;
 }
