@@ -161,6 +161,12 @@ TEST_P(GumTaskBruteForce, EqualsJointCovariance) {
       // The same point twice (both front face here; tests/test_two_face.cc has the back face):
       // coincident points, where a distance would be refused.
       case TaskKind::kTwoFace: p = Eigen::Vector3d(3.0, 1.5, 0.4); break;
+      // The alignment kinds need a nominal geometry: tests/test_alignment.cc.
+      case TaskKind::kBestFit:
+      case TaskKind::kBestFitScale:
+      case TaskKind::kRps:
+      case TaskKind::kDeviation:
+      case TaskKind::kPosition: break;
     }
     if (kind != TaskKind::kDistance && kind != TaskKind::kTwoFace) {
       p += Eigen::Vector3d(noise(gen), noise(gen), noise(gen));

@@ -190,3 +190,23 @@ def test_plan_equals_the_command_line():
     assert p["planned_job_toml"] == cli_job
     with pytest.raises(ValueError, match="optimize: the job has no \\[optimize\\] section"):
         vlt.plan(os.path.join(SOURCE, "examples", "b89_length.toml"))
+
+
+def test_alignment_and_deviations_equal_the_command_line():
+    # examples/alignment (docs/tasks.md "Alignment to nominal"): the alignments and deviations are
+    # tasks; the module returns the command line's results.json tasks, nominal geometry included.
+    job = os.path.join(SOURCE, "examples", "alignment", "panel_alignment.toml")
+    r = vlt.run(job, monte_carlo=False)
+    tasks = {t["name"]: t for t in r["tasks"]}
+    assert tasks["to_cad"]["kind"] == "best_fit" and tasks["jig_321"]["kind"] == "rps"
+    assert tasks["to_cad"]["units"] == ["m", "m", "m", "rad", "rad", "rad", "m"]
+    s17 = tasks["skin.S17"]
+    assert s17["kind"] == "deviation" and s17["nominal"]["point"] == "S17" and s17["nominal"]["alignment"] == "to_cad"
+    assert abs(np.linalg.norm(s17["nominal"]["normal"]) - 1.0) < 1e-12
+    with tempfile.TemporaryDirectory() as out:
+        subprocess.run([VLT, "-q", "run", job, "--no-mcm", "-o", out], check=True)
+        with open(os.path.join(out, "results.json")) as f:
+            cli = {t["name"]: t for t in json.load(f)["tasks"]}
+    assert set(cli) == set(tasks)
+    for name, t in tasks.items():
+        assert t["gum"] == cli[name]["gum"], name

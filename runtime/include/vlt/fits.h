@@ -14,6 +14,8 @@
 // Everything is SI: coordinates and lengths in m, unit vectors dimensionless ("1").
 #pragma once
 
+#include <memory>
+#include <optional>
 #include <span>
 #include <string_view>
 #include <vector>
@@ -38,6 +40,8 @@ struct TaskOutput {
 //   circle:   centre_x, centre_y, centre_z, radius, normal_x, normal_y, normal_z, rms
 //   line:     point_x, point_y, point_z, direction_x, direction_y, direction_z, straightness, rms
 //   two_face: dx, dy, dz
+//   best_fit, rps: tx, ty, tz, rx, ry, rz, rms      (best_fit_scale: ..., rms, scale)
+//   deviation: deviation, dx, dy, dz              (position: ..., dz, position)
 std::span<const TaskOutput> TaskOutputs(TaskKind kind);
 
 struct FitOptions {
@@ -48,7 +52,19 @@ struct FitOptions {
   // made positive (ties: the first of x, y, z). A Monte Carlo engine should pass the normal /
   // direction of the fit to the estimates, so that no trial flips sign.
   Eigen::Vector3d orientation = Eigen::Vector3d::Zero();
+  // best_fit, best_fit_scale, deviation: the nominal geometry (TaskSpec::nominal); required.
+  std::shared_ptr<const NominalGeometry> nominal;
+  // best_fit: each angle rx, ry, rz is returned within pi of these (the angles of the fit to the
+  // estimates, so that no Monte Carlo trial of a rotation near 180 degrees jumps by 2 pi).
+  std::optional<Eigen::Vector3d> reference_angles;
 };
+
+// The options a task's own definition implies: its nominal geometry (alignment kinds).
+FitOptions TaskFitOptions(const TaskSpec& task, bool jacobian);
+// The options of a Monte Carlo trial of `task` (no Jacobian): TaskFitOptions, and the normal /
+// direction (plane, circle, line) or the angles (best_fit) of the fit to the estimates, whose
+// outputs are `at_estimates` (TaskOutputs order), so that no trial flips a sign or turns by 2 pi.
+FitOptions TrialFitOptions(const TaskSpec& task, const Eigen::VectorXd& at_estimates);
 
 struct FitResult {
   TaskKind kind = TaskKind::kDistance;
@@ -108,6 +124,24 @@ FitResult FitCircle(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitO
 // holds every point); rms = sqrt(mean squared perpendicular distance).
 FitResult FitLine(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options = {},
                   std::string_view where = "task");
+
+// Best fit of the measured points (3 x N, N >= 3, not collinear) to nominal.positions: the
+// rotation R, translation t (and with nominal.scale the scale s) minimising
+// sum |s R x_i + t - n_i|^2, in closed form (Kabsch / Umeyama: the SVD of the cross-covariance,
+// det R = +1). Outputs t [m], the rotation vector of R (axis times angle, |angle| <= pi) [rad],
+// s [1] (best_fit_scale), rms = sqrt(sum |r_i|^2 / N) [m]. The Jacobian is exact: the implicit
+// function theorem on the stationarity conditions with the full Hessian (residual terms
+// included), rotations perturbed on the left (R = exp([w]x) R^).
+FitResult FitBestFit(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options = {},
+                     std::string_view where = "task");
+
+// Deviation of point nominal.point in the part frame of the best fit of the first
+// nominal.alignment_points points: d = s R x + t - n. Outputs: deviation = d . normal (along the
+// nominal normal, positive on the side the normal points to), dx, dy, dz and, with
+// nominal.position (kind position), position = 2 |d - (d . normal) normal| (the diameter of the
+// ISO 1101 position zone about the nominal axis through n; for a hole, the normal is its axis) [m].
+FitResult FitDeviation(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options = {},
+                       std::string_view where = "task");
 
 // Dispatches on kind.
 FitResult FitTask(TaskKind kind, const Eigen::Ref<const Eigen::Matrix3Xd>& points,

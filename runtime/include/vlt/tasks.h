@@ -9,11 +9,15 @@
 // shared inputs induce between points, to the task quantities.
 #pragma once
 
+#include <array>
+#include <memory>
 #include <span>
 #include <string>
 #include <string_view>
 #include <utility>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "vlt/conformity.h"
 
@@ -27,14 +31,41 @@ enum class TaskKind {
   kLine,      // least-squares 3-D line (>= 2 points)
   kTwoFace,   // p2 - p1 (dx, dy, dz) of exactly two points: the same nominal point measured in
               // the front face (first) and the back face (second); the faces are not checked
+  // The part's frame (docs/tasks.md "Alignment to nominal"): not [[task]] kinds, made by the job's
+  // [[alignment]] and [[deviation]] tables, which give the nominal geometry (TaskSpec::nominal).
+  kBestFit,       // rigid best fit (6 DOF) of >= 3 measured points to their nominal positions
+  kBestFitScale,  // the same with a scale (7 parameters)
+  kRps,           // reference point system: chosen part-frame directions of chosen points (3-2-1)
+  kDeviation,     // one point's deviation from nominal in the part frame of an alignment
+  kPosition,      // the same and its ISO 1101 position (a hole's or a pin's axis point)
 };
 
-// "distance", "plane", "sphere", "circle", "line", "two_face".
+// "distance", "plane", "sphere", "circle", "line", "two_face", "best_fit", "best_fit_scale", "rps",
+// "deviation", "position".
 std::string_view TaskKindName(TaskKind kind);
-// Inverse of TaskKindName; throws InputError "<where>: unknown task kind '<text>' (expected ...)".
+// Inverse of TaskKindName for the kinds a [[task]] table may name (distance ... two_face); throws
+// InputError "<where>: unknown task kind '<text>' (expected ...)".
 TaskKind ParseTaskKind(std::string_view text, std::string_view where);
-// Minimum number of points the feature needs (2, 3, 4, 3, 2, 2).
+// Minimum number of points the feature needs (2, 3, 4, 3, 2, 2, 3, 3, 3, 3, 3).
 int MinimumPoints(TaskKind kind);
+
+// The nominal (CAD, part-frame) geometry of an alignment or deviation task, SI. An alignment maps
+// the measured points x_i onto their nominal positions n_i: part = s R x + t (s = 1 without a
+// scale), minimising sum |s R x_i + t - n_i|^2 (docs/tasks.md).
+struct NominalGeometry {
+  Eigen::Matrix3Xd positions;  // column i: nominal position of the task's point i [m]
+  bool scale = false;          // the alignment fits a scale too
+  int alignment_points = 0;    // the first alignment_points points define the alignment
+  // RPS: per alignment point, which part-frame axes (x, y, z) it holds (a reference point
+  // system, e.g. 3-2-1: "xyz", "yz", "z"); empty for a best fit (every axis of every point).
+  std::vector<std::array<bool, 3>> holds;
+  // Deviation, position: the point (index into the task's points) whose deviation s R x + t - n
+  // is reported, and its nominal unit normal (surface normal, or a hole's axis) [1].
+  int point = -1;
+  bool position = false;  // kPosition: the ISO 1101 position too
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  std::string alignment;  // deviation: the alignment's name
+};
 
 struct TaskSpec {
   std::string name;  // user's label, e.g. "bore_A"
@@ -44,6 +75,9 @@ struct TaskSpec {
   // e.g. "distance", "flatness", "radius") and the interval, SI units.
   std::vector<std::pair<std::string, Tolerance>> tolerances;
   bool all_points = false;  // `points = "all"`: every point of the job, in job order
+  std::string where{};      // the table that defined it, for messages ("job.toml: alignment[0]")
+  // best_fit, best_fit_scale, deviation: the nominal geometry (shared: Monte Carlo trials copy it).
+  std::shared_ptr<const NominalGeometry> nominal{};
 
   // The tolerance of `quantity`, or nullptr.
   const Tolerance* ToleranceOf(std::string_view quantity) const {

@@ -170,8 +170,7 @@ TaskUncertainty PropagateTask(const MeasurementModel& model, std::span<const Poi
   const std::vector<Eigen::Vector3d> y = PointEstimates(model, used, options.threads);
   Eigen::Matrix3Xd coordinates(3, y.size());
   for (std::size_t i = 0; i < y.size(); ++i) coordinates.col(i) = y[i];
-  FitOptions fit_options;
-  fit_options.jacobian = true;
+  const FitOptions fit_options = TaskFitOptions(task, true);
   // G = d task / d point coordinates from the fit itself (vlt/fits.h), at the estimates.
   const FitResult fit = FitTask(task.kind, coordinates, fit_options, "task '" + task.name + "'");
 

@@ -55,8 +55,8 @@ Job ParseJob(std::string_view text, const std::string& file, const std::filesyst
   job.input_files.push_back({"job", file, Sha256Bytes(text)});
   Section top(root, file, "");
   top.set_hint(
-      "job, tracker, environment, station, part, correlations, plan, readings, task, monte_carlo, map, "
-      "optimize, output");
+      "job, tracker, environment, station, part, correlations, plan, readings, task, nominal, alignment, "
+      "deviation, monte_carlo, map, optimize, output");
 
   ReadJobMeta(top, job.name, &job.description, job.name);
   ReadTracker(top, job);
@@ -87,6 +87,7 @@ Job ParseJob(std::string_view text, const std::string& file, const std::filesyst
     }
   }
   ReadTasks(top, job);
+  ReadAlignments(top, job);
   ReadMonteCarlo(top, job.monte_carlo);
   ReadMap(top, job);
   ReadOptimize(top, job);

@@ -28,6 +28,9 @@ namespace vlt::job_internal {
 using namespace base_internal;
 using namespace instrument_internal;
 
+// points.cc: the scale of `unit` for `dim` (value_SI = value * scale) of a file's `unit` key,
+// with a job-file message for a bad unit.
+double UnitScale(const std::string& unit, Dimension dim, const std::string& where);
 // points.cc: [plan]; check_reach: every point within range of the job's station and off its
 // vertical axis (a network's [targets] are checked per station instead).
 void ReadPlan(Section& plan, Job& job, bool check_reach = true);
@@ -35,6 +38,11 @@ void ReadPlan(Section& plan, Job& job, bool check_reach = true);
 // `times_by_default` (a network, whose drift models need times), when a column is called "time".
 void ReadReadings(Section& readings, Job& job, bool times_by_default = false);
 void ReadTasks(Section& top, Job& job);                           // tasks.cc: [[task]]
+// tasks.cc: [<table>.tolerance.<quantity>] lower, upper of a task's quantities (TaskOutputs).
+void ReadTaskTolerances(Section& table, TaskSpec& spec);
+// alignment.cc: [nominal], [[alignment]], [[deviation]] (after the tasks: their names are unique
+// among all tasks).
+void ReadAlignments(Section& top, Job& job);
 void ReadMonteCarlo(Section& top, MonteCarloSettings& settings);  // settings.cc: [monte_carlo]
 // "a,b,c,d" or an array of numbers / quantity strings, as one comma-separated text (settings.cc).
 std::string ExtentString(const toml::node& node, const std::string& where);

@@ -40,13 +40,6 @@ double PlanCoordinate(const toml::node& node, double unit_scale, const std::stri
   return AsQuantity(node, Dimension::kLength, where);
 }
 
-// Scale of `unit` for `dim` (value_SI = value * scale), with a job-file message for a bad unit.
-double UnitScale(const std::string& unit, Dimension dim, const std::string& where) {
-  double one = ParseQuantity("1 " + unit, dim, where);
-  double zero = ParseQuantity("0 " + unit, dim, where);
-  return one - zero;
-}
-
 // [plan] header = false with columns = [...]: a file without a header line (a `name x y z` list as
 // tracker and CAD software export it), whose columns the job names. Returns the columns, or
 // nothing for a file with its header line.
@@ -77,6 +70,12 @@ std::optional<std::vector<std::string>> PlanColumns(Section& s) {
 }
 
 }  // namespace
+
+double UnitScale(const std::string& unit, Dimension dim, const std::string& where) {
+  double one = ParseQuantity("1 " + unit, dim, where);
+  double zero = ParseQuantity("0 " + unit, dim, where);
+  return one - zero;
+}
 
 void ReadPlan(Section& s, Job& job, bool check_reach) {
   s.set_hint("unit, csv, header, columns, point");

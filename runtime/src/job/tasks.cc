@@ -14,8 +14,6 @@
 
 namespace vlt::job_internal {
 
-namespace {
-
 // [task.tolerance.<quantity>] lower = ..., upper = ... (either or both; lengths in length units,
 // direction components plain numbers).
 void ReadTaskTolerances(Section& t, TaskSpec& spec) {
@@ -34,7 +32,9 @@ void ReadTaskTolerances(Section& t, TaskSpec& spec) {
       throw InputError(tol.Where(name) + ": a " + std::string(TaskKindName(spec.kind)) +
                        " task has no quantity '" + name + "' (" + list + ")");
     }
-    const Dimension dim = output->unit == "m" ? Dimension::kLength : Dimension::kDimensionless;
+    const Dimension dim = output->unit == "m"     ? Dimension::kLength
+                        : output->unit == "rad" ? Dimension::kAngle
+                                                : Dimension::kDimensionless;
     Section q = tol.Sub(name, true);
     q.set_hint("lower, upper");
     Tolerance limits;
@@ -50,8 +50,6 @@ void ReadTaskTolerances(Section& t, TaskSpec& spec) {
   tol.Finish();
 }
 
-}  // namespace
-
 void ReadTasks(Section& top, Job& job) {
   const toml::node* n = top.Get("task");
   if (!n) return;
@@ -65,6 +63,7 @@ void ReadTasks(Section& top, Job& job) {
     Section t(*e.as_table(), job.file, path);
     t.set_hint("kind, name, points, tolerance");
     TaskSpec spec;
+    spec.where = t.WhereSelf();
     spec.kind = ParseTaskKind(AsString(t.Require("kind"), t.Where("kind")), t.Where("kind"));
     spec.name = AsString(t.Require("name"), t.Where("name"));
     if (spec.name.empty()) throw InputError(t.Where("name") + ": empty task name");

@@ -226,12 +226,8 @@ std::vector<McmTask> FitTasks(const McmJob& job) {
                           estimates.col(static_cast<Eigen::Index>(k)).data());
     }
     const std::string where = "task '" + spec.name + "'";
-    const FitResult nominal = FitTask(spec.kind, estimates, FitOptions{}, where);
-    FitOptions options;
-    int orientation_index = -1;
-    if (spec.kind == TaskKind::kPlane || spec.kind == TaskKind::kLine) orientation_index = 3;
-    if (spec.kind == TaskKind::kCircle) orientation_index = 4;
-    if (orientation_index >= 0) options.orientation = nominal.values.segment<3>(orientation_index);
+    const FitResult nominal = FitTask(spec.kind, estimates, TaskFitOptions(spec, false), where);
+    const FitOptions options = TrialFitOptions(spec, nominal.values);
     for (const TaskOutput& output : TaskOutputs(spec.kind)) {
       task.output_names.push_back(spec.name + "." + std::string(output.name));
       task.output_units.emplace_back(output.unit);

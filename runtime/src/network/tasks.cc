@@ -26,8 +26,7 @@ std::vector<NetworkTaskResult> NetworkTasks(const std::vector<TaskSpec>& tasks, 
             result.covariance.block<3, 3>(result.target_offset[index[a]], result.target_offset[index[b]]);
       }
     }
-    FitOptions options;
-    options.jacobian = true;
+    const FitOptions options = TaskFitOptions(spec, true);
     const FitResult fit = FitTask(spec.kind, points, options, where + ": task '" + spec.name + "'");
     NetworkTaskResult r;
     r.name = spec.name;

@@ -280,6 +280,16 @@ json Task(const TaskResult& t) {
   j["points"] = t.spec.all_points ? json("all") : json(t.spec.points);
   j["quantities"] = t.gum.quantities;
   j["units"] = t.gum.units;
+  // Deviation / position: the point, its nominal position and normal and its alignment (the
+  // report's deviation map; docs/results-schema.md).
+  if ((t.spec.kind == TaskKind::kDeviation || t.spec.kind == TaskKind::kPosition) && t.spec.nominal &&
+      t.spec.nominal->point >= 0) {
+    const NominalGeometry& g = *t.spec.nominal;
+    j["nominal"] = {{"point", t.spec.points[static_cast<std::size_t>(g.point)]},
+                    {"position", Vec(g.positions.col(g.point))},
+                    {"normal", Vec(g.normal)},
+                    {"alignment", g.alignment}};
+  }
   j["gum"] = {{"value", Vec(t.gum.value)},
               {"covariance", Mat(t.gum.covariance)},
               {"u", Vec(t.gum.u)},

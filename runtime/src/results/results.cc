@@ -440,7 +440,8 @@ void PropagateJobTasks(const Job& job, const MeasurementModel& model,
     try {
       results.tasks[t].gum = PropagateTask(model, readings, job.tasks[t], gum_options);
     } catch (const NumericalError& e) {
-      throw NumericalError(job.file + ": task[" + std::to_string(t) + "]: " + e.what());
+      const std::string& where = job.tasks[t].where;
+      throw NumericalError((where.empty() ? job.file + ": task[" + std::to_string(t) + "]" : where) + ": " + e.what());
     }
   }
 }

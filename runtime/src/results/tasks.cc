@@ -21,21 +21,9 @@ McmTask MakeMcmTask(const TaskSpec& spec, const std::vector<int>& point_indices,
     task.output_names.push_back(spec.name + "." + std::string(o.name));
     task.output_units.push_back(std::string(o.unit));
   }
-  // Orientation of normals/directions: that of the fit to the estimates, so that no trial flips
-  // the sign (vlt/fits.h FitOptions::orientation).
-  FitOptions options;
-  options.jacobian = false;
-  auto component = [&](const char* name) {
-    for (std::size_t q = 0; q < gum.quantities.size(); ++q) {
-      if (gum.quantities[q] == name && q < static_cast<std::size_t>(gum.value.size())) return gum.value[q];
-    }
-    return 0.0;
-  };
-  if (spec.kind == TaskKind::kPlane || spec.kind == TaskKind::kCircle) {
-    options.orientation = {component("normal_x"), component("normal_y"), component("normal_z")};
-  } else if (spec.kind == TaskKind::kLine) {
-    options.orientation = {component("direction_x"), component("direction_y"), component("direction_z")};
-  }
+  // Orientation of normals/directions and the angles of an alignment: those of the fit to the
+  // estimates, so that no trial flips a sign or turns by 2 pi (vlt/fits.h TrialFitOptions).
+  const FitOptions options = TrialFitOptions(spec, gum.value);
   const TaskKind kind = spec.kind;
   const std::string where = "task '" + spec.name + "' (Monte Carlo trial)";
   const std::size_t n_out = outputs.size();

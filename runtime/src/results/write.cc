@@ -105,9 +105,12 @@ void PointTable(const Results& r, std::ostringstream& out) {
 
 // The headline quantities only; every component is in tasks.csv.
 bool IsHeadline(const TaskResult& t, const std::string& quantity) {
+  if (t.spec.kind == TaskKind::kDeviation) return quantity == "deviation";
+  if (t.spec.kind == TaskKind::kPosition) return quantity == "deviation" || quantity == "position";
   return quantity == "distance" || quantity == "radius" || quantity == "flatness" ||
          quantity == "straightness" || quantity == "normal_x" || quantity == "normal_y" ||
-         quantity.rfind("centre_", 0) == 0 || t.spec.kind == TaskKind::kTwoFace;
+         quantity.rfind("centre_", 0) == 0 || t.spec.kind == TaskKind::kTwoFace ||
+         t.spec.kind == TaskKind::kBestFit || t.spec.kind == TaskKind::kBestFitScale || t.spec.kind == TaskKind::kRps;
 }
 
 // One row of the task table: quantity q of task t, its GUM value and U and the Monte Carlo interval.
@@ -115,24 +118,29 @@ std::string TaskRow(const TaskResult& t, std::size_t q) {
   char line[512];
   const std::string& quantity = t.gum.quantities[q];
   const Eigen::Index i = static_cast<Eigen::Index>(q);
-  bool length = t.gum.units[q] == "m";
-  double vs = length ? 1e3 : 1.0, us = length ? 1e6 : 1.0;
+  const bool length = t.gum.units[q] == "m", angle = t.gum.units[q] == "rad";
+  constexpr double kDegree = 180.0 / 3.14159265358979323846;
+  const double vs = length ? 1e3 : angle ? kDegree : 1.0, us = length ? 1e6 : angle ? 3600.0 * kDegree : 1.0;
+  const char* u_unit = length ? " um" : angle ? " arcsec" : "";
   char value_text[64];
   // A value that rounds to zero is printed as 0, not -0.0000 (two_face of nominal points).
   if (length) {
     const double shown = std::abs(t.gum.value[i] * vs) < 5e-5 ? 0.0 : t.gum.value[i] * vs;
     std::snprintf(value_text, sizeof value_text, "%.4f mm", shown);
+  } else if (angle) {
+    const double shown = std::abs(t.gum.value[i] * vs) < 5e-7 ? 0.0 : t.gum.value[i] * vs;
+    std::snprintf(value_text, sizeof value_text, "%.6f deg", shown);
   } else {
     std::snprintf(value_text, sizeof value_text, "%.6g",
                   std::abs(t.gum.value[i]) < 1e-12 ? 0.0 : t.gum.value[i]);
   }
   std::string value = value_text;
-  std::string big_u = base_internal::Sig(t.gum.U[i] * us, 3) + (length ? " um" : "");
+  std::string big_u = base_internal::Sig(t.gum.U[i] * us, 3) + u_unit;
   std::string interval = "-", verdict = "not run";
   if (t.has_mcm && q < t.validation.size()) {
     char buffer[96];
     std::snprintf(buffer, sizeof buffer, "[%.3g, %.3g]%s", (t.mcm[q].symmetric.low - t.gum.value[i]) * us,
-                  (t.mcm[q].symmetric.high - t.gum.value[i]) * us, length ? " um" : "");
+                  (t.mcm[q].symmetric.high - t.gum.value[i]) * us, u_unit);
     interval = buffer;
     const std::string& outcome = t.validation[q].outcome;
     verdict = outcome == "not validated"    ? "NOT validated"

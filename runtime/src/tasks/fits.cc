@@ -15,6 +15,7 @@
 //    derivative only.
 #include "vlt/fits.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -22,6 +23,7 @@
 
 #include <Eigen/Dense>
 
+#include "tasks/alignment.h"
 #include "vlt/error.h"
 
 namespace vlt {
@@ -86,21 +88,9 @@ constexpr double kGapRatio = 1e-12;
 // A residual statistic smaller than this fraction of the extent is "zero": exact fit.
 constexpr double kExactFit = 1e-10;
 
-const char* KindName(TaskKind kind) {
-  switch (kind) {
-    case TaskKind::kDistance: return "distance";
-    case TaskKind::kPlane: return "plane";
-    case TaskKind::kSphere: return "sphere";
-    case TaskKind::kCircle: return "circle";
-    case TaskKind::kLine: return "line";
-    case TaskKind::kTwoFace: return "two_face";
-  }
-  return "task";
-}
-
 [[noreturn]] void Fail(std::string_view where, TaskKind kind, const std::string& reason) {
   std::string message(where);
-  message.append(": ").append(KindName(kind)).append(": ").append(reason);
+  message.append(": ").append(TaskKindName(kind)).append(": ").append(reason);
   throw NumericalError(message);
 }
 
@@ -109,7 +99,7 @@ void CheckPoints(const Points& points, TaskKind kind, int minimum, bool exact, s
   if (exact ? n != minimum : n < minimum) {
     std::string message(where);
     message.append(": ")
-        .append(KindName(kind))
+        .append(TaskKindName(kind))
         .append(exact ? " needs exactly " : " needs at least ")
         .append(std::to_string(minimum))
         .append(" points, got ")
@@ -120,7 +110,7 @@ void CheckPoints(const Points& points, TaskKind kind, int minimum, bool exact, s
     if (!points.col(i).allFinite()) {
       std::string message(where);
       message.append(": ")
-          .append(KindName(kind))
+          .append(TaskKindName(kind))
           .append(": point ")
           .append(std::to_string(i))
           .append(" has a non-finite coordinate");
@@ -465,6 +455,11 @@ std::span<const TaskOutput> TaskOutputs(TaskKind kind) {
     case TaskKind::kCircle: return kCircleOutputs;
     case TaskKind::kLine: return kLineOutputs;
     case TaskKind::kTwoFace: return kTwoFaceOutputs;
+    case TaskKind::kBestFit:
+    case TaskKind::kBestFitScale:
+    case TaskKind::kRps:
+    case TaskKind::kDeviation:
+    case TaskKind::kPosition: return tasks_internal::AlignmentOutputs(kind);
   }
   return {};
 }
@@ -697,8 +692,33 @@ FitResult FitTask(TaskKind kind, const Points& points, const FitOptions& options
     case TaskKind::kCircle: return FitCircle(points, options, where);
     case TaskKind::kLine: return FitLine(points, options, where);
     case TaskKind::kTwoFace: return FitTwoFace(points, options, where);
+    case TaskKind::kBestFit:
+    case TaskKind::kBestFitScale:
+    case TaskKind::kRps: return FitBestFit(points, options, where);
+    case TaskKind::kDeviation:
+    case TaskKind::kPosition: return FitDeviation(points, options, where);
   }
   Fail(where, kind, "unknown task kind");
+}
+
+FitOptions TaskFitOptions(const TaskSpec& task, bool jacobian) {
+  FitOptions options;
+  options.jacobian = jacobian;
+  options.nominal = task.nominal;
+  return options;
+}
+
+FitOptions TrialFitOptions(const TaskSpec& task, const Eigen::VectorXd& at_estimates) {
+  FitOptions options = TaskFitOptions(task, false);
+  int orientation = -1, angles = -1;
+  if (task.kind == TaskKind::kPlane || task.kind == TaskKind::kLine) orientation = 3;
+  if (task.kind == TaskKind::kCircle) orientation = 4;
+  if (task.kind == TaskKind::kBestFit || task.kind == TaskKind::kBestFitScale || task.kind == TaskKind::kRps) angles = 3;
+  const long need = std::max(orientation, angles) + 3;
+  if (at_estimates.size() < need) return options;
+  if (orientation >= 0) options.orientation = at_estimates.segment<3>(orientation);
+  if (angles >= 0) options.reference_angles = at_estimates.segment<3>(angles);
+  return options;
 }
 
 }  // namespace vlt

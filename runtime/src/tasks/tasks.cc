@@ -13,11 +13,16 @@ struct KindName {
   TaskKind kind;
   std::string_view name;
   int minimum_points;
+  bool task_table;  // a [[task]] table may name it (the alignment kinds need their nominal geometry)
 };
 
 constexpr KindName kKinds[] = {
-    {TaskKind::kDistance, "distance", 2}, {TaskKind::kPlane, "plane", 3}, {TaskKind::kSphere, "sphere", 4},
-    {TaskKind::kCircle, "circle", 3},     {TaskKind::kLine, "line", 2},   {TaskKind::kTwoFace, "two_face", 2},
+    {TaskKind::kDistance, "distance", 2, true}, {TaskKind::kPlane, "plane", 3, true},
+    {TaskKind::kSphere, "sphere", 4, true},     {TaskKind::kCircle, "circle", 3, true},
+    {TaskKind::kLine, "line", 2, true},         {TaskKind::kTwoFace, "two_face", 2, true},
+    {TaskKind::kBestFit, "best_fit", 3, false}, {TaskKind::kBestFitScale, "best_fit_scale", 3, false},
+    {TaskKind::kRps, "rps", 3, false},
+    {TaskKind::kDeviation, "deviation", 3, false},   {TaskKind::kPosition, "position", 3, false},
 };
 
 }  // namespace
@@ -31,7 +36,7 @@ std::string_view TaskKindName(TaskKind kind) {
 
 TaskKind ParseTaskKind(std::string_view text, std::string_view where) {
   for (const KindName& k : kKinds) {
-    if (k.name == text) return k.kind;
+    if (k.task_table && k.name == text) return k.kind;
   }
   throw InputError(std::string(where) + ": unknown task kind '" + std::string(text) +
                    "' (expected distance, plane, sphere, circle, line or two_face)");

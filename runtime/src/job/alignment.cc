@@ -1,0 +1,280 @@
+// job/alignment.cc — the part's frame in a job file: [nominal] (the CAD positions and normals of
+// the points), [[alignment]] (a best fit of measured points to nominal) and [[deviation]] (each
+// point's deviation from nominal in an alignment's frame). Each becomes a task (vlt/tasks.h
+// kBestFit, kBestFitScale, kDeviation) whose nominal geometry it carries, so the GUM, the Monte
+// Carlo method, validation, conformity decisions and every output treat it as any task.
+// Keys: docs/job-file.md "[nominal], [[alignment]], [[deviation]]"; the method: docs/tasks.md.
+#include <array>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+
+#include "job/job_detail.h"
+#include "vlt/calibration.h"
+#include "vlt/input_file.h"
+
+namespace vlt::job_internal {
+namespace {
+
+struct Nominal {
+  Eigen::Vector3d position;
+  std::optional<Eigen::Vector3d> normal;  // unit
+};
+
+struct Alignment {
+  std::string name;
+  std::vector<std::string> points;
+  bool scale = false;
+  std::vector<std::array<bool, 3>> holds;  // rps: the axes each point holds
+};
+
+// The nominal (CAD) geometry of the job's points: [nominal] csv (name, x, y, z [, i, j, k]) in
+// `unit`; without [nominal], a plan's own points (their nominal positions, no normals).
+std::map<std::string, Nominal> ReadNominal(Section& top, Job& job) {
+  std::map<std::string, Nominal> out;
+  Section s = top.Sub("nominal", false);
+  if (!s.exists()) {
+    if (job.mode == JobMode::kPlan) {
+      for (const JobPoint& p : job.points) out[p.name] = {p.nominal, std::nullopt};
+    }
+    return out;
+  }
+  s.set_hint("csv, unit");
+  std::string unit = "m";
+  if (const toml::node* n = s.Get("unit")) unit = AsString(*n, s.Where("unit"));
+  const double scale = UnitScale(unit, Dimension::kLength, s.Where("unit"));
+  const std::string path = (job.base_dir / AsString(s.Require("csv"), s.Where("csv"))).string();
+  if (const std::string problem = InputFileProblem(path); !problem.empty()) {
+    throw InputError(s.Where("csv") + ": cannot read '" + path + "': " + problem);
+  }
+  s.Finish();
+  const CsvTable table = ReadCsvFile(path, path);
+  job.input_files.push_back({"nominal csv", path, Sha256File(path)});
+  const std::string header = path + ": line " + std::to_string(table.header_line);
+  for (const std::string& col : table.header) {
+    if (col != "name" && col != "x" && col != "y" && col != "z" && col != "i" && col != "j" && col != "k") {
+      throw InputError(header + ": unknown column '" + col + "' (nominal CSV columns: name, x, y, z [, i, j, k])");
+    }
+  }
+  int c[7];
+  const char* names[7] = {"name", "x", "y", "z", "i", "j", "k"};
+  for (int k = 0; k < 7; ++k) {
+    c[k] = table.Column(names[k]);
+    if (c[k] < 0 && k < 4) throw InputError(header + ": missing column '" + names[k] + "' (nominal CSV columns: name, x, y, z [, i, j, k])");
+  }
+  const bool has_normals = c[4] >= 0 || c[5] >= 0 || c[6] >= 0;
+  if (has_normals && (c[4] < 0 || c[5] < 0 || c[6] < 0)) {
+    throw InputError(header + ": give all three normal columns i, j, k or none");
+  }
+  for (const CsvRow& row : table.rows) {
+    const std::string where = table.Where(row);
+    const std::string& name = row.fields[c[0]];
+    if (name.empty()) throw InputError(where + ": empty point name");
+    Nominal n;
+    for (int a = 0; a < 3; ++a) {
+      n.position(a) = CsvQuantity(row.fields[c[1 + a]], Dimension::kLength, scale, 0, where + ": " + names[1 + a]);
+    }
+    if (has_normals && !(row.fields[c[4]].empty() && row.fields[c[5]].empty() && row.fields[c[6]].empty())) {
+      Eigen::Vector3d v;
+      for (int a = 0; a < 3; ++a) v(a) = CsvQuantity(row.fields[c[4 + a]], std::nullopt, 1.0, 0, where + ": " + names[4 + a]);
+      if (!(v.norm() > 1e-6)) throw InputError(where + ": the normal (i, j, k) has no direction");
+      n.normal = v.normalized();
+    }
+    if (!out.emplace(name, n).second) throw InputError(where + ": point '" + name + "' given twice");
+  }
+  return out;
+}
+
+// `points` of a table: an array of names or "all" (every measured point the filter accepts).
+template <class Accept>
+std::vector<std::string> PointList(Section& t, const Job& job, const Accept& accept, bool required) {
+  std::vector<std::string> out;
+  const toml::node* pts = required ? &t.Require("points") : t.Get("points");
+  if (pts == nullptr || (pts->is_string() && *pts->value<std::string>() == "all")) {
+    for (const JobPoint& p : job.points) {
+      if (accept(p.name)) out.push_back(p.name);
+    }
+    return out;
+  }
+  if (!pts->is_array()) throw InputError(t.Where("points") + ": expected an array of point names or \"all\"");
+  for (const toml::node& p : *pts->as_array()) out.push_back(AsString(p, t.Where("points")));
+  return out;
+}
+
+const Nominal& NominalOf(const std::map<std::string, Nominal>& nominal, const std::string& point, const std::string& where) {
+  const auto it = nominal.find(point);
+  if (it == nominal.end()) throw InputError(where + ": point '" + point + "' has no nominal position ([nominal] csv)");
+  return it->second;
+}
+
+// [alignment.rps] <point> = "xyz" | "yz" | "z" | ...: the part-frame axes each point holds.
+void ReadHeldAxes(Section& t, Alignment& a) {
+  Section rps = t.Sub("rps", true);
+  rps.set_hint("<point> = \"xyz\", \"xy\", \"z\", ...");
+  for (const auto& [key, node] : rps.table()) {
+    const std::string point(key.str());
+    const std::string axes = AsString(node, rps.Where(point));
+    std::array<bool, 3> held = {false, false, false};
+    for (const char c : axes) {
+      const int axis = c == 'x' ? 0 : c == 'y' ? 1 : c == 'z' ? 2 : -1;
+      if (axis < 0 || held[static_cast<std::size_t>(axis)]) {
+        throw InputError(rps.Where(point) + ": expected the axes the point holds, each of x, y, z at most once (e.g. \"xyz\", \"yz\", \"z\"), got '" + axes + "'");
+      }
+      held[static_cast<std::size_t>(axis)] = true;
+    }
+    if (axes.empty()) throw InputError(rps.Where(point) + ": a point that holds no axis does not belong to the reference point system");
+    rps.Get(point);
+    a.points.push_back(point);
+    a.holds.push_back(held);
+  }
+  rps.Finish();
+  int count = 0;
+  for (const std::array<bool, 3>& h : a.holds) count += h[0] + h[1] + h[2];
+  if (count < 6) {
+    throw InputError(rps.WhereSelf() + ": the points hold " + std::to_string(count) +
+                     " directions; a part has 6 degrees of freedom (3-2-1: \"xyz\", \"yz\", \"z\")");
+  }
+}
+
+// One [[alignment]] table: a best_fit or rps task over its points.
+Alignment ReadAlignment(Section& t, Job& job, const std::map<std::string, Nominal>& nominal, std::set<std::string>& names) {
+  t.set_hint("name, kind, points, scale, rps, tolerance");
+  Alignment a;
+  a.name = AsString(t.Require("name"), t.Where("name"));
+  if (a.name.empty()) throw InputError(t.Where("name") + ": empty alignment name");
+  if (!names.insert(a.name).second) throw InputError(t.Where("name") + ": '" + a.name + "' is already the name of a task or alignment");
+  const std::string kind = AsString(t.Require("kind"), t.Where("kind"));
+  if (kind != "best_fit" && kind != "rps") {
+    throw InputError(t.Where("kind") + ": unknown alignment kind '" + kind + "' (expected best_fit or rps)");
+  }
+  if (const toml::node* n = t.Get("scale")) a.scale = AsBool(*n, t.Where("scale"));
+  if (kind == "rps") {
+    if (a.scale) throw InputError(t.Where("scale") + ": a reference point system fits no scale");
+    if (t.Get("points") != nullptr) throw InputError(t.Where("points") + ": an rps alignment's points are the keys of [alignment.rps]");
+    ReadHeldAxes(t, a);
+  } else {
+    a.points = PointList(t, job, [&](const std::string& p) { return nominal.count(p) > 0; }, false);
+  }
+  TaskSpec spec;
+  spec.where = t.WhereSelf();
+  spec.name = a.name;
+  spec.kind = kind == "rps" ? TaskKind::kRps : a.scale ? TaskKind::kBestFitScale : TaskKind::kBestFit;
+  spec.points = a.points;
+  auto geometry = std::make_shared<NominalGeometry>();
+  geometry->positions.resize(3, static_cast<Eigen::Index>(a.points.size()));
+  for (std::size_t i = 0; i < a.points.size(); ++i) {
+    geometry->positions.col(static_cast<Eigen::Index>(i)) = NominalOf(nominal, a.points[i], t.Where("points")).position;
+  }
+  geometry->scale = a.scale;
+  geometry->alignment_points = static_cast<int>(a.points.size());
+  geometry->holds = a.holds;
+  spec.nominal = geometry;
+  ReadTaskTolerances(t, spec);
+  t.Finish();
+  job.task_points.push_back(ResolveTaskPoints(spec, job.point_names(), t.Where("points")));
+  job.tasks.push_back(std::move(spec));
+  return a;
+}
+
+// One [[deviation]] table: a deviation task per point, named "<name>.<point>", over the
+// alignment's points and the point (once, where it is an alignment point itself).
+void ReadDeviation(Section& t, Job& job, const std::map<std::string, Nominal>& nominal,
+                   const std::vector<Alignment>& alignments, std::set<std::string>& names) {
+  t.set_hint("name, alignment, points, position, tolerance");
+  const std::string name = AsString(t.Require("name"), t.Where("name"));
+  if (name.empty()) throw InputError(t.Where("name") + ": empty deviation name");
+  const Alignment* alignment = nullptr;
+  if (const toml::node* n = t.Get("alignment")) {
+    const std::string wanted = AsString(*n, t.Where("alignment"));
+    for (const Alignment& a : alignments) {
+      if (a.name == wanted) alignment = &a;
+    }
+    if (alignment == nullptr) throw InputError(t.Where("alignment") + ": no [[alignment]] named '" + wanted + "'");
+  } else if (alignments.size() == 1) {
+    alignment = &alignments.front();
+  } else {
+    throw InputError(t.Where("alignment") + ": required key is missing (" +
+                     (alignments.empty() ? std::string("give an [[alignment]] first") : "the job has several alignments") + ")");
+  }
+  const std::vector<std::string> points = PointList(
+      t, job, [&](const std::string& p) { const auto it = nominal.find(p); return it != nominal.end() && it->second.normal; },
+      true);
+  if (points.empty()) throw InputError(t.Where("points") + ": no point with a nominal normal");
+  bool position = false;
+  if (const toml::node* n = t.Get("position")) position = AsBool(*n, t.Where("position"));
+  TaskSpec pattern;
+  pattern.kind = position ? TaskKind::kPosition : TaskKind::kDeviation;
+  ReadTaskTolerances(t, pattern);
+  t.Finish();
+  for (const std::string& point : points) {
+    const Nominal& n = NominalOf(nominal, point, t.Where("points"));
+    if (!n.normal) throw InputError(t.Where("points") + ": point '" + point + "' has no nominal normal (columns i, j, k of [nominal] csv)");
+    TaskSpec spec = pattern;
+    spec.where = t.WhereSelf() + " (point '" + point + "')";
+    spec.name = name + "." + point;
+    if (!names.insert(spec.name).second) throw InputError(t.Where("name") + ": '" + spec.name + "' is already the name of a task");
+    spec.points = alignment->points;
+    auto geometry = std::make_shared<NominalGeometry>();
+    geometry->alignment_points = static_cast<int>(alignment->points.size());
+    geometry->scale = alignment->scale;
+    geometry->holds = alignment->holds;
+    for (std::size_t i = 0; i < spec.points.size(); ++i) {
+      if (spec.points[i] == point) geometry->point = static_cast<int>(i);
+    }
+    if (geometry->point < 0) {
+      geometry->point = static_cast<int>(spec.points.size());
+      spec.points.push_back(point);
+    }
+    geometry->positions.resize(3, static_cast<Eigen::Index>(spec.points.size()));
+    for (std::size_t i = 0; i < spec.points.size(); ++i) {
+      geometry->positions.col(static_cast<Eigen::Index>(i)) = NominalOf(nominal, spec.points[i], t.Where("points")).position;
+    }
+    geometry->normal = *n.normal;
+    geometry->position = position;
+    geometry->alignment = alignment->name;
+    spec.nominal = geometry;
+    job.task_points.push_back(ResolveTaskPoints(spec, job.point_names(), t.Where("points")));
+    job.tasks.push_back(std::move(spec));
+  }
+}
+
+// The tables of array `key` of `top`, each as a Section named "<key>[i]".
+template <class Read>
+void ForEachTable(Section& top, Job& job, const char* key, const Read& read) {
+  const toml::node* n = top.Get(key);
+  if (n == nullptr) return;
+  if (!n->is_array()) throw InputError(top.Where(key) + ": expected [[" + key + "]] tables");
+  int index = 0;
+  for (const toml::node& e : *n->as_array()) {
+    const std::string path = std::string(key) + "[" + std::to_string(index++) + "]";
+    if (!e.is_table()) throw InputError(job.file + ": " + path + ": expected a table");
+    Section t(*e.as_table(), job.file, path);
+    read(t);
+  }
+}
+
+}  // namespace
+
+void ReadAlignments(Section& top, Job& job) {
+  const bool any = top.Get("alignment") != nullptr || top.Get("deviation") != nullptr;
+  if (!any) {
+    if (Section s = top.Sub("nominal", false); s.exists()) {
+      throw InputError(s.WhereSelf() + ": a nominal is used by [[alignment]] and [[deviation]]; the job has neither");
+    }
+    return;
+  }
+  const std::map<std::string, Nominal> nominal = ReadNominal(top, job);
+  if (nominal.empty()) {
+    throw InputError(job.file + ": nominal: required key is missing (the nominal positions of the points: [nominal] csv)");
+  }
+  std::set<std::string> names;
+  for (const TaskSpec& t : job.tasks) names.insert(t.name);
+  std::vector<Alignment> alignments;
+  ForEachTable(top, job, "alignment", [&](Section& t) { alignments.push_back(ReadAlignment(t, job, nominal, names)); });
+  ForEachTable(top, job, "deviation", [&](Section& t) { ReadDeviation(t, job, nominal, alignments, names); });
+}
+
+}  // namespace vlt::job_internal

@@ -1,0 +1,388 @@
+// tasks/alignment.cc — alignment of measured points to their nominal (CAD) positions and the
+// deviations from nominal in the aligned part frame (vlt/fits.h FitBestFit, FitDeviation).
+//
+// The fit (docs/tasks.md "Alignment to nominal"): part = s R x + t minimising
+// F = 1/2 sum |r_i|^2, r_i = s R x_i + t - n_i. Closed form (Umeyama, IEEE TPAMI 13 (1991) 376;
+// Kabsch 1976 without the scale): with a_i, b_i the measured and nominal points less their
+// centroids and S = sum b_i a_i^T = U D V^T, R = U diag(1, 1, det(U V^T)) V^T,
+// s = trace(D diag(1, 1, det(U V^T))) / sum |a_i|^2, t = n_bar - s R x_bar.
+//
+// Derivatives: theta = (w, t, sigma) with R = exp([w]x) R^ (a rotation on the left of the fitted
+// one), s = s^ + sigma. At the optimum the gradient g(theta, X) = sum J_i^T r_i vanishes, so
+// dtheta/dx_j = -H^-1 dg/dx_j (implicit function theorem) with the FULL Hessian
+//   H = sum J_i^T J_i + sum_k r_ik d2 r_ik / dtheta2,   J_i = [-s [y_i]x, I, y_i],  y_i = R^ x_i,
+// whose residual terms are s sum (1/2 (r_i y_i^T + y_i r_i^T) - (r_i . y_i) I) (w, w) and
+// sum y_i x r_i (w, sigma); and dg/dx_j = [s (s [y_j]x - [r_j]x); s I; r_j^T + s y_j^T] R^.
+// Exact for non-zero residuals (tests/test_alignment.cc: central differences of the whole fit).
+#include "tasks/alignment.h"
+
+#include <array>
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include <Eigen/Dense>
+
+#include "vlt/error.h"
+
+namespace vlt {
+namespace tasks_internal {
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+using Points = Eigen::Ref<const Eigen::Matrix3Xd>;
+
+// best_fit_scale: these eight; best_fit and rps: the first seven (s = 1).
+constexpr TaskOutput kBestFitScaleOutputs[] = {
+    {"tx", "m", "x of the translation t of part = s R x + t (the measured frame's origin in the part frame)"},
+    {"ty", "m", "y of the translation t"},
+    {"tz", "m", "z of the translation t"},
+    {"rx", "rad", "rotation about the part's x axis: R = Rz(rz) Ry(ry) Rx(rx) (fixed axes x, then y, then z)"},
+    {"ry", "rad", "rotation about the part's y axis, in [-pi/2, pi/2]"},
+    {"rz", "rad", "rotation about the part's z axis"},
+    {"rms", "m", "root mean square distance |s R x_i + t - n_i| of the aligned points from nominal (rps: of the held components)"},
+    {"scale", "1", "scale s applied to the measured points (1 + thermal expansion or range scale not modelled)"},
+};
+const std::span<const TaskOutput> kBestFitOutputs(kBestFitScaleOutputs, 7);
+constexpr TaskOutput kPositionOutputs[] = {
+    {"deviation", "m", "deviation d . n along the nominal unit normal n (positive: on the side n points to)"},
+    {"dx", "m", "x of the deviation d = s R x + t - n_nominal in the part frame"},
+    {"dy", "m", "y of the deviation d"},
+    {"dz", "m", "z of the deviation d"},
+    {"position", "m", "2 |d - (d . n) n|: diameter of the ISO 1101 position zone about the nominal axis n"},
+};
+// A deviation without the position: the first four.
+const std::span<const TaskOutput> kDeviationOutputs(kPositionOutputs, 4);
+
+// Relative size below which a residual is "zero" (nominal points of a plan fit exactly): the rms
+// and the position are then not differentiable (vlt/fits.h FitResult::differentiable).
+constexpr double kExactFit = 1e-10;
+// Second singular value of the cross-covariance below this fraction of the first: the points are
+// collinear and the rotation about their line is undetermined.
+constexpr double kCollinear = 1e-12;
+// |cos ry| below this: Rx and Rz turn about the same axis (gimbal lock), rx and rz undetermined.
+constexpr double kGimbalLock = 1e-9;
+
+[[noreturn]] void Fail(std::string_view where, TaskKind kind, const std::string& reason) {
+  throw NumericalError(std::string(where) + ": " + std::string(TaskKindName(kind)) + ": " + reason);
+}
+
+const NominalGeometry& Nominal(const FitOptions& options, TaskKind kind, long n, std::string_view where) {
+  if (!options.nominal) throw InputError(std::string(where) + ": " + std::string(TaskKindName(kind)) + ": no nominal geometry");
+  const NominalGeometry& g = *options.nominal;
+  const long k = g.alignment_points;
+  if (g.positions.cols() != n || k < 3 || k > n) {
+    throw InputError(std::string(where) + ": " + std::string(TaskKindName(kind)) + ": needs at least 3 points with nominal positions, got " +
+                     std::to_string(k));
+  }
+  for (long i = 0; i < n; ++i) {
+    if (!g.positions.col(i).allFinite()) throw InputError(std::string(where) + ": nominal position " + std::to_string(i) + " is not finite");
+  }
+  return g;
+}
+
+Matrix3d Hat(const Vector3d& v) {
+  Matrix3d m;
+  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return m;
+}
+
+// The fitted transform and, when asked, dtheta/dX (p x 3K, theta = (w, t[, sigma])).
+struct Alignment {
+  Matrix3d rotation;
+  Vector3d translation;
+  double scale = 1.0;
+  double rms = 0.0;
+  double extent = 0.0;              // largest distance of a nominal point from their centroid
+  Eigen::MatrixXd dtheta_dx;        // empty unless jacobian
+  Eigen::MatrixXd residuals;        // 3 x K
+};
+
+// Closed-form fit of the first k points (Umeyama / Kabsch).
+void FitTransform(const Points& x, const Eigen::Matrix3Xd& n, long k, bool scale, TaskKind kind, std::string_view where,
+                  Alignment& a) {
+  const Vector3d x_bar = x.leftCols(k).rowwise().mean();
+  const Vector3d n_bar = n.leftCols(k).rowwise().mean();
+  Matrix3d cross = Matrix3d::Zero();
+  double spread = 0.0;
+  for (long i = 0; i < k; ++i) {
+    const Vector3d ai = x.col(i) - x_bar;
+    cross += (n.col(i) - n_bar) * ai.transpose();
+    spread += ai.squaredNorm();
+    a.extent = std::max(a.extent, (n.col(i) - n_bar).norm());
+  }
+  const Eigen::JacobiSVD<Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Vector3d d = svd.singularValues();
+  if (!(d(1) > kCollinear * d(0))) {
+    Fail(where, kind, "the points are collinear (measured or nominal): the rotation about their line is undetermined");
+  }
+  Vector3d sign(1.0, 1.0, (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0 ? -1.0 : 1.0);
+  a.rotation = svd.matrixU() * sign.asDiagonal() * svd.matrixV().transpose();
+  a.scale = scale ? d.dot(sign) / spread : 1.0;
+  if (!(a.scale > 0.0)) Fail(where, kind, "the fitted scale is not positive (the points do not match their nominals)");
+  a.translation = n_bar - a.scale * a.rotation * x_bar;
+  a.residuals.resize(3, k);
+  double sum = 0.0;
+  for (long i = 0; i < k; ++i) {
+    a.residuals.col(i) = a.scale * a.rotation * x.col(i) + a.translation - n.col(i);
+    sum += a.residuals.col(i).squaredNorm();
+  }
+  a.rms = std::sqrt(sum / static_cast<double>(k));
+}
+
+// The weight of point i's residual: I for a best fit, the projection on the axes it holds for an
+// RPS (W_i = diag(holds_i), in the part frame where r_i lives).
+Matrix3d Weight(const NominalGeometry& g, long i) {
+  if (g.holds.empty()) return Matrix3d::Identity();
+  const std::array<bool, 3>& h = g.holds[static_cast<std::size_t>(i)];
+  return Vector3d(h[0] ? 1.0 : 0.0, h[1] ? 1.0 : 0.0, h[2] ? 1.0 : 0.0).asDiagonal();
+}
+
+// J_i = d r_i / d theta at the current fit (header comment).
+Eigen::Matrix<double, 3, Eigen::Dynamic> ResidualJacobian(const Vector3d& y, double s, bool scale) {
+  Eigen::Matrix<double, 3, Eigen::Dynamic> j(3, scale ? 7 : 6);
+  j.leftCols<3>() = -s * Hat(y);
+  j.middleCols<3>(3) = Matrix3d::Identity();
+  if (scale) j.col(6) = y;
+  return j;
+}
+
+// What the rms averages over: the points of a best fit (rms of the distances |r_i|), the held
+// directions of an RPS (rms of the held residual components).
+double RmsDivisor(const NominalGeometry& g, long k) {
+  if (g.holds.empty()) return static_cast<double>(k);
+  double held = 0.0;
+  for (long i = 0; i < k; ++i) held += Weight(g, i).trace();
+  return held;
+}
+
+void UpdateResiduals(const Points& x, const NominalGeometry& g, long k, Alignment& a) {
+  a.residuals.resize(3, k);
+  double sum = 0.0;
+  for (long i = 0; i < k; ++i) {
+    a.residuals.col(i) = a.scale * a.rotation * x.col(i) + a.translation - g.positions.col(i);
+    sum += a.residuals.col(i).dot(Weight(g, i) * a.residuals.col(i));
+  }
+  a.rms = std::sqrt(sum / RmsDivisor(g, k));
+}
+
+// The reference point system: minimise 1/2 sum r_i^T W_i r_i from the best fit of the same points,
+// by Gauss-Newton steps on theta (rotation on the left). The held directions must fix all six
+// (seven) parameters; a 3-2-1 system fits exactly (zero residuals) in a few steps.
+void FitReferencePointSystem(const Points& x, const NominalGeometry& g, long k, TaskKind kind, std::string_view where,
+                             Alignment& a) {
+  const int p = g.scale ? 7 : 6;
+  for (int iteration = 0; iteration < 50; ++iteration) {
+    Eigen::MatrixXd h = Eigen::MatrixXd::Zero(p, p);
+    Eigen::VectorXd grad = Eigen::VectorXd::Zero(p);
+    for (long i = 0; i < k; ++i) {
+      const Eigen::Matrix<double, 3, Eigen::Dynamic> j = ResidualJacobian(a.rotation * x.col(i), a.scale, g.scale);
+      const Matrix3d w = Weight(g, i);
+      h.noalias() += j.transpose() * w * j;
+      grad.noalias() += j.transpose() * (w * a.residuals.col(i));
+    }
+    const Eigen::LDLT<Eigen::MatrixXd> factor(h);
+    if (factor.info() != Eigen::Success || !(factor.vectorD().minCoeff() > 1e-12 * factor.vectorD().maxCoeff())) {
+      Fail(where, kind, "the held directions do not fix the part: a rotation or translation is left free (3-2-1 holds x, y, z of one point, two axes of a second, one of a third)");
+    }
+    const Eigen::VectorXd step = -factor.solve(grad);
+    const Vector3d w = step.head<3>();
+    if (w.norm() > 0.0) a.rotation = Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix() * a.rotation;
+    a.translation += step.segment<3>(3);
+    if (g.scale) a.scale += step(6);
+    UpdateResiduals(x, g, k, a);
+    if (step.head<3>().norm() <= 1e-15 && step.segment<3>(3).norm() <= 1e-15 * std::max(1.0, a.translation.norm())) return;
+  }
+}
+
+// dtheta/dX by the implicit function theorem (header comment), for residual weights W_i: the
+// residual terms of H carry rho_i = W_i r_i, and dg/dx_j = [s (s [y]x W - [rho]x); s W; (rho + s W y)^T] R^.
+void AlignmentSensitivity(const Points& x, const NominalGeometry& g, long k, TaskKind kind, std::string_view where,
+                          Alignment& a) {
+  const bool scale = g.scale;
+  const int p = scale ? 7 : 6;
+  const double s = a.scale;
+  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(p, p);
+  for (long i = 0; i < k; ++i) {
+    const Vector3d y = a.rotation * x.col(i);
+    const Matrix3d w = Weight(g, i);
+    const Vector3d rho = w * a.residuals.col(i);
+    const Eigen::Matrix<double, 3, Eigen::Dynamic> j = ResidualJacobian(y, s, scale);
+    h.noalias() += j.transpose() * w * j;
+    h.topLeftCorner<3, 3>() += s * (0.5 * (rho * y.transpose() + y * rho.transpose()) - rho.dot(y) * Matrix3d::Identity());
+    if (scale) {
+      const Vector3d y_cross_rho = y.cross(rho);
+      h.block<3, 1>(0, 6) += y_cross_rho;
+      h.block<1, 3>(6, 0) += y_cross_rho.transpose();
+    }
+  }
+  const Eigen::LDLT<Eigen::MatrixXd> factor(h);
+  if (factor.info() != Eigen::Success || !(factor.vectorD().minCoeff() > 0.0)) {
+    Fail(where, kind, "the alignment is not a minimum its points determine (singular normal equations)");
+  }
+  a.dtheta_dx.resize(p, 3 * k);
+  Eigen::MatrixXd dg(p, 3);
+  for (long j = 0; j < k; ++j) {
+    const Vector3d y = a.rotation * x.col(j);
+    const Matrix3d w = Weight(g, j);
+    const Vector3d rho = w * a.residuals.col(j);
+    dg.topRows<3>() = s * (s * Hat(y) * w - Hat(rho)) * a.rotation;
+    dg.middleRows<3>(3) = s * w * a.rotation;
+    if (scale) dg.row(6) = (rho + s * w * y).transpose() * a.rotation;
+    a.dtheta_dx.middleCols(3 * j, 3) = -factor.solve(dg);
+  }
+}
+
+Alignment Align(const Points& x, const NominalGeometry& g, bool jacobian, TaskKind kind, std::string_view where) {
+  Alignment a;
+  const long k = g.alignment_points;
+  for (long i = 0; i < x.cols(); ++i) {
+    if (!x.col(i).allFinite()) Fail(where, kind, "point " + std::to_string(i) + " has a non-finite coordinate");
+  }
+  if (!g.holds.empty() && static_cast<long>(g.holds.size()) != k) {
+    throw InputError(std::string(where) + ": rps: one set of held axes per alignment point");
+  }
+  FitTransform(x, g.positions, k, g.scale, kind, where, a);
+  if (!g.holds.empty()) FitReferencePointSystem(x, g, k, kind, where, a);
+  if (jacobian) AlignmentSensitivity(x, g, k, kind, where, a);
+  return a;
+}
+
+// Fixed-axis angles of R = Rz(c) Ry(b) Rx(a).
+Vector3d CardanAngles(const Matrix3d& r) {
+  return {std::atan2(r(2, 1), r(2, 2)), std::atan2(-r(2, 0), std::hypot(r(0, 0), r(1, 0))), std::atan2(r(1, 0), r(0, 0))};
+}
+
+// d(a, b, c) / dw for a rotation dR = [dw]x R on the left: dw = c' e_z + b' Rz e_y + a' Rz Ry e_x, so
+// the angle rates are E^-1 dw with E = [Rz Ry e_x, Rz e_y, e_z].
+Matrix3d AnglesFromLeftRotation(const Vector3d& angles) {
+  const double cb = std::cos(angles(1)), sb = std::sin(angles(1)), cc = std::cos(angles(2)), sc = std::sin(angles(2));
+  Matrix3d e;
+  e.col(0) << cc * cb, sc * cb, -sb;
+  e.col(1) << -sc, cc, 0.0;
+  e.col(2) << 0.0, 0.0, 1.0;
+  return e.inverse();
+}
+
+}  // namespace
+
+std::span<const TaskOutput> AlignmentOutputs(TaskKind kind) {
+  switch (kind) {
+    case TaskKind::kBestFit:
+    case TaskKind::kRps: return kBestFitOutputs;
+    case TaskKind::kBestFitScale: return kBestFitScaleOutputs;
+    case TaskKind::kDeviation: return kDeviationOutputs;
+    case TaskKind::kPosition: return kPositionOutputs;
+    default: return {};
+  }
+}
+
+}  // namespace tasks_internal
+
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+FitResult MakeAlignmentResult(TaskKind kind, long num_points, const FitOptions& options) {
+  FitResult r;
+  r.kind = kind;
+  r.outputs = tasks_internal::AlignmentOutputs(kind);
+  const long k = static_cast<long>(r.outputs.size());
+  r.values = Eigen::VectorXd::Zero(k);
+  r.differentiable.assign(static_cast<std::size_t>(k), true);
+  if (options.jacobian) r.jacobian = Eigen::MatrixXd::Zero(k, 3 * num_points);
+  return r;
+}
+
+// An angle taken within pi of its reference (Monte Carlo trials of a rotation near +-180 degrees
+// must not jump by 2 pi between trials).
+double Near(double angle, double reference) {
+  constexpr double kTurn = 2.0 * std::numbers::pi;
+  return angle + kTurn * std::round((reference - angle) / kTurn);
+}
+
+}  // namespace
+
+FitResult FitBestFit(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options,
+                     std::string_view where) {
+  using namespace tasks_internal;
+  const long n = points.cols();
+  const bool rps = options.nominal && !options.nominal->holds.empty();
+  const TaskKind kind = rps ? TaskKind::kRps
+                            : options.nominal && options.nominal->scale ? TaskKind::kBestFitScale : TaskKind::kBestFit;
+  const NominalGeometry& g = Nominal(options, kind, n, where);
+  if (g.alignment_points != n) throw InputError(std::string(where) + ": " + std::string(TaskKindName(kind)) + ": every point is an alignment point");
+  if (rps && g.scale) throw InputError(std::string(where) + ": rps: a reference point system fits no scale");
+  const Alignment a = Align(points, g, options.jacobian, kind, where);
+  Vector3d angles = CardanAngles(a.rotation);
+  if (!(std::abs(std::cos(angles(1))) > kGimbalLock)) {
+    Fail(where, kind, "the rotation about y is +-90 degrees: rx and rz turn about the same axis (undetermined)");
+  }
+  if (options.reference_angles) {
+    for (int c = 0; c < 3; ++c) angles(c) = Near(angles(c), (*options.reference_angles)(c));
+  }
+  FitResult result = MakeAlignmentResult(kind, n, options);
+  constexpr int rms_row = 6, scale_row = 7;
+  result.values.head<3>() = a.translation;
+  result.values.segment<3>(3) = angles;
+  result.values(rms_row) = a.rms;
+  if (g.scale) result.values(scale_row) = a.scale;
+  const bool exact = a.rms <= kExactFit * a.extent;
+  result.differentiable[static_cast<std::size_t>(rms_row)] = !exact;
+  if (!options.jacobian) return result;
+  // Outputs from theta = (w, t[, sigma]): t and s directly, the angles through the left rotation w.
+  const Matrix3d angle_rates = AnglesFromLeftRotation(angles);
+  const double divisor = RmsDivisor(g, n);
+  for (long j = 0; j < n; ++j) {
+    auto block = result.jacobian.middleCols<3>(3 * j);
+    const auto dtheta = a.dtheta_dx.middleCols(3 * j, 3);
+    block.topRows<3>() = dtheta.middleRows(3, 3);
+    block.middleRows<3>(3) = angle_rates * dtheta.topRows(3);
+    if (g.scale) block.row(scale_row) = dtheta.row(6);
+    // rms: envelope theorem, d(sum r^T W r)/dx_j = 2 s (W r_j)^T R at the optimum.
+    if (!exact) block.row(rms_row) = a.scale * (Weight(g, j) * a.residuals.col(j)).transpose() * a.rotation / (divisor * a.rms);
+  }
+  return result;
+}
+
+FitResult FitDeviation(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options,
+                       std::string_view where) {
+  using namespace tasks_internal;
+  const long n = points.cols();
+  const TaskKind kind = options.nominal && options.nominal->position ? TaskKind::kPosition : TaskKind::kDeviation;
+  const NominalGeometry& g = Nominal(options, kind, n, where);
+  if (g.point < 0 || g.point >= n || !(std::abs(g.normal.norm() - 1.0) < 1e-9)) {
+    throw InputError(std::string(where) + ": deviation: needs its point and the unit normal of its nominal");
+  }
+  const Alignment a = Align(points, g, options.jacobian, kind, where);
+  const long k = g.alignment_points;
+  const Vector3d y = a.rotation * points.col(g.point);
+  const Vector3d d = a.scale * y + a.translation - g.positions.col(g.point);
+  const Vector3d& normal = g.normal;
+  const Vector3d lateral = d - d.dot(normal) * normal;
+  const double position = 2.0 * lateral.norm();
+  FitResult result = MakeAlignmentResult(kind, n, options);
+  result.values.head<4>() << d.dot(normal), d;
+  const bool exact = lateral.norm() <= kExactFit * std::max(a.extent, 1.0);
+  if (g.position) {
+    result.values(4) = position;
+    result.differentiable[4] = !exact;
+  }
+  if (!options.jacobian) return result;
+  // d = s exp([w]x) R^ x_P + t - n_P: dd/dw = -s [y]x, dd/dt = I, dd/dsigma = y; directly s R^.
+  Eigen::MatrixXd dd_dtheta(3, g.scale ? 7 : 6);
+  dd_dtheta.leftCols<3>() = -a.scale * Hat(y);
+  dd_dtheta.middleCols<3>(3) = Matrix3d::Identity();
+  if (g.scale) dd_dtheta.col(6) = y;
+  Eigen::MatrixXd dd_dx = Eigen::MatrixXd::Zero(3, 3 * n);
+  dd_dx.leftCols(3 * k) = dd_dtheta * a.dtheta_dx;
+  dd_dx.middleCols<3>(3 * g.point) += a.scale * a.rotation;
+  result.jacobian.row(0) = normal.transpose() * dd_dx;
+  result.jacobian.middleRows<3>(1) = dd_dx;
+  if (g.position && !exact) result.jacobian.row(4) = 2.0 * lateral.normalized().transpose() * dd_dx;
+  return result;
+}
+
+}  // namespace vlt

@@ -1,0 +1,51 @@
+# The part's frame from the command line (docs/tasks.md "Alignment to nominal", docs/job-file.md
+# [nominal], [[alignment]], [[deviation]]): the example runs, its report draws, and each class of
+# bad input is one line naming the file and the key, exit 2, nothing written.
+if(NOT TARGET vlt)
+  return()
+endif()
+
+set(_al_cli ${CMAKE_CURRENT_SOURCE_DIR}/cli)
+set(_al_jobs ${_al_cli}/alignment)
+set(_al_out ${CMAKE_BINARY_DIR}/cli-tests)
+set(_al_ex ${CMAKE_SOURCE_DIR}/examples/alignment)
+
+# The example: a panel aligned on four tooling holes; S17 (made 0.21 mm proud) is rejected against
+# the +-0.15 mm profile band, the holes' positions conform.
+add_test(NAME cli_alignment_panel
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=run;${_al_ex}/panel_alignment.toml;--trials;20000;-o;${_al_out}/alignment_panel"
+          -DOUT=${_al_out}/alignment_panel
+          "-DFILES=points.csv;tasks.csv;results.json;report.html"
+          "-DEXPECT_STDOUT=to_cad +best_fit +rz +[-0-9.]+ deg .*skin[.]S17 +deviation +deviation +0[.]2[0-9]+ mm"
+          "-DEXPECT_FILE_REGEX=tasks.csv:skin[.]S17,deviation,deviation,mm,0[.]21[0-9]*,[^\n]*,does not conform,"
+          -P ${_al_cli}/expect_outputs.cmake)
+set_tests_properties(cli_alignment_panel PROPERTIES FIXTURES_SETUP vlt_alignment_panel)
+add_test(NAME report_browser_alignment
+  COMMAND ${CMAKE_COMMAND} -DPAGE=${_al_out}/alignment_panel/report.html -DPROFILE=${_al_out}/chromium-profile-alignment
+          -DMIN_PLOTS=3 -P ${_al_cli}/report_browser.cmake)
+set_tests_properties(report_browser_alignment PROPERTIES FIXTURES_REQUIRED vlt_alignment_panel TIMEOUT 300)
+
+function(vlt_alignment_error name job regex)
+  add_test(NAME cli_error_alignment_${name}
+    COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+            "-DARGS=run;${_al_jobs}/${job};-o;${_al_out}/error_alignment_${name};--no-mcm"
+            -DOUT=${_al_out}/error_alignment_${name} "-DEXPECT=${regex}"
+            -P ${_al_cli}/expect_error.cmake)
+endfunction()
+vlt_alignment_error(no_nominal no_nominal.toml "no_nominal\\.toml: nominal: required key is missing")
+vlt_alignment_error(unknown_kind unknown_kind.toml
+                    "unknown_kind\\.toml: alignment\\[0\\]\\.kind: unknown alignment kind 'plane_line_point' \\(expected best_fit or rps\\)")
+vlt_alignment_error(two_points two_points.toml "two_points\\.toml: alignment\\[0\\]\\.points: task 'a': best_fit needs at least 3 points, 2 given")
+vlt_alignment_error(no_normal no_normal.toml
+                    "no_normal\\.toml: deviation\\[0\\]\\.points: point 'T1' has no nominal normal")
+vlt_alignment_error(unknown_alignment unknown_alignment.toml
+                    "unknown_alignment\\.toml: deviation\\[0\\]\\.alignment: no \\[\\[alignment\\]\\] named 'b'")
+vlt_alignment_error(collinear collinear.toml "collinear\\.toml: alignment\\[0\\]: .*best_fit: the points are collinear")
+vlt_alignment_error(bad_normal bad_normal.toml "zero_normal\\.csv: line 2: the normal \\(i, j, k\\) has no direction")
+vlt_alignment_error(rps_free rps_free.toml
+                    "rps_free\\.toml: alignment\\[0\\]: .*rps: the held directions do not fix the part")
+vlt_alignment_error(rps_bad_axes rps_bad_axes.toml
+                    "rps_bad_axes\\.toml: alignment\\[0\\]\\.rps\\.T2: expected the axes the point holds, each of x, y, z at most once")
+vlt_alignment_error(rps_few rps_few.toml
+                    "rps_few\\.toml: alignment\\[0\\]\\.rps: the points hold 4 directions; a part has 6 degrees of freedom")
