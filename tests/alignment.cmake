@@ -10,14 +10,15 @@ set(_al_jobs ${_al_cli}/alignment)
 set(_al_out ${CMAKE_BINARY_DIR}/cli-tests)
 set(_al_ex ${CMAKE_SOURCE_DIR}/examples/alignment)
 
-# The example: a panel aligned on four tooling holes; S17 (made 0.21 mm proud) is rejected against
-# the +-0.15 mm profile band, the holes' positions conform.
+# The example: a panel aligned on four tooling holes (and in a 3-2-1 jig); S17 (made 0.21 mm proud)
+# is rejected against the +-0.15 mm band and makes the surface profile 0.42 mm (> 0.3 mm); the
+# holes' positions conform.
 add_test(NAME cli_alignment_panel
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
           "-DARGS=run;${_al_ex}/panel_alignment.toml;--trials;20000;-o;${_al_out}/alignment_panel"
           -DOUT=${_al_out}/alignment_panel
           "-DFILES=points.csv;tasks.csv;results.json;report.html"
-          "-DEXPECT_STDOUT=to_cad +best_fit +rz +[-0-9.]+ deg .*skin[.]S17 +deviation +deviation +0[.]2[0-9]+ mm"
+          "-DEXPECT_STDOUT=to_cad +best_fit +rz +[-0-9.]+ deg .*jig_321 +rps +tx .*skin[.]S17 +deviation +deviation +0[.]2[0-9]+ mm.*skin_profile +profile +profile +0[.]42[0-9]+ mm.*skin_profile profile <= 0[.]3 mm: does not conform"
           "-DEXPECT_FILE_REGEX=tasks.csv:skin[.]S17,deviation,deviation,mm,0[.]21[0-9]*,[^\n]*,does not conform,"
           -P ${_al_cli}/expect_outputs.cmake)
 set_tests_properties(cli_alignment_panel PROPERTIES FIXTURES_SETUP vlt_alignment_panel)
@@ -49,3 +50,7 @@ vlt_alignment_error(rps_bad_axes rps_bad_axes.toml
                     "rps_bad_axes\\.toml: alignment\\[0\\]\\.rps\\.T2: expected the axes the point holds, each of x, y, z at most once")
 vlt_alignment_error(rps_few rps_few.toml
                     "rps_few\\.toml: alignment\\[0\\]\\.rps: the points hold 4 directions; a part has 6 degrees of freedom")
+vlt_alignment_error(empty_nominal empty_nominal.toml "empty\\.csv: no points \\(nominal CSV columns")
+vlt_alignment_error(deviation_twice deviation_twice.toml "deviation_twice\\.toml: deviation\\[0\\]\\.points: point 'S01' listed twice")
+vlt_alignment_error(rps_unknown_point rps_unknown_point.toml
+                    "rps_unknown_point\\.toml: alignment\\[0\\]\\.rps: point 'Q9' has no nominal position")

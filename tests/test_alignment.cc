@@ -7,6 +7,7 @@
 //  - the GUM covariance of an alignment and of deviations against Monte Carlo on a tracker job;
 //  - coverage of the deviations and of the alignment over 200 simulated measurements with a known
 //    truth.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <memory>
@@ -238,13 +239,46 @@ TEST(Alignment, ReferencePointSystemJacobianMatchesCentralDifferences) {
   }
 }
 
+// A profile's extremes are the extremes of its points' deviations (each from FitDeviation), its
+// Jacobian rows those of the extreme points (central differences away from ties).
+TEST(Alignment, ProfileSpansItsPointsDeviations) {
+  const Matrix3Xd nominal = PanelNominal(10);
+  const Matrix3Xd x = Measured(nominal, 1.0, Rotation(0.1, 0.0, 0.7), Vector3d(0.5, 0.5, 0.5), 2e-4, 17);
+  auto g = Geometry(nominal, 6, false);  // aligned on the first six; the profile over points 3..9
+  std::vector<double> single;
+  for (int p = 3; p < 10; ++p) {
+    const Vector3d normal = Vector3d(0.1 * p, -0.2, 1.0).normalized();
+    g->profile.push_back(p);
+    g->profile_normals.push_back(normal);
+    single.push_back(FitDeviation(x, Options(Geometry(nominal, 6, false, p, normal), false)).values(0));
+  }
+  const FitResult fit = FitProfile(x, Options(g, true));
+  EXPECT_EQ(fit.values(0), *std::min_element(single.begin(), single.end()));
+  EXPECT_EQ(fit.values(1), *std::max_element(single.begin(), single.end()));
+  EXPECT_EQ(fit.values(2), 2.0 * std::max(std::abs(fit.values(0)), std::abs(fit.values(1))));
+  EXPECT_GT(fit.values(1) - fit.values(0), 1e-4);
+  const double h = 1e-8;
+  for (int col = 0; col < 30; ++col) {
+    Matrix3Xd plus = x, minus = x;
+    plus(col % 3, col / 3) += h;
+    minus(col % 3, col / 3) -= h;
+    const Eigen::VectorXd fd = (FitProfile(plus, Options(g, false)).values - FitProfile(minus, Options(g, false)).values) / (2.0 * h);
+    for (int q = 0; q < 3; ++q) {
+      EXPECT_NEAR(fit.jacobian(q, col), fd(q), 1e-6 + 1e-6 * std::abs(fd(q))) << fit.outputs[q].name << ", " << col;
+    }
+  }
+}
+
 TEST(Alignment, AnglesOfAHalfTurnStayNearTheirReference) {
   const Matrix3Xd nominal = PanelNominal(8);
   const Matrix3Xd x = Measured(nominal, 1.0, Rotation(0.0, 0.0, std::numbers::pi - 1e-9), Vector3d(2, 0, 0), 1e-5, 5);
   FitOptions o = Options(Geometry(nominal, 8, false), false);
-  o.reference_angles = Vector3d(0.0, 0.0, -std::numbers::pi);
-  const double rz = FitBestFit(x, o).values(5);
-  EXPECT_NEAR(rz, -std::numbers::pi, 1e-4) << "within pi of the reference, not near +pi";
+  // Without a reference the angle comes out on either side of the cut at +-pi; with one, on its side.
+  for (const double side : {-1.0, 1.0}) {
+    o.reference_angles = Vector3d(0.0, 0.0, side * std::numbers::pi);
+    const double rz = FitBestFit(x, o).values(5);
+    EXPECT_NEAR(rz, side * std::numbers::pi, 1e-4) << "within pi of the reference";
+  }
 }
 
 TEST(Alignment, CollinearPointsAndMissingNominalsAreRefused) {

@@ -166,7 +166,8 @@ TEST_P(GumTaskBruteForce, EqualsJointCovariance) {
       case TaskKind::kBestFitScale:
       case TaskKind::kRps:
       case TaskKind::kDeviation:
-      case TaskKind::kPosition: break;
+      case TaskKind::kPosition:
+      case TaskKind::kProfile: break;
     }
     if (kind != TaskKind::kDistance && kind != TaskKind::kTwoFace) {
       p += Eigen::Vector3d(noise(gen), noise(gen), noise(gen));

@@ -42,6 +42,7 @@ struct TaskOutput {
 //   two_face: dx, dy, dz
 //   best_fit, rps: tx, ty, tz, rx, ry, rz, rms      (best_fit_scale: ..., rms, scale)
 //   deviation: deviation, dx, dy, dz              (position: ..., dz, position)
+//   profile: min_deviation, max_deviation, profile
 std::span<const TaskOutput> TaskOutputs(TaskKind kind);
 
 struct FitOptions {
@@ -52,7 +53,8 @@ struct FitOptions {
   // made positive (ties: the first of x, y, z). A Monte Carlo engine should pass the normal /
   // direction of the fit to the estimates, so that no trial flips sign.
   Eigen::Vector3d orientation = Eigen::Vector3d::Zero();
-  // best_fit, best_fit_scale, deviation: the nominal geometry (TaskSpec::nominal); required.
+  // best_fit, best_fit_scale, rps, deviation, position, profile: the nominal geometry
+  // (TaskSpec::nominal); required.
   std::shared_ptr<const NominalGeometry> nominal;
   // best_fit: each angle rx, ry, rz is returned within pi of these (the angles of the fit to the
   // estimates, so that no Monte Carlo trial of a rotation near 180 degrees jumps by 2 pi).
@@ -128,10 +130,12 @@ FitResult FitLine(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOpt
 // Best fit of the measured points (3 x N, N >= 3, not collinear) to nominal.positions: the
 // rotation R, translation t (and with nominal.scale the scale s) minimising
 // sum |s R x_i + t - n_i|^2, in closed form (Kabsch / Umeyama: the SVD of the cross-covariance,
-// det R = +1). Outputs t [m], the rotation vector of R (axis times angle, |angle| <= pi) [rad],
-// s [1] (best_fit_scale), rms = sqrt(sum |r_i|^2 / N) [m]. The Jacobian is exact: the implicit
-// function theorem on the stationarity conditions with the full Hessian (residual terms
-// included), rotations perturbed on the left (R = exp([w]x) R^).
+// det R = +1); with nominal.holds (kind rps) the reference point system minimising
+// sum r_i^T W_i r_i, W_i = diag(held axes), by Gauss-Newton steps from that best fit. Outputs t
+// [m], the fixed-axis angles rx, ry, rz of R = Rz(rz) Ry(ry) Rx(rx) [rad], rms [m] (best fit:
+// sqrt(sum |r_i|^2 / N); rps: over the held components), s [1] (best_fit_scale). The Jacobian is
+// exact: the implicit function theorem on the stationarity conditions with the full Hessian
+// (residual terms included), rotations perturbed on the left (R = exp([w]x) R^).
 FitResult FitBestFit(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options = {},
                      std::string_view where = "task");
 
@@ -142,6 +146,15 @@ FitResult FitBestFit(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const Fit
 // ISO 1101 position zone about the nominal axis through n; for a hole, the normal is its axis) [m].
 FitResult FitDeviation(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options = {},
                        std::string_view where = "task");
+
+// The extreme deviations along their nominal normals of the points nominal.profile, in the part
+// frame of the best fit (or RPS) of the first nominal.alignment_points points: min_deviation,
+// max_deviation and profile = 2 max |deviation| (the width of the ISO 1101 surface-profile zone
+// centred on nominal that holds every point) [m]. Like flatness, the extremes have one-sided
+// derivatives (ties: the first point reaching the extreme); profile is not differentiable where
+// every deviation is zero.
+FitResult FitProfile(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options = {},
+                     std::string_view where = "task");
 
 // Dispatches on kind.
 FitResult FitTask(TaskKind kind, const Eigen::Ref<const Eigen::Matrix3Xd>& points,

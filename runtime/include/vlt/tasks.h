@@ -38,15 +38,16 @@ enum class TaskKind {
   kRps,           // reference point system: chosen part-frame directions of chosen points (3-2-1)
   kDeviation,     // one point's deviation from nominal in the part frame of an alignment
   kPosition,      // the same and its ISO 1101 position (a hole's or a pin's axis point)
+  kProfile,       // the extreme deviations along the normals of a set of points (ISO 1101 profile)
 };
 
 // "distance", "plane", "sphere", "circle", "line", "two_face", "best_fit", "best_fit_scale", "rps",
-// "deviation", "position".
+// "deviation", "position", "profile".
 std::string_view TaskKindName(TaskKind kind);
 // Inverse of TaskKindName for the kinds a [[task]] table may name (distance ... two_face); throws
 // InputError "<where>: unknown task kind '<text>' (expected ...)".
 TaskKind ParseTaskKind(std::string_view text, std::string_view where);
-// Minimum number of points the feature needs (2, 3, 4, 3, 2, 2, 3, 3, 3, 3, 3).
+// Minimum number of points the feature needs (2, 3, 4, 3, 2, 2, 3, 3, 3, 3, 3, 3).
 int MinimumPoints(TaskKind kind);
 
 // The nominal (CAD, part-frame) geometry of an alignment or deviation task, SI. An alignment maps
@@ -63,6 +64,10 @@ struct NominalGeometry {
   // is reported, and its nominal unit normal (surface normal, or a hole's axis) [1].
   int point = -1;
   bool position = false;  // kPosition: the ISO 1101 position too
+  // Profile: the points (indices into the task's points) whose deviations it spans, and the unit
+  // normal of each.
+  std::vector<int> profile;
+  std::vector<Eigen::Vector3d> profile_normals;
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();
   std::string alignment;  // deviation: the alignment's name
 };

@@ -1,9 +1,11 @@
 // job/alignment.cc — the part's frame in a job file: [nominal] (the CAD positions and normals of
-// the points), [[alignment]] (a best fit of measured points to nominal) and [[deviation]] (each
-// point's deviation from nominal in an alignment's frame). Each becomes a task (vlt/tasks.h
-// kBestFit, kBestFitScale, kDeviation) whose nominal geometry it carries, so the GUM, the Monte
+// the points), [[alignment]] (a best fit or reference point system of measured points to
+// nominal), [[deviation]] (each point's deviation from nominal in an alignment's frame) and
+// [[profile]] (the extreme deviations of a set of points). Each becomes a task (vlt/tasks.h
+// kBestFit, kBestFitScale, kRps, kDeviation, kPosition, kProfile) whose nominal geometry it carries, so the GUM, the Monte
 // Carlo method, validation, conformity decisions and every output treat it as any task.
 // Keys: docs/job-file.md "[nominal], [[alignment]], [[deviation]]"; the method: docs/tasks.md.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <map>
@@ -76,15 +78,21 @@ std::map<std::string, Nominal> ReadNominal(Section& top, Job& job) {
     Nominal n;
     for (int a = 0; a < 3; ++a) {
       n.position(a) = CsvQuantity(row.fields[c[1 + a]], Dimension::kLength, scale, 0, where + ": " + names[1 + a]);
+      if (!std::isfinite(n.position(a)) || std::abs(n.position(a)) > kMaxRange) {
+        throw InputError(where + ": " + names[1 + a] + ": a nominal coordinate beyond any laser tracker's reach");
+      }
     }
     if (has_normals && !(row.fields[c[4]].empty() && row.fields[c[5]].empty() && row.fields[c[6]].empty())) {
       Eigen::Vector3d v;
       for (int a = 0; a < 3; ++a) v(a) = CsvQuantity(row.fields[c[4 + a]], std::nullopt, 1.0, 0, where + ": " + names[4 + a]);
-      if (!(v.norm() > 1e-6)) throw InputError(where + ": the normal (i, j, k) has no direction");
-      n.normal = v.normalized();
+      // Scaled by its largest component first: (1e200, 0, 1e200) is a direction, its norm is not finite.
+      const double largest = v.cwiseAbs().maxCoeff();
+      if (!std::isfinite(largest) || !(largest > 0.0)) throw InputError(where + ": the normal (i, j, k) has no direction");
+      n.normal = (v / largest).normalized();
     }
     if (!out.emplace(name, n).second) throw InputError(where + ": point '" + name + "' given twice");
   }
+  if (out.empty()) throw InputError(path + ": no points (nominal CSV columns: name, x, y, z [, i, j, k])");
   return out;
 }
 
@@ -165,8 +173,10 @@ Alignment ReadAlignment(Section& t, Job& job, const std::map<std::string, Nomina
   spec.points = a.points;
   auto geometry = std::make_shared<NominalGeometry>();
   geometry->positions.resize(3, static_cast<Eigen::Index>(a.points.size()));
+  // An rps alignment's points are the keys of [alignment.rps]: messages name that table.
+  const std::string points_where = kind == "rps" ? t.Where("rps") : t.Where("points");
   for (std::size_t i = 0; i < a.points.size(); ++i) {
-    geometry->positions.col(static_cast<Eigen::Index>(i)) = NominalOf(nominal, a.points[i], t.Where("points")).position;
+    geometry->positions.col(static_cast<Eigen::Index>(i)) = NominalOf(nominal, a.points[i], points_where).position;
   }
   geometry->scale = a.scale;
   geometry->alignment_points = static_cast<int>(a.points.size());
@@ -174,9 +184,63 @@ Alignment ReadAlignment(Section& t, Job& job, const std::map<std::string, Nomina
   spec.nominal = geometry;
   ReadTaskTolerances(t, spec);
   t.Finish();
-  job.task_points.push_back(ResolveTaskPoints(spec, job.point_names(), t.Where("points")));
+  job.task_points.push_back(ResolveTaskPoints(spec, job.point_names(), points_where));
   job.tasks.push_back(std::move(spec));
   return a;
+}
+
+// The alignment a [[deviation]] or [[profile]] table names (`alignment`), or the job's only one.
+const Alignment& AlignmentOf(Section& t, const std::vector<Alignment>& alignments) {
+  if (const toml::node* n = t.Get("alignment")) {
+    const std::string wanted = AsString(*n, t.Where("alignment"));
+    for (const Alignment& a : alignments) {
+      if (a.name == wanted) return a;
+    }
+    throw InputError(t.Where("alignment") + ": no [[alignment]] named '" + wanted + "'");
+  }
+  if (alignments.size() == 1) return alignments.front();
+  throw InputError(t.Where("alignment") + ": required key is missing (" +
+                   (alignments.empty() ? std::string("give an [[alignment]] first") : "the job has several alignments") + ")");
+}
+
+// `points` of a [[deviation]] or [[profile]] table: names of points with a nominal normal, or
+// "all" of them.
+std::vector<std::string> PointsWithNormals(Section& t, const Job& job, const std::map<std::string, Nominal>& nominal) {
+  const std::vector<std::string> points = PointList(
+      t, job, [&](const std::string& p) { const auto it = nominal.find(p); return it != nominal.end() && it->second.normal; },
+      true);
+  if (points.empty()) throw InputError(t.Where("points") + ": no point with a nominal normal");
+  std::set<std::string> seen;
+  for (const std::string& point : points) {
+    if (!seen.insert(point).second) throw InputError(t.Where("points") + ": point '" + point + "' listed twice");
+    if (!NominalOf(nominal, point, t.Where("points")).normal) {
+      throw InputError(t.Where("points") + ": point '" + point + "' has no nominal normal (columns i, j, k of [nominal] csv)");
+    }
+  }
+  return points;
+}
+
+// A task over the alignment's points and then `extra` (each once): its spec and nominal geometry
+// (positions, the alignment's scale and held axes); extra_index[i] is extra[i]'s index.
+std::shared_ptr<NominalGeometry> OverAlignment(const Alignment& alignment, const std::vector<std::string>& extra,
+                                               const std::map<std::string, Nominal>& nominal, const std::string& where,
+                                               TaskSpec& spec, std::vector<int>& extra_index) {
+  spec.points = alignment.points;
+  for (const std::string& point : extra) {
+    const auto it = std::find(spec.points.begin(), spec.points.end(), point);
+    extra_index.push_back(static_cast<int>(it - spec.points.begin()));
+    if (it == spec.points.end()) spec.points.push_back(point);
+  }
+  auto geometry = std::make_shared<NominalGeometry>();
+  geometry->alignment_points = static_cast<int>(alignment.points.size());
+  geometry->scale = alignment.scale;
+  geometry->holds = alignment.holds;
+  geometry->alignment = alignment.name;
+  geometry->positions.resize(3, static_cast<Eigen::Index>(spec.points.size()));
+  for (std::size_t i = 0; i < spec.points.size(); ++i) {
+    geometry->positions.col(static_cast<Eigen::Index>(i)) = NominalOf(nominal, spec.points[i], where).position;
+  }
+  return geometry;
 }
 
 // One [[deviation]] table: a deviation task per point, named "<name>.<point>", over the
@@ -186,23 +250,8 @@ void ReadDeviation(Section& t, Job& job, const std::map<std::string, Nominal>& n
   t.set_hint("name, alignment, points, position, tolerance");
   const std::string name = AsString(t.Require("name"), t.Where("name"));
   if (name.empty()) throw InputError(t.Where("name") + ": empty deviation name");
-  const Alignment* alignment = nullptr;
-  if (const toml::node* n = t.Get("alignment")) {
-    const std::string wanted = AsString(*n, t.Where("alignment"));
-    for (const Alignment& a : alignments) {
-      if (a.name == wanted) alignment = &a;
-    }
-    if (alignment == nullptr) throw InputError(t.Where("alignment") + ": no [[alignment]] named '" + wanted + "'");
-  } else if (alignments.size() == 1) {
-    alignment = &alignments.front();
-  } else {
-    throw InputError(t.Where("alignment") + ": required key is missing (" +
-                     (alignments.empty() ? std::string("give an [[alignment]] first") : "the job has several alignments") + ")");
-  }
-  const std::vector<std::string> points = PointList(
-      t, job, [&](const std::string& p) { const auto it = nominal.find(p); return it != nominal.end() && it->second.normal; },
-      true);
-  if (points.empty()) throw InputError(t.Where("points") + ": no point with a nominal normal");
+  const Alignment& alignment = AlignmentOf(t, alignments);
+  const std::vector<std::string> points = PointsWithNormals(t, job, nominal);
   bool position = false;
   if (const toml::node* n = t.Get("position")) position = AsBool(*n, t.Where("position"));
   TaskSpec pattern;
@@ -210,35 +259,42 @@ void ReadDeviation(Section& t, Job& job, const std::map<std::string, Nominal>& n
   ReadTaskTolerances(t, pattern);
   t.Finish();
   for (const std::string& point : points) {
-    const Nominal& n = NominalOf(nominal, point, t.Where("points"));
-    if (!n.normal) throw InputError(t.Where("points") + ": point '" + point + "' has no nominal normal (columns i, j, k of [nominal] csv)");
     TaskSpec spec = pattern;
     spec.where = t.WhereSelf() + " (point '" + point + "')";
     spec.name = name + "." + point;
     if (!names.insert(spec.name).second) throw InputError(t.Where("name") + ": '" + spec.name + "' is already the name of a task");
-    spec.points = alignment->points;
-    auto geometry = std::make_shared<NominalGeometry>();
-    geometry->alignment_points = static_cast<int>(alignment->points.size());
-    geometry->scale = alignment->scale;
-    geometry->holds = alignment->holds;
-    for (std::size_t i = 0; i < spec.points.size(); ++i) {
-      if (spec.points[i] == point) geometry->point = static_cast<int>(i);
-    }
-    if (geometry->point < 0) {
-      geometry->point = static_cast<int>(spec.points.size());
-      spec.points.push_back(point);
-    }
-    geometry->positions.resize(3, static_cast<Eigen::Index>(spec.points.size()));
-    for (std::size_t i = 0; i < spec.points.size(); ++i) {
-      geometry->positions.col(static_cast<Eigen::Index>(i)) = NominalOf(nominal, spec.points[i], t.Where("points")).position;
-    }
-    geometry->normal = *n.normal;
+    std::vector<int> index;
+    const auto geometry = OverAlignment(alignment, {point}, nominal, t.Where("points"), spec, index);
+    geometry->point = index.front();
+    geometry->normal = *NominalOf(nominal, point, t.Where("points")).normal;
     geometry->position = position;
-    geometry->alignment = alignment->name;
     spec.nominal = geometry;
     job.task_points.push_back(ResolveTaskPoints(spec, job.point_names(), t.Where("points")));
     job.tasks.push_back(std::move(spec));
   }
+}
+
+// One [[profile]] table: one profile task over the alignment's points and its own.
+void ReadProfile(Section& t, Job& job, const std::map<std::string, Nominal>& nominal,
+                 const std::vector<Alignment>& alignments, std::set<std::string>& names) {
+  t.set_hint("name, alignment, points, tolerance");
+  TaskSpec spec;
+  spec.where = t.WhereSelf();
+  spec.kind = TaskKind::kProfile;
+  spec.name = AsString(t.Require("name"), t.Where("name"));
+  if (spec.name.empty()) throw InputError(t.Where("name") + ": empty profile name");
+  if (!names.insert(spec.name).second) throw InputError(t.Where("name") + ": '" + spec.name + "' is already the name of a task");
+  const Alignment& alignment = AlignmentOf(t, alignments);
+  const std::vector<std::string> points = PointsWithNormals(t, job, nominal);
+  ReadTaskTolerances(t, spec);
+  t.Finish();
+  std::vector<int> index;
+  const auto geometry = OverAlignment(alignment, points, nominal, t.Where("points"), spec, index);
+  geometry->profile = index;
+  for (const std::string& point : points) geometry->profile_normals.push_back(*NominalOf(nominal, point, t.Where("points")).normal);
+  spec.nominal = geometry;
+  job.task_points.push_back(ResolveTaskPoints(spec, job.point_names(), t.Where("points")));
+  job.tasks.push_back(std::move(spec));
 }
 
 // The tables of array `key` of `top`, each as a Section named "<key>[i]".
@@ -259,10 +315,10 @@ void ForEachTable(Section& top, Job& job, const char* key, const Read& read) {
 }  // namespace
 
 void ReadAlignments(Section& top, Job& job) {
-  const bool any = top.Get("alignment") != nullptr || top.Get("deviation") != nullptr;
+  const bool any = top.Get("alignment") != nullptr || top.Get("deviation") != nullptr || top.Get("profile") != nullptr;
   if (!any) {
     if (Section s = top.Sub("nominal", false); s.exists()) {
-      throw InputError(s.WhereSelf() + ": a nominal is used by [[alignment]] and [[deviation]]; the job has neither");
+      throw InputError(s.WhereSelf() + ": a nominal is used by [[alignment]], [[deviation]] and [[profile]]; the job has none");
     }
     return;
   }
@@ -275,6 +331,7 @@ void ReadAlignments(Section& top, Job& job) {
   std::vector<Alignment> alignments;
   ForEachTable(top, job, "alignment", [&](Section& t) { alignments.push_back(ReadAlignment(t, job, nominal, names)); });
   ForEachTable(top, job, "deviation", [&](Section& t) { ReadDeviation(t, job, nominal, alignments, names); });
+  ForEachTable(top, job, "profile", [&](Section& t) { ReadProfile(t, job, nominal, alignments, names); });
 }
 
 }  // namespace vlt::job_internal

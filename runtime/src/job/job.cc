@@ -56,7 +56,7 @@ Job ParseJob(std::string_view text, const std::string& file, const std::filesyst
   Section top(root, file, "");
   top.set_hint(
       "job, tracker, environment, station, part, correlations, plan, readings, task, nominal, alignment, "
-      "deviation, monte_carlo, map, optimize, output");
+      "deviation, profile, monte_carlo, map, optimize, output");
 
   ReadJobMeta(top, job.name, &job.description, job.name);
   ReadTracker(top, job);

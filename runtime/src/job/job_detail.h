@@ -40,7 +40,7 @@ void ReadReadings(Section& readings, Job& job, bool times_by_default = false);
 void ReadTasks(Section& top, Job& job);                           // tasks.cc: [[task]]
 // tasks.cc: [<table>.tolerance.<quantity>] lower, upper of a task's quantities (TaskOutputs).
 void ReadTaskTolerances(Section& table, TaskSpec& spec);
-// alignment.cc: [nominal], [[alignment]], [[deviation]] (after the tasks: their names are unique
+// alignment.cc: [nominal], [[alignment]], [[deviation]], [[profile]] (after the tasks: their names are unique
 // among all tasks).
 void ReadAlignments(Section& top, Job& job);
 void ReadMonteCarlo(Section& top, MonteCarloSettings& settings);  // settings.cc: [monte_carlo]

@@ -146,6 +146,7 @@ std::string PlannedJob(const StationPlan& plan) {
       t->insert_or_assign(key, std::filesystem::absolute(job.base_dir / p).lexically_normal().string());
   };
   absolute("plan", "csv");
+  absolute("nominal", "csv");
   absolute("tracker", "calibration");
   absolute("output", "directory");
   if (!doc["station"].as_table()) doc.insert_or_assign("station", toml::table{});

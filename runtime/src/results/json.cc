@@ -281,7 +281,7 @@ json Task(const TaskResult& t) {
   j["quantities"] = t.gum.quantities;
   j["units"] = t.gum.units;
   // Deviation / position: the point, its nominal position and normal and its alignment (the
-  // report's deviation map; docs/results-schema.md).
+  // report's deviation map; docs/results.md tasks[].nominal).
   if ((t.spec.kind == TaskKind::kDeviation || t.spec.kind == TaskKind::kPosition) && t.spec.nominal &&
       t.spec.nominal->point >= 0) {
     const NominalGeometry& g = *t.spec.nominal;

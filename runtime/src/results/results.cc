@@ -429,6 +429,12 @@ void PropagateJobPoints(const Job& job, const MeasurementModel& model,
   }
 }
 
+// "<file>: <table>" of task t for a message: the table that defined it.
+std::string TaskWhere(const Job& job, std::size_t t) {
+  const std::string& where = job.tasks[t].where;
+  return where.empty() ? job.file + ": task[" + std::to_string(t) + "]" : where;
+}
+
 // The GUM uncertainty of every task of the job.
 void PropagateJobTasks(const Job& job, const MeasurementModel& model,
                        const std::vector<PointReadings>& readings, const GumOptions& gum_options,
@@ -440,8 +446,9 @@ void PropagateJobTasks(const Job& job, const MeasurementModel& model,
     try {
       results.tasks[t].gum = PropagateTask(model, readings, job.tasks[t], gum_options);
     } catch (const NumericalError& e) {
-      const std::string& where = job.tasks[t].where;
-      throw NumericalError((where.empty() ? job.file + ": task[" + std::to_string(t) + "]" : where) + ": " + e.what());
+      throw NumericalError(TaskWhere(job, t) + ": " + e.what());
+    } catch (const InputError& e) {
+      throw InputError(TaskWhere(job, t) + ": " + e.what());
     }
   }
 }

@@ -107,6 +107,7 @@ void PointTable(const Results& r, std::ostringstream& out) {
 bool IsHeadline(const TaskResult& t, const std::string& quantity) {
   if (t.spec.kind == TaskKind::kDeviation) return quantity == "deviation";
   if (t.spec.kind == TaskKind::kPosition) return quantity == "deviation" || quantity == "position";
+  if (t.spec.kind == TaskKind::kProfile) return true;
   return quantity == "distance" || quantity == "radius" || quantity == "flatness" ||
          quantity == "straightness" || quantity == "normal_x" || quantity == "normal_y" ||
          quantity.rfind("centre_", 0) == 0 || t.spec.kind == TaskKind::kTwoFace ||

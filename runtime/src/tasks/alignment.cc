@@ -16,6 +16,7 @@
 // Exact for non-zero residuals (tests/test_alignment.cc: central differences of the whole fit).
 #include "tasks/alignment.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <numbers>
@@ -51,6 +52,11 @@ constexpr TaskOutput kPositionOutputs[] = {
     {"dy", "m", "y of the deviation d"},
     {"dz", "m", "z of the deviation d"},
     {"position", "m", "2 |d - (d . n) n|: diameter of the ISO 1101 position zone about the nominal axis n"},
+};
+constexpr TaskOutput kProfileOutputs[] = {
+    {"min_deviation", "m", "smallest deviation along the nominal normals of the profile's points"},
+    {"max_deviation", "m", "largest deviation along the nominal normals"},
+    {"profile", "m", "2 max |deviation|: width of the ISO 1101 profile zone centred on nominal that holds every point"},
 };
 // A deviation without the position: the first four.
 const std::span<const TaskOutput> kDeviationOutputs(kPositionOutputs, 4);
@@ -192,8 +198,12 @@ void FitReferencePointSystem(const Points& x, const NominalGeometry& g, long k, 
     a.translation += step.segment<3>(3);
     if (g.scale) a.scale += step(6);
     UpdateResiduals(x, g, k, a);
-    if (step.head<3>().norm() <= 1e-15 && step.segment<3>(3).norm() <= 1e-15 * std::max(1.0, a.translation.norm())) return;
+    // Converged when the step is at the rounding level of the transform (relative: a part 20 m
+    // from the tracker's origin has translation steps of 1e-15 x 20 m from rounding alone).
+    const double size = std::max({1.0, a.translation.norm(), a.extent});
+    if (step.head<3>().norm() <= 1e-13 && step.segment<3>(3).norm() <= 1e-13 * size) return;
   }
+  Fail(where, kind, "the reference point system did not converge in 50 Gauss-Newton steps");
 }
 
 // dtheta/dX by the implicit function theorem (header comment), for residual weights W_i: the
@@ -249,6 +259,25 @@ Alignment Align(const Points& x, const NominalGeometry& g, bool jacobian, TaskKi
   return a;
 }
 
+// d = s R x_P + t - n_P of task point `point` in the aligned part frame.
+Vector3d DeviationOf(const Points& x, const NominalGeometry& g, const Alignment& a, long point) {
+  return a.scale * a.rotation * x.col(point) + a.translation - g.positions.col(point);
+}
+
+// dd/dX (3 x 3N): d = s exp([w]x) R^ x_P + t - n_P, so dd/dw = -s [y]x, dd/dt = I,
+// dd/dsigma = y (y = R^ x_P) through the alignment's dtheta/dX, plus s R^ in P's own columns.
+Eigen::MatrixXd DeviationJacobian(const Points& x, const NominalGeometry& g, const Alignment& a, long point) {
+  const Vector3d y = a.rotation * x.col(point);
+  Eigen::MatrixXd dd_dtheta(3, g.scale ? 7 : 6);
+  dd_dtheta.leftCols<3>() = -a.scale * Hat(y);
+  dd_dtheta.middleCols<3>(3) = Matrix3d::Identity();
+  if (g.scale) dd_dtheta.col(6) = y;
+  Eigen::MatrixXd dd_dx = Eigen::MatrixXd::Zero(3, 3 * x.cols());
+  dd_dx.leftCols(3 * g.alignment_points) = dd_dtheta * a.dtheta_dx;
+  dd_dx.middleCols<3>(3 * point) += a.scale * a.rotation;
+  return dd_dx;
+}
+
 // Fixed-axis angles of R = Rz(c) Ry(b) Rx(a).
 Vector3d CardanAngles(const Matrix3d& r) {
   return {std::atan2(r(2, 1), r(2, 2)), std::atan2(-r(2, 0), std::hypot(r(0, 0), r(1, 0))), std::atan2(r(1, 0), r(0, 0))};
@@ -274,6 +303,7 @@ std::span<const TaskOutput> AlignmentOutputs(TaskKind kind) {
     case TaskKind::kBestFitScale: return kBestFitScaleOutputs;
     case TaskKind::kDeviation: return kDeviationOutputs;
     case TaskKind::kPosition: return kPositionOutputs;
+    case TaskKind::kProfile: return kProfileOutputs;
     default: return {};
   }
 }
@@ -357,9 +387,7 @@ FitResult FitDeviation(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const F
     throw InputError(std::string(where) + ": deviation: needs its point and the unit normal of its nominal");
   }
   const Alignment a = Align(points, g, options.jacobian, kind, where);
-  const long k = g.alignment_points;
-  const Vector3d y = a.rotation * points.col(g.point);
-  const Vector3d d = a.scale * y + a.translation - g.positions.col(g.point);
+  const Vector3d d = DeviationOf(points, g, a, g.point);
   const Vector3d& normal = g.normal;
   const Vector3d lateral = d - d.dot(normal) * normal;
   const double position = 2.0 * lateral.norm();
@@ -371,17 +399,45 @@ FitResult FitDeviation(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const F
     result.differentiable[4] = !exact;
   }
   if (!options.jacobian) return result;
-  // d = s exp([w]x) R^ x_P + t - n_P: dd/dw = -s [y]x, dd/dt = I, dd/dsigma = y; directly s R^.
-  Eigen::MatrixXd dd_dtheta(3, g.scale ? 7 : 6);
-  dd_dtheta.leftCols<3>() = -a.scale * Hat(y);
-  dd_dtheta.middleCols<3>(3) = Matrix3d::Identity();
-  if (g.scale) dd_dtheta.col(6) = y;
-  Eigen::MatrixXd dd_dx = Eigen::MatrixXd::Zero(3, 3 * n);
-  dd_dx.leftCols(3 * k) = dd_dtheta * a.dtheta_dx;
-  dd_dx.middleCols<3>(3 * g.point) += a.scale * a.rotation;
+  const Eigen::MatrixXd dd_dx = DeviationJacobian(points, g, a, g.point);
   result.jacobian.row(0) = normal.transpose() * dd_dx;
   result.jacobian.middleRows<3>(1) = dd_dx;
   if (g.position && !exact) result.jacobian.row(4) = 2.0 * lateral.normalized().transpose() * dd_dx;
+  return result;
+}
+
+FitResult FitProfile(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options,
+                     std::string_view where) {
+  using namespace tasks_internal;
+  const long n = points.cols();
+  const TaskKind kind = TaskKind::kProfile;
+  const NominalGeometry& g = Nominal(options, kind, n, where);
+  if (g.profile.empty() || g.profile.size() != g.profile_normals.size()) {
+    throw InputError(std::string(where) + ": profile: needs its points and the unit normal of each");
+  }
+  const Alignment a = Align(points, g, options.jacobian, kind, where);
+  // The extremes, ties to the first point reaching them (one-sided derivatives, as flatness).
+  std::size_t low = 0, high = 0;
+  std::vector<double> deviation(g.profile.size());
+  for (std::size_t i = 0; i < g.profile.size(); ++i) {
+    if (g.profile[i] < 0 || g.profile[i] >= n) throw InputError(std::string(where) + ": profile: a point index out of range");
+    deviation[i] = g.profile_normals[i].dot(DeviationOf(points, g, a, g.profile[i]));
+    if (deviation[i] < deviation[low]) low = i;
+    if (deviation[i] > deviation[high]) high = i;
+  }
+  const bool high_wider = std::abs(deviation[high]) >= std::abs(deviation[low]);
+  const std::size_t widest = high_wider ? high : low;
+  FitResult result = MakeAlignmentResult(kind, n, options);
+  result.values << deviation[low], deviation[high], 2.0 * std::abs(deviation[widest]);
+  const bool exact = std::abs(deviation[widest]) <= kExactFit * std::max(a.extent, 1.0);
+  result.differentiable[2] = !exact;
+  if (!options.jacobian) return result;
+  auto row = [&](std::size_t i) {
+    return Eigen::RowVectorXd(g.profile_normals[i].transpose() * DeviationJacobian(points, g, a, g.profile[i]));
+  };
+  result.jacobian.row(0) = row(low);
+  result.jacobian.row(1) = row(high);
+  if (!exact) result.jacobian.row(2) = (deviation[widest] < 0.0 ? -2.0 : 2.0) * row(widest);
   return result;
 }
 

@@ -459,7 +459,8 @@ std::span<const TaskOutput> TaskOutputs(TaskKind kind) {
     case TaskKind::kBestFitScale:
     case TaskKind::kRps:
     case TaskKind::kDeviation:
-    case TaskKind::kPosition: return tasks_internal::AlignmentOutputs(kind);
+    case TaskKind::kPosition:
+    case TaskKind::kProfile: return tasks_internal::AlignmentOutputs(kind);
   }
   return {};
 }
@@ -697,6 +698,7 @@ FitResult FitTask(TaskKind kind, const Points& points, const FitOptions& options
     case TaskKind::kRps: return FitBestFit(points, options, where);
     case TaskKind::kDeviation:
     case TaskKind::kPosition: return FitDeviation(points, options, where);
+    case TaskKind::kProfile: return FitProfile(points, options, where);
   }
   Fail(where, kind, "unknown task kind");
 }

@@ -23,6 +23,7 @@ constexpr KindName kKinds[] = {
     {TaskKind::kBestFit, "best_fit", 3, false}, {TaskKind::kBestFitScale, "best_fit_scale", 3, false},
     {TaskKind::kRps, "rps", 3, false},
     {TaskKind::kDeviation, "deviation", 3, false},   {TaskKind::kPosition, "position", 3, false},
+    {TaskKind::kProfile, "profile", 3, false},
 };
 
 }  // namespace
