@@ -4,6 +4,7 @@
 // job whose linearised (GUM) point covariance the Monte Carlo method must validate.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <numbers>
 #include <vector>
@@ -105,6 +106,25 @@ McmPointResult Region(const Eigen::Vector3d& mean, const Eigen::Matrix3d& cov, d
   r.has_region = true;
   r.coverage_factor = k;
   return r;
+}
+
+// An exactly determined output (a component a 3-2-1 reference point system holds: value 0, GUM u
+// at 1e-19 m, Monte Carlo interval of rounding noise at 1e-16 m) is judged at the output's
+// numerical resolution (64 ulps of 4 m coordinates), not on its noise; a real difference larger
+// than the resolution still fails.
+TEST(ValidateScalar, RoundingNoiseIsJudgedAtTheResolution) {
+  CoverageInterval noise;
+  noise.low = -1.1e-16;
+  noise.high = 0.9e-16;
+  const double resolution = 64.0 * std::numeric_limits<double>::epsilon() * 4.0;
+  EXPECT_EQ(ValidateScalar("held", "m", 0.0, 1e-19, 2e-19, noise, 1, 20000, 5e-17, 0.95).outcome, "not validated");
+  const ScalarValidation v = ValidateScalar("held", "m", 0.0, 1e-19, 2e-19, noise, 1, 20000, 5e-17, 0.95, true, resolution);
+  EXPECT_TRUE(v.validated) << v.verdict;
+  EXPECT_EQ(v.delta, resolution);
+  CoverageInterval real = noise;
+  real.high = 1e-12;  // a second-order shift, not rounding
+  EXPECT_EQ(ValidateScalar("held", "m", 0.0, 1e-19, 2e-19, real, 1, 20000, 5e-17, 0.95, true, resolution).outcome,
+            "not validated");
 }
 
 TEST(ValidatePoint, ClosedFormRegions) {

@@ -47,11 +47,15 @@ struct ScalarValidation {
 };
 
 // trials: M of the Monte Carlo run; mcm_u: its standard uncertainty of the output; p: coverage
-// probability. differentiable = false: "not applicable".
+// probability. differentiable = false: "not applicable". resolution: the numerical resolution of
+// the output (what rounding leaves in a value computed from inputs of that size, e.g. 64 ulps of
+// the coordinates a task is computed from); delta is never below it, so an output whose GUM u
+// and Monte Carlo spread are both rounding noise (a component an RPS holds exactly) is not
+// judged on its noise (docs/monte-carlo.md §9). 0: no floor.
 ScalarValidation ValidateScalar(const std::string& name, const std::string& unit, double gum_y, double gum_u,
                                 double gum_expanded, const CoverageInterval& mcm_symmetric,
                                 int significant_digits, std::int64_t trials = 0, double mcm_u = 0.0,
-                                double p = 0.95, bool differentiable = true);
+                                double p = 0.95, bool differentiable = true, double resolution = 0.0);
 
 // Outcome of several comparisons together: "not validated" if any is, else "inconclusive" if any
 // is, else "validated" ("not applicable" ones do not count; all of them: "not applicable").

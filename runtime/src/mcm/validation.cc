@@ -72,7 +72,7 @@ std::string CombinedOutcome(const std::vector<std::string>& outcomes) {
 ScalarValidation ValidateScalar(const std::string& name, const std::string& unit, double gum_y, double gum_u,
                                 double gum_expanded, const CoverageInterval& mcm_symmetric,
                                 int significant_digits, std::int64_t trials, double mcm_u, double p,
-                                bool differentiable) {
+                                bool differentiable, double resolution) {
   ScalarValidation v;
   v.name = name;
   v.unit = unit;
@@ -92,7 +92,8 @@ ScalarValidation ValidateScalar(const std::string& name, const std::string& unit
         "the Monte Carlo interval is the answer";
     return v;
   }
-  v.delta = NumericalTolerance(gum_u, significant_digits);
+  // JCGM 101 7.9.2's delta of u(y), but never finer than the output can be computed.
+  v.delta = std::max(NumericalTolerance(gum_u, significant_digits), resolution);
   if (trials > 0 && mcm_u > 0.0) {
     const double a = 0.5 * (1.0 - p);
     const double z_a = NormalCoverageFactor(p);  // the (1 - a) quantile of N(0, 1)

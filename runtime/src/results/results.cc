@@ -520,6 +520,12 @@ void ValidateTaskResult(const McmResult& mcm, const McmTask& mt, std::size_t off
     throw std::logic_error("Monte Carlo result has too few task outputs");
   }
   task.has_mcm = true;
+  double coordinate_size = 0.0;  // the largest coordinate of the task's points [m]
+  for (const int i : task.point_indices) {
+    if (i >= 0 && static_cast<std::size_t>(i) < results.points.size()) {
+      coordinate_size = std::max(coordinate_size, results.points[static_cast<std::size_t>(i)].gum.part.cwiseAbs().maxCoeff());
+    }
+  }
   std::vector<std::string> outcomes;
   for (std::size_t q = 0; q < task.gum.quantities.size(); ++q) {
     const std::string wanted = task.spec.name + "." + task.gum.quantities[q];
@@ -530,9 +536,13 @@ void ValidateTaskResult(const McmResult& mcm, const McmTask& mt, std::size_t off
     }
     task.mcm.push_back(mcm.outputs[offset + j]);
     const bool differentiable = q >= task.gum.differentiable.size() || task.gum.differentiable[q];
+    // Lengths are computed from the points' coordinates: 64 ulps of the largest of them (and of
+    // the value) is what rounding leaves; other units from values of order one.
+    const double size = std::max(std::abs(task.gum.value[q]), task.gum.units[q] == "m" ? coordinate_size : 1.0);
+    const double resolution = 64.0 * std::numeric_limits<double>::epsilon() * size;
     task.validation.push_back(ValidateScalar(
         wanted, task.gum.units[q], task.gum.value[q], task.gum.u[q], task.gum.U[q], task.mcm.back().symmetric,
-        results.n_dig, mcm.trials, task.mcm.back().u, results.coverage_probability, differentiable));
+        results.n_dig, mcm.trials, task.mcm.back().u, results.coverage_probability, differentiable, resolution));
     outcomes.push_back(task.validation.back().outcome);
   }
   task.outcome = CombinedOutcome(outcomes);
