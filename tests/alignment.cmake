@@ -55,3 +55,5 @@ vlt_alignment_error(empty_nominal empty_nominal.toml "empty\\.csv: no points \\(
 vlt_alignment_error(deviation_twice deviation_twice.toml "deviation_twice\\.toml: deviation\\[0\\]\\.points: point 'S01' listed twice")
 vlt_alignment_error(rps_unknown_point rps_unknown_point.toml
                     "rps_unknown_point\\.toml: alignment\\[0\\]\\.rps: point 'Q9' has no nominal position")
+vlt_alignment_error(deviation_not_measured deviation_not_measured.toml
+                    "deviation_not_measured\\.toml: deviation\\[0\\]\\.points: task 'd[.]X1': point 'X1' not measured")

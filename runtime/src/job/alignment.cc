@@ -5,7 +5,6 @@
 // kBestFit, kBestFitScale, kRps, kDeviation, kPosition, kProfile) whose nominal geometry it carries, so the GUM, the Monte
 // Carlo method, validation, conformity decisions and every output treat it as any task.
 // Keys: docs/job-file.md "[nominal], [[alignment]], [[deviation]]"; the method: docs/tasks.md.
-#include <algorithm>
 #include <array>
 #include <cmath>
 #include <map>
@@ -13,6 +12,8 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <string_view>
+#include <unordered_map>
 
 #include "job/job_detail.h"
 #include "vlt/calibration.h"
@@ -31,7 +32,11 @@ struct Alignment {
   std::vector<std::string> points;
   bool scale = false;
   std::vector<std::array<bool, 3>> holds;  // rps: the axes each point holds
+  std::vector<int> indices;                // of its points in the job, resolved once
 };
+
+// The job's points by name, built once for all the tables (a scan's deviations must not cost N^2).
+using PointIndex = std::unordered_map<std::string, int>;
 
 // The nominal (CAD) geometry of the job's points: [nominal] csv (name, x, y, z [, i, j, k]) in
 // `unit`; without [nominal], a plan's own points (their nominal positions, no normals).
@@ -184,7 +189,8 @@ Alignment ReadAlignment(Section& t, Job& job, const std::map<std::string, Nomina
   spec.nominal = geometry;
   ReadTaskTolerances(t, spec);
   t.Finish();
-  job.task_points.push_back(ResolveTaskPoints(spec, job.point_names(), points_where));
+  a.indices = ResolveTaskPoints(spec, job.point_names(), points_where);
+  job.task_points.push_back(a.indices);
   job.tasks.push_back(std::move(spec));
   return a;
 }
@@ -220,17 +226,29 @@ std::vector<std::string> PointsWithNormals(Section& t, const Job& job, const std
   return points;
 }
 
-// A task over the alignment's points and then `extra` (each once): its spec and nominal geometry
-// (positions, the alignment's scale and held axes); extra_index[i] is extra[i]'s index.
+// A task over the alignment's points and then `extra` (each once): its spec, its points' indices
+// in the job (pushed to job.task_points) and its nominal geometry (positions, the alignment's
+// scale and held axes); extra_index[i] is extra[i]'s index among the task's points.
 std::shared_ptr<NominalGeometry> OverAlignment(const Alignment& alignment, const std::vector<std::string>& extra,
-                                               const std::map<std::string, Nominal>& nominal, const std::string& where,
-                                               TaskSpec& spec, std::vector<int>& extra_index) {
+                                               const std::map<std::string, Nominal>& nominal, const PointIndex& measured,
+                                               const std::string& where, TaskSpec& spec, Job& job,
+                                               std::vector<int>& extra_index) {
   spec.points = alignment.points;
+  std::vector<int> indices = alignment.indices;
+  std::unordered_map<std::string_view, int> in_alignment;
+  for (std::size_t i = 0; i < alignment.points.size(); ++i) in_alignment.emplace(alignment.points[i], static_cast<int>(i));
   for (const std::string& point : extra) {
-    const auto it = std::find(spec.points.begin(), spec.points.end(), point);
-    extra_index.push_back(static_cast<int>(it - spec.points.begin()));
-    if (it == spec.points.end()) spec.points.push_back(point);
+    if (const auto it = in_alignment.find(point); it != in_alignment.end()) {
+      extra_index.push_back(it->second);
+      continue;
+    }
+    const auto job_index = measured.find(point);
+    if (job_index == measured.end()) throw InputError(where + ": task '" + spec.name + "': point '" + point + "' not measured");
+    extra_index.push_back(static_cast<int>(spec.points.size()));
+    spec.points.push_back(point);
+    indices.push_back(job_index->second);
   }
+  job.task_points.push_back(std::move(indices));
   auto geometry = std::make_shared<NominalGeometry>();
   geometry->alignment_points = static_cast<int>(alignment.points.size());
   geometry->scale = alignment.scale;
@@ -245,7 +263,7 @@ std::shared_ptr<NominalGeometry> OverAlignment(const Alignment& alignment, const
 
 // One [[deviation]] table: a deviation task per point, named "<name>.<point>", over the
 // alignment's points and the point (once, where it is an alignment point itself).
-void ReadDeviation(Section& t, Job& job, const std::map<std::string, Nominal>& nominal,
+void ReadDeviation(Section& t, Job& job, const std::map<std::string, Nominal>& nominal, const PointIndex& measured,
                    const std::vector<Alignment>& alignments, std::set<std::string>& names) {
   t.set_hint("name, alignment, points, position, tolerance");
   const std::string name = AsString(t.Require("name"), t.Where("name"));
@@ -264,18 +282,17 @@ void ReadDeviation(Section& t, Job& job, const std::map<std::string, Nominal>& n
     spec.name = name + "." + point;
     if (!names.insert(spec.name).second) throw InputError(t.Where("name") + ": '" + spec.name + "' is already the name of a task");
     std::vector<int> index;
-    const auto geometry = OverAlignment(alignment, {point}, nominal, t.Where("points"), spec, index);
+    const auto geometry = OverAlignment(alignment, {point}, nominal, measured, t.Where("points"), spec, job, index);
     geometry->point = index.front();
     geometry->normal = *NominalOf(nominal, point, t.Where("points")).normal;
     geometry->position = position;
     spec.nominal = geometry;
-    job.task_points.push_back(ResolveTaskPoints(spec, job.point_names(), t.Where("points")));
     job.tasks.push_back(std::move(spec));
   }
 }
 
 // One [[profile]] table: one profile task over the alignment's points and its own.
-void ReadProfile(Section& t, Job& job, const std::map<std::string, Nominal>& nominal,
+void ReadProfile(Section& t, Job& job, const std::map<std::string, Nominal>& nominal, const PointIndex& measured,
                  const std::vector<Alignment>& alignments, std::set<std::string>& names) {
   t.set_hint("name, alignment, points, tolerance");
   TaskSpec spec;
@@ -289,11 +306,10 @@ void ReadProfile(Section& t, Job& job, const std::map<std::string, Nominal>& nom
   ReadTaskTolerances(t, spec);
   t.Finish();
   std::vector<int> index;
-  const auto geometry = OverAlignment(alignment, points, nominal, t.Where("points"), spec, index);
+  const auto geometry = OverAlignment(alignment, points, nominal, measured, t.Where("points"), spec, job, index);
   geometry->profile = index;
   for (const std::string& point : points) geometry->profile_normals.push_back(*NominalOf(nominal, point, t.Where("points")).normal);
   spec.nominal = geometry;
-  job.task_points.push_back(ResolveTaskPoints(spec, job.point_names(), t.Where("points")));
   job.tasks.push_back(std::move(spec));
 }
 
@@ -330,8 +346,10 @@ void ReadAlignments(Section& top, Job& job) {
   for (const TaskSpec& t : job.tasks) names.insert(t.name);
   std::vector<Alignment> alignments;
   ForEachTable(top, job, "alignment", [&](Section& t) { alignments.push_back(ReadAlignment(t, job, nominal, names)); });
-  ForEachTable(top, job, "deviation", [&](Section& t) { ReadDeviation(t, job, nominal, alignments, names); });
-  ForEachTable(top, job, "profile", [&](Section& t) { ReadProfile(t, job, nominal, alignments, names); });
+  PointIndex measured;
+  for (std::size_t i = 0; i < job.points.size(); ++i) measured.emplace(job.points[i].name, static_cast<int>(i));
+  ForEachTable(top, job, "deviation", [&](Section& t) { ReadDeviation(t, job, nominal, measured, alignments, names); });
+  ForEachTable(top, job, "profile", [&](Section& t) { ReadProfile(t, job, nominal, measured, alignments, names); });
 }
 
 }  // namespace vlt::job_internal
