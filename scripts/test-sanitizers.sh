@@ -4,7 +4,8 @@
 # Every test but those labelled `browser` (a headless browser rendering a page; the runs that wrote
 # the page are tests of their own and do run here) and the statistical studies below, which repeat
 # one computation over hundreds of seeds (a calibration, a network adjustment) or over 10^5 points
-# (and the count of the work items of a 10^6-trial Monte Carlo run on 16 threads, 44 s here):
+# (and the count of the work items of a 10^6-trial Monte Carlo run on 16 threads, 44 s here; the
+# alignment's Monte Carlo reference, 40000 re-alignments of 4 tasks, 19 s here):
 # their code paths run here once in the tests that check them against closed forms and finite
 # differences, and stage 1 runs the studies themselves (docs/testing.md). Under the sanitizers they
 # took 348 of the stage's 728 test seconds (measured 2026-11-26; the two calibration coverage
@@ -23,6 +24,7 @@ studies=(
   Network.DriftModelCoversTheTargetsReadBetweenChecks
   cli_run_scan_large
   McmThreads.EveryPhaseOffersEightItemsToEachOfSixteenThreads
+  Alignment.GumCovarianceAgreesWithMonteCarlo
 )
 exclude="^($(IFS='|'; echo "${studies[*]}" | sed 's/[.]/[.]/g'))$"
 vlt_build_sanitize

@@ -12,6 +12,7 @@
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
 
+#include "network/adjust.h"
 #include "test_calibration_helpers.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
@@ -77,7 +78,8 @@ Network MakeNetwork(bool datum_station, int stations = 3, const TargetList& targ
 
 // A measured distance between two targets at their nominal distance.
 NetworkDistance Distance(const std::string& name, const std::pair<std::string, Eigen::Vector3d>& from,
-                         const std::pair<std::string, Eigen::Vector3d>& to, double u, bool scale_bar = false) {
+                         const std::pair<std::string, Eigen::Vector3d>& to, double u,
+                         bool scale_bar = false) {
   NetworkDistance d;
   d.name = name;
   d.scale_bar = scale_bar;
@@ -127,7 +129,9 @@ void GiveStationsTheirAir(Network& net) {
 Eigen::MatrixXd AirCovariance(const Network& net) {
   const int m = 3 * static_cast<int>(net.stations.size());
   Eigen::MatrixXd sigma = Eigen::MatrixXd::Zero(m, m);
-  auto u = [](const Environment& e, int q) { return q == 0 ? e.temperature.u : q == 1 ? e.pressure.u : e.humidity.u; };
+  auto u = [](const Environment& e, int q) {
+    return q == 0 ? e.temperature.u : q == 1 ? e.pressure.u : e.humidity.u;
+  };
   const NetworkAirSensor& ws = net.air_sensors[0];
   const double u_sensor[3] = {ws.u_temperature, ws.u_pressure, ws.u_humidity};
   for (std::size_t i = 0; i < net.stations.size(); ++i) {
@@ -135,8 +139,9 @@ Eigen::MatrixXd AirCovariance(const Network& net) {
       for (int q = 0; q < 3; ++q) {
         const bool shared = i != j && !net.stations[i].air_sensor.empty() &&
                             net.stations[i].air_sensor == net.stations[j].air_sensor;
-        sigma(3 * i + q, 3 * j + q) = i == j ? std::pow(u(*net.stations[i].environment, q), 2)
-                                             : shared ? u_sensor[q] * u_sensor[q] : 0.0;
+        sigma(3 * i + q, 3 * j + q) = i == j   ? std::pow(u(*net.stations[i].environment, q), 2)
+                                      : shared ? u_sensor[q] * u_sensor[q]
+                                               : 0.0;
       }
     }
   }
@@ -506,7 +511,6 @@ TEST(Network, StructureErrorsNameTheProblem) {
   }
 }
 
-
 // --- Scale bars (N-4a). The network of Targets() held by station S1 (no reference coordinates)
 // plus two 3 m scale bars (4 more targets) read by every station: the range scale mu is blind
 // without the bars and determined with them.
@@ -634,8 +638,8 @@ TEST(Network, StationAirCoversTheTruth) {
         const double own = std::sqrt(u[q] * u[q] - (shared ? u_sensor[q] * u_sensor[q] : 0.0));
         *value[q] += (shared ? sensor_error[q] : 0.0) + own * normal(rng);
       }
-      const double scale = AirRefractiveIndexValue(air.equation, actual) /
-                           AirRefractiveIndexValue(air.equation, estimated);
+      const double scale =
+          AirRefractiveIndexValue(air.equation, actual) / AirRefractiveIndexValue(air.equation, estimated);
       for (TargetReading& reading : st.readings) {
         reading.readings(0) *= scale;
         const Eigen::Vector3d sigma = model.reading_uncertainty(reading.readings(0));
@@ -653,7 +657,8 @@ TEST(Network, StationAirCoversTheTruth) {
       const AdjustedTarget& tf = Find(rf, name);  // the air's u left out
       for (int c = 0; c < 3; ++c) {
         inside += std::abs(t.position(c) - x(c)) <= r.k * std::sqrt(t.covariance(c, c)) ? 1 : 0;
-        inside_without_air += std::abs(tf.position(c) - x(c)) <= rf.k * std::sqrt(tf.covariance(c, c)) ? 1 : 0;
+        inside_without_air +=
+            std::abs(tf.position(c) - x(c)) <= rf.k * std::sqrt(tf.covariance(c, c)) ? 1 : 0;
         ++total;
       }
       const Eigen::Vector3d d = t.position - x;
@@ -663,15 +668,15 @@ TEST(Network, StationAirCoversTheTruth) {
   }
   const double fraction = static_cast<double>(inside) / total;
   const double fraction_without_air = static_cast<double>(inside_without_air) / total;
-  std::printf("air per station: coverage %d / %d = %.4f, mean d2 %.3f, air's share of the variance %.2f; "
-              "the air ignored %.4f\n",
-              inside, total, fraction, sum_d2 / points, share_air / seeds, fraction_without_air);
+  std::printf(
+      "air per station: coverage %d / %d = %.4f, mean d2 %.3f, air's share of the variance %.2f; "
+      "the air ignored %.4f\n",
+      inside, total, fraction, sum_d2 / points, share_air / seeds, fraction_without_air);
   EXPECT_GT(share_air / seeds, 0.5);  // the air is what the covariance must carry here
   EXPECT_NEAR(fraction, 0.95, 0.025);
   EXPECT_NEAR(sum_d2 / points, 3.0, 0.45);
   EXPECT_LT(fraction_without_air, 0.85);
 }
-
 
 // --- The robust rule (N-8a). Five gross errors of 20 sigma in one component of the readings of
 // five different targets, 100 seeds, every parameter self-calibrated: the five are removed in >= 95 % of the
@@ -721,7 +726,8 @@ TEST(Network, RobustRuleRemovesGrossErrors) {
   // Without the rule nothing is removed, and the gross errors spoil the fit.
   Network off = SimulateNetwork(plan, truth, 1);
   off.robust = false;
-  off.stations[0].readings[0].readings(0) += 20.0 * model.reading_uncertainty(off.stations[0].readings[0].readings(0))(0);
+  off.stations[0].readings[0].readings(0) +=
+      20.0 * model.reading_uncertainty(off.stations[0].readings[0].readings(0))(0);
   const NetworkResult r = AdjustNetwork(off);
   EXPECT_TRUE(r.rejected.empty());
   EXPECT_GT(r.outliers, 0);
@@ -738,7 +744,8 @@ TEST(Network, RobustRuleRemovesAWrongScaleBar) {
   Network sim = SimulateNetwork(plan, truth, 3);
   sim.distances[1].length += 30.0 * sim.distances[1].u;
   const NetworkResult r = AdjustNetwork(sim);
-  for (const RejectedObservation& o : r.rejected) std::printf("removed %s/%s w %.2f -> %.2f\n", o.station.c_str(), o.target.c_str(), o.w_before, o.w_after);
+  for (const RejectedObservation& o : r.rejected)
+    std::printf("removed %s/%s w %.2f -> %.2f\n", o.station.c_str(), o.target.c_str(), o.w_before, o.w_after);
   ASSERT_EQ(r.rejected.size(), 1u);
   EXPECT_TRUE(r.rejected[0].distance);
   EXPECT_EQ(r.rejected[0].target, "SB2");
@@ -759,7 +766,8 @@ Network MakeDriftingNetwork() {
   for (UncertainInput& p : plan.instruments[0].setup.params) p.u = 0.0;
   const std::set<std::string> only_s2 = {"T8", "T9", "T10", "T11"};
   for (int i : {0, 2})
-    std::erase_if(plan.stations[i].readings, [&](const TargetReading& r) { return only_s2.count(r.target) > 0; });
+    std::erase_if(plan.stations[i].readings,
+                  [&](const TargetReading& r) { return only_s2.count(r.target) > 0; });
   NetworkStation& s2 = plan.stations[1];
   for (std::size_t j = 0; j < s2.readings.size(); ++j) s2.readings[j].time = 900.0 * static_cast<double>(j);
   const std::vector<TargetReading> first = s2.readings;
@@ -772,7 +780,7 @@ Network MakeDriftingNetwork() {
     }
   }
   s2.drift.enabled = true;
-  s2.drift.translation_rate = 10e-6 / 3600.0;     // 10 um/h
+  s2.drift.translation_rate = 10e-6 / 3600.0;       // 10 um/h
   s2.drift.rotation_rate = 0.5 * kArcsec / 3600.0;  // 0.5 arcsec/h
   s2.drift.knots = {0.0, 3600.0, 7200.0, 10800.0};
   StationPoseVector d;
@@ -813,7 +821,8 @@ struct DriftCoverage {
     for (std::size_t k = 1; k < s2.drift.size(); ++k) {
       true_offset += drift.increments[k - 1];
       for (int c = 0; c < 6; ++c) {
-        knots_inside += std::abs(s2.drift[k].offset(c) - true_offset(c)) <= r.k * std::sqrt(s2.drift[k].covariance(c, c));
+        knots_inside +=
+            std::abs(s2.drift[k].offset(c) - true_offset(c)) <= r.k * std::sqrt(s2.drift[k].covariance(c, c));
         ++knots_total;
       }
     }
@@ -833,10 +842,12 @@ TEST(Network, DriftModelCoversTheTargetsReadBetweenChecks) {
   Network plan = MakeDriftingNetwork();
   plan.stations[1].drift.increments.clear();  // drawn in every seed
   DriftCoverage drawn;
-  for (int seed = 1; seed <= 400; ++seed) drawn.Add(truth, SimulateNetwork(plan, truth, static_cast<std::uint64_t>(seed)));
-  std::printf("drift drawn from its prior: targets read between checks covered %d / %d = %.4f (mean d2 %.3f); "
-              "the drift at the knots %.4f; the drift ignored %.4f\n",
-              drawn.inside, drawn.total, drawn.Fraction(), drawn.MeanD2(), drawn.Knots(), drawn.Ignored());
+  for (int seed = 1; seed <= 400; ++seed)
+    drawn.Add(truth, SimulateNetwork(plan, truth, static_cast<std::uint64_t>(seed)));
+  std::printf(
+      "drift drawn from its prior: targets read between checks covered %d / %d = %.4f (mean d2 %.3f); "
+      "the drift at the knots %.4f; the drift ignored %.4f\n",
+      drawn.inside, drawn.total, drawn.Fraction(), drawn.MeanD2(), drawn.Knots(), drawn.Ignored());
   EXPECT_NEAR(drawn.Fraction(), 0.95, 0.02);
   EXPECT_NEAR(drawn.MeanD2(), 3.0, 0.3);
   EXPECT_NEAR(drawn.Knots(), 0.95, 0.02);
@@ -851,10 +862,12 @@ TEST(Network, AnInjectedDriftIsFoundByTheDriftChecks) {
   const TargetList truth = Targets();
   const Network plan = MakeDriftingNetwork();
   DriftCoverage fixed;
-  for (int seed = 1; seed <= 200; ++seed) fixed.Add(truth, SimulateNetwork(plan, truth, static_cast<std::uint64_t>(seed)));
-  std::printf("injected drift: targets read between checks covered %d / %d = %.4f (mean d2 %.3f); the drift at "
-              "the knots %.4f; the drift ignored %.4f\n",
-              fixed.inside, fixed.total, fixed.Fraction(), fixed.MeanD2(), fixed.Knots(), fixed.Ignored());
+  for (int seed = 1; seed <= 200; ++seed)
+    fixed.Add(truth, SimulateNetwork(plan, truth, static_cast<std::uint64_t>(seed)));
+  std::printf(
+      "injected drift: targets read between checks covered %d / %d = %.4f (mean d2 %.3f); the drift at "
+      "the knots %.4f; the drift ignored %.4f\n",
+      fixed.inside, fixed.total, fixed.Fraction(), fixed.MeanD2(), fixed.Knots(), fixed.Ignored());
   EXPECT_GE(fixed.Fraction(), 0.93);
   EXPECT_LE(fixed.Fraction(), 0.99);
   EXPECT_GE(fixed.Knots(), 0.93);
@@ -866,7 +879,8 @@ TEST(Network, DriftedPoseInterpolatesBetweenKnots) {
   NetworkDrift drift;
   drift.enabled = true;
   drift.knots = {100.0, 200.0, 400.0};
-  StationPoseVector a = StationPoseVector::Zero(), b = StationPoseVector::Zero(), pose = StationPoseVector::Zero();
+  StationPoseVector a = StationPoseVector::Zero(), b = StationPoseVector::Zero(),
+                    pose = StationPoseVector::Zero();
   a(3) = 10e-6;
   b(3) = -4e-6;
   b(2) = 2e-6;
@@ -940,10 +954,12 @@ TEST(Network, TrackerAndTotalStationCoverTheTruth) {
       if (p.name == "TS.gamma") ratio_gamma += p.u / p.prior_u / 200.0;
     }
   }
-  const double fraction = static_cast<double>(inside) / total, p_fraction = static_cast<double>(p_inside) / p_total;
-  std::printf("tracker + total station: targets covered %d / %d = %.4f; self-calibrated TS.lam, TS.gamma, TS.ae0 "
-              "%.4f; u(TS.gamma) / prior u %.3f\n",
-              inside, total, fraction, p_fraction, ratio_gamma);
+  const double fraction = static_cast<double>(inside) / total,
+               p_fraction = static_cast<double>(p_inside) / p_total;
+  std::printf(
+      "tracker + total station: targets covered %d / %d = %.4f; self-calibrated TS.lam, TS.gamma, TS.ae0 "
+      "%.4f; u(TS.gamma) / prior u %.3f\n",
+      inside, total, fraction, p_fraction, ratio_gamma);
   EXPECT_NEAR(fraction, 0.95, 0.025);
   EXPECT_NEAR(p_fraction, 0.95, 0.03);
   EXPECT_LT(ratio_gamma, 0.5);
@@ -985,6 +1001,89 @@ TEST(Network, LengthTestErrorsAgainstTheNetworksLengths) {
   const double fraction = static_cast<double>(inside) / total;
   std::printf("length test: E within U of the true error %d / %d = %.4f\n", inside, total, fraction);
   EXPECT_NEAR(fraction, 0.95, 0.03);
+}
+
+// --- The Monte Carlo trial's adjustment (network/adjust.h) against the full one, on a network with
+// everything that shapes the covariance blocks a trial keeps: scale bars (targets tied in groups), a
+// drifting station (knot poses), self-calibrated and consider inputs, and a gross error that the
+// robust rule removes. The trial stops at a looser step and forms only some blocks; what it forms
+// equals the full adjustment's to the trial's tolerance.
+TEST(Network, TrialAdjustmentEqualsTheFullAdjustment) {
+  Network plan = MakeScaleBarNetwork(true);
+  // Every input self-calibrated but one, a consider parameter: small, so that the readings' misfit
+  // it causes (its true value is drawn) leaves the robust rule to the gross error.
+  bool consider = false;
+  for (UncertainInput& p : plan.instruments[0].setup.params) {
+    if (!(p.u > 0.0)) continue;
+    if (!consider) {
+      p.u *= 0.1;
+      consider = true;
+    } else {
+      plan.self_calibrate.push_back(p.name);
+    }
+  }
+  NetworkStation& s2 = plan.stations[1];
+  const std::vector<TargetReading> first = s2.readings;
+  for (std::size_t j = 0; j < s2.readings.size(); ++j) s2.readings[j].time = 600.0 * static_cast<double>(j);
+  for (const TargetReading& r : first) {
+    if (r.target != "T0" && r.target != "T2" && r.target != "T4") continue;
+    TargetReading check = r;
+    check.time = 600.0 * static_cast<double>(first.size());
+    s2.readings.push_back(check);
+  }
+  s2.drift.enabled = true;
+  s2.drift.translation_rate = 10e-6 / 3600.0;
+  s2.drift.rotation_rate = 0.5 * kDeg / 3600.0 / 3600.0;
+  s2.drift.knots = {0.0, 300.0 * static_cast<double>(first.size()),
+                    600.0 * static_cast<double>(first.size())};
+  Network sim = SimulateNetwork(plan, TargetsWithBars(), 7);
+  const MeasurementModel model(plan.instruments[0].setup);
+  TargetReading& spoiled = sim.stations[2].readings[3];
+  spoiled.readings(1) += 20.0 * model.reading_uncertainty(spoiled.readings(0))(1);
+  const NetworkResult full = AdjustNetwork(sim);
+  const NetworkResult trial = network_internal::AdjustNetworkTrial(sim);
+  ASSERT_EQ(full.rejected.size(), 1u);
+  ASSERT_EQ(trial.rejected.size(), 1u);
+  EXPECT_EQ(trial.rejected[0].target, full.rejected[0].target);
+  EXPECT_EQ(trial.rejected[0].station, "S3");
+  ASSERT_EQ(trial.targets.size(), full.targets.size());
+  ASSERT_FALSE(full.parameters.empty());
+  ASSERT_FALSE(full.distances.empty());
+  double worst_position = 0.0, worst_covariance = 0.0;
+  for (std::size_t t = 0; t < full.targets.size(); ++t) {
+    worst_position = std::max(worst_position, (trial.targets[t].position - full.targets[t].position).norm());
+    worst_covariance =
+        std::max(worst_covariance, (trial.targets[t].covariance - full.targets[t].covariance).norm() /
+                                       full.targets[t].covariance.norm());
+  }
+  for (std::size_t i = 0; i < full.stations.size(); ++i) {
+    if (full.stations[i].datum) continue;
+    worst_covariance =
+        std::max(worst_covariance, (trial.stations[i].covariance - full.stations[i].covariance).norm() /
+                                       full.stations[i].covariance.norm());
+    ASSERT_EQ(trial.stations[i].drift.size(), full.stations[i].drift.size());
+    for (std::size_t k = 1; k < full.stations[i].drift.size(); ++k) {
+      worst_covariance =
+          std::max(worst_covariance,
+                   (trial.stations[i].drift[k].covariance - full.stations[i].drift[k].covariance).norm() /
+                       full.stations[i].drift[k].covariance.norm());
+    }
+  }
+  for (std::size_t k = 0; k < full.parameters.size(); ++k)
+    worst_covariance =
+        std::max(worst_covariance, std::abs(trial.parameters[k].u / full.parameters[k].u - 1.0));
+  double worst_w = 0.0;
+  ASSERT_EQ(trial.residuals.size(), full.residuals.size());
+  for (std::size_t i = 0; i < full.residuals.size(); ++i)
+    worst_w = std::max(worst_w, std::abs(trial.residuals[i].w - full.residuals[i].w));
+  for (std::size_t k = 0; k < full.distances.size(); ++k)
+    worst_w = std::max(worst_w, std::abs(trial.distances[k].w - full.distances[k].w));
+  std::printf("trial vs full adjustment: positions %.3g m, covariance blocks %.3g (relative), w %.3g\n",
+              worst_position, worst_covariance, worst_w);
+  EXPECT_LT(worst_position, 1e-8);  // 1e-3 of the targets' u (about 10 um)
+  EXPECT_LT(worst_covariance, 1e-6);
+  EXPECT_LT(worst_w, 1e-4);
+  EXPECT_TRUE(full.rejected[0].predicted);
 }
 
 }  // namespace

@@ -21,6 +21,7 @@
 
 #include "vlt/error.h"
 #include "vlt/gum.h"
+#include "network/adjust.h"
 #include "network/drift.h"
 #include "network/instruments.h"
 #include "vlt/network.h"
@@ -289,13 +290,15 @@ struct PreparedReadings {
 };
 
 // The poses a reading of station i combines (Observation::poses, N-12); InputError without its time.
-std::vector<std::pair<int, double>> ReadingPoses(const Network& network, const network_internal::DriftSegments& segments,
-                                                 int i, const TargetReading& reading) {
+std::vector<std::pair<int, double>> ReadingPoses(const Network& network,
+                                                 const network_internal::DriftSegments& segments, int i,
+                                                 const TargetReading& reading) {
   const NetworkStation& st = network.stations[i];
   if (!st.drift.enabled) return {{-1, 1.0}};
   if (!reading.time) {
-    throw InputError(reading.where + ": station '" + st.name +
-                     "' has a drift model: its readings need their time (a time column, docs/network.md N-12)");
+    throw InputError(
+        reading.where + ": station '" + st.name +
+        "' has a drift model: its readings need their time (a time column, docs/network.md N-12)");
   }
   return network_internal::PoseTerms(st.drift, *reading.time, segments.first[i]);
 }
@@ -318,7 +321,8 @@ PreparedReadings PrepareReadings(const Network& network, const network_internal:
         prepared.target_stations.emplace_back();
         prepared.target_readings.push_back(0);
       }
-      Observation obs = PrepareObservation(instruments, reading, instruments.station_model[i], i, r, it->second);
+      Observation obs =
+          PrepareObservation(instruments, reading, instruments.station_model[i], i, r, it->second);
       obs.poses = ReadingPoses(network, segments, i, reading);
       prepared.target_stations[obs.target].insert(i);
       ++prepared.target_readings[obs.target];
@@ -351,7 +355,8 @@ std::vector<DistanceObservation> PrepareDistances(const Network& network,
     obs.from = target("from", d.from);
     obs.to = target("to", d.to);
     if (obs.from == obs.to) throw InputError(d.where + ".to: the same target as `from`");
-    if (!(d.length > 0.0) || !std::isfinite(d.length)) throw InputError(d.where + ".length: must be positive");
+    if (!(d.length > 0.0) || !std::isfinite(d.length))
+      throw InputError(d.where + ".length: must be positive");
     if (!(d.u > 0.0) || !std::isfinite(d.u)) throw InputError(d.where + ".u: must be positive");
     obs.length = d.length;
     obs.u = d.u;
@@ -593,11 +598,13 @@ struct Adjustment {
   std::vector<Eigen::MatrixXd> n_gg_inv;
   Eigen::MatrixXd h, schur, c_aa;
   // Covariance, internal order, and the result's order.
-  Eigen::MatrixXd cov_internal, consider_part;
+  Eigen::MatrixXd cov_internal, consider_part, c_ta;
   int target_start = 0, e_start = 0;
   NetworkResult result;
+  // A Monte Carlo trial (network/adjust.h): solver tolerances and covariance blocks for its needs.
+  const bool trial;
 
-  explicit Adjustment(const Network& net)
+  Adjustment(const Network& net, bool for_trial)
       : network(net),
         file(net.where),
         instruments(network_internal::MakeInstruments(net)),
@@ -613,7 +620,8 @@ struct Adjustment {
         T(static_cast<int>(readings.target_names.size())),
         P(static_cast<int>(net.stations.size())),
         distances(PrepareDistances(net, readings.target_index)),
-        groups(GroupTargets(T, distances)) {}
+        groups(GroupTargets(T, distances)),
+        trial(for_trial) {}
 
   // The normal matrix's block of targets t1, t2 (of one group).
   Eigen::Block<Eigen::MatrixXd, 3, 3> TargetBlock(int t1, int t2) {
@@ -694,7 +702,8 @@ struct Adjustment {
       const bool first = g == segments.first[i];
       double* from = first ? pose[i].data() : knot[g - 1].data();
       problem->AddResidualBlock(new DriftPriorCost(w), nullptr, from, knot[g].data());
-      drift_priors.push_back({first ? pose_offset[i] : knot_offset[g - 1], knot_offset[g], from, knot[g].data(), w});
+      drift_priors.push_back(
+          {first ? pose_offset[i] : knot_offset[g - 1], knot_offset[g], from, knot[g].data(), w});
     }
   }
 
@@ -744,6 +753,11 @@ struct Adjustment {
     options.parameter_tolerance = 1e-13;
     options.num_threads = 1;
     options.logging_type = ceres::SILENT;
+    if (trial) {  // network/adjust.h: from the truth's poses, Gauss-Newton steps to 1e-10
+      options.initial_trust_region_radius = 1e8;
+      options.function_tolerance = 1e-12;
+      options.parameter_tolerance = 1e-10;
+    }
     ceres::Solver::Summary summary;
     ceres::Solve(options, problem.get(), &summary);
     result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
@@ -804,7 +818,8 @@ struct Adjustment {
     for (int p = 0; p < 2; ++p) {
       for (int q = 0; q < 2; ++q) {
         if (offsets[p] < 0 || offsets[q] < 0) continue;
-        for (int c = 0; c < 6; ++c) n_aa(offsets[p] + c, offsets[q] + c) += signs[p] * signs[q] * prior.w(c) * prior.w(c);
+        for (int c = 0; c < 6; ++c)
+          n_aa(offsets[p] + c, offsets[q] + c) += signs[p] * signs[q] * prior.w(c) * prior.w(c);
       }
     }
   }
@@ -926,7 +941,8 @@ struct Adjustment {
         const std::vector<int>& members = groups.members[group];
         const int m = static_cast<int>(members.size());
         Eigen::MatrixXd n_ga(3 * m, a);
-        for (int i = 0; i < m; ++i) n_ga.middleRows<3>(3 * i) = n_at.middleCols<3>(3 * members[i]).transpose();
+        for (int i = 0; i < m; ++i)
+          n_ga.middleRows<3>(3 * i) = n_at.middleCols<3>(3 * members[i]).transpose();
         const Eigen::MatrixXd h_g = n_gg_inv[group] * n_ga;
         for (int i = 0; i < m; ++i) h.middleRows<3>(3 * members[i]) = h_g.middleRows<3>(3 * i);
       }
@@ -1011,27 +1027,33 @@ struct Adjustment {
     return description;
   }
 
-
   void Covariance() {
     target_start = e_offset;  // after the poses
     e_start = e_offset + 3 * T;
     cov_internal.resize(n, n);  // internal order [poses | s_E | targets]
     cov_internal.topLeftCorner(a, a) = c_aa;
-    const Eigen::MatrixXd c_ta = -h * c_aa;
+    c_ta = -h * c_aa;
     cov_internal.bottomLeftCorner(3 * T, a) = c_ta;
     cov_internal.topRightCorner(a, 3 * T) = c_ta.transpose();
-    cov_internal.bottomRightCorner(3 * T, 3 * T) = h * c_aa * h.transpose();
+    // A trial needs the target blocks within a group only (network/adjust.h): h_i C_aa h_j^T there.
+    if (trial)
+      cov_internal.bottomRightCorner(3 * T, 3 * T).setZero();
+    else
+      cov_internal.bottomRightCorner(3 * T, 3 * T) = h * c_aa * h.transpose();
     for (std::size_t group = 0; group < groups.members.size(); ++group) {
       const std::vector<int>& members = groups.members[group];
       for (std::size_t i = 0; i < members.size(); ++i) {
         for (std::size_t j = 0; j < members.size(); ++j) {
-          cov_internal.block<3, 3>(a + 3 * members[i], a + 3 * members[j]) +=
-              n_gg_inv[group].block<3, 3>(3 * static_cast<int>(i), 3 * static_cast<int>(j));
+          auto block = cov_internal.block<3, 3>(a + 3 * members[i], a + 3 * members[j]);
+          block += n_gg_inv[group].block<3, 3>(3 * static_cast<int>(i), 3 * static_cast<int>(j));
+          if (trial && a > 0)
+            block -= c_ta.middleRows<3>(3 * members[i]) * h.middleRows<3>(3 * members[j]).transpose();
         }
       }
     }
     // Consider parameters: K = -N^-1 J^T B_c moves the estimate by K delta_c (N-7).
-    const Eigen::MatrixXd gain = -cov_internal * g;
+    const Eigen::MatrixXd gain =
+        trial ? Eigen::MatrixXd(-SolveNormals(g)) : Eigen::MatrixXd(-cov_internal * g);
     Eigen::MatrixXd sigma_c(C, C);
     for (int p = 0; p < C; ++p)
       for (int q = 0; q < C; ++q) sigma_c(p, q) = sigma_shared(split.consider[p], split.consider[q]);
@@ -1049,6 +1071,30 @@ struct Adjustment {
         if (C > 0) out += consider_part.block(in_start[p], in_start[q], length[p], length[q]);
       }
     }
+  }
+
+  // N^-1 b by the Schur complement (N-5), for a trial's consider gain without the full inverse:
+  // y_a = C_aa (b_a - h^T b_t), y_t = N_tt^-1 b_t - h y_a.
+  Eigen::MatrixXd SolveNormals(const Eigen::MatrixXd& b) const {
+    const int m = static_cast<int>(b.cols());
+    Eigen::MatrixXd y(n, m);
+    const Eigen::MatrixXd b_t = b.bottomRows(3 * T);
+    Eigen::MatrixXd y_t(3 * T, m);
+    for (std::size_t group = 0; group < groups.members.size(); ++group) {
+      const std::vector<int>& members = groups.members[group];
+      const int size = 3 * static_cast<int>(members.size());
+      Eigen::MatrixXd b_g(size, m);
+      for (int i = 0; i < size / 3; ++i) b_g.middleRows<3>(3 * i) = b_t.middleRows<3>(3 * members[i]);
+      const Eigen::MatrixXd y_g = n_gg_inv[group] * b_g;
+      for (int i = 0; i < size / 3; ++i) y_t.middleRows<3>(3 * members[i]) = y_g.middleRows<3>(3 * i);
+    }
+    if (a > 0) {
+      const Eigen::MatrixXd y_a = c_aa * (b.topRows(a) - h.transpose() * b_t);
+      y.topRows(a) = y_a;
+      y_t -= h * y_a;
+    }
+    y.bottomRows(3 * T) = y_t;
+    return y;
   }
 
   void NameUnknowns() {
@@ -1188,8 +1234,7 @@ struct Adjustment {
     const DistanceObservation& d = distances[k];
     const NetworkDistance& source = network.distances[d.index];
     const Eigen::Matrix<double, 6, 1> grad = DistanceGradient(d);
-    const double hat =
-        grad.dot(PairBlock(cov_internal, a + 3 * d.from, a + 3 * d.to) * grad) / (d.u * d.u);
+    const double hat = grad.dot(PairBlock(cov_internal, a + 3 * d.from, a + 3 * d.to) * grad) / (d.u * d.u);
     AdjustedDistance out;
     out.name = source.name;
     out.from = source.from;
@@ -1200,7 +1245,8 @@ struct Adjustment {
     out.u_observed = d.u;
     out.adjusted = (x[d.to] - x[d.from]).norm();
     out.u_adjusted = std::sqrt(std::max(
-        0.0, grad.dot(PairBlock(result.covariance, target_start + 3 * d.from, target_start + 3 * d.to) * grad)));
+        0.0,
+        grad.dot(PairBlock(result.covariance, target_start + 3 * d.from, target_start + 3 * d.to) * grad)));
     out.normalised = -e_distance(static_cast<Eigen::Index>(k));
     out.redundancy = std::clamp(1.0 - hat, 0.0, 1.0);
     out.w = out.redundancy > 1e-9 ? out.normalised / std::sqrt(out.redundancy) : 0.0;
@@ -1285,10 +1331,10 @@ struct Solved {
   std::unique_ptr<Adjustment> adjustment;
 };
 
-Solved AdjustOnce(Network network) {
+Solved AdjustOnce(Network network, bool trial) {
   Solved solved;
   solved.network = std::make_unique<Network>(std::move(network));
-  solved.adjustment = std::make_unique<Adjustment>(*solved.network);
+  solved.adjustment = std::make_unique<Adjustment>(*solved.network, trial);
   Adjustment& adjustment = *solved.adjustment;
   adjustment.FindStartingValues();
   adjustment.NumberUnknowns();
@@ -1296,7 +1342,7 @@ Solved AdjustOnce(Network network) {
   adjustment.AssembleNormals();
   adjustment.InvertBySchurComplement();
   std::vector<NetworkCombination> identifiability;
-  if (adjustment.E > 0) identifiability = adjustment.Identifiability();
+  if (adjustment.E > 0 && !trial) identifiability = adjustment.Identifiability();
   adjustment.Covariance();
   adjustment.NameUnknowns();
   NetworkResult& result = adjustment.result;
@@ -1337,7 +1383,8 @@ Suspect LargestW(const Adjustment& adjustment) {
 // gross errors at or below alpha (Bonferroni). Never below the flagging limit.
 double RejectionLimit(const NetworkResult& result, const Network& network) {
   const double tested = static_cast<double>(result.residuals.size() + result.distances.size());
-  return std::max(network.outlier_limit, NormalCoverageFactor(1.0 - network.robust_alpha / std::max(1.0, tested)));
+  return std::max(network.outlier_limit,
+                  NormalCoverageFactor(1.0 - network.robust_alpha / std::max(1.0, tested)));
 }
 
 // The fit test of the final adjustment (FitProblem, vlt/gum.h) as a warning of the result.
@@ -1348,9 +1395,8 @@ void AddFitProblem(NetworkResult& result) {
   const std::string problem = FitProblem(result.chi2, result.dof, largest_w,
                                          static_cast<int>(result.residuals.size() + result.distances.size()));
   if (!problem.empty()) {
-    result.warnings.push_back(problem + (result.parameters.empty()
-                                             ? " (the instruments' real errors? self-calibrate)"
-                                             : ""));
+    result.warnings.push_back(
+        problem + (result.parameters.empty() ? " (the instruments' real errors? self-calibrate)" : ""));
   }
 }
 
@@ -1388,15 +1434,13 @@ Network WithoutSuspect(const Network& network, const Adjustment& adjustment, con
   return reduced;
 }
 
-}  // namespace
-
 // Iterative data snooping (Baarda 1968; Teunissen, Testing theory, 2006, ch. 4; docs/network.md
 // N-8a): adjust, remove the observation with the largest |w| above the rejection limit, re-adjust,
 // until none exceeds it. At most a fifth of the observations go, and never one whose removal leaves
 // the network undetermined: beyond that the data need a look, not a rule.
-NetworkResult AdjustNetwork(const Network& network) {
+NetworkResult AdjustRobustly(const Network& network, bool trial) {
   if (network.stations.empty()) throw InputError(network.where + ": station: the network has no station");
-  Solved solved = AdjustOnce(network);
+  Solved solved = AdjustOnce(network, trial);
   if (!network.robust) {
     AddFitProblem(solved.adjustment->result);
     return std::move(solved.adjustment->result);
@@ -1422,7 +1466,7 @@ NetworkResult AdjustNetwork(const Network& network) {
     NetworkDistance distance;
     Network reduced = WithoutSuspect(*solved.network, *solved.adjustment, suspect, record, reading, distance);
     try {
-      solved = AdjustOnce(std::move(reduced));
+      solved = AdjustOnce(std::move(reduced), trial);
     } catch (const std::runtime_error&) {  // InputError, NumericalError: the structure broke
       warnings.push_back(record.where + ": |w| = " + FormatW(suspect.w) +
                          " above the rejection limit, kept: without it the network is not determined");
@@ -1434,17 +1478,24 @@ NetworkResult AdjustNetwork(const Network& network) {
   }
   NetworkResult result = std::move(solved.adjustment->result);
   AddFitProblem(result);
-  for (std::size_t r = 0; r < rejected.size(); ++r) {
-    rejected[r].predicted =
-        rejected[r].distance
-            ? solved.adjustment->PredictDistanceW(rejected_distances[r], rejected[r])
-            : solved.adjustment->PredictReadingW(rejected_readings[r].first, rejected_readings[r].second,
-                                                 rejected[r]);
+  for (std::size_t r = 0; r < rejected.size() && !trial; ++r) {
+    rejected[r].predicted = rejected[r].distance
+                                ? solved.adjustment->PredictDistanceW(rejected_distances[r], rejected[r])
+                                : solved.adjustment->PredictReadingW(
+                                      rejected_readings[r].first, rejected_readings[r].second, rejected[r]);
   }
   result.rejected = std::move(rejected);
   result.rejection_limit = limit;
   for (std::string& w : warnings) result.warnings.push_back(std::move(w));
   return result;
+}
+
+}  // namespace
+
+NetworkResult AdjustNetwork(const Network& network) { return AdjustRobustly(network, false); }
+
+NetworkResult network_internal::AdjustNetworkTrial(const Network& network) {
+  return AdjustRobustly(network, true);
 }
 
 }  // namespace vlt

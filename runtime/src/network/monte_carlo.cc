@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "mpi/ranks.h"
+#include "network/adjust.h"
 #include "parallel/pool.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
@@ -25,7 +26,8 @@ Network KeptObservations(const Network& network, const NetworkResult& result) {
   Network kept = network;
   for (const RejectedObservation& gone : result.rejected) {
     if (gone.distance) {
-      std::erase_if(kept.distances, [&](const NetworkDistance& d) { return d.name == gone.target && d.where == gone.where; });
+      std::erase_if(kept.distances,
+                    [&](const NetworkDistance& d) { return d.name == gone.target && d.where == gone.where; });
       continue;
     }
     for (NetworkStation& st : kept.stations) {
@@ -68,28 +70,28 @@ NetworkMonteCarlo ValidateNetworkByMonteCarlo(const Network& network, const Netw
   std::vector<double> mine(static_cast<std::size_t>(last - first) * width);
   std::exception_ptr failure;
   try {
-    parallel_internal::ForEachChunk(static_cast<std::size_t>(last - first), 1, threads,
-                           [&](std::size_t, std::size_t begin, std::size_t end) {
-                             for (std::size_t i = begin; i < end; ++i) {
-                               const std::size_t trial = static_cast<std::size_t>(first) + i;
-                               // One Philox key per trial (splitmix-style spacing of the user's seed).
-                               const std::uint64_t key = seed * 0x9E3779B97F4A7C15ULL + trial + 1;
-                               const Network simulated = SimulateNetwork(truth_network, truth, key);
-                               const NetworkResult r = AdjustNetwork(simulated);
-                               // By name: a trial's robust rule may remove a target's first reading.
-                               std::map<std::string, const AdjustedTarget*> by_name;
-                               for (const AdjustedTarget& target : r.targets) by_name[target.name] = &target;
-                               for (std::size_t t = 0; t < T; ++t) {
-                                 const auto it = by_name.find(truth[t].first);
-                                 if (it == by_name.end())
-                                   throw NumericalError(network.where + ": a simulated trial lost target '" +
-                                                        truth[t].first + "'");
-                                 const Eigen::Vector3d d = it->second->position - truth[t].second;
-                                 for (int c = 0; c < 3; ++c)
-                                   mine[i * width + 3 * t + static_cast<std::size_t>(c)] = d(c);
-                               }
-                             }
-                           });
+    parallel_internal::ForEachChunk(
+        static_cast<std::size_t>(last - first), 1, threads,
+        [&](std::size_t, std::size_t begin, std::size_t end) {
+          for (std::size_t i = begin; i < end; ++i) {
+            const std::size_t trial = static_cast<std::size_t>(first) + i;
+            // One Philox key per trial (splitmix-style spacing of the user's seed).
+            const std::uint64_t key = seed * 0x9E3779B97F4A7C15ULL + trial + 1;
+            const Network simulated = SimulateNetwork(truth_network, truth, key);
+            const NetworkResult r = network_internal::AdjustNetworkTrial(simulated);
+            // By name: a trial's robust rule may remove a target's first reading.
+            std::map<std::string, const AdjustedTarget*> by_name;
+            for (const AdjustedTarget& target : r.targets) by_name[target.name] = &target;
+            for (std::size_t t = 0; t < T; ++t) {
+              const auto it = by_name.find(truth[t].first);
+              if (it == by_name.end())
+                throw NumericalError(network.where + ": a simulated trial lost target '" + truth[t].first +
+                                     "'");
+              const Eigen::Vector3d d = it->second->position - truth[t].second;
+              for (int c = 0; c < 3; ++c) mine[i * width + 3 * t + static_cast<std::size_t>(c)] = d(c);
+            }
+          }
+        });
   } catch (...) {
     failure = std::current_exception();
   }
