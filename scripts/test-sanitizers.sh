@@ -25,6 +25,7 @@ studies=(
   cli_run_scan_large
   McmThreads.EveryPhaseOffersEightItemsToEachOfSixteenThreads
   Alignment.GumCovarianceAgreesWithMonteCarlo
+  Network.PlannedDriftIsCoveredBySimulatedMeasurements
 )
 exclude="^($(IFS='|'; echo "${studies[*]}" | sed 's/[.]/[.]/g'))$"
 vlt_build_sanitize

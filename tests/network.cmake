@@ -157,6 +157,47 @@ add_test(NAME report_browser_network_drift
   COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/network_drift/report.html -DPROFILE=${_out}/chromium-profile-drift
           -DMIN_PLOTS=2 -P ${_cli}/report_browser.cmake)
 set_tests_properties(report_browser_network_drift PROPERTIES FIXTURES_REQUIRED vlt_network_drift TIMEOUT 300)
+# Drift planned offline (N-12): S2 of the wing plan reads a target every 5 min and re-reads R1..R4
+# at 30 and 60 min; the plan has 4 knots over 85 min (18 readings, the last at 17 x 5 min). Its
+# simulated measurement writes the readings' times and each check's readings in their own file, and
+# adjusts as a measured drifting network with the same knots and observations.
+add_test(NAME cli_network_drift_plan
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_ex}/drift_network_plan.toml;--simulate;7;-o;${_out}/network_drift_plan"
+          -DOUT=${_out}/network_drift_plan
+          "-DFILES=targets.csv;stations.csv;drift.csv;results.json;report.html;simulated_S2.csv;simulated_S2_check1.csv;simulated_S2_check2.csv;simulated_network.toml"
+          "-DEXPECT_STDOUT=Planned network 'drift-network-plan': 3 stations, 18 targets, 201 observations, 90 unknowns, dof 111;.*Drift of station S2 over 1[.]42 h [(]4 knots[)]: 0[.]0 um, U [0-9.]+ um"
+          "-DEXPECT_FILE_REGEX=simulated_S2_check2.csv:^name,range,azimuth,elevation,face,time\nR1,[0-9.]+,[0-9.]+,-?[0-9.e-]+,front,3600\n"
+          "-DJSON_KEYS=schema;created;vlt_version;vlt_commit;units;job;summary;stations;targets;tasks;files"
+          -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_network_drift_plan PROPERTIES FIXTURES_SETUP vlt_network_drift_plan)
+add_test(NAME cli_network_drift_plan_simulated
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_out}/network_drift_plan/simulated_network.toml;-o;${_out}/network_drift_plan_simulated"
+          -DOUT=${_out}/network_drift_plan_simulated "-DFILES=targets.csv;drift.csv;results.json"
+          "-DEXPECT_STDOUT=Measured network 'drift-network-plan-simulated-7': 3 stations, 18 targets, 201 observations, 90 unknowns, dof 111;.*Drift of station S2 over 1[.]42 h [(]4 knots[)]: [0-9.]+ um, U [0-9.]+ um"
+          "-DJSON_KEYS=schema;created;vlt_version;vlt_commit;units;job;summary;stations;targets;tasks;files"
+          -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_network_drift_plan_simulated PROPERTIES FIXTURES_REQUIRED vlt_network_drift_plan)
+add_test(NAME cli_network_one_station_drift
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_cli}/network/one_station_drift.toml;-o;${_out}/network_one_station_drift"
+          -DOUT=${_out}/network_one_station_drift "-DFILES=targets.csv;drift.csv;results.json"
+          "-DEXPECT_STDOUT=Measured network 'one-station-drift': 1 station, 18 targets, 108 observations, 72 unknowns, dof 36;.*Drift of station S2 over 2[.]25 h [(]4 knots[)]: [0-9.]+ um, U [0-9.]+ um"
+          "-DJSON_KEYS=schema;created;vlt_version;vlt_commit;units;job;summary;stations;targets;tasks;files"
+          -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
+vlt_network_error(drift_plan_no_interval drift_plan_no_interval.toml
+                  "drift_plan_no_interval\\.toml: station\\[1\\]\\.drift: interval: required key is missing [(]offline")
+vlt_network_error(drift_plan_short_interval drift_plan_short_interval.toml
+                  "drift_plan_short_interval\\.toml: station\\[1\\]\\.drift\\.interval: a duration from 1 s to 24 h")
+vlt_network_error(drift_plan_check_readings drift_plan_check_readings.toml
+                  "drift_plan_check_readings\\.toml: drift_check\\[0\\]\\.readings: an offline drift check plans what it will re-read")
+vlt_network_error(drift_plan_clock_time drift_plan_clock_time.toml
+                  "drift_plan_clock_time\\.toml: drift_check\\[0\\]\\.time: offline, a duration after the station's first planned reading .*not a clock time")
+vlt_network_error(drift_online_interval drift_online_interval.toml
+                  "drift_online_interval\\.toml: station\\[1\\]\\.drift\\.interval: for an offline station [(]sees[)] only")
+vlt_network_error(drift_online_sees drift_online_sees.toml
+                  "drift_online_sees\\.toml: drift_check\\[0\\]\\.sees: a measured drift check gives what it read")
 vlt_network_error(drift_check_still drift_check_still.toml
                   "drift_check_still\\.toml: drift_check\\[0\\]\\.station: station 'S2' has no drift model")
 vlt_network_error(drift_no_time drift_no_time.toml

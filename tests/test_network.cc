@@ -1086,5 +1086,56 @@ TEST(Network, TrialAdjustmentEqualsTheFullAdjustment) {
   EXPECT_TRUE(full.rejected[0].predicted);
 }
 
+
+// --- Drift planned offline (N-12): the example plan's S2 reads its 18 targets 5 min apart (sees
+// order) and re-reads R1..R4 at 30 and 60 min. The reader gives each planned reading its time and
+// the station its knots: first reading, the checks, last reading (17 x 300 s). The plan's GUM is
+// then what simulated measurements of it show: 100 seeds, the drift of each drawn from the stated
+// rates, the instruments' errors from their priors; every target coordinate and S2's drift at each
+// knot covered at 0.95 (k = 1.96).
+TEST(Network, PlannedDriftIsCoveredBySimulatedMeasurements) {
+  const NetworkJob job = LoadNetworkJob(std::string(VLT_SOURCE_DIR) + "/examples/network/drift_network_plan.toml");
+  ASSERT_TRUE(job.offline);
+  const NetworkStation& s2 = job.network.stations[1];
+  ASSERT_TRUE(s2.drift.enabled);
+  EXPECT_EQ(s2.drift.knots, (std::vector<double>{0.0, 1800.0, 3600.0, 5100.0}));
+  ASSERT_EQ(s2.readings.size(), 18u + 8u);
+  for (std::size_t j = 0; j < 18; ++j) EXPECT_EQ(s2.readings[j].time, 300.0 * static_cast<double>(j));
+  for (std::size_t j = 18; j < 26; ++j) {
+    EXPECT_EQ(s2.readings[j].time, j < 22 ? 1800.0 : 3600.0);
+    EXPECT_EQ(s2.readings[j].target, "R" + std::to_string((j - 18) % 4 + 1));
+  }
+  EXPECT_EQ(job.drift_check_where.size(), 2u);
+  int inside = 0, total = 0, knots_inside = 0, knots_total = 0;
+  for (int seed = 1; seed <= 100; ++seed) {
+    const Network sim = SimulateNetwork(job.network, job.nominal, static_cast<std::uint64_t>(seed));
+    const NetworkResult r = AdjustNetwork(sim);
+    for (const auto& [name, x] : job.nominal) {
+      const AdjustedTarget& t = Find(r, name);
+      for (int c = 0; c < 3; ++c) {
+        inside += std::abs(t.position(c) - x(c)) <= r.k * std::sqrt(t.covariance(c, c)) ? 1 : 0;
+        ++total;
+      }
+    }
+    const std::vector<StationPoseVector>& truth = sim.stations[1].drift.increments;
+    ASSERT_EQ(truth.size(), 3u);
+    ASSERT_EQ(r.stations[1].drift.size(), 4u);
+    StationPoseVector offset = StationPoseVector::Zero();
+    for (std::size_t k = 1; k < 4; ++k) {
+      offset += truth[k - 1];
+      const AdjustedDriftEpoch& e = r.stations[1].drift[k];
+      for (int c = 0; c < 6; ++c) {
+        knots_inside += std::abs(e.offset(c) - offset(c)) <= r.k * std::sqrt(e.covariance(c, c)) ? 1 : 0;
+        ++knots_total;
+      }
+    }
+  }
+  const double targets = static_cast<double>(inside) / total, knots = static_cast<double>(knots_inside) / knots_total;
+  std::printf("planned drift: targets covered %d / %d = %.3f, drift at the knots %d / %d = %.3f\n", inside, total,
+              targets, knots_inside, knots_total, knots);
+  EXPECT_NEAR(targets, 0.95, 0.02);
+  EXPECT_NEAR(knots, 0.95, 0.03);
+}
+
 }  // namespace
 }  // namespace vlt

@@ -369,6 +369,9 @@ struct NetworkJob {
   int monte_carlo_trials = 0;    // [network.monte_carlo] trials (0: no validation)
   std::uint64_t monte_carlo_seed = 20090101;
   std::string text;                // the file's text (for simulated_network.toml)
+  // Offline: each [[drift_check]]'s `where`, which its planned readings carry (N-12): the simulated
+  // measurement writes them to the check's own readings file.
+  std::vector<std::string> drift_check_where;
   std::filesystem::path base_dir;  // relative paths in the file resolve against it
 };
 NetworkJob LoadNetworkJob(const std::string& path);

@@ -286,16 +286,19 @@ double DriftTranslationU(const NetworkResult& result, const AdjustedDriftEpoch& 
 void DriftSection(std::ostringstream& body, std::ostringstream& script, const NetworkJob& job,
                   const NetworkResult& result) {
   const double origin = TimeOrigin(job.network);
-  body << "<section><h2>Drift</h2><p class=\"note\">Each drifting station's pose change since its first "
-          "reading (docs/network.md N-12: piecewise linear between its knots — first reading, drift checks, "
-          "last reading — each segment's rate an unknown with the stated prior). Translation in um with "
-          "error bars U = k u (k = "
-       << Fixed(result.k, 2) << "), hours from the network's first reading. The poses of every reading "
-          "between two knots are interpolated, and their uncertainty is in every target.</p>"
-          "<div id=\"drift\" class=\"plot\" style=\"height:420px\"></div><table><tr><th class=\"l\">station</th>"
-          "<th>knot</th><th>time / h</th><th>&Delta;tx / um</th><th>&Delta;ty / um</th><th>&Delta;tz / um</th>"
-          "<th>U(&Delta;t) / um</th><th>&Delta;rx / arcsec</th><th>&Delta;ry / arcsec</th><th>&Delta;rz / "
-          "arcsec</th></tr>";
+  body
+      << "<section><h2>Drift</h2><p class=\"note\">Each drifting station's pose change since its first "
+         "reading (docs/network.md N-12: piecewise linear between its knots — first reading, drift checks, "
+         "last reading — each segment's rate an unknown with the stated prior). Translation in um with "
+         "error bars U = k u (k = "
+      << Fixed(result.k, 2)
+      << "), hours from the network's first reading. The poses of every reading "
+         "between two knots are interpolated, and their uncertainty is in every target.</p>"
+         "<div id=\"drift\" class=\"plot\" style=\"height:420px\"></div><table><tr><th "
+         "class=\"l\">station</th>"
+         "<th>knot</th><th>time / h</th><th>&Delta;tx / um</th><th>&Delta;ty / um</th><th>&Delta;tz / um</th>"
+         "<th>U(&Delta;t) / um</th><th>&Delta;rx / arcsec</th><th>&Delta;ry / arcsec</th><th>&Delta;rz / "
+         "arcsec</th></tr>";
   std::ostringstream traces;
   static const char* kAxis[3] = {"x", "y", "z"};
   for (const AdjustedStation& st : result.stations) {
@@ -306,7 +309,8 @@ void DriftSection(std::ostringstream& body, std::ostringstream& script, const Ne
            << Fixed((e.time - origin) / 3600.0, 3) << "</td>";
       for (int c = 3; c < 6; ++c) body << "<td>" << Fixed(e.offset(c) * 1e6, 1) << "</td>";
       body << "<td>" << Fixed(DriftTranslationU(result, e) * 1e6, 1) << "</td>";
-      for (int c = 0; c < 3; ++c) body << "<td>" << Fixed(e.offset(c) / std::numbers::pi * 180.0 * 3600.0, 2) << "</td>";
+      for (int c = 0; c < 3; ++c)
+        body << "<td>" << Fixed(e.offset(c) / std::numbers::pi * 180.0 * 3600.0, 2) << "</td>";
       body << "</tr>";
     }
     for (int c = 0; c < 3; ++c) {
@@ -316,8 +320,9 @@ void DriftSection(std::ostringstream& body, std::ostringstream& script, const Ne
         v.push_back(e.offset(3 + c) * 1e6);
         U.push_back(result.k * std::sqrt(std::max(0.0, e.covariance(3 + c, 3 + c))) * 1e6);
       }
-      traces << "{type:'scatter',mode:'lines+markers',name:" << ScriptJson(nlohmann::json(st.name + " t" + kAxis[c]))
-             << ",x:" << ScriptJson(t) << ",y:" << ScriptJson(v) << ",error_y:{type:'data',array:" << ScriptJson(U)
+      traces << "{type:'scatter',mode:'lines+markers',name:"
+             << ScriptJson(nlohmann::json(st.name + " t" + kAxis[c])) << ",x:" << ScriptJson(t)
+             << ",y:" << ScriptJson(v) << ",error_y:{type:'data',array:" << ScriptJson(U)
              << ",visible:true}},";
     }
   }
@@ -348,7 +353,8 @@ struct LengthTestSummary {
   }
 };
 
-void LengthTestSection(std::ostringstream& body, const NetworkJob& job, const std::vector<NetworkLengthError>& errors) {
+void LengthTestSection(std::ostringstream& body, const NetworkJob& job,
+                       const std::vector<NetworkLengthError>& errors) {
   const NetworkLengthTest& test = *job.length_test;
   body << "<section><h2>Length test from the network (ISO 10360-10)</h2><p class=\"note\">Each station's own "
           "length between two targets (its readings through the instrument as it stands) against the "
@@ -357,9 +363,12 @@ void LengthTestSection(std::ostringstream& body, const NetworkJob& job, const st
        << Fixed(test.mpe_a * 1e6, 1) << " um + " << Fixed(test.mpe_b * 1e6, 2)
        << " um/m; U the network length's expanded uncertainty, the guard band of the ISO 14253-1 "
           "decision. Lengths from "
-       << Fixed(test.min_length, 2) << " m; every length in length_test.csv.</p><table><tr><th class=\"l\">station</th>"
-          "<th>lengths</th><th>conform</th><th>do not conform</th><th>undetermined</th><th>largest |E| / MPE</th>"
-          "<th class=\"l\">at</th><th>L / m</th><th>E / um</th><th>U / um</th><th class=\"l\">verdict</th></tr>";
+       << Fixed(test.min_length, 2)
+       << " m; every length in length_test.csv.</p><table><tr><th class=\"l\">station</th>"
+          "<th>lengths</th><th>conform</th><th>do not conform</th><th>undetermined</th><th>largest |E| / "
+          "MPE</th>"
+          "<th class=\"l\">at</th><th>L / m</th><th>E / um</th><th>U / um</th><th "
+          "class=\"l\">verdict</th></tr>";
   std::vector<std::string> order;
   std::map<std::string, LengthTestSummary> by_station;
   for (const NetworkLengthError& e : errors) {
@@ -370,12 +379,12 @@ void LengthTestSection(std::ostringstream& body, const NetworkJob& job, const st
     const LengthTestSummary& s = by_station[name];
     const NetworkLengthError& w = *s.worst;
     const std::string verdict = s.Verdict();
-    body << "<tr><td class=\"l\">" << HtmlEscape(name) << "</td><td>" << s.count() << "</td><td>" << s.conforms
-         << "</td><td>" << s.fails << "</td><td>" << s.undetermined << "</td><td>"
-         << Fixed(std::abs(w.error) / w.mpe, 3) << "</td><td class=\"l\">" << HtmlEscape(w.from + " - " + w.to)
-         << "</td><td>" << Fixed(w.length, 3) << "</td><td>" << Fixed(w.error * 1e6, 1) << "</td><td>"
-         << Fixed(w.U * 1e6, 1) << "</td><td class=\"l " << (verdict == "conforms" ? "ok" : "bad") << "\">"
-         << verdict << "</td></tr>";
+    body << "<tr><td class=\"l\">" << HtmlEscape(name) << "</td><td>" << s.count() << "</td><td>"
+         << s.conforms << "</td><td>" << s.fails << "</td><td>" << s.undetermined << "</td><td>"
+         << Fixed(std::abs(w.error) / w.mpe, 3) << "</td><td class=\"l\">"
+         << HtmlEscape(w.from + " - " + w.to) << "</td><td>" << Fixed(w.length, 3) << "</td><td>"
+         << Fixed(w.error * 1e6, 1) << "</td><td>" << Fixed(w.U * 1e6, 1) << "</td><td class=\"l "
+         << (verdict == "conforms" ? "ok" : "bad") << "\">" << verdict << "</td></tr>";
   }
   body << "</table></section>\n";
 }
@@ -433,9 +442,9 @@ void IdentifiabilityTable(std::ostringstream& body, const NetworkResult& result)
   for (std::size_t i = 0; i < result.identifiability.size(); ++i) {
     const NetworkCombination& c = result.identifiability[i];
     body << "<tr><td>" << i + 1 << "</td><td>" << base_internal::Sig(c.singular_value, 4) << "</td><td>"
-         << (std::isfinite(c.ratio) ? base_internal::Sig(c.ratio, 3) : std::string("inf")) << "</td><td class=\"l "
-         << (c.determined ? "ok" : "na") << "\">" << (c.determined ? "yes" : "no") << "</td><td class=\"l\">"
-         << HtmlEscape(c.description) << "</td></tr>";
+         << (std::isfinite(c.ratio) ? base_internal::Sig(c.ratio, 3) : std::string("inf"))
+         << "</td><td class=\"l " << (c.determined ? "ok" : "na") << "\">" << (c.determined ? "yes" : "no")
+         << "</td><td class=\"l\">" << HtmlEscape(c.description) << "</td></tr>";
   }
   body << "</table></section>\n";
 }
@@ -502,10 +511,11 @@ void RejectedTable(std::ostringstream& body, const NetworkJob& job, const Networ
             "<th class=\"l\">where</th></tr>";
     for (std::size_t i = 0; i < result.rejected.size(); ++i) {
       const RejectedObservation& r = result.rejected[i];
-      body << "<tr><td>" << i + 1 << "</td><td class=\"l\">" << HtmlEscape(r.station) << "</td><td class=\"l\">"
-           << HtmlEscape(r.target) << "</td><td class=\"l\">" << (r.distance ? "" : FaceName(r.face))
-           << "</td><td class=\"l\">" << r.component << "</td><td class=\"bad\">" << Fixed(r.w_before, 2)
-           << "</td><td>" << (r.predicted ? Fixed(r.w_after, 2) : std::string("n/a")) << "</td><td class=\"l\">"
+      body << "<tr><td>" << i + 1 << "</td><td class=\"l\">" << HtmlEscape(r.station)
+           << "</td><td class=\"l\">" << HtmlEscape(r.target) << "</td><td class=\"l\">"
+           << (r.distance ? "" : FaceName(r.face)) << "</td><td class=\"l\">" << r.component
+           << "</td><td class=\"bad\">" << Fixed(r.w_before, 2) << "</td><td>"
+           << (r.predicted ? Fixed(r.w_after, 2) : std::string("n/a")) << "</td><td class=\"l\">"
            << HtmlEscape(r.where) << "</td></tr>";
     }
     body << "</table>";
@@ -516,7 +526,8 @@ void RejectedTable(std::ostringstream& body, const NetworkJob& job, const Networ
 // report.html: the network in 3-D (stations, targets coloured by |U|, lines of sight, the axes of
 // every target's coverage ellipsoid, exaggerated), then the tables a metrologist signs.
 std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, const NetworkMonteCarlo* mc,
-                          const std::vector<NetworkTaskResult>& tasks, const std::vector<NetworkLengthError>& lengths) {
+                          const std::vector<NetworkTaskResult>& tasks,
+                          const std::vector<NetworkLengthError>& lengths) {
   std::ostringstream body, script;
   AdjustmentSection(body, job, result, mc);
   if (!result.warnings.empty()) {
@@ -609,7 +620,8 @@ std::string LengthTestCsv(const std::vector<NetworkLengthError>& errors) {
   return s;
 }
 
-nlohmann::ordered_json LengthTestJson(const NetworkLengthTest& test, const std::vector<NetworkLengthError>& errors) {
+nlohmann::ordered_json LengthTestJson(const NetworkLengthTest& test,
+                                      const std::vector<NetworkLengthError>& errors) {
   LengthTestSummary all;
   for (const NetworkLengthError& e : errors) all.Add(e);
   nlohmann::ordered_json o;
@@ -623,8 +635,8 @@ nlohmann::ordered_json LengthTestJson(const NetworkLengthTest& test, const std::
   o["verdict"] = all.count() > 0 ? nlohmann::ordered_json(all.Verdict()) : nlohmann::ordered_json(nullptr);
   if (all.worst) {
     const NetworkLengthError& w = *all.worst;
-    o["worst"] = {{"station", w.station}, {"from", w.from},   {"to", w.to},   {"length", w.length},
-                  {"error", w.error},     {"U", w.U},         {"mpe", w.mpe}, {"decision", w.decision.verdict}};
+    o["worst"] = {{"station", w.station}, {"from", w.from}, {"to", w.to},   {"length", w.length},
+                  {"error", w.error},     {"U", w.U},       {"mpe", w.mpe}, {"decision", w.decision.verdict}};
   } else {
     o["worst"] = nullptr;
   }
@@ -638,20 +650,22 @@ std::string LengthTestLine(const NetworkJob& job, const NetworkResult& result) {
   for (const NetworkLengthError& e : lengths) all.Add(e);
   char line[768];
   if (!all.worst) {
-    std::snprintf(line, sizeof line, "Length test: no pair of targets read by one station is %.2f m or longer\n",
+    std::snprintf(line, sizeof line,
+                  "Length test: no pair of targets read by one station is %.2f m or longer\n",
                   job.length_test->min_length);
     return line;
   }
   // A difference that rounds to 0.0 um prints as 0.0, not -0.0.
   const double e_um = std::abs(all.worst->error) < 5e-8 ? 0.0 : all.worst->error * 1e6;
-  std::snprintf(line, sizeof line,
-                "Length test (ISO 10360-10 from the network, MPE %.1f um + %.2f um/m): %d lengths of at least %.2f m, "
-                "%d conform, %d do not, %d undetermined; largest |E| / MPE %.3f (%s, %.40s - %.40s: E %.1f um, U "
-                "%.1f um): %s (length_test.csv)\n",
-                job.length_test->mpe_a * 1e6, job.length_test->mpe_b * 1e6, all.count(), job.length_test->min_length,
-                all.conforms, all.fails, all.undetermined, std::abs(all.worst->error) / all.worst->mpe,
-                all.worst->station.c_str(), all.worst->from.c_str(), all.worst->to.c_str(), e_um,
-                all.worst->U * 1e6, all.Verdict().c_str());
+  std::snprintf(
+      line, sizeof line,
+      "Length test (ISO 10360-10 from the network, MPE %.1f um + %.2f um/m): %d lengths of at least %.2f m, "
+      "%d conform, %d do not, %d undetermined; largest |E| / MPE %.3f (%s, %.40s - %.40s: E %.1f um, U "
+      "%.1f um): %s (length_test.csv)\n",
+      job.length_test->mpe_a * 1e6, job.length_test->mpe_b * 1e6, all.count(), job.length_test->min_length,
+      all.conforms, all.fails, all.undetermined, std::abs(all.worst->error) / all.worst->mpe,
+      all.worst->station.c_str(), all.worst->from.c_str(), all.worst->to.c_str(), e_um, all.worst->U * 1e6,
+      all.Verdict().c_str());
   return line;
 }
 
@@ -697,7 +711,8 @@ std::string ResidualsCsv(const NetworkResult& result) {
 
 std::string DistancesCsv(const NetworkResult& result) {
   std::string s =
-      "name,kind,from,to,observed_m,u_observed_m,adjusted_m,u_adjusted_m,normalised,redundancy,w,outlier,where\n";
+      "name,kind,from,to,observed_m,u_observed_m,adjusted_m,u_adjusted_m,normalised,redundancy,w,outlier,"
+      "where\n";
   for (const AdjustedDistance& d : result.distances) {
     s += Csv(d.name) + (d.scale_bar ? ",scale_bar," : ",distance,") + Csv(d.from) + "," + Csv(d.to);
     for (double v : {d.observed, d.u_observed, d.adjusted, d.u_adjusted, d.normalised, d.redundancy, d.w}) {
@@ -869,7 +884,8 @@ nlohmann::ordered_json DriftJson(const NetworkDrift& drift, const AdjustedStatio
       offset[c] = e.offset(c);
       u[c] = std::sqrt(std::max(0.0, e.covariance(c, c)));
     }
-    knots.push_back({{"time", e.time}, {"elapsed_h", (e.time - origin) / 3600.0}, {"offset", offset}, {"u", u}});
+    knots.push_back(
+        {{"time", e.time}, {"elapsed_h", (e.time - origin) / 3600.0}, {"offset", offset}, {"u", u}});
   }
   o["knots"] = knots;
   return o;
@@ -891,9 +907,9 @@ nlohmann::ordered_json StationsJson(const NetworkJob& job, const NetworkResult& 
     o["u"] = u;
     // The station's own air (N-2a): estimates and u in degC, K, Pa, %; null when it has the instrument's.
     if (const auto& air = job.network.stations[i].environment) {
-      o["air"] = {{"temperature", air->temperature.estimate}, {"u_temperature", air->temperature.u},
-                  {"pressure", air->pressure.estimate},       {"u_pressure", air->pressure.u},
-                  {"humidity", air->humidity.estimate},       {"u_humidity", air->humidity.u},
+      o["air"] = {{"temperature", air->temperature.estimate},    {"u_temperature", air->temperature.u},
+                  {"pressure", air->pressure.estimate},          {"u_pressure", air->pressure.u},
+                  {"humidity", air->humidity.estimate},          {"u_humidity", air->humidity.u},
                   {"sensor", job.network.stations[i].air_sensor}};
     } else {
       o["air"] = nullptr;
@@ -986,7 +1002,8 @@ nlohmann::ordered_json RobustJson(const Network& network, const NetworkResult& r
     o["where"] = r.where;
     rejected.push_back(o);
   }
-  return {{"alpha", network.robust_alpha}, {"rejection_limit", result.rejection_limit}, {"rejected", rejected}};
+  return {
+      {"alpha", network.robust_alpha}, {"rejection_limit", result.rejection_limit}, {"rejected", rejected}};
 }
 
 nlohmann::ordered_json TasksJson(const std::vector<NetworkTaskResult>& tasks) {
@@ -1105,20 +1122,20 @@ std::string NetworkSummary(const NetworkJob& job, const NetworkResult& result, c
   char line[512];
   std::snprintf(
       line, sizeof line,
-      "%s network '%s': %zu stations, %zu targets, %d observations, %d unknowns, dof %d; chi2 %.4g, Birge "
+      "%s network '%s': %zu station%s, %zu targets, %d observations, %d unknowns, dof %d; chi2 %.4g, Birge "
       "ratio %.3f, %d outlier%s; largest |U| (k = %.2f) %.1f um at %s; variance from reading noise and "
       "references %.0f %%, from the instruments' errors and the air %.0f %%",
-      job.offline ? "Planned" : "Measured", job.name.c_str(), result.stations.size(), result.targets.size(),
-      result.observations, result.unknowns, result.dof, result.chi2, result.birge_ratio, result.outliers,
-      result.outliers == 1 ? "" : "s", result.k, worst * 1e6, worst_name.c_str(), 100.0 * result.share_noise,
-      100.0 * result.share_consider);
+      job.offline ? "Planned" : "Measured", job.name.c_str(), result.stations.size(),
+      result.stations.size() == 1 ? "" : "s", result.targets.size(), result.observations, result.unknowns,
+      result.dof, result.chi2, result.birge_ratio, result.outliers, result.outliers == 1 ? "" : "s", result.k,
+      worst * 1e6, worst_name.c_str(), 100.0 * result.share_noise, 100.0 * result.share_consider);
   std::string out = std::string(line) + "\n";
   if (!result.distances.empty()) {
-    const auto worst_w = std::max_element(result.distances.begin(), result.distances.end(),
-                                          [](const AdjustedDistance& a, const AdjustedDistance& b) {
-                                            return std::abs(a.w) < std::abs(b.w);
-                                          });
-    std::snprintf(line, sizeof line, "Scale bars and distances: %zu; largest |w| %.2f at %s (distances.csv)\n",
+    const auto worst_w = std::max_element(
+        result.distances.begin(), result.distances.end(),
+        [](const AdjustedDistance& a, const AdjustedDistance& b) { return std::abs(a.w) < std::abs(b.w); });
+    std::snprintf(line, sizeof line,
+                  "Scale bars and distances: %zu; largest |w| %.2f at %s (distances.csv)\n",
                   result.distances.size(), std::abs(worst_w->w), worst_w->name.c_str());
     out += line;
   }
@@ -1171,6 +1188,35 @@ std::string NetworkSummary(const NetworkJob& job, const NetworkResult& result, c
 
 namespace vlt::network_outputs {
 
+namespace {
+
+// A station's simulated readings that `keep` selects, as a readings CSV (range m, angles rad; with
+// the column `time` [s] when the readings have their planned times, N-12).
+template <class Keep>
+std::string SimulatedReadingsCsv(const NetworkStation& st, const Keep& keep) {
+  const bool timed = std::any_of(st.readings.begin(), st.readings.end(),
+                                 [](const TargetReading& r) { return r.time.has_value(); });
+  std::string s = timed ? "name,range,azimuth,elevation,face,time\n" : "name,range,azimuth,elevation,face\n";
+  for (const TargetReading& r : st.readings) {
+    if (!keep(r)) continue;
+    s += Csv(r.target);
+    for (int c = 0; c < 3; ++c) {
+      s += ',';
+      AppendNum(s, r.readings(c));
+    }
+    s += ',';
+    s += FaceName(r.face);
+    if (timed) {
+      s += ',';
+      AppendNum(s, r.time.value_or(0.0));
+    }
+    s += '\n';
+  }
+  return s;
+}
+
+}  // namespace
+
 Files SimulatedNetworkFiles(const NetworkJob& job, const Network& simulated, std::uint64_t seed) {
   Files files;
   toml::table root = toml::parse(job.text);
@@ -1191,20 +1237,34 @@ Files SimulatedNetworkFiles(const NetworkJob& job, const Network& simulated, std
   for (std::size_t i = 0; i < simulated.stations.size(); ++i) {
     const NetworkStation& st = simulated.stations[i];
     const std::string csv = "simulated_" + base_internal::SafeFileName(st.name) + ".csv";
-    std::string s = "name,range,azimuth,elevation,face\n";
-    for (const TargetReading& r : st.readings) {
-      s += Csv(r.target);
-      for (int c = 0; c < 3; ++c) {
-        s += ',';
-        AppendNum(s, r.readings(c));
-      }
-      s += ',';
-      s += FaceName(r.face);
-      s += '\n';
-    }
-    files.emplace_back(csv, s);
+    // A drift check's readings go to its own file (below), as a measured check's come.
+    files.emplace_back(csv, SimulatedReadingsCsv(st, [&](const TargetReading& r) {
+                         return std::find(job.drift_check_where.begin(), job.drift_check_where.end(),
+                                          r.where) == job.drift_check_where.end();
+                       }));
     if (stations && i < stations->size()) {
       if (toml::table* t = stations->get(i)->as_table()) {
+        t->erase("sees");
+        t->erase("face");
+        t->insert_or_assign("readings", toml::table{{"csv", csv}});
+        if (toml::table* drift = (*t)["drift"].as_table())
+          drift->erase("interval");  // the times are in the file
+      }
+    }
+  }
+  // Planned drift checks (N-12): each one's simulated readings in its own file, read at its time.
+  if (toml::array* checks = root["drift_check"].as_array()) {
+    for (std::size_t k = 0; k < checks->size() && k < job.drift_check_where.size(); ++k) {
+      toml::table* t = checks->get(k)->as_table();
+      const auto* station = t ? t->get_as<std::string>("station") : nullptr;
+      if (!station) continue;
+      for (const NetworkStation& st : simulated.stations) {
+        if (st.name != station->get()) continue;
+        const std::string csv =
+            "simulated_" + base_internal::SafeFileName(st.name) + "_check" + std::to_string(k + 1) + ".csv";
+        files.emplace_back(csv, SimulatedReadingsCsv(st, [&](const TargetReading& r) {
+                             return r.where == job.drift_check_where[k];
+                           }));
         t->erase("sees");
         t->erase("face");
         t->insert_or_assign("readings", toml::table{{"csv", csv}});
@@ -1220,7 +1280,7 @@ Files SimulatedNetworkFiles(const NetworkJob& job, const Network& simulated, std
       }
     }
   }
- // Scale bars, then distances, in the file's order (the reader's): their simulated lengths.
+  // Scale bars, then distances, in the file's order (the reader's): their simulated lengths.
   std::size_t next = 0;
   for (const char* key : {"scale_bar", "distance"}) {
     toml::array* tables = root[key].as_array();

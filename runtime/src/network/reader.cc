@@ -38,7 +38,8 @@ double Length(Section& s, std::string_view key) {
 TimeValue Time(const toml::node& node, const std::string& where) {
   if (node.is_number()) {
     const double seconds = AsNumber(node, where);
-    if (!std::isfinite(seconds) || std::abs(seconds) > 1e10) throw InputError(where + ": not a plausible time");
+    if (!std::isfinite(seconds) || std::abs(seconds) > 1e10)
+      throw InputError(where + ": not a plausible time");
     return {seconds, TimeKind::kSeconds};
   }
   if (node.is_date_time() || node.is_time()) {
@@ -80,6 +81,8 @@ struct NetworkFileReader {
   bool several = false;  // several instruments: every station names its own
   bool has_targets = false;
   std::vector<std::vector<PlannedSighting>> sees;
+  // Offline drift (N-12): the planned time [s] of each sighting of a drifting station, in `sees` order.
+  std::vector<std::vector<double>> planned_times;
   bool any_online = false, any_offline = false;
   struct CheckTime {
     const NetworkStation* station;
@@ -107,6 +110,7 @@ struct NetworkFileReader {
   void ReadAirSensors();
   void ReadStationAir(Section& s, NetworkStation& st);
   void ReadOnlineReadings(Section& s, NetworkStation& st);
+  std::vector<PlannedSighting> Sightings(Section& s, const toml::node& see);
   void ReadSightings(Section& s, const toml::node& see);
   void ReadStation(Section& s);
   void ReadStations();
@@ -117,6 +121,8 @@ struct NetworkFileReader {
   void PlanOfflineReadings();
   void ReadNetworkTasks();
   void ReadDrift(Section& s, NetworkStation& st);
+  void PlanTimes(Section& drift);
+  void ReadPlannedCheck(Section& s, std::size_t station, const TimeValue& time);
   void ReadDriftChecks();
   void DriftKnots();
   void CheckTimes();
@@ -212,7 +218,8 @@ void NetworkFileReader::ReadSettings() {
   Section settings = top.Sub("network", false);
   if (!settings.exists()) return;
   settings.set_hint(
-      "self_calibrate, coverage_probability, outlier_limit, robust, robust_alpha, max_iterations, monte_carlo, "
+      "self_calibrate, coverage_probability, outlier_limit, robust, robust_alpha, max_iterations, "
+      "monte_carlo, "
       "length_test");
   ReadValidation(settings);
   ReadLengthTest(settings);
@@ -318,7 +325,8 @@ void NetworkFileReader::ReadStationAir(Section& s, NetworkStation& st) {
     for (const NetworkAirSensor& candidate : net.air_sensors)
       if (candidate.name == st.air_sensor) sensor = &candidate;
     if (!sensor)
-      throw InputError(air.Where("sensor") + ": unknown air sensor '" + st.air_sensor + "' (not in [[air_sensor]])");
+      throw InputError(air.Where("sensor") + ": unknown air sensor '" + st.air_sensor +
+                       "' (not in [[air_sensor]])");
   }
   const bool wavelength = air.table().contains("wavelength"), equation = air.table().contains("equation");
   Environment env = ReadAir(air, job.warnings, "sensor");
@@ -352,15 +360,17 @@ void NetworkFileReader::ReadOnlineReadings(Section& s, NetworkStation& st) {
   r.base_dir = holder.base_dir;
   r.setup = net.instruments[st.instrument].setup;
   ReadReadings(readings, r, true);
-  for (const JobPoint& p : r.points) st.readings.push_back({p.name, p.face, p.readings, p.where, p.time, p.time_kind});
+  for (const JobPoint& p : r.points)
+    st.readings.push_back({p.name, p.face, p.readings, p.where, p.time, p.time_kind});
   job.input_files.emplace_back("readings csv", r.readings_file);
   for (const std::string& w : r.warnings) job.warnings.push_back(w);
   sees.emplace_back();
 }
 
 // Offline: the targets of [targets] the station will read, in one face or both.
-void NetworkFileReader::ReadSightings(Section& s, const toml::node& see) {
-  any_offline = true;
+// The targets a station (or its drift check) will read, in `sees` order, each in every face of
+// `face` (front; "both": front then back).
+std::vector<PlannedSighting> NetworkFileReader::Sightings(Section& s, const toml::node& see) {
   std::vector<Face> faces = {Face::kFront};
   if (const toml::node* f = s.Get("face")) {
     const std::string text = AsString(*f, s.Where("face"));
@@ -379,10 +389,17 @@ void NetworkFileReader::ReadSightings(Section& s, const toml::node& see) {
     throw InputError(where + ": expected \"all\" or an array of target names");
   }
   if (names.empty()) throw InputError(where + ": the station sees no target");
-  sees.emplace_back();
+  std::vector<PlannedSighting> sightings;
   for (const std::string& name : names) {
-    for (Face face : faces) sees.back().push_back({name, face, where});
+    for (Face face : faces) sightings.push_back({name, face, where});
   }
+  return sightings;
+}
+
+void NetworkFileReader::ReadSightings(Section& s, const toml::node& see) {
+  any_offline = true;
+  sees.push_back(Sightings(s, see));
+  planned_times.emplace_back();
 }
 
 void NetworkFileReader::ReadStation(Section& s) {
@@ -467,7 +484,8 @@ void NetworkFileReader::ReadReferences() {
 // L = L_cal (1 + cte (T - T_ref)), with the GUM's first-order u (vlt/network.h). Offline, a length
 // left out is the nominal distance of the two targets.
 void NetworkFileReader::ReadDistance(Section& s, bool scale_bar) {
-  s.set_hint(scale_bar ? "name, from, to, length, u, cte, temperature, reference" : "name, from, to, length, u");
+  s.set_hint(scale_bar ? "name, from, to, length, u, cte, temperature, reference"
+                       : "name, from, to, length, u");
   NetworkDistance d;
   d.scale_bar = scale_bar;
   d.where = s.WhereSelf();
@@ -505,7 +523,8 @@ void NetworkFileReader::ReadDistance(Section& s, bool scale_bar) {
     UncertainInput temperature = MakeInput("temperature", "scale_bar", Dimension::kTemperature, 20.0, 0.0);
     if (s.Get("cte")) ReadUncertain(s, "cte", Dimension::kPerKelvin, Dimension::kPerKelvin, cte);
     if (s.Get("temperature"))
-      ReadUncertain(s, "temperature", Dimension::kTemperature, Dimension::kTemperatureDifference, temperature);
+      ReadUncertain(s, "temperature", Dimension::kTemperature, Dimension::kTemperatureDifference,
+                    temperature);
     if (const toml::node* n = s.Get("reference"))
       d.reference_temperature = AsQuantity(*n, Dimension::kTemperature, s.Where("reference"));
     d.cte = cte.estimate;
@@ -519,7 +538,8 @@ void NetworkFileReader::ReadDistance(Section& s, bool scale_bar) {
   if (nominal_length > 0.0) d.calibrated_length = nominal_length / factor;
   if (!(d.calibrated_length > 0.0)) throw InputError(s.Where("length") + ": must be positive");
   d.length = d.calibrated_length * factor;
-  d.u = std::sqrt(std::pow(factor * d.u_calibrated_length, 2) + std::pow(d.calibrated_length * dt * d.u_cte, 2) +
+  d.u = std::sqrt(std::pow(factor * d.u_calibrated_length, 2) +
+                  std::pow(d.calibrated_length * dt * d.u_cte, 2) +
                   std::pow(d.calibrated_length * d.cte * d.u_temperature, 2));
   net.distances.push_back(std::move(d));
 }
@@ -538,6 +558,12 @@ void NetworkFileReader::PlanOfflineReadings() {
     }
   }
   PlanNetworkReadings(net, job.nominal, sees);
+  // The planned readings follow `sees` one for one: a drifting station's take their planned times.
+  for (std::size_t i = 0; i < net.stations.size() && i < planned_times.size(); ++i) {
+    std::vector<TargetReading>& readings = net.stations[i].readings;
+    for (std::size_t j = 0; j < planned_times[i].size() && j < readings.size(); ++j)
+      readings[j].time = planned_times[i][j];
+  }
 }
 
 // [station.drift] (N-12): the rates of the piecewise-linear drift model; the knots follow from the
@@ -545,11 +571,8 @@ void NetworkFileReader::PlanOfflineReadings() {
 void NetworkFileReader::ReadDrift(Section& s, NetworkStation& st) {
   Section drift = s.Sub("drift", false);
   if (!drift.exists()) return;
-  drift.set_hint("model, translation_rate, rotation_rate");
-  if (any_offline) {
-    throw InputError(drift.WhereSelf() +
-                     ": a drift model needs measured readings with their times (an online network)");
-  }
+  drift.set_hint("model, translation_rate, rotation_rate, interval");
+  PlanTimes(drift);
   if (const toml::node* n = drift.Get("model")) {
     const std::string model = AsString(*n, drift.Where("model"));
     if (model != "linear")
@@ -568,12 +591,60 @@ void NetworkFileReader::ReadDrift(Section& s, NetworkStation& st) {
   drift.Finish();
 }
 
+// Offline (N-12): a drifting station's readings are planned `interval` apart in `sees` order
+// (each face one reading), from 0 s; a measured station's readings carry their own times.
+void NetworkFileReader::PlanTimes(Section& drift) {
+  const toml::node* n = drift.Get("interval");
+  if (!any_offline) {
+    if (n) {
+      throw InputError(drift.Where("interval") +
+                       ": for an offline station (sees) only: measured readings carry their times");
+    }
+    return;
+  }
+  if (!n) {
+    throw InputError(drift.WhereSelf() +
+                     ": interval: required key is missing (offline: the planned time from one reading to the "
+                     "next, e.g. \"30 s\")");
+  }
+  const TimeValue interval = Time(*n, drift.Where("interval"));
+  // At least 1 s: knots closer than that are one (DriftKnots).
+  if (interval.kind != TimeKind::kSeconds || !(interval.seconds >= 1.0) || !(interval.seconds <= 86400.0))
+    throw InputError(drift.Where("interval") + ": a duration from 1 s to 24 h (\"30 s\", \"2 min\")");
+  for (std::size_t j = 0; j < sees.back().size(); ++j)
+    planned_times.back().push_back(interval.seconds * static_cast<double>(j));
+}
+
+// Offline (N-12): a planned drift check re-reads `sees` (targets of [targets], in `face`) at `time`,
+// a duration from the station's first planned reading (0 s).
+void NetworkFileReader::ReadPlannedCheck(Section& s, std::size_t station, const TimeValue& time) {
+  if (s.Get("readings")) {
+    throw InputError(
+        s.Where("readings") +
+        ": an offline drift check plans what it will re-read: give sees (target names), not readings");
+  }
+  if (time.kind != TimeKind::kSeconds || !(time.seconds > 0.0)) {
+    throw InputError(s.Where("time") +
+                     ": offline, a duration after the station's first planned reading (\"45 min\"), not " +
+                     (time.kind == TimeKind::kSeconds ? std::string("0 or before it")
+                                                      : std::string(TimeKindName(time.kind))));
+  }
+  std::vector<PlannedSighting> planned = Sightings(s, s.Require("sees"));
+  for (PlannedSighting& p : planned) {
+    p.where = s.WhereSelf();
+    planned_times[station].push_back(time.seconds);
+  }
+  job.drift_check_where.push_back(s.WhereSelf());
+  sees[station].insert(sees[station].end(), planned.begin(), planned.end());
+}
+
 // [[drift_check]] (N-12): a drifting station re-reads chosen targets (drift nests) at a stated
 // time; the readings join the station's, each at the check's time unless its file has a time
-// column, and the time becomes a knot of the station's drift model.
+// column, and the time becomes a knot of the station's drift model. Offline, the check plans
+// the targets it will re-read (ReadPlannedCheck).
 void NetworkFileReader::ReadDriftChecks() {
   ForEachTable(top, path, "drift_check", [&](Section& s) {
-    s.set_hint("station, time, readings");
+    s.set_hint(any_offline ? "station, time, sees, face" : "station, time, readings");
     const std::string name = AsString(s.Require("station"), s.Where("station"));
     NetworkStation* st = nullptr;
     for (NetworkStation& candidate : net.stations)
@@ -584,6 +655,18 @@ void NetworkFileReader::ReadDriftChecks() {
                        "' has no drift model: give it [station.drift] (translation_rate, rotation_rate)");
     }
     const TimeValue time = Time(s.Require("time"), s.Where("time"));
+    if (any_offline) {
+      ReadPlannedCheck(s, static_cast<std::size_t>(st - net.stations.data()), time);
+      check_times.push_back({st, time.seconds, time.kind, s.Where("time")});
+      s.Finish();
+      return;
+    }
+    if (s.Get("sees")) {
+      throw InputError(
+          s.Where("sees") +
+          ": a measured drift check gives what it read (readings = { csv = ... }); sees plans an "
+          "offline one");
+    }
     Section readings = s.Sub("readings", true);
     Job r;
     r.file = path;
@@ -609,8 +692,8 @@ void NetworkFileReader::CheckTimes() {
       if (!r.time) continue;
       if (!first) first = &r;
       if (r.time_kind != first->time_kind) {
-        throw InputError(r.where + ": time: " + std::string(TimeKindName(r.time_kind)) + ", but " + first->where +
-                         " gives " + std::string(TimeKindName(first->time_kind)) +
+        throw InputError(r.where + ": time: " + std::string(TimeKindName(r.time_kind)) + ", but " +
+                         first->where + " gives " + std::string(TimeKindName(first->time_kind)) +
                          " (one kind of time, one origin, in a network)");
       }
     }
@@ -628,16 +711,17 @@ void NetworkFileReader::DriftKnots() {
                          "' has a drift model: every reading needs its time (readings.columns.time)");
       }
     }
-    const auto [earliest, latest] = std::minmax_element(
-        st.readings.begin(), st.readings.end(),
-        [](const TargetReading& a, const TargetReading& b) { return *a.time < *b.time; });
+    const auto [earliest, latest] =
+        std::minmax_element(st.readings.begin(), st.readings.end(),
+                            [](const TargetReading& a, const TargetReading& b) { return *a.time < *b.time; });
     knots.insert(*earliest->time);
     knots.insert(*latest->time);
     for (const CheckTime& check : check_times) {
       if (check.station != &st) continue;
       if (check.kind != earliest->time_kind) {
         throw InputError(check.where + ": " + std::string(TimeKindName(check.kind)) +
-                         ", but the station's readings give " + std::string(TimeKindName(earliest->time_kind)) +
+                         ", but the station's readings give " +
+                         std::string(TimeKindName(earliest->time_kind)) +
                          " (one kind of time, one origin, in a network)");
       }
       knots.insert(check.seconds);
@@ -698,8 +782,6 @@ NetworkJob LoadNetworkJob(const std::string& path) {
   reader.ReadAirSensors();
   reader.ReadStations();
   reader.ReadDriftChecks();
-  reader.CheckTimes();
-  reader.DriftKnots();
   reader.ReadDatum();
   reader.ReadReferences();
   reader.ReadDistances();
@@ -707,6 +789,9 @@ NetworkJob LoadNetworkJob(const std::string& path) {
   ReadOutput(top, output);
   job.output_directory = output.directory;
   if (job.offline) reader.PlanOfflineReadings();
+  // After the planning: an offline station's readings (and their planned times) exist from here.
+  reader.CheckTimes();
+  reader.DriftKnots();
   reader.ReadNetworkTasks();
   top.Finish();
   return job;
