@@ -22,6 +22,9 @@ endfunction()
 # or line, and that nothing was written.
 vlt_cli_error(toml_syntax syntax_error.toml "syntax_error\\.toml: line 10, column [0-9]+: TOML syntax error")
 vlt_cli_error(unknown_key unknown_key.toml "unknown_key\\.toml: tracker\\.noise\\.azimth: unknown key")
+# A drifting station belongs to `vlt network` (docs/network.md N-12): said where it is written.
+vlt_cli_error(station_drift station_drift.toml "station_drift\\.toml: station\\.drift: a job takes its station as still; .*adjusted by `vlt network`")
+vlt_cli_error(drift_check drift_check.toml "drift_check\\.toml: drift_check: a job takes its station as still")
 vlt_cli_error(bad_ranging bad_ranging.toml
               "bad_ranging\\.toml: tracker\\.ranging: unknown ranging principle 'ADM-2' [(]expected one of: ifm, adm, aifm[)]")
 vlt_cli_error(missing_key missing_key.toml "missing_key\\.toml: tracker\\.model: required key is missing")

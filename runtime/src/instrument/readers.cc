@@ -396,10 +396,19 @@ Environment ReadAir(Section& s, std::vector<std::string>& warnings, const std::s
   return env;
 }
 
+// A job's station stands still (its pose is one shared input): a station that drifts while it
+// measures is adjusted by `vlt network`, whose drift model (docs/network.md N-12) a network of that
+// one station carries. Said where a user would write it, not as an unknown key.
+constexpr const char* kDriftIsNetwork =
+    ": a job takes its station as still; a drifting station and its drift checks are adjusted by "
+    "`vlt network` (a network of this one station, docs/network.md N-12)";
+
 void ReadStation(Section& top, Job& job) {
+  if (top.Get("drift_check")) throw InputError(top.Where("drift_check") + kDriftIsNetwork);
   Section s = top.Sub("station", false);
   if (!s.exists()) return;
   s.set_hint("rx, ry, rz, tx, ty, tz");
+  if (s.Get("drift")) throw InputError(s.Where("drift") + kDriftIsNetwork);
   StationPose pose;
   pose.rx = MakeInput("pose.rx", "pose", Dimension::kAngle, 0, 0);
   pose.ry = MakeInput("pose.ry", "pose", Dimension::kAngle, 0, 0);
