@@ -1078,6 +1078,8 @@ struct Adjustment {
   Eigen::MatrixXd SolveNormals(const Eigen::MatrixXd& b) const {
     const int m = static_cast<int>(b.cols());
     Eigen::MatrixXd y(n, m);
+    // No consider input (C = 0): b has no storage, and a block of it would offset a null pointer.
+    if (m == 0) return y;
     const Eigen::MatrixXd b_t = b.bottomRows(3 * T);
     Eigen::MatrixXd y_t(3 * T, m);
     for (std::size_t group = 0; group < groups.members.size(); ++group) {

@@ -14,7 +14,8 @@ namespace vlt::network_internal {
 // readings touch, the targets tied by distances), not the 3T x 3T target covariance, which is most of
 // an adjustment's arithmetic and which no trial reads. Identifiability and the predicted w of
 // removed observations are left out. Targets' positions are those of AdjustNetwork to that
-// tolerance; their covariance blocks are exact.
+// tolerance, and the blocks named above are exact; the result's covariance between targets of
+// different groups is not formed (it holds the consider part only) and must not be read.
 NetworkResult AdjustNetworkTrial(const Network& network);
 
 }  // namespace vlt::network_internal

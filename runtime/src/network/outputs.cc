@@ -1260,8 +1260,15 @@ Files SimulatedNetworkFiles(const NetworkJob& job, const Network& simulated, std
       if (!station) continue;
       for (const NetworkStation& st : simulated.stations) {
         if (st.name != station->get()) continue;
+        // Numbered per station, in the file's order: the station's first check is check1.
+        int number = 1;
+        for (std::size_t j = 0; j < k; ++j) {
+          const toml::table* earlier = checks->get(j)->as_table();
+          const auto* other = earlier ? earlier->get_as<std::string>("station") : nullptr;
+          if (other && other->get() == st.name) ++number;
+        }
         const std::string csv =
-            "simulated_" + base_internal::SafeFileName(st.name) + "_check" + std::to_string(k + 1) + ".csv";
+            "simulated_" + base_internal::SafeFileName(st.name) + "_check" + std::to_string(number) + ".csv";
         files.emplace_back(csv, SimulatedReadingsCsv(st, [&](const TargetReading& r) {
                              return r.where == job.drift_check_where[k];
                            }));

@@ -367,7 +367,6 @@ void NetworkFileReader::ReadOnlineReadings(Section& s, NetworkStation& st) {
   sees.emplace_back();
 }
 
-// Offline: the targets of [targets] the station will read, in one face or both.
 // The targets a station (or its drift check) will read, in `sees` order, each in every face of
 // `face` (front; "both": front then back).
 std::vector<PlannedSighting> NetworkFileReader::Sightings(Section& s, const toml::node& see) {
@@ -388,7 +387,7 @@ std::vector<PlannedSighting> NetworkFileReader::Sightings(Section& s, const toml
   } else {
     throw InputError(where + ": expected \"all\" or an array of target names");
   }
-  if (names.empty()) throw InputError(where + ": the station sees no target");
+  if (names.empty()) throw InputError(where + ": no target named");
   std::vector<PlannedSighting> sightings;
   for (const std::string& name : names) {
     for (Face face : faces) sightings.push_back({name, face, where});
@@ -652,7 +651,8 @@ void NetworkFileReader::ReadDriftChecks() {
     if (!st) throw InputError(s.Where("station") + ": unknown station '" + name + "'");
     if (!st->drift.enabled) {
       throw InputError(s.Where("station") + ": station '" + name +
-                       "' has no drift model: give it [station.drift] (translation_rate, rotation_rate)");
+                       "' has no drift model: give it [station.drift] (translation_rate, rotation_rate" +
+                       (any_offline ? ", interval)" : ")"));
     }
     const TimeValue time = Time(s.Require("time"), s.Where("time"));
     if (any_offline) {
@@ -734,8 +734,9 @@ void NetworkFileReader::DriftKnots() {
     if (st.drift.knots.size() >= 2 && *latest->time - st.drift.knots.back() > 0.0)
       st.drift.knots.back() = std::max(st.drift.knots.back(), *latest->time);
     if (st.drift.knots.size() < 2) {
-      throw InputError(st.drift.where + ": station '" + st.name +
-                       "' read everything at one time: nothing can drift (give the readings' times)");
+      throw InputError(
+          st.drift.where + ": station '" + st.name + "' read everything at one time: nothing can drift (" +
+          (any_offline ? "plan more than one reading, or a drift check)" : "give the readings' times)"));
     }
   }
 }
