@@ -13,7 +13,7 @@ add_test(NAME cli_network_plan
           "-DARGS=network;${_ex}/wing_network_plan.toml;--simulate;7;-o;${_out}/network_plan"
           -DOUT=${_out}/network_plan
           "-DFILES=targets.csv;stations.csv;residuals.csv;covariance.csv;tasks.csv;results.json;report.html;simulated_S1.csv;simulated_S2.csv;simulated_S3.csv;simulated_network.toml"
-          "-DEXPECT_STDOUT=Planned network 'wing-network-plan': 3 stations, 18 targets, 159 observations, 72 unknowns, dof 87; chi2 [0-9.e-]+, Birge ratio 0[.]000, 0 outliers; largest \\|U\\| [(]k = 1[.]96[)] [0-9.]+ um at"
+          "-DEXPECT_STDOUT=Planned network 'wing-network-plan': 3 stations, 18 targets, 159 observations, 72 unknowns, dof 87; predicted: largest \\|U\\| [(]k = 1[.]96[)] [0-9.]+ um at"
           "-DJSON_KEYS=schema;created;vlt_version;vlt_commit;units;job;summary;stations;targets;tasks;files"
           -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
 set_tests_properties(cli_network_plan PROPERTIES FIXTURES_SETUP vlt_network_plan)
@@ -54,7 +54,7 @@ add_test(NAME cli_network_scale_bars
           "-DARGS=network;${_ex}/scale_bar_network.toml;--simulate;11;-o;${_out}/network_bars"
           -DOUT=${_out}/network_bars
           "-DFILES=targets.csv;stations.csv;residuals.csv;covariance.csv;distances.csv;parameters.csv;identifiability.csv;results.json;report.html;simulated_S1.csv;simulated_network.toml"
-          "-DEXPECT_STDOUT=Planned network 'scale-bar-network': 3 stations, 20 targets, 184 observations, 73 unknowns, dof 111; chi2 [0-9.e-]+, Birge ratio 0[.]000, 0 outliers.*Scale bars and distances: 3.*Self-calibration: 1 of 1 combinations"
+          "-DEXPECT_STDOUT=Planned network 'scale-bar-network': 3 stations, 20 targets, 184 observations, 73 unknowns, dof 111; predicted: largest.*Scale bars and distances: 3.*Self-calibration: 1 of 1 combinations"
           "-DJSON_KEYS=schema;summary;targets;parameters;identifiability;distances;robust;files"
           -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
 set_tests_properties(cli_network_scale_bars PROPERTIES FIXTURES_SETUP vlt_network_bars)
@@ -90,7 +90,7 @@ add_test(NAME cli_network_station_air
           "-DARGS=network;${_ex}/hall_air_network.toml;--simulate;5;-o;${_out}/network_air"
           -DOUT=${_out}/network_air
           "-DFILES=targets.csv;stations.csv;distances.csv;results.json;report.html;simulated_S4.csv;simulated_network.toml"
-          "-DEXPECT_STDOUT=Planned network 'hall-air-network': 4 stations, 20 targets, [0-9]+ observations.*Birge ratio 0[.]000, 0 outliers"
+          "-DEXPECT_STDOUT=Planned network 'hall-air-network': 4 stations, 20 targets, [0-9]+ observations, [0-9]+ unknowns, dof [0-9]+; predicted: largest"
           "-DEXPECT_FILE_REGEX=results.json:\"air\": {[^}]*\"temperature\": 21[.]7[^}]*\"u_temperature\": 0[.]6[^}]*\"sensor\": \"WS2\""
           "-DJSON_KEYS=schema;summary;stations;targets;distances;files"
           -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
@@ -166,7 +166,7 @@ add_test(NAME cli_network_drift_plan
           "-DARGS=network;${_ex}/drift_network_plan.toml;--simulate;7;-o;${_out}/network_drift_plan"
           -DOUT=${_out}/network_drift_plan
           "-DFILES=targets.csv;stations.csv;drift.csv;results.json;report.html;simulated_S2.csv;simulated_S2_check1.csv;simulated_S2_check2.csv;simulated_network.toml"
-          "-DEXPECT_STDOUT=Planned network 'drift-network-plan': 3 stations, 18 targets, 201 observations, 90 unknowns, dof 111;.*Drift of station S2 over 1[.]42 h [(]4 knots[)]: 0[.]0 um, U [0-9.]+ um"
+          "-DEXPECT_STDOUT=Planned network 'drift-network-plan': 3 stations, 18 targets, 201 observations, 90 unknowns, dof 111;.*Drift of station S2 over 1[.]42 h [(]4 knots[)]: predicted U [0-9.]+ um at the last knot"
           "-DEXPECT_FILE_REGEX=simulated_S2_check2.csv:^name,range,azimuth,elevation,face,time\nR1,[0-9.]+,[0-9.]+,-?[0-9.e-]+,front,3600\n"
           "-DJSON_KEYS=schema;created;vlt_version;vlt_commit;units;job;summary;stations;targets;tasks;files"
           -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)

@@ -1120,15 +1120,22 @@ std::string NetworkSummary(const NetworkJob& job, const NetworkResult& result, c
     }
   }
   char line[512];
+  // A plan's readings are the model's own (no noise): its chi2, Birge ratio and outliers are 0 by
+  // construction and say nothing; what it gives is the predicted U (issue 34).
+  char fit[128] = "predicted:";
+  if (!job.offline) {
+    std::snprintf(fit, sizeof fit, "chi2 %.4g, Birge ratio %.3f, %d outlier%s;", result.chi2,
+                  result.birge_ratio, result.outliers, result.outliers == 1 ? "" : "s");
+  }
   std::snprintf(
       line, sizeof line,
-      "%s network '%s': %zu station%s, %zu targets, %d observations, %d unknowns, dof %d; chi2 %.4g, Birge "
-      "ratio %.3f, %d outlier%s; largest |U| (k = %.2f) %.1f um at %s; variance from reading noise and "
-      "references %.0f %%, from the instruments' errors and the air %.0f %%",
+      "%s network '%s': %zu station%s, %zu targets, %d observations, %d unknowns, dof %d; %s largest "
+      "|U| (k = %.2f) %.1f um at %s; variance from reading noise and references %.0f %%, from the "
+      "instruments' errors and the air %.0f %%",
       job.offline ? "Planned" : "Measured", job.name.c_str(), result.stations.size(),
       result.stations.size() == 1 ? "" : "s", result.targets.size(), result.observations, result.unknowns,
-      result.dof, result.chi2, result.birge_ratio, result.outliers, result.outliers == 1 ? "" : "s", result.k,
-      worst * 1e6, worst_name.c_str(), 100.0 * result.share_noise, 100.0 * result.share_consider);
+      result.dof, fit, result.k, worst * 1e6, worst_name.c_str(), 100.0 * result.share_noise,
+      100.0 * result.share_consider);
   std::string out = std::string(line) + "\n";
   if (!result.distances.empty()) {
     const auto worst_w = std::max_element(
@@ -1155,10 +1162,19 @@ std::string NetworkSummary(const NetworkJob& job, const NetworkResult& result, c
   for (const AdjustedStation& st : result.stations) {
     if (st.drift.empty()) continue;
     const AdjustedDriftEpoch& last = st.drift.back();
-    std::snprintf(line, sizeof line,
-                  "Drift of station %s over %.2f h (%zu knots): %.1f um, U %.1f um (k = %.2f; drift.csv)\n",
-                  st.name.c_str(), (last.time - st.drift.front().time) / 3600.0, st.drift.size(),
-                  last.offset.tail<3>().norm() * 1e6, DriftTranslationU(result, last) * 1e6, result.k);
+    const double hours = (last.time - st.drift.front().time) / 3600.0,
+                 U = DriftTranslationU(result, last) * 1e6;
+    if (job.offline) {  // planned: no drift was measured; the checks leave this U of it
+      std::snprintf(
+          line, sizeof line,
+          "Drift of station %s over %.2f h (%zu knots): predicted U %.1f um at the last knot (k = %.2f; "
+          "drift.csv)\n",
+          st.name.c_str(), hours, st.drift.size(), U, result.k);
+    } else {
+      std::snprintf(line, sizeof line,
+                    "Drift of station %s over %.2f h (%zu knots): %.1f um, U %.1f um (k = %.2f; drift.csv)\n",
+                    st.name.c_str(), hours, st.drift.size(), last.offset.tail<3>().norm() * 1e6, U, result.k);
+    }
     out += line;
   }
   for (const std::string& w : result.warnings) out += "Warning: " + w + "\n";
