@@ -71,5 +71,5 @@ vlt_build() {
 vlt_build_sanitize() {
   vlt_install_packages "${VLT_BUILD_PACKAGES[@]}" "${VLT_TEST_PACKAGES[@]}" "${VLT_FUZZ_PACKAGES[@]}"
   vlt_build "$VLT_ROOT/build-sanitize" -DCMAKE_CXX_COMPILER=clang++ -DVLT_SANITIZE=ON -DVLT_FUZZ=ON -DVLT_BUILD_BENCH=OFF \
-    -DCMAKE_CXX_FLAGS_RELEASE="-O1 -gline-tables-only -DNDEBUG" -DVLT_TEST_OPTIMIZATION=-O0
+    -DCMAKE_CXX_FLAGS_RELEASE="-O1 -gline-tables-only -DNDEBUG" -DVLT_TEST_OPTIMIZATION=-O1
 }
