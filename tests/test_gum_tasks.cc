@@ -116,7 +116,9 @@ Eigen::MatrixXd FdFitJacobian(TaskKind kind, const Eigen::Matrix3Xd& points) {
   if (kind == TaskKind::kPlane || kind == TaskKind::kCircle) {
     options.orientation = base.values.segment<3>(kind == TaskKind::kPlane ? 3 : 4);
   }
-  if (kind == TaskKind::kLine) options.orientation = base.values.segment<3>(3);
+  if (kind == TaskKind::kLine || kind == TaskKind::kCylinder || kind == TaskKind::kCone) {
+    options.orientation = base.values.segment<3>(3);
+  }
   Eigen::MatrixXd g(base.values.size(), points.size());
   for (int c = 0; c < points.size(); ++c) {
     Eigen::Matrix3Xd p = points;
@@ -158,6 +160,15 @@ TEST_P(GumTaskBruteForce, EqualsJointCovariance) {
             0.3 * Eigen::Vector3d(std::cos(t), std::sin(t), 0.1 * std::cos(t));
         break;
       case TaskKind::kLine: p = Eigen::Vector3d(1.0 + 0.5 * i, 0.2 * i, 0.3); break;
+      // Two rings of four, 0.2 m apart, about a vertical axis (the cone widens by 0.05 m).
+      case TaskKind::kCylinder:
+      case TaskKind::kCone: {
+        const double height = i < n / 2 ? -0.1 : 0.1;
+        const double radius = 0.15 + (kind == TaskKind::kCone && i >= n / 2 ? 0.05 : 0.0);
+        const double phi = 4.0 * t + (i < n / 2 ? 0.0 : 0.7);
+        p = Eigen::Vector3d(2.0, 0.5, 0.2) + Eigen::Vector3d(radius * std::cos(phi), radius * std::sin(phi), height);
+        break;
+      }
       // The same point twice (both front face here; tests/test_two_face.cc has the back face):
       // coincident points, where a distance would be refused.
       case TaskKind::kTwoFace: p = Eigen::Vector3d(3.0, 1.5, 0.4); break;
@@ -204,7 +215,8 @@ TEST_P(GumTaskBruteForce, EqualsJointCovariance) {
 
 INSTANTIATE_TEST_SUITE_P(AllKinds, GumTaskBruteForce,
                          testing::Values(TaskKind::kDistance, TaskKind::kPlane, TaskKind::kSphere,
-                                         TaskKind::kCircle, TaskKind::kLine, TaskKind::kTwoFace),
+                                         TaskKind::kCircle, TaskKind::kLine, TaskKind::kTwoFace,
+                                         TaskKind::kCylinder, TaskKind::kCone),
                          [](const testing::TestParamInfo<TaskKind>& info) {
                            return std::string(TaskKindName(info.param));
                          });

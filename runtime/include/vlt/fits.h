@@ -1,6 +1,6 @@
 // vlt/fits.h — the task quantities: distance between two points, the two-face difference of a
-// point measured in both faces, and least-squares features (plane, sphere, circle, line), each
-// with its Jacobian with respect to the point coordinates.
+// point measured in both faces, and least-squares features (plane, sphere, circle, line,
+// cylinder, cone), each with its Jacobian with respect to the point coordinates.
 //
 // One definition of every task serves both engines: the GUM engine calls with
 // options.jacobian = true and propagates G = d outputs / d point coordinates; the Monte Carlo
@@ -40,6 +40,9 @@ struct TaskOutput {
 //   circle:   centre_x, centre_y, centre_z, radius, normal_x, normal_y, normal_z, rms
 //   line:     point_x, point_y, point_z, direction_x, direction_y, direction_z, straightness, rms
 //   two_face: dx, dy, dz
+//   cylinder: point_x, point_y, point_z, direction_x, direction_y, direction_z, radius,
+//             cylindricity, rms
+//   cone:     point_x, ..., direction_z, radius, half_angle, form, rms
 //   best_fit, rps: tx, ty, tz, rx, ry, rz, rms      (best_fit_scale: ..., rms, scale)
 //   deviation: deviation, dx, dy, dz              (position: ..., dz, position)
 //   profile: min_deviation, max_deviation, profile
@@ -48,10 +51,11 @@ std::span<const TaskOutput> TaskOutputs(TaskKind kind);
 struct FitOptions {
   // Compute FitResult::jacobian (GUM). Off for Monte Carlo trials.
   bool jacobian = false;
-  // Sign of the plane/circle normal and of the line direction: chosen so that
+  // Sign of the plane/circle normal and of the line/cylinder/cone direction: chosen so that
   // dot(normal, orientation) >= 0. When zero (default), the component of largest magnitude is
   // made positive (ties: the first of x, y, z). A Monte Carlo engine should pass the normal /
-  // direction of the fit to the estimates, so that no trial flips sign.
+  // direction of the fit to the estimates, so that no trial flips sign. A cylinder or cone fit
+  // also starts its axis along it (else across the points' three principal directions).
   Eigen::Vector3d orientation = Eigen::Vector3d::Zero();
   // best_fit, best_fit_scale, rps, deviation, position, profile: the nominal geometry
   // (TaskSpec::nominal); required.
@@ -64,7 +68,7 @@ struct FitOptions {
 // The options a task's own definition implies: its nominal geometry (alignment kinds).
 FitOptions TaskFitOptions(const TaskSpec& task, bool jacobian);
 // The options of a Monte Carlo trial of `task` (no Jacobian): TaskFitOptions, and the normal /
-// direction (plane, circle, line) or the angles (best_fit) of the fit to the estimates, whose
+// direction (plane, circle, line, cylinder, cone) or the angles (best_fit) of the fit to the estimates, whose
 // outputs are `at_estimates` (TaskOutputs order), so that no trial flips a sign or turns by 2 pi.
 FitOptions TrialFitOptions(const TaskSpec& task, const Eigen::VectorXd& at_estimates);
 
@@ -125,6 +129,23 @@ FitResult FitCircle(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitO
 // of a point from the fitted line (diameter of the cylinder about the least-squares line that
 // holds every point); rms = sqrt(mean squared perpendicular distance).
 FitResult FitLine(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options = {},
+                  std::string_view where = "task");
+
+// Geometric least-squares cylinder (>= 5 points): minimises sum (|p_i - axis| - radius)^2 over
+// the axis and the radius (algebraic circle starts across each principal direction of the points,
+// or along options.orientation when given, then Levenberg-Marquardt and Newton steps with the
+// full Hessian). Outputs: the axis point nearest the centroid, the unit direction (sign as for a
+// line), radius, cylindricity = max - min radial residual, rms [m, 1, m, m, m]. NumericalError
+// when the points do not determine a cylinder (one cross-section, a line of points).
+FitResult FitCylinder(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options = {},
+                      std::string_view where = "task");
+
+// Geometric least-squares cone (>= 6 points): minimises the sum of squared orthogonal distances
+// e_i = (rho_i - R - t_i tan psi) cos psi (rho_i, t_i: radial and axial coordinates of point i
+// about the axis point). Outputs: the axis point nearest the centroid, the unit direction (sign
+// as for a line), the radius R there, the half-angle psi (positive when the radius grows along
+// the direction) [rad], form = max - min residual, rms.
+FitResult FitCone(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options = {},
                   std::string_view where = "task");
 
 // Best fit of the measured points (3 x N, N >= 3, not collinear) to nominal.positions: the

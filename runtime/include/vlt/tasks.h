@@ -31,6 +31,8 @@ enum class TaskKind {
   kLine,      // least-squares 3-D line (>= 2 points)
   kTwoFace,   // p2 - p1 (dx, dy, dz) of exactly two points: the same nominal point measured in
               // the front face (first) and the back face (second); the faces are not checked
+  kCylinder,  // least-squares cylinder (>= 5 points): axis point, direction, radius, cylindricity
+  kCone,      // least-squares cone (>= 6 points): axis point, direction, radius, half-angle, form
   // The part's frame (docs/tasks.md "Alignment to nominal"): not [[task]] kinds, made by the job's
   // [[alignment]] and [[deviation]] tables, which give the nominal geometry (TaskSpec::nominal).
   kBestFit,       // rigid best fit (6 DOF) of >= 3 measured points to their nominal positions
@@ -41,13 +43,13 @@ enum class TaskKind {
   kProfile,       // the extreme deviations along the normals of a set of points (ISO 1101 profile)
 };
 
-// "distance", "plane", "sphere", "circle", "line", "two_face", "best_fit", "best_fit_scale", "rps",
-// "deviation", "position", "profile".
+// "distance", "plane", "sphere", "circle", "line", "two_face", "cylinder", "cone", "best_fit",
+// "best_fit_scale", "rps", "deviation", "position", "profile".
 std::string_view TaskKindName(TaskKind kind);
-// Inverse of TaskKindName for the kinds a [[task]] table may name (distance ... two_face); throws
+// Inverse of TaskKindName for the kinds a [[task]] table may name (distance ... cone); throws
 // InputError "<where>: unknown task kind '<text>' (expected ...)".
 TaskKind ParseTaskKind(std::string_view text, std::string_view where);
-// Minimum number of points the feature needs (2, 3, 4, 3, 2, 2, 3, 3, 3, 3, 3, 3).
+// Minimum number of points the feature needs (2, 3, 4, 3, 2, 2, 5, 6, 3, 3, 3, 3, 3, 3).
 int MinimumPoints(TaskKind kind);
 
 // The nominal (CAD, part-frame) geometry of an alignment or deviation task, SI. An alignment maps

@@ -109,7 +109,8 @@ bool IsHeadline(const TaskResult& t, const std::string& quantity) {
   if (t.spec.kind == TaskKind::kPosition) return quantity == "deviation" || quantity == "position";
   if (t.spec.kind == TaskKind::kProfile) return true;
   return quantity == "distance" || quantity == "radius" || quantity == "flatness" ||
-         quantity == "straightness" || quantity == "normal_x" || quantity == "normal_y" ||
+         quantity == "straightness" || quantity == "cylindricity" || quantity == "half_angle" ||
+         (t.spec.kind == TaskKind::kCone && quantity == "form") || quantity == "normal_x" || quantity == "normal_y" ||
          quantity.rfind("centre_", 0) == 0 || t.spec.kind == TaskKind::kTwoFace ||
          t.spec.kind == TaskKind::kBestFit || t.spec.kind == TaskKind::kBestFitScale || t.spec.kind == TaskKind::kRps;
 }
@@ -136,7 +137,10 @@ std::string TaskRow(const TaskResult& t, std::size_t q) {
                   std::abs(t.gum.value[i]) < 1e-12 ? 0.0 : t.gum.value[i]);
   }
   std::string value = value_text;
-  std::string big_u = base_internal::Sig(t.gum.U[i] * us, 3) + u_unit;
+  // A quantity without a first-order derivative (the form of nominal points) has no GUM U: "n/a",
+  // never "0 um" (docs/tasks.md "Jacobians").
+  const bool has_gum = q >= t.gum.differentiable.size() || t.gum.differentiable[q];
+  std::string big_u = has_gum ? base_internal::Sig(t.gum.U[i] * us, 3) + u_unit : std::string("n/a");
   std::string interval = "-", verdict = "not run";
   if (t.has_mcm && q < t.validation.size()) {
     char buffer[96];

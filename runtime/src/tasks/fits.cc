@@ -24,6 +24,8 @@
 #include <Eigen/Dense>
 
 #include "tasks/alignment.h"
+#include "tasks/axial.h"
+#include "tasks/fit_support.h"
 #include "vlt/error.h"
 
 namespace vlt {
@@ -88,6 +90,10 @@ constexpr double kGapRatio = 1e-12;
 // A residual statistic smaller than this fraction of the extent is "zero": exact fit.
 constexpr double kExactFit = 1e-10;
 
+}  // namespace
+
+namespace tasks_internal {
+
 [[noreturn]] void Fail(std::string_view where, TaskKind kind, const std::string& reason) {
   std::string message(where);
   message.append(": ").append(TaskKindName(kind)).append(": ").append(reason);
@@ -130,7 +136,6 @@ FitResult MakeResult(TaskKind kind, long num_points, const FitOptions& options) 
   return r;
 }
 
-// +1 or -1 so that sign * v follows FitOptions::orientation (docs/tasks.md).
 double OrientationSign(const Vector3d& v, const FitOptions& options) {
   if (options.orientation.squaredNorm() > 0.0) return v.dot(options.orientation) < 0.0 ? -1.0 : 1.0;
   int largest = 0;
@@ -139,6 +144,15 @@ double OrientationSign(const Vector3d& v, const FitOptions& options) {
   }
   return v(largest) < 0.0 ? -1.0 : 1.0;
 }
+
+}  // namespace tasks_internal
+
+namespace {
+
+using tasks_internal::CheckPoints;
+using tasks_internal::Fail;
+using tasks_internal::MakeResult;
+using tasks_internal::OrientationSign;
 
 // Centroid and eigen-decomposition of the centred scatter matrix (two passes for accuracy).
 struct Scatter {
@@ -455,6 +469,8 @@ std::span<const TaskOutput> TaskOutputs(TaskKind kind) {
     case TaskKind::kCircle: return kCircleOutputs;
     case TaskKind::kLine: return kLineOutputs;
     case TaskKind::kTwoFace: return kTwoFaceOutputs;
+    case TaskKind::kCylinder:
+    case TaskKind::kCone: return tasks_internal::AxialOutputs(kind);
     case TaskKind::kBestFit:
     case TaskKind::kBestFitScale:
     case TaskKind::kRps:
@@ -685,6 +701,14 @@ FitResult FitLine(const Points& points, const FitOptions& options, std::string_v
   return result;
 }
 
+FitResult FitCylinder(const Points& points, const FitOptions& options, std::string_view where) {
+  return tasks_internal::FitAxialSurface(TaskKind::kCylinder, points, options, where);
+}
+
+FitResult FitCone(const Points& points, const FitOptions& options, std::string_view where) {
+  return tasks_internal::FitAxialSurface(TaskKind::kCone, points, options, where);
+}
+
 FitResult FitTask(TaskKind kind, const Points& points, const FitOptions& options, std::string_view where) {
   switch (kind) {
     case TaskKind::kDistance: return FitDistance(points, options, where);
@@ -693,6 +717,8 @@ FitResult FitTask(TaskKind kind, const Points& points, const FitOptions& options
     case TaskKind::kCircle: return FitCircle(points, options, where);
     case TaskKind::kLine: return FitLine(points, options, where);
     case TaskKind::kTwoFace: return FitTwoFace(points, options, where);
+    case TaskKind::kCylinder: return FitCylinder(points, options, where);
+    case TaskKind::kCone: return FitCone(points, options, where);
     case TaskKind::kBestFit:
     case TaskKind::kBestFitScale:
     case TaskKind::kRps: return FitBestFit(points, options, where);
@@ -713,7 +739,10 @@ FitOptions TaskFitOptions(const TaskSpec& task, bool jacobian) {
 FitOptions TrialFitOptions(const TaskSpec& task, const Eigen::VectorXd& at_estimates) {
   FitOptions options = TaskFitOptions(task, false);
   int orientation = -1, angles = -1;
-  if (task.kind == TaskKind::kPlane || task.kind == TaskKind::kLine) orientation = 3;
+  if (task.kind == TaskKind::kPlane || task.kind == TaskKind::kLine || task.kind == TaskKind::kCylinder ||
+      task.kind == TaskKind::kCone) {
+    orientation = 3;
+  }
   if (task.kind == TaskKind::kCircle) orientation = 4;
   if (task.kind == TaskKind::kBestFit || task.kind == TaskKind::kBestFitScale || task.kind == TaskKind::kRps) angles = 3;
   const long need = std::max(orientation, angles) + 3;
