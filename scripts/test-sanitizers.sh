@@ -5,7 +5,8 @@
 # the page are tests of their own and do run here) and the statistical studies below, which repeat
 # one computation over hundreds of seeds (a calibration, a network adjustment) or over 10^5 points
 # (and the count of the work items of a 10^6-trial Monte Carlo run on 16 threads, 44 s here; the
-# alignment's Monte Carlo reference, 40000 re-alignments of 4 tasks, 19 s here):
+# alignment's Monte Carlo reference, 40000 re-alignments of 4 tasks, 19 s here; the cylinder and
+# cone fits' 8000 refits with Jacobian, 40 s here):
 # their code paths run here once in the tests that check them against closed forms and finite
 # differences, and stage 1 runs the studies themselves (docs/testing.md). Under the sanitizers they
 # took 348 of the stage's 728 test seconds (measured 2026-11-26; the two calibration coverage
@@ -26,6 +27,7 @@ studies=(
   McmThreads.EveryPhaseOffersEightItemsToEachOfSixteenThreads
   Alignment.GumCovarianceAgreesWithMonteCarlo
   Network.PlannedDriftIsCoveredBySimulatedMeasurements
+  AxialFits.GumCovarianceAgreesWithMonteCarloAndCoversTheTruth
 )
 exclude="^($(IFS='|'; echo "${studies[*]}" | sed 's/[.]/[.]/g'))$"
 vlt_build_sanitize
