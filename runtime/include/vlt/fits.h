@@ -9,7 +9,7 @@
 //
 // Jacobians are exact derivatives of the fitted values (implicit function theorem on the fit's
 // stationarity conditions / first-order eigenvector perturbation), never finite differences.
-// Memory and time are O(N) for N points (the Jacobian is k x 3N with k <= 9 outputs).
+// Memory and time are O(N) for N points (the Jacobian is k x 3N with k <= 10 outputs).
 //
 // Everything is SI: coordinates and lengths in m, unit vectors dimensionless ("1").
 #pragma once
@@ -85,7 +85,7 @@ struct FitResult {
   // (Monte Carlo can). Ties of the extreme residuals are resolved by the first point reaching
   // the extreme (a one-sided derivative), see docs/tasks.md.
   std::vector<bool> differentiable;
-  int iterations = 0;  // Levenberg-Marquardt + Newton iterations (sphere, circle), else 0
+  int iterations = 0;  // Levenberg-Marquardt + Newton iterations (sphere, circle, cylinder, cone), else 0
 };
 
 // Each function throws InputError "<where>: <kind> needs at least M points, got N" (distance,

@@ -20,6 +20,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <optional>
 #include <string>
@@ -74,11 +75,20 @@ constexpr double kExactFit = 1e-10;
 // The points must determine the surface: the full Hessian's smallest eigenvalue at least this
 // fraction of its largest, in normalised coordinates (a strict minimum).
 constexpr double kDetermined = 1e-10;
-// Points whose smallest principal variance is below this fraction of the largest (thickness below
-// 1e-3 of the extent) lie in one plane: one cross-section, whose noise alone would "determine"
-// the axis's tilt (a noisy ring of a bore fits a tilted axis with sensitivities of hundreds). A
-// 10 mm deep ring band of a 200 mm bore has 1.7e-3.
-constexpr double kPlanar = 1e-6;
+// One cross-section does not determine an axis. Points whose rms distance from their own best
+// plane is below this fraction of their rms distance from the centroid lie in one plane to
+// rounding ...
+constexpr double kFlat = 1e-9;
+// ... and a measured one does so to within its noise: when, in that plane, the points lie on a
+// circle (its rms residual at most kSectionCircle of its radius) and their distance from the plane
+// is not more than kSectionNoise times the rms residual about the fitted surface, the axis's tilt
+// is fitted to the noise
+// (its uncertainty ~ noise / axial spread ~ 0.1 rad or worse, where a first-order GUM means
+// nothing; a noisy ring of a 50 mm bore fits axes tilted by 0.03-1.6 rad). A 10 mm band of a
+// 200 mm bore measured with 25 um noise has 2.9 mm against 25 um; a 10 degree arc of a 2 m
+// fuselage section 2.5 mm.
+constexpr double kSectionNoise = 10.0;
+constexpr double kSectionCircle = 0.1;
 // A candidate whose radius passes this many times the points' extent, or whose half-angle passes
 // 85 degrees, has run off to a plane: not a cylinder or cone of these points.
 constexpr double kRunaway = 1e6;
@@ -222,6 +232,13 @@ class AxialSolver {
                std::string(TaskKindName(kind_)) + ")");
     }
     CheckDetermined(NewtonSteps(*best));
+    if (RunAway(*best)) {
+      Fail(
+          where_, kind_,
+          "the fit runs off to a plane (a radius beyond 1e6 times the points' size or a half-angle beyond 85 "
+          "degrees): not a " +
+              std::string(TaskKindName(kind_)) + " of these points");
+    }
     return *best;
   }
 
@@ -418,15 +435,49 @@ std::vector<Vector3d> StartDirections(const Points& points, const FitOptions& op
   return {principal.eigenvectors().col(2), principal.eigenvectors().col(0), principal.eigenvectors().col(1)};
 }
 
-// Points in one plane (one cross-section) do not determine an axis's tilt.
-void CheckNotPlanar(const Points& points, TaskKind kind, std::string_view where) {
-  const Eigen::Vector3d variance = PrincipalDirections(points).eigenvalues();
-  if (!(variance(2) > 0.0)) Fail(where, kind, "all points coincide");
-  if (!(variance(0) > kPlanar * variance(2))) {
-    Fail(where, kind,
-         "the points lie in one plane (one cross-section): they do not determine the axis; a circle task "
-         "fits one section");
+// How normalised points sit in their own best plane (its normal: their smallest principal
+// direction): their rms distance from it, and whether in it they lie on a circle, as one
+// cross-section does (a long cylinder or a cone band seen side-on does not).
+struct PlaneOfThePoints {
+  double thickness = 0.0;
+  bool on_a_circle = false;
+};
+
+PlaneOfThePoints SeenInTheirPlane(const Eigen::Matrix3Xd& q) {
+  const double n = static_cast<double>(q.cols());
+  const Eigen::SelfAdjointEigenSolver<Matrix3d> principal(q * q.transpose() / n);
+  PlaneOfThePoints seen;
+  // From the distances themselves, not from the eigenvalue: a 3 x 3 eigenvalue carries an absolute
+  // rounding of ~eps times the largest, whose root (1e-8) would hide an exact ring's thickness.
+  const Vector3d normal = principal.eigenvectors().col(0);
+  seen.thickness = std::sqrt((normal.transpose() * q).squaredNorm() / n);
+  // The Kåsa circle of the points projected into the plane: |a|^2 = 2 c . a + K0.
+  Basis plane;
+  plane << principal.eigenvectors().col(1), principal.eigenvectors().col(2);
+  Matrix3d ata = Matrix3d::Zero();
+  Vector3d atb = Vector3d::Zero();
+  for (long i = 0; i < q.cols(); ++i) {
+    const Eigen::Vector2d a = plane.transpose() * q.col(i);
+    const Vector3d row(2.0 * a.x(), 2.0 * a.y(), 1.0);
+    ata.noalias() += row * row.transpose();
+    atb += row * a.squaredNorm();
   }
+  const Vector3d x = ata.ldlt().solve(atb);
+  const double r2 = x(2) + x.head<2>().squaredNorm();
+  if (!x.allFinite() || !(r2 > 0.0)) return seen;
+  const double radius = std::sqrt(r2);
+  double sum = 0.0;
+  for (long i = 0; i < q.cols(); ++i) {
+    sum += Eigen::numext::abs2((plane.transpose() * q.col(i) - x.head<2>()).norm() - radius);
+  }
+  seen.on_a_circle = std::sqrt(sum / n) <= kSectionCircle * radius;
+  return seen;
+}
+
+[[noreturn]] void FailOneSection(TaskKind kind, std::string_view where, const std::string& why) {
+  Fail(where, kind,
+       "the points lie in one plane (one cross-section" + why +
+           "): they do not determine the axis; a circle task fits one section");
 }
 
 // The fit, its direction signed by FitOptions::orientation (a cone's half-angle changes sign with
@@ -550,9 +601,10 @@ struct Normalisation {
 
 Normalisation Normalise(const Points& points, TaskKind kind, std::string_view where) {
   Normalisation norm;
-  norm.mean = points.rowwise().mean();
+  norm.mean = (points / static_cast<double>(points.cols())).rowwise().sum();  // no overflow at 1e308
   const double largest = (points.colwise() - norm.mean).cwiseAbs().maxCoeff();
-  if (!(largest > 0.0) || !std::isfinite(largest)) Fail(where, kind, "all points coincide");
+  // Below 1e-290 m the Jacobian's 1/scale would overflow: coincident to machine precision.
+  if (!(largest > 1e-290) || !std::isfinite(largest)) Fail(where, kind, "all points coincide");
   double sum = 0.0;
   for (long i = 0; i < points.cols(); ++i) sum += ((points.col(i) - norm.mean) / largest).squaredNorm();
   norm.scale = largest * std::sqrt(sum / static_cast<double>(points.cols()));
@@ -582,11 +634,23 @@ std::span<const TaskOutput> AxialOutputs(TaskKind kind) {
 FitResult FitAxialSurface(TaskKind kind, const Points& points, const FitOptions& options,
                           std::string_view where) {
   CheckPoints(points, kind, kind == TaskKind::kCylinder ? 5 : 6, false, where);
-  CheckNotPlanar(points, kind, where);
   const Normalisation norm = Normalise(points, kind, where);
+  const PlaneOfThePoints seen = SeenInTheirPlane(norm.q);
+  const double thickness = seen.thickness;
+  if (!(thickness > kFlat)) FailOneSection(kind, where, "");
   FitResult result = kind == TaskKind::kCylinder
                          ? AxialResult<5>(kind, norm.q, FitAxial<5>(norm.q, kind, options, where), options)
                          : AxialResult<6>(kind, norm.q, FitAxial<6>(norm.q, kind, options, where), options);
+  // Judged on the fit to the estimates (no orientation given); a Monte Carlo trial, which starts
+  // from that fit's axis, is not judged again, so that no trial of an accepted set fails at random.
+  const double rms = result.values(result.values.size() - 1);
+  if (options.orientation.squaredNorm() == 0.0 && seen.on_a_circle && !(thickness > kSectionNoise * rms)) {
+    char why[160];
+    std::snprintf(why, sizeof why,
+                  ", measured: %.3g um out of their plane against an rms residual of %.3g um",
+                  thickness * norm.scale * 1e6, rms * norm.scale * 1e6);
+    FailOneSection(kind, where, why);
+  }
   InCallerCoordinates(norm, result);
   return result;
 }
