@@ -362,14 +362,18 @@ TEST(AxialFits, DegeneratePointSetsAreRefused) {
     const Surface bore{Vector3d(0.3, -0.2, 1.1), Vector3d(0.2, 0.3, 1.0).normalized(), radius};
     for (unsigned seed = 1; seed <= 8; ++seed) {
       for (TaskKind kind : {TaskKind::kCylinder, TaskKind::kCone}) {
-        refuse(kind, Noisy(bore, Rings({0.0}, 12, 2 * kPi), 2.5e-5, seed),
-               "one cross-section", false);
+        refuse(kind, Noisy(bore, Rings({0.0}, 12, 2 * kPi), 2.5e-5, seed), "one cross-section", false);
       }
     }
   }
   // ... but a band 10 mm deep of a 200 mm bore with the same noise is a cylinder.
   const Surface flange{Vector3d(0.3, -0.2, 1.1), Vector3d(0.2, 0.3, 1.0).normalized(), 0.1};
   EXPECT_NEAR(FitCylinder(Noisy(flange, Rings({-0.005, 0.005}, 8, 2 * kPi), 2.5e-5, 9)).values(6), 0.1, 1e-4);
+  // ... and a 2 mm band of a 30 degree countersink of 10 mm radius is a cone: its radius changes
+  // across the band, which is part of its section, not scatter about it.
+  const Surface countersink{Vector3d(0.5, 0.5, 0.2), Vector3d(0.1, -0.2, 1.0).normalized(), 0.01, kPi / 6};
+  EXPECT_NEAR(FitCone(Noisy(countersink, Rings({-0.001, 0.001}, 8, 2 * kPi), 2e-6, 10)).values(7), kPi / 6,
+              0.05);
   // Two lines of points along the axis (in one plane with it): the radius is there, the rest is not.
   Matrix3Xd lines(3, 10);
   for (int i = 0; i < 10; ++i) lines.col(i) = OnSurface(shaft, 0.02 * i, i % 2 == 0 ? 0.0 : kPi);

@@ -80,13 +80,12 @@ constexpr double kDetermined = 1e-10;
 // rounding ...
 constexpr double kFlat = 1e-9;
 // ... and a measured one does so to within its noise: when, in that plane, the points lie on a
-// circle (its rms residual at most kSectionCircle of its radius) and their distance from the plane
-// is not more than kSectionNoise times the rms residual about the fitted surface, the axis's tilt
-// is fitted to the noise
-// (its uncertainty ~ noise / axial spread ~ 0.1 rad or worse, where a first-order GUM means
-// nothing; a noisy ring of a 50 mm bore fits axes tilted by 0.03-1.6 rad). A 10 mm band of a
-// 200 mm bore measured with 25 um noise has 2.9 mm against 25 um; a 10 degree arc of a 2 m
-// fuselage section 2.5 mm.
+// section (SeenInTheirPlane: its rms residual at most kSectionCircle of its radius) and their
+// distance from the plane is not more than kSectionNoise times that residual, the axis's tilt
+// would be fitted to the noise (its uncertainty ~ noise / axial spread ~ 0.1 rad or worse, where a
+// first-order GUM means nothing; noisy rings of 20-50 mm bores were fitted with axes tilted by
+// 0.03-1.6 rad). A 10 mm band of a 200 mm bore measured with 25 um noise has 2.9 mm against
+// 25 um; a cone band's radius changing along it is part of its section.
 constexpr double kSectionNoise = 10.0;
 constexpr double kSectionCircle = 0.1;
 // A candidate whose radius passes this many times the points' extent, or whose half-angle passes
@@ -436,14 +435,20 @@ std::vector<Vector3d> StartDirections(const Points& points, const FitOptions& op
 }
 
 // How normalised points sit in their own best plane (its normal: their smallest principal
-// direction): their rms distance from it, and whether in it they lie on a circle, as one
-// cross-section does (a long cylinder or a cone band seen side-on does not).
+// direction): their rms distance from it, and the rms residual of the section that fits them
+// there — a circle whose radius may change linearly with the distance from the plane (so that a
+// cone band is a section too), the cone's algebraic start with the plane's normal as its axis.
+// A long cylinder or a cone seen side-on is no section: its rms residual exceeds kSectionCircle
+// of the radius.
 struct PlaneOfThePoints {
   double thickness = 0.0;
-  bool on_a_circle = false;
+  bool on_a_section = false;
+  double section_rms = 0.0;
 };
 
 PlaneOfThePoints SeenInTheirPlane(const Eigen::Matrix3Xd& q) {
+  using Row = Eigen::Matrix<double, 5, 1>;
+  using Normal = Eigen::Matrix<double, 5, 5>;
   const double n = static_cast<double>(q.cols());
   const Eigen::SelfAdjointEigenSolver<Matrix3d> principal(q * q.transpose() / n);
   PlaneOfThePoints seen;
@@ -451,26 +456,38 @@ PlaneOfThePoints SeenInTheirPlane(const Eigen::Matrix3Xd& q) {
   // rounding of ~eps times the largest, whose root (1e-8) would hide an exact ring's thickness.
   const Vector3d normal = principal.eigenvectors().col(0);
   seen.thickness = std::sqrt((normal.transpose() * q).squaredNorm() / n);
-  // The Kåsa circle of the points projected into the plane: |a|^2 = 2 c . a + K0.
   Basis plane;
   plane << principal.eigenvectors().col(1), principal.eigenvectors().col(2);
-  Matrix3d ata = Matrix3d::Zero();
-  Vector3d atb = Vector3d::Zero();
+  // |a - c| = R + k t: |a|^2 = 2 c . a + K0 + K1 t + K2 t^2 (AxialSolver::AlgebraicStart), solved
+  // rank-revealing: with two rings t^2 is a constant, one column too many. Its residual, divided
+  // by twice the point's radius |a - c|, is to first order the geometric one, whichever of the
+  // equivalent coefficient sets the solve picks: exactly zero for exact points.
+  Normal ata = Normal::Zero();
+  Row atb = Row::Zero();
   for (long i = 0; i < q.cols(); ++i) {
     const Eigen::Vector2d a = plane.transpose() * q.col(i);
-    const Vector3d row(2.0 * a.x(), 2.0 * a.y(), 1.0);
+    const double t = normal.dot(q.col(i));
+    Row row;
+    row << 2.0 * a.x(), 2.0 * a.y(), 1.0, t, t * t;
     ata.noalias() += row * row.transpose();
     atb += row * a.squaredNorm();
   }
-  const Vector3d x = ata.ldlt().solve(atb);
-  const double r2 = x(2) + x.head<2>().squaredNorm();
-  if (!x.allFinite() || !(r2 > 0.0)) return seen;
-  const double radius = std::sqrt(r2);
-  double sum = 0.0;
+  const Row x = Eigen::CompleteOrthogonalDecomposition<Normal>(ata).solve(atb);
+  if (!x.allFinite()) return seen;
+  double sum = 0.0, radii = 0.0;
   for (long i = 0; i < q.cols(); ++i) {
-    sum += Eigen::numext::abs2((plane.transpose() * q.col(i) - x.head<2>()).norm() - radius);
+    const Eigen::Vector2d a = plane.transpose() * q.col(i);
+    const double t = normal.dot(q.col(i));
+    Row row;
+    row << 2.0 * a.x(), 2.0 * a.y(), 1.0, t, t * t;
+    const double radius = (a - x.head<2>()).norm();
+    radii += radius;
+    if (radius > 0.0) sum += Eigen::numext::abs2((a.squaredNorm() - row.dot(x)) / (2.0 * radius));
   }
-  seen.on_a_circle = std::sqrt(sum / n) <= kSectionCircle * radius;
+  const double radius = radii / n;
+  seen.section_rms = std::sqrt(sum / n);
+  seen.on_a_section =
+      std::isfinite(seen.section_rms) && radius > 0.0 && seen.section_rms <= kSectionCircle * radius;
   return seen;
 }
 
@@ -635,22 +652,23 @@ FitResult FitAxialSurface(TaskKind kind, const Points& points, const FitOptions&
                           std::string_view where) {
   CheckPoints(points, kind, kind == TaskKind::kCylinder ? 5 : 6, false, where);
   const Normalisation norm = Normalise(points, kind, where);
+  // One cross-section, exact or measured (its spread out of its plane at the noise level of the
+  // section). Judged on the point set of the estimates (no orientation given); a Monte Carlo
+  // trial, which starts from that fit's axis, is not judged again, so that no trial of an
+  // accepted set fails at random.
   const PlaneOfThePoints seen = SeenInTheirPlane(norm.q);
-  const double thickness = seen.thickness;
-  if (!(thickness > kFlat)) FailOneSection(kind, where, "");
+  if (!(seen.thickness > kFlat)) FailOneSection(kind, where, "");
+  if (options.orientation.squaredNorm() == 0.0 && seen.on_a_section &&
+      !(seen.thickness > kSectionNoise * seen.section_rms)) {
+    char why[160];
+    std::snprintf(why, sizeof why,
+                  ", measured: %.3g um out of their plane against a scatter of %.3g um about it",
+                  seen.thickness * norm.scale * 1e6, seen.section_rms * norm.scale * 1e6);
+    FailOneSection(kind, where, why);
+  }
   FitResult result = kind == TaskKind::kCylinder
                          ? AxialResult<5>(kind, norm.q, FitAxial<5>(norm.q, kind, options, where), options)
                          : AxialResult<6>(kind, norm.q, FitAxial<6>(norm.q, kind, options, where), options);
-  // Judged on the fit to the estimates (no orientation given); a Monte Carlo trial, which starts
-  // from that fit's axis, is not judged again, so that no trial of an accepted set fails at random.
-  const double rms = result.values(result.values.size() - 1);
-  if (options.orientation.squaredNorm() == 0.0 && seen.on_a_circle && !(thickness > kSectionNoise * rms)) {
-    char why[160];
-    std::snprintf(why, sizeof why,
-                  ", measured: %.3g um out of their plane against an rms residual of %.3g um",
-                  thickness * norm.scale * 1e6, rms * norm.scale * 1e6);
-    FailOneSection(kind, where, why);
-  }
   InCallerCoordinates(norm, result);
   return result;
 }
