@@ -139,17 +139,24 @@ vlt_network_error(air_unknown_sensor air_unknown_sensor.toml
                   "air_unknown_sensor\\.toml: station\\[1\\]\\.environment\\.sensor: unknown air sensor 'WS9'")
 vlt_network_error(air_below_sensor air_below_sensor.toml
                   "air_below_sensor\\.toml: station\\[1\\]\\.environment\\.temperature: u below the u of its sensor 'WS1'")
+vlt_network_error(air_change_no_from air_change_no_from.toml
+                  "air_change_no_from\\.toml: station\\[1\\]\\.environment\\[1\\]\\.from: required key is missing")
+vlt_network_error(air_change_outside air_change_outside.toml
+                  "air_change_outside\\.toml: station\\[1\\]\\.environment\\[1\\]\\.from: outside the station's readings")
+vlt_network_error(air_change_offline air_change_offline.toml
+                  "air_change_offline\\.toml: station\\[1\\]\\.environment\\[1\\]: air that changes during a station's readings is for measured readings")
 
 # Drift (docs/network.md N-12): S2 drifts over 2 h 15 min with three drift checks; the adjustment
 # estimates the drift at every knot (drift.csv, results.json stations[].drift, the report's chart)
-# and the Monte Carlo validation re-adjusts networks whose drift is drawn from its prior.
+# and the Monte Carlo validation re-adjusts networks whose drift is drawn from its prior. S2's air
+# changes at 09:40 (N-2a): results.json stations[].air_changes.
 add_test(NAME cli_network_drift
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
           "-DARGS=network;${_ex}/drift_network.toml;-o;${_out}/network_drift"
           -DOUT=${_out}/network_drift
           "-DFILES=targets.csv;stations.csv;residuals.csv;drift.csv;covariance.csv;tasks.csv;mcm.csv;results.json;report.html"
           "-DEXPECT_STDOUT=Measured network 'drift-network': 3 stations, 18 targets, 216 observations, 84 unknowns, dof 132.*Drift of station S2 over 2[.]25 h [(]4 knots[)]: [0-9.]+ um, U [0-9.]+ um.*the GUM agrees"
-          "-DEXPECT_FILE_REGEX=results.json:\"drift\": {[^}]*\"model\": \"linear\",[^}]*\"translation_rate\": 2[.]7[0-9]*e-09"
+          "-DEXPECT_FILE_REGEX=results.json:\"air_changes\": \\[\n *{\n *\"time\": 1795686000[.]0,\n *\"elapsed_h\": 2[.]166[0-9]*,\n *\"temperature\": 21[.]2,[^}]*\"sensor\": \"WS1\"\n *}\n *\\],\n *\"drift\": {[^}]*\"model\": \"linear\",[^}]*\"translation_rate\": 2[.]7[0-9]*e-09"
           "-DJSON_KEYS=schema;summary;stations;targets;monte_carlo;files"
           -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
 set_tests_properties(cli_network_drift PROPERTIES FIXTURES_SETUP vlt_network_drift)

@@ -6,7 +6,10 @@ from where it was made (created, vlt_version, the data files' paths), and every 
 chi2 and the Birge ratio are sums of hundreds of squared residuals, the correlations come out of a
 dense factorisation, and their last digits follow the BLAS kernels of the processor (seen:
 chi2 = 144.42086781870512 on one x86-64 machine and 144.4208678196114 on another, 6e-12 apart; a
-correlation of 1.6e-7 that is 5e-14 apart); a regression moves them far more.
+correlation of 1.6e-7 that is 5e-14 apart; a parameter the data barely see, estimate 1.4e-8 with
+u 2e-6, 2e-9 relative apart between an AVX2 and an AVX-512 machine): a parameter's estimate is then
+compared to 1e-9 relative or to 1e-9 of its own u, whichever is larger. A regression moves them far
+more.
 
 Usage: compare_calibration.py NEW OLD
 """
@@ -19,7 +22,7 @@ RELATIVE = 1e-9
 CORRELATION_ABSOLUTE = 1e-12
 
 
-def compare(new, old, path, problems):
+def compare(new, old, path, problems, absolute=0.0):
     if isinstance(old, dict) and isinstance(new, dict):
         for key in sorted(set(old) | set(new)):
             if key in IGNORED:
@@ -27,7 +30,10 @@ def compare(new, old, path, problems):
             if key not in new or key not in old:
                 problems.append(f"{path}{key}: only in {'the shipped file' if key in old else 'the new file'}")
                 continue
-            compare(new[key], old[key], f"{path}{key}.", problems)
+            # An estimate beside its u: a billionth of that u is below any regression.
+            u = old.get("u") if key == "estimate" else None
+            floor = RELATIVE * abs(u) if isinstance(u, (int, float)) else 0.0
+            compare(new[key], old[key], f"{path}{key}.", problems, floor)
     elif isinstance(old, list) and isinstance(new, list):
         if len(old) != len(new):
             problems.append(f"{path.rstrip('.')}: {len(new)} entries, shipped {len(old)}")
@@ -40,8 +46,9 @@ def compare(new, old, path, problems):
         elif path.startswith("correlation."):
             if not abs(new - old) <= CORRELATION_ABSOLUTE:
                 problems.append(f"{path.rstrip('.')}: {new!r}, shipped {old!r} (beyond {CORRELATION_ABSOLUTE})")
-        elif not math.isclose(new, old, rel_tol=RELATIVE, abs_tol=0.0):
-            problems.append(f"{path.rstrip('.')}: {new!r}, shipped {old!r} (beyond {RELATIVE} relative)")
+        elif not math.isclose(new, old, rel_tol=RELATIVE, abs_tol=absolute):
+            problems.append(f"{path.rstrip('.')}: {new!r}, shipped {old!r} (beyond {RELATIVE} relative"
+                            + (f" and {absolute:.3g} absolute)" if absolute else ")"))
     elif new != old:
         problems.append(f"{path.rstrip('.')}: {new!r}, shipped {old!r}")
 

@@ -26,6 +26,7 @@
 #include "vlt/conformity.h"
 #include "vlt/measurement_model.h"
 #include "vlt/tasks.h"
+#include "vlt/units.h"
 
 namespace vlt {
 
@@ -66,6 +67,18 @@ struct NetworkDrift {
 // none are given).
 StationPoseVector DriftedPose(const StationPoseVector& pose, const NetworkDrift& drift, double t);
 
+// Air that changes while a station reads (docs/network.md N-2a): from `from` on, the station's
+// readings take this air instead of the one before (the readings' times, TargetReading::time), as a
+// tracker applies its weather station's latest values to every reading it takes. Its inputs are
+// the station's "<station>.air<k>.environment.temperature", ... (k = 2, 3, ... in order of time).
+struct NetworkAirChange {
+  double from = 0.0;  // [s], the readings' origin (seconds since 1970 for dates)
+  TimeKind from_kind = TimeKind::kSeconds;
+  Environment environment;
+  std::string sensor;  // the NetworkAirSensor that gave it, if any
+  std::string where;
+};
+
 struct NetworkStation {
   std::string name;
   int instrument = 0;                                  // index into Network::instruments
@@ -79,6 +92,8 @@ struct NetworkStation {
   // keeps its error parameters. `air_sensor` names the NetworkAirSensor that gave it, if any.
   std::optional<Environment> environment;
   std::string air_sensor;
+  // Later airs, in order of time ([[station.environment]]); `environment` holds until the first.
+  std::vector<NetworkAirChange> air_changes;
   NetworkDrift drift;  // [station.drift] (N-12); disabled: one pose for all its readings
   std::string where;   // "<file>: station[i]"
 };
@@ -148,7 +163,8 @@ struct Network {
 
 // The shared inputs of every instrument, in order: each instrument's MeasurementModel names
 // ("lam", "environment.temperature"), prefixed "<instrument>." when the network has several; then
-// the air of each station that has its own ("S2.environment.temperature", ...).
+// the air of each station that has its own ("S2.environment.temperature", ...), each later air of a
+// station whose air changes after its first ("S2.air2.environment.temperature", ...).
 std::vector<std::string> NetworkSharedInputNames(const Network& network);
 
 // A drifting station at one knot t_k of its drift model (N-12): its pose change since t_0,
@@ -205,7 +221,8 @@ struct AdjustedDistance {
 
 // An observation the robust adjustment removed (docs/network.md N-8a), in the order removed.
 struct RejectedObservation {
-  std::string station, target;  // a reading (station, target, face) or a distance (station "", target = its name)
+  // A reading (station, target, face) or a distance (station "", target = its name).
+  std::string station, target;
   Face face = Face::kFront;
   bool distance = false;
   std::string where;
@@ -240,11 +257,11 @@ struct NetworkResult {
   std::vector<int> station_offset;  // per station: first index in covariance, -1 datum
   std::vector<int> target_offset;   // per target
   std::vector<NetworkResidual> residuals;
-  std::vector<AdjustedDistance> distances;      // scale bars and measured distances kept
-  std::vector<RejectedObservation> rejected;    // removed by the robust adjustment
-  double rejection_limit = 0.0;                 // |w| above which it removes (0: not robust)
-  std::vector<std::string> warnings;            // the fit test failed (FitProblem), the robust rule stopped early
-  int observations = 0;  // scalar observations incl. reference coordinates and priors
+  std::vector<AdjustedDistance> distances;    // scale bars and measured distances kept
+  std::vector<RejectedObservation> rejected;  // removed by the robust adjustment
+  double rejection_limit = 0.0;               // |w| above which it removes (0: not robust)
+  std::vector<std::string> warnings;  // the fit test failed (FitProblem), the robust rule stopped early
+  int observations = 0;               // scalar observations incl. reference coordinates and priors
   int unknowns = 0;
   int dof = 0;
   double chi2 = 0.0, birge_ratio = 0.0, p_value = 0.0;
@@ -338,10 +355,10 @@ struct NetworkLengthTest {
 
 struct NetworkLengthError {
   std::string station, from, to;
-  double length = 0.0;  // L_ref [m]
-  double error = 0.0;   // E = L_station - L_ref [m]
-  double u = 0.0, U = 0.0;  // of L_ref [m]
-  double mpe = 0.0;     // A + B L_ref [m]
+  double length = 0.0;          // L_ref [m]
+  double error = 0.0;           // E = L_station - L_ref [m]
+  double u = 0.0, U = 0.0;      // of L_ref [m]
+  double mpe = 0.0;             // A + B L_ref [m]
   ConformityDecision decision;  // E against [-MPE, MPE], guard band U
 };
 
@@ -364,11 +381,11 @@ struct NetworkJob {
   std::vector<TaskSpec> tasks;                                   // [[task]] over target names (as in a job)
   std::vector<std::pair<std::string, std::string>> input_files;  // (role, path): the file, CSVs
   std::vector<std::string> warnings;
-  std::string output_directory;  // [output] directory, "" = default
+  std::string output_directory;                  // [output] directory, "" = default
   std::optional<NetworkLengthTest> length_test;  // [network.length_test] (N-13)
-  int monte_carlo_trials = 0;    // [network.monte_carlo] trials (0: no validation)
+  int monte_carlo_trials = 0;                    // [network.monte_carlo] trials (0: no validation)
   std::uint64_t monte_carlo_seed = 20090101;
-  std::string text;                // the file's text (for simulated_network.toml)
+  std::string text;  // the file's text (for simulated_network.toml)
   // Offline: each [[drift_check]]'s `where`, which its planned readings carry (N-12): the simulated
   // measurement writes them to the check's own readings file.
   std::vector<std::string> drift_check_where;

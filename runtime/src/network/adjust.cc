@@ -321,8 +321,14 @@ PreparedReadings PrepareReadings(const Network& network, const network_internal:
         prepared.target_stations.emplace_back();
         prepared.target_readings.push_back(0);
       }
+      if (!st.air_changes.empty() && !reading.time) {
+        throw InputError(
+            reading.where + ": station '" + st.name +
+            "' has air that changes: its readings need their time (a time column, docs/network.md "
+            "N-2a)");
+      }
       Observation obs =
-          PrepareObservation(instruments, reading, instruments.station_model[i], i, r, it->second);
+          PrepareObservation(instruments, reading, instruments.ReadingModel(i, reading), i, r, it->second);
       obs.poses = ReadingPoses(network, segments, i, reading);
       prepared.target_stations[obs.target].insert(i);
       ++prepared.target_readings[obs.target];
@@ -1265,8 +1271,8 @@ struct Adjustment {
     static const char* kReading[3] = {"range", "azimuth", "elevation"};
     const auto it = readings.target_index.find(reading.target);
     if (it == readings.target_index.end()) return false;
-    Observation obs =
-        PrepareObservation(instruments, reading, instruments.station_model[station], station, 0, it->second);
+    Observation obs = PrepareObservation(instruments, reading, instruments.ReadingModel(station, reading),
+                                         station, 0, it->second);
     obs.poses = ReadingPoses(network, segments, station, reading);
     Eigen::Vector3d residual;
     const Eigen::MatrixXd j = ReadingJacobian(obs, residual.data());

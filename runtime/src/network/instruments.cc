@@ -51,23 +51,28 @@ bool AirIsCorrelated(const MeasurementModel& m, int params) {
   return false;
 }
 
-// Stations reading one air sensor share its calibration error (N-2a): cov = u_sensor^2 per quantity
-// between their air inputs, the rest of each station's u its own.
-void CorrelateSharedSensors(const Network& network, Instruments& in) {
-  const int stations = static_cast<int>(network.stations.size());
-  for (int a = 0; a < stations; ++a) {
-    const NetworkStation& sa = network.stations[a];
-    if (!sa.environment || sa.air_sensor.empty()) continue;
+// One air of a station: its model (the instrument with that air) and the sensor that gave it.
+struct StationAir {
+  int model = 0;
+  const std::string* sensor = nullptr;
+  std::string where;
+};
+
+// Airs read by one sensor share its calibration error (N-2a): cov = u_sensor^2 per quantity
+// between their inputs — two stations', or two times' of one station — the rest of each air's u
+// its own.
+void CorrelateSharedSensors(const Network& network, const std::vector<StationAir>& airs, Instruments& in) {
+  for (const StationAir& a : airs) {
+    if (a.sensor->empty()) continue;
     const NetworkAirSensor* sensor = nullptr;
     for (const NetworkAirSensor& s : network.air_sensors)
-      if (s.name == sa.air_sensor) sensor = &s;
-    if (!sensor) throw InputError(sa.where + ".environment.sensor: unknown air sensor '" + sa.air_sensor + "'");
+      if (s.name == *a.sensor) sensor = &s;
+    if (!sensor) throw InputError(a.where + ".sensor: unknown air sensor '" + *a.sensor + "'");
     const double u_sensor[3] = {sensor->u_temperature, sensor->u_pressure, sensor->u_humidity};
-    for (int b = 0; b < stations; ++b) {
-      const NetworkStation& sb = network.stations[b];
-      if (a == b || !sb.environment || sb.air_sensor != sa.air_sensor) continue;
-      const std::vector<int>& ia = in.inputs[in.station_model[a]];
-      const std::vector<int>& ib = in.inputs[in.station_model[b]];
+    for (const StationAir& b : airs) {
+      if (&a == &b || *b.sensor != *a.sensor) continue;
+      const std::vector<int>& ia = in.inputs[a.model];
+      const std::vector<int>& ib = in.inputs[b.model];
       const int air_a = static_cast<int>(ia.size()) - 4, air_b = static_cast<int>(ib.size()) - 4;
       for (int q = 0; q < 3; ++q) {
         const int x = ia[air_a + q], y = ib[air_b + q];
@@ -80,13 +85,43 @@ void CorrelateSharedSensors(const Network& network, Instruments& in) {
   }
 }
 
+// A model of station `st`'s instrument with the air `air`: the instrument's error parameters, the
+// air's own inputs named `prefix`environment.temperature, ...; returns its index.
+int AppendStationAir(const Network& network, const NetworkStation& st, const Environment& air,
+                     const std::string& prefix, Instruments& in) {
+  const MeasurementModel& instrument_model = in.models[st.instrument];
+  const int params = static_cast<int>(network.instruments[st.instrument].setup.params.size());
+  if (AirIsCorrelated(instrument_model, params)) {
+    throw InputError(st.where +
+                     ".environment: the instrument's [correlations] tie its air to other inputs; "
+                     "air per station takes the air's inputs as independent");
+  }
+  MeasurementSetup setup = instrument_model.setup();
+  setup.environment = air;
+  in.models.emplace_back(setup);
+  std::vector<int> indices(in.inputs[st.instrument].begin(), in.inputs[st.instrument].begin() + params);
+  const std::vector<int> own = AppendBlock(in, in.models.back(), params, prefix, nullptr);
+  indices.insert(indices.end(), own.begin(), own.end());
+  in.inputs.push_back(indices);
+  return static_cast<int>(in.models.size()) - 1;
+}
+
 }  // namespace
 
 Eigen::VectorXd Instruments::Local(int model, const Eigen::VectorXd& stacked_values) const {
   const std::vector<int>& index = inputs[model];
   Eigen::VectorXd local(index.size());
-  for (std::size_t i = 0; i < index.size(); ++i) local(static_cast<Eigen::Index>(i)) = stacked_values(index[i]);
+  for (std::size_t i = 0; i < index.size(); ++i)
+    local(static_cast<Eigen::Index>(i)) = stacked_values(index[i]);
   return local;
+}
+
+int Instruments::ReadingModel(int station, const TargetReading& reading) const {
+  int model = station_model[station];
+  if (!reading.time) return model;
+  for (const auto& [from, later] : air_changes[station])
+    if (*reading.time >= from) model = later;
+  return model;
 }
 
 Instruments MakeInstruments(const Network& network) {
@@ -104,31 +139,29 @@ Instruments MakeInstruments(const Network& network) {
     setup.pose.reset();
     setup.thermal.reset();
     in.models.emplace_back(setup);
-    in.inputs.push_back(AppendBlock(in, in.models.back(), 0, several ? instrument.name + "." : std::string(),
-                                    setup.model));
+    in.inputs.push_back(
+        AppendBlock(in, in.models.back(), 0, several ? instrument.name + "." : std::string(), setup.model));
   }
-  // Stations with air of their own: the instrument's error parameters, the station's air.
+  // Stations with air of their own: the instrument's error parameters, the station's air (one model
+  // per air when it changes).
+  std::vector<StationAir> airs;
   for (const NetworkStation& st : network.stations) {
+    in.air_changes.emplace_back();
     if (!st.environment) {
       in.station_model.push_back(st.instrument);
       continue;
     }
-    const MeasurementModel& instrument_model = in.models[st.instrument];
-    const int params = static_cast<int>(network.instruments[st.instrument].setup.params.size());
-    if (AirIsCorrelated(instrument_model, params)) {
-      throw InputError(st.where + ".environment: the instrument's [correlations] tie its air to other inputs; "
-                                  "air per station takes the air's inputs as independent");
+    in.station_model.push_back(AppendStationAir(network, st, *st.environment, st.name + ".", in));
+    airs.push_back({in.station_model.back(), &st.air_sensor, st.where + ".environment"});
+    for (std::size_t k = 0; k < st.air_changes.size(); ++k) {
+      const NetworkAirChange& change = st.air_changes[k];
+      const int model = AppendStationAir(network, st, change.environment,
+                                         st.name + ".air" + std::to_string(k + 2) + ".", in);
+      in.air_changes.back().emplace_back(change.from, model);
+      airs.push_back({model, &change.sensor, change.where});
     }
-    MeasurementSetup setup = instrument_model.setup();
-    setup.environment = st.environment;
-    in.models.emplace_back(setup);
-    std::vector<int> indices(in.inputs[st.instrument].begin(), in.inputs[st.instrument].begin() + params);
-    const std::vector<int> air = AppendBlock(in, in.models.back(), params, st.name + ".", nullptr);
-    indices.insert(indices.end(), air.begin(), air.end());
-    in.inputs.push_back(indices);
-    in.station_model.push_back(static_cast<int>(in.models.size()) - 1);
   }
-  CorrelateSharedSensors(network, in);
+  CorrelateSharedSensors(network, airs, in);
   std::set<std::string> unique;
   for (const std::string& name : in.names) {
     if (!unique.insert(name).second)

@@ -23,13 +23,14 @@ bool Rejected(const NetworkResult& result, const std::string& station, const Tar
 // Station i's own point of every target it read (station frame, the instrument at its estimates:
 // what the instrument reports), the mean of its kept readings.
 std::map<std::string, Eigen::Vector3d> StationPoints(const Network& network, const NetworkResult& result,
-                                                     const network_internal::Instruments& instruments, int i) {
+                                                     const network_internal::Instruments& instruments,
+                                                     int i) {
   const NetworkStation& st = network.stations[i];
-  const int k = instruments.station_model[i];
-  const Eigen::VectorXd shared = instruments.Local(k, instruments.s0);
   std::map<std::string, std::pair<Eigen::Vector3d, int>> sum;
   for (const TargetReading& r : st.readings) {
     if (Rejected(result, st.name, r)) continue;
+    const int k = instruments.ReadingModel(i, r);  // the air in force at the reading (N-2a)
+    const Eigen::VectorXd shared = instruments.Local(k, instruments.s0);
     Eigen::Vector3d y;
     instruments.models[k].Evaluate(r.readings.data(), shared.data(), y.data());
     auto& [acc, count] = sum[r.target];

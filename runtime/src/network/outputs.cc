@@ -241,22 +241,32 @@ void StationsTable(std::ostringstream& body, const NetworkResult& result) {
   body << "</table></section>\n";
 }
 
-// The air of the stations that have their own (N-2a), with the sensor that gave it.
-void StationAirTable(std::ostringstream& body, const Network& network) {
+// One row of the air table: a station's air from `elapsed_h` on ("start" for its first).
+void AirRow(std::ostringstream& body, const std::string& station, const std::string& from,
+            const Environment& air, const std::string& sensor) {
+  body << "<tr><td class=\"l\">" << HtmlEscape(station) << "</td><td>" << from << "</td><td>"
+       << Fixed(air.temperature.estimate, 2) << "</td><td>" << Fixed(air.temperature.u, 2) << "</td><td>"
+       << Fixed(air.pressure.estimate, 0) << "</td><td>" << Fixed(air.pressure.u, 0) << "</td><td>"
+       << Fixed(air.humidity.estimate, 1) << "</td><td>" << Fixed(air.humidity.u, 1)
+       << "</td><td class=\"l\">" << HtmlEscape(sensor.empty() ? "-" : sensor) << "</td></tr>";
+}
+
+// The air of the stations that have their own (N-2a), with the sensor that gave it; an air that
+// changes during a station's readings one row per change, from the hours since the network's
+// first reading.
+void StationAirTable(std::ostringstream& body, const Network& network, double origin) {
   body << "<section><h2>Air per station</h2><p class=\"note\">Each of these stations' ranges are "
-          "corrected with its own air; its u is propagated as the station's own inputs, correlated "
-          "between stations that read one sensor through the sensor's u. Other stations take "
-          "their instrument's air.</p><table><tr><th class=\"l\">station</th><th>temperature / degC</th>"
+          "corrected with its own air (from the time given on, where it changes while the station "
+          "reads); its u is propagated as the station's own inputs, correlated between airs that "
+          "read one sensor through the sensor's u. Other stations take their instrument's air.</p>"
+          "<table><tr><th class=\"l\">station</th><th>from / h</th><th>temperature / degC</th>"
           "<th>u / K</th><th>pressure / Pa</th><th>u / Pa</th><th>humidity / %</th><th>u / %</th>"
           "<th class=\"l\">sensor</th></tr>";
   for (const NetworkStation& st : network.stations) {
     if (!st.environment) continue;
-    const Environment& air = *st.environment;
-    body << "<tr><td class=\"l\">" << HtmlEscape(st.name) << "</td><td>" << Fixed(air.temperature.estimate, 2)
-         << "</td><td>" << Fixed(air.temperature.u, 2) << "</td><td>" << Fixed(air.pressure.estimate, 0)
-         << "</td><td>" << Fixed(air.pressure.u, 0) << "</td><td>" << Fixed(air.humidity.estimate, 1)
-         << "</td><td>" << Fixed(air.humidity.u, 1) << "</td><td class=\"l\">"
-         << HtmlEscape(st.air_sensor.empty() ? "-" : st.air_sensor) << "</td></tr>";
+    AirRow(body, st.name, "start", *st.environment, st.air_sensor);
+    for (const NetworkAirChange& change : st.air_changes)
+      AirRow(body, st.name, Fixed((change.from - origin) / 3600.0, 3), change.environment, change.sensor);
   }
   body << "</table></section>\n";
 }
@@ -543,7 +553,7 @@ std::string NetworkReport(const NetworkJob& job, const NetworkResult& result, co
   if (job.length_test) LengthTestSection(body, job, lengths);
   for (const NetworkStation& st : job.network.stations) {
     if (st.environment) {
-      StationAirTable(body, job.network);
+      StationAirTable(body, job.network, TimeOrigin(job.network));
       break;
     }
   }
@@ -871,6 +881,17 @@ nlohmann::ordered_json JobJson(const NetworkJob& job) {
 }
 
 // A station's drift model and its knots (N-12); null without one.
+// An air of a station (N-2a): estimates and u in degC, K, Pa, %, and its sensor ("" for none).
+nlohmann::ordered_json AirJson(const Environment& air, const std::string& sensor) {
+  return {{"temperature", air.temperature.estimate},
+          {"u_temperature", air.temperature.u},
+          {"pressure", air.pressure.estimate},
+          {"u_pressure", air.pressure.u},
+          {"humidity", air.humidity.estimate},
+          {"u_humidity", air.humidity.u},
+          {"sensor", sensor}};
+}
+
 nlohmann::ordered_json DriftJson(const NetworkDrift& drift, const AdjustedStation& st, double origin) {
   if (!drift.enabled) return nullptr;
   nlohmann::ordered_json o;
@@ -906,13 +927,20 @@ nlohmann::ordered_json StationsJson(const NetworkJob& job, const NetworkResult& 
     for (int c = 0; c < 6; ++c) u[c] = std::sqrt(st.covariance(c, c));
     o["u"] = u;
     // The station's own air (N-2a): estimates and u in degC, K, Pa, %; null when it has the instrument's.
-    if (const auto& air = job.network.stations[i].environment) {
-      o["air"] = {{"temperature", air->temperature.estimate},    {"u_temperature", air->temperature.u},
-                  {"pressure", air->pressure.estimate},          {"u_pressure", air->pressure.u},
-                  {"humidity", air->humidity.estimate},          {"u_humidity", air->humidity.u},
-                  {"sensor", job.network.stations[i].air_sensor}};
+    // Air that changes while it reads: `air_changes`, each from `time` [s] (`elapsed_h`) on.
+    const NetworkStation& station = job.network.stations[i];
+    if (station.environment) {
+      o["air"] = AirJson(*station.environment, station.air_sensor);
+      nlohmann::ordered_json changes = nlohmann::ordered_json::array();
+      for (const NetworkAirChange& change : station.air_changes) {
+        nlohmann::ordered_json c = {{"time", change.from}, {"elapsed_h", (change.from - origin) / 3600.0}};
+        c.update(AirJson(change.environment, change.sensor));
+        changes.push_back(c);
+      }
+      o["air_changes"] = changes;
     } else {
       o["air"] = nullptr;
+      o["air_changes"] = nlohmann::ordered_json::array();
     }
     o["drift"] = DriftJson(job.network.stations[i].drift, st, origin);
     stations.push_back(o);

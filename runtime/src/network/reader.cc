@@ -108,6 +108,7 @@ struct NetworkFileReader {
   int InstrumentOf(Section& s);
   void ReadPose(Section& s, NetworkStation& st);
   void ReadAirSensors();
+  Environment ReadOneAir(Section& air, const NetworkStation& st, std::string& sensor_name);
   void ReadStationAir(Section& s, NetworkStation& st);
   void ReadOnlineReadings(Section& s, NetworkStation& st);
   std::vector<PlannedSighting> Sightings(Section& s, const toml::node& see);
@@ -126,6 +127,7 @@ struct NetworkFileReader {
   void ReadDriftChecks();
   void DriftKnots();
   void CheckTimes();
+  void CheckAirChanges() const;
 };
 
 // The instruments: [[instrument]] tables (each with its own [instrument.tracker],
@@ -313,23 +315,22 @@ void NetworkFileReader::ReadAirSensors() {
   });
 }
 
-// [station.environment]: the air at the station, read as an [environment]; the wavelength and the
-// equation default to the instrument's (the same laser). `sensor` names an [[air_sensor]], whose u
-// is part of the station's: the station's u of each quantity may not be smaller.
-void NetworkFileReader::ReadStationAir(Section& s, NetworkStation& st) {
-  Section air = s.Sub("environment", false);
-  if (!air.exists()) return;
+// One air of a station ([station.environment] or one of its [[station.environment]] tables), read
+// as an [environment]; the wavelength and the equation default to the instrument's (the same
+// laser). `sensor` names an [[air_sensor]] (default: `sensor_name`, the station's first air's),
+// whose u is part of the station's: the station's u of each quantity may not be smaller.
+Environment NetworkFileReader::ReadOneAir(Section& air, const NetworkStation& st, std::string& sensor_name) {
   const NetworkAirSensor* sensor = nullptr;
-  if (const toml::node* n = air.Get("sensor")) {
-    st.air_sensor = AsString(*n, air.Where("sensor"));
+  if (const toml::node* n = air.Get("sensor")) sensor_name = AsString(*n, air.Where("sensor"));
+  if (!sensor_name.empty()) {
     for (const NetworkAirSensor& candidate : net.air_sensors)
-      if (candidate.name == st.air_sensor) sensor = &candidate;
+      if (candidate.name == sensor_name) sensor = &candidate;
     if (!sensor)
-      throw InputError(air.Where("sensor") + ": unknown air sensor '" + st.air_sensor +
+      throw InputError(air.Where("sensor") + ": unknown air sensor '" + sensor_name +
                        "' (not in [[air_sensor]])");
   }
   const bool wavelength = air.table().contains("wavelength"), equation = air.table().contains("equation");
-  Environment env = ReadAir(air, job.warnings, "sensor");
+  Environment env = ReadAir(air, job.warnings, "sensor, from");
   if (const auto& own = net.instruments[st.instrument].setup.environment) {
     if (!wavelength) env.vacuum_wavelength = own->vacuum_wavelength;
     if (!equation) env.equation = own->equation;
@@ -343,12 +344,62 @@ void NetworkFileReader::ReadStationAir(Section& s, NetworkStation& st) {
                        {"humidity", env.humidity.u, sensor->u_humidity}};
     for (const auto& q : quantities) {
       if (q.station_u < q.sensor_u) {
-        throw InputError(air.Where(q.key) + ": u below the u of its sensor '" + st.air_sensor +
+        throw InputError(air.Where(q.key) + ": u below the u of its sensor '" + sensor_name +
                          "' (the air at a station is not known better than its sensor knows it)");
       }
     }
   }
-  st.environment = env;
+  return env;
+}
+
+// [station.environment]: the air at the station (N-2a). As [[station.environment]] tables, the air
+// changes while the station reads: the first table's air holds from its first reading, each later
+// one's from its `from` (a time, as the readings' times) on, as a tracker applies its weather
+// station's latest values to every reading it takes.
+void NetworkFileReader::ReadStationAir(Section& s, NetworkStation& st) {
+  const toml::node* node = s.Get("environment");
+  if (!node) return;
+  if (node->is_table()) {
+    Section air = s.Sub("environment", false);
+    if (air.Get("from"))
+      throw InputError(air.Where("from") +
+                       ": one air holds for all the station's readings; air that changes "
+                       "is given as [[station.environment]] tables");
+    st.environment = ReadOneAir(air, st, st.air_sensor);
+    return;
+  }
+  if (!node->is_array() || node->as_array()->empty())
+    throw InputError(s.Where("environment") + ": expected a table or [[station.environment]] tables");
+  int index = 0;
+  for (const toml::node& e : *node->as_array()) {
+    const std::string path = s.path() + ".environment[" + std::to_string(index) + "]";
+    if (!e.is_table()) throw InputError(this->path + ": " + path + ": expected a table");
+    Section air(*e.as_table(), this->path, path);
+    const toml::node* from = air.Get("from");
+    if (index == 0) {
+      if (from)
+        throw InputError(air.Where("from") +
+                         ": the first air holds from the station's first reading (no from)");
+      st.environment = ReadOneAir(air, st, st.air_sensor);
+    } else {
+      if (!from)
+        throw InputError(air.Where("from") + ": required key is missing (the time this air holds from)");
+      NetworkAirChange change;
+      change.where = air.WhereSelf();
+      const TimeValue time = Time(*from, air.Where("from"));
+      change.from = time.seconds;
+      change.from_kind = time.kind;
+      if (!st.air_changes.empty() && !(change.from > st.air_changes.back().from)) {
+        throw InputError(air.Where("from") +
+                         ": not after the air before it (the station's air is given in the "
+                         "order of time)");
+      }
+      change.sensor = st.air_sensor;
+      change.environment = ReadOneAir(air, st, change.sensor);
+      st.air_changes.push_back(std::move(change));
+    }
+    ++index;
+  }
 }
 
 // Online: the CSV of what the station read, with its instrument's reading noise.
@@ -700,6 +751,41 @@ void NetworkFileReader::CheckTimes() {
   }
 }
 
+// A station whose air changes (N-2a) takes each reading's air by its time: every reading needs one,
+// of the kind the changes are given in; an offline station plans no times for its air.
+void NetworkFileReader::CheckAirChanges() const {
+  for (const NetworkStation& st : net.stations) {
+    if (st.air_changes.empty()) continue;
+    const NetworkAirChange& change = st.air_changes.front();
+    if (job.offline) {
+      throw InputError(change.where +
+                       ": air that changes during a station's readings is for measured readings "
+                       "(their times); plan a station per air");
+    }
+    for (const TargetReading& r : st.readings) {
+      if (!r.time) {
+        throw InputError(r.where + ": station '" + st.name +
+                         "' has air that changes: every reading needs its time (readings.columns.time)");
+      }
+      if (r.time_kind != change.from_kind) {
+        throw InputError(change.where + ".from: " + std::string(TimeKindName(change.from_kind)) + ", but " +
+                         r.where + " gives " + std::string(TimeKindName(r.time_kind)) +
+                         " (one kind of time, one origin, in a network)");
+      }
+    }
+    const auto [earliest, latest] =
+        std::minmax_element(st.readings.begin(), st.readings.end(),
+                            [](const TargetReading& a, const TargetReading& b) { return *a.time < *b.time; });
+    for (const NetworkAirChange& c : st.air_changes) {
+      if (!(c.from > *earliest->time) || c.from > *latest->time) {
+        throw InputError(c.where +
+                         ".from: outside the station's readings (after its first, at or before its "
+                         "last): no reading would take this air");
+      }
+    }
+  }
+}
+
 // The knots of each drifting station: its first reading, its drift checks, its last reading.
 void NetworkFileReader::DriftKnots() {
   for (NetworkStation& st : net.stations) {
@@ -792,6 +878,7 @@ NetworkJob LoadNetworkJob(const std::string& path) {
   if (job.offline) reader.PlanOfflineReadings();
   // After the planning: an offline station's readings (and their planned times) exist from here.
   reader.CheckTimes();
+  reader.CheckAirChanges();
   reader.DriftKnots();
   reader.ReadNetworkTasks();
   top.Finish();

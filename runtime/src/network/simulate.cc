@@ -104,10 +104,10 @@ Network SimulateNetwork(const Network& network, const TargetList& truth, std::ui
   std::uint64_t counter = 0;
   for (std::size_t i = 0; i < out.stations.size(); ++i) {
     NetworkStation& st = out.stations[i];
-    const int k = instruments.station_model[i];
-    const MeasurementModel& model = instruments.models[k];
-    const Eigen::VectorXd shared = instruments.Local(k, s_true);
     for (TargetReading& reading : st.readings) {
+      const int k = instruments.ReadingModel(static_cast<int>(i), reading);  // its air (N-2a)
+      const MeasurementModel& model = instruments.models[k];
+      const Eigen::VectorXd shared = instruments.Local(k, s_true);
       const auto it = where_is.find(reading.target);
       if (it == where_is.end())
         throw InputError(reading.where + ": no true position of '" + reading.target + "'");
@@ -135,7 +135,8 @@ Network SimulateNetwork(const Network& network, const TargetList& truth, std::ui
     if (from == where_is.end() || to == where_is.end())
       throw InputError(d.where + ": no true position of '" + (from == where_is.end() ? d.from : d.to) + "'");
     d.length = (to->second - from->second).norm() + d.u * normal(3, k);
-    if (d.scale_bar) d.calibrated_length = d.length / (1.0 + d.cte * (d.temperature - d.reference_temperature));
+    if (d.scale_bar)
+      d.calibrated_length = d.length / (1.0 + d.cte * (d.temperature - d.reference_temperature));
   }
   return out;
 }
