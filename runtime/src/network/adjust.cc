@@ -605,6 +605,11 @@ struct Adjustment {
   Eigen::MatrixXd h, schur, c_aa;
   // Covariance, internal order, and the result's order.
   Eigen::MatrixXd cov_internal, consider_part, c_ta;
+  // The consider gain K = -N^-1 J^T B_c (internal order, n x C), and the shared inputs at the
+  // solution. Data snooping with the consider inputs as random effects (N-8): L (Sigma_c = L L^T),
+  // M^-1 = (I + L^T (B^T B - G^T N^-1 G) L)^-1, and z_hat, the random effects' estimate (units of L).
+  Eigen::MatrixXd consider_gain, consider_factor, effects_inverse;
+  Eigen::VectorXd s_hat, effects;
   int target_start = 0, e_start = 0;
   NetworkResult result;
   // A Monte Carlo trial (network/adjust.h): solver tolerances and covariance blocks for its needs.
@@ -804,9 +809,9 @@ struct Adjustment {
     e.resize(3 * observations.size());
     j_local.resize(observations.size());
     b_consider.resize(observations.size());
-    Eigen::VectorXd s_hat = s0;
+    s_hat = s0;
     for (int k = 0; k < E; ++k) s_hat(split.estimated[k]) = s_est(k);
-    for (std::size_t o = 0; o < observations.size(); ++o) AddReading(o, s_hat);
+    for (std::size_t o = 0; o < observations.size(); ++o) AddReading(o);
     chi2 = e.squaredNorm();
     e_distance.resize(static_cast<int>(distances.size()));
     for (std::size_t k = 0; k < distances.size(); ++k) AddDistance(k);
@@ -877,7 +882,56 @@ struct Adjustment {
     return j * c_local * j.transpose();
   }
 
-  void AddReading(std::size_t o, const Eigen::VectorXd& s_hat) {
+  // --- Data snooping with the consider inputs as random effects (N-8). The adjustment weights the
+  // readings by their noise; the consider inputs' errors delta_c = L z (z ~ N(0, I)) move every
+  // whitened residual by S L z, S = B_c + J K (its own sensitivity B_c and the estimate's, K the
+  // consider gain). A misfit that their stated u explains is no gross error, so the w test runs in
+  // the model with z as unknowns of prior N(0, I) — the generalised least squares of the readings
+  // with their full covariance (noise + B_c Sigma_c B_c^T). From the solution at hand (J^T e = 0):
+  //   M = I + L^T (B^T B - G^T N^-1 G) L,   z_hat = -M^-1 L^T B^T e,
+  //   e_aug = e + S L z_hat,   r_aug = r - diag(S L M^-1 L^T S^T),
+  // and w = e_aug / sqrt(r_aug): Baarda's w of that model (C = 0: Baarda's w of this one).
+  void ConsiderAsRandomEffects(const Eigen::MatrixXd& sigma_c) {
+    if (C == 0) return;
+    // L from the eigenvalues: Sigma_c may be singular (a correlation of +-1).
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(sigma_c);
+    consider_factor = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+    Eigen::MatrixXd btb = Eigen::MatrixXd::Zero(C, C);
+    Eigen::VectorXd bte = Eigen::VectorXd::Zero(C);
+    for (std::size_t o = 0; o < observations.size(); ++o) {
+      btb += b_consider[o].transpose() * b_consider[o];
+      bte += b_consider[o].transpose() * e.segment<3>(3 * static_cast<Eigen::Index>(o));
+    }
+    // G^T N^-1 G = -g^T K.
+    Eigen::MatrixXd m = Eigen::MatrixXd::Identity(C, C) +
+                        consider_factor.transpose() * (btb + g.transpose() * consider_gain) * consider_factor;
+    m = 0.5 * (m + m.transpose()).eval();
+    const Eigen::LLT<Eigen::MatrixXd> llt(m);
+    effects_inverse = llt.solve(Eigen::MatrixXd::Identity(C, C));
+    effects = -effects_inverse * (consider_factor.transpose() * bte);
+  }
+
+  // S L of a reading (3 x C): how its whitened residual moves with the random effects z.
+  Eigen::MatrixXd ReadingEffects(const Observation& obs, const Eigen::MatrixXd& j,
+                                 const Eigen::Matrix<double, 3, Eigen::Dynamic>& b) const {
+    const std::vector<int> index = LocalIndex(obs);
+    Eigen::MatrixXd s = b;
+    for (std::size_t r = 0; r < index.size(); ++r)
+      if (index[r] >= 0) s += j.col(static_cast<Eigen::Index>(r)) * consider_gain.row(index[r]);
+    return s * consider_factor;
+  }
+
+  // S L of a distance's whitened residual (|x_to - x_from| - L) / u (1 x C): no consider input of its
+  // own, S = grad K / u over its two targets.
+  Eigen::RowVectorXd DistanceEffects(const DistanceObservation& d, const Eigen::Matrix<double, 6, 1>& grad,
+                                     double u) const {
+    const Eigen::RowVectorXd s = (grad.head<3>().transpose() * consider_gain.middleRows<3>(a + 3 * d.from) +
+                                  grad.tail<3>().transpose() * consider_gain.middleRows<3>(a + 3 * d.to)) /
+                                 u;
+    return s * consider_factor;
+  }
+
+  void AddReading(std::size_t o) {
     const Observation& obs = observations[o];
     j_local[o] = ReadingJacobian(obs, e.data() + 3 * o);
     const Eigen::MatrixXd& j = j_local[o];
@@ -1064,6 +1118,8 @@ struct Adjustment {
     for (int p = 0; p < C; ++p)
       for (int q = 0; q < C; ++q) sigma_c(p, q) = sigma_shared(split.consider[p], split.consider[q]);
     if (C > 0) consider_part = gain * sigma_c * gain.transpose();
+    consider_gain = gain;
+    ConsiderAsRandomEffects(sigma_c);
     // The result's order [poses | targets | s_E] from the internal [poses | s_E | targets], block by
     // block.
     const int in_start[3] = {0, a, e_offset}, out_start[3] = {0, target_start, e_start},
@@ -1257,7 +1313,14 @@ struct Adjustment {
         grad.dot(PairBlock(result.covariance, target_start + 3 * d.from, target_start + 3 * d.to) * grad)));
     out.normalised = -e_distance(static_cast<Eigen::Index>(k));
     out.redundancy = std::clamp(1.0 - hat, 0.0, 1.0);
-    out.w = out.redundancy > 1e-9 ? out.normalised / std::sqrt(out.redundancy) : 0.0;
+    // The w test with the consider inputs as random effects (N-8), in the sign of `normalised`.
+    double e_test = out.normalised, r_test = out.redundancy;
+    if (C > 0) {
+      const Eigen::RowVectorXd sl = DistanceEffects(d, grad, d.u);
+      e_test -= sl.dot(effects);
+      r_test -= sl.dot(effects_inverse * sl.transpose());
+    }
+    out.w = r_test > 1e-9 ? e_test / std::sqrt(r_test) : 0.0;
     out.outlier = std::abs(out.w) > network.outlier_limit;
     result.outliers += out.outlier ? 1 : 0;
     result.distances.push_back(std::move(out));
@@ -1277,9 +1340,23 @@ struct Adjustment {
     Eigen::Vector3d residual;
     const Eigen::MatrixXd j = ReadingJacobian(obs, residual.data());
     const Eigen::Matrix3d hat = ReadingHat(obs, j);
+    Eigen::Vector3d y;
+    Eigen::Matrix3d dy_dr;
+    Eigen::MatrixXd dy_ds;
+    EvaluateReading(instruments, obs, s_hat, y, dy_dr, dy_ds);
+    Eigen::Matrix<double, 3, Eigen::Dynamic> b(3, C);
+    for (int c = 0; c < C; ++c) b.col(c) = obs.whitening * dy_ds.col(split.consider[c]);
+    // Its misfit to the estimate with the consider inputs as random effects (N-8): the residual
+    // moves by S L z_hat, its variance grows by S L M^-1 L^T S^T.
+    Eigen::Vector3d variance = Eigen::Vector3d::Ones() + hat.diagonal().cwiseMax(0.0);
+    if (C > 0) {
+      const Eigen::MatrixXd sl = ReadingEffects(obs, j, b);
+      residual += sl * effects;
+      variance += (sl * effects_inverse * sl.transpose()).diagonal();
+    }
     out.w_after = 0.0;
     for (int c = 0; c < 3; ++c) {
-      const double w = residual(c) / std::sqrt(1.0 + std::max(0.0, hat(c, c)));
+      const double w = residual(c) / std::sqrt(variance(c));
       if (std::abs(w) >= std::abs(out.w_after)) {
         out.w_after = w;
         out.component = kReading[c];
@@ -1297,8 +1374,14 @@ struct Adjustment {
     const Eigen::Matrix<double, 6, 1> grad = DistanceGradient(d);
     const double hat =
         grad.dot(PairBlock(cov_internal, a + 3 * d.from, a + 3 * d.to) * grad) / (distance.u * distance.u);
-    const double residual = (distance.length - (x[d.to] - x[d.from]).norm()) / distance.u;
-    out.w_after = residual / std::sqrt(1.0 + std::max(0.0, hat));
+    double residual = (distance.length - (x[d.to] - x[d.from]).norm()) / distance.u,
+           variance = 1.0 + std::max(0.0, hat);
+    if (C > 0) {
+      const Eigen::RowVectorXd sl = DistanceEffects(d, grad, distance.u);
+      residual -= sl.dot(effects);
+      variance += sl.dot(effects_inverse * sl.transpose());
+    }
+    out.w_after = residual / std::sqrt(variance);
     out.component = "length";
     return true;
   }
@@ -1307,6 +1390,14 @@ struct Adjustment {
     static const char* kReading[3] = {"range", "azimuth", "elevation"};
     const Observation& obs = observations[o];
     const Eigen::Matrix3d hat = ReadingHat(obs, j_local[o]);
+    // The w test's residual and redundancy, with the consider inputs as random effects (N-8).
+    Eigen::Vector3d e_test = e.segment<3>(3 * static_cast<Eigen::Index>(o));
+    Eigen::Vector3d r_test = (Eigen::Vector3d::Ones() - hat.diagonal()).cwiseMax(0.0).cwiseMin(1.0);
+    if (C > 0) {
+      const Eigen::MatrixXd sl = ReadingEffects(obs, j_local[o], b_consider[o]);
+      e_test += sl * effects;
+      r_test -= (sl * effects_inverse * sl.transpose()).diagonal();
+    }
     const TargetReading& src = network.stations[obs.station].readings[obs.reading];
     for (int c = 0; c < 3; ++c) {
       NetworkResidual res;
@@ -1320,7 +1411,7 @@ struct Adjustment {
       res.normalised = e(3 * o + c);
       res.residual = res.normalised * res.u;
       res.redundancy = std::clamp(1.0 - hat(c, c), 0.0, 1.0);
-      res.w = res.redundancy > 1e-9 ? res.normalised / std::sqrt(res.redundancy) : 0.0;
+      res.w = r_test(c) > 1e-9 ? e_test(c) / std::sqrt(r_test(c)) : 0.0;
       res.outlier = std::abs(res.w) > network.outlier_limit;
       result.outliers += res.outlier ? 1 : 0;
       result.residuals.push_back(std::move(res));
@@ -1386,7 +1477,7 @@ Suspect LargestW(const Adjustment& adjustment) {
   return worst;
 }
 
-// The rejection limit (N-8a): Baarda's w is N(0, 1) for a good observation; over the n values
+// The rejection limit (N-8a): w is N(0, 1) for a good observation (N-8); over the n values
 // tested, z_(1 - alpha / (2 n)) keeps the probability of removing any good one of a network without
 // gross errors at or below alpha (Bonferroni). Never below the flagging limit.
 double RejectionLimit(const NetworkResult& result, const Network& network) {

@@ -462,7 +462,8 @@ void IdentifiabilityTable(std::ostringstream& body, const NetworkResult& result)
 // Baarda's data snooping: the readings flagged as outliers.
 void FlaggedReadings(std::ostringstream& body, const NetworkJob& job, const NetworkResult& result) {
   body << "<section><h2>Flagged readings</h2><p class=\"note\">Baarda's data snooping: w = (residual / u) / "
-          "sqrt(redundancy); flagged when "
+          "sqrt(redundancy), the instruments' and the air's stated errors taken as random effects "
+          "(docs/network.md N-8); flagged when "
           "|w| &gt; "
        << Fixed(job.network.outlier_limit, 2) << ". Every reading's residual is in residuals.csv.</p>";
   if (result.outliers == 0) {
