@@ -87,7 +87,7 @@ constexpr double kFlat = 1e-9;
 // 0.03-1.6 rad). A 10 mm band of a 200 mm bore measured with 25 um noise has 2.9 mm against
 // 25 um; a cone band's radius changing along it is part of its section.
 constexpr double kSectionNoise = 10.0;
-constexpr double kSectionCircle = 0.1;
+constexpr double kSectionCircle = 0.01;
 // A candidate whose radius passes this many times the points' extent, or whose half-angle passes
 // 85 degrees, has run off to a plane: not a cylinder or cone of these points.
 constexpr double kRunaway = 1e6;
@@ -428,10 +428,28 @@ Eigen::SelfAdjointEigenSolver<Matrix3d> PrincipalDirections(const Points& points
   return Eigen::SelfAdjointEigenSolver<Matrix3d>(scatter);
 }
 
+// When two principal variances are within a factor of 10 the principal directions say little
+// about the axis (a cylinder about 1.2 diameters long has equal variances along and across it: its
+// principal directions are any), so ten more directions join, the diagonals of the principal frame
+// (its cube's six face diagonals and four body diagonals): no axis is then farther than 28 degrees
+// from a start.
 std::vector<Vector3d> StartDirections(const Points& points, const FitOptions& options) {
   if (options.orientation.squaredNorm() > 0.0) return {options.orientation.normalized()};
   const Eigen::SelfAdjointEigenSolver<Matrix3d> principal = PrincipalDirections(points);
-  return {principal.eigenvectors().col(2), principal.eigenvectors().col(0), principal.eigenvectors().col(1)};
+  const Matrix3d& v = principal.eigenvectors();
+  std::vector<Vector3d> directions = {v.col(2), v.col(0), v.col(1)};
+  const Vector3d variance = principal.eigenvalues().cwiseMax(0.0);
+  const bool separated = variance(1) > 10.0 * variance(0) ? variance(2) > 10.0 * variance(1) : false;
+  if (!separated) {
+    for (int a = 0; a < 3; ++a) {
+      directions.push_back((v.col(a) + v.col((a + 1) % 3)).normalized());
+      directions.push_back((v.col(a) - v.col((a + 1) % 3)).normalized());
+    }
+    for (const double sy : {1.0, -1.0})
+      for (const double sz : {1.0, -1.0})
+        directions.push_back((v.col(0) + sy * v.col(1) + sz * v.col(2)).normalized());
+  }
+  return directions;
 }
 
 // How normalised points sit in their own best plane (its normal: their smallest principal
