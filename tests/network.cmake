@@ -143,6 +143,8 @@ vlt_network_error(air_change_no_from air_change_no_from.toml
                   "air_change_no_from\\.toml: station\\[1\\]\\.environment\\[1\\]\\.from: required key is missing")
 vlt_network_error(air_change_outside air_change_outside.toml
                   "air_change_outside\\.toml: station\\[1\\]\\.environment\\[1\\]\\.from: outside the station's readings")
+vlt_network_error(air_change_kinds air_change_kinds.toml
+                  "air_change_kinds\\.toml: station\\[1\\]\\.environment\\[2\\]\\.from: seconds, but .*environment\\[1\\]\\.from gives a date and time")
 vlt_network_error(air_change_offline air_change_offline.toml
                   "air_change_offline\\.toml: station\\[1\\]\\.environment\\[1\\]: air that changes during a station's readings is for measured readings")
 

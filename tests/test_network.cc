@@ -702,7 +702,8 @@ std::vector<TimedAir> GiveStationsChangingAir(Network& net) {
     net.stations[i].air_changes.push_back(c);
   };
   // The hall warms and a door opens: the later airs are known less well.
-  change(0, 350.0, Air(21.5, 2.5, 100180.0, 150.0, 45.0, 8.0), "WS1");
+  // From 300 s: the reading at 300 s takes it (from <= t).
+  change(0, 300.0, Air(21.5, 2.5, 100180.0, 150.0, 45.0, 8.0), "WS1");
   change(0, 750.0, Air(23.0, 3.5, 100160.0, 200.0, 40.0, 10.0), "WS1");
   change(1, 550.0, Air(22.0, 3.0, 100150.0, 180.0, 42.0, 9.0), "");
   change(2, 650.0, Air(24.0, 3.0, 100100.0, 160.0, 50.0, 9.0), "");
@@ -832,7 +833,7 @@ TEST(Network, AirThatChangesCoversTheTruth) {
   const double u_sensor[3] = {ws.u_temperature, ws.u_pressure, ws.u_humidity};
   const int seeds = 300;
   int inside = 0, inside_one_air = 0, total = 0, points = 0, seeds_losing_a_reading = 0, w_count = 0;
-  double sum_d2 = 0.0, sum_w2 = 0.0;
+  double sum_d2 = 0.0, sum_w2 = 0.0, sum_birge2 = 0.0, sum_birge2_noise = 0.0;
   for (int seed = 1; seed <= seeds; ++seed) {
     std::mt19937_64 rng(static_cast<std::uint64_t>(seed) * 104729);
     std::normal_distribution<double> normal;
@@ -863,6 +864,8 @@ TEST(Network, AirThatChangesCoversTheTruth) {
     for (NetworkStation& st : one_air.stations) st.air_changes.clear();
     const NetworkResult r = AdjustNetwork(measured), r1 = AdjustNetwork(one_air);
     seeds_losing_a_reading += r.rejected.empty() ? 0 : 1;
+    sum_birge2 += r.chi2_random_effects / r.dof;
+    sum_birge2_noise += r.chi2 / r.dof;
     for (const NetworkResidual& res : r.residuals) {
       sum_w2 += res.w * res.w;
       ++w_count;
@@ -884,9 +887,9 @@ TEST(Network, AirThatChangesCoversTheTruth) {
   const double fraction_one_air = static_cast<double>(inside_one_air) / total;
   std::printf(
       "air that changes: coverage %d / %d = %.4f, mean d2 %.3f; one air per station %.4f; mean w^2 %.3f, "
-      "seeds that lost a good reading %d / %d\n",
+      "seeds that lost a good reading %d / %d; mean chi2/dof %.3f with random effects, %.3f of the noise\n",
       inside, total, fraction, sum_d2 / points, fraction_one_air, sum_w2 / w_count, seeds_losing_a_reading,
-      seeds);
+      seeds, sum_birge2 / seeds, sum_birge2_noise / seeds);
   EXPECT_NEAR(fraction, 0.95, 0.025);
   EXPECT_NEAR(sum_d2 / points, 3.0, 0.45);
   EXPECT_LT(fraction_one_air, 0.88);
@@ -894,6 +897,8 @@ TEST(Network, AirThatChangesCoversTheTruth) {
   // reading's w, over the consider inputs' share of its residual's variance too, stays N(0, 1)
   // (N-8), and the robust rule (alpha 0.01) keeps the good readings.
   EXPECT_NEAR(sum_w2 / w_count, 1.0, 0.1);
+  EXPECT_NEAR(sum_birge2 / seeds, 1.0, 0.1);  // the fit test's chi^2: the model holds
+  EXPECT_GT(sum_birge2_noise / seeds, 3.0);   // the noise's alone: not the model's misfit
   EXPECT_LE(seeds_losing_a_reading, seeds / 20);
 }
 
@@ -901,13 +906,16 @@ TEST(Network, AirThatChangesCoversTheTruth) {
 // the same network with every consider input estimated from its prior (self-calibrated: the
 // generalised least squares of the readings with their full covariance), computed here by the
 // adjustment itself. Simulated readings with the instrument's and the airs' errors drawn from their
-// priors; the agreement is that of two solutions of one linearised model (the self-calibrated one
-// moves the inputs by about their u).
+// priors, and two measured distances; chi^2 of the random-effects model is the self-calibrated
+// network's too. The agreement is that of two solutions of one linearised model (the
+// self-calibrated one moves the inputs by about their u).
 TEST(Network, WTakesTheConsiderInputsAsRandomEffects) {
   Network plan = MakeNetwork(false);
   GiveStationsChangingAir(plan);
   plan.robust = false;
   const TargetList truth = Targets();
+  plan.distances.push_back(Distance("D1", truth[1], truth[4], 3e-6));
+  plan.distances.push_back(Distance("D2", truth[2], truth[11], 2e-6));
   Network sim = SimulateNetwork(plan, truth, 11);
   for (NetworkStation& st : sim.stations)  // SimulateNetwork keeps the plan's times
     for (std::size_t j = 0; j < st.readings.size(); ++j) ASSERT_TRUE(st.readings[j].time.has_value());
@@ -927,10 +935,21 @@ TEST(Network, WTakesTheConsiderInputsAsRandomEffects) {
     const double baarda = r.residuals[i].normalised / std::sqrt(r.residuals[i].redundancy);
     noise_only_worst = std::max(noise_only_worst, std::abs(baarda - rc.residuals[i].w));
   }
-  std::printf("w: largest %.3f, farthest from the self-calibrated network's %.2e (noise-only w: %.3f)\n",
-              largest, worst, noise_only_worst);
+  ASSERT_EQ(r.distances.size(), 2u);
+  for (std::size_t k = 0; k < r.distances.size(); ++k)
+    worst = std::max(worst, std::abs(r.distances[k].w - rc.distances[k].w));
+  std::printf(
+      "w: largest %.3f, farthest from the self-calibrated network's %.2e (noise-only w: %.3f); chi2 %.4f, "
+      "with random effects %.4f, self-calibrated %.4f\n",
+      largest, worst, noise_only_worst, r.chi2, r.chi2_random_effects, rc.chi2);
+  // chi^2 of the random-effects model is the self-calibrated network's (its priors are the effects').
+  EXPECT_NEAR(r.chi2_random_effects, rc.chi2, 1e-3 * rc.chi2);
+  EXPECT_GT(r.chi2, 1.5 * r.chi2_random_effects);
   EXPECT_GT(largest, 2.0);
-  EXPECT_LT(worst, 0.01);                      // of a standard deviation
+  // Of a standard deviation: the two differ at second order in the inputs' u (the self-calibrated
+  // network's Jacobians are taken at inputs moved by about their u): 0.018 here, 0.003 with every u
+  // a third, 0.0006 with a tenth.
+  EXPECT_LT(worst, 0.03);
   EXPECT_GT(noise_only_worst, 0.5 * largest);  // the noise alone judges them otherwise
 }
 

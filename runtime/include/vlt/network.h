@@ -264,7 +264,9 @@ struct NetworkResult {
   int observations = 0;               // scalar observations incl. reference coordinates and priors
   int unknowns = 0;
   int dof = 0;
-  double chi2 = 0.0, birge_ratio = 0.0, p_value = 0.0;
+  double chi2 = 0.0, birge_ratio = 0.0, p_value = 0.0;  // weighted by the reading noise alone
+  // chi^2 and its p with the consider inputs as random effects (docs/network.md N-8): the fit test's.
+  double chi2_random_effects = 0.0, p_value_random_effects = 0.0;
   int outliers = 0;
   int iterations = 0;
   double k = 0.0;  // coverage factor of the expanded values printed (normal)

@@ -610,6 +610,7 @@ struct Adjustment {
   // M^-1 = (I + L^T (B^T B - G^T N^-1 G) L)^-1, and z_hat, the random effects' estimate (units of L).
   Eigen::MatrixXd consider_gain, consider_factor, effects_inverse;
   Eigen::VectorXd s_hat, effects;
+  double chi2_random_effects = 0.0;
   int target_start = 0, e_start = 0;
   NetworkResult result;
   // A Monte Carlo trial (network/adjust.h): solver tolerances and covariance blocks for its needs.
@@ -887,15 +888,25 @@ struct Adjustment {
   // whitened residual by S L z, S = B_c + J K (its own sensitivity B_c and the estimate's, K the
   // consider gain). A misfit that their stated u explains is no gross error, so the w test runs in
   // the model with z as unknowns of prior N(0, I) — the generalised least squares of the readings
-  // with their full covariance (noise + B_c Sigma_c B_c^T). From the solution at hand (J^T e = 0):
+  // with their full covariance (noise + B_c Sigma_c B_c^T). From the solution at hand (J^T e = 0 over
+  // every row, pseudo-observations included; those have no B rows):
   //   M = I + L^T (B^T B - G^T N^-1 G) L,   z_hat = -M^-1 L^T B^T e,
   //   e_aug = e + S L z_hat,   r_aug = r - diag(S L M^-1 L^T S^T),
   // and w = e_aug / sqrt(r_aug): Baarda's w of that model (C = 0: Baarda's w of this one).
   void ConsiderAsRandomEffects(const Eigen::MatrixXd& sigma_c) {
+    chi2_random_effects = chi2;
     if (C == 0) return;
-    // L from the eigenvalues: Sigma_c may be singular (a correlation of +-1).
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(sigma_c);
-    consider_factor = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+    // L = D V sqrt(Lambda) from the correlation R = D^-1 Sigma_c D^-1 = V Lambda V^T (D = diag(u)):
+    // Sigma_c may be singular (a correlation of +-1), and its variances span 1e4 Pa^2 to 1e-12 m^2,
+    // which a decomposition of Sigma_c itself would mix at its rounding.
+    const Eigen::VectorXd u = sigma_c.diagonal().cwiseMax(0.0).cwiseSqrt();
+    Eigen::MatrixXd r = Eigen::MatrixXd::Identity(C, C);
+    for (int i = 0; i < C; ++i)
+      for (int j = 0; j < C; ++j)
+        if (i != j && u(i) > 0.0 && u(j) > 0.0) r(i, j) = sigma_c(i, j) / (u(i) * u(j));
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(r);
+    consider_factor =
+        u.asDiagonal() * eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
     Eigen::MatrixXd btb = Eigen::MatrixXd::Zero(C, C);
     Eigen::VectorXd bte = Eigen::VectorXd::Zero(C);
     for (std::size_t o = 0; o < observations.size(); ++o) {
@@ -907,8 +918,14 @@ struct Adjustment {
                         consider_factor.transpose() * (btb + g.transpose() * consider_gain) * consider_factor;
     m = 0.5 * (m + m.transpose()).eval();
     const Eigen::LLT<Eigen::MatrixXd> llt(m);
+    if (llt.info() != Eigen::Success)
+      throw NumericalError(file + ": the consider inputs as random effects: M is not positive definite");
     effects_inverse = llt.solve(Eigen::MatrixXd::Identity(C, C));
-    effects = -effects_inverse * (consider_factor.transpose() * bte);
+    const Eigen::VectorXd b = consider_factor.transpose() * bte;
+    effects = -effects_inverse * b;
+    // chi^2 of that model: min over z of |e + S L z|^2 + |z|^2 = chi^2 - b^T M^-1 b (the same dof:
+    // C unknowns and C pseudo-observations more). The fit test judges it.
+    chi2_random_effects = std::max(0.0, chi2 + b.dot(effects));
   }
 
   // S L of a reading (3 x C): how its whitened residual moves with the random effects z.
@@ -1269,6 +1286,8 @@ struct Adjustment {
     result.unknowns = n;
     result.dof = observations_count - n;
     result.chi2 = chi2;
+    result.chi2_random_effects = chi2_random_effects;
+    result.p_value_random_effects = ChiSquareUpperTail(chi2_random_effects, result.dof);
     result.birge_ratio = result.dof > 0 ? std::sqrt(chi2 / result.dof) : 0.0;
     result.p_value = ChiSquareUpperTail(chi2, result.dof);
     for (std::size_t o = 0; o < observations.size(); ++o) ReadingResiduals(o);
@@ -1491,7 +1510,8 @@ void AddFitProblem(NetworkResult& result) {
   double largest_w = 0.0;
   for (const NetworkResidual& r : result.residuals) largest_w = std::max(largest_w, std::abs(r.w));
   for (const AdjustedDistance& d : result.distances) largest_w = std::max(largest_w, std::abs(d.w));
-  const std::string problem = FitProblem(result.chi2, result.dof, largest_w,
+  // chi^2 with the consider inputs as random effects (N-8): their stated errors are no misfit.
+  const std::string problem = FitProblem(result.chi2_random_effects, result.dof, largest_w,
                                          static_cast<int>(result.residuals.size() + result.distances.size()));
   if (!problem.empty()) {
     result.warnings.push_back(

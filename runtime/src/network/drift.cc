@@ -42,11 +42,13 @@ DriftSegments NumberDriftSegments(const Network& network) {
     for (std::size_t k = 0; k + 1 < drift.knots.size(); ++k) {
       if (!std::isfinite(drift.knots[k]) || !std::isfinite(drift.knots[k + 1]) ||
           !(drift.knots[k + 1] > drift.knots[k]))
-        throw InputError(where + ": the knots of the drift model must increase (two drift checks at one time?)");
+        throw InputError(where +
+                         ": the knots of the drift model must increase (two drift checks at one time?)");
     }
     const int n = static_cast<int>(drift.knots.size()) - 1;
     if (!drift.increments.empty() && static_cast<int>(drift.increments.size()) != n)
-      throw InputError(where + ": a simulated drift needs one increment per segment (" + std::to_string(n) + ")");
+      throw InputError(where + ": a simulated drift needs one increment per segment (" + std::to_string(n) +
+                       ")");
     segments.first.back() = segments.count();
     for (int k = 0; k < n; ++k) {
       segments.station.push_back(static_cast<int>(i));

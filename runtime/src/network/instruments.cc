@@ -147,6 +147,12 @@ Instruments MakeInstruments(const Network& network) {
   std::vector<StationAir> airs;
   for (const NetworkStation& st : network.stations) {
     in.air_changes.emplace_back();
+    if (!st.air_changes.empty() && !st.environment)
+      throw InputError(st.where + ".environment: later airs without a first one");
+    for (std::size_t k = 1; k < st.air_changes.size(); ++k) {
+      if (!(st.air_changes[k].from > st.air_changes[k - 1].from))
+        throw InputError(st.air_changes[k].where + ".from: not after the air before it");
+    }
     if (!st.environment) {
       in.station_model.push_back(st.instrument);
       continue;

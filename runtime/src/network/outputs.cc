@@ -66,6 +66,10 @@ void AdjustmentSection(std::ostringstream& body, const NetworkJob& job, const Ne
        << "<tr><th class=\"l\">chi-square, Birge ratio, p</th><td class=\"l\">"
        << base_internal::Sig(result.chi2, 4) << ", " << Fixed(result.birge_ratio, 3) << ", "
        << Fixed(result.p_value, 3) << "</td></tr>"
+       << "<tr><th class=\"l\">chi-square, p with the instruments' and the air's stated errors as random "
+          "effects (the fit test's, N-8)</th><td class=\"l\">"
+       << base_internal::Sig(result.chi2_random_effects, 4) << ", " << Fixed(result.p_value_random_effects, 3)
+       << "</td></tr>"
        << "<tr><th class=\"l\">outliers (|w| &gt; " << Fixed(job.network.outlier_limit, 2)
        << ")</th><td class=\"l\">" << result.outliers << "</td></tr>"
        << "<tr><th class=\"l\">self-calibrated inputs</th><td class=\"l\">" << result.parameters.size()
@@ -462,7 +466,8 @@ void IdentifiabilityTable(std::ostringstream& body, const NetworkResult& result)
 // Baarda's data snooping: the readings flagged as outliers.
 void FlaggedReadings(std::ostringstream& body, const NetworkJob& job, const NetworkResult& result) {
   body << "<section><h2>Flagged readings</h2><p class=\"note\">Baarda's data snooping: w = (residual / u) / "
-          "sqrt(redundancy), the instruments' and the air's stated errors taken as random effects "
+          "sqrt(redundancy) without consider inputs; with them, the residual over its standard deviation "
+          "in the model where the instruments' and the air's stated errors are random effects "
           "(docs/network.md N-8); flagged when "
           "|w| &gt; "
        << Fixed(job.network.outlier_limit, 2) << ". Every reading's residual is in residuals.csv.</p>";
@@ -1081,6 +1086,8 @@ std::string ResultsJson(const NetworkJob& job, const NetworkResult& result,
                   {"chi2", result.chi2},
                   {"birge_ratio", result.birge_ratio},
                   {"p_value", result.p_value},
+                  {"chi2_random_effects", result.chi2_random_effects},
+                  {"p_value_random_effects", result.p_value_random_effects},
                   {"outliers", result.outliers},
                   {"iterations", result.iterations},
                   {"k", result.k},

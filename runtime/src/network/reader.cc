@@ -389,6 +389,12 @@ void NetworkFileReader::ReadStationAir(Section& s, NetworkStation& st) {
       const TimeValue time = Time(*from, air.Where("from"));
       change.from = time.seconds;
       change.from_kind = time.kind;
+      if (!st.air_changes.empty() && change.from_kind != st.air_changes.back().from_kind) {
+        throw InputError(air.Where("from") + ": " + std::string(TimeKindName(change.from_kind)) + ", but " +
+                         st.air_changes.back().where + ".from gives " +
+                         std::string(TimeKindName(st.air_changes.back().from_kind)) +
+                         " (one kind of time, one origin, in a network)");
+      }
       if (!st.air_changes.empty() && !(change.from > st.air_changes.back().from)) {
         throw InputError(air.Where("from") +
                          ": not after the air before it (the station's air is given in the "
@@ -477,6 +483,12 @@ void NetworkFileReader::ReadStation(Section& s) {
   if (has_readings) {
     ReadOnlineReadings(s, st);
   } else {
+    if (!st.air_changes.empty()) {
+      throw InputError(
+          st.air_changes.front().where +
+          ": air that changes during a station's readings is for measured readings (their times); "
+          "plan a station per air");
+    }
     ReadSightings(s, *see);
   }
   ReadDrift(s, st);
@@ -756,12 +768,7 @@ void NetworkFileReader::CheckTimes() {
 void NetworkFileReader::CheckAirChanges() const {
   for (const NetworkStation& st : net.stations) {
     if (st.air_changes.empty()) continue;
-    const NetworkAirChange& change = st.air_changes.front();
-    if (job.offline) {
-      throw InputError(change.where +
-                       ": air that changes during a station's readings is for measured readings "
-                       "(their times); plan a station per air");
-    }
+    const NetworkAirChange& change = st.air_changes.front();  // all of one kind (ReadStationAir)
     for (const TargetReading& r : st.readings) {
       if (!r.time) {
         throw InputError(r.where + ": station '" + st.name +
