@@ -6,6 +6,10 @@
 // Kinds: plane (closed form, the baseline), sphere (the existing geometric fit: LM + Newton with
 // the full Hessian), cylinder and cone (docs/tasks.md "Cylinder and cone"). Ratios against the
 // sphere of the same N and mode are the like-for-like comparison (docs/performance.md).
+//   fit/<form>/trial/N:<n>     form by minimum zone (flatness of the plane's points, roundness of
+//                              them as one circle, cylindricity of the cylinder's, straightness of
+//                              points along a line): the least-squares fit and the linear programs
+//                              (Clp); no GUM (not differentiable). Against fit/plane|cylinder/trial.
 #include <cmath>
 #include <random>
 #include <string>
@@ -31,7 +35,9 @@ Eigen::Matrix3Xd FeaturePoints(TaskKind kind, long n) {
     if (kind == TaskKind::kSphere)
       q = 0.1 * Eigen::Vector3d(std::cos(phi) * std::cos(h * 10), std::sin(phi) * std::cos(h * 10),
                                 std::sin(h * 10));
-    if (kind == TaskKind::kPlane) q.z() = 0.0;
+    if (kind == TaskKind::kPlane || kind == TaskKind::kFlatness || kind == TaskKind::kRoundness) q.z() = 0.0;
+    if (kind == TaskKind::kStraightness)
+      q = Eigen::Vector3d(0.3 * static_cast<double>(i) / static_cast<double>(n), 0.0, 0.0);
     p.col(i) = q + Eigen::Vector3d(2.0, -1.0, 0.5) + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
   }
   return p;
@@ -44,6 +50,7 @@ void BM_Fit(benchmark::State& state, TaskKind kind, bool jacobian) {
   options.jacobian = jacobian;
   if (kind == TaskKind::kCylinder || kind == TaskKind::kCone)
     options.orientation = first.values.segment<3>(3);
+  if (jacobian && !first.differentiable.empty() && !first.differentiable[0]) options.jacobian = false;
   int iterations = 0;
   for (auto _ : state) {
     const FitResult fit = FitTask(kind, points, options);
@@ -63,6 +70,14 @@ const bool kRegistered = [] {
           ->Arg(10000)
           ->Unit(benchmark::kMicrosecond);
     }
+  }
+  for (TaskKind kind :
+       {TaskKind::kFlatness, TaskKind::kRoundness, TaskKind::kCylindricity, TaskKind::kStraightness}) {
+    const std::string name = "fit/" + std::string(TaskKindName(kind)) + "/trial";
+    benchmark::RegisterBenchmark(name.c_str(), BM_Fit, kind, false)
+        ->Arg(24)
+        ->Arg(10000)
+        ->Unit(benchmark::kMicrosecond);
   }
   return true;
 }();

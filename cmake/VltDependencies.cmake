@@ -45,6 +45,10 @@ vlt_require(Ceres_FOUND libceres-dev "Ceres Solver")
 pkg_check_modules(NLOPT_CXX QUIET IMPORTED_TARGET nlopt_cxx)
 vlt_require(NLOPT_CXX_FOUND libnlopt-cxx-dev "NLopt (C++)")
 
+# Clp (COIN-OR's simplex): the linear programs of form by minimum zone (runtime/src/tasks/minimum_zone.cc).
+pkg_check_modules(CLP QUIET IMPORTED_TARGET clp)
+vlt_require(CLP_FOUND coinor-libclp-dev "Clp (COIN-OR linear programming)")
+
 # OpenSSL's libcrypto: SHA-256 of the data files a calibration file records (provenance).
 find_package(OpenSSL QUIET COMPONENTS Crypto)
 vlt_require(OPENSSL_FOUND libssl-dev "OpenSSL (libcrypto)")

@@ -8,6 +8,7 @@ VLT_BUILD_PACKAGES=(g++ cmake make ninja-build lld pkg-config git
   libginac-dev libeigen3-dev libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev librandom123-dev libceres-dev
   libnlopt-cxx-dev          # station planning (runtime/src/planning/)
+  coinor-libclp-dev         # linear programs of form by minimum zone (runtime/src/tasks/minimum_zone.cc)
   libssl-dev
   libhwy-dev                # Highway's vectorised sort: Monte Carlo order statistics (runtime/src/mcm/order.cc)
   pybind11-dev python3-dev  # the Python module (python/)

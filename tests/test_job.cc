@@ -615,7 +615,7 @@ TEST(Job, BadInputClasses) {
       {good + "[[task]]\nkind = \"distance\"\nname = \"d\"\npoints = [\"A\", \"X\"]\n",
        "point 'X' not measured"},
       {good + "[[task]]\nkind = \"torus\"\nname = \"d\"\npoints = [\"A\", \"B\"]\n",
-       "unknown task kind 'torus' (expected distance, plane, sphere, circle, line, two_face, cylinder or cone)"},
+       "unknown task kind 'torus' (expected distance, plane, sphere, circle, line, two_face, cylinder, cone, flatness, straightness, roundness or cylindricity)"},
       {good + "[monte_carlo]\ntrials = 100\n", "job.toml: monte_carlo.trials: at least 2000 trials"},
       {good + "[monte_carlo]\ncoverage_probability = 1.5\n",
        "monte_carlo.coverage_probability: must be between 0 and 1"},

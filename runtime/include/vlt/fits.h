@@ -46,6 +46,7 @@ struct TaskOutput {
 //   best_fit, rps: tx, ty, tz, rx, ry, rz, rms      (best_fit_scale: ..., rms, scale)
 //   deviation: deviation, dx, dy, dz              (position: ..., dz, position)
 //   profile: min_deviation, max_deviation, profile
+//   flatness: flatness, flatness_least_squares     (straightness, roundness, cylindricity alike)
 std::span<const TaskOutput> TaskOutputs(TaskKind kind);
 
 struct FitOptions {
@@ -176,6 +177,18 @@ FitResult FitDeviation(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const F
 // every deviation is zero.
 FitResult FitProfile(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const FitOptions& options = {},
                      std::string_view where = "task");
+
+// Form by the minimum-zone (Chebyshev) definition of ISO 1101 (kind flatness, straightness,
+// roundness or cylindricity): the narrowest zone of two parallel planes (flatness, ISO 12781-1), a
+// cylinder about a line (straightness of a line in space, ISO 12780-1: its diameter), two concentric
+// circles in the plane of the least-squares circle (roundness, ISO 12181-1) or two coaxial cylinders
+// (cylindricity, ISO 12180-1) that holds every point, and the same form referenced to the
+// least-squares feature (>= the minimum zone). Sequential linear programming (Clp) from the
+// least-squares feature to a stationary zone (docs/tasks.md "Form by minimum zone"). Neither output
+// is differentiable (FitResult::differentiable false, zero Jacobian rows): their uncertainty is
+// Monte Carlo's. Refuses as the least-squares fit of the feature does.
+FitResult FitMinimumZone(TaskKind kind, const Eigen::Ref<const Eigen::Matrix3Xd>& points,
+                         const FitOptions& options = {}, std::string_view where = "task");
 
 // Dispatches on kind.
 FitResult FitTask(TaskKind kind, const Eigen::Ref<const Eigen::Matrix3Xd>& points,

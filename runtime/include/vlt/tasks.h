@@ -41,15 +41,22 @@ enum class TaskKind {
   kDeviation,     // one point's deviation from nominal in the part frame of an alignment
   kPosition,      // the same and its ISO 1101 position (a hole's or a pin's axis point)
   kProfile,       // the extreme deviations along the normals of a set of points (ISO 1101 profile)
+  // Form by the minimum-zone (Chebyshev) definition of ISO 1101, beside the least-squares one
+  // (docs/tasks.md "Form by minimum zone"): Monte Carlo only (not differentiable).
+  kFlatness,      // two parallel planes (>= 4 points), ISO 12781-1
+  kStraightness,  // a cylinder about a line in space (>= 3 points), ISO 12780-1
+  kRoundness,     // two concentric circles in the least-squares circle's plane (>= 4 points), ISO 12181-1
+  kCylindricity,  // two coaxial cylinders (>= 6 points), ISO 12180-1
 };
 
 // "distance", "plane", "sphere", "circle", "line", "two_face", "cylinder", "cone", "best_fit",
-// "best_fit_scale", "rps", "deviation", "position", "profile".
+// "best_fit_scale", "rps", "deviation", "position", "profile", "flatness", "straightness",
+// "roundness", "cylindricity".
 std::string_view TaskKindName(TaskKind kind);
-// Inverse of TaskKindName for the kinds a [[task]] table may name (distance ... cone); throws
+// Inverse of TaskKindName for the kinds a [[task]] table may name (distance ... cone, the forms); throws
 // InputError "<where>: unknown task kind '<text>' (expected ...)".
 TaskKind ParseTaskKind(std::string_view text, std::string_view where);
-// Minimum number of points the feature needs (2, 3, 4, 3, 2, 2, 5, 6, 3, 3, 3, 3, 3, 3).
+// Minimum number of points the feature needs (2, 3, 4, 3, 2, 2, 5, 6, 3, 3, 3, 3, 3, 3, 4, 3, 4, 6).
 int MinimumPoints(TaskKind kind);
 
 // The nominal (CAD, part-frame) geometry of an alignment or deviation task, SI. An alignment maps

@@ -107,17 +107,26 @@ void PointTable(const Results& r, std::ostringstream& out) {
 bool IsHeadline(const TaskResult& t, const std::string& quantity) {
   if (t.spec.kind == TaskKind::kDeviation) return quantity == "deviation";
   if (t.spec.kind == TaskKind::kPosition) return quantity == "deviation" || quantity == "position";
-  if (t.spec.kind == TaskKind::kProfile) return true;
+  if (t.spec.kind == TaskKind::kProfile || t.spec.kind == TaskKind::kFlatness ||
+      t.spec.kind == TaskKind::kStraightness || t.spec.kind == TaskKind::kRoundness ||
+      t.spec.kind == TaskKind::kCylindricity)
+    return true;
   return quantity == "distance" || quantity == "radius" || quantity == "flatness" ||
          quantity == "straightness" || quantity == "cylindricity" || quantity == "half_angle" ||
-         (t.spec.kind == TaskKind::kCone && quantity == "form") || quantity == "normal_x" || quantity == "normal_y" ||
-         quantity.rfind("centre_", 0) == 0 || t.spec.kind == TaskKind::kTwoFace ||
-         t.spec.kind == TaskKind::kBestFit || t.spec.kind == TaskKind::kBestFitScale || t.spec.kind == TaskKind::kRps;
+         (t.spec.kind == TaskKind::kCone && quantity == "form") || quantity == "normal_x" ||
+         quantity == "normal_y" || quantity.rfind("centre_", 0) == 0 || t.spec.kind == TaskKind::kTwoFace ||
+         t.spec.kind == TaskKind::kBestFit || t.spec.kind == TaskKind::kBestFitScale ||
+         t.spec.kind == TaskKind::kRps;
 }
 
+// The widths of the task table's first three columns: the longest name, kind and quantity shown
+// (at least the headers' usual widths), so that a long one shifts no column.
+struct TaskColumns {
+  int name = 18, kind = 9, quantity = 13;
+};
+
 // One row of the task table: quantity q of task t, its GUM value and U and the Monte Carlo interval.
-std::string TaskRow(const TaskResult& t, std::size_t q) {
-  char line[512];
+std::string TaskRow(const TaskResult& t, std::size_t q, const TaskColumns& columns) {
   const std::string& quantity = t.gum.quantities[q];
   const Eigen::Index i = static_cast<Eigen::Index>(q);
   const bool length = t.gum.units[q] == "m", angle = t.gum.units[q] == "rad";
@@ -152,23 +161,29 @@ std::string TaskRow(const TaskResult& t, std::size_t q) {
               : outcome == "not applicable" ? "GUM n/a (not differentiable): MCM interval"
                                             : outcome;
   }
-  std::snprintf(line, sizeof line, "%-18s %-9s %-13s %16s %11s %24s  %s\n", t.spec.name.c_str(),
-                std::string(TaskKindName(t.spec.kind)).c_str(), quantity.c_str(), value.c_str(),
-                big_u.c_str(), interval.c_str(), verdict.c_str());
-  return line;
+  return FormatLine("%-*s %-*s %-*s %16s %11s %24s  %s\n", columns.name, t.spec.name.c_str(), columns.kind,
+                    std::string(TaskKindName(t.spec.kind)).c_str(), columns.quantity, quantity.c_str(),
+                    value.c_str(), big_u.c_str(), interval.c_str(), verdict.c_str());
 }
 
 void TaskTable(const Results& r, std::ostringstream& out) {
   if (r.tasks.empty()) return;
-  char line[512];
-  out << "\n";
-  std::snprintf(line, sizeof line, "%-18s %-9s %-13s %16s %11s %24s  %s\n", "task", "kind", "quantity",
-                "value", "U (GUM)", "MCM interval - value", "GUM vs MCM");
-  out << line;
+  TaskColumns columns;
+  for (const TaskResult& t : r.tasks) {
+    for (const std::string& quantity : t.gum.quantities) {
+      if (!IsHeadline(t, quantity)) continue;
+      columns.name = std::max(columns.name, static_cast<int>(t.spec.name.size()));
+      columns.kind = std::max(columns.kind, static_cast<int>(TaskKindName(t.spec.kind).size()));
+      columns.quantity = std::max(columns.quantity, static_cast<int>(quantity.size()));
+    }
+  }
+  out << "\n"
+      << FormatLine("%-*s %-*s %-*s %16s %11s %24s  %s\n", columns.name, "task", columns.kind, "kind",
+                    columns.quantity, "quantity", "value", "U (GUM)", "MCM interval - value", "GUM vs MCM");
   for (const TaskResult& t : r.tasks) {
     for (std::size_t q = 0; q < t.gum.quantities.size(); ++q) {
       if (!IsHeadline(t, t.gum.quantities[q])) continue;
-      out << TaskRow(t, q);
+      out << TaskRow(t, q, columns);
     }
   }
 }

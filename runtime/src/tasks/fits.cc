@@ -26,6 +26,7 @@
 #include "tasks/alignment.h"
 #include "tasks/axial.h"
 #include "tasks/fit_support.h"
+#include "tasks/minimum_zone.h"
 #include "vlt/error.h"
 
 namespace vlt {
@@ -477,6 +478,10 @@ std::span<const TaskOutput> TaskOutputs(TaskKind kind) {
     case TaskKind::kDeviation:
     case TaskKind::kPosition:
     case TaskKind::kProfile: return tasks_internal::AlignmentOutputs(kind);
+    case TaskKind::kFlatness:
+    case TaskKind::kStraightness:
+    case TaskKind::kRoundness:
+    case TaskKind::kCylindricity: return tasks_internal::FormOutputs(kind);
   }
   return {};
 }
@@ -709,6 +714,11 @@ FitResult FitCone(const Points& points, const FitOptions& options, std::string_v
   return tasks_internal::FitAxialSurface(TaskKind::kCone, points, options, where);
 }
 
+FitResult FitMinimumZone(TaskKind kind, const Points& points, const FitOptions& options,
+                         std::string_view where) {
+  return tasks_internal::FitForm(kind, points, options, where);
+}
+
 FitResult FitTask(TaskKind kind, const Points& points, const FitOptions& options, std::string_view where) {
   switch (kind) {
     case TaskKind::kDistance: return FitDistance(points, options, where);
@@ -725,6 +735,10 @@ FitResult FitTask(TaskKind kind, const Points& points, const FitOptions& options
     case TaskKind::kDeviation:
     case TaskKind::kPosition: return FitDeviation(points, options, where);
     case TaskKind::kProfile: return FitProfile(points, options, where);
+    case TaskKind::kFlatness:
+    case TaskKind::kStraightness:
+    case TaskKind::kRoundness:
+    case TaskKind::kCylindricity: return FitMinimumZone(kind, points, options, where);
   }
   Fail(where, kind, "unknown task kind");
 }
@@ -744,7 +758,8 @@ FitOptions TrialFitOptions(const TaskSpec& task, const Eigen::VectorXd& at_estim
     orientation = 3;
   }
   if (task.kind == TaskKind::kCircle) orientation = 4;
-  if (task.kind == TaskKind::kBestFit || task.kind == TaskKind::kBestFitScale || task.kind == TaskKind::kRps) angles = 3;
+  if (task.kind == TaskKind::kBestFit || task.kind == TaskKind::kBestFitScale || task.kind == TaskKind::kRps)
+    angles = 3;
   const long need = std::max(orientation, angles) + 3;
   if (at_estimates.size() < need) return options;
   if (orientation >= 0) options.orientation = at_estimates.segment<3>(orientation);

@@ -17,14 +17,24 @@ struct KindName {
 };
 
 constexpr KindName kKinds[] = {
-    {TaskKind::kDistance, "distance", 2, true}, {TaskKind::kPlane, "plane", 3, true},
-    {TaskKind::kSphere, "sphere", 4, true},     {TaskKind::kCircle, "circle", 3, true},
-    {TaskKind::kLine, "line", 2, true},         {TaskKind::kTwoFace, "two_face", 2, true},
-    {TaskKind::kCylinder, "cylinder", 5, true}, {TaskKind::kCone, "cone", 6, true},
-    {TaskKind::kBestFit, "best_fit", 3, false}, {TaskKind::kBestFitScale, "best_fit_scale", 3, false},
+    {TaskKind::kDistance, "distance", 2, true},
+    {TaskKind::kPlane, "plane", 3, true},
+    {TaskKind::kSphere, "sphere", 4, true},
+    {TaskKind::kCircle, "circle", 3, true},
+    {TaskKind::kLine, "line", 2, true},
+    {TaskKind::kTwoFace, "two_face", 2, true},
+    {TaskKind::kCylinder, "cylinder", 5, true},
+    {TaskKind::kCone, "cone", 6, true},
+    {TaskKind::kBestFit, "best_fit", 3, false},
+    {TaskKind::kBestFitScale, "best_fit_scale", 3, false},
     {TaskKind::kRps, "rps", 3, false},
-    {TaskKind::kDeviation, "deviation", 3, false},   {TaskKind::kPosition, "position", 3, false},
+    {TaskKind::kDeviation, "deviation", 3, false},
+    {TaskKind::kPosition, "position", 3, false},
     {TaskKind::kProfile, "profile", 3, false},
+    {TaskKind::kFlatness, "flatness", 4, true},
+    {TaskKind::kStraightness, "straightness", 3, true},
+    {TaskKind::kRoundness, "roundness", 4, true},
+    {TaskKind::kCylindricity, "cylindricity", 6, true},
 };
 
 }  // namespace
@@ -41,7 +51,8 @@ TaskKind ParseTaskKind(std::string_view text, std::string_view where) {
     if (k.task_table && k.name == text) return k.kind;
   }
   throw InputError(std::string(where) + ": unknown task kind '" + std::string(text) +
-                   "' (expected distance, plane, sphere, circle, line, two_face, cylinder or cone)");
+                   "' (expected distance, plane, sphere, circle, line, two_face, cylinder, cone, flatness, "
+                   "straightness, roundness or cylindricity)");
 }
 
 int MinimumPoints(TaskKind kind) {

@@ -1,0 +1,330 @@
+// tasks/minimum_zone.cc — form by the minimum-zone (Chebyshev) definition: the narrowest zone of
+// the feature's kind that holds every point (ISO 1101; ISO 12781-1 flatness, 12780-1 straightness,
+// 12181-1 roundness, 12180-1 cylindricity), by sequential linear programming from the least-squares
+// feature (docs/tasks.md "Form by minimum zone").
+//
+// Each step linearises the points' distances d_i(theta) from the feature about the current one and
+// solves, with Clp (COIN-OR's simplex), the linear program of the zone within a trust region:
+//     two-sided (flatness, roundness, cylindricity):  min t_hi - t_lo,  t_lo <= d_i + g_i s <= t_hi
+//     one-sided (straightness, a cylinder about a line):  min t_hi,  d_i + g_i s <= t_hi
+//     |s_j| <= radius.
+// A step is taken when the true zone shrinks (the trust region grows), else the region shrinks;
+// it ends when the linear program finds no descent (a stationary point of the minimax: the zone is
+// held by the points the standards call its contacts) or the region is below rounding.
+#include "tasks/minimum_zone.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include <ClpSimplex.hpp>
+#include <Eigen/Dense>
+
+#include "tasks/fit_support.h"
+
+namespace vlt::tasks_internal {
+namespace {
+
+using Eigen::Vector3d;
+using Points = Eigen::Ref<const Eigen::Matrix3Xd>;
+
+constexpr TaskOutput kFlatnessOutputs[] = {
+    {"flatness", "m",
+     "minimum-zone flatness: distance of the two closest parallel planes that hold every point"},
+    {"flatness_least_squares", "m",
+     "max - min orthogonal distance from the least-squares plane (>= flatness)"},
+};
+constexpr TaskOutput kStraightnessOutputs[] = {
+    {"straightness", "m",
+     "minimum-zone straightness: diameter of the thinnest cylinder that holds every point"},
+    {"straightness_least_squares", "m",
+     "2 x the largest distance from the least-squares line (>= straightness)"},
+};
+constexpr TaskOutput kRoundnessOutputs[] = {
+    {"roundness", "m",
+     "minimum-zone roundness: radial distance of the two closest concentric circles that hold every point, "
+     "in the plane of the least-squares circle"},
+    {"roundness_least_squares", "m",
+     "max - min radial distance from the least-squares circle (>= roundness)"},
+};
+constexpr TaskOutput kCylindricityOutputs[] = {
+    {"cylindricity", "m",
+     "minimum-zone cylindricity: radial distance of the two closest coaxial cylinders that hold every point"},
+    {"cylindricity_least_squares", "m",
+     "max - min radial distance from the least-squares cylinder (>= cylindricity)"},
+};
+
+// The linearised problem at the current feature: distances d (N) and their gradients G (N x k) over
+// the feature's k parameters, in normalised units.
+struct Linearised {
+  Eigen::VectorXd d;
+  Eigen::MatrixXd g;
+};
+
+// The zone of distances d: max - min (two-sided), or 2 max (one-sided: a cylinder about a line).
+double Zone(const Eigen::VectorXd& d, bool two_sided) {
+  return two_sided ? d.maxCoeff() - d.minCoeff() : 2.0 * d.maxCoeff();
+}
+
+// One linear program: the step s (|s_j| <= 1, the problem scaled by the trust region) that minimises
+// the zone of d + G s, and that zone; false when Clp finds no optimum.
+bool ZoneStep(const Linearised& at, bool two_sided, Eigen::VectorXd& step, double& zone) {
+  const int n = static_cast<int>(at.d.size()), k = static_cast<int>(at.g.cols());
+  const int columns = k + (two_sided ? 2 : 1), rows = two_sided ? 2 * n : n;
+  std::vector<CoinBigIndex> start;
+  std::vector<int> index;
+  std::vector<double> value;
+  for (int j = 0; j < k; ++j) {  // s_j: in every row
+    start.push_back(static_cast<CoinBigIndex>(index.size()));
+    for (int r = 0; r < rows; ++r) {
+      index.push_back(r);
+      value.push_back(at.g(r % n, j));
+    }
+  }
+  for (int side = 0; side < (two_sided ? 2 : 1); ++side) {  // t_hi in rows 0..n-1, t_lo in n..2n-1
+    start.push_back(static_cast<CoinBigIndex>(index.size()));
+    for (int i = 0; i < n; ++i) {
+      index.push_back(side * n + i);
+      value.push_back(-1.0);
+    }
+  }
+  start.push_back(static_cast<CoinBigIndex>(index.size()));
+  const double inf = COIN_DBL_MAX;
+  std::vector<double> column_lower(columns, -inf), column_upper(columns, inf), objective(columns, 0.0);
+  for (int j = 0; j < k; ++j) column_lower[j] = -1.0, column_upper[j] = 1.0;
+  objective[k] = two_sided ? 1.0 : 2.0;  // the zone: t_hi - t_lo, or 2 t_hi
+  if (two_sided) objective[k + 1] = -1.0;
+  // g_i s - t_hi <= -d_i;  g_i s - t_lo >= -d_i.
+  std::vector<double> row_lower(rows, -inf), row_upper(rows, inf);
+  for (int i = 0; i < n; ++i) {
+    row_upper[i] = -at.d(i);
+    if (two_sided) row_lower[n + i] = -at.d(i);
+  }
+  ClpSimplex lp;
+  lp.setLogLevel(0);
+  lp.scaling(0);
+  lp.loadProblem(columns, rows, start.data(), index.data(), value.data(), column_lower.data(),
+                 column_upper.data(), objective.data(), row_lower.data(), row_upper.data());
+  lp.setPrimalTolerance(1e-10);
+  lp.setDualTolerance(1e-10);
+  lp.dual();
+  if (lp.status() != 0) return false;
+  const double* solution = lp.primalColumnSolution();
+  step = Eigen::Map<const Eigen::VectorXd>(solution, k);
+  zone = lp.objectiveValue();
+  return true;
+}
+
+// An orthonormal basis (e1, e2, v) completing the unit vector v.
+Eigen::Matrix3d Basis(const Vector3d& v) {
+  const Vector3d helper = std::abs(v.x()) < 0.9 ? Vector3d::UnitX() : Vector3d::UnitY();
+  const Vector3d e1 = (helper - helper.dot(v) * v).normalized();
+  Eigen::Matrix3d basis;
+  basis << e1, v.cross(e1), v;
+  return basis;
+}
+
+// The features, as values the search copies: each gives its distances and their gradients at its
+// current parameters (Linearise) and moves by a step of them (Move). Points are normalised (about
+// their centroid, in units of their rms distance from it).
+
+// A plane through the centroid with unit normal n: d_i = n . q_i. Parameters: the tilts (a, b) of
+// n' = (n + a e1 + b e2) / |...|, d d_i / d(a, b) = (e1 . q_i, e2 . q_i).
+struct PlaneZone {
+  const Eigen::Matrix3Xd* q;
+  Vector3d n;
+  Linearised Linearise() const {
+    const Eigen::Matrix3d basis = Basis(n);
+    Linearised at;
+    at.d = (n.transpose() * *q).transpose();
+    at.g = (basis.leftCols<2>().transpose() * *q).transpose();
+    return at;
+  }
+  void Move(const Eigen::VectorXd& s) {
+    const Eigen::Matrix3d basis = Basis(n);
+    n = (n + s(0) * basis.col(0) + s(1) * basis.col(1)).normalized();
+  }
+};
+
+// A line through a with unit direction u: d_i = rho_i = |q_i - a - ((q_i - a) . u) u|. Parameters:
+// the shifts (a1, a2) of a along e1, e2 and the tilts (b1, b2) of u' = (u + b1 e1 + b2 e2) / |...|;
+// with (x, y, z) the coordinates of q_i - a in (e1, e2, u) (Forbes, NPL DITC 140/89):
+//   d rho / d(a1, a2, b1, b2) = -(x, y, x z, y z) / rho.
+struct AxisZone {
+  const Eigen::Matrix3Xd* q;
+  Vector3d a, u;
+  Linearised Linearise() const {
+    const Eigen::Matrix3d basis = Basis(u);
+    const Eigen::Matrix3Xd local = basis.transpose() * (q->colwise() - a);
+    Linearised at;
+    const long n = q->cols();
+    at.d.resize(n);
+    at.g.resize(n, 4);
+    for (long i = 0; i < n; ++i) {
+      const double x = local(0, i), y = local(1, i), z = local(2, i), rho = std::hypot(x, y);
+      at.d(i) = rho;
+      // On the axis the distance has no gradient; any subgradient of the zone serves, 0 among them.
+      const double inv = rho > 0.0 ? 1.0 / rho : 0.0;
+      at.g.row(i) << -x * inv, -y * inv, -x * z * inv, -y * z * inv;
+    }
+    return at;
+  }
+  void Move(const Eigen::VectorXd& s) {
+    const Eigen::Matrix3d basis = Basis(u);
+    a += s(0) * basis.col(0) + s(1) * basis.col(1);
+    u = (u + s(2) * basis.col(0) + s(3) * basis.col(1)).normalized();
+    a -= a.dot(u) * u;  // the same line, through the foot of the centroid (the origin)
+  }
+};
+
+// Concentric circles about c in a plane (2-D coordinates): d_i = |q_i - c|, d d_i / d c =
+// -(q_i - c) / d_i.
+struct CircleZone {
+  const Eigen::Matrix2Xd* q;
+  Eigen::Vector2d c;
+  Linearised Linearise() const {
+    const Eigen::Matrix2Xd r = q->colwise() - c;
+    Linearised at;
+    at.d = r.colwise().norm().transpose();
+    at.g.resize(q->cols(), 2);
+    for (long i = 0; i < q->cols(); ++i)
+      at.g.row(i) =
+          at.d(i) > 0.0 ? Eigen::RowVector2d(-r.col(i).transpose() / at.d(i)) : Eigen::RowVector2d::Zero();
+    return at;
+  }
+  void Move(const Eigen::VectorXd& s) { c += s.head<2>(); }
+};
+
+// The smallest zone of `feature` from where it stands (sequential linear programming in a trust
+// region, see the file comment); `start_radius` is the trust region's first radius in parameter
+// units (the zone's order: the least-squares form, normalised).
+template <typename F>
+double MinimiseZone(F& feature, bool two_sided, double start_radius, TaskKind kind, std::string_view where,
+                    int& programs) {
+  double zone = Zone(feature.Linearise().d, two_sided);
+  double radius = std::max(start_radius, 1e-9);
+  for (int iteration = 0; iteration < 500 && zone > 0.0; ++iteration) {
+    ++programs;
+    Linearised at = feature.Linearise();
+    // Scaled: steps in units of the radius, distances in units of the zone (the simplex's
+    // tolerances are then relative to both).
+    at.g *= radius / zone;
+    at.d /= zone;
+    Eigen::VectorXd step;
+    double predicted = 0.0;
+    if (!ZoneStep(at, two_sided, step, predicted))
+      Fail(where, kind, "the minimum-zone linear program failed");
+    predicted *= zone;
+    // No descent the linear model sees: a stationary point of the zone (to the simplex's tolerance).
+    if (zone - predicted <= 1e-9 * zone) break;
+    F candidate = feature;
+    candidate.Move(step * radius);
+    const double trial_zone = Zone(candidate.Linearise().d, two_sided);
+    if (trial_zone < zone) {
+      const double ratio = (zone - trial_zone) / (zone - predicted);
+      feature = candidate;
+      zone = trial_zone;
+      if (ratio > 0.75 && step.cwiseAbs().maxCoeff() > 0.99) radius *= 2.0;
+    } else {
+      radius *= 0.25;
+      if (radius < 1e-13) break;
+    }
+  }
+  return zone;
+}
+
+// The points about their centroid in units of their rms distance from it (the mean without
+// overflow: differences from the first point).
+struct Normalised {
+  Eigen::Matrix3Xd q;
+  Vector3d centroid;
+  double scale = 0.0;
+};
+
+Normalised Normalise(const Points& points, TaskKind kind, std::string_view where) {
+  Normalised out;
+  const Vector3d first = points.col(0);
+  out.centroid = first + (points.colwise() - first).rowwise().mean();
+  const Eigen::Matrix3Xd centred = points.colwise() - out.centroid;
+  out.scale = std::sqrt(centred.colwise().squaredNorm().mean());
+  if (!(out.scale > 0.0) || !std::isfinite(out.scale)) Fail(where, kind, "the points coincide");
+  out.q = centred / out.scale;
+  return out;
+}
+
+// Each form from its least-squares feature: [minimum zone, least squares], SI.
+Eigen::Vector2d Flatness(const Points& points, std::string_view where, int& programs) {
+  const FitResult ls = FitPlane(points, {}, where);
+  const Normalised p = Normalise(points, TaskKind::kFlatness, where);
+  PlaneZone zone{&p.q, ls.values.segment<3>(3)};
+  const double start = Zone(zone.Linearise().d, true);
+  return {MinimiseZone(zone, true, start, TaskKind::kFlatness, where, programs) * p.scale, ls.values(6)};
+}
+
+Eigen::Vector2d Straightness(const Points& points, std::string_view where, int& programs) {
+  const FitResult ls = FitLine(points, {}, where);
+  const Normalised p = Normalise(points, TaskKind::kStraightness, where);
+  AxisZone zone{&p.q, Vector3d::Zero(), ls.values.segment<3>(3)};  // the line is through the centroid
+  const double start = Zone(zone.Linearise().d, false);
+  return {MinimiseZone(zone, false, start, TaskKind::kStraightness, where, programs) * p.scale, ls.values(6)};
+}
+
+Eigen::Vector2d Roundness(const Points& points, std::string_view where, int& programs) {
+  const FitResult ls = FitCircle(points, {}, where);
+  const Normalised p = Normalise(points, TaskKind::kRoundness, where);
+  // ISO 12181-1 judges a profile in its plane: the points projected on the least-squares circle's.
+  const Eigen::Matrix3d basis = Basis(ls.values.segment<3>(4));
+  const Eigen::Matrix2Xd in_plane = basis.leftCols<2>().transpose() * p.q;
+  const Eigen::Vector2d centre =
+      basis.leftCols<2>().transpose() * (ls.values.head<3>() - p.centroid) / p.scale;
+  CircleZone zone{&in_plane, centre};
+  const double start = Zone(zone.Linearise().d, true);
+  const double least_squares = start * p.scale;
+  return {MinimiseZone(zone, true, start, TaskKind::kRoundness, where, programs) * p.scale, least_squares};
+}
+
+Eigen::Vector2d Cylindricity(const Points& points, std::string_view where, int& programs) {
+  const FitResult ls = FitCylinder(points, {}, where);
+  const Normalised p = Normalise(points, TaskKind::kCylindricity, where);
+  const Vector3d u = ls.values.segment<3>(3);
+  Vector3d a = (ls.values.head<3>() - p.centroid) / p.scale;
+  a -= a.dot(u) * u;
+  AxisZone zone{&p.q, a, u};
+  const double start = Zone(zone.Linearise().d, true);
+  return {MinimiseZone(zone, true, start, TaskKind::kCylindricity, where, programs) * p.scale, ls.values(7)};
+}
+
+}  // namespace
+
+std::span<const TaskOutput> FormOutputs(TaskKind kind) {
+  switch (kind) {
+    case TaskKind::kFlatness: return kFlatnessOutputs;
+    case TaskKind::kStraightness: return kStraightnessOutputs;
+    case TaskKind::kRoundness: return kRoundnessOutputs;
+    case TaskKind::kCylindricity: return kCylindricityOutputs;
+    default: return {};
+  }
+}
+
+FitResult FitForm(TaskKind kind, const Points& points, const FitOptions& options, std::string_view where) {
+  CheckPoints(points, kind, MinimumPoints(kind), false, where);
+  FitResult r = MakeResult(kind, points.cols(), options);
+  Eigen::Vector2d form;
+  switch (kind) {
+    case TaskKind::kFlatness: form = Flatness(points, where, r.iterations); break;
+    case TaskKind::kStraightness: form = Straightness(points, where, r.iterations); break;
+    case TaskKind::kRoundness: form = Roundness(points, where, r.iterations); break;
+    case TaskKind::kCylindricity: form = Cylindricity(points, where, r.iterations); break;
+    default: Fail(where, kind, "not a form");
+  }
+  // The search starts at the least-squares feature and only shrinks the zone: never above the
+  // least-squares form, whose own rounding may differ in the last digits.
+  r.values << std::min(form(0), form(1)), form(1);
+  // The extremes of distances have no derivative (ISO's contacts change with the points): Monte
+  // Carlo only (docs/tasks.md).
+  r.differentiable.assign(2, false);
+  return r;
+}
+
+}  // namespace vlt::tasks_internal
