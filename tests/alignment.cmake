@@ -44,7 +44,7 @@ function(vlt_alignment_error name job regex)
 endfunction()
 vlt_alignment_error(no_nominal no_nominal.toml "no_nominal\\.toml: nominal: required key is missing")
 vlt_alignment_error(unknown_kind unknown_kind.toml
-                    "unknown_kind\\.toml: alignment\\[0\\]\\.kind: unknown alignment kind 'plane_line_point' \\(expected best_fit or rps\\)")
+                    "unknown_kind\\.toml: alignment\\[0\\]\\.kind: unknown alignment kind 'plane_line_point' \\(expected best_fit, rps or features\\)")
 vlt_alignment_error(two_points two_points.toml "two_points\\.toml: alignment\\[0\\]\\.points: task 'a': best_fit needs at least 3 points, 2 given")
 vlt_alignment_error(no_normal no_normal.toml
                     "no_normal\\.toml: deviation\\[0\\]\\.points: point 'T1' has no nominal normal")

@@ -176,6 +176,7 @@ TEST_P(GumTaskBruteForce, EqualsJointCovariance) {
       case TaskKind::kBestFit:
       case TaskKind::kBestFitScale:
       case TaskKind::kRps:
+      case TaskKind::kFeatures:
       case TaskKind::kDeviation:
       case TaskKind::kPosition:
       case TaskKind::kProfile: break;

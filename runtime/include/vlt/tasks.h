@@ -47,16 +47,17 @@ enum class TaskKind {
   kStraightness,  // a cylinder about a line in space (>= 3 points), ISO 12780-1
   kRoundness,     // two concentric circles in the least-squares circle's plane (>= 4 points), ISO 12181-1
   kCylindricity,  // two coaxial cylinders (>= 6 points), ISO 12180-1
+  kFeatures,      // alignment by datum features (plane, line, point: >= 3 + 2 + 1 points), [[alignment]]
 };
 
 // "distance", "plane", "sphere", "circle", "line", "two_face", "cylinder", "cone", "best_fit",
 // "best_fit_scale", "rps", "deviation", "position", "profile", "flatness", "straightness",
-// "roundness", "cylindricity".
+// "roundness", "cylindricity", "features".
 std::string_view TaskKindName(TaskKind kind);
 // Inverse of TaskKindName for the kinds a [[task]] table may name (distance ... cone, the forms); throws
 // InputError "<where>: unknown task kind '<text>' (expected ...)".
 TaskKind ParseTaskKind(std::string_view text, std::string_view where);
-// Minimum number of points the feature needs (2, 3, 4, 3, 2, 2, 5, 6, 3, 3, 3, 3, 3, 3, 4, 3, 4, 6).
+// Minimum number of points the feature needs (2, 3, 4, 3, 2, 2, 5, 6, 3, 3, 3, 3, 3, 3, 4, 3, 4, 6, 6).
 int MinimumPoints(TaskKind kind);
 
 // The nominal (CAD, part-frame) geometry of an alignment or deviation task, SI. An alignment maps
@@ -69,6 +70,11 @@ struct NominalGeometry {
   // RPS: per alignment point, which part-frame axes (x, y, z) it holds (a reference point
   // system, e.g. 3-2-1: "xyz", "yz", "z"); empty for a best fit (every axis of every point).
   std::vector<std::array<bool, 3>> holds;
+  // Features (kind features): the first plane_points alignment points are the primary datum (a
+  // plane), the next line_points the secondary (a line), the last one the tertiary (a point); 0:
+  // not a features alignment. The nominal datums are the same fits of the nominal positions.
+  int plane_points = 0;
+  int line_points = 0;
   // Deviation, position: the point (index into the task's points) whose deviation s R x + t - n
   // is reported, and its nominal unit normal (surface normal, or a hole's axis) [1].
   int point = -1;

@@ -32,6 +32,7 @@ struct Alignment {
   std::vector<std::string> points;
   bool scale = false;
   std::vector<std::array<bool, 3>> holds;  // rps: the axes each point holds
+  int plane_points = 0, line_points = 0;   // features: the datum plane's and line's points
   std::vector<int> indices;                // of its points in the job, resolved once
 };
 
@@ -63,14 +64,17 @@ std::map<std::string, Nominal> ReadNominal(Section& top, Job& job) {
   const std::string header = path + ": line " + std::to_string(table.header_line);
   for (const std::string& col : table.header) {
     if (col != "name" && col != "x" && col != "y" && col != "z" && col != "i" && col != "j" && col != "k") {
-      throw InputError(header + ": unknown column '" + col + "' (nominal CSV columns: name, x, y, z [, i, j, k])");
+      throw InputError(header + ": unknown column '" + col +
+                       "' (nominal CSV columns: name, x, y, z [, i, j, k])");
     }
   }
   int c[7];
   const char* names[7] = {"name", "x", "y", "z", "i", "j", "k"};
   for (int k = 0; k < 7; ++k) {
     c[k] = table.Column(names[k]);
-    if (c[k] < 0 && k < 4) throw InputError(header + ": missing column '" + names[k] + "' (nominal CSV columns: name, x, y, z [, i, j, k])");
+    if (c[k] < 0 && k < 4)
+      throw InputError(header + ": missing column '" + names[k] +
+                       "' (nominal CSV columns: name, x, y, z [, i, j, k])");
   }
   const bool has_normals = c[4] >= 0 || c[5] >= 0 || c[6] >= 0;
   if (has_normals && (c[4] < 0 || c[5] < 0 || c[6] < 0)) {
@@ -82,17 +86,21 @@ std::map<std::string, Nominal> ReadNominal(Section& top, Job& job) {
     if (name.empty()) throw InputError(where + ": empty point name");
     Nominal n;
     for (int a = 0; a < 3; ++a) {
-      n.position(a) = CsvQuantity(row.fields[c[1 + a]], Dimension::kLength, scale, 0, where + ": " + names[1 + a]);
+      n.position(a) =
+          CsvQuantity(row.fields[c[1 + a]], Dimension::kLength, scale, 0, where + ": " + names[1 + a]);
       if (!std::isfinite(n.position(a)) || std::abs(n.position(a)) > kMaxRange) {
-        throw InputError(where + ": " + names[1 + a] + ": a nominal coordinate beyond any laser tracker's reach");
+        throw InputError(where + ": " + names[1 + a] +
+                         ": a nominal coordinate beyond any laser tracker's reach");
       }
     }
     if (has_normals && !(row.fields[c[4]].empty() && row.fields[c[5]].empty() && row.fields[c[6]].empty())) {
       Eigen::Vector3d v;
-      for (int a = 0; a < 3; ++a) v(a) = CsvQuantity(row.fields[c[4 + a]], std::nullopt, 1.0, 0, where + ": " + names[4 + a]);
+      for (int a = 0; a < 3; ++a)
+        v(a) = CsvQuantity(row.fields[c[4 + a]], std::nullopt, 1.0, 0, where + ": " + names[4 + a]);
       // Scaled by its largest component first: (1e200, 0, 1e200) is a direction, its norm is not finite.
       const double largest = v.cwiseAbs().maxCoeff();
-      if (!std::isfinite(largest) || !(largest > 0.0)) throw InputError(where + ": the normal (i, j, k) has no direction");
+      if (!std::isfinite(largest) || !(largest > 0.0))
+        throw InputError(where + ": the normal (i, j, k) has no direction");
       n.normal = (v / largest).normalized();
     }
     if (!out.emplace(name, n).second) throw InputError(where + ": point '" + name + "' given twice");
@@ -117,9 +125,11 @@ std::vector<std::string> PointList(Section& t, const Job& job, const Accept& acc
   return out;
 }
 
-const Nominal& NominalOf(const std::map<std::string, Nominal>& nominal, const std::string& point, const std::string& where) {
+const Nominal& NominalOf(const std::map<std::string, Nominal>& nominal, const std::string& point,
+                         const std::string& where) {
   const auto it = nominal.find(point);
-  if (it == nominal.end()) throw InputError(where + ": point '" + point + "' has no nominal position ([nominal] csv)");
+  if (it == nominal.end())
+    throw InputError(where + ": point '" + point + "' has no nominal position ([nominal] csv)");
   return it->second;
 }
 
@@ -134,11 +144,16 @@ void ReadHeldAxes(Section& t, Alignment& a) {
     for (const char c : axes) {
       const int axis = c == 'x' ? 0 : c == 'y' ? 1 : c == 'z' ? 2 : -1;
       if (axis < 0 || held[static_cast<std::size_t>(axis)]) {
-        throw InputError(rps.Where(point) + ": expected the axes the point holds, each of x, y, z at most once (e.g. \"xyz\", \"yz\", \"z\"), got '" + axes + "'");
+        throw InputError(rps.Where(point) +
+                         ": expected the axes the point holds, each of x, y, z at most once (e.g. \"xyz\", "
+                         "\"yz\", \"z\"), got '" +
+                         axes + "'");
       }
       held[static_cast<std::size_t>(axis)] = true;
     }
-    if (axes.empty()) throw InputError(rps.Where(point) + ": a point that holds no axis does not belong to the reference point system");
+    if (axes.empty())
+      throw InputError(rps.Where(point) +
+                       ": a point that holds no axis does not belong to the reference point system");
     rps.Get(point);
     a.points.push_back(point);
     a.holds.push_back(held);
@@ -152,40 +167,81 @@ void ReadHeldAxes(Section& t, Alignment& a) {
   }
 }
 
-// One [[alignment]] table: a best_fit or rps task over its points.
-Alignment ReadAlignment(Section& t, Job& job, const std::map<std::string, Nominal>& nominal, std::set<std::string>& names) {
-  t.set_hint("name, kind, points, scale, rps, tolerance");
+// kind = "features": plane (>= 3 point names), line (>= 2), point (one name): the datum features
+// (docs/tasks.md "Alignment by datum features"); the alignment's points are them in that order.
+void ReadDatumFeatures(Section& t, Alignment& a) {
+  if (t.Get("points") != nullptr) {
+    throw InputError(t.Where("points") + ": a features alignment's points are its plane, line and point");
+  }
+  auto names = [&](const char* key, std::size_t minimum) {
+    const toml::node& node = t.Require(key);
+    if (!node.is_array()) throw InputError(t.Where(key) + ": expected an array of point names");
+    std::vector<std::string> out;
+    for (const toml::node& p : *node.as_array()) out.push_back(AsString(p, t.Where(key)));
+    if (out.size() < minimum) {
+      throw InputError(t.Where(key) + ": a datum " + key + " needs at least " + std::to_string(minimum) +
+                       " points, " + std::to_string(out.size()) + " given");
+    }
+    return out;
+  };
+  const std::vector<std::string> plane = names("plane", 3), line = names("line", 2);
+  a.points = plane;
+  a.points.insert(a.points.end(), line.begin(), line.end());
+  a.points.push_back(AsString(t.Require("point"), t.Where("point")));
+  a.plane_points = static_cast<int>(plane.size());
+  a.line_points = static_cast<int>(line.size());
+}
+
+// One [[alignment]] table: a best_fit, rps or features task over its points.
+Alignment ReadAlignment(Section& t, Job& job, const std::map<std::string, Nominal>& nominal,
+                        std::set<std::string>& names) {
+  t.set_hint("name, kind, points, scale, rps, plane, line, point, tolerance");
   Alignment a;
   a.name = AsString(t.Require("name"), t.Where("name"));
   if (a.name.empty()) throw InputError(t.Where("name") + ": empty alignment name");
-  if (!names.insert(a.name).second) throw InputError(t.Where("name") + ": '" + a.name + "' is already the name of a task or alignment");
+  if (!names.insert(a.name).second)
+    throw InputError(t.Where("name") + ": '" + a.name + "' is already the name of a task or alignment");
   const std::string kind = AsString(t.Require("kind"), t.Where("kind"));
-  if (kind != "best_fit" && kind != "rps") {
-    throw InputError(t.Where("kind") + ": unknown alignment kind '" + kind + "' (expected best_fit or rps)");
+  if (kind != "best_fit" && kind != "rps" && kind != "features") {
+    throw InputError(t.Where("kind") + ": unknown alignment kind '" + kind +
+                     "' (expected best_fit, rps or features)");
   }
   if (const toml::node* n = t.Get("scale")) a.scale = AsBool(*n, t.Where("scale"));
-  if (kind == "rps") {
+  if (kind == "features") {
+    if (a.scale) throw InputError(t.Where("scale") + ": a features alignment fits no scale");
+    ReadDatumFeatures(t, a);
+  } else if (kind == "rps") {
     if (a.scale) throw InputError(t.Where("scale") + ": a reference point system fits no scale");
-    if (t.Get("points") != nullptr) throw InputError(t.Where("points") + ": an rps alignment's points are the keys of [alignment.rps]");
+    if (t.Get("points") != nullptr)
+      throw InputError(t.Where("points") + ": an rps alignment's points are the keys of [alignment.rps]");
     ReadHeldAxes(t, a);
   } else {
-    a.points = PointList(t, job, [&](const std::string& p) { return nominal.count(p) > 0; }, false);
+    a.points = PointList(
+        t, job, [&](const std::string& p) { return nominal.count(p) > 0; }, false);
   }
   TaskSpec spec;
   spec.where = t.WhereSelf();
   spec.name = a.name;
-  spec.kind = kind == "rps" ? TaskKind::kRps : a.scale ? TaskKind::kBestFitScale : TaskKind::kBestFit;
+  spec.kind = kind == "features" ? TaskKind::kFeatures
+              : kind == "rps"    ? TaskKind::kRps
+              : a.scale          ? TaskKind::kBestFitScale
+                                 : TaskKind::kBestFit;
   spec.points = a.points;
   auto geometry = std::make_shared<NominalGeometry>();
   geometry->positions.resize(3, static_cast<Eigen::Index>(a.points.size()));
   // An rps alignment's points are the keys of [alignment.rps]: messages name that table.
-  const std::string points_where = kind == "rps" ? t.Where("rps") : t.Where("points");
+  const std::string points_where = kind == "rps"        ? t.Where("rps")
+                                   : kind == "features" ? t.WhereSelf()
+                                                        : t.Where("points");
   for (std::size_t i = 0; i < a.points.size(); ++i) {
-    geometry->positions.col(static_cast<Eigen::Index>(i)) = NominalOf(nominal, a.points[i], points_where).position;
+    geometry->positions.col(static_cast<Eigen::Index>(i)) =
+        NominalOf(nominal, a.points[i], points_where).position;
   }
   geometry->scale = a.scale;
   geometry->alignment_points = static_cast<int>(a.points.size());
   geometry->holds = a.holds;
+  geometry->plane_points = a.plane_points;
+  geometry->line_points = a.line_points;
   spec.nominal = geometry;
   ReadTaskTolerances(t, spec);
   t.Finish();
@@ -205,22 +261,31 @@ const Alignment& AlignmentOf(Section& t, const std::vector<Alignment>& alignment
     throw InputError(t.Where("alignment") + ": no [[alignment]] named '" + wanted + "'");
   }
   if (alignments.size() == 1) return alignments.front();
-  throw InputError(t.Where("alignment") + ": required key is missing (" +
-                   (alignments.empty() ? std::string("give an [[alignment]] first") : "the job has several alignments") + ")");
+  throw InputError(
+      t.Where("alignment") + ": required key is missing (" +
+      (alignments.empty() ? std::string("give an [[alignment]] first") : "the job has several alignments") +
+      ")");
 }
 
 // `points` of a [[deviation]] or [[profile]] table: names of points with a nominal normal, or
 // "all" of them.
-std::vector<std::string> PointsWithNormals(Section& t, const Job& job, const std::map<std::string, Nominal>& nominal) {
+std::vector<std::string> PointsWithNormals(Section& t, const Job& job,
+                                           const std::map<std::string, Nominal>& nominal) {
   const std::vector<std::string> points = PointList(
-      t, job, [&](const std::string& p) { const auto it = nominal.find(p); return it != nominal.end() && it->second.normal; },
+      t, job,
+      [&](const std::string& p) {
+        const auto it = nominal.find(p);
+        return it != nominal.end() && it->second.normal;
+      },
       true);
   if (points.empty()) throw InputError(t.Where("points") + ": no point with a nominal normal");
   std::set<std::string> seen;
   for (const std::string& point : points) {
-    if (!seen.insert(point).second) throw InputError(t.Where("points") + ": point '" + point + "' listed twice");
+    if (!seen.insert(point).second)
+      throw InputError(t.Where("points") + ": point '" + point + "' listed twice");
     if (!NominalOf(nominal, point, t.Where("points")).normal) {
-      throw InputError(t.Where("points") + ": point '" + point + "' has no nominal normal (columns i, j, k of [nominal] csv)");
+      throw InputError(t.Where("points") + ": point '" + point +
+                       "' has no nominal normal (columns i, j, k of [nominal] csv)");
     }
   }
   return points;
@@ -229,21 +294,24 @@ std::vector<std::string> PointsWithNormals(Section& t, const Job& job, const std
 // A task over the alignment's points and then `extra` (each once): its spec, its points' indices
 // in the job (pushed to job.task_points) and its nominal geometry (positions, the alignment's
 // scale and held axes); extra_index[i] is extra[i]'s index among the task's points.
-std::shared_ptr<NominalGeometry> OverAlignment(const Alignment& alignment, const std::vector<std::string>& extra,
-                                               const std::map<std::string, Nominal>& nominal, const PointIndex& measured,
-                                               const std::string& where, TaskSpec& spec, Job& job,
-                                               std::vector<int>& extra_index) {
+std::shared_ptr<NominalGeometry> OverAlignment(const Alignment& alignment,
+                                               const std::vector<std::string>& extra,
+                                               const std::map<std::string, Nominal>& nominal,
+                                               const PointIndex& measured, const std::string& where,
+                                               TaskSpec& spec, Job& job, std::vector<int>& extra_index) {
   spec.points = alignment.points;
   std::vector<int> indices = alignment.indices;
   std::unordered_map<std::string_view, int> in_alignment;
-  for (std::size_t i = 0; i < alignment.points.size(); ++i) in_alignment.emplace(alignment.points[i], static_cast<int>(i));
+  for (std::size_t i = 0; i < alignment.points.size(); ++i)
+    in_alignment.emplace(alignment.points[i], static_cast<int>(i));
   for (const std::string& point : extra) {
     if (const auto it = in_alignment.find(point); it != in_alignment.end()) {
       extra_index.push_back(it->second);
       continue;
     }
     const auto job_index = measured.find(point);
-    if (job_index == measured.end()) throw InputError(where + ": task '" + spec.name + "': point '" + point + "' not measured");
+    if (job_index == measured.end())
+      throw InputError(where + ": task '" + spec.name + "': point '" + point + "' not measured");
     extra_index.push_back(static_cast<int>(spec.points.size()));
     spec.points.push_back(point);
     indices.push_back(job_index->second);
@@ -253,18 +321,22 @@ std::shared_ptr<NominalGeometry> OverAlignment(const Alignment& alignment, const
   geometry->alignment_points = static_cast<int>(alignment.points.size());
   geometry->scale = alignment.scale;
   geometry->holds = alignment.holds;
+  geometry->plane_points = alignment.plane_points;
+  geometry->line_points = alignment.line_points;
   geometry->alignment = alignment.name;
   geometry->positions.resize(3, static_cast<Eigen::Index>(spec.points.size()));
   for (std::size_t i = 0; i < spec.points.size(); ++i) {
-    geometry->positions.col(static_cast<Eigen::Index>(i)) = NominalOf(nominal, spec.points[i], where).position;
+    geometry->positions.col(static_cast<Eigen::Index>(i)) =
+        NominalOf(nominal, spec.points[i], where).position;
   }
   return geometry;
 }
 
 // One [[deviation]] table: a deviation task per point, named "<name>.<point>", over the
 // alignment's points and the point (once, where it is an alignment point itself).
-void ReadDeviation(Section& t, Job& job, const std::map<std::string, Nominal>& nominal, const PointIndex& measured,
-                   const std::vector<Alignment>& alignments, std::set<std::string>& names) {
+void ReadDeviation(Section& t, Job& job, const std::map<std::string, Nominal>& nominal,
+                   const PointIndex& measured, const std::vector<Alignment>& alignments,
+                   std::set<std::string>& names) {
   t.set_hint("name, alignment, points, position, tolerance");
   const std::string name = AsString(t.Require("name"), t.Where("name"));
   if (name.empty()) throw InputError(t.Where("name") + ": empty deviation name");
@@ -280,9 +352,11 @@ void ReadDeviation(Section& t, Job& job, const std::map<std::string, Nominal>& n
     TaskSpec spec = pattern;
     spec.where = t.WhereSelf() + " (point '" + point + "')";
     spec.name = name + "." + point;
-    if (!names.insert(spec.name).second) throw InputError(t.Where("name") + ": '" + spec.name + "' is already the name of a task");
+    if (!names.insert(spec.name).second)
+      throw InputError(t.Where("name") + ": '" + spec.name + "' is already the name of a task");
     std::vector<int> index;
-    const auto geometry = OverAlignment(alignment, {point}, nominal, measured, t.Where("points"), spec, job, index);
+    const auto geometry =
+        OverAlignment(alignment, {point}, nominal, measured, t.Where("points"), spec, job, index);
     geometry->point = index.front();
     geometry->normal = *NominalOf(nominal, point, t.Where("points")).normal;
     geometry->position = position;
@@ -292,23 +366,27 @@ void ReadDeviation(Section& t, Job& job, const std::map<std::string, Nominal>& n
 }
 
 // One [[profile]] table: one profile task over the alignment's points and its own.
-void ReadProfile(Section& t, Job& job, const std::map<std::string, Nominal>& nominal, const PointIndex& measured,
-                 const std::vector<Alignment>& alignments, std::set<std::string>& names) {
+void ReadProfile(Section& t, Job& job, const std::map<std::string, Nominal>& nominal,
+                 const PointIndex& measured, const std::vector<Alignment>& alignments,
+                 std::set<std::string>& names) {
   t.set_hint("name, alignment, points, tolerance");
   TaskSpec spec;
   spec.where = t.WhereSelf();
   spec.kind = TaskKind::kProfile;
   spec.name = AsString(t.Require("name"), t.Where("name"));
   if (spec.name.empty()) throw InputError(t.Where("name") + ": empty profile name");
-  if (!names.insert(spec.name).second) throw InputError(t.Where("name") + ": '" + spec.name + "' is already the name of a task");
+  if (!names.insert(spec.name).second)
+    throw InputError(t.Where("name") + ": '" + spec.name + "' is already the name of a task");
   const Alignment& alignment = AlignmentOf(t, alignments);
   const std::vector<std::string> points = PointsWithNormals(t, job, nominal);
   ReadTaskTolerances(t, spec);
   t.Finish();
   std::vector<int> index;
-  const auto geometry = OverAlignment(alignment, points, nominal, measured, t.Where("points"), spec, job, index);
+  const auto geometry =
+      OverAlignment(alignment, points, nominal, measured, t.Where("points"), spec, job, index);
   geometry->profile = index;
-  for (const std::string& point : points) geometry->profile_normals.push_back(*NominalOf(nominal, point, t.Where("points")).normal);
+  for (const std::string& point : points)
+    geometry->profile_normals.push_back(*NominalOf(nominal, point, t.Where("points")).normal);
   spec.nominal = geometry;
   job.tasks.push_back(std::move(spec));
 }
@@ -331,25 +409,33 @@ void ForEachTable(Section& top, Job& job, const char* key, const Read& read) {
 }  // namespace
 
 void ReadAlignments(Section& top, Job& job) {
-  const bool any = top.Get("alignment") != nullptr || top.Get("deviation") != nullptr || top.Get("profile") != nullptr;
+  const bool any =
+      top.Get("alignment") != nullptr || top.Get("deviation") != nullptr || top.Get("profile") != nullptr;
   if (!any) {
     if (Section s = top.Sub("nominal", false); s.exists()) {
-      throw InputError(s.WhereSelf() + ": a nominal is used by [[alignment]], [[deviation]] and [[profile]]; the job has none");
+      throw InputError(
+          s.WhereSelf() +
+          ": a nominal is used by [[alignment]], [[deviation]] and [[profile]]; the job has none");
     }
     return;
   }
   const std::map<std::string, Nominal> nominal = ReadNominal(top, job);
   if (nominal.empty()) {
-    throw InputError(job.file + ": nominal: required key is missing (the nominal positions of the points: [nominal] csv)");
+    throw InputError(
+        job.file + ": nominal: required key is missing (the nominal positions of the points: [nominal] csv)");
   }
   std::set<std::string> names;
   for (const TaskSpec& t : job.tasks) names.insert(t.name);
   std::vector<Alignment> alignments;
-  ForEachTable(top, job, "alignment", [&](Section& t) { alignments.push_back(ReadAlignment(t, job, nominal, names)); });
+  ForEachTable(top, job, "alignment",
+               [&](Section& t) { alignments.push_back(ReadAlignment(t, job, nominal, names)); });
   PointIndex measured;
-  for (std::size_t i = 0; i < job.points.size(); ++i) measured.emplace(job.points[i].name, static_cast<int>(i));
-  ForEachTable(top, job, "deviation", [&](Section& t) { ReadDeviation(t, job, nominal, measured, alignments, names); });
-  ForEachTable(top, job, "profile", [&](Section& t) { ReadProfile(t, job, nominal, measured, alignments, names); });
+  for (std::size_t i = 0; i < job.points.size(); ++i)
+    measured.emplace(job.points[i].name, static_cast<int>(i));
+  ForEachTable(top, job, "deviation",
+               [&](Section& t) { ReadDeviation(t, job, nominal, measured, alignments, names); });
+  ForEachTable(top, job, "profile",
+               [&](Section& t) { ReadProfile(t, job, nominal, measured, alignments, names); });
 }
 
 }  // namespace vlt::job_internal

@@ -116,7 +116,7 @@ bool IsHeadline(const TaskResult& t, const std::string& quantity) {
          (t.spec.kind == TaskKind::kCone && quantity == "form") || quantity == "normal_x" ||
          quantity == "normal_y" || quantity.rfind("centre_", 0) == 0 || t.spec.kind == TaskKind::kTwoFace ||
          t.spec.kind == TaskKind::kBestFit || t.spec.kind == TaskKind::kBestFitScale ||
-         t.spec.kind == TaskKind::kRps;
+         t.spec.kind == TaskKind::kRps || t.spec.kind == TaskKind::kFeatures;
 }
 
 // The widths of the task table's first three columns: the longest name, kind and quantity shown

@@ -39,11 +39,15 @@ constexpr TaskOutput kBestFitScaleOutputs[] = {
     {"tx", "m", "x of the translation t of part = s R x + t (the measured frame's origin in the part frame)"},
     {"ty", "m", "y of the translation t"},
     {"tz", "m", "z of the translation t"},
-    {"rx", "rad", "rotation about the part's x axis: R = Rz(rz) Ry(ry) Rx(rx) (fixed axes x, then y, then z)"},
+    {"rx", "rad",
+     "rotation about the part's x axis: R = Rz(rz) Ry(ry) Rx(rx) (fixed axes x, then y, then z)"},
     {"ry", "rad", "rotation about the part's y axis, in [-pi/2, pi/2]"},
     {"rz", "rad", "rotation about the part's z axis"},
-    {"rms", "m", "root mean square distance |s R x_i + t - n_i| of the aligned points from nominal (rps: of the held components)"},
-    {"scale", "1", "scale s applied to the measured points (1 + thermal expansion or range scale not modelled)"},
+    {"rms", "m",
+     "root mean square distance |s R x_i + t - n_i| of the aligned points from nominal (rps: of the held "
+     "components)"},
+    {"scale", "1",
+     "scale s applied to the measured points (1 + thermal expansion or range scale not modelled)"},
 };
 const std::span<const TaskOutput> kBestFitOutputs(kBestFitScaleOutputs, 7);
 constexpr TaskOutput kPositionOutputs[] = {
@@ -56,7 +60,8 @@ constexpr TaskOutput kPositionOutputs[] = {
 constexpr TaskOutput kProfileOutputs[] = {
     {"min_deviation", "m", "smallest deviation along the nominal normals of the profile's points"},
     {"max_deviation", "m", "largest deviation along the nominal normals"},
-    {"profile", "m", "2 max |deviation|: width of the ISO 1101 profile zone centred on nominal that holds every point"},
+    {"profile", "m",
+     "2 max |deviation|: width of the ISO 1101 profile zone centred on nominal that holds every point"},
 };
 // A deviation without the position: the first four.
 const std::span<const TaskOutput> kDeviationOutputs(kPositionOutputs, 4);
@@ -75,15 +80,17 @@ constexpr double kGimbalLock = 1e-9;
 }
 
 const NominalGeometry& Nominal(const FitOptions& options, TaskKind kind, long n, std::string_view where) {
-  if (!options.nominal) throw InputError(std::string(where) + ": " + std::string(TaskKindName(kind)) + ": no nominal geometry");
+  if (!options.nominal)
+    throw InputError(std::string(where) + ": " + std::string(TaskKindName(kind)) + ": no nominal geometry");
   const NominalGeometry& g = *options.nominal;
   const long k = g.alignment_points;
   if (g.positions.cols() != n || k < 3 || k > n) {
-    throw InputError(std::string(where) + ": " + std::string(TaskKindName(kind)) + ": needs at least 3 points with nominal positions, got " +
-                     std::to_string(k));
+    throw InputError(std::string(where) + ": " + std::string(TaskKindName(kind)) +
+                     ": needs at least 3 points with nominal positions, got " + std::to_string(k));
   }
   for (long i = 0; i < n; ++i) {
-    if (!g.positions.col(i).allFinite()) throw InputError(std::string(where) + ": nominal position " + std::to_string(i) + " is not finite");
+    if (!g.positions.col(i).allFinite())
+      throw InputError(std::string(where) + ": nominal position " + std::to_string(i) + " is not finite");
   }
   return g;
 }
@@ -100,14 +107,14 @@ struct Alignment {
   Vector3d translation;
   double scale = 1.0;
   double rms = 0.0;
-  double extent = 0.0;              // largest distance of a nominal point from their centroid
-  Eigen::MatrixXd dtheta_dx;        // empty unless jacobian
-  Eigen::MatrixXd residuals;        // 3 x K
+  double extent = 0.0;        // largest distance of a nominal point from their centroid
+  Eigen::MatrixXd dtheta_dx;  // empty unless jacobian
+  Eigen::MatrixXd residuals;  // 3 x K
 };
 
 // Closed-form fit of the first k points (Umeyama / Kabsch).
-void FitTransform(const Points& x, const Eigen::Matrix3Xd& n, long k, bool scale, TaskKind kind, std::string_view where,
-                  Alignment& a) {
+void FitTransform(const Points& x, const Eigen::Matrix3Xd& n, long k, bool scale, TaskKind kind,
+                  std::string_view where, Alignment& a) {
   const Vector3d x_bar = x.leftCols(k).rowwise().mean();
   const Vector3d n_bar = n.leftCols(k).rowwise().mean();
   Matrix3d cross = Matrix3d::Zero();
@@ -121,12 +128,14 @@ void FitTransform(const Points& x, const Eigen::Matrix3Xd& n, long k, bool scale
   const Eigen::JacobiSVD<Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Vector3d d = svd.singularValues();
   if (!(d(1) > kCollinear * d(0))) {
-    Fail(where, kind, "the points are collinear (measured or nominal): the rotation about their line is undetermined");
+    Fail(where, kind,
+         "the points are collinear (measured or nominal): the rotation about their line is undetermined");
   }
   Vector3d sign(1.0, 1.0, (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0 ? -1.0 : 1.0);
   a.rotation = svd.matrixU() * sign.asDiagonal() * svd.matrixV().transpose();
   a.scale = scale ? d.dot(sign) / spread : 1.0;
-  if (!(a.scale > 0.0)) Fail(where, kind, "the fitted scale is not positive (the points do not match their nominals)");
+  if (!(a.scale > 0.0))
+    Fail(where, kind, "the fitted scale is not positive (the points do not match their nominals)");
   a.translation = n_bar - a.scale * a.rotation * x_bar;
   a.residuals.resize(3, k);
   double sum = 0.0;
@@ -176,25 +185,30 @@ void UpdateResiduals(const Points& x, const NominalGeometry& g, long k, Alignmen
 // The reference point system: minimise 1/2 sum r_i^T W_i r_i from the best fit of the same points,
 // by Gauss-Newton steps on theta (rotation on the left). The held directions must fix all six
 // (seven) parameters; a 3-2-1 system fits exactly (zero residuals) in a few steps.
-void FitReferencePointSystem(const Points& x, const NominalGeometry& g, long k, TaskKind kind, std::string_view where,
-                             Alignment& a) {
+void FitReferencePointSystem(const Points& x, const NominalGeometry& g, long k, TaskKind kind,
+                             std::string_view where, Alignment& a) {
   const int p = g.scale ? 7 : 6;
   for (int iteration = 0; iteration < 50; ++iteration) {
     Eigen::MatrixXd h = Eigen::MatrixXd::Zero(p, p);
     Eigen::VectorXd grad = Eigen::VectorXd::Zero(p);
     for (long i = 0; i < k; ++i) {
-      const Eigen::Matrix<double, 3, Eigen::Dynamic> j = ResidualJacobian(a.rotation * x.col(i), a.scale, g.scale);
+      const Eigen::Matrix<double, 3, Eigen::Dynamic> j =
+          ResidualJacobian(a.rotation * x.col(i), a.scale, g.scale);
       const Matrix3d w = Weight(g, i);
       h.noalias() += j.transpose() * w * j;
       grad.noalias() += j.transpose() * (w * a.residuals.col(i));
     }
     const Eigen::LDLT<Eigen::MatrixXd> factor(h);
-    if (factor.info() != Eigen::Success || !(factor.vectorD().minCoeff() > 1e-12 * factor.vectorD().maxCoeff())) {
-      Fail(where, kind, "the held directions do not fix the part: a rotation or translation is left free (3-2-1 holds x, y, z of one point, two axes of a second, one of a third)");
+    if (factor.info() != Eigen::Success ||
+        !(factor.vectorD().minCoeff() > 1e-12 * factor.vectorD().maxCoeff())) {
+      Fail(where, kind,
+           "the held directions do not fix the part: a rotation or translation is left free (3-2-1 holds x, "
+           "y, z of one point, two axes of a second, one of a third)");
     }
     const Eigen::VectorXd step = -factor.solve(grad);
     const Vector3d w = step.head<3>();
-    if (w.norm() > 0.0) a.rotation = Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix() * a.rotation;
+    if (w.norm() > 0.0)
+      a.rotation = Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix() * a.rotation;
     a.translation += step.segment<3>(3);
     if (g.scale) a.scale += step(6);
     UpdateResiduals(x, g, k, a);
@@ -208,8 +222,8 @@ void FitReferencePointSystem(const Points& x, const NominalGeometry& g, long k, 
 
 // dtheta/dX by the implicit function theorem (header comment), for residual weights W_i: the
 // residual terms of H carry rho_i = W_i r_i, and dg/dx_j = [s (s [y]x W - [rho]x); s W; (rho + s W y)^T] R^.
-void AlignmentSensitivity(const Points& x, const NominalGeometry& g, long k, TaskKind kind, std::string_view where,
-                          Alignment& a) {
+void AlignmentSensitivity(const Points& x, const NominalGeometry& g, long k, TaskKind kind,
+                          std::string_view where, Alignment& a) {
   const bool scale = g.scale;
   const int p = scale ? 7 : 6;
   const double s = a.scale;
@@ -220,7 +234,8 @@ void AlignmentSensitivity(const Points& x, const NominalGeometry& g, long k, Tas
     const Vector3d rho = w * a.residuals.col(i);
     const Eigen::Matrix<double, 3, Eigen::Dynamic> j = ResidualJacobian(y, s, scale);
     h.noalias() += j.transpose() * w * j;
-    h.topLeftCorner<3, 3>() += s * (0.5 * (rho * y.transpose() + y * rho.transpose()) - rho.dot(y) * Matrix3d::Identity());
+    h.topLeftCorner<3, 3>() +=
+        s * (0.5 * (rho * y.transpose() + y * rho.transpose()) - rho.dot(y) * Matrix3d::Identity());
     if (scale) {
       const Vector3d y_cross_rho = y.cross(rho);
       h.block<3, 1>(0, 6) += y_cross_rho;
@@ -244,14 +259,132 @@ void AlignmentSensitivity(const Points& x, const NominalGeometry& g, long k, Tas
   }
 }
 
-Alignment Align(const Points& x, const NominalGeometry& g, bool jacobian, TaskKind kind, std::string_view where) {
+// --- Alignment by datum features (kind features; docs/tasks.md "Alignment by datum features"):
+// the plane of the first points (primary datum: its normal is the part's third axis), the line of
+// the next (secondary: its direction, projected into the plane, the first axis), the last point
+// (tertiary). The nominal datums are the same fits of the nominal positions. With the datum frame
+// F = [e1 e2 e3], e3 = n, e1 = (l - (l . n) n) / |...|, e2 = e3 x e1 (measured F_m, nominal F_n):
+//   R = F_n F_m^T,   t = F_n q,   q = (e1_n . (p_n - R p_m), e2_n . (a_n - R a_m), e3_n . (c_n - R c_m)),
+// c, a the plane's and the line's centroids, p the point: the plane fixes the part along e3, the
+// line along e2, the point along e1. Signs of n and l: those that agree with the best fit of all
+// the datum points to their nominals (a tracker frame can be anything).
+
+// A datum frame and what its derivative needs.
+struct DatumFrame {
+  Matrix3d f;     // [e1 e2 e3]
+  double v_norm;  // |l - (l . n) n|
+};
+
+DatumFrame MakeDatumFrame(const Vector3d& n, const Vector3d& l, TaskKind kind, std::string_view where) {
+  const Vector3d v = l - l.dot(n) * n;
+  DatumFrame frame;
+  frame.v_norm = v.norm();
+  // Below 1e-3 (the line within 0.06 degrees of the plane's normal) the rotation about the normal
+  // is undetermined for any real measurement.
+  if (!(frame.v_norm > 1e-3)) {
+    Fail(where, kind,
+         "the datum line is perpendicular to the datum plane: it does not fix the rotation about the plane's "
+         "normal");
+  }
+  const Vector3d e1 = v / frame.v_norm;
+  frame.f << e1, n.cross(e1), n;
+  return frame;
+}
+
+// d[e1 e2 e3] of the measured frame for changes dn, dl of its normal and direction.
+Matrix3d DatumFrameChange(const DatumFrame& frame, const Vector3d& n, const Vector3d& l, const Vector3d& dn,
+                          const Vector3d& dl) {
+  const Vector3d e1 = frame.f.col(0);
+  const Vector3d dv = dl - (dl.dot(n) + l.dot(dn)) * n - l.dot(n) * dn;
+  const Vector3d de1 = (dv - e1.dot(dv) * e1) / frame.v_norm;
+  Matrix3d df;
+  df << de1, dn.cross(e1) + n.cross(de1), dn;
+  return df;
+}
+
+void FitDatumFeatures(const Points& x, const NominalGeometry& g, bool jacobian, TaskKind kind,
+                      std::string_view where, Alignment& a) {
+  const long kp = g.plane_points, kl = g.line_points, k = g.alignment_points, point = kp + kl;
+  if (kp < 3 || kl < 2 || point + 1 != k) {
+    throw InputError(std::string(where) + ": features: a plane of >= 3 points, a line of >= 2 and one point");
+  }
+  // The best fit of every datum point: only the signs of the datums' directions come from it.
+  Alignment rough;
+  FitTransform(x, g.positions, k, false, kind, where, rough);
+  FitOptions with_jacobian;
+  with_jacobian.jacobian = jacobian;
+  const FitResult plane = FitPlane(x.leftCols(kp), with_jacobian, where);
+  const FitResult line = FitLine(x.middleCols(kp, kl), with_jacobian, where);
+  const FitResult plane_n = FitPlane(g.positions.leftCols(kp), {}, where);
+  const FitResult line_n = FitLine(g.positions.middleCols(kp, kl), {}, where);
+  const Vector3d nn = plane_n.values.segment<3>(3), ln = line_n.values.segment<3>(3);
+  const double sn = (rough.rotation * plane.values.segment<3>(3)).dot(nn) < 0.0 ? -1.0 : 1.0;
+  const double sl = (rough.rotation * line.values.segment<3>(3)).dot(ln) < 0.0 ? -1.0 : 1.0;
+  const Vector3d n = sn * plane.values.segment<3>(3), l = sl * line.values.segment<3>(3);
+  const DatumFrame measured = MakeDatumFrame(n, l, kind, where),
+                   nominal = MakeDatumFrame(nn, ln, kind, where);
+  const Matrix3d& fn = nominal.f;
+  a.rotation = fn * measured.f.transpose();
+  const Vector3d c = plane.values.head<3>(), al = line.values.head<3>(), p = x.col(point);
+  const Vector3d cn = plane_n.values.head<3>(), an = line_n.values.head<3>(), pn = g.positions.col(point);
+  const Vector3d q(fn.col(0).dot(pn - a.rotation * p), fn.col(1).dot(an - a.rotation * al),
+                   fn.col(2).dot(cn - a.rotation * c));
+  a.translation = fn * q;
+  a.scale = 1.0;
+  const Vector3d n_bar = g.positions.leftCols(k).rowwise().mean();
+  a.residuals.resize(3, k);
+  double sum = 0.0;
+  for (long i = 0; i < k; ++i) {
+    a.extent = std::max(a.extent, (g.positions.col(i) - n_bar).norm());
+    a.residuals.col(i) = a.rotation * x.col(i) + a.translation - g.positions.col(i);
+    sum += a.residuals.col(i).squaredNorm();
+  }
+  a.rms = std::sqrt(sum / static_cast<double>(k));
+  if (!jacobian) return;
+  // dtheta/dX, theta = (w, t): R = exp([w]x) R^, so [dw]x = dR R^T = F_n dF_m^T F_m F_n^T.
+  a.dtheta_dx = Eigen::MatrixXd::Zero(6, 3 * k);
+  const Vector3d rp = a.rotation * p, ra = a.rotation * al, rc = a.rotation * c;
+  for (long column = 0; column < 3 * point + 3; ++column) {
+    Vector3d dn = Vector3d::Zero(), dl = Vector3d::Zero(), dc = Vector3d::Zero(), da = Vector3d::Zero(),
+             dp = Vector3d::Zero();
+    if (column < 3 * kp) {
+      dn = sn * plane.jacobian.block<3, 1>(3, column);
+      dc = plane.jacobian.block<3, 1>(0, column);
+    } else if (column < 3 * point) {
+      dl = sl * line.jacobian.block<3, 1>(3, column - 3 * kp);
+      da = line.jacobian.block<3, 1>(0, column - 3 * kp);
+    } else {
+      dp(column - 3 * point) = 1.0;
+    }
+    const Matrix3d skew =
+        fn * DatumFrameChange(measured, n, l, dn, dl).transpose() * measured.f * fn.transpose();
+    const Vector3d dw(0.5 * (skew(2, 1) - skew(1, 2)), 0.5 * (skew(0, 2) - skew(2, 0)),
+                      0.5 * (skew(1, 0) - skew(0, 1)));
+    // dq_1 = -e1_n . (dw x R p + R dp), and alike for the line's and the plane's centroids.
+    const Vector3d dq(-fn.col(0).dot(dw.cross(rp) + a.rotation * dp),
+                      -fn.col(1).dot(dw.cross(ra) + a.rotation * da),
+                      -fn.col(2).dot(dw.cross(rc) + a.rotation * dc));
+    a.dtheta_dx.block<3, 1>(0, column) = dw;
+    a.dtheta_dx.block<3, 1>(3, column) = fn * dq;
+  }
+}
+
+Alignment Align(const Points& x, const NominalGeometry& g, bool jacobian, TaskKind kind,
+                std::string_view where) {
   Alignment a;
   const long k = g.alignment_points;
   for (long i = 0; i < x.cols(); ++i) {
-    if (!x.col(i).allFinite()) Fail(where, kind, "point " + std::to_string(i) + " has a non-finite coordinate");
+    if (!x.col(i).allFinite())
+      Fail(where, kind, "point " + std::to_string(i) + " has a non-finite coordinate");
   }
   if (!g.holds.empty() && static_cast<long>(g.holds.size()) != k) {
     throw InputError(std::string(where) + ": rps: one set of held axes per alignment point");
+  }
+  if (g.plane_points > 0) {
+    if (g.scale || !g.holds.empty())
+      throw InputError(std::string(where) + ": features: no scale, no held axes");
+    FitDatumFeatures(x, g, jacobian, kind, where, a);
+    return a;
   }
   FitTransform(x, g.positions, k, g.scale, kind, where, a);
   if (!g.holds.empty()) FitReferencePointSystem(x, g, k, kind, where, a);
@@ -280,13 +413,15 @@ Eigen::MatrixXd DeviationJacobian(const Points& x, const NominalGeometry& g, con
 
 // Fixed-axis angles of R = Rz(c) Ry(b) Rx(a).
 Vector3d CardanAngles(const Matrix3d& r) {
-  return {std::atan2(r(2, 1), r(2, 2)), std::atan2(-r(2, 0), std::hypot(r(0, 0), r(1, 0))), std::atan2(r(1, 0), r(0, 0))};
+  return {std::atan2(r(2, 1), r(2, 2)), std::atan2(-r(2, 0), std::hypot(r(0, 0), r(1, 0))),
+          std::atan2(r(1, 0), r(0, 0))};
 }
 
 // d(a, b, c) / dw for a rotation dR = [dw]x R on the left: dw = c' e_z + b' Rz e_y + a' Rz Ry e_x, so
 // the angle rates are E^-1 dw with E = [Rz Ry e_x, Rz e_y, e_z].
 Matrix3d AnglesFromLeftRotation(const Vector3d& angles) {
-  const double cb = std::cos(angles(1)), sb = std::sin(angles(1)), cc = std::cos(angles(2)), sc = std::sin(angles(2));
+  const double cb = std::cos(angles(1)), sb = std::sin(angles(1)), cc = std::cos(angles(2)),
+               sc = std::sin(angles(2));
   Matrix3d e;
   e.col(0) << cc * cb, sc * cb, -sb;
   e.col(1) << -sc, cc, 0.0;
@@ -299,7 +434,8 @@ Matrix3d AnglesFromLeftRotation(const Vector3d& angles) {
 std::span<const TaskOutput> AlignmentOutputs(TaskKind kind) {
   switch (kind) {
     case TaskKind::kBestFit:
-    case TaskKind::kRps: return kBestFitOutputs;
+    case TaskKind::kRps:
+    case TaskKind::kFeatures: return kBestFitOutputs;
     case TaskKind::kBestFitScale: return kBestFitScaleOutputs;
     case TaskKind::kDeviation: return kDeviationOutputs;
     case TaskKind::kPosition: return kPositionOutputs;
@@ -340,15 +476,21 @@ FitResult FitBestFit(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const Fit
   using namespace tasks_internal;
   const long n = points.cols();
   const bool rps = options.nominal && !options.nominal->holds.empty();
-  const TaskKind kind = rps ? TaskKind::kRps
-                            : options.nominal && options.nominal->scale ? TaskKind::kBestFitScale : TaskKind::kBestFit;
+  const bool features = options.nominal && options.nominal->plane_points > 0;
+  const TaskKind kind = features                                    ? TaskKind::kFeatures
+                        : rps                                       ? TaskKind::kRps
+                        : options.nominal && options.nominal->scale ? TaskKind::kBestFitScale
+                                                                    : TaskKind::kBestFit;
   const NominalGeometry& g = Nominal(options, kind, n, where);
-  if (g.alignment_points != n) throw InputError(std::string(where) + ": " + std::string(TaskKindName(kind)) + ": every point is an alignment point");
+  if (g.alignment_points != n)
+    throw InputError(std::string(where) + ": " + std::string(TaskKindName(kind)) +
+                     ": every point is an alignment point");
   if (rps && g.scale) throw InputError(std::string(where) + ": rps: a reference point system fits no scale");
   const Alignment a = Align(points, g, options.jacobian, kind, where);
   Vector3d angles = CardanAngles(a.rotation);
   if (!(std::abs(std::cos(angles(1))) > kGimbalLock)) {
-    Fail(where, kind, "the rotation about y is +-90 degrees: rx and rz turn about the same axis (undetermined)");
+    Fail(where, kind,
+         "the rotation about y is +-90 degrees: rx and rz turn about the same axis (undetermined)");
   }
   if (options.reference_angles) {
     for (int c = 0; c < 3; ++c) angles(c) = Near(angles(c), (*options.reference_angles)(c));
@@ -372,7 +514,21 @@ FitResult FitBestFit(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const Fit
     block.middleRows<3>(3) = angle_rates * dtheta.topRows(3);
     if (g.scale) block.row(scale_row) = dtheta.row(6);
     // rms: envelope theorem, d(sum r^T W r)/dx_j = 2 s (W r_j)^T R at the optimum.
-    if (!exact) block.row(rms_row) = a.scale * (Weight(g, j) * a.residuals.col(j)).transpose() * a.rotation / (divisor * a.rms);
+    if (!exact && !features)
+      block.row(rms_row) =
+          a.scale * (Weight(g, j) * a.residuals.col(j)).transpose() * a.rotation / (divisor * a.rms);
+  }
+  // Datum features: no optimum of the residuals; d rms = sum_i r_i^T (-[R x_i]x dw + dt + R dx_i) / (k rms).
+  if (features && !exact) {
+    Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(3 * n);
+    for (long i = 0; i < n; ++i) {
+      const Vector3d r = a.residuals.col(i);
+      Eigen::Matrix<double, 3, 6> dr_dtheta;
+      dr_dtheta << -Hat(a.rotation * points.col(i)), Matrix3d::Identity();
+      row += r.transpose() * dr_dtheta * a.dtheta_dx;
+      row.segment<3>(3 * i) += r.transpose() * a.rotation;
+    }
+    result.jacobian.row(rms_row) = row / (static_cast<double>(n) * a.rms);
   }
   return result;
 }
@@ -381,7 +537,8 @@ FitResult FitDeviation(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const F
                        std::string_view where) {
   using namespace tasks_internal;
   const long n = points.cols();
-  const TaskKind kind = options.nominal && options.nominal->position ? TaskKind::kPosition : TaskKind::kDeviation;
+  const TaskKind kind =
+      options.nominal && options.nominal->position ? TaskKind::kPosition : TaskKind::kDeviation;
   const NominalGeometry& g = Nominal(options, kind, n, where);
   if (g.point < 0 || g.point >= n || !(std::abs(g.normal.norm() - 1.0) < 1e-9)) {
     throw InputError(std::string(where) + ": deviation: needs its point and the unit normal of its nominal");
@@ -420,7 +577,8 @@ FitResult FitProfile(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const Fit
   std::size_t low = 0, high = 0;
   std::vector<double> deviation(g.profile.size());
   for (std::size_t i = 0; i < g.profile.size(); ++i) {
-    if (g.profile[i] < 0 || g.profile[i] >= n) throw InputError(std::string(where) + ": profile: a point index out of range");
+    if (g.profile[i] < 0 || g.profile[i] >= n)
+      throw InputError(std::string(where) + ": profile: a point index out of range");
     deviation[i] = g.profile_normals[i].dot(DeviationOf(points, g, a, g.profile[i]));
     if (deviation[i] < deviation[low]) low = i;
     if (deviation[i] > deviation[high]) high = i;
@@ -433,7 +591,8 @@ FitResult FitProfile(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const Fit
   result.differentiable[2] = !exact;
   if (!options.jacobian) return result;
   auto row = [&](std::size_t i) {
-    return Eigen::RowVectorXd(g.profile_normals[i].transpose() * DeviationJacobian(points, g, a, g.profile[i]));
+    return Eigen::RowVectorXd(g.profile_normals[i].transpose() *
+                              DeviationJacobian(points, g, a, g.profile[i]));
   };
   result.jacobian.row(0) = row(low);
   result.jacobian.row(1) = row(high);

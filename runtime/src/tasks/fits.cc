@@ -475,6 +475,7 @@ std::span<const TaskOutput> TaskOutputs(TaskKind kind) {
     case TaskKind::kBestFit:
     case TaskKind::kBestFitScale:
     case TaskKind::kRps:
+    case TaskKind::kFeatures:
     case TaskKind::kDeviation:
     case TaskKind::kPosition:
     case TaskKind::kProfile: return tasks_internal::AlignmentOutputs(kind);
@@ -731,7 +732,8 @@ FitResult FitTask(TaskKind kind, const Points& points, const FitOptions& options
     case TaskKind::kCone: return FitCone(points, options, where);
     case TaskKind::kBestFit:
     case TaskKind::kBestFitScale:
-    case TaskKind::kRps: return FitBestFit(points, options, where);
+    case TaskKind::kRps:
+    case TaskKind::kFeatures: return FitBestFit(points, options, where);
     case TaskKind::kDeviation:
     case TaskKind::kPosition: return FitDeviation(points, options, where);
     case TaskKind::kProfile: return FitProfile(points, options, where);
@@ -758,7 +760,8 @@ FitOptions TrialFitOptions(const TaskSpec& task, const Eigen::VectorXd& at_estim
     orientation = 3;
   }
   if (task.kind == TaskKind::kCircle) orientation = 4;
-  if (task.kind == TaskKind::kBestFit || task.kind == TaskKind::kBestFitScale || task.kind == TaskKind::kRps)
+  if (task.kind == TaskKind::kBestFit || task.kind == TaskKind::kBestFitScale ||
+      task.kind == TaskKind::kRps || task.kind == TaskKind::kFeatures)
     angles = 3;
   const long need = std::max(orientation, angles) + 3;
   if (at_estimates.size() < need) return options;

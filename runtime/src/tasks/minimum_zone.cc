@@ -6,8 +6,9 @@
 // Each step linearises the points' distances d_i(theta) from the feature about the current one and
 // solves, with Clp (COIN-OR's simplex), the linear program of the zone within a trust region:
 //     two-sided (flatness, roundness, cylindricity):  min t_hi - t_lo,  t_lo <= d_i + g_i s <= t_hi
-//     one-sided (straightness, a cylinder about a line):  min t_hi,  d_i + g_i s <= t_hi
-//     |s_j| <= radius.
+//     |s_j| <= radius
+// (straightness, a cylinder about a line, is convex in the line's offsets and tilts and is solved
+// by cutting planes instead: Straightness below).
 // A step is taken when the true zone shrinks (the trust region grows), else the region shrinks;
 // it ends when the linear program finds no descent (a stationary point of the minimax: the zone is
 // held by the points the standards call its contacts) or the region is below rounding.
@@ -204,13 +205,18 @@ double MinimiseZone(F& feature, bool two_sided, double start_radius, TaskKind ki
                     int& programs) {
   double zone = Zone(feature.Linearise().d, two_sided);
   double radius = std::max(start_radius, 1e-9);
-  for (int iteration = 0; iteration < 500 && zone > 0.0; ++iteration) {
+  // Normalised points (rms distance 1): a zone below 1e-13 is rounding, an exact feature.
+  for (int iteration = 0; iteration < 500 && zone > 1e-13; ++iteration) {
     ++programs;
     Linearised at = feature.Linearise();
     // Scaled: steps in units of the radius, distances in units of the zone (the simplex's
     // tolerances are then relative to both).
     at.g *= radius / zone;
     at.d /= zone;
+    // The zone is unchanged by a common shift of the distances (t_hi, t_lo follow): centred, the
+    // rows' bounds are of the zone's size, not of the radius's (a perfect circle's distances are
+    // R / zone ~ 1e15, beyond the simplex's tolerances).
+    if (two_sided) at.d.array() -= 0.5 * (at.d.maxCoeff() + at.d.minCoeff());
     Eigen::VectorXd step;
     double predicted = 0.0;
     if (!ZoneStep(at, two_sided, step, predicted))
@@ -262,12 +268,112 @@ Eigen::Vector2d Flatness(const Points& points, std::string_view where, int& prog
   return {MinimiseZone(zone, true, start, TaskKind::kFlatness, where, programs) * p.scale, ls.values(6)};
 }
 
+// One linear program of the cutting planes below: min t over (theta, t) subject to
+// w^T (v_i - A_i theta) <= t for every cut (i, w), |theta_j| <= bound; false when Clp fails.
+bool CutStep(const Eigen::Matrix3Xd& local, const std::vector<std::pair<long, Eigen::Vector2d>>& cuts,
+             double bound, Eigen::Vector4d& theta, double& t) {
+  // v_i(theta) = (x_i - a1 - b1 z_i, y_i - a2 - b2 z_i): w^T v_i = w^T (x_i, y_i) - w1 a1 - w2 a2 -
+  // w1 z_i b1 - w2 z_i b2, so the row is (-w1, -w2, -w1 z_i, -w2 z_i, -1) <= -w^T (x_i, y_i).
+  const int rows = static_cast<int>(cuts.size());
+  std::vector<CoinBigIndex> start;
+  std::vector<int> index;
+  std::vector<double> value;
+  for (int j = 0; j < 5; ++j) {
+    start.push_back(static_cast<CoinBigIndex>(index.size()));
+    for (int r = 0; r < rows; ++r) {
+      const auto& [i, w] = cuts[static_cast<std::size_t>(r)];
+      const double z = local(2, i);
+      const double coefficient = j == 0   ? -w(0)
+                                 : j == 1 ? -w(1)
+                                 : j == 2 ? -w(0) * z
+                                 : j == 3 ? -w(1) * z
+                                          : -1.0;
+      index.push_back(r);
+      value.push_back(coefficient);
+    }
+  }
+  start.push_back(static_cast<CoinBigIndex>(index.size()));
+  const double inf = COIN_DBL_MAX;
+  std::vector<double> column_lower = {-bound, -bound, -bound, -bound, 0.0};
+  std::vector<double> column_upper = {bound, bound, bound, bound, inf};
+  std::vector<double> objective = {0.0, 0.0, 0.0, 0.0, 1.0};
+  std::vector<double> row_lower(static_cast<std::size_t>(rows), -inf),
+      row_upper(static_cast<std::size_t>(rows));
+  for (int r = 0; r < rows; ++r) {
+    const auto& [i, w] = cuts[static_cast<std::size_t>(r)];
+    row_upper[static_cast<std::size_t>(r)] = -w.dot(local.block<2, 1>(0, i));
+  }
+  ClpSimplex lp;
+  lp.setLogLevel(0);
+  lp.loadProblem(5, rows, start.data(), index.data(), value.data(), column_lower.data(), column_upper.data(),
+                 objective.data(), row_lower.data(), row_upper.data());
+  lp.setPrimalTolerance(1e-10);
+  lp.setDualTolerance(1e-10);
+  lp.dual();
+  if (lp.status() != 0) return false;
+  theta = Eigen::Map<const Eigen::Vector4d>(lp.primalColumnSolution());
+  t = lp.objectiveValue();
+  return true;
+}
+
+// Straightness of a line in space: the thinnest cylinder about a line that holds the points. In
+// the least-squares line's frame (x, y across, z along) a line is a1 + b1 z, a2 + b2 z, and point
+// i's offset from it within its plane z = z_i, v_i(theta) = (x_i - a1 - b1 z_i, y_i - a2 - b2 z_i),
+// is affine in theta = (a1, a2, b1, b2): min over theta of max_i |v_i| is convex. Kelley's cutting
+// planes solve it: |v| >= w^T v for every unit w, so the linear program over a set of cuts (i, w)
+// is a lower bound of the optimum and its solution's true max |v_i| an upper bound; each round adds,
+// for every point beyond the lower bound, the cut along its offset there, until the bounds meet to
+// 1e-8 (below that the simplex's own tolerance, 1e-10 of the offsets, stalls them). The zone is
+// then the perpendicular distance's (|v_i| is it to second order in the tilt, 1e-10 relative at
+// the tilts of a straightness fit), evaluated exactly for the line found.
 Eigen::Vector2d Straightness(const Points& points, std::string_view where, int& programs) {
   const FitResult ls = FitLine(points, {}, where);
   const Normalised p = Normalise(points, TaskKind::kStraightness, where);
-  AxisZone zone{&p.q, Vector3d::Zero(), ls.values.segment<3>(3)};  // the line is through the centroid
-  const double start = Zone(zone.Linearise().d, false);
-  return {MinimiseZone(zone, false, start, TaskKind::kStraightness, where, programs) * p.scale, ls.values(6)};
+  const Eigen::Matrix3d basis = Basis(ls.values.segment<3>(3));
+  const Eigen::Matrix3Xd local = basis.transpose() * p.q;  // the least-squares line is the z axis
+  const long n = local.cols();
+  // Offsets in units of the least-squares line's largest (the simplex's tolerances are absolute).
+  const double unit = std::max(local.topRows<2>().colwise().norm().maxCoeff(), 1e-300);
+  Eigen::Matrix3Xd scaled = local;
+  scaled.topRows<2>() /= unit;
+  auto offsets = [&](const Eigen::Vector4d& theta) {
+    Eigen::Matrix2Xd v(2, n);
+    for (long i = 0; i < n; ++i)
+      v.col(i) << scaled(0, i) - theta(0) - theta(2) * scaled(2, i),
+          scaled(1, i) - theta(1) - theta(3) * scaled(2, i);
+    return v;
+  };
+  Eigen::Vector4d best = Eigen::Vector4d::Zero();
+  double upper = offsets(best).colwise().norm().maxCoeff();
+  if (unit > 1e-13) {
+    // First cuts: four directions per point (a square about each offset).
+    std::vector<std::pair<long, Eigen::Vector2d>> cuts;
+    for (long i = 0; i < n; ++i)
+      for (const Eigen::Vector2d& w :
+           {Eigen::Vector2d(1, 0), Eigen::Vector2d(-1, 0), Eigen::Vector2d(0, 1), Eigen::Vector2d(0, -1)})
+        cuts.emplace_back(i, w);
+    const double bound = 10.0 * (1.0 + scaled.row(2).cwiseAbs().maxCoeff());
+    for (int round = 0; round < 200; ++round) {
+      ++programs;
+      Eigen::Vector4d theta;
+      double lower = 0.0;
+      if (!CutStep(scaled, cuts, bound, theta, lower))
+        Fail(where, TaskKind::kStraightness, "the minimum-zone linear program failed");
+      const Eigen::Matrix2Xd v = offsets(theta);
+      const Eigen::VectorXd norms = v.colwise().norm().transpose();
+      if (norms.maxCoeff() < upper) upper = norms.maxCoeff(), best = theta;
+      if (upper - lower <= 1e-8 * upper) break;
+      for (long i = 0; i < n; ++i)
+        if (norms(i) > lower && norms(i) > 0.0) cuts.emplace_back(i, v.col(i) / norms(i));
+    }
+  }
+  // The zone of the line found, as perpendicular distances: through (a1, a2, 0) along (b1, b2, 1).
+  best *= unit;
+  AxisZone line{&local, Vector3d(best(0), best(1), 0.0), Vector3d(best(2), best(3), 1.0).normalized()};
+  const double zone =
+      std::min(Zone(line.Linearise().d, false),
+               Zone(AxisZone{&local, Vector3d::Zero(), Vector3d::UnitZ()}.Linearise().d, false));
+  return {zone * p.scale, ls.values(6)};
 }
 
 Eigen::Vector2d Roundness(const Points& points, std::string_view where, int& programs) {

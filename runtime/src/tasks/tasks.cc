@@ -35,6 +35,7 @@ constexpr KindName kKinds[] = {
     {TaskKind::kStraightness, "straightness", 3, true},
     {TaskKind::kRoundness, "roundness", 4, true},
     {TaskKind::kCylindricity, "cylindricity", 6, true},
+    {TaskKind::kFeatures, "features", 6, false},
 };
 
 }  // namespace
