@@ -43,6 +43,10 @@ function(vlt_alignment_error name job regex)
             -P ${_al_cli}/expect_error.cmake)
 endfunction()
 vlt_alignment_error(no_nominal no_nominal.toml "no_nominal\\.toml: nominal: required key is missing")
+vlt_alignment_error(features_twice features_twice.toml
+                    "features_twice\\.toml: alignment\\[0\\]\\.line: point 'T2' is already a datum point of this alignment")
+vlt_alignment_error(features_two_plane_points features_two_plane_points.toml
+                    "features_two_plane_points\\.toml: alignment\\[0\\]\\.plane: a datum plane needs at least 3 points, 2 given")
 vlt_alignment_error(unknown_kind unknown_kind.toml
                     "unknown_kind\\.toml: alignment\\[0\\]\\.kind: unknown alignment kind 'plane_line_point' \\(expected best_fit, rps or features\\)")
 vlt_alignment_error(two_points two_points.toml "two_points\\.toml: alignment\\[0\\]\\.points: task 'a': best_fit needs at least 3 points, 2 given")

@@ -185,9 +185,20 @@ void ReadDatumFeatures(Section& t, Alignment& a) {
     return out;
   };
   const std::vector<std::string> plane = names("plane", 3), line = names("line", 2);
+  const std::string point = AsString(t.Require("point"), t.Where("point"));
+  std::set<std::string> seen;
+  auto once = [&](const std::string& name, const char* key) {
+    if (!seen.insert(name).second) {
+      throw InputError(t.Where(key) + ": point '" + name +
+                       "' is already a datum point of this alignment (each once)");
+    }
+  };
+  for (const std::string& p : plane) once(p, "plane");
+  for (const std::string& p : line) once(p, "line");
+  once(point, "point");
   a.points = plane;
   a.points.insert(a.points.end(), line.begin(), line.end());
-  a.points.push_back(AsString(t.Require("point"), t.Where("point")));
+  a.points.push_back(point);
   a.plane_points = static_cast<int>(plane.size());
   a.line_points = static_cast<int>(line.size());
 }
