@@ -59,6 +59,8 @@ vlt_front_door_error(zenith_reading "zenith\\.csv: line 3: elevation: the readin
                      run ${_fd}/zenith.toml -o ${_out}/fd_error_zenith_reading)
 vlt_front_door_error(huge_range "huge_range\\.csv: line 3: range: 1e\\+300 m is beyond any laser tracker"
                      run ${_fd}/huge_range.toml -o ${_out}/fd_error_huge_range)
+vlt_front_door_error(huge_angle "huge_angle\\.csv: line 3: azimuth: 1e\\+20 deg is not a plausible angle"
+                     run ${_fd}/huge_angle.toml -o ${_out}/fd_error_huge_angle)
 vlt_front_door_error(huge_uncertainty "huge_u\\.toml: tracker\\.parameters\\.tmv\\.u: uncertainty beyond what vlt computes with"
                      run ${_fd}/huge_u.toml -o ${_out}/fd_error_huge_uncertainty)
 vlt_front_door_error(thermal_factor_zero "thermal_zero\\.toml: part\\.cte: the thermal expansion factor .* is not positive"

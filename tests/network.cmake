@@ -135,6 +135,13 @@ add_test(NAME cli_error_network_simulate_online
           -DOUT=${_out}/error_network_simulate_online
           "-DEXPECT=simulated_network\\.toml: station: --simulate needs an offline network" -P ${_cli}/expect_error.cmake)
 set_tests_properties(cli_error_network_simulate_online PROPERTIES FIXTURES_REQUIRED vlt_network_plan)
+# A seed past 2^64 - 1 is refused, not clamped to 2^63 - 1 (issue 32: numbers that slip through).
+add_test(NAME cli_error_network_simulate_seed_overflow
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=network;${_ex}/wing_network_plan.toml;--simulate;18446744073709551616;-o;${_out}/error_network_simulate_seed"
+          -DOUT=${_out}/error_network_simulate_seed
+          "-DEXPECT=command line: --simulate: '18446744073709551616' is not an integer in 0 \\.\\. 18446744073709551615"
+          -P ${_cli}/expect_error.cmake)
 vlt_network_error(air_unknown_sensor air_unknown_sensor.toml
                   "air_unknown_sensor\\.toml: station\\[1\\]\\.environment\\.sensor: unknown air sensor 'WS9'")
 vlt_network_error(air_below_sensor air_below_sensor.toml

@@ -147,6 +147,18 @@ point = [{name = "P", x = 4.0, y = 1.5, z = 0.7}]
   // Without the correlation the answer differs (the test can fail).
   Eigen::MatrixXd diagonal = r.covariance.diagonal().asDiagonal();
   EXPECT_GT((jp * diagonal * jp.transpose() - reference).norm(), 1e-3 * reference.norm());
+  // An implausible value from the calibration file is the file's: the warning names it (issue 32).
+  CalibrationResult implausible = r;
+  implausible.parameters[0].u = 0.01;
+  {
+    std::ofstream out(dir / "cal.toml");
+    out << CalibrationFileToml(implausible, {});
+  }
+  const Job warned = ParseJob(job_text, (dir / "job.toml").string(), dir);
+  bool named = false;
+  for (const std::string& w : warned.warnings)
+    named |= w.find((dir / "cal.toml").string() + ": parameter '" + r.parameters[0].name + "'") == 0;
+  EXPECT_TRUE(named);
 }
 
 TEST(CalibrationFile, RefusesAFileThatIsNotOne) {
@@ -162,6 +174,21 @@ TEST(CalibrationFile, RefusesAFileThatIsNotOne) {
     EXPECT_NE(std::string(e.what()).find("x.toml: parameter[0].u: expected a finite number >= 0"),
               std::string::npos)
         << e.what();
+  }
+  // Past the caps a job file's inputs get (1e12 in SI units): refused with the file's own name, not
+  // "the model gives a non-finite result" later (issue 32).
+  for (const char* bad : {"estimate = 1.0\nu = 1e300\n", "estimate = 1e300\nu = 1.0\n"}) {
+    {
+      std::ofstream out(dir / "y.toml");
+      out << "[calibration]\nmodel = \"head\"\n[[parameter]]\nname = \"lam\"\n" << bad;
+    }
+    try {
+      LoadCalibrationFile((dir / "y.toml").string());
+      FAIL() << "accepted " << bad;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("y.toml: parameter[0]."), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("at most 1e12 in SI units"), std::string::npos) << e.what();
+    }
   }
 }
 

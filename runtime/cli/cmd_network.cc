@@ -2,6 +2,7 @@
 // the bundle adjustment of station poses and target coordinates with the full covariance
 // (online: the stations' readings; offline: the predicted uncertainty of a planned network).
 // docs/network.md.
+#include <charconv>
 #include <cstdint>
 #include <cstdio>
 #include <optional>
@@ -20,7 +21,9 @@ void AddNetworkCommand(CLI::App& app, GlobalOptions& global) {
                          "targets, optionally self-calibrating the tracker), or plan one offline");
   auto file = std::make_shared<std::string>();
   auto output_arg = std::make_shared<std::string>();
-  auto simulate = std::make_shared<std::int64_t>(-1);
+  // The seed as given ("": no simulation), checked whole as 0 .. 2^64-1: an integer option would
+  // clamp 18446744073709551616 to 2^63-1 without a word.
+  auto simulate = std::make_shared<std::string>();
   auto threads = std::make_shared<int>(0);
   auto no_robust = std::make_shared<bool>(false);
   command
@@ -34,7 +37,7 @@ void AddNetworkCommand(CLI::App& app, GlobalOptions& global) {
           "--simulate", *simulate,
           "Offline networks: also write a simulated measurement with this seed (simulated_network.toml "
           "and one readings CSV per station)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(UnsignedInteger64());
   command
       ->add_option("--threads", *threads,
                    "Threads of the Monte Carlo validation ([network.monte_carlo]; 0: all; results do not "
@@ -47,10 +50,16 @@ void AddNetworkCommand(CLI::App& app, GlobalOptions& global) {
       "Outputs: targets.csv, stations.csv, residuals.csv, covariance.csv, tasks.csv ([[task]]),\n"
       "parameters.csv (self-calibration), mcm.csv ([network.monte_carlo]), distances.csv ([[scale_bar]],\n"
       "[[distance]]), rejected.csv (observations the robust adjustment removed), results.json.");
-  command->callback([file, output_arg, simulate, threads, no_robust, &global] {
+  command->callback([file, output_arg, simulate_text = simulate, threads, no_robust, &global] {
+    std::optional<std::uint64_t> simulate;
+    if (!simulate_text->empty()) {
+      std::uint64_t seed = 0;
+      std::from_chars(simulate_text->data(), simulate_text->data() + simulate_text->size(), seed);
+      simulate = seed;  // UnsignedInteger64 accepted the whole text
+    }
     NetworkJob job = LoadNetworkJob(*file);
     if (*no_robust) job.network.robust = false;
-    if (*simulate >= 0 && !job.offline) {
+    if (simulate && !job.offline) {
       throw InputError(*file +
                        ": station: --simulate needs an offline network (stations that see [targets])");
     }
@@ -71,11 +80,9 @@ void AddNetworkCommand(CLI::App& app, GlobalOptions& global) {
     }
     const std::vector<NetworkTaskResult> tasks = NetworkTasks(job.tasks, result, job.file);
     auto files = network_outputs::NetworkFiles(job, result, tasks, RunCreatedTime(), mc ? &*mc : nullptr);
-    if (*simulate >= 0) {
-      const Network simulated =
-          SimulateNetwork(job.network, job.nominal, static_cast<std::uint64_t>(*simulate));
-      for (auto& f :
-           network_outputs::SimulatedNetworkFiles(job, simulated, static_cast<std::uint64_t>(*simulate))) {
+    if (simulate) {
+      const Network simulated = SimulateNetwork(job.network, job.nominal, *simulate);
+      for (auto& f : network_outputs::SimulatedNetworkFiles(job, simulated, *simulate)) {
         files.push_back(std::move(f));
       }
     }

@@ -132,6 +132,11 @@ LoadedCalibration LoadCalibrationFile(const std::string& path) {
     if (!estimate || !std::isfinite(*estimate))
       throw InputError(where + ".estimate: expected a finite number");
     if (!u || !std::isfinite(*u) || *u < 0.0) throw InputError(where + ".u: expected a finite number >= 0");
+    // The caps a job file's inputs get (base/section.h): beyond them sums of squared sensitivities
+    // overflow and the run would end in "the model gives a non-finite result".
+    if (std::abs(*estimate) > base_internal::kMaxMagnitude)
+      throw InputError(where + ".estimate: beyond what vlt computes with (at most 1e12 in SI units)");
+    base_internal::CheckUncertainty(*u, where + ".u");
     c.estimates.push_back(*estimate);
     c.u.push_back(*u);
     const std::string status = (*t)["status"].value<std::string>().value_or("");

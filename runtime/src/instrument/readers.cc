@@ -117,6 +117,7 @@ struct TrackerReader {
   const ModelInfo* model = nullptr;
   std::vector<Dimension> dims;   // of each parameter
   std::vector<bool> calibrated;  // given by the calibration file
+  std::string calibration_path;  // that file, for messages about its values
 
   TrackerReader(Section& tracker, Job& job) : tracker(tracker), job(job) {}
   void FindTrackerModel();
@@ -172,6 +173,7 @@ void TrackerReader::ReadCalibrationFile() {
   if (const std::string problem = InputFileProblem(path.string()); !problem.empty())
     throw InputError(where + ": cannot read '" + path.string() + "': " + problem);
   LoadedCalibration c = LoadCalibrationFile(path.string());
+  calibration_path = path.string();
   if (!c.fits) {
     job.warnings.push_back(where + ": '" + path.string() + "' is a calibration that does not fit its data (" +
                            (c.fit_problem.empty() ? std::string("fits = false") : c.fit_problem) +
@@ -293,7 +295,9 @@ void TrackerReader::WarnImplausibleParameters() {
     const UncertainInput& in = setup.params[k];
     const double size = std::max(std::abs(in.estimate), in.u);
     const std::string quantity = model->params[k].quantity;
-    const std::string where = tracker.Where("parameters." + in.name);
+    // A value from the calibration file is that file's: its message names it, not the job.
+    const std::string where = calibrated[k] ? calibration_path + ": parameter '" + in.name + "'"
+                                            : tracker.Where("parameters." + in.name);
     if (quantity == "length" && size > 1e-3) {
       job.warnings.push_back(where + ": " + FormatQuantity(size, Dimension::kLength, "mm", 4) +
                              " is implausible for a tracker error parameter (micrometres expected)");

@@ -48,23 +48,29 @@ std::optional<std::vector<std::string>> PlanColumns(Section& s) {
   const toml::node* columns = s.Get("columns");
   const bool has_header = header ? AsBool(*header, s.Where("header")) : true;
   if (has_header) {
-    if (columns) throw InputError(s.Where("columns") + ": the columns of a file without a header line (header = false)");
+    if (columns)
+      throw InputError(s.Where("columns") + ": the columns of a file without a header line (header = false)");
     return std::nullopt;
   }
-  if (!columns) throw InputError(s.Where("columns") + ": required key is missing (header = false: name the file's columns)");
-  if (!columns->is_array()) throw InputError(s.Where("columns") + ": expected an array such as [\"name\", \"x\", \"y\", \"z\"]");
+  if (!columns)
+    throw InputError(s.Where("columns") +
+                     ": required key is missing (header = false: name the file's columns)");
+  if (!columns->is_array())
+    throw InputError(s.Where("columns") + ": expected an array such as [\"name\", \"x\", \"y\", \"z\"]");
   std::vector<std::string> names;
   for (const toml::node& e : *columns->as_array()) {
     const std::string name = AsString(e, s.Where("columns"));
     if (name != "name" && name != "x" && name != "y" && name != "z" && name != "face")
-      throw InputError(s.Where("columns") + ": unknown column '" + name + "' (plan columns: name, x, y, z [, face])");
+      throw InputError(s.Where("columns") + ": unknown column '" + name +
+                       "' (plan columns: name, x, y, z [, face])");
     if (std::find(names.begin(), names.end(), name) != names.end())
       throw InputError(s.Where("columns") + ": column '" + name + "' appears twice");
     names.push_back(name);
   }
   for (const char* required : {"name", "x", "y", "z"}) {
     if (std::find(names.begin(), names.end(), required) == names.end())
-      throw InputError(s.Where("columns") + ": missing column '" + required + "' (plan columns: name, x, y, z [, face])");
+      throw InputError(s.Where("columns") + ": missing column '" + required +
+                       "' (plan columns: name, x, y, z [, face])");
   }
   return names;
 }
@@ -164,14 +170,25 @@ void ReadPlan(Section& s, Job& job, bool check_reach) {
 }
 
 // A reading's time (the time column), of the same kind as the file's first.
-void ReadReadingTime(const std::string& field, double scale, const std::string& column, const Job& job, JobPoint& p) {
+void ReadReadingTime(const std::string& field, double scale, const std::string& column, const Job& job,
+                     JobPoint& p) {
   const TimeValue t = ParseTime(field, scale, p.where + ": " + column);
   if (!job.points.empty() && job.points.front().time_kind != t.kind) {
     throw InputError(p.where + ": " + column + ": " + std::string(TimeKindName(t.kind)) + " after " +
-                     std::string(TimeKindName(job.points.front().time_kind)) + " (one kind of time per file)");
+                     std::string(TimeKindName(job.points.front().time_kind)) +
+                     " (one kind of time per file)");
   }
   p.time = t.seconds;
   p.time_kind = t.kind;
+}
+
+// Tracker software writes angles in 0 .. 360 deg or -180 .. 180 deg; beyond two turns an angle is a
+// unit or column mistake, and at 1e20 deg a double has no digits left below a turn (issue 32).
+void CheckReadingAngle(double angle, const std::string& where) {
+  if (std::abs(angle) > 4.0 * kPi) {
+    throw InputError(where + ": " + FormatQuantity(angle, Dimension::kAngle, "deg", 6) +
+                     " is not a plausible angle (at most 720 deg either way)");
+  }
 }
 
 void ReadReadings(Section& s, Job& job, bool times_by_default) {
@@ -294,6 +311,8 @@ void ReadReadings(Section& s, Job& job, bool times_by_default) {
                        " is beyond any laser tracker (at most " +
                        FormatQuantity(kMaxRange, Dimension::kLength, "km", 3) + ")");
     }
+    CheckReadingAngle(r[1], p.where + ": " + names[2]);
+    CheckReadingAngle(r[2], p.where + ": " + names[3]);
     double elevation = zenith ? kPi / 2 - r[2] : r[2];
     // Normalise the elevation into [-pi/2, 3pi/2): front face up to pi/2, back face beyond.
     elevation = std::fmod(elevation + kPi / 2, 2 * kPi);
