@@ -161,6 +161,32 @@ point = [{name = "P", x = 4.0, y = 1.5, z = 0.7}]
   EXPECT_TRUE(named);
 }
 
+// The file carries the SHA-256 of its own text without that line: a file vlt wrote checks out, one
+// edited since (a single digit) does not, one without the key is not checked (issue 32).
+TEST(CalibrationFile, KnowsWhenItWasEdited) {
+  const std::filesystem::path dir = TempDir("content");
+  const std::string text = CalibrationFileToml(ExampleCalibration(), {});
+  auto load = [&](const std::string& content) {
+    std::ofstream(dir / "c.toml") << content;
+    return LoadCalibrationFile((dir / "c.toml").string());
+  };
+  const LoadedCalibration intact = load(text);
+  EXPECT_TRUE(intact.content_checked);
+  EXPECT_FALSE(intact.edited);
+  std::string edited = text;
+  const std::size_t at = edited.find("\nu = ") + 5;
+  edited[at] = edited[at] == '1' ? '2' : '1';
+  EXPECT_TRUE(load(edited).edited);
+  std::string unchecked = text;
+  const std::size_t line = unchecked.find("content_sha256 = ");
+  unchecked.erase(line, unchecked.find('\n', line) - line + 1);
+  const LoadedCalibration old = load(unchecked);
+  EXPECT_FALSE(old.content_checked);
+  EXPECT_FALSE(old.edited);
+  // The recorded hash is that of the text without its line: the same bytes a reader hashes.
+  EXPECT_NE(text.find("content_sha256 = \"" + Sha256Bytes(unchecked) + "\""), std::string::npos);
+}
+
 TEST(CalibrationFile, RefusesAFileThatIsNotOne) {
   const std::filesystem::path dir = TempDir("bad");
   {

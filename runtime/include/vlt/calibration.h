@@ -329,6 +329,12 @@ struct LoadedCalibration {
   // (CalibrationFitProblem); a job that loads it warns. Files without the key fit.
   bool fits = true;
   std::string fit_problem;
+  // [calibration] content_sha256: the SHA-256 vlt wrote of the file's own text without that line
+  // (CalibrationFileToml). `edited` when the text no longer matches it: a job that loads the file
+  // warns (an error under --strict). A file without the key (older, or written by hand) is not
+  // checked: content_checked false.
+  bool content_checked = false;
+  bool edited = false;
 };
 // Reads a calibration file; InputError "<file>: <key>: <problem>" when it is not one.
 LoadedCalibration LoadCalibrationFile(const std::string& path);

@@ -48,6 +48,9 @@ std::string CalibrationFitProblem(const CalibrationResult& result) {
   return FitProblem(result.chi2, result.dof, largest_w, static_cast<int>(result.residuals.size()));
 }
 
+// The key of a calibration file's checksum of itself (CalibrationFileToml, LoadCalibrationFile).
+constexpr const char* kContentKey = "content_sha256";
+
 std::string CalibrationFileToml(const CalibrationResult& result, const CalibrationProvenance& provenance) {
   std::ostringstream os;
   os << "# vlt calibration file: error parameters of one tracker identified from test data by\n"
@@ -97,13 +100,44 @@ std::string CalibrationFileToml(const CalibrationResult& result, const Calibrati
     os << "],\n";
   }
   os << "]\n";
-  return os.str();
+  // The file's own checksum, over its text without the line that carries it (LoadCalibrationFile):
+  // a job can tell a file vlt wrote from one edited since.
+  std::string text = os.str();
+  const std::string header = "[calibration]\n";
+  text.insert(text.find(header) + header.size(),
+              std::string(kContentKey) + " = \"" + Sha256Bytes(text) + "\"\n");
+  return text;
 }
 
+namespace {
+
+// [calibration] content_sha256 against the SHA-256 of the file's text without the line that
+// carries it (the first line that starts with the key).
+void CheckContent(const toml::table& root, const std::string& text, const std::string& path,
+                  LoadedCalibration& c) {
+  const toml::node* node = root["calibration"][kContentKey].node();
+  if (!node) return;
+  if (!node->is_string()) throw InputError(path + ": calibration." + kContentKey + ": expected a string");
+  const std::string recorded(*node->value<std::string>());
+  const std::string key = std::string(kContentKey) + " = ";
+  std::size_t at = text.compare(0, key.size(), key) == 0 ? 0 : text.find("\n" + key);
+  if (at != 0 && at != std::string::npos) ++at;
+  if (at == std::string::npos)
+    throw InputError(path + ": calibration." + kContentKey + ": not on a line of its own");
+  const std::size_t end = text.find('\n', at);
+  std::string without = text;
+  without.erase(at, end == std::string::npos ? std::string::npos : end - at + 1);
+  c.content_checked = true;
+  c.edited = Sha256Bytes(without) != recorded;
+}
+
+}  // namespace
+
 LoadedCalibration LoadCalibrationFile(const std::string& path) {
-  const toml::table root =
-      base_internal::ParseToml(base_internal::ReadTextFile(path, "the calibration file"), path);
+  const std::string file_text = base_internal::ReadTextFile(path, "the calibration file");
+  const toml::table root = base_internal::ParseToml(file_text, path);
   LoadedCalibration c;
+  CheckContent(root, file_text, path, c);
   const toml::table* meta = root["calibration"].as_table();
   if (!meta) throw InputError(path + ": calibration: not a vlt calibration file (no [calibration] table)");
   auto text = [&](const toml::table& t, const char* key, const std::string& where) {

@@ -174,6 +174,12 @@ void TrackerReader::ReadCalibrationFile() {
     throw InputError(where + ": cannot read '" + path.string() + "': " + problem);
   LoadedCalibration c = LoadCalibrationFile(path.string());
   calibration_path = path.string();
+  if (c.edited) {
+    job.warnings.push_back(
+        calibration_path +
+        ": calibration.content_sha256: the file was edited after vlt wrote it (its text no "
+        "longer matches the checksum vlt recorded): its values may not be the calibration's");
+  }
   if (!c.fits) {
     job.warnings.push_back(where + ": '" + path.string() + "' is a calibration that does not fit its data (" +
                            (c.fit_problem.empty() ? std::string("fits = false") : c.fit_problem) +
