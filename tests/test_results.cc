@@ -187,7 +187,8 @@ TEST(Results, JsonSchemaKeys) {
 // The one escaping layer of every report's scripts (issue 32): the JSON of a hostile name keeps its
 // value but holds no '<', so nothing in it can close or change the <script> element it is in.
 TEST(Results, ScriptSafeJsonCannotEndItsScriptElement) {
-  const std::string hostile = "</script><script>alert(1)</script><!--<script> \u2028 & \"q\" 'a' <img onerror=x>";
+  const std::string hostile =
+      "</script><script>alert(1)</script><!--<script> \u2028 & \"q\" 'a' <img onerror=x>";
   const std::string safe = base_internal::ScriptSafe(nlohmann::json(hostile).dump());
   EXPECT_EQ(safe.find('<'), std::string::npos);
   EXPECT_EQ(nlohmann::json::parse(safe).get<std::string>(), hostile);
@@ -550,6 +551,32 @@ TEST_F(Writing, AFailedOrAbandonedRunLeavesTheOldSetAndNoStaging) {
   std::getline(in, line);
   EXPECT_EQ(line, "old");
   EXPECT_EQ(Entries(dir_), 1);
+}
+
+// Two runs into one directory (issue 32): a starting run removes the staging left by a killed run
+// (its process is gone) but not another live run's, which then commits as it would have.
+TEST_F(Writing, AnotherLiveRunsStagingIsLeftAlone) {
+  std::filesystem::create_directories(dir_);
+  const pid_t dead = ::fork();
+  ASSERT_GE(dead, 0);
+  if (dead == 0) ::_exit(0);
+  ::waitpid(dead, nullptr, 0);  // reaped: no process has that pid now
+  const std::filesystem::path live = dir_ / (".out.vlt-new-" + std::to_string(::getppid()));
+  const std::filesystem::path stale = dir_ / (".out.vlt-new-" + std::to_string(dead));
+  const std::filesystem::path old = dir_ / (".out.vlt-old-" + std::to_string(dead));
+  for (const auto& p : {live, stale, old}) {
+    std::filesystem::create_directories(p);
+    std::ofstream(p / "points.csv") << "x\n";
+  }
+  OutputDirectory(dir_ / "out").Commit({{"points.csv", "new\n"}});
+  EXPECT_TRUE(std::filesystem::exists(live / "points.csv")) << "a live run's staging was removed";
+  EXPECT_FALSE(std::filesystem::exists(stale));
+  EXPECT_FALSE(std::filesystem::exists(old));
+  std::ifstream in(dir_ / "out" / "points.csv");
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "new");
+  std::filesystem::remove_all(live);
 }
 
 TEST_F(Writing, SigtermWhileWritingRemovesTheStagingDirectory) {

@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <array>
 #include <csignal>
 #include <cstdio>
@@ -107,6 +108,24 @@ fs::path Normalised(const fs::path& p) {
 void RemoveQuietly(const fs::path& p) {
   std::error_code ec;
   fs::remove_all(p, ec);
+}
+
+// A staging (".<name>.vlt-new-<pid>") or old set (".vlt-old-<pid>") of `name` whose process is gone:
+// left by a run that was killed (SIGKILL, power loss). One whose process lives is another run's
+// transaction under way into the same directory, and is left alone (a pid reused since leaves a
+// stale one behind, which the next run after that process ends removes).
+bool LeftByADeadRun(const std::string& entry, const std::string& name) {
+  for (const char* kind : {".vlt-new-", ".vlt-old-"}) {
+    const std::string prefix = "." + name + kind;
+    if (entry.rfind(prefix, 0) != 0) continue;
+    const std::string digits = entry.substr(prefix.size());
+    if (digits.empty() || digits.size() > 10 || digits.find_first_not_of("0123456789") != std::string::npos)
+      return false;
+    const long pid = std::stol(digits);
+    if (pid <= 0 || pid == static_cast<long>(::getpid())) return pid > 0;
+    return ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;
+  }
+  return false;
 }
 
 }  // namespace
@@ -219,13 +238,13 @@ void OutputDirectory::Commit(const std::vector<OutputFile>& files) {
   fs::create_directories(parent_, ec);
   if (ec) throw InputError(target_.string() + ": cannot create '" + parent_.string() + "': " + ec.message());
   const std::string name = target_.filename().string();
-  // Staging directories of earlier runs that were killed (SIGKILL, power loss) are ours by name.
+  // Staging directories of earlier runs that were killed (SIGKILL, power loss) are ours by name;
+  // a live run's is not (two runs into one directory: the last to commit wins, neither fails).
+  std::vector<fs::path> stale;
   for (const fs::directory_entry& e : fs::directory_iterator(parent_, ec)) {
-    const std::string other = e.path().filename().string();
-    if (other.rfind("." + name + ".vlt-new-", 0) == 0 || other.rfind("." + name + ".vlt-old-", 0) == 0) {
-      RemoveQuietly(e.path());
-    }
+    if (LeftByADeadRun(e.path().filename().string(), name)) stale.push_back(e.path());
   }
+  for (const fs::path& p : stale) RemoveQuietly(p);
   const std::string pid = std::to_string(::getpid());
   staging_ = parent_ / ("." + name + ".vlt-new-" + pid);
   RemoveQuietly(staging_);
