@@ -59,6 +59,17 @@ vlt_front_door_error(zenith_reading "zenith\\.csv: line 3: elevation: the readin
                      run ${_fd}/zenith.toml -o ${_out}/fd_error_zenith_reading)
 vlt_front_door_error(huge_range "huge_range\\.csv: line 3: range: 1e\\+300 m is beyond any laser tracker"
                      run ${_fd}/huge_range.toml -o ${_out}/fd_error_huge_range)
+# A job at a path of more than 1000 characters: the error line keeps its first and last 480, so
+# the problem at its end is never cut (issue 32).
+set(_long_dir ${CMAKE_BINARY_DIR}/cli-tests/long)
+foreach(_c a b c d e)
+  string(REPEAT ${_c} 200 _part)
+  set(_long_dir ${_long_dir}/${_part})
+endforeach()
+file(WRITE ${_long_dir}/job.toml "[tracker]\nmodel = \"nope\"\n")
+vlt_front_door_error(long_path_keeps_the_problem
+                     "[.][.][.][(][0-9]+ characters[)][.][.][.] .*/job\\.toml: tracker\\.model: unknown model 'nope' [(]tracker models: [^\n]*[)]\n$"
+                     run ${_long_dir}/job.toml -o ${_out}/fd_error_long_path)
 vlt_front_door_error(huge_angle "huge_angle\\.csv: line 3: azimuth: 1e\\+20 deg is not a plausible angle"
                      run ${_fd}/huge_angle.toml -o ${_out}/fd_error_huge_angle)
 vlt_front_door_error(huge_uncertainty "huge_u\\.toml: tracker\\.parameters\\.tmv\\.u: uncertainty beyond what vlt computes with"

@@ -14,7 +14,8 @@
 namespace vlt::cli {
 
 // An error line quotes what the user wrote ('...'); a 2 MB CSV cell must not become a 2 MB line.
-// Quoted values longer than 60 characters keep their first 40, and the line is cut at 1000.
+// Quoted values longer than 60 characters keep their first 40; a line still longer than 1000
+// (a long path) keeps its first and last 480: the problem, at the end of the line, is never cut.
 std::string ShortenMessage(const std::string& message) {
   std::string out;
   std::size_t i = 0;
@@ -38,7 +39,11 @@ std::string ShortenMessage(const std::string& message) {
   for (char& c : out) {
     if (c == '\n' || c == '\r') c = ' ';
   }
-  if (out.size() > 1000) out = out.substr(0, 1000) + "...";
+  if (out.size() > 1000) {
+    const std::size_t left_out = out.size() - 960;
+    out = out.substr(0, 480) + " ...(" + std::to_string(left_out) + " characters)... " +
+          out.substr(out.size() - 480);
+  }
   return out;
 }
 
