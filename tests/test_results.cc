@@ -579,6 +579,20 @@ TEST_F(Writing, AnotherLiveRunsStagingIsLeftAlone) {
   std::filesystem::remove_all(live);
 }
 
+// An output file name past 255 bytes (made of a 300-character station name) is refused as such,
+// not reported as "disk full?" when the write fails (issue 32); nothing is written.
+TEST_F(Writing, AFileNameTooLongForTheFileSystemIsSaid) {
+  std::filesystem::create_directories(dir_);
+  try {
+    OutputDirectory(dir_ / "out").Commit({{"simulated_" + std::string(300, 'S') + ".csv", "x\n"}});
+    FAIL() << "accepted a 314-byte file name";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("longer than a file name may be (255)"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(Entries(dir_), 0);
+}
+
 TEST_F(Writing, SigtermWhileWritingRemovesTheStagingDirectory) {
   std::filesystem::create_directories(dir_);
   const std::filesystem::path target = dir_ / "out";

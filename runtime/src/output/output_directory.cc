@@ -270,6 +270,13 @@ void OutputDirectory::Commit(const std::vector<OutputFile>& files) {
     if (file.name.find('/') != std::string::npos) {
       throw InputError(file.name + ": an output file name may not contain '/'");
     }
+    // A name made of a user's (simulated_<station>.csv) can pass what a file system takes: say so,
+    // not "disk full?" when the write fails.
+    if (file.name.size() > 255) {
+      throw InputError(target_.string() + ": output file '" + file.name +
+                       "': " + std::to_string(file.name.size()) +
+                       " bytes, longer than a file name may be (255): shorten the name it is made of");
+    }
     FileText out(staging_ / file.name);
     file.write(out);
     if (!out.Close())
