@@ -175,10 +175,31 @@ py::dict QuantityDict(const vlt::QuantityInfo& q, bool defaults) {
 }
 
 // The file `name` of an all-or-none set of output files (results.json, calibration.toml, ...).
-const std::string& FileNamed(const std::vector<std::pair<std::string, std::string>>& files, const std::string& name) {
+const std::string& FileNamed(const std::vector<std::pair<std::string, std::string>>& files,
+                             const std::string& name) {
   for (const auto& [file, content] : files)
     if (file == name) return content;
   throw std::logic_error("no " + name + " among the outputs");
+}
+
+// The command line's rules for the numbers a caller passes (docs/cli.md, `--threads`, `--trials`):
+// threads 0 .. 1024 (0: every hardware thread), trials 0 .. 10^9 (0: adaptive). A number past them
+// is a ValueError with one line, as the command line refuses it (exit 2), never a run that asks the
+// system for 10^5 threads.
+std::optional<int> CheckedThreads(std::optional<int> threads, const std::string& function) {
+  if (threads && (*threads < 0 || *threads > 1024)) {
+    throw vlt::InputError(function + ": threads: " + std::to_string(*threads) +
+                          " is not an integer in 0 .. 1024 (0: every hardware thread)");
+  }
+  return threads;
+}
+
+std::optional<std::int64_t> CheckedTrials(std::optional<std::int64_t> trials, const std::string& function) {
+  if (trials && (*trials < 0 || *trials > 1000000000)) {
+    throw vlt::InputError(function + ": trials: " + std::to_string(*trials) +
+                          " is not an integer in 0 .. 1000000000 (0: adaptive)");
+  }
+  return trials;
 }
 
 }  // namespace
@@ -219,9 +240,9 @@ PYBIND11_MODULE(vlt, m) {
          std::optional<std::uint64_t> seed, std::optional<int> threads, const std::string& base_dir) {
         vlt::RunOptions options;
         options.monte_carlo = monte_carlo;
-        options.trials = trials;
+        options.trials = CheckedTrials(trials, "run");
         options.seed = seed;
-        options.threads = threads;
+        options.threads = CheckedThreads(threads, "run");
         options.compute_map = false;
         const JobText text = JobTextOf(job, base_dir);
         if (vlt::IsCustomModelJob(text.text)) {
@@ -331,7 +352,7 @@ PYBIND11_MODULE(vlt, m) {
           vlt::GumOptions options;
           options.coverage_probability = parsed.monte_carlo.coverage_probability;
           options.budgets = false;
-          options.threads = threads.value_or(parsed.monte_carlo.threads);
+          options.threads = CheckedThreads(threads, "gum").value_or(parsed.monte_carlo.threads);
           gum = vlt::PropagatePoints(model, points, options);
         }
         py::dict out;
@@ -354,8 +375,9 @@ PYBIND11_MODULE(vlt, m) {
           const vlt::NetworkResult result = vlt::AdjustNetwork(job.network);
           std::optional<vlt::NetworkMonteCarlo> mc;
           if (job.monte_carlo_trials > 0) {
-            mc = vlt::ValidateNetworkByMonteCarlo(job.network, result, job.monte_carlo_trials, job.monte_carlo_seed,
-                                                  threads.value_or(0));
+            mc = vlt::ValidateNetworkByMonteCarlo(job.network, result, job.monte_carlo_trials,
+                                                  job.monte_carlo_seed,
+                                                  CheckedThreads(threads, "network").value_or(0));
           }
           const std::vector<vlt::NetworkTaskResult> tasks = vlt::NetworkTasks(job.tasks, result, job.file);
           json = FileNamed(vlt::network_outputs::NetworkFiles(job, result, tasks, vlt::RunCreatedTime(),
@@ -374,12 +396,14 @@ PYBIND11_MODULE(vlt, m) {
       [](const std::string& path, std::optional<int> threads) {
         vlt::Job job = vlt::LoadJob(path);
         if (!job.optimize)
-          throw vlt::InputError(job.file + ": optimize: the job has no [optimize] section (docs/planning.md)");
+          throw vlt::InputError(job.file +
+                                ": optimize: the job has no [optimize] section (docs/planning.md)");
         py::dict out;
         std::vector<std::pair<std::string, std::string>> files;
         {
           py::gil_scoped_release release;
-          const vlt::StationPlan plan = vlt::PlanStation(job, threads.value_or(job.monte_carlo.threads));
+          const vlt::StationPlan plan =
+              vlt::PlanStation(job, CheckedThreads(threads, "plan").value_or(job.monte_carlo.threads));
           files = vlt::PlanFiles(plan);
         }
         out["plan"] = JsonLoads(FileNamed(files, "plan.json"));
@@ -389,7 +413,8 @@ PYBIND11_MODULE(vlt, m) {
       },
       py::arg("path"), py::arg("threads") = py::none(),
       "Plans the station of a job with [optimize] like `vlt plan` (docs/planning.md), without writing\n"
-      "files: {'plan': plan.json as a dict (recommended station, objective, search, map), 'planned_job_toml':\n"
+      "files: {'plan': plan.json as a dict (recommended station, objective, search, map), "
+      "'planned_job_toml':\n"
       "the job with the recommended station, 'warnings': the job's warnings}.");
 
   m.def(
@@ -405,7 +430,8 @@ PYBIND11_MODULE(vlt, m) {
           provenance.instrument = job.instrument;
           provenance.created = vlt::RunCreatedTime();
           provenance.vlt_version = VLT_VERSION;
-          for (const std::string& f : job.data_files) provenance.data_files.emplace_back(f, vlt::Sha256File(f));
+          for (const std::string& f : job.data_files)
+            provenance.data_files.emplace_back(f, vlt::Sha256File(f));
           files = vlt::calibration_outputs::CalibrationFiles(job, result, provenance);
         }
         out["results"] = JsonLoads(FileNamed(files, "results.json"));

@@ -101,6 +101,19 @@ def test_bad_input_is_a_value_error_with_the_one_line_message():
         vlt.run("/nonexistent/job.toml")
 
 
+def test_numbers_past_the_command_lines_rules_are_value_errors():
+    # As `--threads` and `--trials` refuse them (issue 32): threads=100000 once asked the system for
+    # 10^5 threads and was killed.
+    job = os.path.join(SOURCE, "examples", "alignment", "panel_alignment.toml")
+    for kwargs, message in [({"threads": -3}, r"^run: threads: -3 is not an integer in 0 \.\. 1024"),
+                            ({"threads": 100000}, r"^run: threads: 100000 is not an integer in 0 \.\. 1024"),
+                            ({"trials": 10**12}, r"^run: trials: 1000000000000 is not an integer in 0 \.\. 1000000000")]:
+        with pytest.raises(ValueError, match=message):
+            vlt.run(job, **kwargs)
+    with pytest.raises(ValueError, match=r"^network: threads: -1 is not"):
+        vlt.network(os.path.join(SOURCE, "examples", "network", "drift_network.toml"), threads=-1)
+
+
 def test_simulate_equals_the_command_line():
     points = np.array([[4.0, 1.0, 0.5], [-3.0, 2.0, -0.4]])
     s = vlt.simulate("mirror", points, {"tmv": 5e-6, "rmv": 4.84813681109536e-06})
