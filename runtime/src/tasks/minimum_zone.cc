@@ -5,7 +5,7 @@
 //
 // Each step linearises the points' distances d_i(theta) from the feature about the current one and
 // solves, with Clp (COIN-OR's simplex), the linear program of the zone within a trust region:
-//     two-sided (flatness, roundness, cylindricity):  min t_hi - t_lo,  t_lo <= d_i + g_i s <= t_hi
+//     min t_hi - t_lo,  t_lo <= d_i + g_i s <= t_hi  (flatness, roundness, cylindricity)
 //     |s_j| <= radius
 // (straightness, a cylinder about a line, is convex in the line's offsets and tilts and is solved
 // by cutting planes instead: Straightness below).
@@ -70,9 +70,9 @@ double Zone(const Eigen::VectorXd& d, bool two_sided) {
 
 // One linear program: the step s (|s_j| <= 1, the problem scaled by the trust region) that minimises
 // the zone of d + G s, and that zone; false when Clp finds no optimum.
-bool ZoneStep(const Linearised& at, bool two_sided, Eigen::VectorXd& step, double& zone) {
+bool ZoneStep(const Linearised& at, Eigen::VectorXd& step, double& zone) {
   const int n = static_cast<int>(at.d.size()), k = static_cast<int>(at.g.cols());
-  const int columns = k + (two_sided ? 2 : 1), rows = two_sided ? 2 * n : n;
+  const int columns = k + 2, rows = 2 * n;
   std::vector<CoinBigIndex> start;
   std::vector<int> index;
   std::vector<double> value;
@@ -83,7 +83,7 @@ bool ZoneStep(const Linearised& at, bool two_sided, Eigen::VectorXd& step, doubl
       value.push_back(at.g(r % n, j));
     }
   }
-  for (int side = 0; side < (two_sided ? 2 : 1); ++side) {  // t_hi in rows 0..n-1, t_lo in n..2n-1
+  for (int side = 0; side < 2; ++side) {  // t_hi in rows 0..n-1, t_lo in n..2n-1
     start.push_back(static_cast<CoinBigIndex>(index.size()));
     for (int i = 0; i < n; ++i) {
       index.push_back(side * n + i);
@@ -94,13 +94,13 @@ bool ZoneStep(const Linearised& at, bool two_sided, Eigen::VectorXd& step, doubl
   const double inf = COIN_DBL_MAX;
   std::vector<double> column_lower(columns, -inf), column_upper(columns, inf), objective(columns, 0.0);
   for (int j = 0; j < k; ++j) column_lower[j] = -1.0, column_upper[j] = 1.0;
-  objective[k] = two_sided ? 1.0 : 2.0;  // the zone: t_hi - t_lo, or 2 t_hi
-  if (two_sided) objective[k + 1] = -1.0;
+  objective[k] = 1.0;  // the zone: t_hi - t_lo
+  objective[k + 1] = -1.0;
   // g_i s - t_hi <= -d_i;  g_i s - t_lo >= -d_i.
   std::vector<double> row_lower(rows, -inf), row_upper(rows, inf);
   for (int i = 0; i < n; ++i) {
     row_upper[i] = -at.d(i);
-    if (two_sided) row_lower[n + i] = -at.d(i);
+    row_lower[n + i] = -at.d(i);
   }
   ClpSimplex lp;
   lp.setLogLevel(0);
@@ -201,9 +201,8 @@ struct CircleZone {
 // region, see the file comment); `start_radius` is the trust region's first radius in parameter
 // units (the zone's order: the least-squares form, normalised).
 template <typename F>
-double MinimiseZone(F& feature, bool two_sided, double start_radius, TaskKind kind, std::string_view where,
-                    int& programs) {
-  double zone = Zone(feature.Linearise().d, two_sided);
+double MinimiseZone(F& feature, double start_radius, TaskKind kind, std::string_view where, int& programs) {
+  double zone = Zone(feature.Linearise().d, true);
   double radius = std::max(start_radius, 1e-9);
   // Normalised points (rms distance 1): a zone below 1e-13 is rounding, an exact feature.
   for (int iteration = 0; iteration < 500 && zone > 1e-13; ++iteration) {
@@ -216,17 +215,16 @@ double MinimiseZone(F& feature, bool two_sided, double start_radius, TaskKind ki
     // The zone is unchanged by a common shift of the distances (t_hi, t_lo follow): centred, the
     // rows' bounds are of the zone's size, not of the radius's (a perfect circle's distances are
     // R / zone ~ 1e15, beyond the simplex's tolerances).
-    if (two_sided) at.d.array() -= 0.5 * (at.d.maxCoeff() + at.d.minCoeff());
+    at.d.array() -= 0.5 * (at.d.maxCoeff() + at.d.minCoeff());
     Eigen::VectorXd step;
     double predicted = 0.0;
-    if (!ZoneStep(at, two_sided, step, predicted))
-      Fail(where, kind, "the minimum-zone linear program failed");
+    if (!ZoneStep(at, step, predicted)) Fail(where, kind, "the minimum-zone linear program failed");
     predicted *= zone;
     // No descent the linear model sees: a stationary point of the zone (to the simplex's tolerance).
     if (zone - predicted <= 1e-9 * zone) break;
     F candidate = feature;
     candidate.Move(step * radius);
-    const double trial_zone = Zone(candidate.Linearise().d, two_sided);
+    const double trial_zone = Zone(candidate.Linearise().d, true);
     if (trial_zone < zone) {
       const double ratio = (zone - trial_zone) / (zone - predicted);
       feature = candidate;
@@ -265,7 +263,7 @@ Eigen::Vector2d Flatness(const Points& points, std::string_view where, int& prog
   const Normalised p = Normalise(points, TaskKind::kFlatness, where);
   PlaneZone zone{&p.q, ls.values.segment<3>(3)};
   const double start = Zone(zone.Linearise().d, true);
-  return {MinimiseZone(zone, true, start, TaskKind::kFlatness, where, programs) * p.scale, ls.values(6)};
+  return {MinimiseZone(zone, start, TaskKind::kFlatness, where, programs) * p.scale, ls.values(6)};
 }
 
 // One linear program of the cutting planes below: min t over (theta, t) subject to
@@ -387,7 +385,7 @@ Eigen::Vector2d Roundness(const Points& points, std::string_view where, int& pro
   CircleZone zone{&in_plane, centre};
   const double start = Zone(zone.Linearise().d, true);
   const double least_squares = start * p.scale;
-  return {MinimiseZone(zone, true, start, TaskKind::kRoundness, where, programs) * p.scale, least_squares};
+  return {MinimiseZone(zone, start, TaskKind::kRoundness, where, programs) * p.scale, least_squares};
 }
 
 Eigen::Vector2d Cylindricity(const Points& points, std::string_view where, int& programs) {
@@ -398,7 +396,7 @@ Eigen::Vector2d Cylindricity(const Points& points, std::string_view where, int& 
   a -= a.dot(u) * u;
   AxisZone zone{&p.q, a, u};
   const double start = Zone(zone.Linearise().d, true);
-  return {MinimiseZone(zone, true, start, TaskKind::kCylindricity, where, programs) * p.scale, ls.values(7)};
+  return {MinimiseZone(zone, start, TaskKind::kCylindricity, where, programs) * p.scale, ls.values(7)};
 }
 
 }  // namespace
