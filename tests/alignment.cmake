@@ -42,6 +42,10 @@ function(vlt_alignment_error name job regex)
             -DOUT=${_al_out}/error_alignment_${name} "-DEXPECT=${regex}"
             -P ${_al_cli}/expect_error.cmake)
 endfunction()
+vlt_alignment_error(weighted_features weighted_features.toml
+                    "weighted_features\\.toml: alignment\\[0\\]\\.weighting: a features alignment is not a least-squares fit")
+vlt_alignment_error(weighted_twin_clash weighted_twin_clash.toml
+                    "weighted_twin_clash\\.toml: alignment\\[0\\]\\.weighting: its weighted fit's name 'holes_weighted' is already a task's")
 vlt_alignment_error(no_nominal no_nominal.toml "no_nominal\\.toml: nominal: required key is missing")
 vlt_alignment_error(features_twice features_twice.toml
                     "features_twice\\.toml: alignment\\[0\\]\\.line: point 'T2' is already a datum point of this alignment")

@@ -212,6 +212,8 @@ def test_alignment_and_deviations_equal_the_command_line():
     r = vlt.run(job, monte_carlo=False)
     tasks = {t["name"]: t for t in r["tasks"]}
     assert tasks["to_cad"]["kind"] == "best_fit" and tasks["jig_321"]["kind"] == "rps"
+    assert tasks["to_cad"]["weighting"] == "none" and tasks["to_cad_gls"]["weighting"] == "covariance"
+    assert tasks["holes_gls.T1"]["weighting"] == "covariance" and tasks["to_cad_gls"]["weighted_fit"]["degrees_of_freedom"] == 6
     assert tasks["to_cad"]["units"] == ["m", "m", "m", "rad", "rad", "rad", "m"]
     s17 = tasks["skin.S17"]
     assert s17["kind"] == "deviation" and s17["nominal"]["point"] == "S17" and s17["nominal"]["alignment"] == "to_cad"

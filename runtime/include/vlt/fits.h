@@ -26,6 +26,23 @@
 
 namespace vlt {
 
+// The covariance of a task's N points (3N x 3N, SI, point-major: rows 3i..3i+2 are point i's x,
+// y, z), for a fit weighted by it: V = blockdiag(blocks) + shared shared^T, as the GUM engine
+// has it (each point's own readings, then the inputs the points share through a factor of their
+// covariance), or `dense` when given (a network adjustment's joint covariance).
+struct PointCovariance {
+  std::vector<Eigen::Matrix3d> blocks;  // N, each symmetric positive semi-definite [m^2]
+  Eigen::MatrixXd shared;               // 3N x r [m]
+  Eigen::MatrixXd dense;                // 3N x 3N [m^2]; when non-empty, blocks and shared are unused
+};
+
+// The fixed weight matrix W = V_d^-1 of a covariance-weighted fit (docs/tasks.md "Fits weighted by
+// the points' covariance"): V_d = D V D^T is the covariance of the fit's residuals, D their
+// derivative with respect to the points at the ordinary fit to the estimates. Made by the first
+// weighted fit (FitResult::weights) and handed to every Monte Carlo trial (FitOptions::weights),
+// so that each trial's estimator is the one the GUM engine differentiates. Opaque (tasks/).
+class FitWeights;
+
 // One output quantity of a task.
 struct TaskOutput {
   std::string_view name;         // e.g. "radius", "normal_z"
@@ -64,14 +81,26 @@ struct FitOptions {
   // best_fit: each angle rx, ry, rz is returned within pi of these (the angles of the fit to the
   // estimates, so that no Monte Carlo trial of a rotation near 180 degrees jumps by 2 pi).
   std::optional<Eigen::Vector3d> reference_angles;
+  // A fit weighted by the points' covariance (generalised least squares): minimises r^T W r over
+  // the fit's residuals r, W = (D V D^T)^-1, instead of r^T r. `weights` when given (a Monte Carlo
+  // trial: the weights of the fit to the estimates), else made from `covariance` at this fit's
+  // ordinary solution. Plane, sphere, circle, line, cylinder, cone, best_fit, best_fit_scale, rps
+  // and the deviations and profiles over them; any other kind throws InputError.
+  std::shared_ptr<const PointCovariance> covariance;
+  std::shared_ptr<const FitWeights> weights;
 };
+
+// True for the kinds a fit weighted by the points' covariance applies to (FitOptions::covariance).
+bool Weightable(TaskKind kind);
 
 // The options a task's own definition implies: its nominal geometry (alignment kinds).
 FitOptions TaskFitOptions(const TaskSpec& task, bool jacobian);
 // The options of a Monte Carlo trial of `task` (no Jacobian): TaskFitOptions, and the normal /
 // direction (plane, circle, line, cylinder, cone) or the angles (best_fit) of the fit to the estimates, whose
 // outputs are `at_estimates` (TaskOutputs order), so that no trial flips a sign or turns by 2 pi.
-FitOptions TrialFitOptions(const TaskSpec& task, const Eigen::VectorXd& at_estimates);
+// A weighted task (TaskSpec::weighted) passes the weights of that fit (FitResult::weights).
+FitOptions TrialFitOptions(const TaskSpec& task, const Eigen::VectorXd& at_estimates,
+                           std::shared_ptr<const FitWeights> weights = nullptr);
 
 struct FitResult {
   TaskKind kind = TaskKind::kDistance;
@@ -87,6 +116,12 @@ struct FitResult {
   // the extreme (a one-sided derivative), see docs/tasks.md.
   std::vector<bool> differentiable;
   int iterations = 0;  // Levenberg-Marquardt + Newton iterations (sphere, circle, cylinder, cone), else 0
+  // A weighted fit: the weights it used (FitOptions::weights), and r^T W r at its solution with
+  // its degrees of freedom (residual rows less parameters; chi-squared when the covariance
+  // accounts for the form error too). Else null and 0.
+  std::shared_ptr<const FitWeights> weights;
+  double chi2 = 0.0;
+  int degrees_of_freedom = 0;
 };
 
 // Each function throws InputError "<where>: <kind> needs at least M points, got N" (distance,

@@ -22,12 +22,14 @@
 #pragma once
 
 #include <limits>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "vlt/fits.h"
 #include "vlt/measurement_model.h"
 #include "vlt/model_info.h"
 #include "vlt/tasks.h"
@@ -245,6 +247,11 @@ struct TaskUncertainty {
   // inputs counted without their cross terms; those are in the "correlations" row).
   std::vector<std::string> shared_input_names;
   Eigen::MatrixXd shared_input_variance;  // k x (S + 1): last column = correlation term
+  // A task weighted by its points' covariance (TaskSpec::weighted): the fit's fixed weights (for
+  // the Monte Carlo trials, vlt/fits.h TrialFitOptions), r^T W r and its degrees of freedom.
+  std::shared_ptr<const FitWeights> weights;
+  double chi2 = 0.0;
+  int degrees_of_freedom = 0;
 };
 
 // Propagates to one task: task.points name entries of `points` (ResolveTaskPoints); the
@@ -262,6 +269,11 @@ TaskUncertainty PropagateTask(const MeasurementModel& model, std::span<const Poi
 void PropagateTaskCovariance(const MeasurementModel& model, std::span<const PointReadings> points,
                              std::span<const int> indices, const Eigen::MatrixXd& g,
                              const GumOptions& options, TaskUncertainty& result);
+
+// The covariance of points[indices] as a weighted fit takes it (vlt/fits.h PointCovariance): each
+// point's readings block J_r U_r J_r^T, and the shared inputs' factor J_s F (3N x S, U_s = F F^T).
+PointCovariance TaskPointCovariance(const MeasurementModel& model, std::span<const PointReadings> points,
+                                    std::span<const int> indices, int threads = 0);
 
 // Part-frame estimates of the points (MeasurementModel::Evaluate at the shared estimates).
 std::vector<Eigen::Vector3d> PointEstimates(const MeasurementModel& model,

@@ -22,6 +22,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -29,6 +30,7 @@
 
 #include <Eigen/Core>
 
+#include "vlt/fits.h"
 #include "vlt/measurement_model.h"
 #include "vlt/model_info.h"
 #include "vlt/tasks.h"
@@ -180,6 +182,10 @@ struct McmJob {
   // sign. Outputs "<task name>.<output name>" in the order of TaskOutputs(kind), units from it.
   std::vector<TaskSpec> fit_tasks;
   std::vector<std::vector<int>> fit_task_points;  // indices into points, one list per fit task
+  // A weighted fit task (TaskSpec::weighted) needs its points' covariance (vlt/gum.h
+  // TaskPointCovariance): one entry per fit task, null for an ordinary one; may be empty when no
+  // task is weighted.
+  std::vector<std::shared_ptr<const PointCovariance>> fit_task_covariance;
   // Further quantities from the points (after the fit tasks), e.g. for tests.
   std::vector<McmTask> tasks;
 };

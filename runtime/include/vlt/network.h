@@ -332,6 +332,7 @@ NetworkMonteCarlo ValidateNetworkByMonteCarlo(const Network& network, const Netw
 struct NetworkTaskResult {
   std::string name;
   TaskKind kind = TaskKind::kDistance;
+  bool weighted = false;  // fitted with the adjustment's covariance as weights (TaskSpec::weighted)
   std::vector<std::string> quantities, units;
   Eigen::VectorXd value, u, U;  // SI; u = U = 0 where not differentiable
   Eigen::MatrixXd covariance;

@@ -96,6 +96,9 @@ struct TaskSpec {
   std::vector<std::pair<std::string, Tolerance>> tolerances;
   bool all_points = false;  // `points = "all"`: every point of the job, in job order
   std::string where{};      // the table that defined it, for messages ("job.toml: alignment[0]")
+  // weighting = "covariance": the fit is weighted by the points' covariance (vlt/fits.h
+  // FitOptions::covariance; docs/tasks.md "Fits weighted by the points' covariance").
+  bool weighted = false;
   // best_fit, best_fit_scale, deviation: the nominal geometry (shared: Monte Carlo trials copy it).
   std::shared_ptr<const NominalGeometry> nominal{};
 

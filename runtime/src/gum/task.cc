@@ -57,30 +57,31 @@ void PropagateTaskCovariance(const MeasurementModel& model, std::span<const Poin
   const Eigen::VectorXd x = model.shared_estimates();
   const std::size_t num_chunks = (n + kChunk - 1) / kChunk;
   std::vector<Partial> partials(num_chunks);
-  parallel_internal::ForEachChunk(n, kChunk, options.threads, [&](std::size_t c, std::size_t begin, std::size_t end) {
-    Partial& p = partials[c];
-    p.g_js = Eigen::MatrixXd::Zero(k, num_shared);
-    p.cov_readings = Eigen::MatrixXd::Zero(k, k);
-    std::vector<double> js(3 * num_shared);
-    Eigen::Map<const Eigen::MatrixXd> js_map(js.data(), 3, num_shared);
-    Eigen::MatrixXd b(k, 3);
-    for (std::size_t j = begin; j < end; ++j) {
-      const PointReadings& point = points[indices[j]];
-      const Eigen::Vector3d& r = point.readings;
-      if (!r.allFinite() || !(r(0) > 0.0)) {
-        throw NumericalError(PointLabel(point.name, indices[j]) +
-                             "range reading must be positive and finite (zero range is "
-                             "singular)");
-      }
-      Eigen::Vector3d y;
-      Eigen::Matrix3d jr;
-      model.EvaluateWithJacobian(r.data(), x.data(), y.data(), jr.data(), js.data());
-      const auto gj = g.middleCols(3 * j, 3);
-      p.g_js.noalias() += gj * js_map;
-      b.noalias() = gj * (jr * model.reading_uncertainty(r(0)).asDiagonal());
-      p.cov_readings.noalias() += b * b.transpose();
-    }
-  });
+  parallel_internal::ForEachChunk(
+      n, kChunk, options.threads, [&](std::size_t c, std::size_t begin, std::size_t end) {
+        Partial& p = partials[c];
+        p.g_js = Eigen::MatrixXd::Zero(k, num_shared);
+        p.cov_readings = Eigen::MatrixXd::Zero(k, k);
+        std::vector<double> js(3 * num_shared);
+        Eigen::Map<const Eigen::MatrixXd> js_map(js.data(), 3, num_shared);
+        Eigen::MatrixXd b(k, 3);
+        for (std::size_t j = begin; j < end; ++j) {
+          const PointReadings& point = points[indices[j]];
+          const Eigen::Vector3d& r = point.readings;
+          if (!r.allFinite() || !(r(0) > 0.0)) {
+            throw NumericalError(PointLabel(point.name, indices[j]) +
+                                 "range reading must be positive and finite (zero range is "
+                                 "singular)");
+          }
+          Eigen::Vector3d y;
+          Eigen::Matrix3d jr;
+          model.EvaluateWithJacobian(r.data(), x.data(), y.data(), jr.data(), js.data());
+          const auto gj = g.middleCols(3 * j, 3);
+          p.g_js.noalias() += gj * js_map;
+          b.noalias() = gj * (jr * model.reading_uncertainty(r(0)).asDiagonal());
+          p.cov_readings.noalias() += b * b.transpose();
+        }
+      });
   // Merge in chunk order: bit-identical for any thread count.
   Eigen::MatrixXd g_js = Eigen::MatrixXd::Zero(k, num_shared);
   Eigen::MatrixXd cov_readings = Eigen::MatrixXd::Zero(k, k);
@@ -158,6 +159,32 @@ void PropagateTaskCovariance(const MeasurementModel& model, std::span<const Poin
       a.rowwise().squaredNorm() - result.shared_input_variance.leftCols(num_shared).rowwise().sum();
 }
 
+PointCovariance TaskPointCovariance(const MeasurementModel& model, std::span<const PointReadings> points,
+                                    std::span<const int> indices, int threads) {
+  const int num_shared = model.num_shared();
+  const std::size_t n = indices.size();
+  const Eigen::VectorXd x = model.shared_estimates();
+  const gum_internal::SharedFactor factor = gum_internal::MakeSharedFactor(model);
+  PointCovariance v;
+  v.blocks.resize(n);
+  v.shared.resize(3 * static_cast<Eigen::Index>(n), num_shared);
+  parallel_internal::ForEachChunk(n, kChunk, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
+    Eigen::Matrix<double, 3, Eigen::Dynamic> js(3, num_shared), a(3, num_shared);
+    for (std::size_t j = begin; j < end; ++j) {
+      const PointReadings& point = points[static_cast<std::size_t>(indices[j])];
+      const Eigen::Vector3d& r = point.readings;
+      Eigen::Vector3d y;
+      Eigen::Matrix3d jr;
+      model.EvaluateWithJacobian(r.data(), x.data(), y.data(), jr.data(), js.data());
+      const Eigen::Matrix3d b = jr * model.reading_uncertainty(r(0)).asDiagonal();
+      v.blocks[j] = b * b.transpose();
+      factor.Apply(js.data(), a.data(), 3);
+      v.shared.middleRows(3 * static_cast<Eigen::Index>(j), 3) = a;
+    }
+  });
+  return v;
+}
+
 TaskUncertainty PropagateTask(const MeasurementModel& model, std::span<const PointReadings> points,
                               const TaskSpec& task, const GumOptions& options) {
   std::vector<std::string> names;
@@ -170,7 +197,11 @@ TaskUncertainty PropagateTask(const MeasurementModel& model, std::span<const Poi
   const std::vector<Eigen::Vector3d> y = PointEstimates(model, used, options.threads);
   Eigen::Matrix3Xd coordinates(3, y.size());
   for (std::size_t i = 0; i < y.size(); ++i) coordinates.col(i) = y[i];
-  const FitOptions fit_options = TaskFitOptions(task, true);
+  FitOptions fit_options = TaskFitOptions(task, true);
+  if (task.weighted) {
+    fit_options.covariance =
+        std::make_shared<const PointCovariance>(TaskPointCovariance(model, points, indices, options.threads));
+  }
   // G = d task / d point coordinates from the fit itself (vlt/fits.h), at the estimates.
   const FitResult fit = FitTask(task.kind, coordinates, fit_options, "task '" + task.name + "'");
 
@@ -183,6 +214,9 @@ TaskUncertainty PropagateTask(const MeasurementModel& model, std::span<const Poi
   }
   result.value = fit.values;
   result.differentiable = fit.differentiable;
+  result.weights = fit.weights;
+  result.chi2 = fit.chi2;
+  result.degrees_of_freedom = fit.degrees_of_freedom;
   PropagateTaskCovariance(model, points, indices, fit.jacobian, options, result);
   // A quantity without derivative (flatness of points that fit exactly, ...) has no GUM
   // uncertainty: u = U = 0 with differentiable = false (never NaN); Monte Carlo reports it.

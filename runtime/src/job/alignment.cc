@@ -34,7 +34,33 @@ struct Alignment {
   std::vector<std::array<bool, 3>> holds;  // rps: the axes each point holds
   int plane_points = 0, line_points = 0;   // features: the datum plane's and line's points
   std::vector<int> indices;                // of its points in the job, resolved once
+  // weighting (ReadWeighting): "none" {false}, "covariance" {true}, "both" {false, true}; the
+  // deviations and profiles over it take the same.
+  std::vector<bool> weighted;
 };
+
+// One variant of `pattern`: its name (unique among the job's tasks) and weighting.
+TaskSpec Variant(const TaskSpec& pattern, bool weighted, const std::string& task_name, Section& t,
+                 std::set<std::string>& names) {
+  TaskSpec spec = pattern;
+  spec.name = task_name;
+  spec.weighted = weighted;
+  if (!names.insert(spec.name).second)
+    throw InputError(t.Where("name") + ": '" + spec.name + "' is already the name of a task");
+  return spec;
+}
+
+// The variants of a task over `alignment` named `name` ("<name>.<point>" for a deviation: the
+// twin is "<name>_weighted.<point>"): one per weighting of the alignment.
+std::vector<std::pair<bool, std::string>> Variants(const Alignment& alignment, const std::string& name,
+                                                   const std::string& suffix) {
+  std::vector<std::pair<bool, std::string>> out;
+  for (bool weighted : alignment.weighted) {
+    const bool twin = weighted && alignment.weighted.size() > 1;
+    out.emplace_back(weighted, (twin ? WeightedName(name) : name) + suffix);
+  }
+  return out;
+}
 
 // The job's points by name, built once for all the tables (a scan's deviations must not cost N^2).
 using PointIndex = std::unordered_map<std::string, int>;
@@ -206,7 +232,7 @@ void ReadDatumFeatures(Section& t, Alignment& a) {
 // One [[alignment]] table: a best_fit, rps or features task over its points.
 Alignment ReadAlignment(Section& t, Job& job, const std::map<std::string, Nominal>& nominal,
                         std::set<std::string>& names) {
-  t.set_hint("name, kind, points, scale, rps, plane, line, point, tolerance");
+  t.set_hint("name, kind, points, scale, rps, plane, line, point, weighting, tolerance");
   Alignment a;
   a.name = AsString(t.Require("name"), t.Where("name"));
   if (a.name.empty()) throw InputError(t.Where("name") + ": empty alignment name");
@@ -255,10 +281,19 @@ Alignment ReadAlignment(Section& t, Job& job, const std::map<std::string, Nomina
   geometry->line_points = a.line_points;
   spec.nominal = geometry;
   ReadTaskTolerances(t, spec);
+  const auto fits = ReadWeighting(t, spec.kind, spec.name, "alignment");
   t.Finish();
   a.indices = ResolveTaskPoints(spec, job.point_names(), points_where);
-  job.task_points.push_back(a.indices);
-  job.tasks.push_back(std::move(spec));
+  for (const auto& [weighted, name] : fits) {
+    if (name != spec.name && !names.insert(name).second)
+      throw InputError(t.Where("weighting") + ": its weighted fit's name '" + name + "' is already a task's");
+    TaskSpec fit = spec;
+    fit.name = name;
+    fit.weighted = weighted;
+    a.weighted.push_back(weighted);
+    job.task_points.push_back(a.indices);
+    job.tasks.push_back(std::move(fit));
+  }
   return a;
 }
 
@@ -360,19 +395,18 @@ void ReadDeviation(Section& t, Job& job, const std::map<std::string, Nominal>& n
   ReadTaskTolerances(t, pattern);
   t.Finish();
   for (const std::string& point : points) {
-    TaskSpec spec = pattern;
-    spec.where = t.WhereSelf() + " (point '" + point + "')";
-    spec.name = name + "." + point;
-    if (!names.insert(spec.name).second)
-      throw InputError(t.Where("name") + ": '" + spec.name + "' is already the name of a task");
-    std::vector<int> index;
-    const auto geometry =
-        OverAlignment(alignment, {point}, nominal, measured, t.Where("points"), spec, job, index);
-    geometry->point = index.front();
-    geometry->normal = *NominalOf(nominal, point, t.Where("points")).normal;
-    geometry->position = position;
-    spec.nominal = geometry;
-    job.tasks.push_back(std::move(spec));
+    for (const auto& [weighted, task_name] : Variants(alignment, name, "." + point)) {
+      TaskSpec spec = Variant(pattern, weighted, task_name, t, names);
+      spec.where = t.WhereSelf() + " (point '" + point + "')";
+      std::vector<int> index;
+      const auto geometry =
+          OverAlignment(alignment, {point}, nominal, measured, t.Where("points"), spec, job, index);
+      geometry->point = index.front();
+      geometry->normal = *NominalOf(nominal, point, t.Where("points")).normal;
+      geometry->position = position;
+      spec.nominal = geometry;
+      job.tasks.push_back(std::move(spec));
+    }
   }
 }
 
@@ -381,25 +415,26 @@ void ReadProfile(Section& t, Job& job, const std::map<std::string, Nominal>& nom
                  const PointIndex& measured, const std::vector<Alignment>& alignments,
                  std::set<std::string>& names) {
   t.set_hint("name, alignment, points, tolerance");
-  TaskSpec spec;
-  spec.where = t.WhereSelf();
-  spec.kind = TaskKind::kProfile;
-  spec.name = AsString(t.Require("name"), t.Where("name"));
-  if (spec.name.empty()) throw InputError(t.Where("name") + ": empty profile name");
-  if (!names.insert(spec.name).second)
-    throw InputError(t.Where("name") + ": '" + spec.name + "' is already the name of a task");
+  TaskSpec pattern;
+  pattern.where = t.WhereSelf();
+  pattern.kind = TaskKind::kProfile;
+  const std::string name = AsString(t.Require("name"), t.Where("name"));
+  if (name.empty()) throw InputError(t.Where("name") + ": empty profile name");
   const Alignment& alignment = AlignmentOf(t, alignments);
   const std::vector<std::string> points = PointsWithNormals(t, job, nominal);
-  ReadTaskTolerances(t, spec);
+  ReadTaskTolerances(t, pattern);
   t.Finish();
-  std::vector<int> index;
-  const auto geometry =
-      OverAlignment(alignment, points, nominal, measured, t.Where("points"), spec, job, index);
-  geometry->profile = index;
-  for (const std::string& point : points)
-    geometry->profile_normals.push_back(*NominalOf(nominal, point, t.Where("points")).normal);
-  spec.nominal = geometry;
-  job.tasks.push_back(std::move(spec));
+  for (const auto& [weighted, task_name] : Variants(alignment, name, "")) {
+    TaskSpec spec = Variant(pattern, weighted, task_name, t, names);
+    std::vector<int> index;
+    const auto geometry =
+        OverAlignment(alignment, points, nominal, measured, t.Where("points"), spec, job, index);
+    geometry->profile = index;
+    for (const std::string& point : points)
+      geometry->profile_normals.push_back(*NominalOf(nominal, point, t.Where("points")).normal);
+    spec.nominal = geometry;
+    job.tasks.push_back(std::move(spec));
+  }
 }
 
 // The tables of array `key` of `top`, each as a Section named "<key>[i]".

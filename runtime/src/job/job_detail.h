@@ -37,8 +37,17 @@ void ReadPlan(Section& plan, Job& job, bool check_reach = true);
 // points.cc: [readings]. The time column is read when `columns.time` names it, or, with
 // `times_by_default` (a network, whose drift models need times), when a column is called "time".
 void ReadReadings(Section& readings, Job& job, bool times_by_default = false);
-void ReadTasks(Section& top, Job& job);                           // tasks.cc: [[task]]
+void ReadTasks(Section& top, Job& job);  // tasks.cc: [[task]]
 // tasks.cc: [<table>.tolerance.<quantity>] lower, upper of a task's quantities (TaskOutputs).
+// `weighting` of a [[task]] or [[alignment]] table: the fits it asks for, as (weighted, name)
+// pairs: "none" (default) the ordinary fit under `name`; "covariance" the fit weighted by the
+// points' covariance under `name`; "both" the two, the weighted one under "<name>_weighted".
+// Throws InputError for another value or a kind that no weighting applies to.
+// `table` names it in messages ("task", "alignment").
+std::vector<std::pair<bool, std::string>> ReadWeighting(Section& t, TaskKind kind, const std::string& name,
+                                                        const char* table);
+// The name of the weighted twin of a task named `name` (weighting = "both").
+std::string WeightedName(const std::string& name);
 void ReadTaskTolerances(Section& table, TaskSpec& spec);
 // alignment.cc: [nominal], [[alignment]], [[deviation]], [[profile]] (after the tasks: their names are unique
 // among all tasks).

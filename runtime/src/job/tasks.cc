@@ -33,8 +33,8 @@ void ReadTaskTolerances(Section& t, TaskSpec& spec) {
                        " task has no quantity '" + name + "' (" + list + ")");
     }
     const Dimension dim = output->unit == "m"     ? Dimension::kLength
-                        : output->unit == "rad" ? Dimension::kAngle
-                                                : Dimension::kDimensionless;
+                          : output->unit == "rad" ? Dimension::kAngle
+                                                  : Dimension::kDimensionless;
     Section q = tol.Sub(name, true);
     q.set_hint("lower, upper");
     Tolerance limits;
@@ -50,6 +50,26 @@ void ReadTaskTolerances(Section& t, TaskSpec& spec) {
   tol.Finish();
 }
 
+std::string WeightedName(const std::string& name) { return name + "_weighted"; }
+
+std::vector<std::pair<bool, std::string>> ReadWeighting(Section& t, TaskKind kind, const std::string& name,
+                                                        const char* table) {
+  const toml::node* n = t.Get("weighting");
+  const std::string value = n ? AsString(*n, t.Where("weighting")) : "none";
+  if (value != "none" && value != "covariance" && value != "both") {
+    throw InputError(t.Where("weighting") + ": unknown weighting '" + value +
+                     "' (expected none, covariance or both)");
+  }
+  if (value == "none") return {{false, name}};
+  if (!Weightable(kind)) {
+    throw InputError(t.Where("weighting") + ": a " + std::string(TaskKindName(kind)) + " " + table +
+                     " is not a least-squares fit; only plane, sphere, circle, line, cylinder, cone and the "
+                     "best_fit and rps alignments are weighted by the points' covariance");
+  }
+  if (value == "covariance") return {{true, name}};
+  return {{false, name}, {true, WeightedName(name)}};
+}
+
 void ReadTasks(Section& top, Job& job) {
   const toml::node* n = top.Get("task");
   if (!n) return;
@@ -61,7 +81,7 @@ void ReadTasks(Section& top, Job& job) {
     std::string path = "task[" + std::to_string(index++) + "]";
     if (!e.is_table()) throw InputError(job.file + ": " + path + ": expected a table");
     Section t(*e.as_table(), job.file, path);
-    t.set_hint("kind, name, points, tolerance");
+    t.set_hint("kind, name, points, weighting, tolerance");
     TaskSpec spec;
     spec.where = t.WhereSelf();
     spec.kind = ParseTaskKind(AsString(t.Require("kind"), t.Where("kind")), t.Where("kind"));
@@ -79,9 +99,19 @@ void ReadTasks(Section& top, Job& job) {
       for (const toml::node& p : *pts.as_array()) spec.points.push_back(AsString(p, t.Where("points")));
     }
     ReadTaskTolerances(t, spec);
+    const auto fits = ReadWeighting(t, spec.kind, spec.name, "task");
     t.Finish();
-    job.task_points.push_back(ResolveTaskPoints(spec, point_names, t.Where("points")));
-    job.tasks.push_back(std::move(spec));
+    const std::vector<int> indices = ResolveTaskPoints(spec, point_names, t.Where("points"));
+    for (const auto& [weighted, name] : fits) {
+      if (name != spec.name && !seen.insert(name).second)
+        throw InputError(t.Where("weighting") + ": its weighted fit's name '" + name +
+                         "' is already a task's");
+      TaskSpec fit = spec;
+      fit.name = name;
+      fit.weighted = weighted;
+      job.task_points.push_back(indices);
+      job.tasks.push_back(std::move(fit));
+    }
   }
 }
 

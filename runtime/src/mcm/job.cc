@@ -226,8 +226,16 @@ std::vector<McmTask> FitTasks(const McmJob& job) {
                           estimates.col(static_cast<Eigen::Index>(k)).data());
     }
     const std::string where = "task '" + spec.name + "'";
-    const FitResult nominal = FitTask(spec.kind, estimates, TaskFitOptions(spec, false), where);
-    const FitOptions options = TrialFitOptions(spec, nominal.values);
+    FitOptions at_estimates = TaskFitOptions(spec, false);
+    if (spec.weighted) {
+      if (t >= job.fit_task_covariance.size() || job.fit_task_covariance[t] == nullptr) {
+        throw InputError("Monte Carlo: task '" + spec.name +
+                         "' is weighted by its points' covariance: give it (McmJob::fit_task_covariance)");
+      }
+      at_estimates.covariance = job.fit_task_covariance[t];
+    }
+    const FitResult nominal = FitTask(spec.kind, estimates, at_estimates, where);
+    const FitOptions options = TrialFitOptions(spec, nominal.values, nominal.weights);
     for (const TaskOutput& output : TaskOutputs(spec.kind)) {
       task.output_names.push_back(spec.name + "." + std::string(output.name));
       task.output_units.emplace_back(output.unit);

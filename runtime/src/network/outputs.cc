@@ -1061,8 +1061,10 @@ nlohmann::ordered_json TasksJson(const std::vector<NetworkTaskResult>& tasks) {
       }
       quantities.push_back(o);
     }
-    task_json.push_back(
-        {{"name", t.name}, {"kind", std::string(TaskKindName(t.kind))}, {"quantities", quantities}});
+    task_json.push_back({{"name", t.name},
+                         {"kind", std::string(TaskKindName(t.kind))},
+                         {"weighting", t.weighted ? "covariance" : "none"},
+                         {"quantities", quantities}});
   }
   return task_json;
 }

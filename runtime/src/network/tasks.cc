@@ -26,11 +26,17 @@ std::vector<NetworkTaskResult> NetworkTasks(const std::vector<TaskSpec>& tasks, 
             result.covariance.block<3, 3>(result.target_offset[index[a]], result.target_offset[index[b]]);
       }
     }
-    const FitOptions options = TaskFitOptions(spec, true);
+    FitOptions options = TaskFitOptions(spec, true);
+    if (spec.weighted) {
+      auto v = std::make_shared<PointCovariance>();
+      v->dense = c;
+      options.covariance = std::move(v);
+    }
     const FitResult fit = FitTask(spec.kind, points, options, where + ": task '" + spec.name + "'");
     NetworkTaskResult r;
     r.name = spec.name;
     r.kind = spec.kind;
+    r.weighted = spec.weighted;
     r.value = fit.values;
     r.covariance = fit.jacobian * c * fit.jacobian.transpose();
     r.differentiable = fit.differentiable;

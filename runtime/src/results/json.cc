@@ -190,8 +190,9 @@ json Budget(const BudgetRow& b) {
       {"sensitivity", Vec(b.sensitivity)},
       {"sensitivity_unit", b.sensitivity_unit},
       {"sensitivity_practical",
-       b.group == "correlation" ? json(nullptr)
-                                : Vec(b.sensitivity * results_internal::PracticalSensitivity(b.input_unit).second)},
+       b.group == "correlation"
+           ? json(nullptr)
+           : Vec(b.sensitivity * results_internal::PracticalSensitivity(b.input_unit).second)},
       {"sensitivity_practical_unit",
        b.group == "correlation" ? std::string() : results_internal::PracticalSensitivity(b.input_unit).first},
       {"contribution", Vec(b.contribution)},
@@ -276,6 +277,12 @@ json Task(const TaskResult& t) {
   json j;
   j["name"] = t.spec.name;
   j["kind"] = std::string(TaskKindName(t.spec.kind));
+  // A fit weighted by its points' covariance (docs/tasks.md): r^T W r at its solution and the
+  // residual rows less the parameters.
+  j["weighting"] = t.spec.weighted ? "covariance" : "none";
+  if (t.spec.weighted) {
+    j["weighted_fit"] = {{"chi2", t.gum.chi2}, {"degrees_of_freedom", t.gum.degrees_of_freedom}};
+  }
   // `points = "all"` stays "all" (a scan's task would list every point name again).
   j["points"] = t.spec.all_points ? json("all") : json(t.spec.points);
   j["quantities"] = t.gum.quantities;
@@ -388,7 +395,8 @@ json Map(const MapResult& m) {
   };
   // Per-source layers (docs/results.md): in results.json and the HTML only while the grid is
   // small enough to draw (kMaxMapLayerValues); map.csv has them always.
-  const bool layers = (m.sources.size() + m.groups.size()) * m.nodes.size() <= results_internal::kMaxMapLayerValues;
+  const bool layers =
+      (m.sources.size() + m.groups.size()) * m.nodes.size() <= results_internal::kMaxMapLayerValues;
   j["layers_included"] = layers;
   json groups = json::array(), sources = json::array();
   if (layers) {
@@ -514,8 +522,8 @@ std::vector<std::size_t> PointsShown(const Results& r, bool for_html, json& j) {
     // full (table, budgets, ellipsoids), an overview of at most kReportOverviewPoints points
     // (every s-th, in job order) for the 3-D plot; every point stays in points.csv / budget.csv.
     point_indices = LargestPoints(r);
-    const std::size_t stride =
-        (r.points.size() + results_internal::kReportOverviewPoints - 1) / results_internal::kReportOverviewPoints;
+    const std::size_t stride = (r.points.size() + results_internal::kReportOverviewPoints - 1) /
+                               results_internal::kReportOverviewPoints;
     json ox = json::array(), oy = json::array(), oz = json::array(), ou = json::array();
     for (std::size_t i = 0; i < r.points.size(); i += stride) {
       const PointUncertainty& g = r.points[i].gum;
@@ -562,8 +570,8 @@ std::string WithPoints(const Results& r, const json& j, int indent,
                        const std::vector<std::size_t>& point_indices) {
   // The points' budgets are not held in Results: recomputed for the points drawn.
   std::vector<std::vector<BudgetRow>> budgets(point_indices.size());
-  results_internal::ForEachPointBudget(r, point_indices,
-                               [&](std::size_t n, const PointUncertainty& g) { budgets[n] = g.budget; });
+  results_internal::ForEachPointBudget(
+      r, point_indices, [&](std::size_t n, const PointUncertainty& g) { budgets[n] = g.budget; });
   const std::string outer = j.dump(indent, ' ', false, json::error_handler_t::replace);
   const std::string quoted = std::string("\"") + kPointsPlaceholder + "\"";
   const std::size_t at = outer.find(quoted);
@@ -630,7 +638,9 @@ std::string results_internal::ResultsJsonText(const Results& r, int indent, bool
   return ScriptSafe(WithPoints(r, j, indent, point_indices));
 }
 
-std::string ResultsJson(const Results& r, int indent) { return results_internal::ResultsJsonText(r, indent, false); }
+std::string ResultsJson(const Results& r, int indent) {
+  return results_internal::ResultsJsonText(r, indent, false);
+}
 
 void WritePointsJsonl(const Results& r, OutputText& out) {
   results_internal::WriteInBlocks(

@@ -23,7 +23,7 @@ McmTask MakeMcmTask(const TaskSpec& spec, const std::vector<int>& point_indices,
   }
   // Orientation of normals/directions and the angles of an alignment: those of the fit to the
   // estimates, so that no trial flips a sign or turns by 2 pi (vlt/fits.h TrialFitOptions).
-  const FitOptions options = TrialFitOptions(spec, gum.value);
+  const FitOptions options = TrialFitOptions(spec, gum.value, gum.weights);
   const TaskKind kind = spec.kind;
   const std::string where = "task '" + spec.name + "' (Monte Carlo trial)";
   const std::size_t n_out = outputs.size();

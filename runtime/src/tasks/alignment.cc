@@ -24,6 +24,7 @@
 
 #include <Eigen/Dense>
 
+#include "tasks/weighted.h"
 #include "vlt/error.h"
 
 namespace vlt {
@@ -75,10 +76,6 @@ constexpr double kCollinear = 1e-12;
 // |cos ry| below this: Rx and Rz turn about the same axis (gimbal lock), rx and rz undetermined.
 constexpr double kGimbalLock = 1e-9;
 
-[[noreturn]] void Fail(std::string_view where, TaskKind kind, const std::string& reason) {
-  throw NumericalError(std::string(where) + ": " + std::string(TaskKindName(kind)) + ": " + reason);
-}
-
 const NominalGeometry& Nominal(const FitOptions& options, TaskKind kind, long n, std::string_view where) {
   if (!options.nominal)
     throw InputError(std::string(where) + ": " + std::string(TaskKindName(kind)) + ": no nominal geometry");
@@ -110,6 +107,10 @@ struct Alignment {
   double extent = 0.0;        // largest distance of a nominal point from their centroid
   Eigen::MatrixXd dtheta_dx;  // empty unless jacobian
   Eigen::MatrixXd residuals;  // 3 x K
+  // A weighted alignment (tasks/weighted.h): its weights, r^T W r and degrees of freedom.
+  std::shared_ptr<const FitWeights> weights;
+  double chi2 = 0.0;
+  int degrees_of_freedom = 0;
 };
 
 // Closed-form fit of the first k points (Umeyama / Kabsch).
@@ -369,7 +370,68 @@ void FitDatumFeatures(const Points& x, const NominalGeometry& g, bool jacobian, 
   }
 }
 
-Alignment Align(const Points& x, const NominalGeometry& g, bool jacobian, TaskKind kind,
+// The weighted alignment's problem (tasks/weighted.h) in AlignmentSensitivity's chart:
+// R = exp([w]x) R^, t = t^ + dt, s = s^ + sigma. The rotation is expanded to second order,
+// y + w x y + 1/2 w x (w x y): at w = 0 its value and first and second derivatives are exp's.
+template <int P>
+struct AlignmentProblem {
+  static constexpr int kParams = P, kRows = 3;
+  Matrix3d rotation;
+  Vector3d translation;
+  double scale = 1.0;
+  const NominalGeometry* g = nullptr;
+  template <class T>
+  void Residual(const T* d, long i, const T* x, T* r) const {
+    using V = Eigen::Matrix<T, 3, 1>;
+    const V w(d[0], d[1], d[2]);
+    const V y = rotation.cast<T>() * V(x[0], x[1], x[2]);
+    const V wy = w.cross(y);
+    const V wwy = w.cross(wy);
+    for (int c = 0; c < 3; ++c) {
+      const T turned = y(c) + wy(c) + wwy(c) * 0.5;  // scalar by scalar: nested duals take no double vectors
+      T part;
+      if constexpr (P == 7) {
+        part = turned * (d[6] + scale);
+      } else {
+        part = turned * scale;
+      }
+      r[c] = part + d[3 + c] + (translation(c) - g->positions(c, i));
+    }
+  }
+  bool Active(long i, int m) const {
+    return g->holds.empty() || g->holds[static_cast<std::size_t>(i)][static_cast<std::size_t>(m)];
+  }
+  void Retract(const Eigen::Matrix<double, P, 1>& d) {
+    const Vector3d w = d.template head<3>();
+    if (w.norm() > 0.0) rotation = Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix() * rotation;
+    translation += d.template segment<3>(3);
+    if constexpr (P == 7) scale += d(6);
+  }
+};
+
+// The alignment weighted by the covariance of its points (the first k of the task's), from the
+// ordinary fit (or RPS) in `a`.
+template <int P>
+void WeightAlignment(const Points& x, const NominalGeometry& g, const FitOptions& options, TaskKind kind,
+                     std::string_view where, Alignment& a) {
+  const long k = g.alignment_points;
+  AlignmentProblem<P> problem{a.rotation, a.translation, a.scale, &g};
+  FitOptions leading = options;
+  if (options.weights == nullptr && k < x.cols())
+    leading.covariance = std::make_shared<const PointCovariance>(LeadingPoints(*options.covariance, k));
+  const WeightedSolution s = SolveWeighted(problem, x.leftCols(k), leading, kind, where);
+  a.rotation = problem.rotation;
+  a.translation = problem.translation;
+  a.scale = problem.scale;
+  if (!(a.scale > 0.0)) Fail(where, kind, "the weighted fit's scale is not positive");
+  UpdateResiduals(x, g, k, a);
+  a.dtheta_dx = s.dtheta_dx;
+  a.weights = s.weights;
+  a.chi2 = s.chi2;
+  a.degrees_of_freedom = static_cast<int>(s.residuals.size()) - P;
+}
+
+Alignment Align(const Points& x, const NominalGeometry& g, const FitOptions& options, TaskKind kind,
                 std::string_view where) {
   Alignment a;
   const long k = g.alignment_points;
@@ -383,12 +445,21 @@ Alignment Align(const Points& x, const NominalGeometry& g, bool jacobian, TaskKi
   if (g.plane_points > 0) {
     if (g.scale || !g.holds.empty())
       throw InputError(std::string(where) + ": features: no scale, no held axes");
-    FitDatumFeatures(x, g, jacobian, kind, where, a);
+    if (Weighted(options)) CheckWeightable(TaskKind::kFeatures, where);
+    FitDatumFeatures(x, g, options.jacobian, kind, where, a);
     return a;
   }
   FitTransform(x, g.positions, k, g.scale, kind, where, a);
   if (!g.holds.empty()) FitReferencePointSystem(x, g, k, kind, where, a);
-  if (jacobian) AlignmentSensitivity(x, g, k, kind, where, a);
+  if (Weighted(options)) {
+    if (g.scale) {
+      WeightAlignment<7>(x, g, options, kind, where, a);
+    } else {
+      WeightAlignment<6>(x, g, options, kind, where, a);
+    }
+  } else if (options.jacobian) {
+    AlignmentSensitivity(x, g, k, kind, where, a);
+  }
   return a;
 }
 
@@ -451,8 +522,12 @@ namespace {
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
 
-FitResult MakeAlignmentResult(TaskKind kind, long num_points, const FitOptions& options) {
+FitResult MakeAlignmentResult(TaskKind kind, long num_points, const FitOptions& options,
+                              const tasks_internal::Alignment& a) {
   FitResult r;
+  r.weights = a.weights;
+  r.chi2 = a.chi2;
+  r.degrees_of_freedom = a.degrees_of_freedom;
   r.kind = kind;
   r.outputs = tasks_internal::AlignmentOutputs(kind);
   const long k = static_cast<long>(r.outputs.size());
@@ -486,7 +561,8 @@ FitResult FitBestFit(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const Fit
     throw InputError(std::string(where) + ": " + std::string(TaskKindName(kind)) +
                      ": every point is an alignment point");
   if (rps && g.scale) throw InputError(std::string(where) + ": rps: a reference point system fits no scale");
-  const Alignment a = Align(points, g, options.jacobian, kind, where);
+  const Alignment a = Align(points, g, options, kind, where);
+  const bool weighted = Weighted(options);
   Vector3d angles = CardanAngles(a.rotation);
   if (!(std::abs(std::cos(angles(1))) > kGimbalLock)) {
     Fail(where, kind,
@@ -495,7 +571,7 @@ FitResult FitBestFit(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const Fit
   if (options.reference_angles) {
     for (int c = 0; c < 3; ++c) angles(c) = Near(angles(c), (*options.reference_angles)(c));
   }
-  FitResult result = MakeAlignmentResult(kind, n, options);
+  FitResult result = MakeAlignmentResult(kind, n, options, a);
   constexpr int rms_row = 6, scale_row = 7;
   result.values.head<3>() = a.translation;
   result.values.segment<3>(3) = angles;
@@ -514,21 +590,26 @@ FitResult FitBestFit(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const Fit
     block.middleRows<3>(3) = angle_rates * dtheta.topRows(3);
     if (g.scale) block.row(scale_row) = dtheta.row(6);
     // rms: envelope theorem, d(sum r^T W r)/dx_j = 2 s (W r_j)^T R at the optimum.
-    if (!exact && !features)
+    if (!exact && !features && !weighted)
       block.row(rms_row) =
           a.scale * (Weight(g, j) * a.residuals.col(j)).transpose() * a.rotation / (divisor * a.rms);
   }
-  // Datum features: no optimum of the residuals; d rms = sum_i r_i^T (-[R x_i]x dw + dt + R dx_i) / (k rms).
-  if (features && !exact) {
+  // Datum features and weighted fits: the residuals' sum of squares is not at its optimum, so
+  // d rms = sum_i (W_i r_i)^T (-s [R x_i]x dw + dt + R x_i dsigma + s R dx_i) / (divisor rms).
+  if ((features || weighted) && !exact) {
+    const int p = g.scale ? 7 : 6;
     Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(3 * n);
     for (long i = 0; i < n; ++i) {
-      const Vector3d r = a.residuals.col(i);
-      Eigen::Matrix<double, 3, 6> dr_dtheta;
-      dr_dtheta << -Hat(a.rotation * points.col(i)), Matrix3d::Identity();
-      row += r.transpose() * dr_dtheta * a.dtheta_dx;
-      row.segment<3>(3 * i) += r.transpose() * a.rotation;
+      const Vector3d rho = Weight(g, i) * a.residuals.col(i);
+      const Vector3d y = a.rotation * points.col(i);
+      Eigen::MatrixXd dr_dtheta(3, p);
+      dr_dtheta.leftCols<3>() = -a.scale * Hat(y);
+      dr_dtheta.middleCols<3>(3) = Matrix3d::Identity();
+      if (g.scale) dr_dtheta.col(6) = y;
+      row += rho.transpose() * dr_dtheta * a.dtheta_dx;
+      row.segment<3>(3 * i) += a.scale * rho.transpose() * a.rotation;
     }
-    result.jacobian.row(rms_row) = row / (static_cast<double>(n) * a.rms);
+    result.jacobian.row(rms_row) = row / (divisor * a.rms);
   }
   return result;
 }
@@ -543,12 +624,12 @@ FitResult FitDeviation(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const F
   if (g.point < 0 || g.point >= n || !(std::abs(g.normal.norm() - 1.0) < 1e-9)) {
     throw InputError(std::string(where) + ": deviation: needs its point and the unit normal of its nominal");
   }
-  const Alignment a = Align(points, g, options.jacobian, kind, where);
+  const Alignment a = Align(points, g, options, kind, where);
   const Vector3d d = DeviationOf(points, g, a, g.point);
   const Vector3d& normal = g.normal;
   const Vector3d lateral = d - d.dot(normal) * normal;
   const double position = 2.0 * lateral.norm();
-  FitResult result = MakeAlignmentResult(kind, n, options);
+  FitResult result = MakeAlignmentResult(kind, n, options, a);
   result.values.head<4>() << d.dot(normal), d;
   const bool exact = lateral.norm() <= kExactFit * std::max(a.extent, 1.0);
   if (g.position) {
@@ -572,7 +653,7 @@ FitResult FitProfile(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const Fit
   if (g.profile.empty() || g.profile.size() != g.profile_normals.size()) {
     throw InputError(std::string(where) + ": profile: needs its points and the unit normal of each");
   }
-  const Alignment a = Align(points, g, options.jacobian, kind, where);
+  const Alignment a = Align(points, g, options, kind, where);
   // The extremes, ties to the first point reaching them (one-sided derivatives, as flatness).
   std::size_t low = 0, high = 0;
   std::vector<double> deviation(g.profile.size());
@@ -585,7 +666,7 @@ FitResult FitProfile(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const Fit
   }
   const bool high_wider = std::abs(deviation[high]) >= std::abs(deviation[low]);
   const std::size_t widest = high_wider ? high : low;
-  FitResult result = MakeAlignmentResult(kind, n, options);
+  FitResult result = MakeAlignmentResult(kind, n, options, a);
   result.values << deviation[low], deviation[high], 2.0 * std::abs(deviation[widest]);
   const bool exact = std::abs(deviation[widest]) <= kExactFit * std::max(a.extent, 1.0);
   result.differentiable[2] = !exact;

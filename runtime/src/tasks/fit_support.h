@@ -25,4 +25,14 @@ FitResult MakeResult(TaskKind kind, long num_points, const FitOptions& options);
 // +1 or -1 so that sign * v follows FitOptions::orientation (docs/tasks.md "Sign conventions").
 double OrientationSign(const Eigen::Vector3d& v, const FitOptions& options);
 
+// A fit weighted by the points' covariance (FitOptions::covariance or ::weights).
+inline bool Weighted(const FitOptions& options) {
+  return options.covariance != nullptr || options.weights != nullptr;
+}
+// Throws InputError "<where>: <kind>: ..." unless `kind` can be weighted (vlt/fits.h FitOptions).
+void CheckWeightable(TaskKind kind, std::string_view where);
+// The weighted plane, sphere, circle, line, cylinder or cone (tasks/weighted.cc).
+FitResult FitWeightedFeature(TaskKind kind, const Eigen::Ref<const Eigen::Matrix3Xd>& points,
+                             const FitOptions& options, std::string_view where);
+
 }  // namespace vlt::tasks_internal

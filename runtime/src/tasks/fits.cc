@@ -27,6 +27,7 @@
 #include "tasks/axial.h"
 #include "tasks/fit_support.h"
 #include "tasks/minimum_zone.h"
+#include "tasks/weighted.h"
 #include "vlt/error.h"
 
 namespace vlt {
@@ -518,6 +519,8 @@ FitResult FitTwoFace(const Points& points, const FitOptions& options, std::strin
 
 FitResult FitPlane(const Points& points, const FitOptions& options, std::string_view where) {
   CheckPoints(points, TaskKind::kPlane, 3, false, where);
+  if (tasks_internal::Weighted(options))
+    return tasks_internal::FitWeightedFeature(TaskKind::kPlane, points, options, where);
   const long n = points.cols();
   const double nd = static_cast<double>(n);
   const PlaneFit plane = FitPlaneCore(points, TaskKind::kPlane, options, where);
@@ -560,6 +563,8 @@ FitResult FitPlane(const Points& points, const FitOptions& options, std::string_
 
 FitResult FitSphere(const Points& points, const FitOptions& options, std::string_view where) {
   CheckPoints(points, TaskKind::kSphere, 4, false, where);
+  if (tasks_internal::Weighted(options))
+    return tasks_internal::FitWeightedFeature(TaskKind::kSphere, points, options, where);
   const long n = points.cols();
   const double nd = static_cast<double>(n);
   // Coplanar (or collinear) points: a family of spheres fits them.
@@ -589,6 +594,8 @@ FitResult FitSphere(const Points& points, const FitOptions& options, std::string
 
 FitResult FitCircle(const Points& points, const FitOptions& options, std::string_view where) {
   CheckPoints(points, TaskKind::kCircle, 3, false, where);
+  if (tasks_internal::Weighted(options))
+    return tasks_internal::FitWeightedFeature(TaskKind::kCircle, points, options, where);
   const long n = points.cols();
   const double nd = static_cast<double>(n);
   const PlaneFit plane = FitPlaneCore(points, TaskKind::kCircle, options, where);
@@ -657,6 +664,8 @@ FitResult FitCircle(const Points& points, const FitOptions& options, std::string
 
 FitResult FitLine(const Points& points, const FitOptions& options, std::string_view where) {
   CheckPoints(points, TaskKind::kLine, 2, false, where);
+  if (tasks_internal::Weighted(options))
+    return tasks_internal::FitWeightedFeature(TaskKind::kLine, points, options, where);
   const long n = points.cols();
   const double nd = static_cast<double>(n);
   const Scatter s = ComputeScatter(points);
@@ -708,10 +717,18 @@ FitResult FitLine(const Points& points, const FitOptions& options, std::string_v
 }
 
 FitResult FitCylinder(const Points& points, const FitOptions& options, std::string_view where) {
+  if (tasks_internal::Weighted(options)) {
+    CheckPoints(points, TaskKind::kCylinder, MinimumPoints(TaskKind::kCylinder), false, where);
+    return tasks_internal::FitWeightedFeature(TaskKind::kCylinder, points, options, where);
+  }
   return tasks_internal::FitAxialSurface(TaskKind::kCylinder, points, options, where);
 }
 
 FitResult FitCone(const Points& points, const FitOptions& options, std::string_view where) {
+  if (tasks_internal::Weighted(options)) {
+    CheckPoints(points, TaskKind::kCone, MinimumPoints(TaskKind::kCone), false, where);
+    return tasks_internal::FitWeightedFeature(TaskKind::kCone, points, options, where);
+  }
   return tasks_internal::FitAxialSurface(TaskKind::kCone, points, options, where);
 }
 
@@ -721,6 +738,7 @@ FitResult FitMinimumZone(TaskKind kind, const Points& points, const FitOptions& 
 }
 
 FitResult FitTask(TaskKind kind, const Points& points, const FitOptions& options, std::string_view where) {
+  if (tasks_internal::Weighted(options)) tasks_internal::CheckWeightable(kind, where);
   switch (kind) {
     case TaskKind::kDistance: return FitDistance(points, options, where);
     case TaskKind::kPlane: return FitPlane(points, options, where);
@@ -752,8 +770,10 @@ FitOptions TaskFitOptions(const TaskSpec& task, bool jacobian) {
   return options;
 }
 
-FitOptions TrialFitOptions(const TaskSpec& task, const Eigen::VectorXd& at_estimates) {
+FitOptions TrialFitOptions(const TaskSpec& task, const Eigen::VectorXd& at_estimates,
+                           std::shared_ptr<const FitWeights> weights) {
   FitOptions options = TaskFitOptions(task, false);
+  options.weights = std::move(weights);
   int orientation = -1, angles = -1;
   if (task.kind == TaskKind::kPlane || task.kind == TaskKind::kLine || task.kind == TaskKind::kCylinder ||
       task.kind == TaskKind::kCone) {
