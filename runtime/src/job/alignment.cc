@@ -369,7 +369,9 @@ std::shared_ptr<NominalGeometry> OverAlignment(const Alignment& alignment,
   geometry->holds = alignment.holds;
   geometry->plane_points = alignment.plane_points;
   geometry->line_points = alignment.line_points;
-  geometry->alignment = alignment.name;
+  // The frame's name as its task has it: a weighted twin's alignment is "<name>_weighted".
+  geometry->alignment =
+      spec.weighted && alignment.weighted.size() > 1 ? WeightedName(alignment.name) : alignment.name;
   geometry->positions.resize(3, static_cast<Eigen::Index>(spec.points.size()));
   for (std::size_t i = 0; i < spec.points.size(); ++i) {
     geometry->positions.col(static_cast<Eigen::Index>(i)) =

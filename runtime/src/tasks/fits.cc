@@ -19,6 +19,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <stdexcept>
 #include <string>
 
 #include <Eigen/Dense>
@@ -773,6 +774,11 @@ FitOptions TaskFitOptions(const TaskSpec& task, bool jacobian) {
 FitOptions TrialFitOptions(const TaskSpec& task, const Eigen::VectorXd& at_estimates,
                            std::shared_ptr<const FitWeights> weights) {
   FitOptions options = TaskFitOptions(task, false);
+  if (task.weighted && weights == nullptr) {
+    // Without them every trial would run the ordinary fit: a programming error, not an input's.
+    throw std::invalid_argument("TrialFitOptions: task '" + task.name +
+                                "' is weighted: give its fit's weights");
+  }
   options.weights = std::move(weights);
   int orientation = -1, angles = -1;
   if (task.kind == TaskKind::kPlane || task.kind == TaskKind::kLine || task.kind == TaskKind::kCylinder ||

@@ -35,8 +35,9 @@ bool PositiveDefinite(const Eigen::MatrixXd& m) {
 
 }  // namespace
 
-FitWeights::FitWeights(const PointCovariance& v, const std::vector<Eigen::MatrixXd>& d, bool force_dense,
-                       TaskKind kind, std::string_view where) {
+FitWeights::FitWeights(const PointCovariance& v, const std::vector<Eigen::MatrixXd>& d,
+                       const Eigen::Vector3d& reference, TaskKind kind, std::string_view where)
+    : reference_(reference) {
   using tasks_internal::Fail;
   const long n = static_cast<long>(d.size());
   offsets_.assign(static_cast<std::size_t>(n) + 1, 0);
@@ -58,7 +59,7 @@ FitWeights::FitWeights(const PointCovariance& v, const std::vector<Eigen::Matrix
   for (long i = 0; i < n && r > 0; ++i)
     m.middleRows(begin(i), count(i)) = d[static_cast<std::size_t>(i)] * v.shared.middleRows(3 * i, 3);
 
-  dense_ = force_dense || has_dense;
+  dense_ = has_dense;
   if (!dense_) {
     block_inverse_.resize(static_cast<std::size_t>(n));
     for (long i = 0; i < n && !dense_; ++i) {
@@ -76,8 +77,12 @@ FitWeights::FitWeights(const PointCovariance& v, const std::vector<Eigen::Matrix
     block_inverse_.clear();
     if (rows > kDenseRows) {
       Fail(where, kind,
-           "a weighted fit of " + std::to_string(rows) +
-               " residuals needs each point's own covariance to be positive definite (it is not)");
+           has_dense ? "a weighted fit with a joint covariance of the points is limited to " +
+                           std::to_string(kDenseRows) + " residuals (it has " + std::to_string(rows) + ")"
+                     : "a weighted fit of " + std::to_string(rows) +
+                           " residuals needs each point's own covariance to be positive definite along its "
+                           "residuals "
+                           "(it is not)");
     }
     Eigen::MatrixXd vd = Eigen::MatrixXd::Zero(rows, rows);
     for (long i = 0; i < n; ++i) {
@@ -231,12 +236,16 @@ struct AxisChart {
 struct LineProblem {  // r = the two components of (x - q) across e
   static constexpr int kParams = 4, kRows = 2, kGeometry = 6;
   AxisChart axis;
+  // The basis of the two rows across e: u = reference less its component along e, then e x u. Held
+  // through the iterations and, by FitWeights::reference, across every fit with the same weights (a
+  // basis rebuilt from each direction would turn by 90 degrees where the direction's two smallest
+  // components swap, and the 2 x 2 weights would then weight the wrong rows).
+  Vector3d reference;
   template <class T>
   void Residual(const T* d, long, const T* x, T* r) const {
     using std::sqrt;
     const V3<T> e = axis.Direction(d);
-    // A basis across e that moves smoothly with it: u less its component along e, then e x u'.
-    V3<T> u = axis.direction.u.cast<T>() - e * e.dot(axis.direction.u.cast<T>());
+    V3<T> u = reference.cast<T>() - e * e.dot(reference.cast<T>());
     u = u / sqrt(u.dot(u));
     const V3<T> v = e.cross(u);
     const V3<T> a = Point(x) - axis.Through(d);
@@ -520,7 +529,8 @@ FitResult FitWeightedFeature(TaskKind kind, const Points& points, const FitOptio
       return Solve(kind, p, points, options, 6, false, 7, -1, where);
     }
     case TaskKind::kLine: {
-      LineProblem p{AxisChart{DirectionChart(v.segment<3>(3)), v.head<3>()}};
+      const DirectionChart direction(v.segment<3>(3));
+      LineProblem p{AxisChart{direction, v.head<3>()}, direction.u};
       return Solve(kind, p, points, options, 6, true, 7, -1, where);
     }
     case TaskKind::kSphere: {

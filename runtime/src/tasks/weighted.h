@@ -40,18 +40,23 @@ namespace vlt {
 class FitWeights {
  public:
   static constexpr long kDenseRows = 3000;
-  // d[i]: the m_i x 3 derivative of point i's active rows with respect to the point. Throws
-  // NumericalError "<where>: <kind>: ..." when V_d is singular or too large to factor densely.
-  FitWeights(const PointCovariance& v, const std::vector<Eigen::MatrixXd>& d, bool force_dense, TaskKind kind,
-             std::string_view where);
+  // d[i]: the m_i x 3 derivative of point i's active rows with respect to the point; `reference`:
+  // the vector that fixes the basis of residual rows that need one (a line's two offsets across its
+  // direction e: u = normalise(reference - e (e . reference)), v = e x u), zero where none does;
+  // every fit with these weights takes its rows in that basis. Throws NumericalError "<where>:
+  // <kind>: ..." when V_d is singular or too large to factor densely.
+  FitWeights(const PointCovariance& v, const std::vector<Eigen::MatrixXd>& d,
+             const Eigen::Vector3d& reference, TaskKind kind, std::string_view where);
   // W a for a rows() x c matrix a.
   Eigen::MatrixXd Apply(const Eigen::MatrixXd& a) const;
   long rows() const { return offsets_.back(); }
   const std::vector<long>& offsets() const { return offsets_; }
   bool dense() const { return dense_; }
+  const Eigen::Vector3d& reference() const { return reference_; }
 
  private:
   std::vector<long> offsets_;
+  Eigen::Vector3d reference_;
   bool dense_ = false;
   Eigen::LLT<Eigen::MatrixXd> dense_factor_;
   std::vector<Eigen::MatrixXd> block_inverse_;  // Delta_i^-1
@@ -175,6 +180,11 @@ WeightedSolution SolveWeighted(Problem& problem, const Eigen::Ref<const Eigen::M
   const long rows = s.offsets.back();
   if (rows < P) Fail(where, kind, "a weighted fit needs at least as many residuals as parameters");
 
+  // A problem whose rows need a basis (a line) takes the one its weights were made in.
+  constexpr bool kHasReference = requires { problem.reference; };
+  if constexpr (kHasReference) {
+    if (options.weights != nullptr) problem.reference = options.weights->reference();
+  }
   weighted_detail::Linearisation<Problem> lin;
   lin.Evaluate(problem, x, s.offsets);
   s.weights = options.weights;
@@ -185,7 +195,9 @@ WeightedSolution SolveWeighted(Problem& problem, const Eigen::Ref<const Eigen::M
       const long b = s.offsets[static_cast<std::size_t>(i)], e = s.offsets[static_cast<std::size_t>(i) + 1];
       d[static_cast<std::size_t>(i)] = lin.j_x.middleRows(b, e - b);
     }
-    s.weights = std::make_shared<const FitWeights>(*options.covariance, d, false, kind, where);
+    Eigen::Vector3d reference = Eigen::Vector3d::Zero();
+    if constexpr (kHasReference) reference = problem.reference;
+    s.weights = std::make_shared<const FitWeights>(*options.covariance, d, reference, kind, where);
   } else if (s.weights->offsets() != s.offsets) {
     throw InputError(std::string(where) + ": " + std::string(TaskKindName(kind)) +
                      ": the weights were made for another set of points");
@@ -194,7 +206,8 @@ WeightedSolution SolveWeighted(Problem& problem, const Eigen::Ref<const Eigen::M
 
   // Gauss-Newton on F = r^T W r; a step is halved until F falls. Converged when the predicted
   // decrease g^T H^-1 g is below 1e-20 max(F, rows) (steps of 1e-10 standard uncertainties: F is
-  // in their units), or when no step lowers F (the minimum to rounding).
+  // in their units), or when no step lowers F while the predicted decrease is below 1e-8 max(F,
+  // rows) (the minimum to rounding); a stall above that is a failure, not a result.
   Eigen::LDLT<Eigen::Matrix<double, P, P>> normal;
   for (;; ++s.iterations) {
     if (s.iterations >= 100) Fail(where, kind, "the weighted fit did not converge in 100 steps");
@@ -231,6 +244,8 @@ WeightedSolution SolveWeighted(Problem& problem, const Eigen::Ref<const Eigen::M
       }
     }
     if (!accepted) {
+      if (!(decrease <= 1e-8 * std::max(f, static_cast<double>(rows))))
+        Fail(where, kind, "the weighted fit stalled short of its minimum (no step lowers r^T W r)");
       s.chi2 = f;
       break;
     }
