@@ -1,6 +1,7 @@
 // The Python module `vlt` (pybind11; docs/python.md): jobs run through the same engine as the
 // `vlt` command, results as dicts and numpy arrays, the GUM of many points from a numpy array of
 // readings in one call (the GIL released while the engine runs), and the models' metadata.
+#include <pybind11/eval.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -344,6 +345,10 @@ PYBIND11_MODULE(vlt, m) {
         for (std::size_t i = 0; i < n; ++i) {
           points[i].name = "#" + std::to_string(i);
           points[i].readings = {r(i, 0), r(i, 1), r(i, 2)};
+          // The command line's rule for every reading (vlt/job.h CheckReadings): finite, range in
+          // (0, 10 km], angles within +-720 deg.
+          vlt::CheckReadings({r(i, 0), r(i, 1), r(i, 2)}, "gum: readings[" + std::to_string(i) + "]",
+                             {"range [m]", "azimuth [rad]", "elevation [rad]"});
         }
         std::vector<vlt::PointUncertainty> gum;
         {
@@ -442,4 +447,31 @@ PYBIND11_MODULE(vlt, m) {
       "Identifies a tracker's error parameters like `vlt calibrate` (docs/calibration.md), without\n"
       "writing files: {'results': results.json as a dict, 'calibration_toml': the calibration file's text}\n"
       "(its [calibration] fits says whether the calibration fits its data).");
+
+  // Arguments of the wrong type: pybind11 answers with a multi-line TypeError that lists the
+  // overloads and the values given; vlt's rule is one line (issue 32 item 5). Each function is
+  // wrapped to re-raise it as "<function>: arguments of the wrong type; expected <signature>".
+  py::exec(R"(
+import functools as _functools
+
+def _one_line_type_errors(f):
+    @_functools.wraps(f)
+    def call(*args, **kwargs):
+        try:
+            return f(*args, **kwargs)
+        except TypeError as e:
+            text = str(e)
+            if "incompatible function arguments" not in text:
+                raise
+            lines = [line.strip() for line in text.splitlines() if line.strip()]
+            expected = next((line.split(". ", 1)[1] for line in lines if line[:1].isdigit() and ". " in line), "")
+            given = ", ".join([type(a).__name__ for a in args] + [k + "=" + type(v).__name__ for k, v in kwargs.items()])
+            raise TypeError(f.__name__ + ": arguments of the wrong type (" + given + "); expected " + expected) from None
+    return call
+
+for _name in ("models", "run", "simulate", "gum", "network", "plan", "calibrate"):
+    globals()[_name] = _one_line_type_errors(globals()[_name])
+del _name, _functools, _one_line_type_errors
+)",
+           m.attr("__dict__"));
 }

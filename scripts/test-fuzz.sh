@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# CI stage 3: libFuzzer on the job parser, job + GUM, and the CSV / quantity / map parsers
+# CI stage 3: libFuzzer on the job parser, job + GUM, the CSV / quantity / map parsers and the
+# network, test and calibration files
 # (tests/fuzz/, docs/testing.md "Fuzzing"). Clang with ASan + UBSan + float-cast-overflow, the
 # build of stage 2 (build-sanitize/, scripts/test-sanitizers.sh); each harness runs
 # VLT_FUZZ_SECONDS (default 40) from a seed corpus of the examples and test jobs, as many harnesses
@@ -41,7 +42,10 @@ fuzz_one() {
       "$dir/work/$name" "$dir/corpus/$corpus" 2>"$dir/work/$name.log"
 }
 # The harnesses run side by side, one per core (each is one process, one thread).
-all=(fuzz_job:job fuzz_job_gum:job fuzz_custom_job:job fuzz_parsers:parsers)
+all=(fuzz_job:job fuzz_job_gum:job fuzz_custom_job:job fuzz_parsers:parsers fuzz_files:job)
+# fuzz_files reads an input as a network, test layout, test job, calibration job and calibration
+# file, beside copies of the examples' data files (tests/fuzz/fuzz_files.cc).
+export VLT_FUZZ_DATA="$VLT_ROOT/examples/network:$VLT_ROOT/examples/calibration:$VLT_ROOT/examples/layouts"
 cores=$(nproc)
 declare -A pid_of
 status=0

@@ -112,6 +112,25 @@ def test_numbers_past_the_command_lines_rules_are_value_errors():
             vlt.run(job, **kwargs)
     with pytest.raises(ValueError, match=r"^network: threads: -1 is not"):
         vlt.network(os.path.join(SOURCE, "examples", "network", "drift_network.toml"), threads=-1)
+    # Readings given to gum() pass the command line's rule (vlt/job.h CheckReadings): a 1e6 m range
+    # and an azimuth of 1e20 rad were accepted before.
+    for row, message in [([1e6, 0.1, 0.2], r"^gum: readings\[0\]: range \[m\]: 1e\+06 m is beyond any laser tracker"),
+                         ([5.0, 1e20, 0.2], r"^gum: readings\[0\]: azimuth \[rad\]: .* is not a plausible angle"),
+                         ([0.0, 0.1, 0.2], r"^gum: readings\[0\]: range must be positive"),
+                         ([float("nan"), 0.1, 0.2], r"^gum: readings\[0\]: range \[m\]: not a finite number")]:
+        with pytest.raises(ValueError, match=message):
+            vlt.gum(JOB, np.array([row]))
+
+
+def test_arguments_of_the_wrong_type_are_a_one_line_type_error():
+    # pybind11's own message lists the overloads over several lines (issue 32 item 5).
+    for call in [lambda: vlt.gum(JOB, "not an array", threads="two"),
+                 lambda: vlt.run(JOB, monte_carlo="yes please", trials=[1]),
+                 lambda: vlt.network(42)]:
+        with pytest.raises(TypeError) as e:
+            call()
+        text = str(e.value)
+        assert "\n" not in text and "arguments of the wrong type" in text and "expected" in text, text
 
 
 def test_simulate_equals_the_command_line():

@@ -9,6 +9,7 @@
 // line "<file>: <key or line>: <problem>"; unknown keys are errors.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -61,6 +62,13 @@ struct MonteCarloSettings {
 // Largest range [m] vlt accepts from a reading or a planned point: beyond any laser tracker (the
 // longest reach 160 m), and a guard against values that overflow the computation (1e300 m).
 inline constexpr double kMaxRange = 1e4;
+
+// The checks every tracker reading passes, from a job's readings CSV, a network's or a calibration's,
+// and the Python module (one rule for every source, issue 32): finite, range in (0, kMaxRange] m,
+// azimuth and elevation within +-720 deg [rad]. Throws InputError "<where>: <name>: <problem>" with
+// names[k] the reading's name in the caller's words (a CSV column, "range [m]").
+void CheckReadings(const std::array<double, 3>& readings, const std::string& where,
+                   const std::array<std::string, 3>& names = {"range", "azimuth", "elevation"});
 
 // Largest number of nodes of a map grid (ParseMapPlane / ParseMapBox refuse more).
 inline constexpr double kMaxMapNodes = 1e6;

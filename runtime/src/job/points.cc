@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <numbers>
 #include <charconv>
 #include <cstdlib>
 #include <optional>
@@ -182,14 +183,37 @@ void ReadReadingTime(const std::string& field, double scale, const std::string& 
   p.time_kind = t.kind;
 }
 
+}  // namespace vlt::job_internal
+
+namespace vlt {
+
 // Tracker software writes angles in 0 .. 360 deg or -180 .. 180 deg; beyond two turns an angle is a
 // unit or column mistake, and at 1e20 deg a double has no digits left below a turn (issue 32).
-void CheckReadingAngle(double angle, const std::string& where) {
-  if (std::abs(angle) > 4.0 * kPi) {
-    throw InputError(where + ": " + FormatQuantity(angle, Dimension::kAngle, "deg", 6) +
-                     " is not a plausible angle (at most 720 deg either way)");
+void CheckReadings(const std::array<double, 3>& r, const std::string& where,
+                   const std::array<std::string, 3>& names) {
+  for (int k = 0; k < 3; ++k) {
+    if (!std::isfinite(r[static_cast<std::size_t>(k)]))
+      throw InputError(where + ": " + names[static_cast<std::size_t>(k)] + ": not a finite number");
+  }
+  if (!(r[0] > 0.0)) throw InputError(where + ": range must be positive");
+  if (r[0] > kMaxRange) {
+    throw InputError(where + ": " + names[0] + ": " + FormatQuantity(r[0], Dimension::kLength, "m", 6) +
+                     " is beyond any laser tracker (at most " +
+                     FormatQuantity(kMaxRange, Dimension::kLength, "km", 3) + ")");
+  }
+  for (int k = 1; k < 3; ++k) {
+    const double angle = r[static_cast<std::size_t>(k)];
+    if (std::abs(angle) > 4.0 * std::numbers::pi) {
+      throw InputError(where + ": " + names[static_cast<std::size_t>(k)] + ": " +
+                       FormatQuantity(angle, Dimension::kAngle, "deg", 6) +
+                       " is not a plausible angle (at most 720 deg either way)");
+    }
   }
 }
+
+}  // namespace vlt
+
+namespace vlt::job_internal {
 
 void ReadReadings(Section& s, Job& job, bool times_by_default) {
   s.set_hint("csv, coordinates, columns, units, vertical_angle");
@@ -305,14 +329,7 @@ void ReadReadings(Section& s, Job& job, bool times_by_default) {
         throw InputError(p.where + ": " + e.what());
       }
     }
-    if (!(r[0] > 0.0)) throw InputError(p.where + ": range must be positive");
-    if (r[0] > kMaxRange) {
-      throw InputError(p.where + ": " + names[1] + ": " + FormatQuantity(r[0], Dimension::kLength, "m", 6) +
-                       " is beyond any laser tracker (at most " +
-                       FormatQuantity(kMaxRange, Dimension::kLength, "km", 3) + ")");
-    }
-    CheckReadingAngle(r[1], p.where + ": " + names[2]);
-    CheckReadingAngle(r[2], p.where + ": " + names[3]);
+    CheckReadings({r[0], r[1], r[2]}, p.where, {names[1], names[2], names[3]});
     double elevation = zenith ? kPi / 2 - r[2] : r[2];
     // Normalise the elevation into [-pi/2, 3pi/2): front face up to pi/2, back face beyond.
     elevation = std::fmod(elevation + kPi / 2, 2 * kPi);
