@@ -294,6 +294,7 @@ PYBIND11_MODULE(vlt, m) {
           while (k < model->num_params && name != model->params[k].name) ++k;
           if (k == model->num_params)
             throw vlt::InputError("params: '" + name + "' is not a parameter of " + model_name);
+          vlt::CheckValueMagnitude(value, "simulate: params: " + name);
           x[static_cast<std::size_t>(k)] = value;
         }
         const vlt::Face face = vlt::ParseFace(face_name.c_str(), "face");
@@ -302,6 +303,8 @@ PYBIND11_MODULE(vlt, m) {
         auto p = points.unchecked<2>();
         auto rd = readings.mutable_unchecked<2>();
         auto rp = reported.mutable_unchecked<2>();
+        for (py::ssize_t i = 0; i < n; ++i)
+          vlt::CheckTrackerPoint({p(i, 0), p(i, 1), p(i, 2)}, "simulate: points[" + std::to_string(i) + "]");
         {
           py::gil_scoped_release release;
           const std::vector<double> zero(static_cast<std::size_t>(model->num_params), 0.0);

@@ -132,3 +132,10 @@ add_test(NAME cli_gum_not_reliable_near_axis
           -DOUT=${_out}/fd_axis "-DFILES=points.csv;results.json"
           "-DEXPECT_STDOUT=UP2um [^\n]*GUM NOT RELIABLE [(]2nd order [0-9.]+ x u\\^2[)]; not run\nUP10mm [^\n]* not run\n"
           -P ${_cli}/expect_outputs.cmake)
+
+# `vlt simulate` takes the rule of every other source (vlt/job.h CheckTrackerPoint,
+# CheckValueMagnitude; issue 32 item 5): a point 1000 km away, a parameter of 1e300 m.
+vlt_front_door_error(simulate_far_point "command line: --point: 1e\\+06 m from the tracker is beyond any laser tracker"
+                     simulate --model mirror --point 1e6,0,0)
+vlt_front_door_error(simulate_huge_parameter "command line: tmv: beyond what vlt computes with \\(at most 1e12 in SI units\\)"
+                     simulate --model mirror --point 3,0,0 tmv=1e300m)

@@ -55,6 +55,7 @@ std::array<double, 3> ParsePoint(const std::string& text) {
     p[i] = ParseQuantity(part, Dimension::kLength, "command line: --point");
     start = comma + 1;
   }
+  CheckTrackerPoint(p, "command line: --point");  // the rule of every source (vlt/job.h)
   return p;
 }
 
@@ -79,6 +80,7 @@ std::vector<double> AssignedParams(const ModelInfo* model, const std::vector<std
                        "' (known: " + known + ")");
     }
     params[k] = ParseQuantity(a.substr(eq + 1), DimensionOf(model->params[k]), "command line: " + name);
+    CheckValueMagnitude(params[k], "command line: " + name);
   }
   return params;
 }

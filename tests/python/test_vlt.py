@@ -122,6 +122,13 @@ def test_numbers_past_the_command_lines_rules_are_value_errors():
             vlt.gum(JOB, np.array([row]))
 
 
+def test_simulate_takes_the_command_lines_rules():
+    with pytest.raises(ValueError, match=r"^simulate: points\[1\]: 1e\+06 m from the tracker is beyond any laser tracker"):
+        vlt.simulate("mirror", np.array([[3.0, 0.0, 0.0], [1e6, 0.0, 0.0]]))
+    with pytest.raises(ValueError, match=r"^simulate: params: tmv: beyond what vlt computes with"):
+        vlt.simulate("mirror", np.array([[3.0, 0.0, 0.0]]), {"tmv": 1e300})
+
+
 def test_arguments_of_the_wrong_type_are_a_one_line_type_error():
     # pybind11's own message lists the overloads over several lines (issue 32 item 5).
     for call in [lambda: vlt.gum(JOB, "not an array", threads="two"),

@@ -70,6 +70,15 @@ inline constexpr double kMaxRange = 1e4;
 void CheckReadings(const std::array<double, 3>& readings, const std::string& where,
                    const std::array<std::string, 3>& names = {"range", "azimuth", "elevation"});
 
+// The checks every true point given to the inverse model passes (`vlt simulate --point`, Python
+// simulate(), a plan's points): finite, at most kMaxRange from the tracker. Throws InputError
+// "<where>: <problem>".
+void CheckTrackerPoint(const std::array<double, 3>& point, const std::string& where);
+
+// The cap on every value vlt computes with, from any source (job file, calibration file, command
+// line, Python): |value| <= 1e12 in SI units and finite. Throws InputError "<where>: <problem>".
+void CheckValueMagnitude(double value, const std::string& where);
+
 // Largest number of nodes of a map grid (ParseMapPlane / ParseMapBox refuse more).
 inline constexpr double kMaxMapNodes = 1e6;
 

@@ -211,6 +211,22 @@ void CheckReadings(const std::array<double, 3>& r, const std::string& where,
   }
 }
 
+void CheckTrackerPoint(const std::array<double, 3>& p, const std::string& where) {
+  const Eigen::Vector3d v(p[0], p[1], p[2]);
+  if (!v.allFinite()) throw InputError(where + ": not a finite point");
+  if (!(v.stableNorm() <= kMaxRange)) {
+    throw InputError(where + ": " + FormatQuantity(v.stableNorm(), Dimension::kLength, "m", 6) +
+                     " from the tracker is beyond any laser tracker (at most " +
+                     FormatQuantity(kMaxRange, Dimension::kLength, "km", 3) + ")");
+  }
+}
+
+void CheckValueMagnitude(double value, const std::string& where) {
+  if (!std::isfinite(value) || std::abs(value) > base_internal::kMaxMagnitude) {
+    throw InputError(where + ": beyond what vlt computes with (at most 1e12 in SI units)");
+  }
+}
+
 }  // namespace vlt
 
 namespace vlt::job_internal {
