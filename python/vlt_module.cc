@@ -216,10 +216,17 @@ PYBIND11_MODULE(vlt, m) {
       "models",
       [] {
         py::list out;
-        for (const vlt::ModelInfo* info : vlt::AllModels()) {
+        std::vector<const vlt::ModelInfo*> all(vlt::AllModels().begin(), vlt::AllModels().end());
+        const std::size_t built_in = all.size();
+        for (const vlt::BuiltModel& b : vlt::BuiltModels()) {
+          if (const vlt::ModelInfo* info = vlt::FindModel(b.name)) all.push_back(info);
+        }
+        for (std::size_t k = 0; k < all.size(); ++k) {
+          const vlt::ModelInfo* info = all[k];
           py::dict d;
           d["name"] = info->name;
           d["kind"] = info->kind;
+          d["built"] = k >= built_in;
           d["description"] = info->description;
           py::list readings, params, outputs;
           for (int i = 0; i < info->num_readings; ++i)
@@ -233,7 +240,8 @@ PYBIND11_MODULE(vlt, m) {
         }
         return out;
       },
-      "Every generated model: name, kind, description, readings, params (with their defaults, SI), outputs.");
+      "Every model, compiled in or built (vlt.models.build, `vlt model build`; 'built': True): name, kind,\n"
+      "description, readings, params (with their defaults, SI), outputs.");
 
   m.def(
       "run",
@@ -451,6 +459,25 @@ PYBIND11_MODULE(vlt, m) {
       "writing files: {'results': results.json as a dict, 'calibration_toml': the calibration file's text}\n"
       "(its [calibration] fits says whether the calibration fits its data).");
 
+  m.def(
+      "build_model",
+      [](const std::string& spec) {
+        vlt::ModelBuild b;
+        {
+          py::gil_scoped_release release;
+          b = vlt::BuildModel(spec);
+        }
+        py::dict out;
+        out["name"] = b.name;
+        out["library"] = b.library.string();
+        out["cached"] = b.cached;
+        out["seconds"] = b.seconds;
+        return out;
+      },
+      py::arg("spec"),
+      "Builds a model from its spec (TOML) into the model cache like `vlt model build` (also as\n"
+      "vlt.models.build): {'name', 'library', 'cached', 'seconds'}; then every function takes it by name.");
+
   // Arguments of the wrong type: pybind11 answers with a multi-line TypeError that lists the
   // overloads and the values given; vlt's rule is one line (issue 32 item 5). Each function is
   // wrapped to re-raise it as "<function>: arguments of the wrong type; expected <signature>".
@@ -472,8 +499,9 @@ def _one_line_type_errors(f):
             raise TypeError(f.__name__ + ": arguments of the wrong type (" + given + "); expected " + expected) from None
     return call
 
-for _name in ("models", "run", "simulate", "gum", "network", "plan", "calibrate"):
+for _name in ("models", "run", "simulate", "gum", "network", "plan", "calibrate", "build_model"):
     globals()[_name] = _one_line_type_errors(globals()[_name])
+models.build = build_model  # vlt.models.build(spec), as the command line's `vlt model build`
 del _name, _functools, _one_line_type_errors
 )",
            m.attr("__dict__"));

@@ -290,22 +290,23 @@ void ModelEmitter::SourceNominalBatch() {
 void ModelEmitter::SourceForwardLanes() {
   const std::string lanes = "vlt::kForwardLanes";
   c += "// Forward for kForwardLanes trials at once (vlt/model_info.h ForwardLanesFn): the same template\n"
-       "// on vlt::base_internal::lanes::Double4, compiled for AVX2 and for the baseline (chosen when the program\n"
+       "// on vlt::base_internal::lanes::Double4, compiled for AVX2 and for the baseline (chosen when the "
+       "program\n"
        "// loads; the same operations, no FMA). Quantity q of lane l at [lanes * q + l].\n";
   c += "VLT_LANES_CLONES\n";
   c += "void ForwardLanes(const double* readings, const double* params, double* out) {\n";
   c += "  using Lanes = vlt::base_internal::lanes::Double4;\n";
   c += "  Lanes r[" + std::to_string(nr) + "], p[" + std::to_string(std::max(np, 1)) + "], o[" +
        std::to_string(no) + "];\n";
-  c += "  for (int j = 0; j < " + std::to_string(nr) + "; ++j) r[j] = vlt::base_internal::lanes::Load(readings + " + lanes +
-       " * j);\n";
+  c += "  for (int j = 0; j < " + std::to_string(nr) +
+       "; ++j) r[j] = vlt::base_internal::lanes::Load(readings + " + lanes + " * j);\n";
   if (np > 0) {
-    c += "  for (int k = 0; k < " + std::to_string(np) + "; ++k) p[k] = vlt::base_internal::lanes::Load(params + " + lanes +
-         " * k);\n";
+    c += "  for (int k = 0; k < " + std::to_string(np) +
+         "; ++k) p[k] = vlt::base_internal::lanes::Load(params + " + lanes + " * k);\n";
   }
   c += "  model::Forward<Lanes>(r, p, o);\n";
-  c += "  for (int q = 0; q < " + std::to_string(no) + "; ++q) vlt::base_internal::lanes::Store(out + " + lanes +
-       " * q, o[q]);\n";
+  c += "  for (int q = 0; q < " + std::to_string(no) + "; ++q) vlt::base_internal::lanes::Store(out + " +
+       lanes + " * q, o[q]);\n";
   c += "}\n\n";
 }
 
@@ -370,7 +371,7 @@ std::string ModelEmitter::Source() {
 
 }  // namespace
 
-GeneratedModel GenerateModel(const ModelSpec& spec) {
+GeneratedModel GenerateModel(const ModelSpec& spec, bool plugin) {
   ModelEmitter emitter(spec);
   emitter.NameInputsAndOutputs();
   GeneratedModel gen;
@@ -382,8 +383,21 @@ GeneratedModel GenerateModel(const ModelSpec& spec) {
   for (const auto& s : emitter.sensitivity) gen.ops.sensitivity.push_back(s.ops);
   gen.header = emitter.Header();
   emitter.ChooseBatchKernels();
+  if (plugin) emitter.forward_lanes = false;
   gen.source = emitter.Source();
   return gen;
+}
+
+std::string GeneratePluginEntry(const std::string& name, const std::string& spec_file) {
+  std::string c = Banner(spec_file);
+  c += "// The entry point `vlt model build` loads (vlt/model_info.h ModelPluginFn): the model and the ABI\n"
+       "// version of the headers it was compiled against.\n";
+  c += "#include \"vlt/model_info.h\"\n\nnamespace vlt::generated {\nextern const ModelInfo kModel_" + name +
+       ";\n}  // namespace vlt::generated\n\n";
+  c += "extern \"C\" __attribute__((visibility(\"default\"))) const vlt::ModelInfo* vlt_model_plugin(int* "
+       "abi) {\n";
+  c += "  *abi = vlt::kModelAbi;\n  return &vlt::generated::kModel_" + name + ";\n}\n";
+  return c;
 }
 
 std::string GenerateRegistry(const std::vector<std::string>& names, const std::string& spec_prefix) {

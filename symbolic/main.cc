@@ -2,6 +2,7 @@
 // writes generated/<name>.h, generated/<name>.cc and generated/registry.cc (docs/generator.md).
 //
 //   vlt-gen --models DIR --out DIR [--spec-prefix models/]
+//   vlt-gen --plugin SPEC.toml --out DIR    (for `vlt model build`: DIR/generated/<name>.h, .cc, DIR/plugin.cc)
 //   vlt-gen --summary SPEC.toml
 //
 // Exit status: 0 success, 2 bad spec or command line (one line on stderr naming file and key),
@@ -24,6 +25,7 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: vlt-gen --models DIR --out DIR [--spec-prefix PREFIX]\n"
+    "       vlt-gen --plugin SPEC.toml --out DIR\n"
     "       vlt-gen --summary SPEC.toml\n"
     "Reads every DIR/*.toml (sorted) and writes OUT/<name>.h, OUT/<name>.cc and OUT/registry.cc.\n"
     "PREFIX (default \"models/\") is what the banners name as the directory of the specs.\n";
@@ -57,6 +59,20 @@ std::vector<fs::path> Specs(const fs::path& dir) {
   }
   std::sort(specs.begin(), specs.end());
   return specs;
+}
+
+// One spec as a plugin's sources (vlt model build compiles them into a shared library): nothing is
+// written when the spec is bad.
+int GeneratePlugin(const fs::path& spec_path, const fs::path& out) {
+  const vlt::gen::ModelSpec spec =
+      vlt::gen::ReadSpec(spec_path.string(), spec_path.parent_path().string() + "/");
+  const vlt::gen::GeneratedModel gen = vlt::gen::GenerateModel(spec, true);
+  fs::create_directories(out / "generated");
+  WriteIfChanged(out / "generated" / (gen.name + ".h"), gen.header);
+  WriteIfChanged(out / "generated" / (gen.name + ".cc"), gen.source);
+  WriteIfChanged(out / "plugin.cc", vlt::gen::GeneratePluginEntry(gen.name, spec.spec_file));
+  std::printf("%s\n", gen.name.c_str());
+  return 0;
 }
 
 int Generate(const fs::path& models, const fs::path& out, const std::string& prefix) {
@@ -114,7 +130,7 @@ int Summary(const std::string& path) {
 
 int main(int argc, char** argv) {
   try {
-    std::string models, out, summary, prefix = "models/";
+    std::string models, out, summary, plugin, prefix = "models/";
     for (int i = 1; i < argc; ++i) {
       const std::string arg = argv[i];
       auto value = [&]() -> std::string {
@@ -129,6 +145,8 @@ int main(int argc, char** argv) {
         prefix = value();
       } else if (arg == "--summary") {
         summary = value();
+      } else if (arg == "--plugin") {
+        plugin = value();
       } else if (arg == "-h" || arg == "--help") {
         std::fputs(kUsage, stdout);
         return 0;
@@ -139,6 +157,10 @@ int main(int argc, char** argv) {
     if (!summary.empty()) {
       if (!models.empty() || !out.empty()) throw UsageError("--summary takes no --models/--out");
       return Summary(summary);
+    }
+    if (!plugin.empty()) {
+      if (!models.empty() || out.empty()) throw UsageError("--plugin takes --out and no --models");
+      return GeneratePlugin(plugin, out);
     }
     if (models.empty() || out.empty()) throw UsageError("--models and --out are required");
     return Generate(models, out, prefix);

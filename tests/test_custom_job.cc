@@ -376,7 +376,10 @@ void ExpectError(const std::string& text, const std::string& fragment) {
 }
 
 TEST(CustomJob, BadInputNamesFileAndKey) {
-  ExpectError("[model]\nname = \"nope\"\n", "job.toml: model.name: 'nope' is not a compiled model");
+  ExpectError("[model]\nname = \"nope\"\n", "job.toml: model.name: 'nope' is not a compiled or built model");
+  // [model] spec (vlt model build before the run): a spec that is not there is named with the key.
+  ExpectError("[model]\nspec = \"no_such_spec.toml\"\n", "job.toml: model.spec: ");
+  ExpectError("[model]\nspec = \"no_such_spec.toml\"\n", "no_such_spec.toml: cannot read the model spec");
   ExpectError("[model]\nname = \"mirror\"\n", "job.toml: model.name: 'mirror' is a tracker model");
   ExpectError("[model]\nname = \"jcgm101_additive\"\n[inputs.x9]\nu = 1\n",
               "job.toml: inputs.x9: model 'jcgm101_additive' has no input 'x9'");

@@ -1,10 +1,13 @@
-// `vlt model list` and `vlt model show NAME [--json]`: the models vlt-gen generated from
-// models/*.toml, their readings, error parameters (default estimates and standard
-// uncertainties) and outputs (docs/models.md explains every parameter).
+// `vlt model list`, `vlt model show NAME [--json]` and `vlt model build SPEC.toml`: the models
+// vlt-gen generated from models/*.toml when vlt was built and those built since into the model cache
+// (vlt/models.h), their readings, error parameters (default estimates and standard uncertainties)
+// and outputs (docs/models.md explains every parameter; docs/custom-models.md the build).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -21,7 +24,9 @@ const ModelInfo& RequireModel(const std::string& name) {
   if (model) return *model;
   std::string known;
   for (const ModelInfo* m : AllModels()) known += (known.empty() ? "" : ", ") + std::string(m->name);
-  throw InputError("model: unknown model '" + name + "' (known: " + known + ")");
+  for (const BuiltModel& m : BuiltModels()) known += ", " + m.name;
+  throw InputError("model: unknown model '" + name + "' (known: " + known +
+                   "; build one with vlt model build SPEC.toml)");
 }
 
 // A value in the unit a metrologist reads it in (FormatReadable, vlt/units.h), else %.6g.
@@ -46,24 +51,72 @@ nlohmann::json QuantityJson(const QuantityInfo& q, bool with_defaults) {
   return j;
 }
 
-void List(const GlobalOptions& global) {
-  if (global.json) {
-    nlohmann::json models = nlohmann::json::array();
-    for (const ModelInfo* m : AllModels()) {
-      models.push_back({{"name", m->name},
-                        {"kind", m->kind},
-                        {"description", m->description},
-                        {"num_readings", m->num_readings},
-                        {"num_params", m->num_params},
-                        {"num_outputs", m->num_outputs}});
+// The built-in models, then those in the model cache (loaded to read their tables).
+std::vector<const ModelInfo*> ListedModels() {
+  std::vector<const ModelInfo*> out(AllModels().begin(), AllModels().end());
+  for (const BuiltModel& m : BuiltModels()) {
+    try {
+      if (const ModelInfo* info = FindModel(m.name)) out.push_back(info);
+    } catch (const InputError& e) {
+      std::fprintf(stderr, "vlt: warning: %s\n", e.what());
     }
-    std::printf("%s\n", nlohmann::json{{"models", models}}.dump(2).c_str());
+  }
+  return out;
+}
+
+void List(const GlobalOptions& global) {
+  const std::vector<const ModelInfo*> models = ListedModels();
+  const std::size_t built_in = AllModels().size();
+  if (global.json) {
+    nlohmann::json list = nlohmann::json::array();
+    for (std::size_t i = 0; i < models.size(); ++i) {
+      const ModelInfo* m = models[i];
+      list.push_back({{"name", m->name},
+                      {"kind", m->kind},
+                      {"built", i >= built_in},
+                      {"description", m->description},
+                      {"num_readings", m->num_readings},
+                      {"num_params", m->num_params},
+                      {"num_outputs", m->num_outputs}});
+    }
+    std::printf("%s\n",
+                nlohmann::json{{"models", list}, {"cache", ModelCacheDirectory().string()}}.dump(2).c_str());
     return;
   }
-  std::printf("%-20s %-8s %6s %6s  %s\n", "model", "kind", "params", "outputs", "description");
-  for (const ModelInfo* m : AllModels()) {
-    std::printf("%-20s %-8s %6d %6d  %s\n", m->name, m->kind, m->num_params, m->num_outputs, m->description);
+  int width = 20;
+  for (const ModelInfo* m : models)
+    width = std::max(width, static_cast<int>(std::string_view(m->name).size()));
+  std::printf("%-*s %-8s %6s %6s  %s\n", width, "model", "kind", "params", "outputs", "description");
+  for (std::size_t i = 0; i < models.size(); ++i) {
+    const ModelInfo* m = models[i];
+    std::printf("%-*s %-8s %6d %6d  %s%s\n", width, m->name, m->kind, m->num_params, m->num_outputs,
+                i >= built_in ? "(built) " : "", m->description);
   }
+}
+
+// `vlt model build SPEC`: into the cache, or found there.
+void Build(const std::string& spec, const GlobalOptions& global) {
+  const ModelBuild b = BuildModel(spec);
+  const ModelInfo* m = FindModel(b.name);
+  if (global.json) {
+    std::printf("%s\n", nlohmann::json{{"name", b.name},
+                                       {"library", b.library.string()},
+                                       {"cached", b.cached},
+                                       {"seconds", b.seconds},
+                                       {"kind", m ? m->kind : ""}}
+                            .dump(2)
+                            .c_str());
+    return;
+  }
+  if (b.cached) {
+    std::printf("Model '%s' is up to date in the cache: %s\n", b.name.c_str(), b.library.string().c_str());
+  } else {
+    const int inputs = m ? m->num_params : 0, outputs = m ? m->num_outputs : 0;
+    std::printf("Built model '%s' (%s, %d input%s, %d output%s) in %.1f s: %s\n", b.name.c_str(),
+                m ? m->kind : "?", inputs, inputs == 1 ? "" : "s", outputs, outputs == 1 ? "" : "s",
+                b.seconds, b.library.string().c_str());
+  }
+  std::printf("Use it by name: model = \"%s\" (vlt model show %s)\n", b.name.c_str(), b.name.c_str());
 }
 
 void Show(const ModelInfo& m, const GlobalOptions& global) {
@@ -110,7 +163,8 @@ void Show(const ModelInfo& m, const GlobalOptions& global) {
 }  // namespace
 
 void AddModelCommand(CLI::App& app, GlobalOptions& global) {
-  auto* command = app.add_subcommand("model", "List the generated instrument/custom models or show one");
+  auto* command =
+      app.add_subcommand("model", "List the instrument/custom models, show one, or build one from its spec");
   command->require_subcommand(1);
   auto* list = command->add_subcommand("list", "List the models (name, kind, parameters, description)");
   list->callback([&global] { List(global); });
@@ -120,6 +174,12 @@ void AddModelCommand(CLI::App& app, GlobalOptions& global) {
   auto name = std::make_shared<std::string>();
   show->add_option("name", *name, "Model name (vlt model list)")->required();
   show->callback([name, &global] { Show(RequireModel(*name), global); });
+  auto* build = command->add_subcommand(
+      "build",
+      "Build a model from its spec (TOML) into the model cache, to use by name without rebuilding vlt");
+  auto spec = std::make_shared<std::string>();
+  build->add_option("spec", *spec, "The model's spec (docs/custom-models.md, docs/generator.md)")->required();
+  build->callback([spec, &global] { Build(*spec, global); });
 }
 
 }  // namespace vlt::cli

@@ -251,3 +251,16 @@ def test_alignment_and_deviations_equal_the_command_line():
     assert set(cli) == set(tasks)
     for name, t in tasks.items():
         assert t["gum"] == cli[name]["gum"], name
+
+
+def test_a_model_built_from_its_spec_is_used_by_name(tmp_path, monkeypatch):
+    # vlt.models.build is `vlt model build` (issue 31): a spec not compiled into vlt, into a fresh
+    # cache, then a job naming it. JCGM 101 9.4 at x1 = 0.010: the GUM's first order y = u = 1e-4.
+    monkeypatch.setenv("VLT_MODEL_CACHE", str(tmp_path / "cache"))
+    spec = os.path.join(SOURCE, "tests", "models", "jcgm101_comparison_loss.toml")
+    b = vlt.models.build(spec)
+    assert b["name"] == "jcgm101_comparison_loss" and not b["cached"]
+    assert vlt.build_model(spec)["cached"]
+    assert any(m["name"] == "jcgm101_comparison_loss" and m["built"] for m in vlt.models())
+    r = vlt.run({"model": {"name": "jcgm101_comparison_loss"}}, monte_carlo=False)
+    assert abs(r["outputs"][0]["gum"]["estimate"] - 1e-4) < 1e-15 and abs(r["outputs"][0]["gum"]["u"] - 1e-4) < 1e-15

@@ -89,6 +89,15 @@ struct ModelInfo {
   int ops_nominal_jacobians;
 };
 
+// The layout of ModelInfo and the kernels' signatures, as a model built at run time (`vlt model
+// build`, vlt/models.h BuildModel) was compiled against: a plugin whose number differs from the
+// running vlt's is refused ("rebuild it"). Raise it with any change to this header.
+inline constexpr int kModelAbi = 1;
+
+// The entry point of a model plugin: extern "C" const ModelInfo* vlt_model_plugin(int* abi), which
+// sets *abi = kModelAbi of the headers it was compiled with.
+using ModelPluginFn = const ModelInfo* (*)(int* abi);
+
 namespace generated {
 // Defined in generated/registry.cc: every model vlt-gen found in models/, sorted by name.
 extern const ModelInfo* const kModels[];

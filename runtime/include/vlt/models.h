@@ -1,20 +1,60 @@
-// vlt/models.h — look up the generated models by name.
+// vlt/models.h — look up the models by name: the ones vlt-gen generated from models/ when vlt was
+// built, and the ones a user built since (`vlt model build SPEC.toml`, docs/custom-models.md).
 #pragma once
 
+#include <filesystem>
 #include <span>
+#include <string>
 #include <string_view>
+#include <vector>
 
 #include "vlt/model_info.h"
 
 namespace vlt {
 
-// Every model vlt-gen generated from models/, sorted by name.
+// Every model vlt-gen generated from models/ when vlt was built, sorted by name.
 std::span<const ModelInfo* const> AllModels();
 
-// The model called `name`, or nullptr.
+// The model called `name`: a built-in one, else one built into the model cache (loaded once, kept
+// loaded), or nullptr. Throws InputError "model '<name>': <library>: <problem>" when the cache holds
+// the model but it cannot be loaded (built for another vlt: "rebuild it with vlt model build").
 const ModelInfo* FindModel(std::string_view name);
 
 // Index of the parameter / reading / output called `name` in `model`, or -1.
 int FindParam(const ModelInfo& model, std::string_view name);
+
+// --- Models built at run time (docs/custom-models.md "Without rebuilding vlt").
+
+// Where built models live: $VLT_MODEL_CACHE, else $XDG_CACHE_HOME/vlt/models, else
+// $HOME/.cache/vlt/models. One directory per model name: model.so, spec.toml (the spec it was built
+// from), key (SHA-256 of the spec's bytes, vlt's version and kModelAbi) and build.log.
+std::filesystem::path ModelCacheDirectory();
+
+// A model in the cache.
+struct BuiltModel {
+  std::string name;
+  std::filesystem::path library;  // <cache>/<name>/model.so
+  std::filesystem::path spec;     // the copy of the spec it was built from
+  bool current = false;           // its key is this vlt's (else `vlt model build` rebuilds it)
+};
+// The models in the cache, by name (none when it does not exist).
+std::vector<BuiltModel> BuiltModels();
+
+// What BuildModel did.
+struct ModelBuild {
+  std::string name;
+  std::filesystem::path library;
+  bool cached = false;   // the cache held it, built from the same spec bytes by this vlt
+  double seconds = 0.0;  // wall time of the derivation and the compilation (0 when cached)
+};
+
+// Builds the model of the spec at `spec_path` into the cache, unless the cache holds it for these
+// spec bytes and this vlt: derives it with vlt-gen (`vlt-gen --plugin`, beside the vlt executable,
+// $VLT_GEN, or the build tree's), compiles it with the system's C++ compiler ($CXX, else c++)
+// against vlt's headers (beside the executable in <prefix>/include, $VLT_INCLUDE_DIR, or the source
+// tree's) into a shared library, and replaces the cache's entry whole. Throws InputError with one
+// line: a spec error (vlt-gen's "<file>: <key>: <problem>"), "no C++ compiler found", "vlt-gen not
+// found", the compiler's first error line, or a name that a built-in model has.
+ModelBuild BuildModel(const std::filesystem::path& spec_path);
 
 }  // namespace vlt

@@ -117,11 +117,30 @@ struct CustomJobReader {
   void ReadTolerances();
 };
 
-// [model] name = "<a compiled custom model>"
+// [model] name = "<a custom model: compiled in, or built (vlt model build)>", or spec = "<its spec>":
+// the spec is built into the model cache first, or found there when it has not changed (vlt/models.h
+// BuildModel; docs/custom-models.md "Without rebuilding vlt").
 void CustomJobReader::FindCustomModel() {
   Section model_section = top.Sub("model", true);
-  model_section.set_hint("name");
-  const std::string model_name = AsString(model_section.Require("name"), model_section.Where("name"));
+  model_section.set_hint("name, spec");
+  std::string model_name;
+  if (const toml::node* spec = model_section.Get("spec")) {
+    const std::filesystem::path path = job.base_dir / AsString(*spec, model_section.Where("spec"));
+    try {
+      model_name = BuildModel(path).name;
+    } catch (const InputError& e) {
+      throw InputError(model_section.Where("spec") + ": " + e.what());
+    }
+    if (const toml::node* n = model_section.Get("name")) {
+      const std::string given = AsString(*n, model_section.Where("name"));
+      if (given != model_name) {
+        throw InputError(model_section.Where("name") + ": '" + given + "', but the spec defines '" +
+                         model_name + "' (give one of the two)");
+      }
+    }
+  } else {
+    model_name = AsString(model_section.Require("name"), model_section.Where("name"));
+  }
   model = FindModel(model_name);
   if (model == nullptr || std::string_view(model->kind) != "custom") {
     std::string list;
@@ -130,8 +149,9 @@ void CustomJobReader::FindCustomModel() {
     }
     throw InputError(
         model_section.Where("name") + ": '" + model_name +
-        (model == nullptr ? "' is not a compiled model" : "' is a tracker model (use [tracker])") +
-        " (custom models: " + list + "; add one with a spec in models/, docs/models.md)");
+        (model == nullptr ? "' is not a compiled or built model" : "' is a tracker model (use [tracker])") +
+        " (custom models: " + list + "; build one from its spec: vlt model build SPEC.toml, or [model] " +
+        "spec = \"SPEC.toml\", docs/custom-models.md)");
   }
   model_section.Finish();
   job.model = model;
