@@ -219,7 +219,12 @@ PYBIND11_MODULE(vlt, m) {
         std::vector<const vlt::ModelInfo*> all(vlt::AllModels().begin(), vlt::AllModels().end());
         const std::size_t built_in = all.size();
         for (const vlt::BuiltModel& b : vlt::BuiltModels()) {
-          if (const vlt::ModelInfo* info = vlt::FindModel(b.name)) all.push_back(info);
+          // A cache entry that cannot be loaded is a warning, as in `vlt model list`.
+          try {
+            if (const vlt::ModelInfo* info = vlt::FindModel(b.name)) all.push_back(info);
+          } catch (const vlt::InputError& e) {
+            if (PyErr_WarnEx(PyExc_RuntimeWarning, e.what(), 1) != 0) throw py::error_already_set();
+          }
         }
         for (std::size_t k = 0; k < all.size(); ++k) {
           const vlt::ModelInfo* info = all[k];

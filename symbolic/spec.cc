@@ -144,6 +144,12 @@ class Reader {
     auto value = node->value<std::string>();
     if (!node->is_string() || !value) Fail(where + "." + key, "must be a string");
     if (value->empty()) Fail(where + "." + key, "must not be empty");
+    // Every text of a spec goes into generated C++ (comments, string literals): one line of
+    // printable characters, no control character a compiler would read as a line end (\r too).
+    for (const char c : *value) {
+      if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
+        Fail(where + "." + key, "must be one line without control characters");
+    }
     return *value;
   }
 

@@ -294,7 +294,7 @@ if(NOT VLT_SANITIZE AND NOT VLT_FUZZ)
     COMMAND ${CMAKE_COMMAND} -DBUILD_DIR=${CMAKE_BINARY_DIR} -DSOURCE_DIR=${CMAKE_SOURCE_DIR}
             -DOUT=${_out}/consumer -DCXX=${CMAKE_CXX_COMPILER}
             $<$<TARGET_EXISTS:vlt_python>:-DPYTHON=${Python3_EXECUTABLE}> -P ${_cli}/consumer.cmake)
-  set_tests_properties(cli_consumer_install PROPERTIES TIMEOUT 600)
+  set_tests_properties(cli_consumer_install PROPERTIES TIMEOUT 600 RESOURCE_LOCK vlt_install)
 endif()
 
 # Files that are not files (issue 32 item 2): a symbolic-link loop, a name over 255 bytes, a FIFO,

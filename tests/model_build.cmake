@@ -9,7 +9,8 @@ add_test(NAME cli_model_build_installed
   COMMAND ${CMAKE_COMMAND} -DBUILD_DIR=${CMAKE_BINARY_DIR} -DSOURCE_DIR=${CMAKE_SOURCE_DIR}
           -DOUT=${CMAKE_BINARY_DIR}/cli-tests/model_build -DCXX=${CMAKE_CXX_COMPILER}
           -P ${CMAKE_CURRENT_SOURCE_DIR}/cli/model_build.cmake)
-set_tests_properties(cli_model_build_installed PROPERTIES TIMEOUT 600)
+# cmake --install writes the build tree's install_manifest.txt: one install at a time (cli_consumer_install).
+set_tests_properties(cli_model_build_installed PROPERTIES TIMEOUT 600 RESOURCE_LOCK vlt_install)
 
 # The example (examples/custom/polar.toml, JCGM 102 9.3): its [model] spec is built on the first run
 # into a cache of the build tree and the run gives the Rice distribution's moments (exact mean

@@ -113,4 +113,29 @@ set(ENV{CXX} ${CXX})
 string(REPLACE "name = \"jcgm101_comparison_loss\"" "name = \"mirror\"" clash "${text}")
 file(WRITE ${OUT}/clash/mirror.toml "${clash}")
 refused("a built-in name" "a built-in model is called 'mirror'" ${vlt} model build ${OUT}/clash/mirror.toml)
+# Two builds of one spec at once (CMake runs the COMMANDs of one execute_process side by side): both
+# succeed, one builds and the other waits for it and finds the cache.
+file(READ ${spec} base)
+file(WRITE ${OUT}/twice/jcgm101_comparison_loss.toml "${base}\n# built twice at once\n")
+execute_process(COMMAND ${vlt} model build ${OUT}/twice/jcgm101_comparison_loss.toml
+                COMMAND ${vlt} model build ${OUT}/twice/jcgm101_comparison_loss.toml
+                RESULTS_VARIABLE codes OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT codes STREQUAL "0;0")
+  message(FATAL_ERROR "two builds at once: exit codes ${codes}:\n${out}\n${err}")
+endif()
+# vlt-gen failing without a message is said so; a text with a control character is a spec error.
+set(ENV{VLT_GEN} /bin/false)
+file(WRITE ${OUT}/gen_fails/jcgm101_comparison_loss.toml "${base}\n# another\n")
+refused("vlt-gen fails" "vlt-gen failed .exit 1." ${vlt} model build ${OUT}/gen_fails/jcgm101_comparison_loss.toml)
+unset(ENV{VLT_GEN})
+string(REPLACE "description = \"Real part" "description = \"Real\\r part" cr "${base}")
+file(WRITE ${OUT}/cr/jcgm101_comparison_loss.toml "${cr}")
+refused("a control character" "input.0..*description: must be one line without control characters"
+        ${vlt} model build ${OUT}/cr/jcgm101_comparison_loss.toml)
+# An entry others may write is not loaded (a library in it would run their code).
+file(CHMOD ${OUT}/cache/jcgm101_comparison_loss DIRECTORY_PERMISSIONS OWNER_READ OWNER_WRITE OWNER_EXECUTE GROUP_READ
+     GROUP_WRITE GROUP_EXECUTE)
+refused("an entry others may write" "writable by nobody else" ${vlt} run ${OUT}/loss_0.toml -q -o ${OUT}/run_refused)
+file(CHMOD ${OUT}/cache/jcgm101_comparison_loss DIRECTORY_PERMISSIONS OWNER_READ OWNER_WRITE OWNER_EXECUTE)
+run("vlt run after the entry is the user's again" ${vlt} run ${OUT}/loss_0.toml -q --no-mcm -o ${OUT}/run_again)
 message(STATUS "vlt model build from ${prefix}: built, cached, JCGM 101 9.4 (r = 0, 0.9) against the exact moments")

@@ -264,3 +264,10 @@ def test_a_model_built_from_its_spec_is_used_by_name(tmp_path, monkeypatch):
     assert any(m["name"] == "jcgm101_comparison_loss" and m["built"] for m in vlt.models())
     r = vlt.run({"model": {"name": "jcgm101_comparison_loss"}}, monte_carlo=False)
     assert abs(r["outputs"][0]["gum"]["estimate"] - 1e-4) < 1e-15 and abs(r["outputs"][0]["gum"]["u"] - 1e-4) < 1e-15
+    # Rebuilt in the same process with another expression: the new model runs (a new library file;
+    # dlopen of the old path would have returned the old model).
+    changed = tmp_path / "jcgm101_comparison_loss.toml"
+    changed.write_text(open(spec).read().replace('expression = "x1^2 + x2^2"', 'expression = "x1^2 + x2^2 + 1"'))
+    assert not vlt.models.build(str(changed))["cached"]
+    r = vlt.run({"model": {"name": "jcgm101_comparison_loss"}}, monte_carlo=False)
+    assert abs(r["outputs"][0]["gum"]["estimate"] - (1 + 1e-4)) < 1e-12

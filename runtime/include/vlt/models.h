@@ -26,14 +26,16 @@ int FindParam(const ModelInfo& model, std::string_view name);
 // --- Models built at run time (docs/custom-models.md "Without rebuilding vlt").
 
 // Where built models live: $VLT_MODEL_CACHE, else $XDG_CACHE_HOME/vlt/models, else
-// $HOME/.cache/vlt/models. One directory per model name: model.so, spec.toml (the spec it was built
-// from), key (SHA-256 of the spec's bytes, vlt's version and kModelAbi) and build.log.
+// ~/.cache/vlt/models (never a shared directory; InputError without a home). One directory per model
+// name: model-<key>.so (one library per build), key (SHA-256 of the spec's bytes, vlt's version and
+// kModelAbi: which library is current), spec.toml (the spec it was built from) and build.log. A
+// model is loaded only from the user's own entries that nobody else may write.
 std::filesystem::path ModelCacheDirectory();
 
 // A model in the cache.
 struct BuiltModel {
   std::string name;
-  std::filesystem::path library;  // <cache>/<name>/model.so
+  std::filesystem::path library;  // <cache>/<name>/model-<key>.so, the current one
   std::filesystem::path spec;     // the copy of the spec it was built from
   bool current = false;           // its key is this vlt's (else `vlt model build` rebuilds it)
 };
@@ -49,12 +51,15 @@ struct ModelBuild {
 };
 
 // Builds the model of the spec at `spec_path` into the cache, unless the cache holds it for these
-// spec bytes and this vlt: derives it with vlt-gen (`vlt-gen --plugin`, beside the vlt executable,
-// $VLT_GEN, or the build tree's), compiles it with the system's C++ compiler ($CXX, else c++)
-// against vlt's headers (beside the executable in <prefix>/include, $VLT_INCLUDE_DIR, or the source
-// tree's) into a shared library, and replaces the cache's entry whole. Throws InputError with one
+// spec bytes and this vlt (then nothing is derived, compiled or written): derives it with vlt-gen
+// (`vlt-gen --plugin`: $VLT_GEN, else <prefix>/bin/vlt-gen of the running vlt or of the prefix vlt
+// was installed to, else the build tree's), compiles it with the system's C++ compiler ($CXX, split
+// at spaces, else c++) against vlt's headers ($VLT_INCLUDE_DIR, else <prefix>/include, else the
+// source tree's) into a shared library, and installs it (the key replaced last, by a rename). Builds
+// of one name, from threads or processes, take turns (a lock per name). Throws InputError with one
 // line: a spec error (vlt-gen's "<file>: <key>: <problem>"), "no C++ compiler found", "vlt-gen not
-// found", the compiler's first error line, or a name that a built-in model has.
+// found", the compiler's exit and first error line (its log kept beside the entry), a name that a
+// built-in model has, or a cache that is not the user's own.
 ModelBuild BuildModel(const std::filesystem::path& spec_path);
 
 }  // namespace vlt

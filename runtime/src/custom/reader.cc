@@ -124,7 +124,9 @@ void CustomJobReader::FindCustomModel() {
   Section model_section = top.Sub("model", true);
   model_section.set_hint("name, spec");
   std::string model_name;
+  std::string named_by = model_section.Where("name");
   if (const toml::node* spec = model_section.Get("spec")) {
+    named_by = model_section.Where("spec");
     const std::filesystem::path path = job.base_dir / AsString(*spec, model_section.Where("spec"));
     try {
       model_name = BuildModel(path).name;

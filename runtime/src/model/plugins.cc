@@ -4,17 +4,33 @@
 // into a per-user cache keyed by the spec's bytes and vlt's version and model ABI, and FindModel
 // loads it by name (dlopen; the entry point vlt_model_plugin, vlt/model_info.h).
 //
-// Tools are run with fork + execvp on argument vectors (no shell: a spec path is never parsed as a
-// command), their output into the entry's build.log. A build is made in a directory of its own and
-// replaces the cache's entry with two renames, so a run that loads the model meanwhile sees the old
-// library or the new one, never half of one.
+// The cache is the user's own: never a shared directory (no /tmp fallback), created 0700, and an
+// entry is loaded only when the user owns it and nobody else may write it (a library in the cache
+// runs code when loaded).
+//
+// An entry <name>/ holds model-<key>.so (one file per build: dlopen of a path already loaded would
+// return the old library, so a rebuild in the same process needs a new path), spec.toml, build.log
+// and `key`, the file that says which library is current. A build derives and compiles in a
+// private directory (mkdtemp), takes the entry's lock (flock on <name>.lock: builds of one name,
+// from threads or processes, run one after the other), renames its library in and then replaces
+// `key` by a rename: a reader sees the old key and library or the new ones, never half. Libraries of
+// older keys are removed after an hour (a run that read the old key just before has long loaded it).
+//
+// Tools run with fork + execvp on argument vectors (no shell), output into a log, other descriptors
+// closed.
 #include <dlfcn.h>
 #include <fcntl.h>
+#include <pwd.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <mutex>
@@ -32,12 +48,16 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The tools of a build tree (compile definitions of this file, runtime/CMakeLists.txt), tried last.
+// The tools of a build tree and of the install prefix (compile definitions of this file,
+// runtime/CMakeLists.txt).
 #ifndef VLT_BUILD_VLT_GEN
 #define VLT_BUILD_VLT_GEN ""
 #endif
 #ifndef VLT_BUILD_INCLUDE_DIR
 #define VLT_BUILD_INCLUDE_DIR ""
+#endif
+#ifndef VLT_INSTALL_PREFIX
+#define VLT_INSTALL_PREFIX ""
 #endif
 #ifndef VLT_EIGEN_INCLUDE_DIR
 #define VLT_EIGEN_INCLUDE_DIR "/usr/include/eigen3"
@@ -74,13 +94,40 @@ void WriteBytes(const fs::path& p, const std::string& bytes) {
   if (!out) throw InputError(p.string() + ": cannot write (disk full?)");
 }
 
+bool IsIdentifier(std::string_view name) {
+  if (name.empty() || std::isdigit(static_cast<unsigned char>(name[0]))) return false;
+  return name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_") ==
+         std::string_view::npos;
+}
+
 // The key of a build: the spec's bytes, vlt's version and the model ABI.
 std::string BuildKey(const std::string& spec_bytes) {
   return Sha256Bytes(spec_bytes + '\0' + VLT_VERSION + '\0' + std::to_string(kModelAbi));
 }
 
-// Runs argv[0] (found on PATH when it has no '/') with stdout and stderr appended to `log`; its exit
-// status, 127 when it could not be started.
+// The user's own directory: refuses one that another user owns or that others may write (a
+// library loaded from it runs its code).
+void CheckOwnDirectory(const fs::path& dir) {
+  struct stat st {};
+  if (::stat(dir.c_str(), &st) != 0) return;
+  if (st.st_uid != ::getuid() || (st.st_mode & (S_IWGRP | S_IWOTH)) != 0) {
+    throw InputError(
+        dir.string() +
+        ": the model cache must be the user's own and writable by nobody else (a model in it runs code "
+        "when loaded)");
+  }
+}
+
+// The status of a finished child: its exit code, or 128 + the signal that ended it.
+int ExitCode(int status) {
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
+  return 128;
+}
+
+// Runs argv[0] (found on PATH when it has no '/') with stdout and stderr into `log`, descriptors
+// above 2 closed; its exit code, 127 when it could not be started, -1 when its status is lost (the
+// caller ignores SIGCHLD: the caller then judges by what it wrote).
 int Run(const std::vector<std::string>& argv, const fs::path& log) {
   std::vector<char*> args;
   for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
@@ -88,20 +135,21 @@ int Run(const std::vector<std::string>& argv, const fs::path& log) {
   const pid_t pid = ::fork();
   if (pid < 0) throw InputError("cannot start " + argv[0] + ": fork failed");
   if (pid == 0) {
-    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0600);
     if (fd >= 0) {
       ::dup2(fd, 1);
       ::dup2(fd, 2);
-      ::close(fd);
     }
+    for (int other = 3; other < 1024; ++other) ::close(other);
     ::execvp(args[0], args.data());
     ::_exit(127);
   }
   int status = 0;
   while (::waitpid(pid, &status, 0) < 0) {
+    if (errno == ECHILD) return -1;
     if (errno != EINTR) return 127;
   }
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+  return ExitCode(status);
 }
 
 // The first line of `log` holding `marker` (the compiler's first error), else its first line.
@@ -115,19 +163,32 @@ std::string FirstLine(const fs::path& log, const std::string& marker) {
   return first;
 }
 
+// Where an installed vlt keeps vlt-gen and the headers: beside the executable (<prefix>/bin/vlt),
+// then the prefix vlt was configured for (the Python module lives under <prefix>/lib).
+std::vector<fs::path> Prefixes() {
+  std::vector<fs::path> out;
+  if (const fs::path exe = ExecutableDirectory(); !exe.empty()) out.push_back(exe.parent_path());
+  if (std::strlen(VLT_INSTALL_PREFIX) > 0) out.emplace_back(VLT_INSTALL_PREFIX);
+  return out;
+}
+
 fs::path FindGenerator() {
   if (const std::string env = Env("VLT_GEN"); !env.empty()) return env;
+  for (const fs::path& prefix : Prefixes()) {
+    if (IsFile(prefix / "bin" / "vlt-gen")) return prefix / "bin" / "vlt-gen";
+  }
   if (const fs::path beside = ExecutableDirectory() / "vlt-gen"; IsFile(beside)) return beside;
   if (IsFile(VLT_BUILD_VLT_GEN)) return VLT_BUILD_VLT_GEN;
   throw InputError(
-      "vlt model build: vlt-gen not found (beside vlt, $VLT_GEN or the build tree's symbolic/vlt-gen; "
+      "vlt model build: vlt-gen not found ($VLT_GEN, <prefix>/bin/vlt-gen or the build tree's "
+      "symbolic/vlt-gen; "
       "install vlt with it, or build it: ninja -C build vlt-gen)");
 }
 
 fs::path FindIncludeDirectory() {
   std::vector<fs::path> candidates;
   if (const std::string env = Env("VLT_INCLUDE_DIR"); !env.empty()) candidates.emplace_back(env);
-  candidates.push_back(ExecutableDirectory().parent_path() / "include");  // <prefix>/bin/vlt
+  for (const fs::path& prefix : Prefixes()) candidates.push_back(prefix / "include");
   candidates.emplace_back(VLT_BUILD_INCLUDE_DIR);
   for (const fs::path& dir : candidates) {
     if (IsFile(dir / "vlt" / "model_info.h")) return dir;
@@ -136,10 +197,66 @@ fs::path FindIncludeDirectory() {
       "vlt model build: vlt's headers not found (<prefix>/include/vlt/model_info.h; set VLT_INCLUDE_DIR)");
 }
 
-// The models loaded from the cache, by name (kept loaded: their ModelInfo is used for the process).
+// The compiler: $CXX split at spaces ("ccache c++"), else c++.
+std::vector<std::string> Compiler() {
+  std::vector<std::string> words;
+  std::istringstream in(Env("CXX"));
+  for (std::string w; in >> w;) words.push_back(w);
+  if (words.empty()) words.emplace_back("c++");
+  return words;
+}
+
+// An exclusive lock on a file, released when destroyed.
+class FileLock {
+ public:
+  explicit FileLock(const fs::path& path) : fd_(::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600)) {
+    if (fd_ < 0)
+      throw InputError(path.string() + ": cannot lock the model cache (" + std::strerror(errno) + ")");
+    while (::flock(fd_, LOCK_EX) != 0 && errno == EINTR) {}
+  }
+  ~FileLock() { ::close(fd_); }
+  FileLock(const FileLock&) = delete;
+  FileLock& operator=(const FileLock&) = delete;
+
+ private:
+  int fd_;
+};
+
+// A private directory (mkdtemp) in the cache, removed when destroyed.
+class WorkDirectory {
+ public:
+  explicit WorkDirectory(const fs::path& cache) {
+    std::string pattern = (cache / ".build-XXXXXX").string();
+    if (::mkdtemp(pattern.data()) == nullptr) {
+      throw InputError(cache.string() + ": cannot build in the model cache (" + std::strerror(errno) + ")");
+    }
+    path_ = pattern;
+  }
+  ~WorkDirectory() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  WorkDirectory(const WorkDirectory&) = delete;
+  WorkDirectory& operator=(const WorkDirectory&) = delete;
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+// The current library of a cache entry (its key file names it), or empty.
+fs::path CurrentLibrary(const fs::path& entry) {
+  const std::string key = ReadBytes(entry / "key");
+  if (key.size() < 16) return {};
+  const fs::path library = entry / ("model-" + key.substr(0, 16) + ".so");
+  return IsFile(library) ? library : fs::path();
+}
+
+// The models loaded from the cache, by library path (kept loaded: their ModelInfo is used for the
+// process; a rebuilt model has a new path).
 struct Loaded {
   std::mutex mutex;
-  std::map<std::string, const ModelInfo*, std::less<>> models;
+  std::map<std::string, const ModelInfo*, std::less<>> by_library;
 };
 Loaded& LoadedModels() {
   static Loaded loaded;
@@ -148,6 +265,12 @@ Loaded& LoadedModels() {
 
 const ModelInfo* LoadLibrary(const std::string& name, const fs::path& library) {
   const std::string where = "model '" + name + "': " + library.string();
+  CheckOwnDirectory(library.parent_path());
+  struct stat st {};
+  if (::stat(library.c_str(), &st) != 0 || st.st_uid != ::getuid() ||
+      (st.st_mode & (S_IWGRP | S_IWOTH)) != 0) {
+    throw InputError(where + ": not the user's own, or writable by others: not loaded");
+  }
   void* handle = ::dlopen(library.c_str(), RTLD_NOW | RTLD_LOCAL);
   if (handle == nullptr) {
     const char* e = ::dlerror();
@@ -166,13 +289,67 @@ const ModelInfo* LoadLibrary(const std::string& name, const fs::path& library) {
   return model;
 }
 
+// Derives the spec into `src` with vlt-gen; its one line on a spec error.
+void Derive(const fs::path& spec_path, const fs::path& src, const fs::path& log) {
+  const int gen = Run(
+      {FindGenerator().string(), "--plugin", fs::absolute(spec_path).string(), "--out", src.string()}, log);
+  if (gen == 0 || (gen == -1 && IsFile(src / "plugin.cc"))) return;
+  if (gen == 127) throw InputError("vlt model build: cannot run vlt-gen (" + FindGenerator().string() + ")");
+  std::string line = FirstLine(log, "error:");
+  const std::string prefix = "vlt-gen: error: ";
+  if (line.rfind(prefix, 0) == 0) line = line.substr(prefix.size());
+  throw InputError(line.empty() ? "vlt model build: vlt-gen failed (exit " + std::to_string(gen) + ")"
+                                : line);
+}
+
+// Compiles the derived sources into `library`: the kernels as the runtime compiles its own (IEEE, no
+// contraction, no assertions), every symbol but the entry point hidden (two models never meet).
+void Compile(const std::string& name, const fs::path& src, const fs::path& library, const fs::path& log,
+             const fs::path& kept_log) {
+  std::vector<std::string> argv = Compiler();
+  const std::string compiler = argv.front();
+  for (const std::string& flag :
+       {std::string("-std=c++20"), std::string("-O3"), std::string("-DNDEBUG"), std::string("-fPIC"),
+        std::string("-shared"), std::string("-fvisibility=hidden"), std::string("-ffp-contract=off"),
+        std::string("-fno-math-errno"), "-I" + src.string(), "-I" + FindIncludeDirectory().string(),
+        std::string("-I") + VLT_EIGEN_INCLUDE_DIR, (src / "generated" / (name + ".cc")).string(),
+        (src / "plugin.cc").string(), std::string("-o"), library.string()}) {
+    argv.push_back(flag);
+  }
+  const int cc = Run(argv, log);
+  if (cc == 127) throw InputError("vlt model build: no C++ compiler found ('" + compiler + "'; set CXX)");
+  if (cc == 0 || (cc == -1 && IsFile(library))) return;
+  std::error_code ec;
+  fs::copy_file(log, kept_log, fs::copy_options::overwrite_existing, ec);
+  const std::string first = FirstLine(log, "error");
+  throw InputError(
+      "vlt model build: the compiler failed (" +
+      (cc > 128 ? "killed by signal " + std::to_string(cc - 128) : "exit " + std::to_string(cc)) + ")" +
+      (first.empty() ? "" : ": " + first) + " (log: " + kept_log.string() + ")");
+}
+
+// Libraries of older keys, an hour after they were replaced.
+void RemoveStaleLibraries(const fs::path& entry, const fs::path& current) {
+  std::error_code ec;
+  const auto now = fs::file_time_type::clock::now();
+  for (const auto& f : fs::directory_iterator(entry, ec)) {
+    const std::string file = f.path().filename().string();
+    if (f.path() == current || file.rfind("model-", 0) != 0) continue;
+    if (now - fs::last_write_time(f.path(), ec) > std::chrono::hours(1)) fs::remove(f.path(), ec);
+  }
+}
+
 }  // namespace
 
 fs::path ModelCacheDirectory() {
   if (const std::string env = Env("VLT_MODEL_CACHE"); !env.empty()) return env;
   if (const std::string xdg = Env("XDG_CACHE_HOME"); !xdg.empty()) return fs::path(xdg) / "vlt" / "models";
-  const std::string home = Env("HOME");
-  return (home.empty() ? fs::temp_directory_path() : fs::path(home) / ".cache") / "vlt" / "models";
+  std::string home = Env("HOME");
+  if (home.empty()) {
+    if (const passwd* pw = ::getpwuid(::getuid()); pw != nullptr && pw->pw_dir != nullptr) home = pw->pw_dir;
+  }
+  if (home.empty()) throw InputError("no model cache: set VLT_MODEL_CACHE (HOME is not set)");
+  return fs::path(home) / ".cache" / "vlt" / "models";
 }
 
 std::span<const ModelInfo* const> AllModels() { return {generated::kModels, generated::kNumModels}; }
@@ -182,18 +359,16 @@ const ModelInfo* FindModel(std::string_view name) {
     if (name == model->name) return model;
   }
   // A model name is an identifier (vlt-gen's rule): anything else is no path into the cache.
-  if (name.empty() ||
-      name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_") !=
-          std::string_view::npos) {
-    return nullptr;
-  }
+  if (!IsIdentifier(name)) return nullptr;
+  const fs::path entry = ModelCacheDirectory() / std::string(name);
+  const fs::path library = CurrentLibrary(entry);
+  if (library.empty()) return nullptr;
   Loaded& loaded = LoadedModels();
   const std::lock_guard<std::mutex> lock(loaded.mutex);
-  if (const auto it = loaded.models.find(name); it != loaded.models.end()) return it->second;
-  const fs::path library = ModelCacheDirectory() / std::string(name) / "model.so";
-  if (!IsFile(library)) return nullptr;
+  if (const auto it = loaded.by_library.find(library.string()); it != loaded.by_library.end())
+    return it->second;
   const ModelInfo* model = LoadLibrary(std::string(name), library);
-  loaded.models.emplace(std::string(name), model);
+  loaded.by_library.emplace(library.string(), model);
   return model;
 }
 
@@ -210,10 +385,11 @@ std::vector<BuiltModel> BuiltModels() {
   const fs::path cache = ModelCacheDirectory();
   for (const auto& entry : fs::directory_iterator(cache, ec)) {
     const std::string name = entry.path().filename().string();
-    if (name.empty() || name[0] == '.' || !IsFile(entry.path() / "model.so")) continue;
+    if (!IsIdentifier(name) || !entry.is_directory(ec)) continue;
     BuiltModel m;
     m.name = name;
-    m.library = entry.path() / "model.so";
+    m.library = CurrentLibrary(entry.path());
+    if (m.library.empty()) continue;
     m.spec = entry.path() / "spec.toml";
     m.current = IsFile(m.spec) && ReadBytes(entry.path() / "key") == BuildKey(ReadBytes(m.spec));
     out.push_back(m);
@@ -227,40 +403,11 @@ ModelBuild BuildModel(const fs::path& spec_path) {
   std::error_code ec;
   if (!fs::is_regular_file(spec_path, ec))
     throw InputError(spec_path.string() + ": cannot read the model spec");
-  const std::string spec_bytes = ReadBytes(spec_path);
-  const std::string key = BuildKey(spec_bytes);
-  const fs::path cache = ModelCacheDirectory();
-  fs::create_directories(cache, ec);
-  if (ec) throw InputError(cache.string() + ": cannot create the model cache (" + ec.message() + ")");
-
-  // Derive: vlt-gen writes the sources and prints the model's name (a spec error is its one line).
-  const fs::path work = cache / (".build-" + std::to_string(::getpid()));
-  fs::remove_all(work, ec);
-  fs::create_directories(work / "src", ec);
-  const fs::path log = work / "build.log";
-  struct Cleanup {
-    fs::path dir;
-    ~Cleanup() {
-      std::error_code e;
-      fs::remove_all(dir, e);
-    }
-  } cleanup{work};
-  const int gen = Run({FindGenerator().string(), "--plugin", fs::absolute(spec_path).string(), "--out",
-                       (work / "src").string()},
-                      log);
-  if (gen != 0) {
-    std::string line = FirstLine(log, "error:");
-    const std::string prefix = "vlt-gen: error: ";
-    if (line.rfind(prefix, 0) == 0) line = line.substr(prefix.size());
-    throw InputError(gen == 127 ? "vlt model build: cannot run vlt-gen" : line);
-  }
-  std::string name;
-  {
-    std::ifstream in(log);
-    std::string line;
-    while (std::getline(in, line)) {
-      if (!line.empty()) name = line;  // its last line
-    }
+  // The model's name is the spec's file stem (vlt-gen refuses a spec whose [model] name differs).
+  const std::string name = spec_path.stem().string();
+  if (!IsIdentifier(name)) {
+    throw InputError(spec_path.string() +
+                     ": a spec is named after its model (<name>.toml, the name an identifier)");
   }
   for (const ModelInfo* m : AllModels()) {
     if (name == m->name) {
@@ -268,49 +415,45 @@ ModelBuild BuildModel(const fs::path& spec_path) {
                        "' (give yours another name)");
     }
   }
+  const std::string spec_bytes = ReadBytes(spec_path);
+  const std::string key = BuildKey(spec_bytes);
+  const fs::path cache = ModelCacheDirectory();
   const fs::path entry = cache / name;
-  if (IsFile(entry / "model.so") && ReadBytes(entry / "key") == key) {
-    return {name, entry / "model.so", true, 0.0};
-  }
+  // Unchanged: found without deriving, compiling or writing (a read-only cache will do).
+  if (ReadBytes(entry / "key") == key && !CurrentLibrary(entry).empty())
+    return {name, CurrentLibrary(entry), true, 0.0};
 
-  // Compile: the kernels as the runtime compiles its own (IEEE, no contraction), every symbol but
-  // the entry point hidden (two models' internals never meet).
-  const std::string compiler = Env("CXX").empty() ? "c++" : Env("CXX");
-  const fs::path library = work / "model.so";
-  const fs::path include = FindIncludeDirectory();
-  const int cc =
-      Run({compiler, "-std=c++20", "-O3", "-fPIC", "-shared", "-fvisibility=hidden", "-ffp-contract=off",
-           "-fno-math-errno", "-I" + (work / "src").string(), "-I" + include.string(),
-           std::string("-I") + VLT_EIGEN_INCLUDE_DIR, (work / "src" / "generated" / (name + ".cc")).string(),
-           (work / "src" / "plugin.cc").string(), "-o", library.string()},
-          log);
-  if (cc == 127) throw InputError("vlt model build: no C++ compiler found ('" + compiler + "'; set CXX)");
-  if (cc != 0 || !IsFile(library)) {
-    throw InputError("vlt model build: " + spec_path.string() +
-                     ": the compiler failed: " + FirstLine(log, "error"));
-  }
+  fs::create_directories(cache, ec);
+  if (ec) throw InputError(cache.string() + ": cannot create the model cache (" + ec.message() + ")");
+  fs::permissions(cache, fs::perms::owner_all, fs::perm_options::replace, ec);
+  CheckOwnDirectory(cache);
+  const FileLock lock(cache / ("." + name + ".lock"));
+  // Another build of the same spec may have finished while this one waited for the lock.
+  if (ReadBytes(entry / "key") == key && !CurrentLibrary(entry).empty())
+    return {name, CurrentLibrary(entry), true, 0.0};
 
-  // Replace the cache's entry whole: the new one is renamed in, the old one out.
-  const fs::path staged = cache / ("." + name + ".new-" + std::to_string(::getpid()));
-  fs::remove_all(staged, ec);
-  fs::create_directories(staged, ec);
-  fs::rename(library, staged / "model.so", ec);
-  WriteBytes(staged / "spec.toml", spec_bytes);
-  WriteBytes(staged / "key", key);
-  fs::copy_file(log, staged / "build.log", fs::copy_options::overwrite_existing, ec);
-  const fs::path old = cache / ("." + name + ".old-" + std::to_string(::getpid()));
-  if (fs::exists(entry, ec)) fs::rename(entry, old, ec);
-  fs::rename(staged, entry, ec);
-  if (ec) throw InputError(entry.string() + ": cannot replace the cached model (" + ec.message() + ")");
-  fs::remove_all(old, ec);
-  {
-    // A model this process loaded before stays loaded; a later process loads the new library.
-    Loaded& loaded = LoadedModels();
-    const std::lock_guard<std::mutex> lock(loaded.mutex);
-    loaded.models.erase(name);
-  }
+  const WorkDirectory work(cache);
+  const fs::path library = work.path() / "model.so";
+  Derive(spec_path, work.path() / "src", work.path() / "derive.log");
+  Compile(name, work.path() / "src", library, work.path() / "compile.log",
+          cache / (name + ".failed-build.log"));
+
+  // Install: the library under its key's name, then the key by a rename (readers: old or new).
+  fs::create_directories(entry, ec);
+  fs::permissions(entry, fs::perms::owner_all, fs::perm_options::replace, ec);
+  const fs::path installed = entry / ("model-" + key.substr(0, 16) + ".so");
+  fs::rename(library, installed, ec);
+  if (ec) throw InputError(installed.string() + ": cannot install the model (" + ec.message() + ")");
+  WriteBytes(entry / "spec.toml", spec_bytes);
+  WriteBytes(entry / "build.log",
+             ReadBytes(work.path() / "derive.log") + ReadBytes(work.path() / "compile.log"));
+  WriteBytes(work.path() / "key", key);
+  fs::rename(work.path() / "key", entry / "key", ec);
+  if (ec) throw InputError((entry / "key").string() + ": cannot install the model (" + ec.message() + ")");
+  fs::remove(cache / (name + ".failed-build.log"), ec);
+  RemoveStaleLibraries(entry, installed);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return {name, entry / "model.so", false, seconds};
+  return {name, installed, false, seconds};
 }
 
 }  // namespace vlt
