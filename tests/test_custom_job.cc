@@ -8,6 +8,7 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "mcm/engine.h"
 #include "vlt/conformity.h"
@@ -594,4 +595,47 @@ points = ["A", "B"]
 }
 
 }  // namespace
+// JCGM 101 9.3's mass with the two masses exact and rho_a = 1.2, rho_W = rho_R: every first-order
+// sensitivity is 0, the second-order terms (d2 y / d rho_a d rho_W) are not. The ratio has no value:
+// infinite in the result, null in results.json, empty in outputs.csv, words in the summary; never a
+// sentinel number (issue 31; it printed "2nd order 1e+300 x u^2").
+TEST(CustomJob, FirstOrderZeroHasNoSecondOrderRatioNumber) {
+  const CustomJob job = ParseCustomJob(R"(
+[model]
+name = "jcgm101_mass"
+[inputs.m_Rc]
+u = 0
+[inputs.delta_m_Rc]
+u = 0
+)",
+                                       "zero.toml", std::filesystem::path(kExamples));
+  const CustomResults r = RunCustomJob(job, NoMcm());
+  const CustomOutput& g = r.outputs[0].gum;
+  EXPECT_EQ(g.u, 0.0);
+  EXPECT_GT(g.second_order_variance, 0.0);
+  EXPECT_TRUE(std::isinf(g.second_order_ratio));
+  EXPECT_FALSE(g.gum_reliable);
+  const auto files = ResultFiles(r);
+  for (const auto& [name, text] : files) {
+    EXPECT_EQ(text.find("1e+300"), std::string::npos) << name;
+    if (name == "outputs.csv") {
+      // The field under second_order_ratio is empty.
+      const std::string header = text.substr(0, text.find('\n'));
+      const std::string row =
+          text.substr(header.size() + 1, text.find('\n', header.size() + 1) - header.size() - 1);
+      auto field = [](const std::string& line, int k) {
+        std::size_t begin = 0;
+        for (int i = 0; i < k; ++i) begin = line.find(',', begin) + 1;
+        return line.substr(begin, line.find(',', begin) - begin);
+      };
+      int column = 0;
+      while (field(header, column) != "second_order_ratio") ++column;
+      EXPECT_EQ(field(row, column), "");
+    }
+    if (name == "results.json") {
+      EXPECT_TRUE(nlohmann::json::parse(text)["outputs"][0]["gum"]["second_order"]["ratio"].is_null());
+    }
+  }
+}
+
 }  // namespace vlt

@@ -93,8 +93,8 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
                          "deviation); give more, or run with --no-mcm");
       }
     }
-    McmSettings settings =
-        results_internal::McmSettingsFor(job.monte_carlo, options, options.threads.value_or(job.monte_carlo.threads));
+    McmSettings settings = results_internal::McmSettingsFor(
+        job.monte_carlo, options, options.threads.value_or(job.monte_carlo.threads));
     for (int o = 0; o < model.num_outputs; ++o) {
       if (job.tolerances[o])
         settings.tolerances.push_back({o, job.tolerances[o]->lower, job.tolerances[o]->upper});
@@ -166,7 +166,8 @@ std::string OutputsCsv(const CustomResults& r) {
     out << g.name << "," << g.unit << "," << Num(g.estimate) << "," << Num(g.u) << ","
         << DofText(g.dof_effective) << "," << Num(g.k) << "," << Num(g.U) << "," << Num(g.estimate - g.U)
         << "," << Num(g.estimate + g.U) << "," << Num(std::sqrt(g.u * g.u + g.second_order_variance)) << ","
-        << Num(g.second_order_ratio) << "," << (g.gum_reliable ? "true" : "false") << ",";
+        << (std::isfinite(g.second_order_ratio) ? Num(g.second_order_ratio) : std::string()) << ","
+        << (g.gum_reliable ? "true" : "false") << ",";
     if (o.has_mcm) {
       out << Num(o.mcm.mean) << "," << Num(o.mcm.u) << "," << Num(o.mcm.symmetric.low) << ","
           << Num(o.mcm.symmetric.high) << "," << Num(o.mcm.shortest.low) << "," << Num(o.mcm.shortest.high)
@@ -470,8 +471,10 @@ std::string ReportHtmlText(const CustomResults& r) {
     }
     h << "<td class=\"l " << (g.gum_reliable ? "ok" : "bad") << "\">"
       << (g.gum_reliable ? "reliable" : "GUM NOT RELIABLE") << ": second-order terms "
-      << base_internal::Sig(100.0 * g.second_order_ratio, 3) << " % of u&sup2;, u with them "
-      << base_internal::Sig(std::sqrt(g.u * g.u + g.second_order_variance), 4) << "</td>";
+      << (std::isfinite(g.second_order_ratio)
+              ? base_internal::Sig(100.0 * g.second_order_ratio, 3) + " % of u&sup2;"
+              : std::string("where the first-order u is 0"))
+      << ", u with them " << base_internal::Sig(std::sqrt(g.u * g.u + g.second_order_variance), 4) << "</td>";
     h << "</tr>\n";
   }
   h << "</table>\n";
@@ -480,7 +483,8 @@ std::string ReportHtmlText(const CustomResults& r) {
       << " (sqrt of the chi-square quantile, " << model.num_outputs << " dimensions)";
     if (r.region->has_mcm) {
       h << "; Monte Carlo k = " << RegionK(*r.region) << " (ratio "
-        << (r.region->mcm.has_region ? base_internal::Sig(r.region->coverage_factor_ratio, 4) : std::string("-"))
+        << (r.region->mcm.has_region ? base_internal::Sig(r.region->coverage_factor_ratio, 4)
+                                     : std::string("-"))
         << "), relative covariance difference " << base_internal::Sig(r.region->covariance_difference, 3);
     }
     h << ". Output correlation (GUM): ";
@@ -503,8 +507,9 @@ std::string ReportHtmlText(const CustomResults& r) {
       if (!o.conformity) continue;
       h << "<tr><td class=l>" << Esc(o.gum.name) << "</td><td class=l>"
         << Esc(DescribeTolerance(*o.tolerance, o.gum.unit)) << "</td><td>"
-        << base_internal::Sig(o.conformity->guard_band, 4) << "</td><td class=l>" << Esc(o.conformity->verdict)
-        << "</td><td>" << base_internal::Sig(*o.conformity->probability_gum, 4) << "</td><td>"
+        << base_internal::Sig(o.conformity->guard_band, 4) << "</td><td class=l>"
+        << Esc(o.conformity->verdict) << "</td><td>" << base_internal::Sig(*o.conformity->probability_gum, 4)
+        << "</td><td>"
         << (o.conformity->probability_mcm ? base_internal::Sig(*o.conformity->probability_mcm, 4)
                                           : std::string(""))
         << "</td></tr>\n";
@@ -566,7 +571,11 @@ std::string SummaryText(const CustomResults& r) {
     if (!g.gum_reliable) {
       // JCGM 100 5.1.2 note, computed without Monte Carlo: said with --no-mcm too.
       char flag[96];
-      std::snprintf(flag, sizeof flag, "GUM NOT RELIABLE (2nd order %.3g x u^2); ", g.second_order_ratio);
+      if (std::isfinite(g.second_order_ratio)) {
+        std::snprintf(flag, sizeof flag, "GUM NOT RELIABLE (2nd order %.3g x u^2); ", g.second_order_ratio);
+      } else {
+        std::snprintf(flag, sizeof flag, "GUM NOT RELIABLE (first-order u is 0, 2nd order is not); ");
+      }
       verdict = flag + verdict;
     }
     std::snprintf(line, sizeof line, "%-16s %-6s %17.10g %11.4g %7s %6.3f %11.4g %11s  %s\n", g.name.c_str(),

@@ -183,8 +183,10 @@ void SecondOrderCheck(const Linearisation& lin, int o, double var, CustomOutput&
     throw NumericalError(std::string("model '") + lin.model.name + "': output '" + out.name +
                          "': the second-order check gives a non-finite result");
   }
-  out.second_order_ratio =
-      var > 0.0 ? out.second_order_variance / var : (out.second_order_variance > 0.0 ? 1e300 : 0.0);
+  // A first-order variance of 0 with second-order terms: no ratio (infinity; gum/nonlinearity.cc).
+  out.second_order_ratio = var > 0.0                         ? out.second_order_variance / var
+                           : out.second_order_variance > 0.0 ? std::numeric_limits<double>::infinity()
+                                                             : 0.0;
   out.gum_reliable = out.second_order_ratio <= kSecondOrderThreshold;
 }
 

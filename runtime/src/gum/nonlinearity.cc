@@ -13,6 +13,7 @@
 // the linearisation leaves out; above the threshold the point is flagged "GUM not reliable".
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "gum/internal.h"
 #include "parallel/pool.h"
@@ -38,56 +39,62 @@ void CheckSecondOrder(const MeasurementModel& model, std::span<const PointReadin
   // 3 x S x S product per Jacobian (2 (3 + S) Jacobians per point).
   const bool f_is_diagonal = f_shared.isDiagonal(0.0);
   const Eigen::VectorXd f_diagonal = f_shared.diagonal();
-  parallel_internal::ForEachChunk(points.size(), 64, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
-    Eigen::Matrix<double, 3, 3> jr;
-    Eigen::Matrix<double, 3, Eigen::Dynamic> js(3, S);
-    Eigen::Vector3d y;
-    Eigen::VectorXd s(S);
-    Eigen::MatrixXd jz_plus(3, n), jz_minus(3, n);
-    Eigen::VectorXd s_plus(S), s_minus(S);
-    std::vector<Eigen::MatrixXd> h(3, Eigen::MatrixXd(n, n));
-    for (std::size_t i = begin; i < end; ++i) {
-      const Eigen::Vector3d r0 = points[i].readings;
-      const Eigen::Vector3d u_r = model.reading_uncertainty(r0(0));
-      // J_z at x: [dy/dr diag(u_r) | dy/ds F].
-      auto jz = [&](const Eigen::Vector3d& r, const Eigen::VectorXd& shared, Eigen::MatrixXd& out) {
-        model.EvaluateWithJacobian(r.data(), shared.data(), y.data(), jr.data(), js.data());
-        out.leftCols(3) = jr * u_r.asDiagonal();
-        if (f_is_diagonal) {
-          out.rightCols(S) = js * f_diagonal.asDiagonal();
-        } else {
-          out.rightCols(S).noalias() = js * f_shared;
+  parallel_internal::ForEachChunk(
+      points.size(), 64, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
+        Eigen::Matrix<double, 3, 3> jr;
+        Eigen::Matrix<double, 3, Eigen::Dynamic> js(3, S);
+        Eigen::Vector3d y;
+        Eigen::VectorXd s(S);
+        Eigen::MatrixXd jz_plus(3, n), jz_minus(3, n);
+        Eigen::VectorXd s_plus(S), s_minus(S);
+        std::vector<Eigen::MatrixXd> h(3, Eigen::MatrixXd(n, n));
+        for (std::size_t i = begin; i < end; ++i) {
+          const Eigen::Vector3d r0 = points[i].readings;
+          const Eigen::Vector3d u_r = model.reading_uncertainty(r0(0));
+          // J_z at x: [dy/dr diag(u_r) | dy/ds F].
+          auto jz = [&](const Eigen::Vector3d& r, const Eigen::VectorXd& shared, Eigen::MatrixXd& out) {
+            model.EvaluateWithJacobian(r.data(), shared.data(), y.data(), jr.data(), js.data());
+            out.leftCols(3) = jr * u_r.asDiagonal();
+            if (f_is_diagonal) {
+              out.rightCols(S) = js * f_diagonal.asDiagonal();
+            } else {
+              out.rightCols(S).noalias() = js * f_shared;
+            }
+          };
+          for (int k = 0; k < n; ++k) {
+            Eigen::Vector3d r_plus = r0, r_minus = r0;
+            s_plus = s0;
+            s_minus = s0;
+            if (k < 3) {
+              r_plus(k) += u_r(k);
+              r_minus(k) -= u_r(k);
+            } else {
+              s_plus += f_shared.col(k - 3);
+              s_minus -= f_shared.col(k - 3);
+            }
+            jz(r_plus, s_plus, jz_plus);
+            jz(r_minus, s_minus, jz_minus);
+            for (int a = 0; a < 3; ++a) h[a].col(k) = 0.5 * (jz_plus.row(a) - jz_minus.row(a)).transpose();
+          }
+          PointUncertainty& p = results[i];
+          for (int a = 0; a < 3; ++a) {
+            const Eigen::MatrixXd sym = 0.5 * (h[a] + h[a].transpose());
+            p.second_order_variance(a) = 0.5 * sym.squaredNorm();
+            const double var1 = p.cov_part(a, a);
+            // A first-order variance of 0 with second-order terms: the ratio has no value (infinity here,
+            // null in results.json, empty in the CSV files, "first-order u is 0" in words), never a
+            // sentinel number (issue 31).
+            p.second_order_ratio(a) = var1 > 0.0 ? p.second_order_variance(a) / var1
+                                      : p.second_order_variance(a) > 0.0
+                                          ? std::numeric_limits<double>::infinity()
+                                          : 0.0;
+          }
+          if (!p.second_order_variance.allFinite()) {
+            throw NumericalError("point '" + p.name + "': the second-order check gives a non-finite result");
+          }
+          p.gum_reliable = p.second_order_ratio.maxCoeff() <= threshold;
         }
-      };
-      for (int k = 0; k < n; ++k) {
-        Eigen::Vector3d r_plus = r0, r_minus = r0;
-        s_plus = s0;
-        s_minus = s0;
-        if (k < 3) {
-          r_plus(k) += u_r(k);
-          r_minus(k) -= u_r(k);
-        } else {
-          s_plus += f_shared.col(k - 3);
-          s_minus -= f_shared.col(k - 3);
-        }
-        jz(r_plus, s_plus, jz_plus);
-        jz(r_minus, s_minus, jz_minus);
-        for (int a = 0; a < 3; ++a) h[a].col(k) = 0.5 * (jz_plus.row(a) - jz_minus.row(a)).transpose();
-      }
-      PointUncertainty& p = results[i];
-      for (int a = 0; a < 3; ++a) {
-        const Eigen::MatrixXd sym = 0.5 * (h[a] + h[a].transpose());
-        p.second_order_variance(a) = 0.5 * sym.squaredNorm();
-        const double var1 = p.cov_part(a, a);
-        p.second_order_ratio(a) =
-            var1 > 0.0 ? p.second_order_variance(a) / var1 : (p.second_order_variance(a) > 0.0 ? 1e300 : 0.0);
-      }
-      if (!p.second_order_variance.allFinite()) {
-        throw NumericalError("point '" + p.name + "': the second-order check gives a non-finite result");
-      }
-      p.gum_reliable = p.second_order_ratio.maxCoeff() <= threshold;
-    }
-  });
+      });
 }
 
 }  // namespace vlt

@@ -49,7 +49,9 @@ class Row {
 // Rows of a per-point file, formatted into a buffer that is written every kWriteBufferBytes.
 class RowBuffer {
  public:
-  explicit RowBuffer(OutputText& out) : out_(out) { buffer_.reserve(results_internal::kWriteBufferBytes + 4096); }
+  explicit RowBuffer(OutputText& out) : out_(out) {
+    buffer_.reserve(results_internal::kWriteBufferBytes + 4096);
+  }
   ~RowBuffer() { out_.Write(buffer_); }
   RowBuffer(const RowBuffer&) = delete;
   RowBuffer& operator=(const RowBuffer&) = delete;
@@ -107,7 +109,13 @@ void WritePointsCsv(const Results& r, OutputText& text) {
     row << g.U_part.norm() * kUm << g.ellipsoid.k;
     for (int a = 0; a < 3; ++a) row << g.ellipsoid.semi_axes[a] * kUm;
     row << g.los_part.u_radial * kUm << g.los_part.u_horizontal * kUm << g.los_part.u_vertical * kUm;
-    row << g.second_order_ratio.maxCoeff() << std::string(g.gum_reliable ? "yes" : "no");
+    // No ratio where the first-order u is 0 (infinite): an empty field, never a number.
+    if (const double ratio = g.second_order_ratio.maxCoeff(); std::isfinite(ratio)) {
+      row << ratio;
+    } else {
+      row.Empty();
+    }
+    row << std::string(g.gum_reliable ? "yes" : "no");
     if (p.has_mcm) {
       const PointMcm& m = *p.monte_carlo;
       for (int a = 0; a < 3; ++a) row << m.axes[a].mean * kMm;

@@ -70,8 +70,12 @@ std::string PointVerdict(const PointResult& p) {
   if (!g.gum_reliable) {
     // JCGM 100 5.1.2 note, computed without Monte Carlo: said with --no-mcm too.
     char flag[96];
-    std::snprintf(flag, sizeof flag, "GUM NOT RELIABLE (2nd order %.3g x u^2); ",
-                  g.second_order_ratio.maxCoeff());
+    const double ratio = g.second_order_ratio.maxCoeff();
+    if (std::isfinite(ratio)) {
+      std::snprintf(flag, sizeof flag, "GUM NOT RELIABLE (2nd order %.3g x u^2); ", ratio);
+    } else {
+      std::snprintf(flag, sizeof flag, "GUM NOT RELIABLE (first-order u is 0, 2nd order is not); ");
+    }
     verdict = flag + verdict;
   }
   return verdict;
