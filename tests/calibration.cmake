@@ -31,30 +31,12 @@ set_tests_properties(report_browser_test PROPERTIES TIMEOUT 300)
 
 # Report safety (issue 32): tests named to end the report's script and run their own; the names are
 # shown literally (escaped in the tables) and in the browser nothing of them runs.
-add_test(NAME cli_test_hostile_names
-  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
-          "-DARGS=test;${_cal_jobs}/hostile_tests.toml;-o;${_out}/cal_test_hostile"
-          -DOUT=${_out}/cal_test_hostile "-DFILES=tests.csv;report.html"
-          "-DEXPECT_FILE_REGEX=report.html:&lt;/script&gt;&lt;script&gt;window[.]vltErrors[.]push"
-          -P ${_cli}/expect_outputs.cmake)
-set_tests_properties(cli_test_hostile_names PROPERTIES FIXTURES_SETUP vlt_cal_test_hostile)
-add_test(NAME report_browser_test_hostile
-  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/cal_test_hostile/report.html -DPROFILE=${_out}/chromium-profile-cal-hostile
-          -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
-set_tests_properties(report_browser_test_hostile PROPERTIES FIXTURES_REQUIRED vlt_cal_test_hostile TIMEOUT 300)
-
-add_test(NAME cli_calibrate_hostile_names
-  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
-          "-DARGS=calibrate;${_cal_jobs}/hostile_calibration.toml;-o;${_out}/cal_calibrate_hostile"
-          -DOUT=${_out}/cal_calibrate_hostile "-DFILES=residuals.csv;report.html;calibration.toml"
-          "-DEXPECT_FILE_REGEX=report.html:&lt;/script&gt;&lt;script&gt;window[.]vltErrors[.]push"
-          -P ${_cli}/expect_outputs.cmake)
-set_tests_properties(cli_calibrate_hostile_names PROPERTIES FIXTURES_SETUP vlt_cal_calibrate_hostile)
-add_test(NAME report_browser_calibrate_hostile
-  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/cal_calibrate_hostile/report.html
-          -DPROFILE=${_out}/chromium-profile-cal-calibrate-hostile -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
-set_tests_properties(report_browser_calibrate_hostile PROPERTIES FIXTURES_REQUIRED vlt_cal_calibrate_hostile
-                     TIMEOUT 300)
+vlt_hostile_report(test report.html "tests.csv;report.html"
+                   "report.html:&lt;/script&gt;&lt;script&gt;window[.]vltErrors[.]push" 1
+                   test ${_cal_jobs}/hostile_tests.toml)
+vlt_hostile_report(calibrate report.html "residuals.csv;report.html;calibration.toml"
+                   "report.html:&lt;/script&gt;&lt;script&gt;window[.]vltErrors[.]push" 1
+                   calibrate ${_cal_jobs}/hostile_calibration.toml)
 
 add_test(NAME cli_calibrate_example
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>

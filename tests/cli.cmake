@@ -134,45 +134,21 @@ set_tests_properties(cli_make_scan_large PROPERTIES FIXTURES_SETUP vlt_scan_larg
 # Report safety (issue 32): a job whose points, task and description are named to end the report's
 # <script> and run their own. The page's data carry them as JSON with every '<' written \u003c
 # (nothing can close the script element); in the browser every plot draws and nothing of them runs.
-add_test(NAME cli_run_hostile_names
-  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_jobs}/hostile_names.toml;-o;${_out}/run_hostile"
-          -DOUT=${_out}/run_hostile "-DFILES=points.csv;tasks.csv;results.json;report.html"
-          "-DEXPECT_FILE_REGEX=report.html:[\\]u003c/script>[\\]u003cscript>window[.]vltErrors[.]push[(]'injected'[)]"
-          -P ${_cli}/expect_outputs.cmake)
-set_tests_properties(cli_run_hostile_names PROPERTIES FIXTURES_SETUP vlt_run_hostile)
-add_test(NAME report_browser_run_hostile
-  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/run_hostile/report.html -DPROFILE=${_out}/chromium-profile-run-hostile
-          -DMIN_PLOTS=3 -P ${_cli}/report_browser.cmake)
-set_tests_properties(report_browser_run_hostile PROPERTIES FIXTURES_REQUIRED vlt_run_hostile TIMEOUT 300)
-
+vlt_hostile_report(run report.html "points.csv;tasks.csv;results.json;report.html"
+                   "report.html:[\\\\]u003c/script>[\\\\]u003cscript>window[.]vltErrors[.]push[(]'injected'[)]" 3
+                   run ${_jobs}/hostile_names.toml)
 # The same names on the map's markers (map.html) and in a station search: the station map draws and
 # the planned job, which holds the names in TOML, runs (its strings escaped for TOML).
-add_test(NAME cli_map_hostile_names
-  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
-          "-DARGS=map;${_jobs}/hostile_names.toml;--plane;z=0;--extent;2,5,-1,2;--step;0.5m;-o;${_out}/map_hostile"
-          -DOUT=${_out}/map_hostile "-DFILES=map.csv;map.html"
-          "-DEXPECT_FILE_REGEX=map.html:[\\]u003c/script>[\\]u003cscript>window[.]vltErrors[.]push[(]'injected'[)]"
-          -P ${_cli}/expect_outputs.cmake)
-set_tests_properties(cli_map_hostile_names PROPERTIES FIXTURES_SETUP vlt_map_hostile)
-add_test(NAME report_browser_map_hostile
-  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/map_hostile/map.html -DPROFILE=${_out}/chromium-profile-map-hostile
-          -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
-set_tests_properties(report_browser_map_hostile PROPERTIES FIXTURES_REQUIRED vlt_map_hostile TIMEOUT 300)
-add_test(NAME cli_plan_hostile_names
-  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
-          "-DARGS=plan;${_jobs}/hostile_plan.toml;--threads;2;-o;${_out}/plan_hostile"
-          -DOUT=${_out}/plan_hostile "-DFILES=plan.json;station_map.html;planned_job.toml"
-          -P ${_cli}/expect_outputs.cmake)
-set_tests_properties(cli_plan_hostile_names PROPERTIES FIXTURES_SETUP vlt_plan_hostile)
-add_test(NAME report_browser_plan_hostile
-  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/plan_hostile/station_map.html -DPROFILE=${_out}/chromium-profile-plan-hostile
-          -DMIN_PLOTS=1 -P ${_cli}/report_browser.cmake)
+vlt_hostile_report(map map.html "map.csv;map.html"
+                   "map.html:[\\\\]u003c/script>[\\\\]u003cscript>window[.]vltErrors[.]push[(]'injected'[)]" 1
+                   map ${_jobs}/hostile_names.toml --plane z=0 --extent 2,5,-1,2 --step 0.5m)
+vlt_hostile_report(plan station_map.html "plan.json;station_map.html;planned_job.toml" "" 1
+                   plan ${_jobs}/hostile_plan.toml --threads 2)
 add_test(NAME cli_plan_hostile_planned_job_runs
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
           "-DARGS=run;${_out}/plan_hostile/planned_job.toml;--no-mcm;-o;${_out}/plan_hostile_run"
           -DOUT=${_out}/plan_hostile_run "-DFILES=points.csv;report.html" -P ${_cli}/expect_outputs.cmake)
-set_tests_properties(report_browser_plan_hostile cli_plan_hostile_planned_job_runs PROPERTIES
-                     FIXTURES_REQUIRED vlt_plan_hostile TIMEOUT 300)
+set_tests_properties(cli_plan_hostile_planned_job_runs PROPERTIES FIXTURES_REQUIRED vlt_plan_hostile TIMEOUT 300)
 
 add_test(NAME cli_run_scan_large
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_out}/scan_large_job/scan.toml;-q;-o;${_out}/scan_large"

@@ -19,6 +19,7 @@
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
 
+#include "test_frame_helpers.h"
 #include "test_mcm_helpers.h"
 #include "vlt/error.h"
 #include "vlt/fits.h"
@@ -33,11 +34,7 @@ using Eigen::Matrix3d;
 using Eigen::Matrix3Xd;
 using Eigen::Vector3d;
 
-Matrix3d Rotation(double rx, double ry, double rz) {
-  return (Eigen::AngleAxisd(rz, Vector3d::UnitZ()) * Eigen::AngleAxisd(ry, Vector3d::UnitY()) *
-          Eigen::AngleAxisd(rx, Vector3d::UnitX()))
-      .toRotationMatrix();
-}
+using test::Rotation;
 
 // A panel's nominal points (part frame, m): a 2 m x 1 m grid with some relief.
 Matrix3Xd PanelNominal(int n) {

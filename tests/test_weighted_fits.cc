@@ -24,6 +24,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "test_frame_helpers.h"
 #include "vlt/error.h"
 #include "vlt/fits.h"
 #include "vlt/job.h"
@@ -36,11 +37,7 @@ using Eigen::Matrix3d;
 using Eigen::Matrix3Xd;
 using Eigen::Vector3d;
 
-Matrix3d Rotation(double rx, double ry, double rz) {
-  return (Eigen::AngleAxisd(rz, Vector3d::UnitZ()) * Eigen::AngleAxisd(ry, Vector3d::UnitY()) *
-          Eigen::AngleAxisd(rx, Vector3d::UnitX()))
-      .toRotationMatrix();
-}
+using test::Rotation;
 
 // Distinct form values (m), well apart so that no extreme changes point under a 1e-6 m step (the
 // plane's permutation too after the weighted fit's tilt: its two largest residuals 23 um apart).

@@ -209,10 +209,14 @@ WeightedSolution SolveWeighted(Problem& problem, const Eigen::Ref<const Eigen::M
   // in their units), or when no step lowers F while the predicted decrease is below 1e-8 max(F,
   // rows) (the minimum to rounding); a stall above that is a failure, not a result.
   Eigen::LDLT<Eigen::Matrix<double, P, P>> normal;
+  // W J and W r of the current fit; every exit from the loop leaves them at the solution, where the
+  // Jacobian below uses them again.
+  Eigen::MatrixXd wj;
+  Eigen::VectorXd wr;
   for (;; ++s.iterations) {
     if (s.iterations >= 100) Fail(where, kind, "the weighted fit did not converge in 100 steps");
-    const Eigen::MatrixXd wj = w.Apply(lin.j_theta);
-    const Eigen::VectorXd wr = w.Apply(lin.r);
+    wj = w.Apply(lin.j_theta);
+    wr = w.Apply(lin.r);
     const double f = lin.r.dot(wr);
     const Eigen::Matrix<double, P, P> h = lin.j_theta.transpose() * wj;
     const Eigen::Matrix<double, P, 1> g = lin.j_theta.transpose() * wr;
@@ -255,9 +259,8 @@ WeightedSolution SolveWeighted(Problem& problem, const Eigen::Ref<const Eigen::M
   s.dr_dx = lin.j_x;
   if (!options.jacobian) return s;
 
-  // Implicit function theorem with the full Hessian (header comment).
-  const Eigen::MatrixXd wj = w.Apply(lin.j_theta);
-  const Eigen::VectorXd lambda = w.Apply(lin.r);
+  // Implicit function theorem with the full Hessian (header comment); lambda = W r.
+  const Eigen::VectorXd& lambda = wr;
   Eigen::Matrix<double, P, P> h = lin.j_theta.transpose() * wj;
   Eigen::MatrixXd dg(P, 3 * n);
   for (long i = 0; i < n; ++i) {
