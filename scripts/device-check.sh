@@ -10,7 +10,8 @@
 #                                  carries at most 64 MiB, the files unpacked are about 70 MiB);
 #                                  VLT_BASELINE=<vlt binary> adds a baseline build to compare with
 #   scripts/device-check.sh run    there (the device tool: carry .devcarry, OUT set): runs every
-#                                  check within about five minutes, writing logs and JSON to $OUT
+#                                  check within about five minutes, writing logs and JSON to $OUT;
+#                                  `run scan`: only the machine and the scans (about one minute)
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 CARRY=/tmp/vlt-devcarry  # the unpacked bundle, here while packing and there while running
@@ -100,6 +101,33 @@ mcm_map() {
   [[ $bin == vlt && $threads == 1 ]] || same "mcm map $bin threads=$threads" "$dir/map.csv" /tmp/vlt-map-vlt-1/map.csv
 }
 
+# scans: the scan of 10^6 points (issue 33, docs/performance.md 4.2: GUM, the compact per-point
+# file by default) on 1, 2, 4, 8 and 16 threads, points.csv and tasks.csv the same bytes as on 1
+# thread; the 10^5-point scan in full detail (what every scan wrote before), 1 and 16 threads.
+scans() {
+  python3 "$ROOT/tests/cli/make_scan.py" 1000000 "$CARRY/jobs/scan6" >/dev/null
+  local threads dir
+  for threads in 1 2 4 8 16; do
+    dir="/tmp/vlt-scan6-$threads"
+    rm -rf "$dir"
+    timed "scan 1e6 vlt threads=$threads" \
+      "$CARRY/vlt" run "$CARRY/jobs/scan6/scan.toml" --threads "$threads" -o "$dir" --quiet
+    [[ $threads == 1 ]] && du -sb "$dir" >>"$OUT/cli_times.txt"
+    [[ $threads == 1 ]] || same "scan 1e6 points.csv threads=$threads" "$dir/points.csv" /tmp/vlt-scan6-1/points.csv
+    [[ $threads == 1 ]] || same "scan 1e6 tasks.csv threads=$threads" "$dir/tasks.csv" /tmp/vlt-scan6-1/tasks.csv
+  done
+  # Like for like, the detail every scan wrote before (points.jsonl, budget.csv, the full
+  # points.csv): the 10^5-point scan with [output] detail = "full", 1 and 16 threads.
+  cp "$CARRY/jobs/scan/scan.toml" "$CARRY/jobs/scan/scan_full.toml"
+  printf '[output]\ndetail = "full"\n' >>"$CARRY/jobs/scan/scan_full.toml"
+  for threads in 1 16; do
+    rm -rf /tmp/vlt-scan-full
+    timed "scan 1e5 full detail threads=$threads" \
+      "$CARRY/vlt" run "$CARRY/jobs/scan/scan_full.toml" --threads "$threads" -o /tmp/vlt-scan-full --quiet
+  done
+  du -sb /tmp/vlt-scan-full >>"$OUT/cli_times.txt"
+}
+
 run() {
   : "${OUT:?OUT must name the folder for the results}"
   rm -rf "$CARRY" && mkdir -p "$CARRY" && tar -C "$CARRY" -xJf "$ROOT/.devcarry/bundle.tar.xz"
@@ -109,6 +137,11 @@ run() {
     lscpu | grep -E 'Model name|^CPU\(s\)|Thread|Core|Socket|NUMA node\(s\)|Flags' | sed 's/Flags:.*avx512f.*/Flags: ... avx512f .../'
     nvidia-smi -L || true
   } 2>&1 | tee "$OUT/machine.txt"
+  if [[ ${1:-all} == scan ]]; then
+    scans
+    cat "$OUT/cli_times.txt"
+    return
+  fi
   "$CARRY/gpu_probe" 2>&1 | tee "$OUT/gpu_probe.txt" || true
   # Monte Carlo thread scaling (bench/bench_mcm.cc mcm/scaling/*): three repetitions, their median.
   "$CARRY/vlt_bench" --benchmark_filter='mcm/scaling' --benchmark_repetitions=3 \
@@ -131,11 +164,12 @@ run() {
       "$CARRY/vlt" run "$CARRY/jobs/scan/scan.toml" --threads "$threads" -o /tmp/vlt-scan --quiet
   done
   du -sh /tmp/vlt-scan >>"$OUT/cli_times.txt"
+  scans
   cat "$OUT/cli_times.txt"
 }
 
 case "${1:-}" in
   pack) pack ;;
-  run) run ;;
-  *) echo "usage: $0 pack|run" >&2; exit 2 ;;
+  run) run "${2:-all}" ;;
+  *) echo "usage: $0 pack | run [all|scan]" >&2; exit 2 ;;
 esac

@@ -124,9 +124,10 @@ add_test(NAME report_browser_scan
           -DMIN_PLOTS=3 -DMAX_BYTES=10000000 -P ${_cli}/report_browser.cmake)
 set_tests_properties(report_browser_scan PROPERTIES FIXTURES_REQUIRED vlt_scan_outputs TIMEOUT 300)
 
-# A large scan (10^5 points, generated at test time): every file is written (points.jsonl has a
-# line per point), and the report stays small (the 200 largest-|U| points, an overview of 20000)
-# and draws. docs/performance.md 4.2 records the 10^6-point run (time, memory, page size).
+# A large scan (10^5 points, generated at test time): the compact per-point file (the default above
+# 10^4 points; points.jsonl and budget.csv are not written, check_points_npy.py checks their
+# absence and the rows), and the report stays small (the 200 largest-|U| points, an overview of
+# 20000) and draws. docs/performance.md 4.2 records the 10^6-point run (time, memory, bytes).
 find_package(Python3 COMPONENTS Interpreter REQUIRED)
 add_test(NAME cli_make_scan_large
   COMMAND ${Python3_EXECUTABLE} ${_cli}/make_scan.py 100000 ${_out}/scan_large_job)
@@ -152,7 +153,8 @@ set_tests_properties(cli_plan_hostile_planned_job_runs PROPERTIES FIXTURES_REQUI
 
 add_test(NAME cli_run_scan_large
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_out}/scan_large_job/scan.toml;-q;-o;${_out}/scan_large"
-          -DOUT=${_out}/scan_large "-DFILES=${_all_files};points.jsonl" -DSKIP_JSONL_LINES=ON -P ${_cli}/expect_outputs.cmake)
+          -DOUT=${_out}/scan_large "-DFILES=points.csv;tasks.csv;results.json;report.html" -DSKIP_JSONL_LINES=ON
+          -P ${_cli}/expect_outputs.cmake)
 set_tests_properties(cli_run_scan_large PROPERTIES FIXTURES_REQUIRED vlt_scan_large_job
                      FIXTURES_SETUP vlt_scan_large_outputs TIMEOUT 600)
 add_test(NAME report_browser_scan_large
@@ -279,3 +281,16 @@ endif()
 add_test(NAME cli_hostile_files
   COMMAND bash ${_cli}/hostile_files.sh $<TARGET_FILE:vlt> ${CMAKE_SOURCE_DIR} ${_out}/hostile_files)
 set_tests_properties(cli_hostile_files PROPERTIES TIMEOUT 300)
+
+# points.npy ([output] arrays = true) read by numpy, not by vlt: every field the number points.jsonl
+# and budget.csv hold (full detail, a plan job with Monte Carlo and an online job without), and the
+# compact points.csv of a 2*10^4-point scan row by row the rounded record, its dominant input the
+# largest of the budget fields (docs/results.md "Detail of the per-point files").
+add_test(NAME cli_points_npy_plan_full
+  COMMAND ${Python3_EXECUTABLE} ${_cli}/check_points_npy.py $<TARGET_FILE:vlt> ${_out}/npy_plan full
+          ${CMAKE_SOURCE_DIR}/examples/panel_station.toml --trials 20000)
+add_test(NAME cli_points_npy_online_full
+  COMMAND ${Python3_EXECUTABLE} ${_cli}/check_points_npy.py $<TARGET_FILE:vlt> ${_out}/npy_online full
+          ${CMAKE_SOURCE_DIR}/examples/online_readings.toml --no-mcm)
+add_test(NAME cli_points_npy_scan_compact
+  COMMAND ${Python3_EXECUTABLE} ${_cli}/check_points_npy.py $<TARGET_FILE:vlt> ${_out}/npy_scan compact 20000)

@@ -628,6 +628,9 @@ TEST(Job, BadInputClasses) {
        "job.toml: map: extent: expected 4 comma-separated values"},
       {good + "[readings]\ncsv = \"x.csv\"\n",
        "give either [plan] (offline) or [readings] (online), not both"},
+      {good + "[output]\ndetail = \"everything\"\n",
+       "job.toml: output.detail: must be \"auto\", \"full\" or \"compact\""},
+      {good + "[output]\narrays = \"yes\"\n", "job.toml: output.arrays:"},
   };
   for (const Case& c : cases) {
     std::string message = ErrorOf(c.text);

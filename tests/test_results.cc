@@ -265,7 +265,7 @@ matrix = [[1, 1], [1, 1]]
   ASSERT_EQ(p.size(), static_cast<std::size_t>(job.setup.model->num_params));
   EXPECT_EQ(p[a0][eas], 0.4);
   EXPECT_EQ(p[a0][a0], 1.0);
-  const std::string handling = r.points[0].gum.correlation_handling;
+  const std::string handling = r.correlation_handling;
   EXPECT_NE(handling.find("correlation groups: encoder, thermometer"), std::string::npos) << handling;
   // The distance's budget by group: the cross terms between environment and thermal in
   // "correlation"; the entries add up to the variance.

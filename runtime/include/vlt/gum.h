@@ -260,6 +260,10 @@ struct TaskUncertainty {
 // point or fit.
 TaskUncertainty PropagateTask(const MeasurementModel& model, std::span<const PointReadings> points,
                               const TaskSpec& task, const GumOptions& options = {});
+// The same with task.points already resolved to `indices` into `points` (a job resolves them when
+// it is read: a scan's task over 10^6 points then copies no name).
+TaskUncertainty PropagateTask(const MeasurementModel& model, std::span<const PointReadings> points,
+                              const TaskSpec& task, std::span<const int> indices, const GumOptions& options);
 
 // Low level, for any task function: value (k) and G = d value / d coordinates (k x 3n, columns
 // 3j..3j+2 = point indices[j], part frame) already computed by the caller from the part-frame

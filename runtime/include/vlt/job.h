@@ -142,9 +142,24 @@ struct OptimizeSettings {
   std::string where;                     // "<file>: optimize"
 };
 
+// How much of every point the files hold (docs/results.md "Detail of the per-point files"): the
+// full detail (points.csv with every column, points.jsonl, budget.csv: about 10 kB per point) or
+// one compact row per point (points.csv: name, estimate, U per axis, |U|, the dominant input and
+// its share; about 80 bytes per point). kAuto: full up to kFullDetailMaxPoints points, compact
+// above (a scan of 10^6 points would write about 10 GB in full).
+enum class PointDetail { kAuto, kFull, kCompact };
+inline constexpr std::size_t kFullDetailMaxPoints = 10000;
+// PointDetail's resolution for a job of n points.
+inline PointDetail ResolvedDetail(PointDetail detail, std::size_t n) {
+  if (detail != PointDetail::kAuto) return detail;
+  return n <= kFullDetailMaxPoints ? PointDetail::kFull : PointDetail::kCompact;
+}
+
 struct OutputSettings {
-  std::string directory;         // [output] directory (relative to the job file); "" = default
-  double ellipsoid_scale = 0.0;  // report: ellipsoid exaggeration; 0 = automatic
+  std::string directory;                    // [output] directory (relative to the job file); "" = default
+  double ellipsoid_scale = 0.0;             // report: ellipsoid exaggeration; 0 = automatic
+  PointDetail detail = PointDetail::kAuto;  // [output] detail
+  bool arrays = false;  // [output] arrays: every point's full detail in points.npy as well
 };
 
 // Where the tracker's error parameters came from when a calibration file gave them

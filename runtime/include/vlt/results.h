@@ -50,8 +50,10 @@ struct PointMcm {
 };
 
 struct PointResult {
-  JobPoint input;        // name, face, nominal (plan), readings as given
-  PointUncertainty gum;  // budget empty: see results_internal::ForEachPointBudget
+  JobPoint input;  // name, face, nominal (plan), readings as given
+  // budget empty (see results_internal::ForEachPointBudget); name and correlation_handling empty
+  // too: the name is input.name, the handling Results::correlation_handling (one copy, not 10^6).
+  PointUncertainty gum;
   bool has_mcm = false;
   // Set when has_mcm (held apart: a GUM-only scan of 10^6 points does not carry 1.6 kB of empty
   // Monte Carlo fields per point).
@@ -145,6 +147,7 @@ struct Results {
   double k_region = 0.0;  // ChiSquareCoverageFactor(p, 3)
   int n_dig = 2;
   std::vector<PointResult> points;
+  std::string correlation_handling;  // how correlated inputs enter every point's budget
   std::vector<TaskResult> tasks;
   bool has_mcm = false;
   McmResult mcm;  // run information (outputs/points moved into results)
@@ -153,6 +156,10 @@ struct Results {
   double mcm_seconds = 0.0;
   int threads = 0;               // of the run (the budgets are recomputed with them)
   double ellipsoid_scale = 0.0;  // report: exaggeration of the ellipsoids
+  // The per-point files written (docs/results.md "Detail of the per-point files"): [output]
+  // detail resolved for the job's size (kFull or kCompact), and [output] arrays (points.npy).
+  PointDetail detail = PointDetail::kFull;
+  bool arrays = false;
   int validated_points = 0;
   int validated_tasks = 0;
   int inconclusive_points = 0;
@@ -254,14 +261,19 @@ void MarkJobOnMap(const Job& job, const MeasurementModel& model, MapResult& map)
 // CheckJobMemory refuses.
 void AddMonteCarloToMap(const Job& job, const RunOptions& options, MapResult& map);
 
-// The readings of every point of a job (plan: computed from the nominal points).
-std::vector<PointReadings> JobReadings(const Job& job, const MeasurementModel& model);
+// The readings of every point of a job (plan: computed from the nominal points), on `threads`
+// threads (0: all); the same for any count.
+std::vector<PointReadings> JobReadings(const Job& job, const MeasurementModel& model, int threads = 1);
 
 class OutputText;
 // File contents (docs/results.md). The per-point files are written as they are formatted.
 void WritePointsCsv(const Results& results, OutputText& out);
 void WriteBudgetCsv(const Results& results, OutputText& out);
 void WritePointsJsonl(const Results& results, OutputText& out);
+// The compact points.csv (one row per point, PointDetail::kCompact) and points.npy (every point's
+// full detail as a NumPy structured array; layout in docs/results.md "points.npy").
+void WriteCompactPointsCsv(const Results& results, OutputText& out);
+void WritePointsNpy(const Results& results, OutputText& out);
 std::string PointsCsv(const Results& results);
 std::string BudgetCsv(const Results& results);
 std::string PointsJsonl(const Results& results);
@@ -301,8 +313,9 @@ struct OutputFile {
 // Files whose text is already complete (name, content).
 std::vector<OutputFile> AsOutputFiles(const std::vector<std::pair<std::string, std::string>>& files);
 
-// The files of a `vlt run`: points.csv, points.jsonl, budget.csv, tasks.csv, results.json,
-// report.html and, with a map, map.csv and map.html. The writers refer to `results`, which must
+// The files of a `vlt run`: points.csv, points.jsonl and budget.csv (full detail; compact: the
+// compact points.csv only), points.npy ([output] arrays), tasks.csv, results.json, report.html
+// and, with a map, map.csv and map.html. The writers refer to `results`, which must
 // outlive the Commit.
 std::vector<OutputFile> ResultFiles(const Results& results);
 

@@ -110,6 +110,38 @@ std::string CsvField(const std::string& field) {
   return out + "\"";
 }
 
+void AppendDecimals(std::string& out, double v, int decimals) {
+  char buffer[400];  // |v| < 1.8e308: 309 digits, the sign, the point and up to 17 decimals
+  if (!std::isfinite(v)) {
+    std::snprintf(buffer, sizeof buffer, "%g", v);
+    out += buffer;
+    return;
+  }
+  decimals = std::clamp(decimals, 0, 17);
+  const auto written = std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::fixed, decimals);
+  char* end = written.ptr;
+  if (decimals > 0) {
+    while (end[-1] == '0') --end;
+    if (end[-1] == '.') --end;
+  }
+  const bool negative_zero = buffer[0] == '-' && end - buffer == 2 && buffer[1] == '0';
+  out.append(negative_zero ? buffer + 1 : buffer, end);
+}
+
+void AppendRoundedUp(std::string& out, double v, int digits) {
+  if (!std::isfinite(v) || !(v > 0.0)) {
+    AppendDecimals(out, v, 0);
+    return;
+  }
+  const int magnitude = static_cast<int>(std::floor(std::log10(v)));
+  const int decimals = std::clamp(digits - 1 - magnitude, 0, 17);
+  const double scale = std::pow(10.0, decimals);  // exact: 10^d for d <= 22
+  const double up = std::ceil(v * scale) / scale;
+  char buffer[400];
+  const auto written = std::to_chars(buffer, buffer + sizeof buffer, up, std::chars_format::fixed, decimals);
+  out.append(buffer, written.ptr);
+}
+
 std::string Fixed(double v, int decimals) {
   char buffer[64];
   std::snprintf(buffer, sizeof buffer, "%.*f", decimals, v);

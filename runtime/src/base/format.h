@@ -31,6 +31,14 @@ void AppendNum(std::string& out, double v);
 std::string Sig(double v, int digits);
 // Fixed number of decimals, never "-0.00" (tables of reports).
 std::string Fixed(double v, int decimals);
+// Appends v rounded to `decimals` decimals (std::to_chars, exact decimal rounding of the double),
+// trailing zeros and a trailing '.' dropped, never "-0": the compact points.csv (1500.25, not
+// 1500.2500000000002). Not for a non-finite v (appends it as %g).
+void AppendDecimals(std::string& out, double v, int decimals);
+// Appends an uncertainty v >= 0 rounded *up* to `digits` significant digits (JCGM 100 7.2.6: an
+// uncertainty may be rounded up, never understated), trailing zeros kept ("81.0"), no exponent
+// (at least units: 1234.2 with 3 digits is "1235"): ceil(v 10^d) / 10^d, d the decimals.
+void AppendRoundedUp(std::string& out, double v, int digits);
 // A CSV field quoted when it holds a comma, quote or line break (RFC 4180).
 std::string CsvField(const std::string& field);
 // Text for HTML: & < > " ' escaped.

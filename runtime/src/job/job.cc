@@ -91,7 +91,7 @@ Job ParseJob(std::string_view text, const std::string& file, const std::filesyst
   ReadMonteCarlo(top, job.monte_carlo);
   ReadMap(top, job);
   ReadOptimize(top, job);
-  ReadOutput(top, job.output);
+  ReadOutput(top, job.output, /*point_files=*/true);
   top.Finish();
   return job;
 }

@@ -57,8 +57,10 @@ void ReadMonteCarlo(Section& top, MonteCarloSettings& settings);  // settings.cc
 std::string ExtentString(const toml::node& node, const std::string& where);
 // Exactly `count` lengths [m] from such a text or array (bare numbers are metres).
 std::vector<double> LengthList(const toml::node& node, std::size_t count, const std::string& where);
-void ReadMap(Section& top, Job& job);                   // settings.cc: [map]
-void ReadOptimize(Section& top, Job& job);              // optimize.cc: [optimize] (after the tasks)
-void ReadOutput(Section& top, OutputSettings& output);  // settings.cc: [output]
+void ReadMap(Section& top, Job& job);       // settings.cc: [map]
+void ReadOptimize(Section& top, Job& job);  // optimize.cc: [optimize] (after the tasks)
+// settings.cc: [output]; `detail` and `arrays` only where the job writes per-point files (a tracker
+// job: point_files), else they are unknown keys.
+void ReadOutput(Section& top, OutputSettings& output, bool point_files = false);
 
 }  // namespace vlt::job_internal

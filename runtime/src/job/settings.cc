@@ -100,15 +100,32 @@ void ReadMap(Section& top, Job& job) {
   s.Finish();
 }
 
-void ReadOutput(Section& top, OutputSettings& output) {
+void ReadOutput(Section& top, OutputSettings& output, bool point_files) {
   Section s = top.Sub("output", false);
   if (!s.exists()) return;
-  s.set_hint("directory, ellipsoid_scale");
+  s.set_hint(point_files ? "directory, ellipsoid_scale, detail, arrays" : "directory, ellipsoid_scale");
   if (const toml::node* n = s.Get("directory")) output.directory = AsString(*n, s.Where("directory"));
   if (const toml::node* n = s.Get("ellipsoid_scale")) {
     output.ellipsoid_scale = AsNumber(*n, s.Where("ellipsoid_scale"));
     if (!(output.ellipsoid_scale > 0)) throw InputError(s.Where("ellipsoid_scale") + ": must be positive");
   }
+  if (!point_files) {
+    s.Finish();
+    return;
+  }
+  if (const toml::node* n = s.Get("detail")) {
+    const std::string detail = AsString(*n, s.Where("detail"));
+    if (detail == "auto") {
+      output.detail = PointDetail::kAuto;
+    } else if (detail == "full") {
+      output.detail = PointDetail::kFull;
+    } else if (detail == "compact") {
+      output.detail = PointDetail::kCompact;
+    } else {
+      throw InputError(s.Where("detail") + ": must be \"auto\", \"full\" or \"compact\"");
+    }
+  }
+  if (const toml::node* n = s.Get("arrays")) output.arrays = AsBool(*n, s.Where("arrays"));
   s.Finish();
 }
 

@@ -62,6 +62,7 @@ const std::set<std::string>& KnownOutputNames() {
   static const std::set<std::string> names = {kOutputMarker,
                                               "points.csv",
                                               "points.jsonl",
+                                              "points.npy",
                                               "outputs.csv",
                                               "budget.csv",
                                               "tasks.csv",

@@ -135,6 +135,51 @@ void WritePointsCsv(const Results& r, OutputText& text) {
   }
 }
 
+// One row per point (docs/results.md "points.csv, compact"): the estimate rounded to 0.1 um, U
+// rounded up to 3 significant digits, the rank-1 row of the point's budget and its share of trace(U_y). The
+// budgets are recomputed block by block (results_internal::WritePointBudgets), never held.
+void WriteCompactPointsCsv(const Results& r, OutputText& out) {
+  out.Write("name,x_mm,y_mm,z_mm,U_x_um,U_y_um,U_z_um,U_norm_um,dominant_input,dominant_share,gum_reliable");
+  out.Write(r.has_mcm ? ",gum_vs_mcm\n" : "\n");
+  constexpr int kCoordinateDecimals = 4;  // mm: 0.1 um
+  constexpr int kUncertaintyDigits = 3;
+  constexpr int kShareDecimals = 3;
+  results_internal::WritePointBudgets(
+      r, out, [&](std::size_t first, std::span<const PointUncertainty> points, std::string& text) {
+        for (std::size_t i = 0; i < points.size(); ++i) {
+          const PointResult& p = r.points[first + i];
+          const PointUncertainty& g = p.gum;
+          text += Csv(p.input.name);
+          for (int a = 0; a < 3; ++a) {
+            text += ',';
+            base_internal::AppendDecimals(text, g.part[a] * kMm, kCoordinateDecimals);
+          }
+          for (int a = 0; a < 3; ++a) {
+            text += ',';
+            base_internal::AppendRoundedUp(text, g.U_part[a] * kUm, kUncertaintyDigits);
+          }
+          text += ',';
+          base_internal::AppendRoundedUp(text, g.U_part.norm() * kUm, kUncertaintyDigits);
+          // Rows are sorted by share_total: the first is the dominant input (budget.csv rank 1).
+          const std::vector<BudgetRow>& budget = points[i].budget;
+          text += ',';
+          if (!budget.empty()) {
+            text += Csv(budget.front().input);
+            text += ',';
+            base_internal::AppendDecimals(text, budget.front().share_total, kShareDecimals);
+          } else {
+            text += ',';
+          }
+          text += g.gum_reliable ? ",yes" : ",no";
+          if (r.has_mcm) {
+            text += ',';
+            text += Csv(Verdict(p));
+          }
+          text += '\n';
+        }
+      });
+}
+
 namespace results_internal {
 
 std::pair<std::string, double> PracticalSensitivity(const std::string& input_unit) {

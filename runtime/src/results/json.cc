@@ -225,7 +225,7 @@ json Point(const Results& r, const PointResult& p, const std::vector<BudgetRow>*
                           {"covariance", Mat(g.cov_tracker)},
                           {"u", Vec(g.u_tracker)},
                           {"line_of_sight", Los(g.los_tracker)}};
-  gum["correlation_handling"] = g.correlation_handling;
+  gum["correlation_handling"] = r.correlation_handling;
   // JCGM 100 5.1.2 note: second-order variance per coordinate, its ratio to u^2, and the flag.
   gum["second_order"] = {{"variance", Vec(g.second_order_variance)},
                          {"ratio", Vec(g.second_order_ratio)},
@@ -626,7 +626,12 @@ std::string results_internal::ResultsJsonText(const Results& r, int indent, bool
   if (for_html) {
     j["points"] = kPointsPlaceholder;
   } else {
-    j["points_file"] = "points.jsonl";  // vlt-results/2: one line per point, in job order
+    // vlt-results/2: one line per point, in job order; none in the compact detail, where
+    // points.csv has one compact row per point and points.npy (when asked) the full detail.
+    const bool full = r.detail != PointDetail::kCompact;
+    j["points_file"] = full ? json("points.jsonl") : json(nullptr);
+    j["point_detail"] = full ? "full" : "compact";
+    j["points_array"] = r.arrays ? json("points.npy") : json(nullptr);
   }
   json tasks = json::array();
   for (const TaskResult& t : r.tasks) tasks.push_back(Task(t));

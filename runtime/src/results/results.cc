@@ -47,24 +47,29 @@ McmSettings results_internal::McmSettingsFor(const MonteCarloSettings& job, cons
   return settings;
 }
 
-std::vector<PointReadings> JobReadings(const Job& job, const MeasurementModel& model) {
-  std::vector<PointReadings> readings;
-  readings.reserve(job.points.size());
-  for (const JobPoint& p : job.points) {
-    PointReadings r;
-    r.name = p.name;
-    if (job.mode == JobMode::kPlan) {
-      // Offline: the readings that measure the nominal point with every input at its estimate.
-      try {
-        r.readings = ReadingsForPartPoint(model, p.nominal, p.face == Face::kBack, p.name);
-      } catch (const NumericalError& e) {
-        throw NumericalError(p.where + ": " + e.what());
-      }
-    } else {
-      r.readings = p.readings;
-    }
-    readings.push_back(std::move(r));
-  }
+std::vector<PointReadings> JobReadings(const Job& job, const MeasurementModel& model, int threads) {
+  std::vector<PointReadings> readings(job.points.size());
+  // Chunks of points side by side (a scan's 10^6 inverse solutions); a failure names the first
+  // failing point in job order, whatever the thread count (parallel/pool.h).
+  constexpr std::size_t kChunk = 512;
+  parallel_internal::ForEachChunk(
+      job.points.size(), kChunk, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
+        for (std::size_t i = begin; i < end; ++i) {
+          const JobPoint& p = job.points[i];
+          PointReadings& r = readings[i];
+          r.name = p.name;
+          if (job.mode == JobMode::kPlan) {
+            // Offline: the readings that measure the nominal point with every input at its estimate.
+            try {
+              r.readings = ReadingsForPartPoint(model, p.nominal, p.face == Face::kBack, p.name);
+            } catch (const NumericalError& e) {
+              throw NumericalError(p.where + ": " + e.what());
+            }
+          } else {
+            r.readings = p.readings;
+          }
+        }
+      });
   return readings;
 }
 
@@ -322,9 +327,9 @@ std::vector<PointUncertainty> BudgetsOf(const Results& r, const MeasurementModel
                                         std::size_t end) {
   std::vector<PointReadings> chunk(end - begin);
   for (std::size_t i = begin; i < end; ++i) {
-    const PointUncertainty& g = r.points[indices.empty() ? i : indices[i]].gum;
-    chunk[i - begin].name = g.name;
-    chunk[i - begin].readings = g.readings;
+    const PointResult& p = r.points[indices.empty() ? i : indices[i]];
+    chunk[i - begin].name = p.input.name;
+    chunk[i - begin].readings = p.gum.readings;
   }
   GumOptions options;
   options.coverage_probability = r.coverage_probability;
@@ -337,17 +342,21 @@ std::vector<PointUncertainty> BudgetsOf(const Results& r, const MeasurementModel
 
 void results_internal::WriteInBlocks(OutputText& out, std::size_t n, int threads,
                              const std::function<void(std::size_t, std::size_t, std::string&)>& format) {
-  // Blocks of kParts parts of kPart items: the parts of a block are formatted in parallel, each
-  // into its own text, then written in order; the text does not depend on the thread count.
-  constexpr std::size_t kPart = 256, kParts = 8;
+  // Blocks of at most kBlock items, all of one size (to one item), each cut into kParts parts
+  // formatted in parallel, each into its own text, then written in order; the text does not
+  // depend on the thread count. 128 parts: 8 for each of 16 threads in every block, the last one
+  // too (issue 33); a block of the full budget.csv text is then about 60 MB (8192 points of 7 kB).
+  constexpr std::size_t kBlock = 8192, kParts = 128;
+  const std::size_t blocks = (n + kBlock - 1) / kBlock;
   std::vector<std::string> parts(kParts);
-  for (std::size_t block = 0; block < n; block += kPart * kParts) {
-    const std::size_t len = std::min(n - block, kPart * kParts);
-    parallel_internal::ForEachChunk(len, kPart, threads, [&](std::size_t c, std::size_t b, std::size_t e) {
+  for (std::size_t b = 0; b < blocks; ++b) {
+    const std::size_t begin = n * b / blocks, len = n * (b + 1) / blocks - begin;
+    const std::size_t count = std::min(kParts, len);
+    parallel_internal::ForEach(count, threads, [&](std::size_t c, int) {
       parts[c].clear();
-      format(block + b, block + e, parts[c]);
+      format(begin + len * c / count, begin + len * (c + 1) / count, parts[c]);
     });
-    for (std::size_t c = 0; c * kPart < len; ++c) out.Write(parts[c]);
+    for (std::size_t c = 0; c < count; ++c) out.Write(parts[c]);
   }
 }
 
@@ -405,6 +414,8 @@ Results RunHeader(const Job& job) {
   results.coverage_probability = job.monte_carlo.coverage_probability;
   results.n_dig = job.monte_carlo.n_dig;
   results.ellipsoid_scale = job.output.ellipsoid_scale;
+  results.detail = ResolvedDetail(job.output.detail, job.points.size());
+  results.arrays = job.output.arrays;
   return results;
 }
 
@@ -422,10 +433,21 @@ void PropagateJobPoints(const Job& job, const MeasurementModel& model,
     std::vector<PointUncertainty> gum_points = PropagatePoints(model, block, gum_options);
     // Where the linearisation is not reliable, said without Monte Carlo (JCGM 100 5.1.2 note).
     CheckSecondOrder(model, block, gum_points, kSecondOrderThreshold, gum_options.threads);
-    for (std::size_t i = 0; i < block.size(); ++i) {
-      results.points[begin + i].input = job.points[begin + i];
-      results.points[begin + i].gum = std::move(gum_points[i]);
-    }
+    if (begin == 0 && !gum_points.empty()) results.correlation_handling = gum_points[0].correlation_handling;
+    // 128 chunks whatever the block's size (the last block of a scan is short).
+    const std::size_t chunk = std::max<std::size_t>(1, (block.size() + 127) / 128);
+    parallel_internal::ForEachChunk(block.size(), chunk, gum_options.threads,
+                                    [&](std::size_t, std::size_t b, std::size_t e) {
+                                      for (std::size_t i = b; i < e; ++i) {
+                                        PointResult& point = results.points[begin + i];
+                                        point.input = job.points[begin + i];
+                                        point.gum = std::move(gum_points[i]);
+                                        // Held once (input.name, Results::correlation_handling): a scan's 10^6 copies were about
+                                        // 100 bytes a point.
+                                        std::string().swap(point.gum.name);
+                                        std::string().swap(point.gum.correlation_handling);
+                                      }
+                                    });
   }
 }
 
@@ -444,7 +466,7 @@ void PropagateJobTasks(const Job& job, const MeasurementModel& model,
     results.tasks[t].spec = job.tasks[t];
     results.tasks[t].point_indices = job.task_points[t];
     try {
-      results.tasks[t].gum = PropagateTask(model, readings, job.tasks[t], gum_options);
+      results.tasks[t].gum = PropagateTask(model, readings, job.tasks[t], job.task_points[t], gum_options);
     } catch (const NumericalError& e) {
       throw NumericalError(TaskWhere(job, t) + ": " + e.what());
     } catch (const InputError& e) {
@@ -496,12 +518,12 @@ void ValidatePointResult(const McmResult& mcm, std::size_t i, Results& results) 
     outcomes.push_back(m->axis_validation[a].outcome);
   }
   try {
-    m->region_validation = ValidatePoint(pr.gum.name, pr.gum.part, pr.gum.cov_part, pr.gum.ellipsoid.k,
+    m->region_validation = ValidatePoint(pr.input.name, pr.gum.part, pr.gum.cov_part, pr.gum.ellipsoid.k,
                                          m->mcm, results.n_dig, mcm.trials, results.coverage_probability);
     outcomes.push_back(m->region_validation.outcome);
   } catch (const NumericalError& e) {
     m->region_validation = PointValidation{};
-    m->region_validation.name = pr.gum.name;
+    m->region_validation.name = pr.input.name;
     m->region_validation.outcome = "not validated";
     m->region_validation.verdict = std::string("no coverage region: ") + e.what();
     outcomes.push_back("not validated");
@@ -591,7 +613,7 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
 
   // GUM (JCGM 100 5.1.2 / JCGM 102 6.2.1.3): every point, then every task.
   auto gum_start = std::chrono::steady_clock::now();
-  std::vector<PointReadings> readings = JobReadings(job, model);
+  std::vector<PointReadings> readings = JobReadings(job, model, threads);
   GumOptions gum_options;
   gum_options.coverage_probability = results.coverage_probability;
   // Budgets are written from ForEachPointBudget when the files are (not held: O(N) memory).

@@ -30,9 +30,14 @@ std::vector<OutputFile> ResultFiles(const Results& results) {
   // old set untouched; the per-point files are streamed, never held whole.
   const Results* r = &results;
   std::vector<OutputFile> files;
-  files.emplace_back("points.csv", [r](OutputText& out) { WritePointsCsv(*r, out); });
-  files.emplace_back("points.jsonl", [r](OutputText& out) { WritePointsJsonl(*r, out); });
-  files.emplace_back("budget.csv", [r](OutputText& out) { WriteBudgetCsv(*r, out); });
+  if (results.detail == PointDetail::kCompact) {
+    files.emplace_back("points.csv", [r](OutputText& out) { WriteCompactPointsCsv(*r, out); });
+  } else {
+    files.emplace_back("points.csv", [r](OutputText& out) { WritePointsCsv(*r, out); });
+    files.emplace_back("points.jsonl", [r](OutputText& out) { WritePointsJsonl(*r, out); });
+    files.emplace_back("budget.csv", [r](OutputText& out) { WriteBudgetCsv(*r, out); });
+  }
+  if (results.arrays) files.emplace_back("points.npy", [r](OutputText& out) { WritePointsNpy(*r, out); });
   files.emplace_back("tasks.csv", [r](OutputText& out) { out.Write(TasksCsv(*r)); });
   files.emplace_back("results.json", [r](OutputText& out) { out.Write(ResultsJson(*r)); });
   files.emplace_back("report.html", [r](OutputText& out) { out.Write(ReportHtml(*r)); });
@@ -293,6 +298,12 @@ std::string SummaryText(const Results& r) {
   out << "\n";
   MonteCarloLines(r, out);
   if (r.map) MapLine(*r.map, out);
+  if (r.detail == PointDetail::kCompact) {
+    // The compact points.csv has other columns than the full one: said where it is written.
+    out << "points.csv is compact (" << r.points.size()
+        << " points: name, estimate, U, dominant input; no budget.csv, no points.jsonl); "
+           "[output] detail = \"full\" writes every column (docs/results.md)\n";
+  }
   return out.str();
 }
 
