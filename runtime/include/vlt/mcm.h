@@ -93,6 +93,15 @@ struct McmOutputResult {
   McmNumericalAccuracy accuracy;
   // Fraction of trials within McmSettings::tolerances of this output (absent when none given).
   std::optional<double> conformity_probability;
+  // Whether the output's distribution has a finite variance (docs/monte-carlo.md "Outputs without
+  // a finite variance"): Hill's estimate of the tail index alpha, P(|Y| > y) ~ y^-alpha, from the
+  // kTailIndexFraction largest and smallest values (the smaller of the two tails' estimates);
+  // absent when not every value was kept or M is too small (fewer than kTailIndexMinimumCount
+  // values in a tail). infinite_variance: alpha (1 + 2 / sqrt(k)) < 2, i.e. alpha below 2 by two
+  // of its standard errors alpha / sqrt(k): the variance, u and the GUM comparison then do not
+  // exist (the coverage intervals, quantiles, do).
+  std::optional<double> tail_index;
+  bool infinite_variance = false;
   // The distribution of the M values (the JCGM 101 figures: histogram with the GUM Gaussian and
   // the coverage intervals): kHistogramBins bins of equal width from mean - 5 u to mean + 5 u,
   // values outside counted in below / above. Empty (no counts) when not every value was kept
@@ -105,6 +114,8 @@ struct McmOutputResult {
   } histogram;
 };
 inline constexpr int kHistogramBins = 60;
+inline constexpr double kTailIndexFraction = 0.005;
+inline constexpr std::int64_t kTailIndexMinimumCount = 50;
 
 // JCGM 102 for one measured point (3 coordinates, part frame, m).
 struct McmPointResult {

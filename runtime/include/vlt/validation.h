@@ -57,6 +57,13 @@ ScalarValidation ValidateScalar(const std::string& name, const std::string& unit
                                 int significant_digits, std::int64_t trials = 0, double mcm_u = 0.0,
                                 double p = 0.95, bool differentiable = true, double resolution = 0.0);
 
+// JCGM 101 8 for an output whose Monte Carlo values have no finite variance
+// (McmOutputResult::infinite_variance; a ratio whose divisor's interval holds zero): the GUM
+// propagates variances, and there is none to propagate, so `v` becomes "not validated" with the
+// tail index in its verdict, whatever its interval comparison said (with no variance the Monte
+// Carlo tolerance 2 s_end, which assumes one, made it "inconclusive"). Nothing for other outputs.
+void CheckFiniteVariance(const McmOutputResult& mcm, ScalarValidation& v);
+
 // Outcome of several comparisons together: "not validated" if any is, else "inconclusive" if any
 // is, else "validated" ("not applicable" ones do not count; all of them: "not applicable").
 std::string CombinedOutcome(const std::vector<std::string>& outcomes);

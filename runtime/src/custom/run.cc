@@ -121,6 +121,7 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
       out.validation =
           ValidateScalar(out.gum.name, out.gum.unit, out.gum.estimate, out.gum.u, out.gum.U,
                          out.mcm.symmetric, r.n_dig, mcm.trials, out.mcm.u, r.coverage_probability);
+      CheckFiniteVariance(out.mcm, out.validation);
       outcomes.push_back(out.validation.outcome);
     }
     r.outcome = CombinedOutcome(outcomes);
@@ -293,7 +294,11 @@ json OutputJson(const CustomOutputResult& o) {
                 {"value_at_estimates", o.mcm.value_at_estimates},
                 {"symmetric_interval", {o.mcm.symmetric.low, o.mcm.symmetric.high}},
                 {"shortest_interval", {o.mcm.shortest.low, o.mcm.shortest.high}},
-                {"numerical_tolerance", o.mcm.accuracy.delta}};
+                {"numerical_tolerance", o.mcm.accuracy.delta},
+                // vlt/mcm.h: null when not estimated or the tail is bounded (no finite number).
+                {"tail_index", o.mcm.tail_index && std::isfinite(*o.mcm.tail_index) ? json(*o.mcm.tail_index)
+                                                                                    : json(nullptr)},
+                {"infinite_variance", o.mcm.infinite_variance}};
     e["validation"] = {{"outcome", o.validation.outcome},
                        {"d_low", o.validation.d_low},
                        {"d_high", o.validation.d_high},
@@ -581,13 +586,33 @@ std::string SummaryText(const CustomResults& r) {
     std::snprintf(line, sizeof line, "%-16s %-6s %17.10g %11.4g %7s %6.3f %11.4g %11s  %s\n", g.name.c_str(),
                   g.unit.c_str(), g.estimate, g.u,
                   DofText(std::floor(g.dof_effective * (1.0 + 1e-9))).c_str(), g.k, g.U,
-                  o.has_mcm ? base_internal::Sig(o.mcm.u, 4).c_str() : "", verdict.c_str());
+                  !o.has_mcm                ? ""
+                  : o.mcm.infinite_variance ? "none"
+                                            : base_internal::Sig(o.mcm.u, 4).c_str(),
+                  verdict.c_str());
+    out << line;
+  }
+  bool without_variance = false;
+  for (const CustomOutputResult& o : r.outputs) {
+    if (!o.has_mcm || !o.mcm.infinite_variance) continue;
+    without_variance = true;
+    std::snprintf(
+        line, sizeof line,
+        "%s: the Monte Carlo values have no finite variance (tail index %.2f < 2, Hill's estimator): "
+        "u does not exist (below 1 neither does the mean); the coverage interval [%.6g, %.6g] %s "
+        "is the answer\n",
+        o.gum.name.c_str(), o.mcm.tail_index.value_or(0.0), o.mcm.symmetric.low, o.mcm.symmetric.high,
+        o.gum.unit.c_str());
     out << line;
   }
   if (r.region) {
     std::snprintf(line, sizeof line, "Output vector: GUM coverage region k = %.4f", r.region->gum_k);
     out << line;
-    if (r.region->has_mcm) out << ", Monte Carlo k = " << RegionK(*r.region);
+    if (r.region->has_mcm) {
+      // Without a variance there is no covariance, so no region built on one.
+      out << ", Monte Carlo k = "
+          << (without_variance ? std::string("none (no finite covariance)") : RegionK(*r.region));
+    }
     out << "\n";
   }
   for (const CustomOutputResult& o : r.outputs) {

@@ -190,12 +190,12 @@ struct BatchExchange {
 // What each rank computed for its own outputs and groups, shared with every rank at the end:
 // per output the numerical accuracy (7.9.4), both coverage intervals and the histogram; per group
 // the coverage region (7.7.3 of JCGM 102). Plain doubles (counts are exact below 2^53).
-constexpr int kOutputRecord = 12 + kHistogramBins;
+constexpr int kOutputRecord = 14 + kHistogramBins;
 constexpr int kGroupRecord = 2;
 
 void PackOutput(const McmOutputResult& r, double* rec) {
   const McmOutputResult::Histogram& h = r.histogram;
-  const double head[12] = {r.accuracy.s_mean,
+  const double head[14] = {r.accuracy.s_mean,
                            r.accuracy.s_u,
                            r.accuracy.s_low,
                            r.accuracy.s_high,
@@ -206,10 +206,12 @@ void PackOutput(const McmOutputResult& r, double* rec) {
                            h.low,
                            h.width,
                            static_cast<double>(h.below),
-                           static_cast<double>(h.above)};
-  std::copy(head, head + 12, rec);
+                           static_cast<double>(h.above),
+                           r.tail_index ? *r.tail_index : -1.0,  // (an index is never negative)
+                           r.infinite_variance ? 1.0 : 0.0};
+  std::copy(head, head + 14, rec);
   for (int b = 0; b < kHistogramBins; ++b) {
-    rec[12 + b] = h.counts.empty() ? -1.0 : static_cast<double>(h.counts[b]);
+    rec[14 + b] = h.counts.empty() ? -1.0 : static_cast<double>(h.counts[b]);
   }
 }
 
@@ -225,9 +227,11 @@ void UnpackOutput(const double* rec, McmOutputResult& r) {
   h.width = rec[9];
   h.below = static_cast<std::int64_t>(rec[10]);
   h.above = static_cast<std::int64_t>(rec[11]);
+  r.tail_index = rec[12] >= 0.0 ? std::optional<double>(rec[12]) : std::nullopt;
+  r.infinite_variance = rec[13] != 0.0;
   h.counts.clear();
-  if (rec[12] >= 0.0) {
-    for (int b = 0; b < kHistogramBins; ++b) h.counts.push_back(static_cast<std::int64_t>(rec[12 + b]));
+  if (rec[14] >= 0.0) {
+    for (int b = 0; b < kHistogramBins; ++b) h.counts.push_back(static_cast<std::int64_t>(rec[14 + b]));
   }
 }
 
@@ -1043,6 +1047,9 @@ void MonteCarloRun::SharedOrderStatistics(McmResult& result, std::vector<McmVect
   ParallelFor(n_own, [&](int i, int) {
     McmOutputResult& out = result.outputs[own_first + i];
     IntervalsFromTails(output_tails[i], done, y0[own_first + i], p, &out.symmetric, &out.shortest);
+    // Whether u means anything here (McmOutputResult::tail_index).
+    out.tail_index = TailIndex(output_tails[i], done, p);
+    out.infinite_variance = out.tail_index && InfiniteVariance(*out.tail_index, done);
   });
 }
 

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -132,6 +133,16 @@ template <typename T>
 void GatherIntervalTails(std::span<const T> values, double p, int threads, Tails<T>* tails);
 void IntervalsFromTails(const Tails<float>& tails, std::int64_t m, double reference, double p,
                         CoverageInterval* symmetric, CoverageInterval* shortest);
+
+// Hill's estimator of the tail index from the sorted tails of M values (GatherIntervalTails +
+// FinishTail; vlt/mcm.h McmOutputResult::tail_index): k = floor(kTailIndexFraction M) values of
+// each tail measured from the centre c of the probabilistically symmetric interval,
+//   alpha = k / sum_{i=1..k} ln(X_(i) / X_(k+1)),  X = y - c (upper), c - y (lower), descending,
+// the smaller of the two. Absent when k < kTailIndexMinimumCount or the tails hold fewer than
+// k + 1 values; infinity for a tail whose k + 1 largest are equal (a bounded tail).
+std::optional<double> TailIndex(const Tails<float>& tails, std::int64_t m, double p);
+// The rule of McmOutputResult::infinite_variance for an estimate from k values per tail.
+bool InfiniteVariance(double tail_index, std::int64_t m);
 
 // k_p of JCGM 102 7.7.3 from the deviations (float, relative to y0) of n trials of one group
 // (mcm/region.cc): the q-th smallest |L^-1 (y_r - mean)|, L L^T = cov; series[a] holds

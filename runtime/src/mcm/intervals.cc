@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -132,6 +133,37 @@ void CoverageIntervalsOf(std::span<const T> values, double reference, double p, 
 void IntervalsFromTails(const Tails<float>& tails, std::int64_t m, double reference, double p,
                         CoverageInterval* symmetric, CoverageInterval* shortest) {
   IntervalsFromTailsOf(tails, m, reference, p, symmetric, shortest);
+}
+
+// Hill, Ann. Statist. 3 (1975) 1163: for P(X > x) ~ x^-alpha the mean of ln(X_(i) / X_(k+1)) over
+// the k largest is 1 / alpha, its standard error alpha / sqrt(k). Measured from the centre of the
+// 95 % interval, not from 0: the estimate must not depend on where the output lies.
+std::optional<double> TailIndex(const Tails<float>& tails, std::int64_t m, double p) {
+  const std::int64_t k = static_cast<std::int64_t>(kTailIndexFraction * static_cast<double>(m));
+  const auto held = static_cast<std::int64_t>(std::min(tails.low_values.size(), tails.high_values.size()));
+  if (k < kTailIndexMinimumCount || k + 1 > held) return std::nullopt;
+  CoverageInterval symmetric, shortest;
+  IntervalsFromTailsOf(tails, m, 0.0, p, &symmetric, &shortest);
+  const double centre = 0.5 * (symmetric.low + symmetric.high);
+  // Tail `x(i)`, i = 0 the most extreme: alpha of that tail, or infinity when it is bounded.
+  auto hill = [&](auto x) {
+    const double threshold = x(k);
+    if (!(threshold > 0.0)) return std::numeric_limits<double>::infinity();
+    double sum = 0.0;
+    for (std::int64_t i = 0; i < k; ++i) sum += std::log(x(i) / threshold);
+    return sum > 0.0 ? static_cast<double>(k) / sum : std::numeric_limits<double>::infinity();
+  };
+  const auto& high = tails.high_values;
+  const auto& low = tails.low_values;
+  const double upper =
+      hill([&](std::int64_t i) { return static_cast<double>(high[high.size() - 1 - i]) - centre; });
+  const double lower = hill([&](std::int64_t i) { return centre - static_cast<double>(low[i]); });
+  return std::min(upper, lower);
+}
+
+bool InfiniteVariance(double tail_index, std::int64_t m) {
+  const double k = std::floor(kTailIndexFraction * static_cast<double>(m));
+  return k >= static_cast<double>(kTailIndexMinimumCount) && tail_index * (1.0 + 2.0 / std::sqrt(k)) < 2.0;
 }
 
 void CoverageIntervals(std::span<const float> values, double reference, double p, CoverageInterval* symmetric,

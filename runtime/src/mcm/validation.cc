@@ -105,6 +105,19 @@ ScalarValidation ValidateScalar(const std::string& name, const std::string& unit
   return v;
 }
 
+void CheckFiniteVariance(const McmOutputResult& mcm, ScalarValidation& v) {
+  if (!mcm.infinite_variance || v.outcome == "not applicable") return;
+  char text[320];
+  std::snprintf(
+      text, sizeof text,
+      "not validated: the Monte Carlo values have no finite variance (tail index %.2f < 2, "
+      "Hill's estimator): a GUM u describes nothing; the Monte Carlo coverage interval is the answer",
+      mcm.tail_index.value_or(0.0));
+  v.validated = false;
+  v.outcome = "not validated";
+  v.verdict = text;
+}
+
 PointValidation ValidatePoint(const std::string& name, const Eigen::Vector3d& gum_y,
                               const Eigen::Matrix3d& gum_covariance, double gum_coverage_factor,
                               const McmPointResult& mcm, int significant_digits, std::int64_t trials,

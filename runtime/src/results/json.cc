@@ -107,25 +107,29 @@ json Los(const LineOfSightSplit& s) {
 }
 
 json McmOut(const McmOutputResult& m) {
-  return json{{"name", m.name},
-              {"unit", m.unit},
-              {"value_at_estimates", m.value_at_estimates},
-              {"mean", m.mean},
-              {"u", m.u},
-              {"symmetric_interval", {m.symmetric.low, m.symmetric.high}},
-              {"shortest_interval", {m.shortest.low, m.shortest.high}},
-              {"numerical_accuracy",
-               {{"s_mean", m.accuracy.s_mean},
-                {"s_u", m.accuracy.s_u},
-                {"s_low", m.accuracy.s_low},
-                {"s_high", m.accuracy.s_high},
-                {"delta", m.accuracy.delta}}},
-              {"histogram", m.histogram.counts.empty() ? json(nullptr)
-                                                       : json{{"low", m.histogram.low},
-                                                              {"width", m.histogram.width},
-                                                              {"counts", m.histogram.counts},
-                                                              {"below", m.histogram.below},
-                                                              {"above", m.histogram.above}}}};
+  return json{
+      {"name", m.name},
+      {"unit", m.unit},
+      {"value_at_estimates", m.value_at_estimates},
+      {"mean", m.mean},
+      {"u", m.u},
+      {"symmetric_interval", {m.symmetric.low, m.symmetric.high}},
+      {"shortest_interval", {m.shortest.low, m.shortest.high}},
+      // vlt/mcm.h: null when not estimated or the tail is bounded (no finite number).
+      {"tail_index", m.tail_index && std::isfinite(*m.tail_index) ? json(*m.tail_index) : json(nullptr)},
+      {"infinite_variance", m.infinite_variance},
+      {"numerical_accuracy",
+       {{"s_mean", m.accuracy.s_mean},
+        {"s_u", m.accuracy.s_u},
+        {"s_low", m.accuracy.s_low},
+        {"s_high", m.accuracy.s_high},
+        {"delta", m.accuracy.delta}}},
+      {"histogram", m.histogram.counts.empty() ? json(nullptr)
+                                               : json{{"low", m.histogram.low},
+                                                      {"width", m.histogram.width},
+                                                      {"counts", m.histogram.counts},
+                                                      {"below", m.histogram.below},
+                                                      {"above", m.histogram.above}}}};
 }
 
 json Scalar(const ScalarValidation& v) {

@@ -515,6 +515,7 @@ void ValidatePointResult(const McmResult& mcm, std::size_t i, Results& results) 
     m->axis_validation[a] = ValidateScalar(m->axes[a].name, "m", pr.gum.part[a], pr.gum.u_part[a],
                                            pr.gum.U_part[a], m->axes[a].symmetric, results.n_dig, mcm.trials,
                                            m->axes[a].u, results.coverage_probability);
+    CheckFiniteVariance(m->axes[a], m->axis_validation[a]);
     outcomes.push_back(m->axis_validation[a].outcome);
   }
   try {
@@ -565,6 +566,7 @@ void ValidateTaskResult(const McmResult& mcm, const McmTask& mt, std::size_t off
     task.validation.push_back(ValidateScalar(
         wanted, task.gum.units[q], task.gum.value[q], task.gum.u[q], task.gum.U[q], task.mcm.back().symmetric,
         results.n_dig, mcm.trials, task.mcm.back().u, results.coverage_probability, differentiable, resolution));
+    CheckFiniteVariance(task.mcm.back(), task.validation.back());
     outcomes.push_back(task.validation.back().outcome);
   }
   task.outcome = CombinedOutcome(outcomes);

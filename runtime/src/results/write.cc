@@ -230,6 +230,33 @@ void ConformityLines(const Results& r, std::ostringstream& out) {
   }
 }
 
+// The Monte Carlo outputs without a finite variance (McmOutputResult::infinite_variance), if any:
+// their u and the comparison with the GUM mean nothing.
+void NoFiniteVarianceLine(const Results& r, std::ostringstream& out) {
+  std::vector<const McmOutputResult*> outputs;
+  for (const PointResult& p : r.points) {
+    if (!p.has_mcm) continue;
+    for (const McmOutputResult& a : p.monte_carlo->axes) {
+      if (a.infinite_variance) outputs.push_back(&a);
+    }
+  }
+  for (const TaskResult& t : r.tasks) {
+    for (const McmOutputResult& q : t.mcm) {
+      if (q.infinite_variance) outputs.push_back(&q);
+    }
+  }
+  if (outputs.empty()) return;
+  out << "No finite variance (tail index < 2, Hill's estimator; u is meaningless, the coverage intervals are "
+         "the answer): ";
+  for (std::size_t i = 0; i < outputs.size() && i < 6; ++i) {
+    char item[160];
+    std::snprintf(item, sizeof item, "%s%s (index %.2f)", i ? ", " : "", outputs[i]->name.c_str(),
+                  outputs[i]->tail_index.value_or(0.0));
+    out << item;
+  }
+  out << (outputs.size() > 6 ? ", ...\n" : "\n");
+}
+
 void MonteCarloLines(const Results& r, std::ostringstream& out) {
   char line[512];
   if (!r.has_mcm) {
@@ -270,6 +297,7 @@ void MonteCarloLines(const Results& r, std::ostringstream& out) {
         << r.inconclusive_points << " points, " << inconclusive << " task quantities.\n";
   }
   if (!failed.empty()) out << "Not validated: " << failed << " (tasks.csv, report.html).\n";
+  NoFiniteVarianceLine(r, out);
 }
 
 void MapLine(const MapResult& map, std::ostringstream& out) {
