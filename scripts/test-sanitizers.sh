@@ -28,6 +28,9 @@ studies=(
   Alignment.GumCovarianceAgreesWithMonteCarlo
   Network.PlannedDriftIsCoveredBySimulatedMeasurements
   AxialFits.GumCovarianceAgreesWithMonteCarloAndCoversTheTruth
+  ScanFiles.EveryParallelPhaseOfA1e5PointScanOffersEightItemsToEachOfSixteenThreads
+  ScanFiles.SameBytesForOneTwoThreeAndSixteenThreads
+  TailIndex.ARatioWhoseDivisorMayBeZeroHasNoFiniteVariance
 )
 exclude="^($(IFS='|'; echo "${studies[*]}" | sed 's/[.]/[.]/g'))$"
 vlt_build_sanitize

@@ -91,3 +91,50 @@ TEST(GumSecondOrder, PointNearTheStandingAxisIsFlaggedWithoutMonteCarlo) {
 
 }  // namespace
 }  // namespace vlt
+
+namespace vlt {
+namespace {
+
+// Issue 31: where the curvature changes within one u the second order cannot decide. GUM H.2's
+// Z = V / I with I = 1 mA, u(I) = 10 mA (a pole 0.1 u away): at the estimate the second-order
+// variance is the closed form 1/2 [(2 V u_I^2 / I^3)^2 + 2 (u_V u_I / I^2)^2] (200 times u^2),
+// over +-1 u the curvature is a millionth of it: not decided, not reliable. (A step of one u alone
+// said "reliable" here.) The quadratic terms of GUM H.1 and JCGM 101 9.3 decide: test_gum.cc.
+TEST(GumSecondOrder, APoleWithinOneUncertaintyCannotBeDecided) {
+  const ModelInfo* impedance = FindModel("gum_h2_impedance");
+  ASSERT_NE(impedance, nullptr);
+  const double v = 4.999, u_v = 0.0032, i = 0.001, u_i = 0.01;
+  std::vector<UncertainInput> inputs = {In(v, u_v), In(i, u_i), In(1.04446, 0.00075)};
+  const CustomUncertainty r = PropagateCustom(*impedance, inputs);
+  const CustomOutput* z = nullptr;
+  for (const CustomOutput& o : r.outputs) z = o.name == "Z" ? &o : z;
+  ASSERT_NE(z, nullptr);
+  const double v2 =
+      0.5 * (std::pow(2.0 * v * u_i * u_i / (i * i * i), 2) + 2.0 * std::pow(u_v * u_i / (i * i), 2));
+  const double var = std::pow(u_v / i, 2) + std::pow(v * u_i / (i * i), 2);
+  // Richardson's error (h / d)^4 with h = 10^-3 u, d = 0.1 u the distance to the pole: 10^-8.
+  EXPECT_NEAR(z->second_order_variance, v2, 1e-7 * v2);
+  EXPECT_NEAR(z->second_order_ratio, v2 / var, 1e-7 * v2 / var);  // 200.0
+  EXPECT_FALSE(z->second_order_decided);
+  EXPECT_FALSE(z->gum_reliable);
+  // 1 A, far from the pole: decided, and (nearly linear) reliable.
+  inputs[1] = In(1.0, u_i);
+  for (const CustomOutput& o : PropagateCustom(*impedance, inputs).outputs) {
+    EXPECT_TRUE(o.second_order_decided) << o.name;
+    EXPECT_TRUE(o.gum_reliable) << o.name;
+  }
+}
+
+TEST(GumSecondOrder, TheRuleComparesTheTwoSecondOrderTerms) {
+  const double var = 1.0, threshold = kSecondOrderThreshold;
+  EXPECT_TRUE(SecondOrderDecides(0.5, 0.5, var, threshold));      // a quadratic: equal
+  EXPECT_TRUE(SecondOrderDecides(0.5, 0.13, var, threshold));     // sqrt within a factor 2
+  EXPECT_FALSE(SecondOrderDecides(0.5, 0.12, var, threshold));    // beyond it
+  EXPECT_FALSE(SecondOrderDecides(200.0, 2e-4, var, threshold));  // a pole 0.1 u away
+  EXPECT_TRUE(SecondOrderDecides(1e-4, 1e-9, var, threshold));    // both negligible (<= 1e-4 u^2)
+  EXPECT_FALSE(SecondOrderDecides(1.1e-4, 1e-9, var, threshold));
+  EXPECT_TRUE(SecondOrderDecides(0.0, 0.0, 0.0, threshold));  // nothing at all
+}
+
+}  // namespace
+}  // namespace vlt

@@ -108,6 +108,7 @@ void Build(const std::string& spec, const GlobalOptions& global) {
                             .c_str());
     return;
   }
+  if (global.quiet) return;  // --quiet: nothing on standard output (errors still on standard error)
   if (b.cached) {
     std::printf("Model '%s' is up to date in the cache: %s\n", b.name.c_str(), b.library.string().c_str());
   } else {

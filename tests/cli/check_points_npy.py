@@ -78,6 +78,7 @@ def check_full(vlt, work, job_file, args):
         ratio = [math.inf if r is None else r for r in g["second_order"]["ratio"]]
         same(rec["second_order_ratio"], ratio, "second-order ratio")
         assert bool(rec["gum_reliable"]) == g["second_order"]["reliable"]
+        assert bool(rec["second_order_decided"]) == g["second_order"]["decided"]
         if p.get("mcm"):
             m = p["mcm"]
             same(rec["mcm_mean"], m["mean"], "mcm mean")

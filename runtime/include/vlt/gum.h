@@ -154,10 +154,23 @@ struct PointUncertainty {
   Eigen::Vector3d second_order_variance = Eigen::Vector3d::Zero();
   Eigen::Vector3d second_order_ratio = Eigen::Vector3d::Zero();
   bool gum_reliable = true;
+  // Whether the second-order terms describe the model over the inputs' spread (the rule of
+  // SecondOrderDecides, docs/gum.md "Non-linearity"). false: the curvature changes within one
+  // standard uncertainty (a pole, a kink or a singular direction nearby): gum_reliable is then
+  // false and the ratio does not say by how much the GUM is off: Monte Carlo does.
+  bool second_order_decided = true;
 };
 
 // Default threshold of CheckSecondOrder: second-order terms above 1 % of u^2 (u off by > 0.5 %).
 inline constexpr double kSecondOrderThreshold = 0.01;
+
+// The rule that says whether second-order terms can decide (docs/gum.md "Non-linearity"): the
+// second-order variance of an output from its Hessian at the estimate (v_local, exact derivatives)
+// and from central differences of the Jacobian over +-1 standard uncertainty of each input
+// (v_span) must agree within a factor 2 in standard uncertainty (sqrt), unless both are
+// negligible (at most threshold / 100 of the first-order variance var). For a quadratic model the
+// two are equal; they part where the curvature itself changes within the inputs' spread.
+bool SecondOrderDecides(double v_local, double v_span, double var, double threshold = kSecondOrderThreshold);
 
 // Fills second_order_variance, second_order_ratio and gum_reliable of `results` (from
 // PropagatePoints for the same points): u2^2(y_a) = 1/2 ||F^T H_a F||_F^2 with the Hessian H_a
@@ -299,15 +312,18 @@ struct CustomOutput {
   double k = 0.0;
   double U = 0.0;  // k u
   // Non-linearity (JCGM 100 5.1.2 note), as CheckSecondOrder does for points: the leading
-  // second-order variance u2^2 = 1/2 ||F^T H F||_F^2 (H the Hessian of the output, F the factor of
-  // the input covariance; Richardson-extrapolated central differences of the generated Jacobian
-  // at one and half a standard uncertainty), its ratio to u^2, and gum_reliable = ratio <= kSecondOrderThreshold. For GUM H.1
+  // second-order variance u2^2 = 1/2 ||F^T H F||_F^2 (H the Hessian of the output at the
+  // estimates, F the factor of the input covariance; Richardson-extrapolated central differences
+  // of the generated exact Jacobian at 10^-3 and 5 10^-4 standard uncertainties: the derivatives
+  // to about (10^-3 u / d)^4, d the scale on which f changes), its ratio to u^2, and gum_reliable = second_order_decided and the ratio
+  // (the larger of the local one and the one over +-1 u) <= kSecondOrderThreshold. For GUM H.1
   // sqrt(u^2 + u2^2) is the 34 nm of H.1.7; for JCGM 101 9.3 the 0.0750 mg of its table 7.
   double second_order_variance = 0.0;
   double second_order_ratio = 0.0;
   bool gum_reliable = true;
-  std::vector<BudgetRow> budget;  // only .sensitivity(0), .contribution(0), .variance(0),
-                                  // .share(0) are used (scalar output); sorted by share
+  bool second_order_decided = true;  // SecondOrderDecides (PointUncertainty::second_order_decided)
+  std::vector<BudgetRow> budget;     // only .sensitivity(0), .contribution(0), .variance(0),
+                                     // .share(0) are used (scalar output); sorted by share
 };
 
 struct CustomUncertainty {

@@ -286,7 +286,8 @@ json OutputJson(const CustomOutputResult& o) {
              {"ratio", g.second_order_ratio},
              {"u_with_second_order", std::sqrt(g.u * g.u + g.second_order_variance)},
              {"threshold", kSecondOrderThreshold},
-             {"gum_reliable", g.gum_reliable}}},
+             {"gum_reliable", g.gum_reliable},
+             {"decided", g.second_order_decided}}},
            {"budget", budget}}}};
   if (o.has_mcm) {
     e["mcm"] = {{"mean", o.mcm.mean},
@@ -475,7 +476,11 @@ std::string ReportHtmlText(const CustomResults& r) {
       h << "<td></td><td></td><td></td><td></td><td class=l>Monte Carlo not run</td>";
     }
     h << "<td class=\"l " << (g.gum_reliable ? "ok" : "bad") << "\">"
-      << (g.gum_reliable ? "reliable" : "GUM NOT RELIABLE") << ": second-order terms "
+      << (g.gum_reliable ? "reliable" : "GUM NOT RELIABLE")
+      << (g.second_order_decided
+              ? ""
+              : " (the second order cannot decide: the curvature changes within 1 u; use Monte Carlo)")
+      << ": second-order terms at the estimates "
       << (std::isfinite(g.second_order_ratio)
               ? base_internal::Sig(100.0 * g.second_order_ratio, 3) + " % of u&sup2;"
               : std::string("where the first-order u is 0"))
@@ -575,8 +580,13 @@ std::string SummaryText(const CustomResults& r) {
                                                                     : o.validation.outcome;
     if (!g.gum_reliable) {
       // JCGM 100 5.1.2 note, computed without Monte Carlo: said with --no-mcm too.
-      char flag[96];
-      if (std::isfinite(g.second_order_ratio)) {
+      char flag[128];
+      if (!g.second_order_decided) {
+        // The curvature changes within one u: no ratio says by how much (docs/gum.md).
+        std::snprintf(flag, sizeof flag,
+                      "GUM NOT RELIABLE (2nd order cannot decide: curvature changes within 1 u; "
+                      "Monte Carlo); ");
+      } else if (std::isfinite(g.second_order_ratio)) {
         std::snprintf(flag, sizeof flag, "GUM NOT RELIABLE (2nd order %.3g x u^2); ", g.second_order_ratio);
       } else {
         std::snprintf(flag, sizeof flag, "GUM NOT RELIABLE (first-order u is 0, 2nd order is not); ");

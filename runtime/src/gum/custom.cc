@@ -43,11 +43,12 @@ struct Linearisation {
   Eigen::VectorXd x, u;  // estimates and standard uncertainties of the inputs
   Eigen::MatrixXd r;     // their correlation matrix (identity when uncorrelated)
   bool correlated = false;
-  std::vector<double> dof;          // their degrees of freedom
-  std::vector<int> component;       // their Welch-Satterthwaite components
-  Eigen::VectorXd y;                // the outputs at the estimates
-  Eigen::MatrixXd j, ju;            // sensitivities c and contributions c_i u_i
-  std::vector<Eigen::MatrixXd> hz;  // per output: its Hessian in z (second-order terms)
+  std::vector<double> dof;               // their degrees of freedom
+  std::vector<int> component;            // their Welch-Satterthwaite components
+  Eigen::VectorXd y;                     // the outputs at the estimates
+  Eigen::MatrixXd j, ju;                 // sensitivities c and contributions c_i u_i
+  std::vector<Eigen::MatrixXd> hz;       // per output: its Hessian in z at the estimates
+  std::vector<Eigen::MatrixXd> hz_span;  // the same from differences over +-1 u (SecondOrderDecides)
 
   Linearisation(const ModelInfo& m, std::span<const UncertainInput> in) : model(m), inputs(in) {}
 };
@@ -129,10 +130,13 @@ void InputDegrees(Linearisation& lin, const InputDegreesOfFreedom& degrees_of_fr
 
 // Second-order terms (JCGM 100 5.1.2 note; gum/nonlinearity.cc for points): x = x0 + F z with
 // F = diag(u) L, L L^T = R; column k of H_z from central differences of the exact Jacobian,
-// D(h) = (J(x0 + h F e_k) - J(x0 - h F e_k)) F / (2 h), Richardson-extrapolated
-// (4 D(1/2) - D(1)) / 3 so that the truncation error is O(u^4) (the note's formula has exact
-// derivatives: JCGM 101 9.3's 0.0750 mg needs them to 0.1 %).
-std::vector<Eigen::MatrixXd> SecondOrderHessians(const Linearisation& lin, std::vector<double>& j_readings) {
+// D(h) = (J(x0 + h F e_k) - J(x0 - h F e_k)) F / (2 h). At the estimates (lin.hz): D(h)
+// Richardson-extrapolated, (4 D(h/2) - D(h)) / 3 with h = 10^-3, the exact second derivatives to
+// about 10^-12 (the note's formula has exact derivatives: JCGM 101 9.3's 0.0750 mg needs them to
+// 0.1 %; a step of one u, as before, saw 10 rad of JCGM 102 9.3's phase at x1 = 0.001, u = 0.01 as
+// "reliable"). Over the inputs' spread (lin.hz_span): D(1), for SecondOrderDecides.
+std::vector<Eigen::MatrixXd> SecondOrderHessians(const Linearisation& lin, std::vector<double>& j_readings,
+                                                 double step, bool richardson) {
   const ModelInfo& model = lin.model;
   const int num_inputs = model.num_params;
   const int num_outputs = model.num_outputs;
@@ -154,7 +158,9 @@ std::vector<Eigen::MatrixXd> SecondOrderHessians(const Linearisation& lin, std::
   };
   for (int k = 0; k < num_inputs; ++k) {
     if (f.col(k).isZero(0.0)) continue;
-    const Eigen::MatrixXd d = (4.0 * central(k, 0.5) - central(k, 1.0)) / 3.0;
+    const Eigen::MatrixXd d = richardson
+                                  ? Eigen::MatrixXd((4.0 * central(k, 0.5 * step) - central(k, step)) / 3.0)
+                                  : central(k, step);
     for (int o = 0; o < num_outputs; ++o) hz[o].col(k) = d.row(o).transpose();
   }
   return hz;
@@ -177,9 +183,10 @@ double EffectiveDegreesOfFreedom(const Linearisation& lin, int o, double u) {
 
 // The second-order variance of output o against its first-order variance (JCGM 100 5.1.2 note).
 void SecondOrderCheck(const Linearisation& lin, int o, double var, CustomOutput& out) {
-  const Eigen::MatrixXd sym = 0.5 * (lin.hz[o] + lin.hz[o].transpose());
-  out.second_order_variance = 0.5 * sym.squaredNorm();
-  if (!std::isfinite(out.second_order_variance)) {
+  auto variance = [](const Eigen::MatrixXd& hz) { return 0.5 * (0.5 * (hz + hz.transpose())).squaredNorm(); };
+  out.second_order_variance = variance(lin.hz[o]);
+  const double v_span = variance(lin.hz_span[o]);
+  if (!std::isfinite(out.second_order_variance) || !std::isfinite(v_span)) {
     throw NumericalError(std::string("model '") + lin.model.name + "': output '" + out.name +
                          "': the second-order check gives a non-finite result");
   }
@@ -187,7 +194,11 @@ void SecondOrderCheck(const Linearisation& lin, int o, double var, CustomOutput&
   out.second_order_ratio = var > 0.0                         ? out.second_order_variance / var
                            : out.second_order_variance > 0.0 ? std::numeric_limits<double>::infinity()
                                                              : 0.0;
-  out.gum_reliable = out.second_order_ratio <= kSecondOrderThreshold;
+  // Reliable when the second order decides and neither its value at the estimates nor over the
+  // inputs' spread exceeds the threshold (docs/gum.md "Non-linearity").
+  out.second_order_decided = SecondOrderDecides(out.second_order_variance, v_span, var);
+  out.gum_reliable = out.second_order_decided && out.second_order_ratio <= kSecondOrderThreshold &&
+                     v_span <= kSecondOrderThreshold * var;
 }
 
 // The uncertainty budget of output o (JCGM 100 8): a row per input, one for the correlations,
@@ -280,7 +291,8 @@ CustomUncertainty PropagateCustom(const ModelInfo& model, std::span<const Uncert
                          "': non-finite value or sensitivity at the estimates");
   }
   lin.ju = lin.j * lin.u.asDiagonal();  // contributions c_i u_i
-  lin.hz = SecondOrderHessians(lin, j_readings);
+  lin.hz = SecondOrderHessians(lin, j_readings, 1e-3, true);
+  lin.hz_span = SecondOrderHessians(lin, j_readings, 1.0, false);
 
   CustomUncertainty result;
   result.covariance = lin.ju * lin.r * lin.ju.transpose();

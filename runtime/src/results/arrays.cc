@@ -61,6 +61,7 @@ NpyLayout PointLayout(const Results& r, const std::vector<std::string>& inputs, 
   layout.AddDoubles("second_order_variance", {3});
   layout.AddDoubles("second_order_ratio", {3});
   layout.AddBool("gum_reliable");
+  layout.AddBool("second_order_decided");
   if (r.has_mcm) {
     layout.AddDoubles("mcm_mean", {3});
     layout.AddDoubles("mcm_covariance", {3, 3});
@@ -133,6 +134,7 @@ void AppendPoint(const Results& r, const PointResult& p, const PointUncertainty&
   record.Vector(Eigen::Vector3d(g.los_part.u_radial, g.los_part.u_horizontal, g.los_part.u_vertical));
   record.Vector(g.tracker).Matrix(g.cov_tracker);
   record.Vector(g.second_order_variance).Vector(g.second_order_ratio).Bool(g.gum_reliable);
+  record.Bool(g.second_order_decided);
   if (r.has_mcm) AppendMonteCarlo(p, record);
   for (const BudgetRow* b : rows) {
     if (b->group != "correlation") record.Vector(b->sensitivity);

@@ -234,7 +234,8 @@ json Point(const Results& r, const PointResult& p, const std::vector<BudgetRow>*
   gum["second_order"] = {{"variance", Vec(g.second_order_variance)},
                          {"ratio", Vec(g.second_order_ratio)},
                          {"threshold", kSecondOrderThreshold},
-                         {"reliable", g.gum_reliable}};
+                         {"reliable", g.gum_reliable},
+                         {"decided", g.second_order_decided}};
   j["gum"] = gum;
   if (budget != nullptr) {
     json rows = json::array();

@@ -74,9 +74,14 @@ std::string PointVerdict(const PointResult& p) {
   std::string verdict = !p.has_mcm ? "not run" : p.outcome == "not validated" ? "NOT validated" : p.outcome;
   if (!g.gum_reliable) {
     // JCGM 100 5.1.2 note, computed without Monte Carlo: said with --no-mcm too.
-    char flag[96];
+    char flag[128];
     const double ratio = g.second_order_ratio.maxCoeff();
-    if (std::isfinite(ratio)) {
+    if (!g.second_order_decided) {
+      // The curvature changes within one u: no ratio says by how much (docs/gum.md).
+      std::snprintf(flag, sizeof flag,
+                    "GUM NOT RELIABLE (2nd order cannot decide: curvature changes within 1 u; "
+                    "Monte Carlo); ");
+    } else if (std::isfinite(ratio)) {
       std::snprintf(flag, sizeof flag, "GUM NOT RELIABLE (2nd order %.3g x u^2); ", ratio);
     } else {
       std::snprintf(flag, sizeof flag, "GUM NOT RELIABLE (first-order u is 0, 2nd order is not); ");
