@@ -98,7 +98,7 @@ namespace {
 // Issue 31: where the curvature changes within one u the second order cannot decide. GUM H.2's
 // Z = V / I with I = 1 mA, u(I) = 10 mA (a pole 0.1 u away): at the estimate the second-order
 // variance is the closed form 1/2 [(2 V u_I^2 / I^3)^2 + 2 (u_V u_I / I^2)^2] (200 times u^2),
-// over +-1 u the curvature is a millionth of it: not decided, not reliable. (A step of one u alone
+// over +-1 u the second-order variance is 10^-8 of it: not decided, not reliable. (A step of one u alone
 // said "reliable" here.) The quadratic terms of GUM H.1 and JCGM 101 9.3 decide: test_gum.cc.
 TEST(GumSecondOrder, APoleWithinOneUncertaintyCannotBeDecided) {
   const ModelInfo* impedance = FindModel("gum_h2_impedance");

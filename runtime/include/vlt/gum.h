@@ -316,7 +316,7 @@ struct CustomOutput {
   // estimates, F the factor of the input covariance; Richardson-extrapolated central differences
   // of the generated exact Jacobian at 10^-3 and 5 10^-4 standard uncertainties: the derivatives
   // to about (10^-3 u / d)^4, d the scale on which f changes), its ratio to u^2, and gum_reliable = second_order_decided and the ratio
-  // (the larger of the local one and the one over +-1 u) <= kSecondOrderThreshold. For GUM H.1
+  // <= kSecondOrderThreshold (the terms over +-1 u only decide, SecondOrderDecides). For GUM H.1
   // sqrt(u^2 + u2^2) is the 34 nm of H.1.7; for JCGM 101 9.3 the 0.0750 mg of its table 7.
   double second_order_variance = 0.0;
   double second_order_ratio = 0.0;

@@ -97,9 +97,10 @@ struct McmOutputResult {
   // a finite variance"): Hill's estimate of the tail index alpha, P(|Y| > y) ~ y^-alpha, from the
   // kTailIndexFraction largest and smallest values (the smaller of the two tails' estimates);
   // absent when not every value was kept or M is too small (fewer than kTailIndexMinimumCount
-  // values in a tail). infinite_variance: alpha (1 + 2 / sqrt(k)) < 2, i.e. alpha below 2 by two
-  // of its standard errors alpha / sqrt(k): the variance, u and the GUM comparison then do not
-  // exist (the coverage intervals, quantiles, do).
+  // values in the fraction). infinite_variance: the estimates at that fraction, a fifth and a
+  // twenty-fifth of it all below 2 by two of their standard errors alpha / sqrt(k) (decided from
+  // M = 2.5 10^5; mcm/engine.h EstimateTailIndex): the variance, u and the GUM comparison then do
+  // not exist (the coverage intervals, quantiles, do).
   std::optional<double> tail_index;
   bool infinite_variance = false;
   // The distribution of the M values (the JCGM 101 figures: histogram with the GUM Gaussian and

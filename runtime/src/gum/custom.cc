@@ -184,21 +184,24 @@ double EffectiveDegreesOfFreedom(const Linearisation& lin, int o, double u) {
 // The second-order variance of output o against its first-order variance (JCGM 100 5.1.2 note).
 void SecondOrderCheck(const Linearisation& lin, int o, double var, CustomOutput& out) {
   auto variance = [](const Eigen::MatrixXd& hz) { return 0.5 * (0.5 * (hz + hz.transpose())).squaredNorm(); };
-  out.second_order_variance = variance(lin.hz[o]);
-  const double v_span = variance(lin.hz_span[o]);
-  if (!std::isfinite(out.second_order_variance) || !std::isfinite(v_span)) {
+  const double v_local = variance(lin.hz[o]), v_span = variance(lin.hz_span[o]);
+  if (!std::isfinite(v_local)) {
     throw NumericalError(std::string("model '") + lin.model.name + "': output '" + out.name +
                          "': the second-order check gives a non-finite result");
   }
+  // A pole at +-1 u itself (v_span not finite): the curvature changes within 1 u, undecided.
+  const bool span_finite = std::isfinite(v_span);
+  // The note's term with exact derivatives (JCGM 101 9.3's 0.0750 mg); the one over +-1 u only
+  // decides whether it can be trusted (docs/gum.md "Non-linearity").
+  out.second_order_variance = v_local;
   // A first-order variance of 0 with second-order terms: no ratio (infinity; gum/nonlinearity.cc).
   out.second_order_ratio = var > 0.0                         ? out.second_order_variance / var
                            : out.second_order_variance > 0.0 ? std::numeric_limits<double>::infinity()
                                                              : 0.0;
   // Reliable when the second order decides and neither its value at the estimates nor over the
   // inputs' spread exceeds the threshold (docs/gum.md "Non-linearity").
-  out.second_order_decided = SecondOrderDecides(out.second_order_variance, v_span, var);
-  out.gum_reliable = out.second_order_decided && out.second_order_ratio <= kSecondOrderThreshold &&
-                     v_span <= kSecondOrderThreshold * var;
+  out.second_order_decided = span_finite && SecondOrderDecides(v_local, v_span, var);
+  out.gum_reliable = out.second_order_decided && out.second_order_ratio <= kSecondOrderThreshold;
 }
 
 // The uncertainty budget of output o (JCGM 100 8): a row per input, one for the correlations,

@@ -106,15 +106,18 @@ void CheckSecondOrder(const MeasurementModel& model, std::span<const PointReadin
           p.second_order_variance = v_span;
           p.second_order_decided = true;
           const Eigen::Vector3d var1 = p.cov_part.diagonal();
-          if ((v_span.array() > 0.1 * threshold * var1.array()).any()) {
+          // (A pole at +-1 u itself makes v_span infinite: then the local terms alone, undecided.)
+          const bool span_finite = v_span.allFinite();
+          if (!span_finite || (v_span.array() > 0.1 * threshold * var1.array()).any()) {
             hessians(1e-3, h);
             hessians(5e-4, h_half);
             for (int a = 0; a < 3; ++a) {
               v_local(a) = variance((4.0 * h_half[a] - h[a]) / 3.0);
-              p.second_order_decided =
-                  p.second_order_decided && SecondOrderDecides(v_local(a), v_span(a), var1(a), threshold);
+              p.second_order_decided = p.second_order_decided && span_finite &&
+                                       SecondOrderDecides(v_local(a), v_span(a), var1(a), threshold);
             }
-            p.second_order_variance = v_span.cwiseMax(v_local);
+            // The note's term with exact derivatives; the one over +-1 u only decides.
+            p.second_order_variance = v_local;
           }
           for (int a = 0; a < 3; ++a) {
             // A first-order variance of 0 with second-order terms: the ratio has no value (infinity here,

@@ -175,7 +175,7 @@ struct BatchExchange {
     // `computed` is output-major, so the block for rank s (its outputs, this rank's trials) is
     // contiguous; the blocks received come rank after rank, each [own output][that rank's trials].
     mpi_internal::AllToAll(std::span<const float>(computed), send_counts, std::span<float>(received),
-                    receive_counts);
+                           receive_counts);
     std::size_t at = 0;
     for (int r = 0; r < ranks::Count(); ++r) {
       for (int o = 0; o < n_own; ++o) {
@@ -457,7 +457,7 @@ struct MonteCarloRun {
   // Items run on the process's shared workers (parallel/pool.h); `w` picks the per-thread scratch.
   void ParallelFor(int count, const std::function<void(int, int)>& fn) const {
     parallel_internal::ForEach(static_cast<std::size_t>(count), threads,
-                      [&fn](std::size_t item, int w) { fn(static_cast<int>(item), w); });
+                               [&fn](std::size_t item, int w) { fn(static_cast<int>(item), w); });
   }
 
   void RunBatches();
@@ -517,10 +517,12 @@ std::int64_t MonteCarloRun::WaveSize() const {
   const std::int64_t chunks_per_batch = (batch_size + kChunk - 1) / kChunk;
   // n_out, not this rank's outputs: every rank must compute the same waves (each batch is exchanged
   // and agreed on by all ranks together).
-  const std::int64_t items_per_batch = std::max<std::int64_t>(1, std::min<std::int64_t>(chunks_per_batch, n_out));
+  const std::int64_t items_per_batch =
+      std::max<std::int64_t>(1, std::min<std::int64_t>(chunks_per_batch, n_out));
   std::int64_t wave = (std::int64_t{kItemsPerThread} * threads + items_per_batch - 1) / items_per_batch;
   if (!direct) {
-    const std::int64_t batch_bytes = std::int64_t{n_out} * batch_size * static_cast<std::int64_t>(sizeof(float));
+    const std::int64_t batch_bytes =
+        std::int64_t{n_out} * batch_size * static_cast<std::int64_t>(sizeof(float));
     wave = std::min(wave, std::max<std::int64_t>(1, kWaveBytes / std::max<std::int64_t>(1, batch_bytes)));
   }
   const std::int64_t left = adaptive ? (settings.max_trials - done) / batch_size
@@ -562,7 +564,8 @@ void MonteCarloRun::ComputeWave(std::vector<Batch>& wave) {
       const BatchExchange& exchange = exchanges.emplace_back(batch.n_chunks, stride, batch.bh, n_out, share);
       if (!direct) computed[b].resize(static_cast<std::size_t>(n_out) * exchange.trial_count);
       if (ranks::Count() > 1) batch.vals.resize(static_cast<std::size_t>(n_own) * batch.bh);
-      for (int c = exchange.chunk_first; c < exchange.chunk_last; ++c) items.emplace_back(static_cast<int>(b), c);
+      for (int c = exchange.chunk_first; c < exchange.chunk_last; ++c)
+        items.emplace_back(static_cast<int>(b), c);
     }
     std::mutex failures;
     ParallelFor(static_cast<int>(items.size()), [&](int item, int w) {
@@ -971,7 +974,7 @@ void MonteCarloRun::AllValuesPass(McmResult& result, std::vector<McmVectorResult
   }
   auto intervals = [&](std::size_t i) {
     const int o = own_first + static_cast<int>(i);
-    CoverageIntervals(series[i], y0[o], p, &result.outputs[o].symmetric, &result.outputs[o].shortest);
+    IntervalsAndTailIndex(series[i], y0[o], p, result.outputs[o]);
   };
   const bool item_per_output =
       n_regions + static_cast<std::size_t>(n_own) >= static_cast<std::size_t>(kItemsPerThread) * threads;
@@ -1028,10 +1031,12 @@ void MonteCarloRun::SharedOrderStatistics(McmResult& result, std::vector<McmVect
     const int gi = share.groups[j];
     Eigen::VectorXd offset;
     const std::vector<const float*> components = RegionSeries(gi, vectors[gi], &offset);
-    has_region[j] = GatherRegionTail(components, done, offset, vectors[gi].covariance, p, threads, &region_tails[j]);
+    has_region[j] =
+        GatherRegionTail(components, done, offset, vectors[gi].covariance, p, threads, &region_tails[j]);
   }
   std::vector<Tails<float>> output_tails(static_cast<std::size_t>(n_own));
-  for (int i = 0; i < n_own; ++i) GatherIntervalTails(std::span<const float>(series[i]), p, threads, &output_tails[i]);
+  for (int i = 0; i < n_own; ++i)
+    GatherIntervalTails(std::span<const float>(series[i]), p, threads, &output_tails[i]);
   ParallelFor(2 * n_own + n_regions, [&](int item, int) {
     if (item < 2 * n_own) {
       FinishTail(&output_tails[item / 2], item % 2);
@@ -1048,8 +1053,7 @@ void MonteCarloRun::SharedOrderStatistics(McmResult& result, std::vector<McmVect
     McmOutputResult& out = result.outputs[own_first + i];
     IntervalsFromTails(output_tails[i], done, y0[own_first + i], p, &out.symmetric, &out.shortest);
     // Whether u means anything here (McmOutputResult::tail_index).
-    out.tail_index = TailIndex(output_tails[i], done, p);
-    out.infinite_variance = out.tail_index && InfiniteVariance(*out.tail_index, done);
+    SetTailIndex(output_tails[i], done, y0[own_first + i], out);
   });
 }
 
@@ -1125,10 +1129,10 @@ void MonteCarloRun::PackOwnRecords(McmResult& result, const std::vector<McmVecto
 
 void MonteCarloRun::ShareRecords(FinalRecords& records, McmResult& result,
                                  std::vector<McmVectorResult>& vectors) const {
-  mpi_internal::AllGather(std::span<const double>(records.own_outputs), std::span<double>(records.all_outputs),
-                   records.output_counts);
+  mpi_internal::AllGather(std::span<const double>(records.own_outputs),
+                          std::span<double>(records.all_outputs), records.output_counts);
   mpi_internal::AllGather(std::span<const double>(records.own_groups), std::span<double>(records.all_groups),
-                   records.group_counts);
+                          records.group_counts);
   for (int o = 0; o < n_out; ++o) {
     UnpackOutput(records.all_outputs.data() + static_cast<std::size_t>(o) * kOutputRecord, result.outputs[o]);
   }

@@ -135,14 +135,24 @@ void IntervalsFromTails(const Tails<float>& tails, std::int64_t m, double refere
                         CoverageInterval* symmetric, CoverageInterval* shortest);
 
 // Hill's estimator of the tail index from the sorted tails of M values (GatherIntervalTails +
-// FinishTail; vlt/mcm.h McmOutputResult::tail_index): k = floor(kTailIndexFraction M) values of
-// each tail measured from the centre c of the probabilistically symmetric interval,
-//   alpha = k / sum_{i=1..k} ln(X_(i) / X_(k+1)),  X = y - c (upper), c - y (lower), descending,
-// the smaller of the two. Absent when k < kTailIndexMinimumCount or the tails hold fewer than
-// k + 1 values; infinity for a tail whose k + 1 largest are equal (a bounded tail).
-std::optional<double> TailIndex(const Tails<float>& tails, std::int64_t m, double p);
-// The rule of McmOutputResult::infinite_variance for an estimate from k values per tail.
-bool InfiniteVariance(double tail_index, std::int64_t m);
+// FinishTail; vlt/mcm.h McmOutputResult::tail_index), measured from `centre` (the middle of the
+// probabilistically symmetric interval, in the tails' own terms):
+//   alpha(k) = k / sum_{i=1..k} ln(X_(i) / X_(k+1)),  X = y - c (upper), c - y (lower), descending,
+// the smaller of the two tails; infinity for a bounded tail. index = alpha(k1) with
+// k1 = min(floor(kTailIndexFraction M), tail length - 1), absent when k1 < kTailIndexMinimumCount.
+// infinite_variance: alpha (1 + 2 / sqrt(k)) < 2 at k1, k1 / 5 and k1 / 25 alike (decided only when
+// k1 / 25 >= kTailIndexMinimumCount, M >= 2.5 10^5 at p <= 0.99).
+struct TailIndexEstimate {
+  std::optional<double> index;
+  bool decided = false;
+  bool infinite_variance = false;
+};
+TailIndexEstimate EstimateTailIndex(const Tails<float>& tails, std::int64_t m, double centre);
+// McmOutputResult::tail_index and infinite_variance from the tails of the output's deviations
+// from `reference` (out.symmetric already set).
+void SetTailIndex(const Tails<float>& tails, std::int64_t m, double reference, McmOutputResult& out);
+// CoverageIntervals of one output's deviations and its tail index (one pass, one thread).
+void IntervalsAndTailIndex(std::span<const float> values, double reference, double p, McmOutputResult& out);
 
 // k_p of JCGM 102 7.7.3 from the deviations (float, relative to y0) of n trials of one group
 // (mcm/region.cc): the q-th smallest |L^-1 (y_r - mean)|, L L^T = cov; series[a] holds
