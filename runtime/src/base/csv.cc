@@ -197,7 +197,8 @@ CsvTable ParseCsv(std::string_view text, const std::string& file, const std::vec
       if (fields.size() != table.header.size()) {
         throw InputError(where + ": " + std::to_string(fields.size()) + " fields, " +
                          (headerless ? "the columns name " : "the header has ") +
-                         std::to_string(table.header.size()) + " (separator '" + SeparatorName(table.delimiter) +
+                         std::to_string(table.header.size()) + " (separator '" +
+                         SeparatorName(table.delimiter) +
                          (headerless ? "', taken from the first row)" : "', taken from the header line)"));
       }
       table.rows.push_back(CsvRow{line_number, std::move(fields)});
@@ -209,13 +210,16 @@ CsvTable ParseCsv(std::string_view text, const std::string& file, const std::vec
   return table;
 }
 
-CsvTable ReadCsvFile(const std::string& path, const std::string& label, const std::vector<std::string>* columns) {
+CsvTable ReadCsvFile(const std::string& path, const std::string& label,
+                     const std::vector<std::string>* columns) {
   return ParseCsv(ReadInputFile(path, label, "cannot read CSV file '" + path + "'"), label, columns);
 }
 
 double CsvQuantity(const std::string& field, std::optional<Dimension> dim, double unit_scale,
-                   double unit_offset, const std::string& where) {
-  if (field.empty()) throw InputError(where + ": empty field");
+                   double unit_offset, const std::string& where, std::string_view suffix) {
+  // The message's place is put together only when there is a message.
+  auto at = [&] { return where + std::string(suffix); };
+  if (field.empty()) throw InputError(at() + ": empty field");
   // A bare decimal number in the column's unit (docs/units.md: decimal literals only — no hex
   // floats, no inf/nan, which strtod would take); anything else must carry its own unit.
   std::string_view digits = field;
@@ -224,13 +228,18 @@ double CsvQuantity(const std::string& field, std::optional<Dimension> dim, doubl
   const auto [end, ec] =
       std::from_chars(digits.data(), digits.data() + digits.size(), v, std::chars_format::general);
   if (ec == std::errc() && end == digits.data() + digits.size()) {
-    if (!std::isfinite(v)) throw InputError(where + ": '" + field + "' is not a finite number");
+    if (!std::isfinite(v)) throw InputError(at() + ": '" + field + "' is not a finite number");
     return v * unit_scale + unit_offset;
   }
   if (ec == std::errc::result_out_of_range)
-    throw InputError(where + ": '" + field + "' is out of the range of finite numbers");
-  if (!dim) throw InputError(where + ": '" + field + "' is not a decimal number");
-  return ParseQuantity(field, *dim, where);  // a field with its own unit
+    throw InputError(at() + ": '" + field + "' is out of the range of finite numbers");
+  if (!dim) throw InputError(at() + ": '" + field + "' is not a decimal number");
+  return ParseQuantity(field, *dim, at());  // a field with its own unit
+}
+
+double CsvQuantity(const std::string& field, std::optional<Dimension> dim, double unit_scale,
+                   double unit_offset, const std::string& where) {
+  return CsvQuantity(field, dim, unit_scale, unit_offset, where, {});
 }
 
 }  // namespace base_internal

@@ -120,9 +120,9 @@ void ReadPlan(Section& s, Job& job, bool check_reach) {
       p.where = table.Where(row);
       p.name = row.fields[cn];
       if (p.name.empty()) throw InputError(p.where + ": empty point name");
-      p.nominal = {CsvQuantity(row.fields[cx], Dimension::kLength, scale, 0, p.where + ": x"),
-                   CsvQuantity(row.fields[cy], Dimension::kLength, scale, 0, p.where + ": y"),
-                   CsvQuantity(row.fields[cz], Dimension::kLength, scale, 0, p.where + ": z")};
+      p.nominal = {CsvQuantity(row.fields[cx], Dimension::kLength, scale, 0, p.where, ": x"),
+                   CsvQuantity(row.fields[cy], Dimension::kLength, scale, 0, p.where, ": y"),
+                   CsvQuantity(row.fields[cz], Dimension::kLength, scale, 0, p.where, ": z")};
       if (cf >= 0 && !row.fields[cf].empty()) p.face = ParseFaceField(row.fields[cf], p.where);
       job.points.push_back(std::move(p));
     }

@@ -1,6 +1,7 @@
 // Task descriptions (vlt/tasks.h): names, minimum point counts, point-name resolution.
 #include "vlt/tasks.h"
 
+#include <algorithm>
 #include <string>
 #include <unordered_map>
 
@@ -75,6 +76,14 @@ std::vector<int> ResolveTaskPoints(const TaskSpec& spec, std::span<const std::st
     throw InputError(prefix + ": " + std::string(TaskKindName(spec.kind)) + " needs at least " +
                      std::to_string(MinimumPoints(spec.kind)) + " points, " + std::to_string(count) +
                      " given");
+  }
+  // `points = "all"` of a job: its points in its order (the readers refuse a name used twice), so
+  // the indices are 0 .. N-1 once the names are seen to be those (no hash of 10^6 names).
+  if (spec.all_points && spec.points.size() == point_names.size() &&
+      std::equal(spec.points.begin(), spec.points.end(), point_names.begin())) {
+    std::vector<int> all(point_names.size());
+    for (std::size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+    return all;
   }
   // Hash lookup: tasks over 10^5 points must not cost N^2.
   std::unordered_map<std::string_view, int> index_of;
