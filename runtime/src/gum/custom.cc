@@ -8,6 +8,7 @@
 
 #include <Eigen/Dense>
 
+#include "gum/internal.h"
 #include "model/correlation.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
@@ -183,8 +184,8 @@ double EffectiveDegreesOfFreedom(const Linearisation& lin, int o, double u) {
 
 // The second-order variance of output o against its first-order variance (JCGM 100 5.1.2 note).
 void SecondOrderCheck(const Linearisation& lin, int o, double var, CustomOutput& out) {
-  auto variance = [](const Eigen::MatrixXd& hz) { return 0.5 * (0.5 * (hz + hz.transpose())).squaredNorm(); };
-  const double v_local = variance(lin.hz[o]), v_span = variance(lin.hz_span[o]);
+  const double v_local = gum_internal::SecondOrderVariance(lin.hz[o]);
+  const double v_span = gum_internal::SecondOrderVariance(lin.hz_span[o]);
   if (!std::isfinite(v_local)) {
     throw NumericalError(std::string("model '") + lin.model.name + "': output '" + out.name +
                          "': the second-order check gives a non-finite result");

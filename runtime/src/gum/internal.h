@@ -51,4 +51,10 @@ inline constexpr double kStandingAxisTolerance = 1e-6;
 // "point '<name>': " or "point #<index>: " for messages.
 std::string PointLabel(const std::string& name, std::size_t index);
 
+// JCGM 100 5.1.2 note: the second-order variance 1/2 ||H||_F^2 of an output from its Hessian in z
+// (symmetrised: central differences give it up to rounding), for points and custom models alike.
+inline double SecondOrderVariance(const Eigen::MatrixXd& hz) {
+  return 0.5 * (0.5 * (hz + hz.transpose())).squaredNorm();
+}
+
 }  // namespace vlt::gum_internal

@@ -92,9 +92,6 @@ void CheckSecondOrder(const MeasurementModel& model, std::span<const PointReadin
                 out[a].col(k) = (0.5 / step) * (jz_plus.row(a) - jz_minus.row(a)).transpose();
             }
           };
-          auto variance = [](const Eigen::MatrixXd& hz) {
-            return 0.5 * (0.5 * (hz + hz.transpose())).squaredNorm();
-          };
           PointUncertainty& p = results[i];
           // Over +-1 u of each input (2 (3 + S) Jacobians). Where that already shows terms above a
           // tenth of the threshold, also at the point itself (Richardson-extrapolated steps of
@@ -102,7 +99,7 @@ void CheckSecondOrder(const MeasurementModel& model, std::span<const PointReadin
           // the two must agree for the second order to decide (SecondOrderDecides).
           hessians(1.0, h);
           Eigen::Vector3d v_span, v_local;
-          for (int a = 0; a < 3; ++a) v_span(a) = variance(h[a]);
+          for (int a = 0; a < 3; ++a) v_span(a) = gum_internal::SecondOrderVariance(h[a]);
           p.second_order_variance = v_span;
           p.second_order_decided = true;
           const Eigen::Vector3d var1 = p.cov_part.diagonal();
@@ -112,7 +109,7 @@ void CheckSecondOrder(const MeasurementModel& model, std::span<const PointReadin
             hessians(1e-3, h);
             hessians(5e-4, h_half);
             for (int a = 0; a < 3; ++a) {
-              v_local(a) = variance((4.0 * h_half[a] - h[a]) / 3.0);
+              v_local(a) = gum_internal::SecondOrderVariance((4.0 * h_half[a] - h[a]) / 3.0);
               p.second_order_decided = p.second_order_decided && span_finite &&
                                        SecondOrderDecides(v_local(a), v_span(a), var1(a), threshold);
             }
