@@ -187,6 +187,62 @@ void BM_ForwardJacobians(benchmark::State& state) {
   SetOps(state, Model(K::kName).ops_forward_jacobians);
 }
 
+// The second-order check's Hessians at one point (gum/nonlinearity.cc): the generated exact kernel
+// against what it replaced, Richardson-extrapolated central differences of ForwardJacobians (steps
+// of 10^-3 and 5 10^-4 of each input's u: 4 (3 + P) Jacobians).
+template <class K>
+void BM_Hessians(benchmark::State& state) {
+  constexpr int N = 3 + K::kParams;
+  Batch<K> b;
+  std::vector<double> h(3 * N * N);
+  for (auto _ : state) {
+    for (std::size_t i = 0; i < kBatch; ++i) {
+      K::template Hessians<double>(b.readings[i].data(), b.params.data(), h.data());
+      benchmark::DoNotOptimize(h.data());
+    }
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * kBatch));
+  SetOps(state, Model(K::kName).ops_hessians);
+}
+
+template <class K>
+void BM_RichardsonHessians(benchmark::State& state) {
+  constexpr int N = 3 + K::kParams;
+  Batch<K> b;
+  const Eigen::Matrix<double, N, 1> u = InputUncertainties<N>(b.model, 1.0);
+  std::vector<double> h(3 * N * N);
+  Eigen::Matrix<double, 3, N> j_plus, j_minus;
+  Eigen::Vector3d y;
+  Eigen::VectorXd p_plus = b.params, p_minus = b.params;
+  auto central = [&](const Eigen::Vector3d& r0, int k, double step) {
+    Eigen::Vector3d r_plus = r0, r_minus = r0;
+    p_plus = b.params;
+    p_minus = b.params;
+    (k < 3 ? r_plus(k) : p_plus(k - 3)) += step;
+    (k < 3 ? r_minus(k) : p_minus(k - 3)) -= step;
+    K::template ForwardJacobians<double>(r_plus.data(), p_plus.data(), y.data(), j_plus.data(),
+                                         j_plus.data() + 9);
+    K::template ForwardJacobians<double>(r_minus.data(), p_minus.data(), y.data(), j_minus.data(),
+                                         j_minus.data() + 9);
+    return Eigen::Matrix<double, 3, N>((j_plus - j_minus) / (2.0 * step));
+  };
+  for (auto _ : state) {
+    for (std::size_t i = 0; i < kBatch; ++i) {
+      for (int k = 0; k < N; ++k) {
+        const Eigen::Matrix<double, 3, N> d =
+            (4.0 * central(b.readings[i], k, 5e-4 * u(k)) - central(b.readings[i], k, 1e-3 * u(k))) / 3.0;
+        for (int a = 0; a < 3; ++a) {
+          for (int l = 0; l < N; ++l) h[N * N * a + N * k + l] = d(a, l);
+        }
+      }
+      benchmark::DoNotOptimize(h.data());
+    }
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * kBatch));
+}
+
 template <class K>
 void BM_Forward(benchmark::State& state) {
   Batch<K> b;
@@ -314,6 +370,10 @@ const bool kRegistered = [] {
   RegisterBenchmark("jacobian/nominal/head", BM_NominalJacobians<HeadKernels>);
   RegisterBenchmark("jacobian/forward_jacobians/mirror", BM_ForwardJacobians<MirrorKernels>);
   RegisterBenchmark("jacobian/forward_jacobians/head", BM_ForwardJacobians<HeadKernels>);
+  RegisterBenchmark("hessian/generated/mirror", BM_Hessians<MirrorKernels>);
+  RegisterBenchmark("hessian/generated/head", BM_Hessians<HeadKernels>);
+  RegisterBenchmark("hessian/richardson/mirror", BM_RichardsonHessians<MirrorKernels>);
+  RegisterBenchmark("hessian/richardson/head", BM_RichardsonHessians<HeadKernels>);
   RegisterBenchmark("forward/mirror", BM_Forward<MirrorKernels>);
   RegisterBenchmark("forward/head", BM_Forward<HeadKernels>);
 

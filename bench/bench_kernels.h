@@ -27,6 +27,10 @@ struct MirrorKernels {
   static void NominalJacobians(const S* r, S* out, S* jr, S* jp) {
     gen::mirror::NominalJacobians<S>(r, out, jr, jp);
   }
+  template <typename S>
+  static void Hessians(const S* r, const S* p, S* h) {
+    gen::mirror::Hessians<S>(r, p, h);
+  }
   // Column k of d out / d params, in spec order.
   static constexpr std::array<SensitivityKernel, kParams> kSensitivity = {
       &gen::mirror::Sensitivity_a0<double>,  &gen::mirror::Sensitivity_eac<double>,
@@ -56,6 +60,10 @@ struct HeadKernels {
   template <typename S>
   static void NominalJacobians(const S* r, S* out, S* jr, S* jp) {
     gen::head::NominalJacobians<S>(r, out, jr, jp);
+  }
+  template <typename S>
+  static void Hessians(const S* r, const S* p, S* h) {
+    gen::head::Hessians<S>(r, p, h);
   }
 };
 

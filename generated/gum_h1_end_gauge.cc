@@ -27,6 +27,10 @@ void NominalJacobians(const double* readings, double* out, double* d_out_d_readi
   model::NominalJacobians<double>(readings, out, d_out_d_readings, d_out_d_params);
 }
 
+void Hessians(const double* readings, const double* params, double* hessians) {
+  model::Hessians<double>(readings, params, hessians);
+}
+
 void Sensitivity(int param_index, const double* readings, const double* params,
                  double* column) {
   switch (param_index) {
@@ -115,9 +119,11 @@ const ModelInfo kModel_gum_h1_end_gauge = {
     &ForwardBatch,
     nullptr,  // nominal_jacobians_batch
     nullptr,  // forward_lanes
+    &Hessians,
     6,  // ops_forward
     17,  // ops_forward_jacobians
     1,  // ops_nominal_jacobians
+    6,  // ops_hessians
 };
 
 }  // namespace vlt::generated

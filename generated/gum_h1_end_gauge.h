@@ -18,6 +18,7 @@
 //   Forward           6
 //   ForwardJacobians  17
 //   NominalJacobians  1
+//   Hessians          6
 //   Sensitivity_l_s   5
 //   Sensitivity_d     0
 //   Sensitivity_alpha_s 2
@@ -35,6 +36,7 @@ namespace vlt::gen::gum_h1_end_gauge {
 inline constexpr int kNumReadings = 0;
 inline constexpr int kNumParams = 6;
 inline constexpr int kNumOutputs = 1;
+inline constexpr int kNumInputs = kNumReadings + kNumParams;  // the Hessians' order
 
 // Index of each parameter in params[] and of its column in d_out_d_params.
 namespace param {
@@ -92,6 +94,45 @@ void NominalJacobians([[maybe_unused]] const Scalar* readings, Scalar* out,
   d_out_d_params[3] = 0.0;
   d_out_d_params[4] = 0.0050000623;
   d_out_d_params[5] = -5.750071645e-07;
+}
+
+// Second derivatives: hessians[kNumInputs^2 * o + kNumInputs * l + k] = d2 out_o / dx_k dx_l,
+// x = (readings, params); each output's matrix symmetric and column-major (one CSE pass).
+template <typename Scalar>
+void Hessians([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* hessians) {
+  const Scalar l_s = params[param::l_s];
+  const Scalar alpha_s = params[param::alpha_s];
+  const Scalar theta = params[param::theta];
+  const Scalar dalpha = params[param::dalpha];
+  const Scalar dtheta = params[param::dtheta];
+  hessians[0] = 0.0;
+  hessians[6] = 0.0;
+  hessians[7] = 0.0;
+  hessians[12] = -dtheta;
+  hessians[13] = 0.0;
+  hessians[14] = 0.0;
+  hessians[18] = -dalpha;
+  hessians[19] = 0.0;
+  hessians[20] = 0.0;
+  hessians[21] = 0.0;
+  hessians[24] = -theta;
+  hessians[25] = 0.0;
+  hessians[26] = 0.0;
+  hessians[27] = -l_s;
+  hessians[28] = 0.0;
+  hessians[30] = -alpha_s;
+  hessians[31] = 0.0;
+  hessians[32] = -l_s;
+  hessians[33] = 0.0;
+  hessians[34] = 0.0;
+  hessians[35] = 0.0;
+  // Symmetric: the lower triangle from the upper.
+  for (int o = 0; o < kNumOutputs; ++o) {
+    Scalar* h = hessians + kNumInputs * kNumInputs * o;
+    for (int l = 0; l < kNumInputs; ++l) {
+      for (int k = l + 1; k < kNumInputs; ++k) h[kNumInputs * l + k] = h[kNumInputs * k + l];
+    }
+  }
 }
 
 // Column 0 of d_out_d_params: d out / d l_s.

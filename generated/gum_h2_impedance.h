@@ -17,6 +17,7 @@
 //   Forward           7
 //   ForwardJacobians  18
 //   NominalJacobians  4
+//   Hessians          31
 //   Sensitivity_V     5
 //   Sensitivity_I_amp 11
 //   Sensitivity_phi   7
@@ -31,6 +32,7 @@ namespace vlt::gen::gum_h2_impedance {
 inline constexpr int kNumReadings = 0;
 inline constexpr int kNumParams = 3;
 inline constexpr int kNumOutputs = 3;
+inline constexpr int kNumInputs = kNumReadings + kNumParams;  // the Hessians' order
 
 // Index of each parameter in params[] and of its column in d_out_d_params.
 namespace param {
@@ -100,6 +102,48 @@ void NominalJacobians([[maybe_unused]] const Scalar* readings, Scalar* out,
   d_out_d_params[6] = -219.8465119126384;
   d_out_d_params[7] = 127.73216992810208;
   d_out_d_params[8] = 0.0;
+}
+
+// Second derivatives: hessians[kNumInputs^2 * o + kNumInputs * l + k] = d2 out_o / dx_k dx_l,
+// x = (readings, params); each output's matrix symmetric and column-major (one CSE pass).
+template <typename Scalar>
+void Hessians([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* hessians) {
+  using std::cos;
+  using std::sin;
+  const Scalar V = params[param::V];
+  const Scalar I_amp = params[param::I_amp];
+  const Scalar phi = params[param::phi];
+  const Scalar _tmp0 = cos(phi);
+  const Scalar _tmp1 = I_amp*I_amp;
+  const Scalar _tmp2 = I_amp*I_amp*I_amp;
+  const Scalar _tmp3 = sin(phi);
+  const Scalar _tmp4 = _tmp3*V;
+  const Scalar _tmp5 = V*_tmp0;
+  hessians[0] = 0.0;
+  hessians[3] = -(_tmp0/_tmp1);
+  hessians[4] = 2.0*V*_tmp0/_tmp2;
+  hessians[6] = -(_tmp3/I_amp);
+  hessians[7] = _tmp4/_tmp1;
+  hessians[8] = -(_tmp5/I_amp);
+  hessians[9] = 0.0;
+  hessians[12] = -(_tmp3/_tmp1);
+  hessians[13] = 2.0*_tmp3*V/_tmp2;
+  hessians[15] = _tmp0/I_amp;
+  hessians[16] = -(_tmp5/_tmp1);
+  hessians[17] = -(_tmp4/I_amp);
+  hessians[18] = 0.0;
+  hessians[21] = -(1.0/_tmp1);
+  hessians[22] = 2.0*V/_tmp2;
+  hessians[24] = 0.0;
+  hessians[25] = 0.0;
+  hessians[26] = 0.0;
+  // Symmetric: the lower triangle from the upper.
+  for (int o = 0; o < kNumOutputs; ++o) {
+    Scalar* h = hessians + kNumInputs * kNumInputs * o;
+    for (int l = 0; l < kNumInputs; ++l) {
+      for (int k = l + 1; k < kNumInputs; ++k) h[kNumInputs * l + k] = h[kNumInputs * k + l];
+    }
+  }
 }
 
 // Column 0 of d_out_d_params: d out / d V.

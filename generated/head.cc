@@ -30,6 +30,10 @@ void NominalJacobians(const double* readings, double* out, double* d_out_d_readi
   model::NominalJacobians<double>(readings, out, d_out_d_readings, d_out_d_params);
 }
 
+void Hessians(const double* readings, const double* params, double* hessians) {
+  model::Hessians<double>(readings, params, hessians);
+}
+
 void Sensitivity(int param_index, const double* readings, const double* params,
                  double* column) {
   switch (param_index) {
@@ -248,9 +252,11 @@ const ModelInfo kModel_head = {
     &ForwardBatch,
     &NominalJacobiansBatch,
     &ForwardLanes,
+    &Hessians,
     136,  // ops_forward
     1179,  // ops_forward_jacobians
     115,  // ops_nominal_jacobians
+    9742,  // ops_hessians
 };
 
 }  // namespace vlt::generated

@@ -16,6 +16,7 @@
 //   Forward           3
 //   ForwardJacobians  3
 //   NominalJacobians  0
+//   Hessians          0
 //   Sensitivity_x1    0
 //   Sensitivity_x2    0
 //   Sensitivity_x3    0
@@ -31,6 +32,7 @@ namespace vlt::gen::jcgm101_additive {
 inline constexpr int kNumReadings = 0;
 inline constexpr int kNumParams = 4;
 inline constexpr int kNumOutputs = 1;
+inline constexpr int kNumInputs = kNumReadings + kNumParams;  // the Hessians' order
 
 // Index of each parameter in params[] and of its column in d_out_d_params.
 namespace param {
@@ -76,6 +78,29 @@ void NominalJacobians([[maybe_unused]] const Scalar* readings, Scalar* out,
   d_out_d_params[1] = 1.0;
   d_out_d_params[2] = 1.0;
   d_out_d_params[3] = 1.0;
+}
+
+// Second derivatives: hessians[kNumInputs^2 * o + kNumInputs * l + k] = d2 out_o / dx_k dx_l,
+// x = (readings, params); each output's matrix symmetric and column-major (one CSE pass).
+template <typename Scalar>
+void Hessians([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* hessians) {
+  hessians[0] = 0.0;
+  hessians[4] = 0.0;
+  hessians[5] = 0.0;
+  hessians[8] = 0.0;
+  hessians[9] = 0.0;
+  hessians[10] = 0.0;
+  hessians[12] = 0.0;
+  hessians[13] = 0.0;
+  hessians[14] = 0.0;
+  hessians[15] = 0.0;
+  // Symmetric: the lower triangle from the upper.
+  for (int o = 0; o < kNumOutputs; ++o) {
+    Scalar* h = hessians + kNumInputs * kNumInputs * o;
+    for (int l = 0; l < kNumInputs; ++l) {
+      for (int k = l + 1; k < kNumInputs; ++k) h[kNumInputs * l + k] = h[kNumInputs * k + l];
+    }
+  }
 }
 
 // Column 0 of d_out_d_params: d out / d x1.

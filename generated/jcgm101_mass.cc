@@ -27,6 +27,10 @@ void NominalJacobians(const double* readings, double* out, double* d_out_d_readi
   model::NominalJacobians<double>(readings, out, d_out_d_readings, d_out_d_params);
 }
 
+void Hessians(const double* readings, const double* params, double* hessians) {
+  model::Hessians<double>(readings, params, hessians);
+}
+
 void Sensitivity(int param_index, const double* readings, const double* params,
                  double* column) {
   switch (param_index) {
@@ -109,9 +113,11 @@ const ModelInfo kModel_jcgm101_mass = {
     &ForwardBatch,
     nullptr,  // nominal_jacobians_batch
     nullptr,  // forward_lanes
+    &Hessians,
     9,  // ops_forward
     16,  // ops_forward_jacobians
     1,  // ops_nominal_jacobians
+    22,  // ops_hessians
 };
 
 }  // namespace vlt::generated

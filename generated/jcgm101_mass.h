@@ -17,6 +17,7 @@
 //   Forward           9
 //   ForwardJacobians  16
 //   NominalJacobians  1
+//   Hessians          22
 //   Sensitivity_m_Rc  6
 //   Sensitivity_delta_m_Rc 6
 //   Sensitivity_rho_a 5
@@ -33,6 +34,7 @@ namespace vlt::gen::jcgm101_mass {
 inline constexpr int kNumReadings = 0;
 inline constexpr int kNumParams = 5;
 inline constexpr int kNumOutputs = 1;
+inline constexpr int kNumInputs = kNumReadings + kNumParams;  // the Hessians' order
 
 // Index of each parameter in params[] and of its column in d_out_d_params.
 namespace param {
@@ -88,6 +90,47 @@ void NominalJacobians([[maybe_unused]] const Scalar* readings, Scalar* out,
   d_out_d_params[2] = 0.0;
   d_out_d_params[3] = 6.945755877055129e-20;
   d_out_d_params[4] = -6.945755877055129e-20;
+}
+
+// Second derivatives: hessians[kNumInputs^2 * o + kNumInputs * l + k] = d2 out_o / dx_k dx_l,
+// x = (readings, params); each output's matrix symmetric and column-major (one CSE pass).
+template <typename Scalar>
+void Hessians([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* hessians) {
+  const Scalar m_Rc = params[param::m_Rc];
+  const Scalar delta_m_Rc = params[param::delta_m_Rc];
+  const Scalar rho_a = params[param::rho_a];
+  const Scalar rho_W = params[param::rho_W];
+  const Scalar rho_R = params[param::rho_R];
+  const Scalar _tmp0 = 1.0/rho_W - 1.0/rho_R;
+  const Scalar _tmp1 = rho_a - 1.2;
+  const Scalar _tmp2 = rho_W*rho_W;
+  const Scalar _tmp3 = -(_tmp1/_tmp2);
+  const Scalar _tmp4 = delta_m_Rc + m_Rc;
+  const Scalar _tmp5 = 2.0*_tmp1*_tmp4;
+  const Scalar _tmp6 = rho_R*rho_R;
+  const Scalar _tmp7 = _tmp1/_tmp6;
+  hessians[0] = 0.0;
+  hessians[5] = 0.0;
+  hessians[6] = 0.0;
+  hessians[10] = _tmp0;
+  hessians[11] = _tmp0;
+  hessians[12] = 0.0;
+  hessians[15] = _tmp3;
+  hessians[16] = _tmp3;
+  hessians[17] = -(_tmp4/_tmp2);
+  hessians[18] = _tmp5/(rho_W*rho_W*rho_W);
+  hessians[20] = _tmp7;
+  hessians[21] = _tmp7;
+  hessians[22] = _tmp4/_tmp6;
+  hessians[23] = 0.0;
+  hessians[24] = -(_tmp5/(rho_R*rho_R*rho_R));
+  // Symmetric: the lower triangle from the upper.
+  for (int o = 0; o < kNumOutputs; ++o) {
+    Scalar* h = hessians + kNumInputs * kNumInputs * o;
+    for (int l = 0; l < kNumInputs; ++l) {
+      for (int k = l + 1; k < kNumInputs; ++k) h[kNumInputs * l + k] = h[kNumInputs * k + l];
+    }
+  }
 }
 
 // Column 0 of d_out_d_params: d out / d m_Rc.

@@ -21,6 +21,7 @@
 //   Forward           38
 //   ForwardJacobians  147
 //   NominalJacobians  22
+//   Hessians          372
 //   Sensitivity_lam   32
 //   Sensitivity_mu    35
 //   Sensitivity_alpha 55
@@ -37,6 +38,7 @@ namespace vlt::gen::total_station {
 inline constexpr int kNumReadings = 3;
 inline constexpr int kNumParams = 5;
 inline constexpr int kNumOutputs = 3;
+inline constexpr int kNumInputs = kNumReadings + kNumParams;  // the Hessians' order
 
 // Index of each parameter in params[] and of its column in d_out_d_params.
 namespace param {
@@ -204,6 +206,228 @@ void NominalJacobians([[maybe_unused]] const Scalar* readings, Scalar* out,
   d_out_d_params[12] = _tmp10;
   d_out_d_params[13] = _tmp12;
   d_out_d_params[14] = -_tmp13;
+}
+
+// Second derivatives: hessians[kNumInputs^2 * o + kNumInputs * l + k] = d2 out_o / dx_k dx_l,
+// x = (readings, params); each output's matrix symmetric and column-major (one CSE pass).
+template <typename Scalar>
+void Hessians([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* hessians) {
+  using std::cos;
+  using std::sin;
+  const Scalar range = readings[0];
+  const Scalar azimuth = readings[1];
+  const Scalar elevation = readings[2];
+  const Scalar lam = params[param::lam];
+  const Scalar mu = params[param::mu];
+  const Scalar alpha = params[param::alpha];
+  const Scalar gamma = params[param::gamma];
+  const Scalar ae0 = params[param::ae0];
+  const Scalar _tmp0 = 1.0 + mu;
+  const Scalar _tmp1 = ae0 + 1.5707963267948966 - elevation;
+  const Scalar _tmp2 = sin(_tmp1);
+  const Scalar _tmp3 = cos(gamma);
+  const Scalar _tmp4 = _tmp2*_tmp3;
+  const Scalar _tmp5 = sin(gamma);
+  const Scalar _tmp6 = sin(alpha);
+  const Scalar _tmp7 = cos(_tmp1);
+  const Scalar _tmp8 = _tmp4 + _tmp5*_tmp6*_tmp7;
+  const Scalar _tmp9 = sin(azimuth);
+  const Scalar _tmp10 = cos(azimuth);
+  const Scalar _tmp11 = _tmp3*_tmp7;
+  const Scalar _tmp12 = -(_tmp2*_tmp5*_tmp6);
+  const Scalar _tmp13 = _tmp11 + _tmp12;
+  const Scalar _tmp14 = cos(alpha);
+  const Scalar _tmp15 = _tmp14*_tmp14;
+  const Scalar _tmp16 = _tmp13*_tmp6 - _tmp15*_tmp5;
+  const Scalar _tmp17 = _tmp8*_tmp9 - _tmp10*_tmp16;
+  const Scalar _tmp18 = range*_tmp0 + lam;
+  const Scalar _tmp19 = _tmp9*_tmp16 + _tmp8*_tmp10;
+  const Scalar _tmp20 = -(_tmp18*_tmp19);
+  const Scalar _tmp21 = _tmp10*_tmp3;
+  const Scalar _tmp22 = _tmp6*_tmp6;
+  const Scalar _tmp23 = _tmp21 - _tmp9*_tmp5*_tmp22;
+  const Scalar _tmp24 = _tmp5*_tmp6*_tmp10 + _tmp9*_tmp6*_tmp3;
+  const Scalar _tmp25 = _tmp2*_tmp24;
+  const Scalar _tmp26 = _tmp23*_tmp7 - _tmp25;
+  const Scalar _tmp27 = _tmp26*_tmp0;
+  const Scalar _tmp28 = _tmp5*_tmp6;
+  const Scalar _tmp29 = -_tmp11;
+  const Scalar _tmp30 = _tmp2*_tmp28 + _tmp29;
+  const Scalar _tmp31 = _tmp6*_tmp3;
+  const Scalar _tmp32 = _tmp31*_tmp2;
+  const Scalar _tmp33 = (_tmp5*_tmp22)*_tmp7 + _tmp32;
+  const Scalar _tmp34 = (_tmp9*_tmp30 - _tmp33*_tmp10)*_tmp18;
+  const Scalar _tmp35 = (_tmp23*_tmp2 + _tmp24*_tmp7)*_tmp18;
+  const Scalar _tmp36 = -_tmp35;
+  const Scalar _tmp37 = range*_tmp26;
+  const Scalar _tmp38 = 2.0*_tmp2*_tmp5*_tmp6 + _tmp29;
+  const Scalar _tmp39 = _tmp9*_tmp38 - _tmp5*_tmp10*_tmp7;
+  const Scalar _tmp40 = 2.0*_tmp14*_tmp9*_tmp5;
+  const Scalar _tmp41 = _tmp14*_tmp39 - _tmp6*_tmp40;
+  const Scalar _tmp42 = _tmp5*_tmp7;
+  const Scalar _tmp43 = _tmp14*_tmp42;
+  const Scalar _tmp44 = _tmp6*(2.0*_tmp14*_tmp5) - _tmp14*_tmp38;
+  const Scalar _tmp45 = 2.0*_tmp9*_tmp5*_tmp6;
+  const Scalar _tmp46 = _tmp5*_tmp10;
+  const Scalar _tmp47 = _tmp9*_tmp3;
+  const Scalar _tmp48 = _tmp46 + _tmp47;
+  const Scalar _tmp49 = _tmp2*_tmp6*_tmp3;
+  const Scalar _tmp50 = _tmp42 + _tmp49;
+  const Scalar _tmp51 = _tmp15*_tmp3 + _tmp6*_tmp50;
+  const Scalar _tmp52 = _tmp2*_tmp5;
+  const Scalar _tmp53 = _tmp52 - _tmp6*_tmp3*_tmp7;
+  const Scalar _tmp54 = _tmp9*_tmp51 + _tmp53*_tmp10;
+  const Scalar _tmp55 = _tmp9*_tmp53 - _tmp10*_tmp51;
+  const Scalar _tmp56 = _tmp9*_tmp5*_tmp6 - _tmp6*_tmp10*_tmp3;
+  const Scalar _tmp57 = _tmp2*_tmp56;
+  const Scalar _tmp58 = ((_tmp46 + _tmp9*_tmp3*_tmp22)*_tmp7 - _tmp57)*_tmp18;
+  const Scalar _tmp59 = _tmp42 + 2.0*_tmp2*_tmp6*_tmp3;
+  const Scalar _tmp60 = -(_tmp18*_tmp17);
+  const Scalar _tmp61 = _tmp5*_tmp10*_tmp22 + _tmp47;
+  const Scalar _tmp62 = _tmp57 - _tmp61*_tmp7;
+  const Scalar _tmp63 = _tmp0*_tmp62;
+  const Scalar _tmp64 = _tmp18*(_tmp9*_tmp33 + _tmp30*_tmp10);
+  const Scalar _tmp65 = (_tmp56*_tmp7 + _tmp2*_tmp61)*_tmp18;
+  const Scalar _tmp66 = -_tmp65;
+  const Scalar _tmp67 = range*_tmp62;
+  const Scalar _tmp68 = _tmp9*_tmp5*_tmp7 + _tmp10*_tmp38;
+  const Scalar _tmp69 = 2.0*_tmp14*_tmp5*_tmp10;
+  const Scalar _tmp70 = _tmp14*_tmp68 - _tmp6*_tmp69;
+  const Scalar _tmp71 = 2.0*_tmp5*_tmp6*_tmp10;
+  const Scalar _tmp72 = -(_tmp9*_tmp5);
+  const Scalar _tmp73 = _tmp21 + _tmp72;
+  const Scalar _tmp74 = (_tmp25 - (_tmp10*_tmp3*_tmp22 + _tmp72)*_tmp7)*_tmp18;
+  const Scalar _tmp75 = _tmp14*_tmp3;
+  const Scalar _tmp76 = _tmp14*_tmp5*_tmp6;
+  const Scalar _tmp77 = _tmp2*_tmp75 + _tmp76*_tmp7;
+  const Scalar _tmp78 = _tmp77*_tmp0;
+  const Scalar _tmp79 = _tmp18*(_tmp75*_tmp7 - _tmp2*_tmp76);
+  const Scalar _tmp80 = -_tmp79;
+  const Scalar _tmp81 = _tmp76 + _tmp14*_tmp13;
+  const Scalar _tmp82 = range*_tmp77;
+  const Scalar _tmp83 = _tmp11 + _tmp28 + _tmp12;
+  const Scalar _tmp84 = _tmp14*_tmp5;
+  const Scalar _tmp85 = _tmp84 - _tmp14*_tmp2*_tmp5;
+  const Scalar _tmp86 = _tmp6*_tmp83 - _tmp14*_tmp85;
+  const Scalar _tmp87 = _tmp5 - _tmp52;
+  const Scalar _tmp88 = _tmp14*_tmp6*_tmp3;
+  const Scalar _tmp89 = _tmp14*_tmp50 - _tmp88;
+  const Scalar _tmp90 = _tmp18*(_tmp2*_tmp84 - _tmp88*_tmp7);
+  hessians[0] = 0.0;
+  hessians[8] = -(_tmp0*_tmp17);
+  hessians[9] = _tmp20;
+  hessians[16] = -_tmp27;
+  hessians[17] = -_tmp34;
+  hessians[18] = _tmp36;
+  hessians[24] = 0.0;
+  hessians[25] = -_tmp17;
+  hessians[26] = -_tmp26;
+  hessians[27] = 0.0;
+  hessians[32] = _tmp19;
+  hessians[33] = -(range*_tmp17);
+  hessians[34] = -_tmp37;
+  hessians[35] = 0.0;
+  hessians[36] = 0.0;
+  hessians[40] = -(_tmp41*_tmp0);
+  hessians[41] = -((_tmp9*_tmp43 - _tmp10*_tmp44)*_tmp18);
+  hessians[42] = _tmp18*((_tmp14*_tmp45)*_tmp7 + _tmp2*(_tmp14*_tmp48));
+  hessians[43] = -_tmp41;
+  hessians[44] = -(range*_tmp41);
+  hessians[45] = _tmp18*(_tmp6*_tmp39 + _tmp14*_tmp40 - _tmp14*(_tmp14*(2.0*_tmp9*_tmp2*_tmp5)) - _tmp6*(_tmp6*(2.0*_tmp9*_tmp5)));
+  hessians[48] = -(_tmp54*_tmp0);
+  hessians[49] = _tmp18*_tmp55;
+  hessians[50] = _tmp58;
+  hessians[51] = -_tmp54;
+  hessians[52] = -(range*_tmp54);
+  hessians[53] = _tmp18*(_tmp14*(_tmp10*_tmp3*_tmp7 - _tmp9*_tmp59) + _tmp6*(2.0*_tmp14*_tmp9*_tmp3));
+  hessians[54] = _tmp20;
+  hessians[56] = _tmp27;
+  hessians[57] = _tmp34;
+  hessians[58] = _tmp35;
+  hessians[59] = _tmp26;
+  hessians[60] = _tmp37;
+  hessians[61] = -(_tmp18*(_tmp14*(_tmp2*_tmp48 + _tmp45*_tmp7)));
+  hessians[62] = -_tmp58;
+  hessians[63] = _tmp36;
+  hessians[64] = 0.0;
+  hessians[72] = _tmp0*_tmp19;
+  hessians[73] = _tmp60;
+  hessians[80] = _tmp63;
+  hessians[81] = _tmp64;
+  hessians[82] = _tmp66;
+  hessians[88] = 0.0;
+  hessians[89] = _tmp19;
+  hessians[90] = _tmp62;
+  hessians[91] = 0.0;
+  hessians[96] = _tmp17;
+  hessians[97] = range*_tmp19;
+  hessians[98] = _tmp67;
+  hessians[99] = 0.0;
+  hessians[100] = 0.0;
+  hessians[104] = _tmp70*_tmp0;
+  hessians[105] = _tmp18*(_tmp10*_tmp43 + _tmp9*_tmp44);
+  hessians[106] = -(_tmp18*((_tmp14*_tmp71)*_tmp7 + _tmp2*(_tmp14*_tmp73)));
+  hessians[107] = _tmp70;
+  hessians[108] = range*_tmp70;
+  hessians[109] = -(_tmp18*(_tmp14*_tmp69 + _tmp6*_tmp68 - _tmp14*(_tmp14*(2.0*_tmp2*_tmp5*_tmp10)) - _tmp6*((2.0*_tmp5*_tmp10)*_tmp6)));
+  hessians[112] = -(_tmp0*_tmp55);
+  hessians[113] = -(_tmp18*_tmp54);
+  hessians[114] = _tmp74;
+  hessians[115] = -_tmp55;
+  hessians[116] = -(range*_tmp55);
+  hessians[117] = _tmp18*(_tmp14*(_tmp9*_tmp3*_tmp7 + _tmp59*_tmp10) - (2.0*_tmp14*_tmp10*_tmp3)*_tmp6);
+  hessians[118] = _tmp60;
+  hessians[120] = -_tmp63;
+  hessians[121] = -_tmp64;
+  hessians[122] = _tmp65;
+  hessians[123] = -_tmp62;
+  hessians[124] = -_tmp67;
+  hessians[125] = _tmp18*(_tmp14*(_tmp2*_tmp73 + _tmp71*_tmp7));
+  hessians[126] = -_tmp74;
+  hessians[127] = _tmp66;
+  hessians[128] = 0.0;
+  hessians[136] = 0.0;
+  hessians[137] = 0.0;
+  hessians[144] = _tmp78;
+  hessians[145] = 0.0;
+  hessians[146] = _tmp80;
+  hessians[152] = 0.0;
+  hessians[153] = 0.0;
+  hessians[154] = _tmp77;
+  hessians[155] = 0.0;
+  hessians[160] = _tmp81;
+  hessians[161] = 0.0;
+  hessians[162] = _tmp82;
+  hessians[163] = 0.0;
+  hessians[164] = 0.0;
+  hessians[168] = -(_tmp0*_tmp86);
+  hessians[169] = 0.0;
+  hessians[170] = ((_tmp14*_tmp84 - _tmp6*_tmp28)*_tmp7 - _tmp32)*_tmp18;
+  hessians[171] = -_tmp86;
+  hessians[172] = -(range*_tmp86);
+  hessians[173] = -(((_tmp14*_tmp87)*_tmp6 + _tmp6*_tmp85 + _tmp14*_tmp83 + _tmp14*(_tmp6*_tmp87))*_tmp18);
+  hessians[176] = -(_tmp89*_tmp0);
+  hessians[177] = 0.0;
+  hessians[178] = -_tmp90;
+  hessians[179] = -_tmp89;
+  hessians[180] = -(range*_tmp89);
+  hessians[181] = -(_tmp18*(_tmp6*(_tmp31 - _tmp49 - _tmp42) + (_tmp14*_tmp2*_tmp3 - _tmp75)*_tmp14));
+  hessians[182] = -(_tmp18*_tmp81);
+  hessians[184] = -_tmp78;
+  hessians[185] = 0.0;
+  hessians[186] = _tmp79;
+  hessians[187] = -_tmp77;
+  hessians[188] = -_tmp82;
+  hessians[189] = _tmp18*(_tmp6*(_tmp28*_tmp7 + _tmp4) - _tmp14*(_tmp84*_tmp7));
+  hessians[190] = _tmp90;
+  hessians[191] = _tmp80;
+  // Symmetric: the lower triangle from the upper.
+  for (int o = 0; o < kNumOutputs; ++o) {
+    Scalar* h = hessians + kNumInputs * kNumInputs * o;
+    for (int l = 0; l < kNumInputs; ++l) {
+      for (int k = l + 1; k < kNumInputs; ++k) h[kNumInputs * l + k] = h[kNumInputs * k + l];
+    }
+  }
 }
 
 // Column 0 of d_out_d_params: d out / d lam.

@@ -80,7 +80,7 @@ struct ModelEmitter {
   std::vector<InputVar> readings, all;  // the readings; the readings then the parameters
   std::vector<GiNaC::ex> wrt;           // the symbols the Jacobians differentiate by
   std::vector<std::string> out_lhs, jac_lhs;
-  FunctionBody forward, jacobians, nominal;
+  FunctionBody forward, jacobians, nominal, hessians;
   std::vector<FunctionBody> sensitivity;  // one per parameter
   bool nominal_batch = false, forward_lanes = false;
   std::string h, c;  // the header and the source being written
@@ -150,6 +150,17 @@ void ModelEmitter::EmitKernels() {
     for (int i = 0; i < no; ++i) col.push_back("column[" + std::to_string(i) + "]");
     sensitivity.push_back(EmitBody(JacobianProgram(m.graph, {m.params[k]}, {}, false), all, col));
   }
+  // The upper triangle of each output's Hessian in the inputs (readings, then parameters), in
+  // HessianProgram's order; the template mirrors it into the lower triangle (Header).
+  const int n = nr + np;
+  std::vector<std::string> hess_lhs;
+  for (int i = 0; i < no; ++i) {
+    for (int l = 0; l < n; ++l) {
+      for (int k = 0; k <= l; ++k)
+        hess_lhs.push_back("hessians[" + std::to_string(n * n * i + n * l + k) + "]");
+    }
+  }
+  hessians = EmitBody(HessianProgram(m.graph, wrt), all, hess_lhs);
 }
 
 void ModelEmitter::ChooseBatchKernels() {
@@ -197,6 +208,7 @@ std::string ModelEmitter::Header() {
   h += "//   Forward           " + std::to_string(forward.ops) + "\n";
   h += "//   ForwardJacobians  " + std::to_string(jacobians.ops) + "\n";
   h += "//   NominalJacobians  " + std::to_string(nominal.ops) + "\n";
+  h += "//   Hessians          " + std::to_string(hessians.ops) + "\n";
   for (int k = 0; k < np; ++k) {
     h += "//   " + Pad("Sensitivity_" + spec.params[k].name + " ", 18) + std::to_string(sensitivity[k].ops) +
          "\n";
@@ -205,7 +217,8 @@ std::string ModelEmitter::Header() {
   h += "#pragma once\n\n#include <cmath>\n\nnamespace vlt::gen::" + name + " {\n\n";
   h += "inline constexpr int kNumReadings = " + std::to_string(nr) + ";\n";
   h += "inline constexpr int kNumParams = " + std::to_string(np) + ";\n";
-  h += "inline constexpr int kNumOutputs = " + std::to_string(no) + ";\n\n";
+  h += "inline constexpr int kNumOutputs = " + std::to_string(no) + ";\n";
+  h += "inline constexpr int kNumInputs = kNumReadings + kNumParams;  // the Hessians' order\n\n";
   h += "// Index of each parameter in params[] and of its column in d_out_d_params.\n";
   h += "namespace param {\nenum Index : int {\n";
   for (int k = 0; k < np; ++k) h += "  " + spec.params[k].name + " = " + std::to_string(k) + ",\n";
@@ -223,6 +236,18 @@ std::string ModelEmitter::Header() {
                  "                      [[maybe_unused]] Scalar* d_out_d_readings, "
                  "[[maybe_unused]] Scalar* d_out_d_params)",
                  nominal);
+  FunctionBody mirrored = hessians;
+  mirrored.code +=
+      "  // Symmetric: the lower triangle from the upper.\n"
+      "  for (int o = 0; o < kNumOutputs; ++o) {\n"
+      "    Scalar* h = hessians + kNumInputs * kNumInputs * o;\n"
+      "    for (int l = 0; l < kNumInputs; ++l) {\n"
+      "      for (int k = l + 1; k < kNumInputs; ++k) h[kNumInputs * l + k] = h[kNumInputs * k + l];\n"
+      "    }\n  }\n";
+  HeaderFunction(
+      "// Second derivatives: hessians[kNumInputs^2 * o + kNumInputs * l + k] = d2 out_o / dx_k dx_l,\n"
+      "// x = (readings, params); each output's matrix symmetric and column-major (one CSE pass).\n",
+      "Hessians(" + sig_in + ", Scalar* hessians)", mirrored);
   for (int k = 0; k < np; ++k) {
     HeaderFunction(
         "// Column " + std::to_string(k) + " of d_out_d_params: d out / d " + spec.params[k].name + ".\n",
@@ -243,6 +268,8 @@ void ModelEmitter::SourceWrappers() {
   c += "void NominalJacobians(const double* readings, double* out, double* d_out_d_readings,\n"
        "                      double* d_out_d_params) {\n"
        "  model::NominalJacobians<double>(readings, out, d_out_d_readings, d_out_d_params);\n}\n\n";
+  c += "void Hessians(const double* readings, const double* params, double* hessians) {\n"
+       "  model::Hessians<double>(readings, params, hessians);\n}\n\n";
   c += "void Sensitivity(int param_index, const double* readings, const double* params,\n"
        "                 double* column) {\n  switch (param_index) {\n";
   for (int k = 0; k < np; ++k) {
@@ -330,9 +357,10 @@ void ModelEmitter::SourceModelInfo() {
        "    &ForwardBatch,\n";
   c += nominal_batch ? "    &NominalJacobiansBatch,\n" : "    nullptr,  // nominal_jacobians_batch\n";
   c += forward_lanes ? "    &ForwardLanes,\n" : "    nullptr,  // forward_lanes\n";
+  c += "    &Hessians,\n";
   c += "    " + std::to_string(forward.ops) + ",  // ops_forward\n    " + std::to_string(jacobians.ops) +
        ",  // ops_forward_jacobians\n    " + std::to_string(nominal.ops) +
-       ",  // ops_nominal_jacobians\n};\n\n";
+       ",  // ops_nominal_jacobians\n    " + std::to_string(hessians.ops) + ",  // ops_hessians\n};\n\n";
 }
 
 std::string ModelEmitter::Source() {
@@ -380,6 +408,7 @@ GeneratedModel GenerateModel(const ModelSpec& spec, bool plugin) {
   gen.ops.forward = emitter.forward.ops;
   gen.ops.forward_jacobians = emitter.jacobians.ops;
   gen.ops.nominal_jacobians = emitter.nominal.ops;
+  gen.ops.hessians = emitter.hessians.ops;
   for (const auto& s : emitter.sensitivity) gen.ops.sensitivity.push_back(s.ops);
   gen.header = emitter.Header();
   emitter.ChooseBatchKernels();

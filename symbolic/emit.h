@@ -13,6 +13,7 @@ struct OpCounts {
   int forward = 0;
   int forward_jacobians = 0;
   int nominal_jacobians = 0;
+  int hessians = 0;
   std::vector<int> sensitivity;  // per parameter
 };
 

@@ -100,4 +100,28 @@ Program JacobianProgram(const Graph& graph, const std::vector<ex>& wrt, const Gi
   return p;
 }
 
+Program HessianProgram(const Graph& graph, const std::vector<ex>& wrt) {
+  const std::size_t n = wrt.size(), num_outputs = graph.outputs.size();
+  // The first derivatives as a graph: roots[num_outputs * k + i] = d out_i / dx_k.
+  const Program first = JacobianProgram(graph, wrt, {}, false);
+  Graph jacobian;
+  for (const auto& [symbol, def] : first.assigns) {
+    jacobian.index[symbol] = static_cast<int>(jacobian.nodes.size());
+    jacobian.nodes.push_back(symbol);
+    jacobian.defs.push_back(def);
+  }
+  jacobian.outputs = first.roots;
+  // Their derivatives: roots[n * num_outputs * l + num_outputs * k + i] = d2 out_i / dx_k dx_l.
+  Program second = JacobianProgram(jacobian, wrt, {}, false);
+  std::vector<ex> upper;
+  for (std::size_t i = 0; i < num_outputs; ++i) {
+    for (std::size_t l = 0; l < n; ++l) {
+      for (std::size_t k = 0; k <= l; ++k)
+        upper.push_back(second.roots[n * num_outputs * l + num_outputs * k + i]);
+    }
+  }
+  second.roots = std::move(upper);
+  return second;
+}
+
 }  // namespace vlt::gen

@@ -46,4 +46,12 @@ Program ForwardProgram(const Graph& graph);
 Program JacobianProgram(const Graph& graph, const std::vector<GiNaC::ex>& wrt, const GiNaC::exmap& at,
                         bool with_values);
 
+// The second derivatives d2 out_i / dx_k dx_l for k <= l (both in `wrt`), forward mode over
+// forward mode: the Jacobian program is itself a graph (its assignments are the nodes, its roots
+// the outputs), and JacobianProgram differentiates it once more. Every derivative is exact
+// (GiNaC::diff of small local expressions); no substitution. Roots: for each output i, for each
+// l, for k = 0..l: d2 out_i / dx_k dx_l (the upper triangle of output i's Hessian, column by
+// column).
+Program HessianProgram(const Graph& graph, const std::vector<GiNaC::ex>& wrt);
+
 }  // namespace vlt::gen

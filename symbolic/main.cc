@@ -118,8 +118,8 @@ int Summary(const std::string& path) {
   }
   std::printf(
       "operations after CSE:\n  Forward           %d\n  ForwardJacobians  %d\n"
-      "  NominalJacobians  %d\n",
-      gen.ops.forward, gen.ops.forward_jacobians, gen.ops.nominal_jacobians);
+      "  NominalJacobians  %d\n  Hessians          %d\n",
+      gen.ops.forward, gen.ops.forward_jacobians, gen.ops.nominal_jacobians, gen.ops.hessians);
   for (std::size_t k = 0; k < spec.params.size(); ++k) {
     std::printf("  Sensitivity_%-5s %d\n", spec.params[k].name.c_str(), gen.ops.sensitivity[k]);
   }

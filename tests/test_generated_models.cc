@@ -5,6 +5,11 @@
 //    function) against central finite differences of Forward (relative 1e-7) and against
 //    Eigen's forward-mode automatic differentiation run through the templated Forward
 //    (relative 1e-12), at random error states of realistic (default u) and 100x magnitude;
+//  - every Hessian (vlt-gen's second pass, forward over forward) against Eigen's forward-mode AD
+//    run through the templated ForwardJacobians (relative 1e-10; the derivative of each exact
+//    first derivative, not the generator's second pass), symmetric bit for bit, and every
+//    registered model's Hessians through its ModelInfo against central differences of its
+//    ForwardJacobians (relative 1e-6);
 //  - the double ModelInfo wrappers and forward_batch against the templates;
 //  - the custom models against their published check values (GUM H.1, JCGM 101 9.2).
 // "Relative" means relative to max(|reference column|, 1) for the tracker models (metres per
@@ -30,22 +35,27 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 // Compile-time view of one generated model (the templates of generated/<name>.h).
-#define VLT_KERNELS(NAME)                                                                               \
-  struct NAME##_kernels {                                                                               \
-    static constexpr const char* kName = #NAME;                                                         \
-    static constexpr int R = vlt::gen::NAME::kNumReadings;                                              \
-    static constexpr int P = vlt::gen::NAME::kNumParams;                                                \
-    static constexpr int O = vlt::gen::NAME::kNumOutputs;                                               \
-    template <typename S>                                                                               \
-    static void Forward(const S* r, const S* p, S* o) {                                                 \
-      vlt::gen::NAME::Forward(r, p, o);                                                                 \
-    }                                                                                                   \
-    static void ForwardJacobians(const double* r, const double* p, double* o, double* jr, double* jp) { \
-      vlt::gen::NAME::ForwardJacobians(r, p, o, jr, jp);                                                \
-    }                                                                                                   \
-    static void NominalJacobians(const double* r, double* o, double* jr, double* jp) {                  \
-      vlt::gen::NAME::NominalJacobians(r, o, jr, jp);                                                   \
-    }                                                                                                   \
+#define VLT_KERNELS(NAME)                                                                                    \
+  struct NAME##_kernels {                                                                                    \
+    static constexpr const char* kName = #NAME;                                                              \
+    static constexpr int R = vlt::gen::NAME::kNumReadings;                                                   \
+    static constexpr int P = vlt::gen::NAME::kNumParams;                                                     \
+    static constexpr int O = vlt::gen::NAME::kNumOutputs;                                                    \
+    template <typename S>                                                                                    \
+    static void Forward(const S* r, const S* p, S* o) {                                                      \
+      vlt::gen::NAME::Forward(r, p, o);                                                                      \
+    }                                                                                                        \
+    static void ForwardJacobians(const double* r, const double* p, double* o, double* jr, double* jp) {      \
+      vlt::gen::NAME::ForwardJacobians(r, p, o, jr, jp);                                                     \
+    }                                                                                                        \
+    static void NominalJacobians(const double* r, double* o, double* jr, double* jp) {                       \
+      vlt::gen::NAME::NominalJacobians(r, o, jr, jp);                                                        \
+    }                                                                                                        \
+    template <typename S>                                                                                    \
+    static void ForwardJacobiansOf(const S* r, const S* p, S* o, S* jr, S* jp) {                             \
+      vlt::gen::NAME::ForwardJacobians(r, p, o, jr, jp);                                                     \
+    }                                                                                                        \
+    static void Hessians(const double* r, const double* p, double* h) { vlt::gen::NAME::Hessians(r, p, h); } \
   };
 VLT_KERNELS(mirror)
 VLT_KERNELS(head)
@@ -172,19 +182,17 @@ void CheckNominal(const double* r, double floor, const std::string& where) {
   ExpectColumnsNear(jp.data(), jp_ad.data(), O, P, 1e-12, floor, where + " nominal d/dparams");
 }
 
-// Random readings on either face and random error states drawn from the default u x scale.
-template <typename K>
-void TrackerJacobianSweep(std::uint64_t seed) {
+// Random readings on either face and random error states drawn from the default u x scale, for
+// scales 1 and 100: check(r, p, scale, where) for each.
+template <typename K, typename Check>
+void ForRandomTrackerStates(std::uint64_t seed, int trials, Check check) {
   const vlt::ModelInfo& model = Model(K::kName);
   ASSERT_EQ(model.num_params, K::P);
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> range(0.5, 40.0), az(-kPi, kPi), el(-0.7, 1.3);
   std::normal_distribution<double> normal(0.0, 1.0);
-  const std::array<double, 3> hr = {1e-5, 1e-5, 1e-5};
-  std::array<double, K::P> hp;
-  hp.fill(1e-5);
   for (double scale : {1.0, 100.0}) {
-    for (int trial = 0; trial < 25; ++trial) {
+    for (int trial = 0; trial < trials; ++trial) {
       double r[3] = {range(rng), az(rng), el(rng)};
       if (trial % 2) {  // back face of the same direction
         r[1] += kPi;
@@ -192,10 +200,120 @@ void TrackerJacobianSweep(std::uint64_t seed) {
       }
       std::array<double, K::P> p;
       for (int k = 0; k < K::P; ++k) p[k] = scale * model.params[k].default_u * normal(rng);
-      const std::string where =
-          std::string(K::kName) + " scale " + std::to_string(scale) + " trial " + std::to_string(trial);
-      CheckJacobians<K>(r, p.data(), hr.data(), hp.data(), 1.0, where);
-      if (scale == 1.0) CheckNominal<K>(r, 1.0, where);
+      check(r, p.data(), scale,
+            std::string(K::kName) + " scale " + std::to_string(scale) + " trial " + std::to_string(trial));
+    }
+  }
+}
+
+template <typename K>
+void TrackerJacobianSweep(std::uint64_t seed) {
+  const std::array<double, 3> hr = {1e-5, 1e-5, 1e-5};
+  std::array<double, K::P> hp;
+  hp.fill(1e-5);
+  ForRandomTrackerStates<K>(seed, 25,
+                            [&](const double* r, const double* p, double scale, const std::string& where) {
+                              CheckJacobians<K>(r, p, hr.data(), hp.data(), 1.0, where);
+                              if (scale == 1.0) CheckNominal<K>(r, 1.0, where);
+                            });
+}
+
+// Hessians at readings r and parameters p against AD through ForwardJacobians: entry (k, l) of
+// output o is d/dx_k of the AD-differentiated d out_o / dx_l; x = (readings, parameters).
+template <typename K>
+void CheckHessians(const double* r, const double* p, double floor, const std::string& where) {
+  constexpr int R = K::R, P = K::P, O = K::O, N = R + P;
+  using Ad = Eigen::AutoDiffScalar<Eigen::Matrix<double, N, 1>>;
+  std::array<Ad, (R > 0 ? R : 1)> ra;
+  ra.fill(Ad(0.0));
+  std::array<Ad, P> pa;
+  std::array<Ad, O> oa;
+  std::array<Ad, O*(R > 0 ? R : 1)> jra;
+  std::array<Ad, O * P> jpa;
+  for (int j = 0; j < R; ++j) ra[j] = Ad(r[j], N, j);
+  for (int k = 0; k < P; ++k) pa[k] = Ad(p[k], N, R + k);
+  K::ForwardJacobiansOf(ra.data(), pa.data(), oa.data(), jra.data(), jpa.data());
+  std::vector<double> h(static_cast<std::size_t>(O) * N * N), reference(h.size());
+  K::Hessians(r, p, h.data());
+  for (int o = 0; o < O; ++o) {
+    for (int l = 0; l < N; ++l) {
+      const Ad& first = l < R ? jra[O * l + o] : jpa[O * (l - R) + o];
+      for (int k = 0; k < N; ++k) {
+        // An expression that does not depend on any input keeps an empty derivative vector.
+        reference[N * N * o + N * l + k] = first.derivatives().size() == N ? first.derivatives()[k] : 0.0;
+      }
+    }
+    ExpectColumnsNear(h.data() + N * N * o, reference.data() + N * N * o, N, N, 1e-10, floor,
+                      where + " Hessian of output " + std::to_string(o) + " vs AD");
+    for (int l = 0; l < N; ++l) {
+      for (int k = 0; k < l; ++k) ASSERT_EQ(h[N * N * o + N * l + k], h[N * N * o + N * k + l]) << where;
+    }
+  }
+}
+
+template <typename K>
+void TrackerHessianSweep(std::uint64_t seed) {
+  ForRandomTrackerStates<K>(seed, 10, [](const double* r, const double* p, double, const std::string& where) {
+    CheckHessians<K>(r, p, 1.0, where);
+  });
+}
+
+TEST(GeneratedMirror, HessiansMatchAutoDiffOfTheJacobians) { TrackerHessianSweep<mirror_kernels>(11); }
+TEST(GeneratedHead, HessiansMatchAutoDiffOfTheJacobians) { TrackerHessianSweep<head_kernels>(12); }
+TEST(GeneratedCustomModels, HessiansMatchAutoDiffOfTheJacobians) {
+  const vlt::ModelInfo& h1 = Model("gum_h1_end_gauge");
+  std::vector<double> x;
+  for (int k = 0; k < h1.num_params; ++k) x.push_back(h1.params[k].default_estimate + h1.params[k].default_u);
+  CheckHessians<gum_h1_end_gauge_kernels>(nullptr, x.data(), 0.0, "gum_h1_end_gauge");
+  const std::array<double, 4> additive = {0.3, -1.2, 2.0, 0.7};
+  CheckHessians<jcgm101_additive_kernels>(nullptr, additive.data(), 1.0, "jcgm101_additive");
+}
+
+// Every registered model, through ModelInfo::hessians, against central differences of its
+// ForwardJacobians (step 10^-4 of the input's scale; relative 1e-6 of the column), at the
+// estimates moved by one default u (tracker models: a point 7 m away on the front face).
+TEST(GeneratedModels, HessiansThroughModelInfoMatchDifferencesOfTheJacobians) {
+  for (std::size_t m = 0; m < vlt::generated::kNumModels; ++m) {
+    const vlt::ModelInfo& model = *vlt::generated::kModels[m];
+    ASSERT_NE(model.hessians, nullptr) << model.name;
+    const int R = model.num_readings, P = model.num_params, O = model.num_outputs, N = R + P;
+    std::vector<double> x(N), scale(N);
+    const double readings[3] = {7.0, 0.4, 0.3};
+    for (int j = 0; j < R; ++j) x[j] = readings[j], scale[j] = j == 0 ? 7.0 : 1.0;
+    for (int k = 0; k < P; ++k) {
+      x[R + k] = model.params[k].default_estimate + model.params[k].default_u;
+      scale[R + k] = std::max(std::abs(x[R + k]), model.params[k].default_u);
+    }
+    std::vector<double> h(static_cast<std::size_t>(O) * N * N), fd(h.size());
+    model.hessians(x.data(), x.data() + R, h.data());
+    std::vector<double> y(O), jr_plus(std::max(1, O * R)), jp_plus(O * P), jr_minus(jr_plus.size()),
+        jp_minus(O * P);
+    for (int k = 0; k < N; ++k) {
+      const double step = 1e-4 * scale[k];
+      std::vector<double> plus = x, minus = x;
+      plus[k] += step;
+      minus[k] -= step;
+      model.forward_jacobians(plus.data(), plus.data() + R, y.data(), jr_plus.data(), jp_plus.data());
+      model.forward_jacobians(minus.data(), minus.data() + R, y.data(), jr_minus.data(), jp_minus.data());
+      for (int o = 0; o < O; ++o) {
+        for (int l = 0; l < N; ++l) {
+          const double d_plus = l < R ? jr_plus[O * l + o] : jp_plus[O * (l - R) + o];
+          const double d_minus = l < R ? jr_minus[O * l + o] : jp_minus[O * (l - R) + o];
+          fd[N * N * o + N * l + k] = (d_plus - d_minus) / (2.0 * step);
+        }
+      }
+    }
+    for (int o = 0; o < O; ++o) {
+      // Columns scaled to the inputs' scales: d2 y / dx_k dx_l s_k s_l.
+      std::vector<double> hs(N * N), fds(N * N);
+      for (int l = 0; l < N; ++l) {
+        for (int k = 0; k < N; ++k) {
+          hs[N * l + k] = h[N * N * o + N * l + k] * scale[k] * scale[l];
+          fds[N * l + k] = fd[N * N * o + N * l + k] * scale[k] * scale[l];
+        }
+      }
+      ExpectColumnsNear(hs.data(), fds.data(), N, N, 1e-6, 1e-9 * (1.0 + std::abs(y[o])),
+                        std::string(model.name) + " output " + std::to_string(o));
     }
   }
 }
@@ -350,7 +468,7 @@ TEST(GeneratedModels, ForwardLanesEqualsForwardToAFewUlp) {
     }
   }
   EXPECT_EQ(trackers, 3);  // mirror, head, total_station
-  EXPECT_GT(worst, 0.0);  // not libm's sin/cos: the comparison is not vacuous
+  EXPECT_GT(worst, 0.0);   // not libm's sin/cos: the comparison is not vacuous
 }
 
 TEST(GeneratedModels, RegistrySortedAndConsistent) {

@@ -511,6 +511,8 @@ const ModelInfo kAdditive = {"additive_test",
                              nullptr,
                              nullptr,
                              nullptr,
+                             nullptr,
+                             0,
                              0,
                              0,
                              0};

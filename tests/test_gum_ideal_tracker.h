@@ -73,6 +73,8 @@ inline const ModelInfo kIdealTracker = {"ideal_test",
                                         nullptr,
                                         nullptr,
                                         nullptr,
+                                        nullptr,  // hessians: the central-difference path
+                                        0,
                                         0,
                                         0,
                                         0};

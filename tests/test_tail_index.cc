@@ -137,6 +137,8 @@ const ModelInfo kRatios12 = {"ratios_test",
                              nullptr,
                              nullptr,
                              nullptr,
+                             nullptr,
+                             0,
                              0,
                              0,
                              0};

@@ -132,7 +132,8 @@ void Show(const ModelInfo& m, const GlobalOptions& global) {
     for (int i = 0; i < m.num_outputs; ++i) j["outputs"].push_back(QuantityJson(m.outputs[i], false));
     j["operations"] = {{"forward", m.ops_forward},
                        {"forward_jacobians", m.ops_forward_jacobians},
-                       {"nominal_jacobians", m.ops_nominal_jacobians}};
+                       {"nominal_jacobians", m.ops_nominal_jacobians},
+                       {"hessians", m.ops_hessians}};
     std::printf("%s\n", j.dump(2).c_str());
     return;
   }
@@ -157,8 +158,8 @@ void Show(const ModelInfo& m, const GlobalOptions& global) {
   }
   std::printf(
       "\ngenerated kernels (operations after CSE): forward %d, forward+Jacobians %d, "
-      "nominal Jacobians %d\n",
-      m.ops_forward, m.ops_forward_jacobians, m.ops_nominal_jacobians);
+      "nominal Jacobians %d, Hessians %d\n",
+      m.ops_forward, m.ops_forward_jacobians, m.ops_nominal_jacobians, m.ops_hessians);
 }
 
 }  // namespace

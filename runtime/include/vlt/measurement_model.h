@@ -205,6 +205,16 @@ class MeasurementModel {
   //   dy/dcte      = -y (T - T_ref) s,  dy/dT = -y cte s
   void EvaluateWithJacobian(const double* readings, const double* shared, double* y, double* d_y_d_readings,
                             double* d_y_d_shared) const;
+  // The tracker model's exact second derivatives (vlt/model_info.h HessiansFn, from vlt-gen)
+  // carried to y, for q = (readings, error parameters), the first n = 3 + P inputs of (readings,
+  // shared): with q' = (rho n_est / n, A, E, params) the tracker model's inputs and M = s R the
+  // pose and thermal map, neither depending on q,
+  //   d2 y / dq_k dq_l = M (d2 x_t / dq'_k dq'_l) c_k c_l,  c = (n_est / n, 1, ..., 1).
+  // hessians[n * n * a + n * l + k] = d2 y_a / dq_k dq_l (a = 0..2; symmetric, column-major, 3 n^2
+  // values, caller-owned). The environment, pose and thermal inputs are not in q: their stages
+  // are the runtime's, not generated (gum/nonlinearity.cc takes their columns from differences of
+  // exact Jacobians). Returns false, computing nothing, when the model has no Hessians kernel.
+  bool TrackerHessians(const double* readings, const double* shared, double* hessians) const;
   // The GUM engine's SIMD path (CovarianceField): EvaluateWithJacobian of `count` points (1 ..
   // kLanes) at shared inputs whose error parameters are all 0, with the tracker kernel run on the
   // points at once in SIMD lanes (vlt/model_info.h NominalJacobiansBatchFn). Returns false, and

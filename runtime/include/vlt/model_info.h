@@ -65,6 +65,13 @@ using NominalJacobiansBatchFn = void (*)(const double* readings, double* outputs
 inline constexpr int kForwardLanes = 4;
 using ForwardLanesFn = void (*)(const double* readings, const double* params, double* outputs);
 
+// The second derivatives of every output in the inputs x = (readings, params), n = num_readings +
+// num_params of them: hessians[n * n * o + n * l + k] = d2 out_o / dx_k dx_l, each output's n x n
+// matrix symmetric and column-major. Exact: vlt-gen differentiates the Jacobian program once more
+// (forward over forward mode, symbolic/graph.h HessianProgram); used by the GUM's second-order
+// check (JCGM 100 5.1.2 note; docs/gum.md "Non-linearity").
+using HessiansFn = void (*)(const double* readings, const double* params, double* hessians);
+
 struct ModelInfo {
   const char* name;  // "mirror", "head", "jcgm101_additive", ...
   const char* kind;  // "tracker" or "custom"
@@ -83,16 +90,18 @@ struct ModelInfo {
   ForwardBatchFn forward_batch;
   NominalJacobiansBatchFn nominal_jacobians_batch;  // tracker models; nullptr for custom models
   ForwardLanesFn forward_lanes;                     // tracker models; nullptr for custom models
+  HessiansFn hessians;
   // Operation counts of the emitted kernels after common-subexpression elimination.
   int ops_forward;
   int ops_forward_jacobians;
   int ops_nominal_jacobians;
+  int ops_hessians;
 };
 
 // The layout of ModelInfo and the kernels' signatures, as a model built at run time (`vlt model
 // build`, vlt/models.h BuildModel) was compiled against: a plugin whose number differs from the
 // running vlt's is refused ("rebuild it"). Raise it with any change to this header.
-inline constexpr int kModelAbi = 1;
+inline constexpr int kModelAbi = 2;  // 2: ModelInfo::hessians
 
 // The entry point of a model plugin: extern "C" const ModelInfo* vlt_model_plugin(int* abi), which
 // sets *abi = kModelAbi of the headers it was compiled with.

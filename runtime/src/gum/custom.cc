@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -129,25 +130,47 @@ void InputDegrees(Linearisation& lin, const InputDegreesOfFreedom& degrees_of_fr
   lin.component = WelchSatterthwaiteComponents(num_inputs, degrees_of_freedom.components);
 }
 
-// Second-order terms (JCGM 100 5.1.2 note; gum/nonlinearity.cc for points): x = x0 + F z with
-// F = diag(u) L, L L^T = R; column k of H_z from central differences of the exact Jacobian,
-// D(h) = (J(x0 + h F e_k) - J(x0 - h F e_k)) F / (2 h). At the estimates (lin.hz): D(h)
-// Richardson-extrapolated, (4 D(h/2) - D(h)) / 3 with h = 10^-3, the exact second derivatives to
-// about 10^-12 (the note's formula has exact derivatives: JCGM 101 9.3's 0.0750 mg needs them to
-// 0.1 %; a step of one u, as before, saw 10 rad of JCGM 102 9.3's phase at x1 = 0.001, u = 0.01 as
-// "reliable"). Over the inputs' spread (lin.hz_span): D(1), for SecondOrderDecides.
+// x = x0 + F z for the second-order terms (JCGM 100 5.1.2 note; gum/nonlinearity.cc for points):
+// F = diag(u) L, L L^T = R.
+Eigen::MatrixXd InputFactor(const Linearisation& lin) {
+  if (!lin.correlated) return lin.u.asDiagonal();
+  Eigen::MatrixXd l;
+  model_internal::CorrelationFactor(lin.r, l);
+  return lin.u.asDiagonal() * l;
+}
+
+// Per output, its Hessian in z: H_z = F^T H_x F with H_x exact (vlt-gen's Hessians kernel,
+// vlt/model_info.h HessiansFn) at the estimates (lin.hz; the note's formula needs exact
+// derivatives: JCGM 101 9.3's 0.0750 mg needs them to 0.1 %, and a step of one u, as vlt once
+// used, saw 10 rad of JCGM 102 9.3's phase at x1 = 0.001, u = 0.01 as "reliable"). Null when the
+// model has no such kernel (a hand-written ModelInfo).
+std::optional<std::vector<Eigen::MatrixXd>> ExactHessians(const Linearisation& lin) {
+  const ModelInfo& model = lin.model;
+  if (model.hessians == nullptr) return std::nullopt;
+  const int n = model.num_readings + model.num_params;  // custom models: no readings
+  std::vector<double> hx(static_cast<std::size_t>(model.num_outputs) * n * n);
+  model.hessians(nullptr, lin.x.data(), hx.data());
+  const Eigen::MatrixXd f = InputFactor(lin);
+  std::vector<Eigen::MatrixXd> hz(model.num_outputs);
+  for (int o = 0; o < model.num_outputs; ++o) {
+    const Eigen::Map<const Eigen::MatrixXd> h(hx.data() + static_cast<std::size_t>(o) * n * n, n, n);
+    hz[o] = f.transpose() * h * f;
+  }
+  return hz;
+}
+
+// The same from central differences of the exact Jacobian: column k of H_z is
+// D(h) = (J(x0 + h F e_k) - J(x0 - h F e_k)) F / (2 h). Over the inputs' spread (lin.hz_span):
+// D(1), for SecondOrderDecides. At the estimates, for a model without a Hessians kernel:
+// D(h) Richardson-extrapolated, (4 D(h/2) - D(h)) / 3 with h = 10^-3, the exact second
+// derivatives to about 10^-12.
 std::vector<Eigen::MatrixXd> SecondOrderHessians(const Linearisation& lin, std::vector<double>& j_readings,
                                                  double step, bool richardson) {
   const ModelInfo& model = lin.model;
   const int num_inputs = model.num_params;
   const int num_outputs = model.num_outputs;
   const Eigen::VectorXd& x = lin.x;
-  Eigen::MatrixXd f = lin.u.asDiagonal();
-  if (lin.correlated) {
-    Eigen::MatrixXd l;
-    model_internal::CorrelationFactor(lin.r, l);
-    f = lin.u.asDiagonal() * l;
-  }
+  const Eigen::MatrixXd f = InputFactor(lin);
   std::vector<Eigen::MatrixXd> hz(num_outputs, Eigen::MatrixXd::Zero(num_inputs, num_inputs));
   Eigen::VectorXd y_step(num_outputs);
   Eigen::MatrixXd j_plus(num_outputs, num_inputs), j_minus(num_outputs, num_inputs);
@@ -295,7 +318,8 @@ CustomUncertainty PropagateCustom(const ModelInfo& model, std::span<const Uncert
                          "': non-finite value or sensitivity at the estimates");
   }
   lin.ju = lin.j * lin.u.asDiagonal();  // contributions c_i u_i
-  lin.hz = SecondOrderHessians(lin, j_readings, 1e-3, true);
+  std::optional<std::vector<Eigen::MatrixXd>> exact = ExactHessians(lin);
+  lin.hz = exact ? std::move(*exact) : SecondOrderHessians(lin, j_readings, 1e-3, true);
   lin.hz_span = SecondOrderHessians(lin, j_readings, 1.0, false);
 
   CustomUncertainty result;

@@ -368,6 +368,30 @@ void MeasurementModel::EvaluateWithJacobian(const double* readings, const double
   ChainStation(shared, air, corrected[0], y, d_y_d_readings, d_y_d_shared, true);
 }
 
+bool MeasurementModel::TrackerHessians(const double* readings, const double* shared, double* hessians) const {
+  const ModelInfo& model = *setup_.model;
+  if (model.hessians == nullptr) return false;
+  const int n = 3 + model.num_params;
+  // As EvaluateWithJacobian: rho' = rho n_est / n, so d rho' / d rho = n_est / n.
+  const AirStage air = AirAt(shared);
+  double corrected[3] = {readings[0], readings[1], readings[2]};
+  if (env_offset_ >= 0) corrected[0] *= air.scale;
+  model.hessians(corrected, shared, hessians);
+  const double range_factor = env_offset_ >= 0 ? air.scale : 1.0;
+  const Eigen::Matrix3d m = ThermalScale(shared) * PoseRotation(shared);
+  const std::size_t stride = static_cast<std::size_t>(n) * n;
+  for (int l = 0; l < n; ++l) {
+    for (int k = 0; k < n; ++k) {
+      const double c = (k == 0 ? range_factor : 1.0) * (l == 0 ? range_factor : 1.0);
+      const std::size_t at = static_cast<std::size_t>(n) * l + k;
+      const Eigen::Vector3d h_t(hessians[at], hessians[stride + at], hessians[2 * stride + at]);
+      const Eigen::Vector3d h_y = c * (m * h_t);
+      for (int a = 0; a < 3; ++a) hessians[a * stride + at] = h_y(a);
+    }
+  }
+  return true;
+}
+
 bool MeasurementModel::EvaluateNominalLanes(int count, const double* readings, const double* shared,
                                             double* y, double* d_y_d_readings, double* d_y_d_shared,
                                             double* d_x_t_d_params, Eigen::Matrix3d& linear_map) const {
