@@ -172,10 +172,13 @@ inline constexpr double kSecondOrderThreshold = 0.01;
 // two are equal; they part where the curvature itself changes within the inputs' spread.
 bool SecondOrderDecides(double v_local, double v_span, double var, double threshold = kSecondOrderThreshold);
 
-// Fills second_order_variance, second_order_ratio and gum_reliable of `results` (from
-// PropagatePoints for the same points): u2^2(y_a) = 1/2 ||F^T H_a F||_F^2 with the Hessian H_a
-// from central differences of the generated Jacobians at one standard uncertainty of each
-// independent input (docs/gum.md "Non-linearity"). Costs 2 (3 + S) Jacobian evaluations per point.
+// Fills second_order_variance, second_order_ratio, second_order_decided and gum_reliable of
+// `results` (from PropagatePoints for the same points): u2^2(y_a) = 1/2 ||F^T H_a F||_F^2 with
+// the Hessian H_a over +-1 standard uncertainty of each independent input (central differences
+// of the generated Jacobians: 2 (3 + S) evaluations per point) and, where those terms exceed a
+// tenth of the threshold, at the point itself (exact: the model's generated Hessians, the
+// environment, pose and thermal columns differenced), the two compared by SecondOrderDecides
+// (docs/gum.md "Non-linearity").
 void CheckSecondOrder(const MeasurementModel& model, std::span<const PointReadings> points,
                       std::span<PointUncertainty> results, double threshold = kSecondOrderThreshold,
                       int threads = 0);
@@ -313,9 +316,10 @@ struct CustomOutput {
   double U = 0.0;  // k u
   // Non-linearity (JCGM 100 5.1.2 note), as CheckSecondOrder does for points: the leading
   // second-order variance u2^2 = 1/2 ||F^T H F||_F^2 (H the Hessian of the output at the
-  // estimates, F the factor of the input covariance; Richardson-extrapolated central differences
-  // of the generated exact Jacobian at 10^-3 and 5 10^-4 standard uncertainties: the derivatives
-  // to about (10^-3 u / d)^4, d the scale on which f changes), its ratio to u^2, and gum_reliable = second_order_decided and the ratio
+  // estimates, exact: the model's generated Hessians, ModelInfo::hessians; for a model without
+  // them Richardson-extrapolated central differences of its Jacobian at 10^-3 and 5 10^-4
+  // standard uncertainties; F the factor of the input covariance), its ratio to u^2, and
+  // gum_reliable = second_order_decided and the ratio
   // <= kSecondOrderThreshold (the terms over +-1 u only decide, SecondOrderDecides). For GUM H.1
   // sqrt(u^2 + u2^2) is the 34 nm of H.1.7; for JCGM 101 9.3 the 0.0750 mg of its table 7.
   double second_order_variance = 0.0;

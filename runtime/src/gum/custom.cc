@@ -153,7 +153,16 @@ std::optional<std::vector<Eigen::MatrixXd>> ExactHessians(const Linearisation& l
   const Eigen::MatrixXd f = InputFactor(lin);
   std::vector<Eigen::MatrixXd> hz(model.num_outputs);
   for (int o = 0; o < model.num_outputs; ++o) {
-    const Eigen::Map<const Eigen::MatrixXd> h(hx.data() + static_cast<std::size_t>(o) * n * n, n, n);
+    Eigen::MatrixXd h =
+        Eigen::Map<const Eigen::MatrixXd>(hx.data() + static_cast<std::size_t>(o) * n * n, n, n);
+    // An input that does not vary (a zero row of F) has no second-order term: its row and column
+    // left out, so that a second derivative infinite at its estimate (x^1.5 at x = 0) is not 0 inf.
+    for (int i = 0; i < n; ++i) {
+      if (f.row(i).isZero(0.0)) {
+        h.row(i).setZero();
+        h.col(i).setZero();
+      }
+    }
     hz[o] = f.transpose() * h * f;
   }
   return hz;

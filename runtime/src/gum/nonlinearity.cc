@@ -149,8 +149,16 @@ class PointCurvature {
     for (int a = 0; a < 3; ++a) hx_[a].col(k) = d.row(a).transpose();
   }
 
-  // H_z = F^T H_x F, F = diag(u_r) (+) F_shared.
-  void ToZ(const Eigen::Vector3d& u_r, const Eigen::MatrixXd& hx, Eigen::MatrixXd& hz) const {
+  // H_z = F^T H_x F, F = diag(u_r) (+) F_shared. An input that does not vary (a zero row of F) has
+  // no second-order term: its row and column of H_x are left out first, so that a second
+  // derivative infinite at its estimate is not 0 inf.
+  void ToZ(const Eigen::Vector3d& u_r, Eigen::MatrixXd& hx, Eigen::MatrixXd& hz) const {
+    for (int k = 0; k < n_; ++k) {
+      if (k < 3 ? u_r(k) == 0.0 : f_shared_.row(k - 3).isZero(0.0)) {
+        hx.row(k).setZero();
+        hx.col(k).setZero();
+      }
+    }
     Eigen::VectorXd d(n_);
     if (f_is_diagonal_) {
       d << u_r, f_diagonal_;
