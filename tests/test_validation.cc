@@ -110,20 +110,36 @@ McmPointResult Region(const Eigen::Vector3d& mean, const Eigen::Matrix3d& cov, d
 
 // An exactly determined output (a component a 3-2-1 reference point system holds: value 0, GUM u
 // at 1e-19 m, Monte Carlo interval of rounding noise at 1e-16 m) is judged at the output's
-// numerical resolution (64 ulps of 4 m coordinates), not on its noise; a real difference larger
-// than the resolution still fails.
+// numerical resolution (64 ulps of 4 m coordinates), not on its noise: "exact", validated. Where the
+// GUM's u is 0 to rounding but the Monte Carlo interval is wider than the resolution (a unit
+// normal's component along itself: 1 - cos of a tilt, second order only; issue 34), the GUM has no
+// first-order value: "not applicable", the Monte Carlo interval is the answer (as for the form of
+// nominal points). A GUM u just above the resolution is judged as usual.
 TEST(ValidateScalar, RoundingNoiseIsJudgedAtTheResolution) {
   CoverageInterval noise;
   noise.low = -1.1e-16;
   noise.high = 0.9e-16;
   const double resolution = 64.0 * std::numeric_limits<double>::epsilon() * 4.0;
-  EXPECT_EQ(ValidateScalar("held", "m", 0.0, 1e-19, 2e-19, noise, 1, 20000, 5e-17, 0.95).outcome, "not validated");
-  const ScalarValidation v = ValidateScalar("held", "m", 0.0, 1e-19, 2e-19, noise, 1, 20000, 5e-17, 0.95, true, resolution);
+  EXPECT_EQ(ValidateScalar("held", "m", 0.0, 1e-19, 2e-19, noise, 1, 20000, 5e-17, 0.95).outcome,
+            "not validated");
+  const ScalarValidation v =
+      ValidateScalar("held", "m", 0.0, 1e-19, 2e-19, noise, 1, 20000, 5e-17, 0.95, true, resolution);
   EXPECT_TRUE(v.validated) << v.verdict;
   EXPECT_EQ(v.delta, resolution);
-  CoverageInterval real = noise;
-  real.high = 1e-12;  // a second-order shift, not rounding
-  EXPECT_EQ(ValidateScalar("held", "m", 0.0, 1e-19, 2e-19, real, 1, 20000, 5e-17, 0.95, true, resolution).outcome,
+  EXPECT_NE(v.verdict.find("exact"), std::string::npos) << v.verdict;
+  CoverageInterval second_order;  // n_z = 1 - (n_x^2 + n_y^2) / 2 with u(n_x) = u(n_y) = 3.7e-6
+  second_order.low = 1.0 - 5.4e-11;
+  second_order.high = 1.0 - 1.3e-13;
+  const double unit_resolution = 64.0 * std::numeric_limits<double>::epsilon();
+  const ScalarValidation n_z = ValidateScalar("normal_z", "1", 1.0, 1.3e-21, 2.5e-21, second_order, 2, 200000,
+                                              1.3e-11, 0.95, true, unit_resolution);
+  EXPECT_EQ(n_z.outcome, "not applicable") << n_z.verdict;
+  EXPECT_FALSE(n_z.validated);
+  EXPECT_NE(n_z.verdict.find("second order only"), std::string::npos) << n_z.verdict;
+  // The same interval with a GUM u of 1e-11 (above the resolution): judged by JCGM 101 8.2.
+  EXPECT_EQ(ValidateScalar("normal_z", "1", 1.0, 1e-11, 2e-11, second_order, 2, 200000, 1.3e-11, 0.95, true,
+                           unit_resolution)
+                .outcome,
             "not validated");
 }
 

@@ -92,6 +92,37 @@ ScalarValidation ValidateScalar(const std::string& name, const std::string& unit
         "the Monte Carlo interval is the answer";
     return v;
   }
+  // A first-order u of 0 to rounding: the GUM says the output is exact. Where the Monte Carlo
+  // agrees (its interval within the resolution of the value: a component a reference point system
+  // holds) that is validated; where it spreads further (a unit normal's component along itself,
+  // which a tilt changes by 1 - cos: second order only) the GUM has no first-order value, as for
+  // the form of nominal points, and the Monte Carlo interval is the answer. Its 7.9.2 delta, of a
+  // u that is rounding noise, would otherwise judge that spread against the noise (issue 34:
+  // "not validated" for u = 1e-21 against delta = 5e-22).
+  if (resolution > 0.0 && gum_u <= resolution) {
+    v.delta = resolution;
+    const double spread = std::max(std::abs(mcm_symmetric.low - gum_y), std::abs(mcm_symmetric.high - gum_y));
+    char text[360];
+    if (spread <= resolution) {
+      std::snprintf(
+          text, sizeof text,
+          "validated: exact (the GUM u, %.3g %s, and the Monte Carlo interval, within %.3g %s of the "
+          "value, are below the output's numerical resolution, %.3g %s)",
+          gum_u, unit.c_str(), spread, unit.c_str(), resolution, unit.c_str());
+      v.validated = true;
+      v.outcome = "validated";
+    } else {
+      std::snprintf(
+          text, sizeof text,
+          "not applicable: the GUM's first-order u (%.3g %s) is 0 to rounding (at most the output's "
+          "numerical resolution, %.3g %s) while the Monte Carlo interval reaches %.3g %s from the "
+          "value: the output varies at second order only; the Monte Carlo interval is the answer",
+          gum_u, unit.c_str(), resolution, unit.c_str(), spread, unit.c_str());
+      v.outcome = "not applicable";
+    }
+    v.verdict = text;
+    return v;
+  }
   // JCGM 101 7.9.2's delta of u(y), but never finer than the output can be computed.
   v.delta = std::max(NumericalTolerance(gum_u, significant_digits), resolution);
   if (trials > 0 && mcm_u > 0.0) {

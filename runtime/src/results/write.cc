@@ -163,7 +163,13 @@ std::string TaskRow(const TaskResult& t, std::size_t q, const TaskColumns& colum
   // A quantity without a first-order derivative (the form of nominal points) has no GUM U: "n/a",
   // never "0 um" (docs/tasks.md "Jacobians").
   const bool has_gum = q >= t.gum.differentiable.size() || t.gum.differentiable[q];
-  std::string big_u = has_gum ? base_internal::Sig(t.gum.U[i] * us, 3) + u_unit : std::string("n/a");
+  // A first-order u of 0 to rounding (ValidateScalar: "not applicable" although differentiable)
+  // is printed as 0, not as the rounding noise it is (7.24e-22).
+  const bool first_order_zero =
+      has_gum && t.has_mcm && q < t.validation.size() && t.validation[q].outcome == "not applicable";
+  std::string big_u = !has_gum           ? std::string("n/a")
+                      : first_order_zero ? std::string("0") + u_unit
+                                         : base_internal::Sig(t.gum.U[i] * us, 3) + u_unit;
   std::string interval = "-", verdict = "not run";
   if (t.has_mcm && q < t.validation.size()) {
     char buffer[96];
@@ -172,8 +178,9 @@ std::string TaskRow(const TaskResult& t, std::size_t q, const TaskColumns& colum
     interval = buffer;
     const std::string& outcome = t.validation[q].outcome;
     verdict = outcome == "not validated"    ? "NOT validated"
-              : outcome == "not applicable" ? "GUM n/a (not differentiable): MCM interval"
-                                            : outcome;
+              : outcome != "not applicable" ? outcome
+              : first_order_zero            ? "GUM u 0 to rounding (2nd order only): MCM interval"
+                                            : "GUM n/a (not differentiable): MCM interval";
   }
   return FormatLine("%-*s %-*s %-*s %16s %11s %24s  %s\n", columns.name, t.spec.name.c_str(), columns.kind,
                     std::string(TaskKindName(t.spec.kind)).c_str(), columns.quantity, quantity.c_str(),
@@ -270,12 +277,15 @@ void MonteCarloLines(const Results& r, std::ostringstream& out) {
   }
   // Task results are counted per quantity: one output the GUM cannot linearise (e.g. the
   // flatness of nominal points) must not hide that the others are validated.
-  std::size_t quantities = 0, validated = 0, inconclusive = 0;
+  std::size_t quantities = 0, validated = 0, inconclusive = 0, without_gum = 0;
   std::string failed;
   int listed = 0;
   for (const TaskResult& t : r.tasks) {
     for (const ScalarValidation& v : t.validation) {
-      if (v.outcome == "not applicable") continue;  // no GUM value to validate
+      if (v.outcome == "not applicable") {  // no GUM value to validate
+        ++without_gum;
+        continue;
+      }
       ++quantities;
       if (v.validated) {
         ++validated;
@@ -291,12 +301,16 @@ void MonteCarloLines(const Results& r, std::ostringstream& out) {
   std::snprintf(
       line, sizeof line,
       "Monte Carlo: %lld trials%s, seed %llu, %d thread(s), %.1f s. GUM validated by MCM (JCGM 101 8): "
-      "%d/%zu points, %zu/%zu task quantities.\n",
+      "%d/%zu points, %zu/%zu task quantities",
       static_cast<long long>(r.mcm.trials),
       r.mcm.adaptive ? (r.mcm.converged ? " (adaptive, converged)" : " (adaptive, NOT converged)") : "",
       static_cast<unsigned long long>(r.mcm.seed), r.mcm.threads, r.mcm.seconds, r.validated_points,
       r.points.size(), validated, quantities);
   out << line;
+  // Those with no first-order GUM value (not differentiable, or a first-order u of 0 to rounding):
+  // their Monte Carlo interval is the answer, nothing to validate.
+  if (without_gum > 0) out << " (" << without_gum << " more with no first-order GUM value: Monte Carlo only)";
+  out << ".\n";
   if (r.inconclusive_points > 0 || inconclusive > 0) {
     out << "Inconclusive (Monte Carlo tolerance larger than delta; more trials or --adaptive): "
         << r.inconclusive_points << " points, " << inconclusive << " task quantities.\n";
