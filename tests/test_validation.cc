@@ -241,6 +241,39 @@ TEST(ValidationTolerance, EndpointToleranceMatchesTheSpreadOfRepeatedRuns) {
   EXPECT_NEAR(v.mcm_tolerance / 2.0, std::sqrt(var), 0.06 * std::sqrt(var));
 }
 
+// Issue 34: an inconclusive verdict says how many trials would decide. A GUM u 1 % too small
+// (true u 1, GUM 0.99, n_dig 2: delta 0.005, true endpoint difference 0.0196) is inconclusive with
+// 10^4 trials; a run with twice the trials the verdict names is decided: "not validated".
+TEST(ValidationTolerance, InconclusiveSaysHowManyTrialsWouldDecide) {
+  const double p = 0.95, u_gum = 0.99;
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  auto run = [&](std::int64_t m) {
+    std::vector<double> y(static_cast<std::size_t>(m));
+    double mean = 0.0, sq = 0.0;
+    for (double& v : y) {
+      v = normal(rng);
+      mean += v / static_cast<double>(m);
+    }
+    for (double v : y) sq += (v - mean) * (v - mean) / static_cast<double>(m - 1);
+    std::sort(y.begin(), y.end());
+    const std::size_t q = static_cast<std::size_t>(std::lround(p * static_cast<double>(m)));
+    const std::size_t r = (y.size() - q) / 2;
+    return ValidateScalar("y", "1", 0.0, u_gum, kK95 * u_gum, {y[r], y[r + q]}, 2, m, std::sqrt(sq), p);
+  };
+  const ScalarValidation small = run(10000);
+  ASSERT_EQ(small.outcome, "inconclusive") << small.verdict;
+  const double worst = std::max(small.d_low, small.d_high);
+  EXPECT_NEAR(small.trials_to_decide,
+              10000.0 * std::pow(2.0 * small.mcm_tolerance / (worst - small.delta), 2),
+              1e-9 * small.trials_to_decide);
+  EXPECT_NE(small.verdict.find("trials would decide"), std::string::npos) << small.verdict;
+  ASSERT_LT(small.trials_to_decide, 5e6);
+  const ScalarValidation big = run(static_cast<std::int64_t>(2.0 * small.trials_to_decide));
+  EXPECT_EQ(big.outcome, "not validated") << big.verdict;
+  EXPECT_EQ(big.trials_to_decide, 0.0);
+}
+
 // A linear model: GUM is exact, so a fixed-M Monte Carlo run can only disagree by noise. With
 // n_dig = 2 and M = 10^4 the old criterion called some runs "not validated"; now every run is
 // "validated" or "inconclusive" — never a false "not validated".

@@ -44,6 +44,9 @@ struct ScalarValidation {
   bool validated = false;
   std::string outcome;  // "validated", "inconclusive", "not validated", "not applicable"
   std::string verdict;  // outcome with the numbers
+  // Inconclusive: about how many trials would decide, M (2 mcm_tolerance / (worst - delta))^2 (the
+  // tolerance shrinks as 1 / sqrt(M)); 0 otherwise or when not estimated (trials unknown).
+  double trials_to_decide = 0.0;
 };
 
 // trials: M of the Monte Carlo run; mcm_u: its standard uncertainty of the output; p: coverage
@@ -95,6 +98,7 @@ struct PointValidation {
   bool validated = false;
   std::string outcome;  // as ScalarValidation::outcome
   std::string verdict;
+  double trials_to_decide = 0.0;  // as ScalarValidation::trials_to_decide
 };
 
 // gum_coverage_factor: k_g = sqrt(chi2_3(p)) of the GUM region (vlt/gum.h

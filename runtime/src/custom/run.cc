@@ -305,6 +305,9 @@ json OutputJson(const CustomOutputResult& o) {
                        {"d_high", o.validation.d_high},
                        {"delta", o.validation.delta},
                        {"mcm_tolerance", o.validation.mcm_tolerance},
+                       {"trials_to_decide", o.validation.trials_to_decide > 0.0
+                                                ? nlohmann::json(o.validation.trials_to_decide)
+                                                : nlohmann::json(nullptr)},
                        {"verdict", o.validation.verdict}};
   }
   if (o.conformity) {

@@ -25,14 +25,32 @@ std::string Outcome(double distance, double mcm_tolerance, double delta) {
   return distance <= delta + 2.0 * mcm_tolerance ? "inconclusive" : "not validated";
 }
 
+// With `trials` known, how many trials would tell an inconclusive comparison: the tolerance
+// 2 s_end shrinks as 1 / sqrt(M), and the observed difference beyond delta becomes decisive ("not
+// validated") once 2 s_end(M') < worst - delta, M' = M (2 s_end / (worst - delta))^2; a true
+// difference within delta shows as such at about the same M. 0: not estimated.
+double TrialsToDecide(const std::string& outcome, double worst, double delta, double mcm_tolerance,
+                      std::int64_t trials) {
+  if (outcome != "inconclusive" || trials <= 0 || !(worst > delta)) return 0.0;
+  return static_cast<double>(trials) * std::pow(2.0 * mcm_tolerance / (worst - delta), 2);
+}
+
 std::string Verdict(const std::string& outcome, double worst, double delta, double mcm_tolerance,
-                    const std::string& unit) {
-  char text[240];
+                    const std::string& unit, double trials_to_decide) {
+  char text[400];
   if (outcome == "inconclusive") {
+    char decide[160] = "use more trials or the adaptive procedure";
+    if (trials_to_decide > 1e9) {
+      std::snprintf(decide, sizeof decide,
+                    "the difference is at delta itself: more than 1e9 trials would decide");
+    } else if (trials_to_decide > 0.0) {
+      std::snprintf(decide, sizeof decide, "about %.2g trials would decide, or the adaptive procedure",
+                    trials_to_decide);
+    }
     std::snprintf(text, sizeof text,
                   "inconclusive: Monte Carlo tolerance %.3g %s, delta %.3g %s, largest endpoint difference "
-                  "%.3g %s within what Monte Carlo noise gives; use more trials or the adaptive procedure",
-                  mcm_tolerance, unit.c_str(), delta, unit.c_str(), worst, unit.c_str());
+                  "%.3g %s within what Monte Carlo noise gives; %s",
+                  mcm_tolerance, unit.c_str(), delta, unit.c_str(), worst, unit.c_str(), decide);
   } else {
     std::snprintf(text, sizeof text, "%s (largest endpoint difference %.3g %s, tolerance %.3g %s)",
                   outcome.c_str(), worst, unit.c_str(), delta, unit.c_str());
@@ -132,7 +150,10 @@ ScalarValidation ValidateScalar(const std::string& name, const std::string& unit
   }
   v.validated = v.d_low <= v.delta && v.d_high <= v.delta;
   v.outcome = Outcome(std::max(v.d_low, v.d_high), v.mcm_tolerance, v.delta);
-  v.verdict = Verdict(v.outcome, std::max(v.d_low, v.d_high), v.delta, v.mcm_tolerance, unit);
+  v.trials_to_decide =
+      TrialsToDecide(v.outcome, std::max(v.d_low, v.d_high), v.delta, v.mcm_tolerance, trials);
+  v.verdict =
+      Verdict(v.outcome, std::max(v.d_low, v.d_high), v.delta, v.mcm_tolerance, unit, v.trials_to_decide);
   return v;
 }
 
@@ -207,7 +228,8 @@ PointValidation ValidatePoint(const std::string& name, const Eigen::Vector3d& gu
   }
   v.outcome =
       v.validated ? std::string("validated") : Outcome(v.worst_distance, v.mcm_tolerance, v.worst_delta);
-  v.verdict = Verdict(v.outcome, v.worst_distance, v.worst_delta, v.mcm_tolerance, "m");
+  v.trials_to_decide = TrialsToDecide(v.outcome, v.worst_distance, v.worst_delta, v.mcm_tolerance, trials);
+  v.verdict = Verdict(v.outcome, v.worst_distance, v.worst_delta, v.mcm_tolerance, "m", v.trials_to_decide);
   return v;
 }
 

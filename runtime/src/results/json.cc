@@ -132,6 +132,9 @@ json McmOut(const McmOutputResult& m) {
                                                       {"above", m.histogram.above}}}};
 }
 
+// ScalarValidation::trials_to_decide: null when not inconclusive (0).
+json TrialsToDecideJson(double trials) { return trials > 0.0 ? json(trials) : json(nullptr); }
+
 json Scalar(const ScalarValidation& v) {
   return json{{"name", v.name},
               {"unit", v.unit},
@@ -144,6 +147,7 @@ json Scalar(const ScalarValidation& v) {
               {"d_high", v.d_high},
               {"delta", v.delta},
               {"mcm_tolerance", v.mcm_tolerance},
+              {"trials_to_decide", TrialsToDecideJson(v.trials_to_decide)},
               {"validated", v.validated},
               {"outcome", v.outcome},
               {"verdict", v.verdict}};
@@ -266,6 +270,7 @@ json Point(const Results& r, const PointResult& p, const std::vector<BudgetRow>*
                          {"worst_distance", v.worst_distance},
                          {"worst_delta", v.worst_delta},
                          {"mcm_tolerance", v.mcm_tolerance},
+                         {"trials_to_decide", TrialsToDecideJson(v.trials_to_decide)},
                          {"validated", v.validated},
                          {"outcome", v.outcome},
                          {"verdict", v.verdict}}},

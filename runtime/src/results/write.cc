@@ -313,7 +313,30 @@ void MonteCarloLines(const Results& r, std::ostringstream& out) {
   out << ".\n";
   if (r.inconclusive_points > 0 || inconclusive > 0) {
     out << "Inconclusive (Monte Carlo tolerance larger than delta; more trials or --adaptive): "
-        << r.inconclusive_points << " points, " << inconclusive << " task quantities.\n";
+        << r.inconclusive_points << " points, " << inconclusive << " task quantities";
+    // How many trials would decide most of them (ScalarValidation::trials_to_decide): 9 in 10, since
+    // a difference that happens to sit at delta needs any number.
+    std::vector<double> to_decide;
+    auto add = [&](double m) {
+      if (m > 0.0) to_decide.push_back(m);
+    };
+    for (const PointResult& p : r.points) {
+      if (!p.has_mcm || !p.monte_carlo) continue;
+      double point = 0.0;  // a point is decided when its axes and its region are
+      for (const ScalarValidation& v : p.monte_carlo->axis_validation)
+        point = std::max(point, v.trials_to_decide);
+      add(std::max(point, p.monte_carlo->region_validation.trials_to_decide));
+    }
+    for (const TaskResult& t : r.tasks) {
+      for (const ScalarValidation& v : t.validation) add(v.trials_to_decide);
+    }
+    if (!to_decide.empty()) {
+      std::sort(to_decide.begin(), to_decide.end());
+      const double m = to_decide[(to_decide.size() * 9 - 1) / 10];
+      out << "; " << (m > 1e9 ? std::string("more than 1e9") : "about " + base_internal::Sig(m, 2))
+          << " trials would decide " << (to_decide.size() >= 10 ? "9 in 10 of them" : "most of them");
+    }
+    out << ".\n";
   }
   if (!failed.empty()) out << "Not validated: " << failed << " (tasks.csv, report.html).\n";
   NoFiniteVarianceLine(r, out);
