@@ -117,7 +117,7 @@ set_tests_properties(report_browser_demo report_browser_map report_print_demo PR
 # and an overview, stays small and draws.
 add_test(NAME cli_run_scan
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_jobs}/scan_2000.toml;-o;${_out}/scan"
-          -DOUT=${_out}/scan "-DFILES=${_all_files}" "-DEXPECT_STDOUT=2000 points, 1 tasks" -P ${_cli}/expect_outputs.cmake)
+          -DOUT=${_out}/scan "-DFILES=${_all_files}" "-DEXPECT_STDOUT=2000 points, 1 task\n" -P ${_cli}/expect_outputs.cmake)
 set_tests_properties(cli_run_scan PROPERTIES FIXTURES_SETUP vlt_scan_outputs)
 add_test(NAME report_browser_scan
   COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/scan/report.html -DPROFILE=${_out}/chromium-profile-scan

@@ -91,6 +91,39 @@ TEST(Job, MinimalJobAndModelDefaults) {
   EXPECT_EQ(job.monte_carlo.n_dig, 2);
 }
 
+// The job's record (vlt/job_record.h): read as given, empty when absent; a control character in a
+// text is one line naming the key (it is printed in headers); an unknown key of [job.instrument]
+// names the ones there are.
+TEST(Job, RecordOfTheJob) {
+  const std::string record = R"(
+[job]
+name = "bracket"
+customer = "ACME Aero"
+operator = "J. Smith"
+place = "Hall 3"
+conditions = "20.5 +- 0.5 degC"
+[job.instrument]
+make = "Leica"
+model = "AT960-MR"
+serial = "391234"
+)";
+  const Job job = Parse(record + kTracker + kPlan);
+  EXPECT_EQ(job.record.customer, "ACME Aero");
+  EXPECT_EQ(job.record.operator_name, "J. Smith");
+  EXPECT_EQ(job.record.place, "Hall 3");
+  EXPECT_EQ(job.record.conditions, "20.5 +- 0.5 degC");
+  EXPECT_EQ(DescribeInstrument(job.record.instrument), "Leica AT960-MR, serial 391234");
+  EXPECT_TRUE(Parse(kTracker + kPlan).record.empty());
+  InstrumentIdentity serial_only;
+  serial_only.serial = "7";
+  EXPECT_EQ(DescribeInstrument(serial_only), "serial 7");
+  EXPECT_EQ(ErrorOf("[job]\ncustomer = \"A\\nB\"\n" + kTracker + kPlan),
+            "job.toml: job.customer: a control character in the text (one line of printable text expected)");
+  const std::string bad_key = ErrorOf("[job.instrument]\nmaker = \"Leica\"\n" + kTracker + kPlan);
+  EXPECT_NE(bad_key.find("job.instrument.maker"), std::string::npos) << bad_key;
+  EXPECT_NE(bad_key.find("make, model, serial"), std::string::npos) << bad_key;
+}
+
 TEST(Job, UnitsInEveryKindOfKey) {
   Job job = Parse(R"(
 [job]

@@ -17,6 +17,7 @@
 
 #include "vlt/conformity.h"
 #include "vlt/job.h"
+#include "vlt/job_record.h"
 #include "vlt/measurement_model.h"
 #include "vlt/model_info.h"
 
@@ -38,6 +39,7 @@ struct CustomJob {
   std::filesystem::path base_dir;
   std::string name;
   std::string description;
+  JobRecord record;                  // [job] customer, operator, ... (vlt/job_record.h)
   const ModelInfo* model = nullptr;  // kind "custom"
   // One per model input, spec order. For the GUM: estimate and standard uncertainty u. For Monte
   // Carlo the same, except Type A inputs (mcm_inputs below).

@@ -20,6 +20,7 @@
 #include <Eigen/Core>
 
 #include "vlt/inverse.h"
+#include "vlt/job_record.h"
 #include "vlt/measurement_model.h"
 #include "vlt/tasks.h"
 #include "vlt/units.h"
@@ -183,6 +184,7 @@ struct Job {
   std::filesystem::path base_dir;  // relative paths in the job are relative to this
   std::string name;                // [job] name (default: the file's stem)
   std::string description;
+  JobRecord record;  // [job] customer, operator, place, conditions, instrument
   MeasurementSetup setup;
   JobMode mode = JobMode::kPlan;
   std::vector<JobPoint> points;

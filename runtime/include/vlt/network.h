@@ -24,6 +24,7 @@
 
 #include "vlt/calibration.h"
 #include "vlt/conformity.h"
+#include "vlt/job_record.h"
 #include "vlt/measurement_model.h"
 #include "vlt/tasks.h"
 #include "vlt/units.h"
@@ -378,6 +379,7 @@ std::vector<NetworkLengthError> NetworkLengthErrors(const Network& network, cons
 
 struct NetworkJob {
   std::string file, name, description;
+  JobRecord record;  // [job] customer, operator, ... (vlt/job_record.h)
   Network network;
   bool offline = false;                                          // stations `sees` targets of [targets]
   std::vector<std::pair<std::string, Eigen::Vector3d>> nominal;  // offline: [targets], part frame

@@ -137,6 +137,7 @@ struct Results {
   std::string job_file;
   std::string job_name;
   std::string job_description;
+  JobRecord record;  // Job::record
   JobMode mode = JobMode::kPlan;
   std::string model_name;
   std::optional<CalibrationSource> calibration;  // [tracker] calibration: where the parameters came from
@@ -224,6 +225,7 @@ struct CustomResults {
   std::string job_file;
   std::string job_name;
   std::string job_description;
+  JobRecord record;  // CustomJob::record
   const ModelInfo* model = nullptr;
   std::vector<UncertainInput> inputs;      // the GUM's (CustomJob::inputs)
   std::vector<UncertainInput> mcm_inputs;  // what Monte Carlo sampled

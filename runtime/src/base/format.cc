@@ -142,6 +142,50 @@ void AppendRoundedUp(std::string& out, double v, int digits) {
   out.append(buffer, written.ptr);
 }
 
+std::string ShownAt(double v, double scale, int decimals) {
+  double shown = v * scale;
+  if (decimals < 0) {
+    const double step = std::pow(10.0, -decimals);
+    shown = std::round(shown / step) * step;
+    decimals = 0;
+  }
+  char buffer[400];
+  const auto written =
+      std::to_chars(buffer, buffer + sizeof buffer, shown, std::chars_format::fixed, decimals);
+  std::string text(buffer, written.ptr);
+  if (text.find_first_not_of("-0.") == std::string::npos && text[0] == '-') text.erase(0, 1);  // no "-0.000"
+  return text;
+}
+
+GumRounded RoundLikeGum(double value, double value_scale, double expanded, double expanded_scale) {
+  GumRounded r;
+  const double u_shown = expanded * expanded_scale;
+  // The place of U's second significant digit, 10^place in the shown unit.
+  int place = static_cast<int>(std::floor(std::log10(u_shown))) - 1;
+  double step = std::pow(10.0, place);
+  // Up to that place (7.2.6: "10.47 might be rounded up to 11"), but "common sense should prevail:
+  // 28.05 should be rounded down to 28": an excess below 1/20 of the last digit is dropped (U is
+  // then understated by less than 0.5 %).
+  auto rounded = [&](double s) {
+    const double units = u_shown / s;
+    const double down = std::floor(units);
+    return (units - down <= 0.05 + 1e-9 && down >= 10.0 ? down : std::ceil(units)) * s;
+  };
+  double up = rounded(step);
+  if (up >= 100.0 * step) {  // 99.2 -> 100: three digits; keep two (100 = 1.0e2)
+    ++place;
+    step *= 10.0;
+    up = rounded(step);
+  }
+  r.expanded = ShownAt(up, 1.0, -place);
+  // The same decimal place in the value's unit: 10^place expanded units = 10^place * value_scale /
+  // expanded_scale value units; the value's decimals reach at least that fine.
+  const double value_step = step * value_scale / expanded_scale;
+  r.value_decimals = static_cast<int>(std::ceil(-std::log10(value_step) - 1e-9));
+  r.value = ShownAt(value, value_scale, r.value_decimals);
+  return r;
+}
+
 std::string Fixed(double v, int decimals) {
   char buffer[64];
   std::snprintf(buffer, sizeof buffer, "%.*f", decimals, v);

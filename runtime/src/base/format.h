@@ -39,6 +39,22 @@ void AppendDecimals(std::string& out, double v, int decimals);
 // uncertainty may be rounded up, never understated), trailing zeros kept ("81.0"), no exponent
 // (at least units: 1234.2 with 3 digits is "1235"): ceil(v 10^d) / 10^d, d the decimals.
 void AppendRoundedUp(std::string& out, double v, int digits);
+// A result as JCGM 100 7.2.6 asks it written: the expanded uncertainty U rounded up to two
+// significant digits (10.47 -> 11; an excess below 1/20 of the last digit dropped, as 7.2.6's
+// "28.05 should be rounded down to 28"), the value rounded (to nearest) to the same decimal place, each in the unit it
+// is shown in (value_scale, expanded_scale: shown units per SI unit, e.g. 1e3 for mm, 1e6 for um).
+// The value gets at least the decimals that reach U's last digit (for units whose ratio is not a
+// power of ten, deg and arcsec, one decimal place at most that fine). Never "-0". `expanded` must
+// be finite and > 0; `value` finite.
+struct GumRounded {
+  std::string value;       // e.g. "4000.013"
+  std::string expanded;    // e.g. "14"
+  int value_decimals = 0;  // decimals of `value`, for other numbers printed beside it (an interval)
+};
+GumRounded RoundLikeGum(double value, double value_scale, double expanded, double expanded_scale);
+// v (SI) shown with `decimals` decimals after scaling (negative decimals: rounded to 10^-decimals),
+// never "-0".
+std::string ShownAt(double v, double scale, int decimals);
 // A CSV field quoted when it holds a comma, quote or line break (RFC 4180).
 std::string CsvField(const std::string& field);
 // Text for HTML: & < > " ' escaped.

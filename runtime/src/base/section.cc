@@ -236,11 +236,47 @@ std::filesystem::path BaseDirectory(const std::string& path) {
   return base.empty() ? std::filesystem::path(".") : base;
 }
 
-void ReadJobMeta(Section& top, std::string& name, std::string* description, const std::string& default_name) {
+namespace {
+
+// A one-line text of the record: it is printed in headers and filed, so no control characters
+// (a line break or an escape sequence would forge or hide a line of the report).
+std::string RecordText(Section& s, std::string_view key) {
+  const toml::node* n = s.Get(key);
+  if (n == nullptr) return "";
+  std::string text = AsString(*n, s.Where(key));
+  for (const char c : text) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
+      throw InputError(s.Where(key) +
+                       ": a control character in the text (one line of printable text expected)");
+    }
+  }
+  return text;
+}
+
+void ReadRecord(Section& meta, JobRecord& record) {
+  record.customer = RecordText(meta, "customer");
+  record.operator_name = RecordText(meta, "operator");
+  record.place = RecordText(meta, "place");
+  record.conditions = RecordText(meta, "conditions");
+  Section instrument = meta.Sub("instrument", false);
+  if (!instrument.exists()) return;
+  instrument.set_hint("make, model, serial");
+  record.instrument.make = RecordText(instrument, "make");
+  record.instrument.model = RecordText(instrument, "model");
+  record.instrument.serial = RecordText(instrument, "serial");
+  instrument.Finish();
+}
+
+}  // namespace
+
+void ReadJobMeta(Section& top, std::string& name, std::string* description, const std::string& default_name,
+                 JobRecord* record) {
   name = default_name;
   Section meta = top.Sub("job", false);
   if (!meta.exists()) return;
-  meta.set_hint("name, description");
+  meta.set_hint(record ? "name, description, customer, operator, place, conditions, instrument"
+                       : "name, description");
+  if (record) ReadRecord(meta, *record);
   if (const toml::node* n = meta.Get("name")) name = AsString(*n, meta.Where("name"));
   if (const toml::node* n = meta.Get("description")) {
     const std::string text = AsString(*n, meta.Where("description"));
@@ -251,5 +287,12 @@ void ReadJobMeta(Section& top, std::string& name, std::string* description, cons
 }
 
 }  // namespace base_internal
+
+std::string DescribeInstrument(const InstrumentIdentity& instrument) {
+  std::string text = instrument.make;
+  if (!instrument.model.empty()) text += (text.empty() ? "" : " ") + instrument.model;
+  if (!instrument.serial.empty()) text += (text.empty() ? "serial " : ", serial ") + instrument.serial;
+  return text;
+}
 
 }  // namespace vlt

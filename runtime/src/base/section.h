@@ -76,7 +76,11 @@ void ReadUncertain(Section& parent, std::string_view key, Dimension value_dim, D
 UncertainInput MakeInput(std::string name, std::string group, Dimension dim, double estimate, double u);
 
 // [job] name, description (optional; the name defaults to `default_name`); base/section.cc.
-void ReadJobMeta(Section& top, std::string& name, std::string* description, const std::string& default_name);
+// record: the job's administrative items ([job] customer, operator, place, conditions and
+// [job.instrument] make, model, serial; vlt/job_record.h), one-line texts; nullptr: a job kind
+// that has none (those keys are then unknown keys).
+void ReadJobMeta(Section& top, std::string& name, std::string* description, const std::string& default_name,
+                 JobRecord* record = nullptr);
 
 // Array of tables `key` of `top` (absent: empty), each visited as a Section "<key>[i]" and
 // finished after `fn` (unknown keys are errors).

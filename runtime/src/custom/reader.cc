@@ -449,7 +449,7 @@ CustomJob ParseCustomJob(std::string_view text, const std::string& file,
   job.base_dir = base_dir;
   Section top(root, file, "");
   top.set_hint("job, model, observations, inputs, correlations, outputs, monte_carlo, output");
-  ReadJobMeta(top, job.name, &job.description, std::filesystem::path(file).stem().string());
+  ReadJobMeta(top, job.name, &job.description, std::filesystem::path(file).stem().string(), &job.record);
   CustomJobReader reader(top, job);
   reader.FindCustomModel();
   reader.SetSpecValues();

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "base/format.h"
+#include "output/page.h"
 #include "results/run_options.h"
 #include "vlt/error.h"
 #include "vlt/results.h"
@@ -33,6 +34,7 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
   r.job_file = job.file;
   r.job_name = job.name;
   r.job_description = job.description;
+  r.record = job.record;
   r.model = job.model;
   r.inputs = job.inputs;
   r.mcm_inputs = job.mcm_inputs;
@@ -352,7 +354,10 @@ json ResultsJsonObject(const CustomResults& r) {
   json j;
   j["schema"] = "vlt-custom-results/1";
   j["vlt_version"] = r.vlt_version;
-  j["job"] = {{"file", r.job_file}, {"name", r.job_name}, {"description", r.job_description}};
+  j["job"] = {{"file", r.job_file},
+              {"name", r.job_name},
+              {"description", r.job_description},
+              {"record", output_internal::RecordJson(r.record)}};
   j["model"] = {{"name", model.name},
                 {"kind", model.kind},
                 {"description", model.description},
@@ -423,6 +428,7 @@ std::string ReportHtmlText(const CustomResults& r) {
        "td.l,th.l{text-align:left}.bar{background:#4a7fb5;height:.8em;display:inline-block}"
        ".bad{color:#b00;font-weight:bold}.ok{color:#070}</style></head><body>\n";
   h << "<h1>" << Esc(r.job_name) << "</h1>\n<p>" << Esc(r.job_description) << "</p>\n";
+  if (!r.record.empty()) h << "<p>" << Esc(output_internal::RecordLine(r.record)) << "</p>\n";
   h << "<p>Model <b>" << Esc(model.name) << "</b> (" << Esc(model.spec_file)
     << "): " << Esc(model.description) << ". vlt " << Esc(r.vlt_version) << ", job file " << Esc(r.job_file)
     << ". Coverage probability " << Num(r.coverage_probability)
@@ -570,6 +576,7 @@ std::string SummaryText(const CustomResults& r) {
   char line[512];
   out << "vlt " << r.vlt_version << " — job '" << r.job_name << "' (" << r.job_file << "), custom model "
       << r.model->name << ", " << r.inputs.size() << " inputs, " << r.outputs.size() << " outputs\n";
+  out << output_internal::RecordLine(r.record);
   std::snprintf(line, sizeof line, "Coverage probability %.6g: U = k u, k = t_p(nu_eff) (JCGM 100 G.4)\n\n",
                 r.coverage_probability);
   out << line;

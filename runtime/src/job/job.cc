@@ -58,7 +58,7 @@ Job ParseJob(std::string_view text, const std::string& file, const std::filesyst
       "job, tracker, environment, station, part, correlations, plan, readings, task, nominal, alignment, "
       "deviation, profile, monte_carlo, map, optimize, output");
 
-  ReadJobMeta(top, job.name, &job.description, job.name);
+  ReadJobMeta(top, job.name, &job.description, job.name, &job.record);
   ReadTracker(top, job);
   ReadEnvironment(top, job);
   ReadStation(top, job);

@@ -871,6 +871,7 @@ nlohmann::ordered_json JobJson(const NetworkJob& job) {
   nlohmann::ordered_json meta;
   meta["name"] = job.name;
   meta["description"] = job.description;
+  meta["record"] = output_internal::RecordJson(job.record);
   meta["file"] = job.file;
   meta["mode"] = job.offline ? "plan" : "readings";
   nlohmann::ordered_json instruments = nlohmann::ordered_json::array();
@@ -1174,7 +1175,7 @@ std::string NetworkSummary(const NetworkJob& job, const NetworkResult& result, c
       result.stations.size() == 1 ? "" : "s", result.targets.size(), result.observations, result.unknowns,
       result.dof, fit, result.k, worst * 1e6, worst_name.c_str(), 100.0 * result.share_noise,
       100.0 * result.share_consider);
-  std::string out = std::string(line) + "\n";
+  std::string out = std::string(line) + "\n" + output_internal::RecordLine(job.record);
   if (!result.distances.empty()) {
     const auto worst_w = std::max_element(
         result.distances.begin(), result.distances.end(),

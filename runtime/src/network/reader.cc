@@ -866,7 +866,7 @@ NetworkJob LoadNetworkJob(const std::string& path) {
   job.text = text;
   job.base_dir = BaseDirectory(path);
   job.input_files.emplace_back("network", path);
-  ReadJobMeta(top, job.name, &job.description, std::filesystem::path(path).stem().string());
+  ReadJobMeta(top, job.name, &job.description, std::filesystem::path(path).stem().string(), &job.record);
   NetworkFileReader reader(path, top, job);
   job.network.where = path;
   job.network.name = job.name;

@@ -2,12 +2,44 @@
 // reports.
 #include "output/page.h"
 
+#include <cctype>
 #include <sstream>
 
 #include "output/assets.h"
 #include "base/format.h"
 
 namespace vlt::output_internal {
+
+nlohmann::json RecordJson(const JobRecord& record) {
+  if (record.empty()) return nullptr;
+  auto text = [](const std::string& s) { return s.empty() ? nlohmann::json(nullptr) : nlohmann::json(s); };
+  return {{"customer", text(record.customer)},
+          {"instrument",
+           {{"make", text(record.instrument.make)},
+            {"model", text(record.instrument.model)},
+            {"serial", text(record.instrument.serial)}}},
+          {"operator", text(record.operator_name)},
+          {"place", text(record.place)},
+          {"conditions", text(record.conditions)}};
+}
+
+std::string RecordLine(const JobRecord& record) {
+  std::string line;
+  auto add = [&](const char* label, const std::string& value) {
+    if (value.empty()) return;
+    line += (line.empty()
+                 ? std::string(1, static_cast<char>(std::toupper(static_cast<unsigned char>(label[0])))) +
+                       (label + 1)
+                 : "; " + std::string(label)) +
+            " " + value;
+  };
+  add("customer", record.customer);
+  add("instrument", DescribeInstrument(record.instrument));
+  add("operator", record.operator_name);
+  add("place", record.place);
+  add("conditions", record.conditions);
+  return line.empty() ? line : line + "\n";
+}
 
 using base_internal::HtmlEscape;
 

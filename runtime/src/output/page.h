@@ -8,7 +8,16 @@
 
 #include <nlohmann/json.hpp>
 
+#include "vlt/job_record.h"
+
 namespace vlt::output_internal {
+
+// A job's record (vlt/job_record.h) in results.json `job.record`: customer, instrument {make, model,
+// serial}, operator, place, conditions; null for what was not given; null as a whole when nothing was.
+nlohmann::json RecordJson(const JobRecord& record);
+// The same for a summary's header: "Customer ...; instrument ...; operator ...; place ...;
+// conditions ...\n" with what was given; "" when nothing was.
+std::string RecordLine(const JobRecord& record);
 
 // A value as JSON text for a figure's script: base_internal::ScriptSafe of its JSON, so that no
 // name (a station's, a test's) can end the <script> element and run its own (issue 32).

@@ -22,6 +22,18 @@ using namespace base_internal;  // number and file-name formatting (base/format.
 // (vlt/fits.h) the GUM engine linearises. Outputs: "<task>.<output>" for every TaskOutputs(kind).
 McmTask MakeMcmTask(const TaskSpec& spec, const std::vector<int>& point_indices, const TaskUncertainty& gum);
 
+// The headline quantities of a task: those the summary's task table and the result statements show
+// (a plane's normal_x, normal_y and flatness; a circle's centre, radius and normal; ...).
+bool IsHeadline(const TaskResult& t, const std::string& quantity);
+
+// Each headline task quantity's result as JCGM 100 7.2 asks it stated (results/statement.cc):
+// "4000.013 mm, U = 14 µm (k = 1.96, p = 95 %); Monte Carlo 95 % coverage interval [...] mm, GUM
+// validated (JCGM 101 8)", with the decision against a tolerance where one is given.
+struct ResultStatement {
+  std::string task, quantity, text;
+};
+std::vector<ResultStatement> ResultStatements(const Results& results);
+
 // Sensitivity of a coordinate (m) to an input, in the units people read (docs/results.md):
 // um/um, um/arcsec, um/ppm, um/K, um/hPa, um/%, um/(ppm/K), chosen from the input's SI unit
 // ("m", "rad", "1", "degC"/"K", "Pa", "%", "1/K"). Returns {unit, factor}: practical = SI * factor.

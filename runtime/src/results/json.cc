@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "output/page.h"
 #include "results/internal.h"
 #include "vlt/refractive_index.h"
 #include "vlt/units.h"
@@ -455,6 +456,7 @@ json JobJson(const Results& r) {
   for (const InputFile& f : r.input_files)
     files.push_back({{"role", f.role}, {"path", f.path}, {"sha256", f.sha256}});
   job["input_files"] = files;
+  job["record"] = output_internal::RecordJson(r.record);
   // Where the tracker's error parameters came from (docs/calibration.md): null = the model's
   // defaults and the job's [tracker.parameters].
   job["calibration"] = nullptr;
@@ -646,6 +648,12 @@ std::string results_internal::ResultsJsonText(const Results& r, int indent, bool
   json tasks = json::array();
   for (const TaskResult& t : r.tasks) tasks.push_back(Task(t));
   j["tasks"] = tasks;
+  // Each headline task quantity's result as JCGM 100 7.2 states it (results/statement.cc).
+  json statements = json::array();
+  for (const results_internal::ResultStatement& st : results_internal::ResultStatements(r)) {
+    statements.push_back({{"task", st.task}, {"quantity", st.quantity}, {"text", st.text}});
+  }
+  j["statements"] = statements;
   j["map"] = r.map ? Map(*r.map) : json(nullptr);
   j["summary"] = SummaryJson(r);
   if (for_html) j["report"] = {{"ellipsoid_scale", r.ellipsoid_scale}};

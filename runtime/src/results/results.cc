@@ -407,6 +407,7 @@ Results RunHeader(const Job& job) {
   results.job_file = job.file;
   results.job_name = job.name;
   results.job_description = job.description;
+  results.record = job.record;
   results.calibration = job.calibration;
   results.mode = job.mode;
   results.model_name = job.setup.model ? job.setup.model->name : "";

@@ -8,6 +8,7 @@
 #include <sstream>
 #include <system_error>
 
+#include "output/page.h"
 #include "results/internal.h"
 #include "vlt/error.h"
 
@@ -56,7 +57,9 @@ void RunHeaderLines(const Results& r, std::ostringstream& out) {
   char line[512];
   out << "vlt " << r.vlt_version << " — job '" << r.job_name << "' (" << r.job_file << "), model "
       << r.model_name << ", " << (r.mode == JobMode::kPlan ? "offline plan" : "online readings") << ", "
-      << r.points.size() << " points, " << r.tasks.size() << " tasks\n";
+      << r.points.size() << (r.points.size() == 1 ? " point, " : " points, ") << r.tasks.size()
+      << (r.tasks.size() == 1 ? " task\n" : " tasks\n");
+  out << output_internal::RecordLine(r.record);
   if (r.calibration) {
     out << "Tracker parameters from the calibration file " << r.calibration->file << " (instrument '"
         << r.calibration->instrument << "', calibrated " << r.calibration->created << ")\n";
@@ -66,6 +69,16 @@ void RunHeaderLines(const Results& r, std::ostringstream& out) {
                 "coverage ellipsoid k = %.3f\n\n",
                 r.coverage_probability, r.k_axis, r.k_region);
   out << line;
+}
+
+// Each task's result as JCGM 100 7.2 states it (ResultStatements), at the top.
+void StatementLines(const Results& r, std::ostringstream& out) {
+  const std::vector<results_internal::ResultStatement> statements = results_internal::ResultStatements(r);
+  if (statements.empty()) return;
+  out << "Results (JCGM 100 7.2; U rounded up to two significant digits, the value to the same decimal "
+         "place, 7.2.6):\n";
+  for (const results_internal::ResultStatement& s : statements) out << "  " << s.task << "." << s.quantity << " = " << s.text << "\n";
+  out << "\n";
 }
 
 // The verdict column of a point: its validation by Monte Carlo, and whether the GUM is reliable.
@@ -118,21 +131,6 @@ void PointTable(const Results& r, std::ostringstream& out) {
 }
 
 // The headline quantities only; every component is in tasks.csv.
-bool IsHeadline(const TaskResult& t, const std::string& quantity) {
-  if (t.spec.kind == TaskKind::kDeviation) return quantity == "deviation";
-  if (t.spec.kind == TaskKind::kPosition) return quantity == "deviation" || quantity == "position";
-  if (t.spec.kind == TaskKind::kProfile || t.spec.kind == TaskKind::kFlatness ||
-      t.spec.kind == TaskKind::kStraightness || t.spec.kind == TaskKind::kRoundness ||
-      t.spec.kind == TaskKind::kCylindricity)
-    return true;
-  return quantity == "distance" || quantity == "radius" || quantity == "flatness" ||
-         quantity == "straightness" || quantity == "cylindricity" || quantity == "half_angle" ||
-         (t.spec.kind == TaskKind::kCone && quantity == "form") || quantity == "normal_x" ||
-         quantity == "normal_y" || quantity.rfind("centre_", 0) == 0 || t.spec.kind == TaskKind::kTwoFace ||
-         t.spec.kind == TaskKind::kBestFit || t.spec.kind == TaskKind::kBestFitScale ||
-         t.spec.kind == TaskKind::kRps || t.spec.kind == TaskKind::kFeatures;
-}
-
 // The widths of the task table's first three columns: the longest name, kind and quantity shown
 // (at least the headers' usual widths), so that a long one shifts no column.
 struct TaskColumns {
@@ -192,7 +190,7 @@ void TaskTable(const Results& r, std::ostringstream& out) {
   TaskColumns columns;
   for (const TaskResult& t : r.tasks) {
     for (const std::string& quantity : t.gum.quantities) {
-      if (!IsHeadline(t, quantity)) continue;
+      if (!results_internal::IsHeadline(t, quantity)) continue;
       columns.name = std::max(columns.name, static_cast<int>(t.spec.name.size()));
       columns.kind = std::max(columns.kind, static_cast<int>(TaskKindName(t.spec.kind).size()));
       columns.quantity = std::max(columns.quantity, static_cast<int>(quantity.size()));
@@ -203,7 +201,7 @@ void TaskTable(const Results& r, std::ostringstream& out) {
                     columns.quantity, "quantity", "value", "U (GUM)", "MCM interval - value", "GUM vs MCM");
   for (const TaskResult& t : r.tasks) {
     for (std::size_t q = 0; q < t.gum.quantities.size(); ++q) {
-      if (!IsHeadline(t, t.gum.quantities[q])) continue;
+      if (!results_internal::IsHeadline(t, t.gum.quantities[q])) continue;
       out << TaskRow(t, q, columns);
     }
   }
@@ -362,6 +360,7 @@ void MapLine(const MapResult& map, std::ostringstream& out) {
 std::string SummaryText(const Results& r) {
   std::ostringstream out;
   RunHeaderLines(r, out);
+  StatementLines(r, out);
   PointTable(r, out);
   TaskTable(r, out);
   ConformityLines(r, out);

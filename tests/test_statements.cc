@@ -1,0 +1,101 @@
+// Result statements (JCGM 100 7.2; results/statement.cc) and their rounding (7.2.6; base/format.h
+// RoundLikeGum): against the examples of JCGM 100 7.2 and against a job's GUM values rounded here
+// by hand.
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "base/format.h"
+#include "results/internal.h"
+#include "vlt/job.h"
+#include "vlt/results.h"
+
+namespace vlt {
+namespace {
+
+using base_internal::RoundLikeGum;
+
+TEST(RoundLikeGum, TheExamplesOfJcgm100) {
+  // 7.2.6: u = 10.47 mOhm "might be rounded up to 11 mOhm"; 28.05 kHz "should be rounded down to 28".
+  EXPECT_EQ(RoundLikeGum(1.0, 1.0, 10.47e-3, 1e3).expanded, "11");
+  EXPECT_EQ(RoundLikeGum(1.0, 1.0, 28.05e3, 1e-3).expanded, "28");
+  // 7.2.4: m_S = (100.021 47 +- 0.000 79) g: with U = 0.000 79 g the value keeps 5 decimals (the
+  // place of U's second digit); in mg and g as the GUM's own text shows them.
+  const base_internal::GumRounded m = RoundLikeGum(100.02147e-3, 1e3, 0.79e-6, 1e6);
+  EXPECT_EQ(m.expanded, "0.79");
+  EXPECT_EQ(m.value, "100.02147");
+  EXPECT_EQ(m.value_decimals, 5);
+  // Lengths as vlt states them: value in mm, U in um. 13.2 um -> 14 um, the value to 1 um.
+  const base_internal::GumRounded l = RoundLikeGum(4.0000132, 1e3, 13.2e-6, 1e6);
+  EXPECT_EQ(l.expanded, "14");
+  EXPECT_EQ(l.value, "4000.013");
+  // 5.43 um -> 5.5 um and the value to 0.1 um; 99.2 um -> 100 um (two digits: 1.0e2), value to 10 um.
+  EXPECT_EQ(RoundLikeGum(0.05, 1e3, 5.43e-6, 1e6).value, "50.0000");
+  EXPECT_EQ(RoundLikeGum(0.05, 1e3, 5.43e-6, 1e6).expanded, "5.5");
+  const base_internal::GumRounded hundred = RoundLikeGum(1.23456, 1e3, 99.2e-6, 1e6);
+  EXPECT_EQ(hundred.expanded, "100");
+  EXPECT_EQ(hundred.value, "1234.56");
+  // No "-0": a value that rounds to 0 at U's place.
+  EXPECT_EQ(RoundLikeGum(-3.8e-16, 1.0, 6.62e-6, 1.0).value, "0.0000000");
+  EXPECT_EQ(RoundLikeGum(-3.8e-16, 1.0, 6.62e-6, 1.0).expanded, "0.0000067");
+  // A U of 135.2 mm (beyond the units place): up to 140 mm, the value to 10 mm; 130.2 mm -> 130
+  // (an excess of 2 % of the last digit is dropped).
+  EXPECT_EQ(RoundLikeGum(12.3456, 1e3, 0.1352, 1e3).value, "12350");
+  EXPECT_EQ(RoundLikeGum(12.3456, 1e3, 0.1352, 1e3).expanded, "140");
+  EXPECT_EQ(RoundLikeGum(12.3456, 1e3, 0.1302, 1e3).expanded, "130");
+}
+
+// A distance with a tolerance, GUM and Monte Carlo: the statement is the GUM's value and U rounded
+// here by hand (U between 10 and 100 um: up to whole um, the value to 0.001 mm), the Monte Carlo
+// interval at the same decimals, and the ISO 14253-1 decision.
+TEST(ResultStatements, ADistanceAsOneSignsIt) {
+  const Job job = ParseJob(R"(
+[job]
+name = "bracket"
+[tracker]
+model = "mirror"
+[tracker.noise]
+range = "2.5 um + 0.3 um/m"
+azimuth = "0.4 arcsec"
+elevation = "0.4 arcsec"
+[plan]
+unit = "mm"
+point = [ {name = "A", x = 3000, y = 500, z = 200}, {name = "B", x = 5000, y = -500, z = 200} ]
+[[task]]
+name = "AB"
+kind = "distance"
+points = ["A", "B"]
+[task.tolerance.distance]
+lower = "2236.00 mm"
+upper = "2236.10 mm"
+[monte_carlo]
+trials = 20000
+)",
+                           "job.toml", std::filesystem::temp_directory_path());
+  RunOptions options;
+  options.threads = 2;
+  const Results r = RunJob(job, options);
+  const std::vector<results_internal::ResultStatement> statements = results_internal::ResultStatements(r);
+  ASSERT_EQ(statements.size(), 1u);
+  EXPECT_EQ(statements[0].task, "AB");
+  EXPECT_EQ(statements[0].quantity, "distance");
+  const double value = r.tasks[0].gum.value[0], u_um = r.tasks[0].gum.U[0] * 1e6;
+  ASSERT_GT(u_um, 10.0);
+  ASSERT_LT(u_um, 100.0);
+  const double expanded = u_um - std::floor(u_um) <= 0.05 ? std::floor(u_um) : std::ceil(u_um);
+  char expected[160];
+  std::snprintf(
+      expected, sizeof expected,
+      "%.3f mm, U = %.0f µm (k = 1.96, p = 95 %%); Monte Carlo 95 %% coverage interval [%.3f, %.3f] mm",
+      value * 1e3, expanded, r.tasks[0].mcm[0].symmetric.low * 1e3, r.tasks[0].mcm[0].symmetric.high * 1e3);
+  EXPECT_EQ(statements[0].text.rfind(expected, 0), 0u)
+      << statements[0].text << "\nexpected start: " << expected;
+  EXPECT_NE(statements[0].text.find("; conforms to [2236.000, 2236.100] mm (ISO 14253-1"), std::string::npos)
+      << statements[0].text;
+}
+
+}  // namespace
+}  // namespace vlt
