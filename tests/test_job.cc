@@ -119,6 +119,22 @@ serial = "391234"
   EXPECT_EQ(DescribeInstrument(serial_only), "serial 7");
   EXPECT_EQ(ErrorOf("[job]\ncustomer = \"A\\nB\"\n" + kTracker + kPlan),
             "job.toml: job.customer: a control character in the text (one line of printable text expected)");
+  // C1 (NEL, a line break), a line separator and a bidirectional override are refused too.
+  for (const char* text : {"A\xc2\x85"
+                           "B",
+                           "A\xe2\x80\xa8"
+                           "B",
+                           "A\xe2\x80\xae"
+                           "B",
+                           "A\xe2\x81\xa6"
+                           "B"}) {
+    EXPECT_NE(ErrorOf("[job]\nplace = \"" + std::string(text) + "\"\n" + kTracker + kPlan)
+                  .find("job.place: a control character"),
+              std::string::npos)
+        << text;
+  }
+  EXPECT_EQ(Parse("[job]\nplace = \"Zürich, 20 °C ± 0.5 K\"\n" + kTracker + kPlan).record.place,
+            "Zürich, 20 °C ± 0.5 K");
   const std::string bad_key = ErrorOf("[job.instrument]\nmaker = \"Leica\"\n" + kTracker + kPlan);
   EXPECT_NE(bad_key.find("job.instrument.maker"), std::string::npos) << bad_key;
   EXPECT_NE(bad_key.find("make, model, serial"), std::string::npos) << bad_key;

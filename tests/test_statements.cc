@@ -18,6 +18,16 @@ namespace {
 
 using base_internal::RoundLikeGum;
 
+// The tracker of both jobs below: the demo's noise, the model's default parameters.
+constexpr const char* kTracker = R"(
+[tracker]
+model = "mirror"
+[tracker.noise]
+range = "2.5 um + 0.3 um/m"
+azimuth = "0.4 arcsec"
+elevation = "0.4 arcsec"
+)";
+
 TEST(RoundLikeGum, TheExamplesOfJcgm100) {
   // 7.2.6: u = 10.47 mOhm "might be rounded up to 11 mOhm"; 28.05 kHz "should be rounded down to 28".
   EXPECT_EQ(RoundLikeGum(1.0, 1.0, 10.47e-3, 1e3).expanded, "11");
@@ -38,6 +48,12 @@ TEST(RoundLikeGum, TheExamplesOfJcgm100) {
   const base_internal::GumRounded hundred = RoundLikeGum(1.23456, 1e3, 99.2e-6, 1e6);
   EXPECT_EQ(hundred.expanded, "100");
   EXPECT_EQ(hundred.value, "1234.56");
+  // Limits as specified: the shortest digits of the SI value, the decimal point moved.
+  EXPECT_EQ(base_internal::ShortestAt(3.9999905, 1e3), "3999.9905");
+  EXPECT_EQ(base_internal::ShortestAt(0.99999999996, 1.0), "0.99999999996");
+  EXPECT_EQ(base_internal::ShortestAt(-1.5e-5, 1e3), "-0.015");
+  EXPECT_EQ(base_internal::ShortestAt(2.0, 1e6), "2000000");
+  EXPECT_EQ(base_internal::ShortestAt(0.0, 1e3), "0");
   // No "-0": a value that rounds to 0 at U's place.
   EXPECT_EQ(RoundLikeGum(-3.8e-16, 1.0, 6.62e-6, 1.0).value, "0.0000000");
   EXPECT_EQ(RoundLikeGum(-3.8e-16, 1.0, 6.62e-6, 1.0).expanded, "0.0000067");
@@ -55,13 +71,7 @@ TEST(ResultStatements, ADistanceAsOneSignsIt) {
   const Job job = ParseJob(R"(
 [job]
 name = "bracket"
-[tracker]
-model = "mirror"
-[tracker.noise]
-range = "2.5 um + 0.3 um/m"
-azimuth = "0.4 arcsec"
-elevation = "0.4 arcsec"
-[plan]
+)" + std::string(kTracker) + R"([plan]
 unit = "mm"
 point = [ {name = "A", x = 3000, y = 500, z = 200}, {name = "B", x = 5000, y = -500, z = 200} ]
 [[task]]
@@ -93,8 +103,64 @@ trials = 20000
       value * 1e3, expanded, r.tasks[0].mcm[0].symmetric.low * 1e3, r.tasks[0].mcm[0].symmetric.high * 1e3);
   EXPECT_EQ(statements[0].text.rfind(expected, 0), 0u)
       << statements[0].text << "\nexpected start: " << expected;
-  EXPECT_NE(statements[0].text.find("; conforms to [2236.000, 2236.100] mm (ISO 14253-1"), std::string::npos)
+  // The limits as the job gives them ("2236.00 mm", "2236.10 mm": the shortest digits of the value).
+  EXPECT_NE(statements[0].text.find("; conforms to [2236, 2236.1] mm (ISO 14253-1, guard band U"),
+            std::string::npos)
       << statements[0].text;
+}
+
+// A plane in a wall x = 4 m: its normal_x = cos(tilt) varies at second order only (the GUM's u is 0
+// to rounding). The statement leads with the Monte Carlo shortest interval, and the decision
+// against normal_x >= 0.99999999996 uses it (undetermined: the interval crosses the limit), not a
+// GUM guard band of 1e-20 (which said "conforms"); the limit is printed as specified. Without Monte
+// Carlo the statement does not call it exact.
+TEST(ResultStatements, SecondOrderOnlyQuantitiesAreStatedAndDecidedByMonteCarlo) {
+  const std::string text = R"(
+[job]
+name = "wall"
+)" + std::string(kTracker) +
+                           R"([plan]
+unit = "mm"
+point = [ {name = "W00", x = 4000, y = -750, z = -800}, {name = "W01", x = 4000, y = -750, z = 200},
+          {name = "W10", x = 4000, y = 750, z = -800}, {name = "W11", x = 4000, y = 750, z = 200},
+          {name = "W20", x = 4000, y = 0, z = -300} ]
+[[task]]
+kind = "plane"
+name = "wall"
+points = ["W00", "W01", "W10", "W11", "W20"]
+[task.tolerance.normal_x]
+lower = 0.99999999996
+[monte_carlo]
+trials = 20000
+seed = 1
+)";
+  const Job job = ParseJob(text, "job.toml", std::filesystem::temp_directory_path());
+  RunOptions options;
+  options.threads = 2;
+  const Results r = RunJob(job, options);
+  const TaskResult& wall = r.tasks[0];
+  std::size_t q = 0;
+  while (wall.gum.quantities[q] != "normal_x") ++q;
+  ASSERT_EQ(wall.validation[q].outcome, "not applicable") << wall.validation[q].verdict;
+  EXPECT_TRUE(results_internal::DecidedByMonteCarlo(wall, q));
+  ASSERT_TRUE(wall.conformity[q]);
+  const CoverageInterval& ci = wall.mcm[q].shortest;
+  ASSERT_LT(ci.low, 0.99999999996);  // the interval crosses the limit
+  EXPECT_EQ(wall.conformity[q]->verdict, "undetermined");
+  std::string statement;
+  for (const auto& s : results_internal::ResultStatements(r))
+    statement = s.quantity == "normal_x" ? s.text : statement;
+  EXPECT_EQ(statement.rfind("Monte Carlo 95 % shortest coverage interval [", 0), 0u) << statement;
+  EXPECT_NE(statement.find("undetermined against ≥ 0.99999999996 (ISO 14253-1 with the Monte Carlo"),
+            std::string::npos)
+      << statement;
+  options.monte_carlo = false;
+  for (const auto& s : results_internal::ResultStatements(RunJob(job, options))) {
+    if (s.quantity == "normal_x") {
+      EXPECT_EQ(s.text.find("exact"), std::string::npos) << s.text;
+      EXPECT_NE(s.text.find("U 0 to first order"), std::string::npos) << s.text;
+    }
+  }
 }
 
 }  // namespace

@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <limits>
+#include <system_error>
 
 #include "vlt/results.h"
 
@@ -152,14 +154,54 @@ std::string ShownAt(double v, double scale, int decimals) {
   char buffer[400];
   const auto written =
       std::to_chars(buffer, buffer + sizeof buffer, shown, std::chars_format::fixed, decimals);
+  if (written.ec != std::errc() || !std::isfinite(shown)) return Num(shown);  // too long, or not finite
   std::string text(buffer, written.ptr);
   if (text.find_first_not_of("-0.") == std::string::npos && text[0] == '-') text.erase(0, 1);  // no "-0.000"
   return text;
 }
 
+std::string ShortestAt(double v, double scale) {
+  if (v == 0.0) return "0";
+  const double shift = std::log10(scale);
+  if (!std::isfinite(v) || shift != std::round(shift) || std::abs(shift) > 30) {
+    char buffer[64];
+    std::snprintf(buffer, sizeof buffer, "%.10g", v * scale);
+    return buffer;
+  }
+  // Shortest round-trip digits and exponent: "-d.ddde+XX".
+  char buffer[64];
+  const auto written = std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::scientific);
+  const std::string text(buffer, written.ptr);
+  const std::size_t e = text.find('e');
+  std::string digits;
+  for (std::size_t i = 0; i < e; ++i) {
+    if (text[i] >= '0' && text[i] <= '9') digits += text[i];
+  }
+  const int exponent = std::stoi(text.substr(e + 1)) + static_cast<int>(std::round(shift));
+  // digits d0 d1 ... with the decimal point after d0 times 10^exponent.
+  std::string out = v < 0.0 ? "-" : "";
+  const int point = exponent + 1;  // digits before the decimal point
+  if (point <= 0) {
+    out += "0." + std::string(static_cast<std::size_t>(-point), '0') + digits;
+  } else if (point >= static_cast<int>(digits.size())) {
+    out += digits + std::string(static_cast<std::size_t>(point) - digits.size(), '0');
+  } else {
+    out += digits.substr(0, static_cast<std::size_t>(point)) + "." +
+           digits.substr(static_cast<std::size_t>(point));
+  }
+  return out == "-0" ? "0" : out;
+}
+
 GumRounded RoundLikeGum(double value, double value_scale, double expanded, double expanded_scale) {
   GumRounded r;
   const double u_shown = expanded * expanded_scale;
+  if (!(std::isfinite(u_shown) && u_shown >= std::numeric_limits<double>::min() && std::isfinite(value))) {
+    // Nothing to round by (callers state such a U otherwise): the numbers as they are.
+    r.value = Num(value * value_scale);
+    r.expanded = Num(u_shown);
+    r.value_decimals = 17;
+    return r;
+  }
   // The place of U's second significant digit, 10^place in the shown unit.
   int place = static_cast<int>(std::floor(std::log10(u_shown))) - 1;
   double step = std::pow(10.0, place);

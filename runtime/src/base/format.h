@@ -52,6 +52,11 @@ struct GumRounded {
   int value_decimals = 0;  // decimals of `value`, for other numbers printed beside it (an interval)
 };
 GumRounded RoundLikeGum(double value, double value_scale, double expanded, double expanded_scale);
+// The shortest decimal that reads back as v (SI), written in a unit `scale` times smaller (a power
+// of ten: 1, 1e3 for mm, 1e6 for um) by moving the decimal point, not by multiplying (3.9999905 m
+// is "3999.9905" mm, not 3999.9904999999999): a limit as it was specified. Other scales (degrees):
+// ten significant digits of v * scale.
+std::string ShortestAt(double v, double scale);
 // v (SI) shown with `decimals` decimals after scaling (negative decimals: rounded to 10^-decimals),
 // never "-0".
 std::string ShownAt(double v, double scale, int decimals);

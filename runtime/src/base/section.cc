@@ -238,17 +238,35 @@ std::filesystem::path BaseDirectory(const std::string& path) {
 
 namespace {
 
-// A one-line text of the record: it is printed in headers and filed, so no control characters
-// (a line break or an escape sequence would forge or hide a line of the report).
+// Does UTF-8 text hold a control or layout character: C0 and DEL, C1 (U+0080..U+009F: NEL is a
+// line break, CSI an escape for terminals), the line and paragraph separators U+2028/U+2029 and
+// the bidirectional marks, embeddings, overrides and isolates (U+200E/F, U+202A..U+202E,
+// U+2066..U+2069), which reorder what a reader sees?
+bool HasControlCharacter(std::string_view text) {
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const auto b = [&](std::size_t k) { return k < text.size() ? static_cast<unsigned char>(text[k]) : 0u; };
+    const unsigned c = b(i);
+    if (c < 0x20 || c == 0x7f) return true;
+    if (c == 0xc2 && b(i + 1) >= 0x80 && b(i + 1) <= 0x9f) return true;  // C1
+    if (c == 0xe2 && b(i + 1) == 0x80) {
+      const unsigned d = b(i + 2);
+      if (d == 0x8e || d == 0x8f || d == 0xa8 || d == 0xa9 || (d >= 0xaa && d <= 0xae)) return true;
+    }
+    if (c == 0xe2 && b(i + 1) == 0x81 && b(i + 2) >= 0xa6 && b(i + 2) <= 0xa9) return true;
+  }
+  return false;
+}
+
+// A one-line text of the record: it is printed in headers and filed, so no control or layout
+// characters (a line break, an escape sequence or a bidirectional override would forge, hide or
+// reorder a line of the report).
 std::string RecordText(Section& s, std::string_view key) {
   const toml::node* n = s.Get(key);
   if (n == nullptr) return "";
   std::string text = AsString(*n, s.Where(key));
-  for (const char c : text) {
-    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
-      throw InputError(s.Where(key) +
-                       ": a control character in the text (one line of printable text expected)");
-    }
+  if (HasControlCharacter(text)) {
+    throw InputError(s.Where(key) +
+                     ": a control character in the text (one line of printable text expected)");
   }
   return text;
 }

@@ -27,8 +27,10 @@ std::string Outcome(double distance, double mcm_tolerance, double delta) {
 
 // With `trials` known, how many trials would tell an inconclusive comparison: the tolerance
 // 2 s_end shrinks as 1 / sqrt(M), and the observed difference beyond delta becomes decisive ("not
-// validated") once 2 s_end(M') < worst - delta, M' = M (2 s_end / (worst - delta))^2; a true
-// difference within delta shows as such at about the same M. 0: not estimated.
+// validated") once 2 s_end(M') < worst - delta, M' = M (2 s_end / (worst - delta))^2. An estimate
+// from this run's difference: where the true difference lies within delta, the observed excess
+// was noise and more trials than that may be needed (the next run's verdict says how many).
+// 0: not estimated.
 double TrialsToDecide(const std::string& outcome, double worst, double delta, double mcm_tolerance,
                       std::int64_t trials) {
   if (outcome != "inconclusive" || trials <= 0 || !(worst > delta)) return 0.0;

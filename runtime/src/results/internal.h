@@ -26,6 +26,12 @@ McmTask MakeMcmTask(const TaskSpec& spec, const std::vector<int>& point_indices,
 // (a plane's normal_x, normal_y and flatness; a circle's centre, radius and normal; ...).
 bool IsHeadline(const TaskResult& t, const std::string& quantity);
 
+// Whether quantity q of a task is decided and stated from its Monte Carlo distribution rather than
+// from the GUM's y +- U: Monte Carlo was run, and the GUM has no first-order value (not
+// differentiable, or a first-order u of 0 to rounding: validation "not applicable") or is not
+// validated by it (JCGM 101 8: the Monte Carlo result is then the one to state).
+bool DecidedByMonteCarlo(const TaskResult& task, std::size_t q);
+
 // Each headline task quantity's result as JCGM 100 7.2 asks it stated (results/statement.cc):
 // "4000.013 mm, U = 14 µm (k = 1.96, p = 95 %); Monte Carlo 95 % coverage interval [...] mm, GUM
 // validated (JCGM 101 8)", with the decision against a tolerance where one is given.

@@ -231,12 +231,13 @@ void DecideTaskConformity(TaskResult& task) {
       const bool differentiable = q >= task.gum.differentiable.size() || task.gum.differentiable[q];
       const bool mcm = task.has_mcm && q < task.mcm.size();
       std::optional<double> p_mcm = mcm ? task.mcm[q].conformity_probability : std::nullopt;
-      if (differentiable) {
+      if (!results_internal::DecidedByMonteCarlo(task, q) && differentiable) {
         task.conformity[q] = DecideConformity(tol, task.gum.value[i], task.gum.u[i], task.gum.U[i], p_mcm);
         continue;
       }
-      // No GUM value (vlt/fits.h: a form quantity of points that fit exactly): the decision
-      // rule with the Monte Carlo shortest coverage interval in place of y +- U.
+      // No GUM value (vlt/fits.h: a form quantity of points that fit exactly; a first-order u of 0
+      // to rounding) or one Monte Carlo does not validate: the decision rule with the Monte Carlo
+      // shortest coverage interval in place of y +- U.
       ConformityDecision d;
       if (!mcm) {
         d.verdict = "undetermined";

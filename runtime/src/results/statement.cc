@@ -4,6 +4,7 @@
 // was run, and the decision against a tolerance (ISO 14253-1). Printed at the top of the summary
 // and of report.html, and in results.json `statements` (docs/results.md "Result statements").
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -30,34 +31,42 @@ ShownUnits UnitsOf(const std::string& si_unit) {
   return {1.0, 1.0, "", ""};
 }
 
-// "; conforms to [a, b] mm (ISO 14253-1, guard band U; probability of conformity 99.9 %)".
-std::string ConformityText(const TaskResult& t, std::size_t q, const ShownUnits& units, int decimals) {
+// A tolerance limit as it was specified (not rounded to the value's decimals): ten significant
+// digits in the shown unit, trailing zeros dropped.
+std::string Limit(double v, const ShownUnits& units) {
+  return ShortestAt(v, units.value_scale) + units.value_unit;
+}
+
+// "; conforms to [a, b] mm (ISO 14253-1, guard band U; probability of conformity 99.9 %)", with
+// the rule that decided (DecidedByMonteCarlo: the Monte Carlo shortest interval in place of y +- U).
+std::string ConformityText(const TaskResult& t, std::size_t q, const ShownUnits& units) {
   if (q >= t.conformity.size() || !t.conformity[q]) return "";
   const std::string& quantity = t.gum.quantities[q];
   const Tolerance* tolerance = nullptr;
   for (const auto& [name, limits] : t.spec.tolerances) tolerance = name == quantity ? &limits : tolerance;
   if (tolerance == nullptr) return "";
-  auto limit = [&](double v) { return ShownAt(v, units.value_scale, decimals); };
   std::string interval;
   if (std::isfinite(tolerance->lower) && std::isfinite(tolerance->upper)) {
+    const ShownUnits bare{units.value_scale, units.expanded_scale, "", ""};
     interval.append("[")
-        .append(limit(tolerance->lower))
+        .append(Limit(tolerance->lower, bare))
         .append(", ")
-        .append(limit(tolerance->upper))
-        .append("]");
+        .append(Limit(tolerance->upper, bare));
+    interval.append("]").append(units.value_unit);
   } else if (std::isfinite(tolerance->upper)) {
-    interval.append("≤ ").append(limit(tolerance->upper));
+    interval.append("≤ ").append(Limit(tolerance->upper, units));
   } else {
-    interval.append("≥ ").append(limit(tolerance->lower));
+    interval.append("≥ ").append(Limit(tolerance->lower, units));
   }
-  interval.append(units.value_unit);
   const ConformityDecision& decision = *t.conformity[q];
-  std::string text = "; " + decision.verdict + (decision.verdict == "undetermined" ? " against " : " to ") +
-                     interval + " (ISO 14253-1, guard band U";
-  const std::optional<double> p =
-      decision.probability_mcm ? decision.probability_mcm : decision.probability_gum;
+  std::string text =
+      "; " + decision.verdict + (decision.verdict == "undetermined" ? " against " : " to ") + interval +
+      (DecidedByMonteCarlo(t, q) ? " (ISO 14253-1 with the Monte Carlo shortest coverage interval"
+                                 : " (ISO 14253-1, guard band U");
   // Three significant digits; beyond 99.9 % or below 0.1 % a bound (a Monte Carlo fraction of 1
   // out of M trials says "more than 1 - 1/M", not "certain").
+  const std::optional<double> p =
+      decision.probability_mcm ? decision.probability_mcm : decision.probability_gum;
   if (p) {
     text += "; probability of conformity " + (*p > 0.999   ? std::string("> 99.9 %")
                                               : *p < 0.001 ? std::string("< 0.1 %")
@@ -66,54 +75,81 @@ std::string ConformityText(const TaskResult& t, std::size_t q, const ShownUnits&
   return text + ")";
 }
 
-// One statement: "<value> <unit>, U = <U> <unit> (k = 1.96, p = 95 %)" and what Monte Carlo says.
+// The statement led by the Monte Carlo distribution (DecidedByMonteCarlo): its shortest coverage
+// interval (the one the decision uses), rounded like a U of its half-width, and why.
+std::string MonteCarloStatement(const TaskResult& t, std::size_t q, const ShownUnits& units,
+                                const std::string& p) {
+  const Eigen::Index i = static_cast<Eigen::Index>(q);
+  const CoverageInterval& ci = t.mcm[q].shortest;
+  const double half = 0.5 * (ci.high - ci.low);
+  // Decimals that show the interval's width (rounded like a U of its half-width), unless that is
+  // rounding noise (below 10^-12 of the shown unit): then the value's plain decimals.
+  int decimals = PlainDecimals(units);
+  if (std::isfinite(half) && half * units.value_scale > 1e-12) {
+    decimals = RoundLikeGum(t.gum.value[i], units.value_scale, half, units.value_scale).value_decimals;
+  }
+  std::string text = "Monte Carlo " + p + " shortest coverage interval [" +
+                     ShownAt(ci.low, units.value_scale, decimals) + ", " +
+                     ShownAt(ci.high, units.value_scale, decimals) + "]" + units.value_unit;
+  const bool differentiable = q >= t.gum.differentiable.size() || t.gum.differentiable[q];
+  const std::string outcome = q < t.validation.size() ? t.validation[q].outcome : "";
+  if (!differentiable || outcome == "not applicable") {
+    text += " (the GUM gives no first-order uncertainty; value at the estimates " +
+            ShownAt(t.gum.value[i], units.value_scale, decimals) + units.value_unit + ")";
+  } else {
+    const GumRounded gum = RoundLikeGum(t.gum.value[i], units.value_scale, t.gum.U[i], units.expanded_scale);
+    text += " (the GUM's " + gum.value + units.value_unit + ", U = " + gum.expanded + units.expanded_unit +
+            " is " + outcome + " by Monte Carlo, JCGM 101 8)";
+  }
+  return text;
+}
+
+// One statement: "<value> <unit>, U = <U> <unit> (k = 1.96, p = 95 %)" and what Monte Carlo says;
+// led by Monte Carlo where the GUM has no first-order value or is not validated.
 std::string StatementText(const Results& r, const TaskResult& t, std::size_t q) {
   const Eigen::Index i = static_cast<Eigen::Index>(q);
   const ShownUnits units = UnitsOf(t.gum.units[q]);
   const double value = t.gum.value[i], expanded = t.gum.U[i];
-  const bool differentiable = q >= t.gum.differentiable.size() || t.gum.differentiable[q];
-  // No first-order value: not differentiable, or a first-order u of 0 to rounding (ValidateScalar).
-  const bool no_first_order = !differentiable || (t.has_mcm && q < t.validation.size() &&
-                                                  t.validation[q].outcome == "not applicable");
-  // U below 10^-9 of the unit it is shown in (1 fm, 1 nrad): what rounding leaves of an exactly
-  // determined quantity (a component a reference point system holds), not an uncertainty.
-  const bool exact = !no_first_order && std::isfinite(expanded) && expanded * units.expanded_scale < 1e-9;
-  const bool has_gum = !no_first_order && !exact && std::isfinite(expanded);
   const std::string p = Sig(100.0 * r.coverage_probability, 3) + " %";
+  if (DecidedByMonteCarlo(t, q)) return MonteCarloStatement(t, q, units, p) + ConformityText(t, q, units);
+  const bool differentiable = q >= t.gum.differentiable.size() || t.gum.differentiable[q];
   const McmOutputResult* mc = t.has_mcm && q < t.mcm.size() ? &t.mcm[q] : nullptr;
-  std::string text;
-  int decimals = 0;
-  if (exact) {
+  if (!differentiable) {
     return ShownAt(value, units.value_scale, PlainDecimals(units)) + units.value_unit +
-           ", exact (U below the numerical resolution)";
+           " (no uncertainty: the GUM gives no first-order value and Monte Carlo was not run)" +
+           ConformityText(t, q, units);
   }
-  if (has_gum) {
-    const GumRounded rounded = RoundLikeGum(value, units.value_scale, expanded, units.expanded_scale);
-    decimals = rounded.value_decimals;
-    text = rounded.value + units.value_unit + ", U = " + rounded.expanded + units.expanded_unit +
-           " (k = " + Sig(t.gum.k, 3) + ", p = " + p + ")";
-  } else if (mc != nullptr) {
-    // No first-order GUM value: the Monte Carlo interval, rounded like a U of its half-width.
-    const double half = 0.5 * (mc->symmetric.high - mc->symmetric.low);
-    decimals = half > 0.0 ? RoundLikeGum(value, units.value_scale, half, units.value_scale).value_decimals
-                          : PlainDecimals(units);
-    text = ShownAt(value, units.value_scale, decimals) + units.value_unit +
-           " (the GUM gives no first-order uncertainty)";
-  } else {
+  // U below 10^-9 of the unit it is shown in (1 fm, 1 nrad): what rounding leaves. With Monte Carlo
+  // validating it (ValidateScalar's "exact") the quantity is exact; without, only its first order
+  // is known to be 0 (a normal's component along itself varies at second order).
+  if (!(std::isfinite(expanded) && expanded * units.expanded_scale >= 1e-9)) {
     return ShownAt(value, units.value_scale, PlainDecimals(units)) + units.value_unit +
-           " (no uncertainty: the GUM gives no first-order value and Monte Carlo was not run)";
+           (mc != nullptr
+                ? ", exact (the GUM's U and the Monte Carlo interval are below the numerical resolution)"
+                : ", U 0 to first order (a second-order spread, if any, needs Monte Carlo)") +
+           ConformityText(t, q, units);
   }
+  const GumRounded rounded = RoundLikeGum(value, units.value_scale, expanded, units.expanded_scale);
+  std::string text = rounded.value + units.value_unit + ", U = " + rounded.expanded + units.expanded_unit +
+                     " (k = " + Sig(t.gum.k, 3) + ", p = " + p + ")";
   if (mc != nullptr) {
     const std::string outcome = q < t.validation.size() ? t.validation[q].outcome : "";
     text += "; Monte Carlo " + p + " coverage interval [" +
-            ShownAt(mc->symmetric.low, units.value_scale, decimals) + ", " +
-            ShownAt(mc->symmetric.high, units.value_scale, decimals) + "]" + units.value_unit;
-    if (has_gum) text += outcome == "validated" ? ", GUM validated (JCGM 101 8)" : ", GUM " + outcome;
+            ShownAt(mc->symmetric.low, units.value_scale, rounded.value_decimals) + ", " +
+            ShownAt(mc->symmetric.high, units.value_scale, rounded.value_decimals) + "]" + units.value_unit +
+            (outcome == "validated" ? ", GUM validated (JCGM 101 8)" : ", GUM " + outcome);
   }
-  return text + ConformityText(t, q, units, decimals);
+  return text + ConformityText(t, q, units);
 }
 
 }  // namespace
+
+bool DecidedByMonteCarlo(const TaskResult& task, std::size_t q) {
+  if (!task.has_mcm || q >= task.mcm.size()) return false;
+  const bool differentiable = q >= task.gum.differentiable.size() || task.gum.differentiable[q];
+  const std::string outcome = q < task.validation.size() ? task.validation[q].outcome : "";
+  return !differentiable || outcome == "not applicable" || outcome == "not validated";
+}
 
 bool IsHeadline(const TaskResult& t, const std::string& quantity) {
   if (t.spec.kind == TaskKind::kDeviation) return quantity == "deviation";
