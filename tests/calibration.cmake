@@ -71,6 +71,22 @@ add_test(NAME cli_run_with_calibration
           "-DEXPECT_STDOUT=\"calibration\": {[^}]*\"file\": \"[^\"]*calibration\\.toml\"[^}]*\"instrument\": \"simulated head tracker"
           -P ${_cli}/expect_outputs.cmake)
 
+# The loop closed (issue 34): the calibration `vlt calibrate` just wrote, used with --calibration
+# (relative to the working directory) in place of the job's [tracker] calibration; a missing one is
+# one line naming the option, exit 2.
+add_test(NAME cli_run_with_new_calibration
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=run;${_ex}/measure_with_calibration.toml;--calibration;${_out}/cal_calibrate/calibration.toml;--no-mcm;-o;${_out}/cal_measure_new"
+          -DOUT=${_out}/cal_measure_new "-DFILES=points.csv;results.json;report.html"
+          "-DEXPECT_STDOUT=Tracker parameters from the calibration file [^\n]*cal_calibrate/calibration[.]toml [(]instrument"
+          -P ${_cli}/expect_outputs.cmake)
+set_tests_properties(cli_run_with_new_calibration PROPERTIES FIXTURES_REQUIRED vlt_cal_calibrate)
+add_test(NAME cli_error_run_calibration_option_missing
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=run;${_ex}/measure_with_calibration.toml;--calibration;${_out}/no_such_calibration.toml;-o;${_out}/error_calibration_option"
+          -DOUT=${_out}/error_calibration_option "-DEXPECT=--calibration: cannot read '[^']*no_such_calibration[.]toml': "
+          -P ${_cli}/expect_error.cmake)
+
 # Bad input: one line naming file and key or line, exit 2, nothing written.
 function(vlt_calibration_error name command file regex)
   add_test(NAME cli_error_${name}

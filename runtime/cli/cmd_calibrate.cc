@@ -1,7 +1,9 @@
 // `vlt calibrate FILE.toml [-o DIR]`: identify the tracker's error parameters from measured test
 // data (readings of targets, calibrated bars, reference distances) with honest covariance; writes
 // the calibration file a job loads with `[tracker] calibration = "..."`. docs/calibration.md.
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
 
 #include "run_job.h"
 #include "vlt/calibration.h"
@@ -39,7 +41,8 @@ void AddCalibrateCommand(CLI::App& app, GlobalOptions& global) {
     const CalibrationResult result = Calibrate(job.data, job.options);
     // A calibration that does not fit its data is not used silently (docs/calibration.md "Fit").
     const std::string problem = CalibrationFitProblem(result);
-    if (!problem.empty()) EmitWarnings({*file + ": calibration: " + problem + "; calibration.toml says so"}, global);
+    if (!problem.empty())
+      EmitWarnings({*file + ": calibration: " + problem + "; calibration.toml says so"}, global);
     CalibrationProvenance provenance;
     provenance.instrument = job.instrument;
     provenance.created = RunCreatedTime();  // SOURCE_DATE_EPOCH when set
@@ -49,8 +52,16 @@ void AddCalibrateCommand(CLI::App& app, GlobalOptions& global) {
     output.Commit(AsOutputFiles(files));
     PrintWritten(files, calibration_outputs::CalibrationSummary(job, result), dir, global);
     if (!global.json && !global.quiet) {
-      std::printf("Use it in a job:  [tracker] calibration = \"%s\"\n",
-                  (dir / "calibration.toml").string().c_str());
+      // Absolute: a job resolves its [tracker] calibration against the job file's directory, so a
+      // path relative to this shell would name another file there (issue 34).
+      const std::string path =
+          std::filesystem::absolute(dir / "calibration.toml").lexically_normal().string();
+      std::printf("Use it: vlt run JOB.toml --calibration %s\n", (dir / "calibration.toml").string().c_str());
+      // As a TOML basic string when nothing in it needs an escape (else the option above only).
+      const bool plain = std::none_of(path.begin(), path.end(), [](char c) {
+        return c == '"' || c == '\\' || static_cast<unsigned char>(c) < 0x20 || c == 0x7f;
+      });
+      if (plain) std::printf("   or in the job: [tracker] calibration = \"%s\"\n", path.c_str());
     }
   });
 }

@@ -168,15 +168,25 @@ void AddRunCommand(CLI::App& app, GlobalOptions& global) {
   auto options = std::make_shared<RunCliOptions>();
   command->add_option("job", *job_file, "Job file (TOML, docs/job-file.md)")->required();
   AddRunOptions(*command, *options);
+  auto calibration = std::make_shared<std::string>();
+  command->add_option("--calibration", *calibration,
+                      "A calibration file (vlt calibrate) in place of the job's [tracker] calibration; "
+                      "relative to the working directory");
   command->footer(
       "Exit status: 0 success, 2 bad input or a result that cannot be computed (one line on stderr;\n"
       "no output file is written). Outputs: docs/results.md.");
-  command->callback([job_file, options, &global] {
+  command->callback([job_file, options, calibration, &global] {
     if (IsCustomModelJobFile(*job_file)) {
+      if (!calibration->empty()) {
+        throw InputError("--calibration: '" + *job_file +
+                         "' is a custom-model job: it has no tracker to calibrate");
+      }
       RunCustomAndWrite(LoadCustomJob(*job_file), *options, global);
       return;
     }
-    Job job = LoadJob(*job_file);
+    JobOverrides overrides;
+    if (!calibration->empty()) overrides.calibration = *calibration;
+    Job job = LoadJob(*job_file, overrides);
     std::filesystem::path fallback = std::filesystem::path("vlt-out") / SafeFileName(job.name);
     RunAndWrite(job, *options, global, fallback);
   });

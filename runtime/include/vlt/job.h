@@ -204,11 +204,20 @@ struct Job {
   std::vector<std::string> point_names() const;
 };
 
+// What the command line changes in a job as it is read (`vlt run`, docs/cli.md).
+struct JobOverrides {
+  // A calibration file in place of [tracker] calibration (`--calibration FILE`; FILE relative to the
+  // working directory, not to the job file): the calibration `vlt calibrate` just wrote, used
+  // without editing the job.
+  std::optional<std::string> calibration;
+};
+
 // Reads and checks the job file at `path` (relative paths inside resolve against its directory).
-Job LoadJob(const std::string& path);
+Job LoadJob(const std::string& path, const JobOverrides& overrides = {});
 
 // Same from text: `file` names it in messages, `base_dir` resolves relative CSV paths.
-Job ParseJob(std::string_view text, const std::string& file, const std::filesystem::path& base_dir);
+Job ParseJob(std::string_view text, const std::string& file, const std::filesystem::path& base_dir,
+             const JobOverrides& overrides = {});
 
 // The embedded default job run by `vlt demo` and bare `vlt` (runtime/src/job/default_job.cc).
 std::string_view DefaultJobToml();

@@ -115,9 +115,10 @@ struct TrackerReader {
   Job& job;
   std::string model_name;
   const ModelInfo* model = nullptr;
-  std::vector<Dimension> dims;   // of each parameter
-  std::vector<bool> calibrated;  // given by the calibration file
-  std::string calibration_path;  // that file, for messages about its values
+  std::vector<Dimension> dims;                        // of each parameter
+  std::vector<bool> calibrated;                       // given by the calibration file
+  std::string calibration_path;                       // that file, for messages about its values
+  const std::string* calibration_override = nullptr;  // `vlt run --calibration`
 
   TrackerReader(Section& tracker, Job& job) : tracker(tracker), job(job) {}
   void FindTrackerModel();
@@ -164,12 +165,16 @@ void TrackerReader::SetDefaultParameters() {
 }
 
 // [tracker] calibration = "<file>": estimates, u and correlation from `vlt calibrate`.
+// `vlt run --calibration FILE` replaces the key (FILE as given on the command line, relative to the
+// working directory): the calibration just identified, without editing the job.
 void TrackerReader::ReadCalibrationFile() {
   const toml::node* n = tracker.Get("calibration");
-  if (!n) return;
+  if (!n && calibration_override == nullptr) return;
   MeasurementSetup& setup = job.setup;
-  const std::string where = tracker.Where("calibration");
-  const std::filesystem::path path = job.base_dir / AsString(*n, where);
+  const std::string where =
+      calibration_override ? std::string("--calibration") : tracker.Where("calibration");
+  const std::filesystem::path path = calibration_override ? std::filesystem::path(*calibration_override)
+                                                          : job.base_dir / AsString(*n, where);
   if (const std::string problem = InputFileProblem(path.string()); !problem.empty())
     throw InputError(where + ": cannot read '" + path.string() + "': " + problem);
   LoadedCalibration c = LoadCalibrationFile(path.string());
@@ -331,10 +336,11 @@ void WarnImplausibleNoise(const Section& noise, const ReadingNoise& reading_nois
 
 }  // namespace
 
-void ReadTracker(Section& top, Job& job) {
+void ReadTracker(Section& top, Job& job, const std::string* calibration) {
   Section tracker = top.Sub("tracker", true);
   tracker.set_hint("model, ranging, calibration, parameters, correlations, noise");
   TrackerReader reader(tracker, job);
+  reader.calibration_override = calibration;
   reader.FindTrackerModel();
   // The ranging principle decides the refractive index of the range correction (docs/units.md
   // "Group index"): "ifm" (phase index, the default), "adm" or "aifm" (group index).

@@ -13,8 +13,10 @@ namespace vlt::instrument_internal {
 
 using namespace base_internal;  // Section and the readers of values with units
 
-void ReadTracker(Section& top, Job& job);       //  [tracker]
-void ReadEnvironment(Section& top, Job& job);   //  [environment]
+// calibration: a calibration file that replaces [tracker] calibration (`vlt run --calibration`; its
+// path as given, relative to the working directory); nullptr: the job's own.
+void ReadTracker(Section& top, Job& job, const std::string* calibration = nullptr);  //  [tracker]
+void ReadEnvironment(Section& top, Job& job);                                        //  [environment]
 // The keys of an existing environment table `s` ([environment], a network's [station.environment]);
 // `more_keys` are the caller's own keys of that table, already read (for the hint of an unknown key).
 // The table is finished. Estimates outside the equation's range of validity are computed, with a

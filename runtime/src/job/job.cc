@@ -46,7 +46,8 @@ Eigen::Vector3d PartToTrackerNominal(const MeasurementSetup& setup, const Eigen:
   return x;
 }
 
-Job ParseJob(std::string_view text, const std::string& file, const std::filesystem::path& base_dir) {
+Job ParseJob(std::string_view text, const std::string& file, const std::filesystem::path& base_dir,
+             const JobOverrides& overrides) {
   toml::table root = ParseToml(text, file);
   Job job;
   job.file = file;
@@ -59,7 +60,7 @@ Job ParseJob(std::string_view text, const std::string& file, const std::filesyst
       "deviation, profile, monte_carlo, map, optimize, output");
 
   ReadJobMeta(top, job.name, &job.description, job.name, &job.record);
-  ReadTracker(top, job);
+  ReadTracker(top, job, overrides.calibration ? &*overrides.calibration : nullptr);
   ReadEnvironment(top, job);
   ReadStation(top, job);
   ReadPart(top, job);
@@ -96,9 +97,9 @@ Job ParseJob(std::string_view text, const std::string& file, const std::filesyst
   return job;
 }
 
-Job LoadJob(const std::string& path) {
+Job LoadJob(const std::string& path, const JobOverrides& overrides) {
   const std::string text = ReadTextFile(path, "the job file");
-  return ParseJob(text, path, BaseDirectory(path));
+  return ParseJob(text, path, BaseDirectory(path), overrides);
 }
 
 }  // namespace vlt
