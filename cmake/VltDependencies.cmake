@@ -41,9 +41,26 @@ vlt_require(RANDOM123_FOUND librandom123-dev "Random123")
 find_package(Ceres 2.1 QUIET)
 vlt_require(Ceres_FOUND libceres-dev "Ceres Solver")
 
-# NLopt (C++ interface): station optimisation, `vlt plan` (runtime/src/planning/).
+# NLopt (C++ interface): station optimisation, `vlt plan` (runtime/src/planning/). Debian splits
+# the C++ interface into libnlopt_cxx (nlopt_cxx.pc); upstream NLopt and other distributions
+# (Fedora's NLopt-devel) build it into libnlopt (nlopt.pc). VLT_NLOPT_LIBRARY names the one found,
+# for the installed vlt.pc and vltConfig.cmake.
 pkg_check_modules(NLOPT_CXX QUIET IMPORTED_TARGET nlopt_cxx)
-vlt_require(NLOPT_CXX_FOUND libnlopt-cxx-dev "NLopt (C++)")
+set(VLT_NLOPT_LIBRARY nlopt_cxx)
+if(NOT NLOPT_CXX_FOUND)
+  pkg_check_modules(NLOPT_CXX QUIET IMPORTED_TARGET nlopt)
+  set(VLT_NLOPT_LIBRARY nlopt)
+  if(NLOPT_CXX_FOUND)
+    include(CheckIncludeFileCXX)
+    set(CMAKE_REQUIRED_INCLUDES ${NLOPT_CXX_INCLUDE_DIRS})
+    check_include_file_cxx(nlopt.hpp VLT_HAVE_NLOPT_HPP)
+    unset(CMAKE_REQUIRED_INCLUDES)
+    if(NOT VLT_HAVE_NLOPT_HPP)
+      set(NLOPT_CXX_FOUND FALSE)
+    endif()
+  endif()
+endif()
+vlt_require(NLOPT_CXX_FOUND libnlopt-cxx-dev "NLopt (C++: nlopt_cxx, or nlopt with nlopt.hpp)")
 
 # Clp (COIN-OR's simplex): the linear programs of form by minimum zone (runtime/src/tasks/minimum_zone.cc).
 pkg_check_modules(CLP QUIET IMPORTED_TARGET clp)

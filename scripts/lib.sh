@@ -58,10 +58,15 @@ vlt_build() {
   if [ -f "$dir/CMakeCache.txt" ] && ! grep -q '^CMAKE_GENERATOR:INTERNAL=Ninja$' "$dir/CMakeCache.txt"; then
     rm -rf "$dir/CMakeCache.txt" "$dir/CMakeFiles"
   fi
-  cmake -S "$VLT_ROOT" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
+  # Warnings are errors in CI (.ci/run exports VLT_WARNINGS_AS_ERRORS=ON), not in a user's build.
+  cmake -S "$VLT_ROOT" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+    -DVLT_WARNINGS_AS_ERRORS="${VLT_WARNINGS_AS_ERRORS:-OFF}" "$@" >/dev/null
   # One job per core: cores + 1 was tried and measured no faster on the 2-core CI machine
-  # (docs/testing.md).
-  cmake --build "$dir" -j"$(nproc)" >&2
+  # (docs/testing.md). VLT_BUILD_TARGETS (space-separated) builds only those targets (the demo:
+  # vlt and vlt-gen, not the tests).
+  local targets=()
+  for t in ${VLT_BUILD_TARGETS:-}; do targets+=(--target "$t"); done
+  cmake --build "$dir" -j"$(nproc)" "${targets[@]}" >&2
 }
 
 # vlt_build_sanitize : the one Clang build that CI's sanitizer and fuzzing stages share

@@ -119,6 +119,15 @@ add_test(NAME cli_run_scan
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> "-DARGS=run;${_jobs}/scan_2000.toml;-o;${_out}/scan"
           -DOUT=${_out}/scan "-DFILES=${_all_files}" "-DEXPECT_STDOUT=2000 points, 1 task\n" -P ${_cli}/expect_outputs.cmake)
 set_tests_properties(cli_run_scan PROPERTIES FIXTURES_SETUP vlt_scan_outputs)
+
+# The output directory replaced as a whole, by renameat2(RENAME_EXCHANGE) and by its fallback (the
+# old set moved aside: C libraries and file systems without the exchange; issue 34).
+foreach(_mode exchange fallback)
+  add_test(NAME cli_run_replaces_output_${_mode}
+    COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt> -DJOB=${_jobs}/good.toml -DOUT=${_out}/replace_${_mode}
+            -P ${_cli}/replace_output.cmake)
+endforeach()
+set_tests_properties(cli_run_replaces_output_fallback PROPERTIES ENVIRONMENT VLT_NO_RENAME_EXCHANGE=1)
 add_test(NAME report_browser_scan
   COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/scan/report.html -DPROFILE=${_out}/chromium-profile-scan
           -DMIN_PLOTS=3 -DMAX_BYTES=10000000 -P ${_cli}/report_browser.cmake)

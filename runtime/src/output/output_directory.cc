@@ -18,6 +18,7 @@
 #include <array>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <set>
@@ -230,6 +231,25 @@ std::vector<OutputFile> AsOutputFiles(const std::vector<std::pair<std::string, s
   return all;
 }
 
+namespace {
+
+// Swaps two paths in one step with renameat2(RENAME_EXCHANGE) where the C library has it (glibc
+// 2.28+: VLT_HAVE_RENAMEAT2, checked by CMake) and the file system supports it. false: the caller
+// moves the old set aside instead. VLT_NO_RENAME_EXCHANGE in the environment forces that fallback
+// (the test of it, tests/cli.cmake cli_run_twice_without_exchange; docs/cli.md "Outputs").
+bool ExchangePaths(const fs::path& a, const fs::path& b) {
+#if VLT_HAVE_RENAMEAT2
+  if (std::getenv("VLT_NO_RENAME_EXCHANGE") != nullptr) return false;
+  return ::renameat2(AT_FDCWD, a.c_str(), AT_FDCWD, b.c_str(), RENAME_EXCHANGE) == 0;
+#else
+  (void)a;
+  (void)b;
+  return false;
+#endif
+}
+
+}  // namespace
+
 void OutputDirectory::Commit(const std::vector<OutputFile>& files) {
   // Under MPI every rank computed the same results; they agree that none failed, and rank 0
   // alone writes (docs/mpi.md). Without MPI, Agree does nothing.
@@ -286,7 +306,7 @@ void OutputDirectory::Commit(const std::vector<OutputFile>& files) {
   // Swap in.
   const bool exists = fs::exists(fs::symlink_status(target_, ec));
   if (exists) {
-    if (::renameat2(AT_FDCWD, staging_.c_str(), AT_FDCWD, target_.c_str(), RENAME_EXCHANGE) == 0) {
+    if (ExchangePaths(staging_, target_)) {
       // staging_ now holds the old set.
       g_staging_active = 0;
       RemoveQuietly(staging_);
