@@ -44,6 +44,8 @@ add_test(NAME cli_calibrate_example
           -DOUT=${_out}/cal_calibrate
           "-DFILES=calibration.toml;parameters.csv;correlation.csv;identifiability.csv;targets.csv;residuals.csv;report.html"
           "-DEXPECT_STDOUT=511 observations; 12 of 20 parameters identified.*held: .*lam .*srr \\(the data are blind to it\\)"
+          # Every parameter named in words beside its symbol (issue 34): lam's meaning from the spec.
+          "-DEXPECT_FILE_REGEX=report.html:<td class=\"l\">lam</td>.*<td class=\"l\">Range offset lambda [(]NPL[)]"
           -P ${_cli}/expect_outputs.cmake)
 set_tests_properties(cli_calibrate_example PROPERTIES FIXTURES_SETUP vlt_cal_calibrate)
 find_package(Python3 COMPONENTS Interpreter REQUIRED)

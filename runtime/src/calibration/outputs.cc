@@ -15,6 +15,7 @@
 #include "output/assets.h"
 #include "output/page.h"
 #include "vlt/calibration.h"
+#include "vlt/models.h"
 #include "base/format.h"
 
 namespace vlt::calibration_outputs {
@@ -177,13 +178,15 @@ void TrackerAndLayoutSection(std::ostringstream& body, const TestJob& job,
       body << (i ? ", " : "") << HtmlEscape(unseen[i].get<std::string>());
     body << "</p>";
   }
+  // Every parameter named in words beside its symbol (the model spec's description; issue 34).
   body << "<table><tr><th class=\"l\">parameter</th><th>error state</th><th>u</th><th "
-          "class=\"l\">unit</th></tr>";
+          "class=\"l\">unit</th><th class=\"l\">meaning</th></tr>";
   for (int k = 0; k < P; ++k) {
     const auto [unit, per] = DisplayUnit(model.params[k].quantity, model.params[k].unit);
     body << "<tr><td class=\"l\">" << HtmlEscape(model.params[k].name) << "</td><td>"
          << Fixed(job.tracker.params[k].estimate * per, 3) << "</td><td>"
-         << Fixed(job.tracker.params[k].u * per, 3) << "</td><td class=\"l\">" << unit << "</td></tr>";
+         << Fixed(job.tracker.params[k].u * per, 3) << "</td><td class=\"l\">" << unit
+         << "</td><td class=\"l\">" << HtmlEscape(model.params[k].description) << "</td></tr>";
   }
   body << "</table></section>\n";
 }
@@ -422,6 +425,15 @@ void ProvenanceSection(std::ostringstream& body, const CalibrationResult& result
        << " outliers</span> (|w| above the limit).</p></section>\n";
 }
 
+// The model spec's description of a parameter ("" for a model or name vlt does not know).
+std::string ParameterMeaning(const ModelInfo* model, const std::string& name) {
+  if (model == nullptr) return "";
+  for (int k = 0; k < model->num_params; ++k) {
+    if (name == model->params[k].name) return model->params[k].description;
+  }
+  return "";
+}
+
 // The error parameters: table and plot of estimate and prior with their U.
 void ParametersSection(std::ostringstream& body, std::ostringstream& script,
                        const CalibrationResult& result) {
@@ -432,7 +444,9 @@ void ParametersSection(std::ostringstream& body, std::ostringstream& script,
           "on purpose. u(data): the part the data determine.</p><table><tr><th class=\"l\">parameter</th><th "
           "class=\"l\">status</th>"
           "<th>estimate</th><th>U</th><th>u(data)</th><th>prior</th><th>prior u</th><th "
-          "class=\"l\">unit</th></tr>";
+          "class=\"l\">unit</th><th class=\"l\">meaning</th></tr>";
+  // Every parameter named in words beside its symbol (the model spec's description; issue 34).
+  const ModelInfo* model = FindModel(result.model);
   nlohmann::json names = nlohmann::json::array(), est = nlohmann::json::array(),
                  err = nlohmann::json::array(), prior = nlohmann::json::array();
   for (const CalibratedParameter& p : result.parameters) {
@@ -442,7 +456,8 @@ void ParametersSection(std::ostringstream& body, std::ostringstream& script,
          << "\">" << ParameterStatusName(p.status) << "</td><td>" << Fixed(p.estimate * per, 3) << "</td><td>"
          << Fixed(result.k * p.u * per, 3) << "</td><td>" << Fixed(p.u_data * per, 3) << "</td><td>"
          << Fixed(p.prior_estimate * per, 3) << "</td><td>" << Fixed(p.prior_u * per, 3)
-         << "</td><td class=\"l\">" << unit << "</td></tr>";
+         << "</td><td class=\"l\">" << unit << "</td><td class=\"l\">"
+         << HtmlEscape(ParameterMeaning(model, p.name)) << "</td></tr>";
     names.push_back(p.name + " (" + unit + ")");
     est.push_back(p.estimate * per);
     err.push_back(result.k * p.u * per);
