@@ -127,6 +127,7 @@ TEST(ValidateScalar, RoundingNoiseIsJudgedAtTheResolution) {
   EXPECT_TRUE(v.validated) << v.verdict;
   EXPECT_EQ(v.delta, resolution);
   EXPECT_NE(v.verdict.find("exact"), std::string::npos) << v.verdict;
+  EXPECT_TRUE(v.exact);
   CoverageInterval second_order;  // n_z = 1 - (n_x^2 + n_y^2) / 2 with u(n_x) = u(n_y) = 3.7e-6
   second_order.low = 1.0 - 5.4e-11;
   second_order.high = 1.0 - 1.3e-13;
@@ -135,6 +136,7 @@ TEST(ValidateScalar, RoundingNoiseIsJudgedAtTheResolution) {
                                               1.3e-11, 0.95, true, unit_resolution);
   EXPECT_EQ(n_z.outcome, "not applicable") << n_z.verdict;
   EXPECT_FALSE(n_z.validated);
+  EXPECT_FALSE(n_z.exact);
   EXPECT_NE(n_z.verdict.find("second order only"), std::string::npos) << n_z.verdict;
   // The same interval with a GUM u of 1e-11 (above the resolution): judged by JCGM 101 8.2.
   EXPECT_EQ(ValidateScalar("normal_z", "1", 1.0, 1e-11, 2e-11, second_order, 2, 200000, 1.3e-11, 0.95, true,

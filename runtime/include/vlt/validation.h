@@ -47,6 +47,9 @@ struct ScalarValidation {
   // Inconclusive: about how many trials would decide, M (2 mcm_tolerance / (worst - delta))^2 (the
   // tolerance shrinks as 1 / sqrt(M)); 0 otherwise or when not estimated (trials unknown).
   double trials_to_decide = 0.0;
+  // Validated as exact: the GUM's u and the Monte Carlo interval both within the output's
+  // numerical resolution (ValidateScalar's `resolution`). What a statement may call "exact".
+  bool exact = false;
 };
 
 // trials: M of the Monte Carlo run; mcm_u: its standard uncertainty of the output; p: coverage

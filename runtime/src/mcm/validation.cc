@@ -130,6 +130,7 @@ ScalarValidation ValidateScalar(const std::string& name, const std::string& unit
           "value, are below the output's numerical resolution, %.3g %s)",
           gum_u, unit.c_str(), spread, unit.c_str(), resolution, unit.c_str());
       v.validated = true;
+      v.exact = true;
       v.outcome = "validated";
     } else {
       std::snprintf(

@@ -119,14 +119,18 @@ std::string StatementText(const Results& r, const TaskResult& t, std::size_t q) 
            " (no uncertainty: the GUM gives no first-order value and Monte Carlo was not run)" +
            ConformityText(t, q, units);
   }
-  // U below 10^-9 of the unit it is shown in (1 fm, 1 nrad): what rounding leaves. With Monte Carlo
-  // validating it (ValidateScalar's "exact") the quantity is exact; without, only its first order
-  // is known to be 0 (a normal's component along itself varies at second order).
-  if (!(std::isfinite(expanded) && expanded * units.expanded_scale >= 1e-9)) {
+  // Exact where the validation says so (ScalarValidation::exact: the GUM's u and the Monte Carlo
+  // interval within the output's numerical resolution; one rule, not a second threshold here).
+  // Without Monte Carlo a U below 10^-9 of its shown unit (1 fm, 1 nrad) only says the first order
+  // is 0 (a normal's component along itself varies at second order).
+  if (mc != nullptr && q < t.validation.size() && t.validation[q].exact) {
     return ShownAt(value, units.value_scale, PlainDecimals(units)) + units.value_unit +
-           (mc != nullptr
-                ? ", exact (the GUM's U and the Monte Carlo interval are below the numerical resolution)"
-                : ", U 0 to first order (a second-order spread, if any, needs Monte Carlo)") +
+           ", exact (the GUM's U and the Monte Carlo interval are below the numerical resolution)" +
+           ConformityText(t, q, units);
+  }
+  if (mc == nullptr && !(std::isfinite(expanded) && expanded * units.expanded_scale >= 1e-9)) {
+    return ShownAt(value, units.value_scale, PlainDecimals(units)) + units.value_unit +
+           ", U 0 to first order (a second-order spread, if any, needs Monte Carlo)" +
            ConformityText(t, q, units);
   }
   const GumRounded rounded = RoundLikeGum(value, units.value_scale, expanded, units.expanded_scale);
