@@ -88,6 +88,14 @@ add_test(NAME cli_error_run_calibration_option_missing
           "-DARGS=run;${_ex}/measure_with_calibration.toml;--calibration;${_out}/no_such_calibration.toml;-o;${_out}/error_calibration_option"
           -DOUT=${_out}/error_calibration_option "-DEXPECT=--calibration: cannot read '[^']*no_such_calibration[.]toml': "
           -P ${_cli}/expect_error.cmake)
+# A path longer than 160 characters is cut in the middle: the file name stays on the line.
+string(REPEAT "d" 150 _deep)
+add_test(NAME cli_error_run_calibration_long_path_keeps_name
+  COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
+          "-DARGS=run;${_ex}/measure_with_calibration.toml;--calibration;${_out}/${_deep}/no_such_calibration.toml;-o;${_out}/error_calibration_long"
+          -DOUT=${_out}/error_calibration_long
+          "-DEXPECT=--calibration: cannot read '[^']*[.][.][.][(][0-9]+ characters[)][.][.][.]d*/no_such_calibration[.]toml': no such file"
+          -P ${_cli}/expect_error.cmake)
 
 # Bad input: one line naming file and key or line, exit 2, nothing written.
 function(vlt_calibration_error name command file regex)

@@ -14,8 +14,8 @@ struct GlobalOptions {
   bool strict = false;  // --strict: a warning (implausible but legal input) is an error
 };
 
-// Shortens quoted values in an error line (over 60 characters keep their first 40) and the whole
-// line to 1000 characters; line breaks become blanks.
+// Shortens quoted values in an error line (over 160 characters keep their first
+// and last 60) and the whole line to 1000 characters; line breaks become blanks.
 std::string ShortenMessage(const std::string& message);
 
 // Prints each warning as "vlt: warning: <text>" on stderr (not with --quiet); with --strict the

@@ -14,8 +14,9 @@
 namespace vlt::cli {
 
 // An error line quotes what the user wrote ('...'); a 2 MB CSV cell must not become a 2 MB line.
-// Quoted values longer than 60 characters keep their first 40; a line still longer than 1000
-// (a long path) keeps its first and last 480: the problem, at the end of the line, is never cut.
+// Quoted values longer than 160 characters keep their first and last 60 (a path keeps its file
+// name, which is what the user needs to see); a line still longer than 1000 (a long path outside
+// quotes) keeps its first and last 480: the problem, at the end of the line, is never cut.
 std::string ShortenMessage(const std::string& message) {
   std::string out;
   std::size_t i = 0;
@@ -28,8 +29,9 @@ std::string ShortenMessage(const std::string& message) {
     }
     out += message.substr(i, open + 1 - i);
     const std::size_t length = close - open - 1;
-    if (length > 60) {
-      out += message.substr(open + 1, 40) + "...(" + std::to_string(length) + " characters)";
+    if (length > 160) {
+      out += message.substr(open + 1, 60) + "...(" + std::to_string(length) + " characters)..." +
+             message.substr(close - 60, 60);
     } else {
       out += message.substr(open + 1, length);
     }
