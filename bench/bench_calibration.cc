@@ -6,6 +6,9 @@
 //                                  residual statistics — what `vlt calibrate` computes
 //   calibration/simulate/<model>   simulating that data set (inverse of the model per reading),
 //                                  for scale
+//   calibration/prior/<profile>    `vlt prior`'s derivation for a shipped profile (the tests at
+//                                  the compensation, the maximum-entropy solve, the two-face
+//                                  factors): issue 35's target <= 2 s
 // Target (docs/performance.md): identification < 1 s for 20 parameters and ~500 observations.
 #include <string>
 
@@ -58,7 +61,22 @@ void BM_Simulate(benchmark::State& state, const char* model) {
   }
 }
 
+void BM_Prior(benchmark::State& state, const char* profile) {
+  const PriorJob job = LoadPriorJob(std::string(VLT_SOURCE_DIR) + "/profiles/" + profile + ".toml");
+  int tests = 0;
+  for (auto _ : state) {
+    const PriorResult r = DerivePrior(job);
+    tests = static_cast<int>(r.tests.size());
+    benchmark::DoNotOptimize(r.parameters.data());
+  }
+  state.counters["tests"] = tests;
+}
+
 const bool kRegistered = [] {
+  for (const char* profile : {"leica-at500", "faro-vantage", "mirror-15um-6um"}) {
+    benchmark::RegisterBenchmark((std::string("calibration/prior/") + profile).c_str(), BM_Prior, profile)
+        ->Unit(benchmark::kMillisecond);
+  }
   for (const char* model : {"head", "mirror"}) {
     benchmark::RegisterBenchmark((std::string("calibration/identify/") + model).c_str(), BM_Identify, model)
         ->Unit(benchmark::kMillisecond);

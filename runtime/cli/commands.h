@@ -30,6 +30,7 @@ void AddMapCommand(CLI::App& app, GlobalOptions& global);        // vlt map JOB.
 void AddPlanCommand(CLI::App& app, GlobalOptions& global);       // vlt plan JOB.toml [-o DIR]
 void AddTestCommand(CLI::App& app, GlobalOptions& global);       // vlt test FILE.toml [-o DIR]
 void AddCalibrateCommand(CLI::App& app, GlobalOptions& global);  // vlt calibrate FILE.toml [-o DIR]
+void AddPriorCommand(CLI::App& app, GlobalOptions& global);      // vlt prior PROFILE.toml [-o DIR]
 void AddNetworkCommand(CLI::App& app, GlobalOptions& global);    // vlt network FILE.toml [-o DIR]
 
 // Runs the embedded default job into ./vlt-demo/ (what bare `vlt` does). Returns exit status.

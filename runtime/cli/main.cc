@@ -100,6 +100,7 @@ int main(int argc, char** argv) {
   vlt::cli::AddPlanCommand(app, global);
   vlt::cli::AddTestCommand(app, global);
   vlt::cli::AddCalibrateCommand(app, global);
+  vlt::cli::AddPriorCommand(app, global);
   vlt::cli::AddNetworkCommand(app, global);
   vlt::cli::AddSimulateCommand(app, global);
   vlt::cli::AddModelCommand(app, global);

@@ -241,6 +241,13 @@ struct TestResult {
   // Uncertainty of the test itself: the reading noise and the reference standard (JCGM 100,
   // linear propagation; two-face: along (p_back - p_front)/|...|, or the largest axis at 0).
   double u = 0.0, U = 0.0, k = 0.0;
+  // The reading noise's part of u alone (without the reference standard): the tracker's own
+  // random error in this test, which a datasheet's MPE covers (DerivePrior).
+  double u_noise = 0.0;
+  // Two-face tests: the covariance of p_back - p_front from the reading noise (tracker frame,
+  // m^2) and d (p_back - p_front) / d p_k (3 x P): the whole vector, not only its magnitude.
+  Eigen::Matrix3d two_face_noise = Eigen::Matrix3d::Zero();
+  Eigen::MatrixXd two_face_sensitivity;
   // Spread of the error that the parameters' standard uncertainties imply (what a tracker known
   // to those uncertainties could show).
   double u_parameters = 0.0;
@@ -298,6 +305,80 @@ struct CalibrationJob {
 CalibrationJob LoadCalibrationJob(const std::string& path);
 
 // ---------------------------------------------------------------------------------------------
+// Priors from a datasheet (`vlt prior`, docs/profiles.md): the error parameters' standard
+// uncertainties under which the simulated standard tests of a layout meet a manufacturer's MPE
+// statements with a stated conformance probability p.
+//
+// For a tracker known only to independent parameter uncertainties u_k (estimates at the model's
+// compensation), the error of test t is E_t ~ N(0, sum_k s_tk^2 u_k^2 + u_noise,t^2) (s: the
+// sensitivity of SimulateTests; length and ranging tests). The datasheet holds when
+// P(|E_t| <= MPE_t) >= p, i.e. z^2 (sum_k s_tk^2 v_k + u_noise,t^2) <= MPE_t^2 with v_k = u_k^2 and
+// z = NormalCoverageFactor(p). Two-face tests: E = |Delta|, Delta ~ N(0, C); the constraint is
+// c_t^2 tr C <= MPE^2 with c_t the p-quantile of |Delta| / sqrt(tr C) for C's shape at the
+// solution (ProbabilityWithinSphere), found by re-solving until it holds: the conformance of every
+// test is then at least p exactly, not by a bound. Among all v meeting every test, the solution maximises
+// sum_k log v_k (the entropy of the independent normal prior: the widest prior the statement
+// allows, and the same whatever units the parameters have), with v_k <= (bound u0_k)^2, u0 the
+// model's generic value. At the optimum every binding test's budget is shared among the
+// parameters it sees in proportions set by the KKT multipliers (equally when one test binds).
+// A parameter that takes less than 1 % of every test's budget even at its bound is one the
+// datasheet does not constrain: it keeps its generic u0 (status "not_constrained").
+struct PriorSettings {
+  double conformance_probability = 0.95;  // p: P(|E| <= MPE) per test
+  double bound = 10.0;                     // largest u as a multiple of the generic u0
+};
+struct PriorJob {
+  std::string file, name;
+  std::string instrument;  // the instrument the statement is about (make and model)
+  MeasurementSetup tracker;  // model, noise; parameter estimates = compensation, u = u0
+  TestLayout layout;         // where the standard's tests are simulated
+  TestSettings mpe;          // the datasheet's MPE statements (at least one kind)
+  PriorSettings settings;
+  // Where each number comes from: ("length", "Leica AT500 user manual, 2.8, p. 39: ..."), one
+  // per statement and for the noise; written into the prior file.
+  std::vector<std::pair<std::string, std::string>> sources;
+  std::vector<std::string> warnings;
+};
+enum class PriorStatus { kFromMpe, kAtBound, kNotConstrained, kFixed };
+const char* PriorStatusName(PriorStatus status);  // "from_mpe", "at_bound", "not_constrained", "fixed"
+struct PriorParameter {
+  std::string name, unit, quantity;
+  double estimate = 0.0;  // the compensation (model default) [SI]
+  double u0 = 0.0;        // the generic u (model default or the file's) [SI]
+  double bound = 0.0;     // bound * u0 [SI]
+  double u = 0.0;         // derived [SI]
+  PriorStatus status = PriorStatus::kFixed;
+};
+struct PriorTest {
+  std::string name;
+  TestKind kind = TestKind::kLength;
+  double range_max = 0.0;     // m
+  double mpe = 0.0;           // m
+  double u_noise = 0.0;       // the reading noise's part [m] (two-face: sqrt of the trace)
+  double u_parameters = 0.0;  // the derived priors' part [m] (two-face: sqrt of the trace)
+  double u = 0.0;             // in quadrature [m]
+  double conformance = 0.0;   // P(|E| <= MPE) under the derived priors (exact for the Gaussian)
+  bool binding = false;       // z u reaches MPE (within 1e-6 relative)
+  Eigen::VectorXd share;      // per parameter: its share of u^2 (the noise's is 1 - sum)
+};
+struct PriorResult {
+  std::string model;
+  std::vector<PriorParameter> parameters;  // every model parameter, model order
+  std::vector<PriorTest> tests;            // the tests with an MPE
+  double z = 0.0;                          // NormalCoverageFactor(p)
+  int evaluations = 0;                     // of the optimiser
+};
+// Input of `vlt prior`: a test file ([tracker], [tests] layout and mpe, docs/calibration.md) whose
+// MPEs are the datasheet's, with [prior] (conformance_probability, bound, [prior.source]).
+PriorJob LoadPriorJob(const std::string& path);
+// The derivation above. InputError when the reading noise alone breaks a test's MPE at p, when no
+// MPE is given, or when no parameter can be solved for; NumericalError if the optimiser fails.
+PriorResult DerivePrior(const PriorJob& job);
+// P(|x| <= r) for x ~ N(0, C) in 3-D, C with the eigenvalues `variances` (>= 0): the integral of
+// the chi-square(3) cdf of r^2 / (w^T C w) over the unit sphere (Gauss-Legendre x trapezoid).
+double ProbabilityWithinSphere(const Eigen::Vector3d& variances, double r);
+
+// ---------------------------------------------------------------------------------------------
 // The calibration file (TOML, docs/calibration.md): written by `vlt calibrate`, loaded by a job's
 // `[tracker] calibration = "<file>"`.
 
@@ -317,8 +398,14 @@ std::string CalibrationFitProblem(const CalibrationResult& result);
 // the correlation matrix, the fit statistics.
 std::string CalibrationFileToml(const CalibrationResult& result, const CalibrationProvenance& provenance);
 
+// Inserts the [calibration] content_sha256 line: the SHA-256 of the text without it (the text must
+// contain a "[calibration]" line). Written by vlt calibrate and vlt prior, checked on load.
+std::string SealCalibrationText(std::string text);
 struct LoadedCalibration {
   std::string model;
+  // [calibration] kind: "identified" (vlt calibrate; files without the key) or "prior from MPE"
+  // (vlt prior: uncertainties derived from a datasheet, no data about this instrument).
+  std::string kind = "identified";
   std::string instrument;
   std::string created;
   std::vector<std::string> names;    // parameters, model order
@@ -338,6 +425,11 @@ struct LoadedCalibration {
 };
 // Reads a calibration file; InputError "<file>: <key>: <problem>" when it is not one.
 LoadedCalibration LoadCalibrationFile(const std::string& path);
+// The same from text in memory (a built-in profile's prior); `path` names it in messages.
+LoadedCalibration LoadCalibrationText(const std::string& text, const std::string& path);
+// The built-in instrument profiles' priors (profiles/priors/*.toml, written by vlt prior from
+// profiles/*.toml and compiled in): (name, text of the prior file), sorted by name.
+const std::vector<std::pair<std::string, std::string>>& BuiltInProfiles();
 
 // SHA-256 of a file's bytes, lower-case hex (for provenance). InputError if it cannot be read.
 std::string Sha256File(const std::string& path);
@@ -365,7 +457,12 @@ Files CalibrationFiles(const CalibrationJob& job, const CalibrationResult& resul
 // ratio -> ppm (1e6); anything else keeps its SI unit.
 std::pair<std::string, double> DisplayUnit(const std::string& quantity, const std::string& si_unit);
 
+// prior.toml (a calibration file of kind "prior from MPE": jobs load it as [tracker] calibration),
+// parameters.csv, tests.csv (per test: MPE, u, conformance, binding), shares.csv (each
+// parameter's share of each test's u^2), results.json.
+Files PriorFiles(const PriorJob& job, const PriorResult& result, const CalibrationProvenance& provenance);
 // One-line terminal summaries.
+std::string PriorSummary(const PriorJob& job, const PriorResult& result);
 std::string TestSummary(const TestJob& job, const std::vector<TestResult>& results);
 std::string CalibrationSummary(const CalibrationJob& job, const CalibrationResult& result);
 

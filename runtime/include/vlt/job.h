@@ -170,6 +170,7 @@ struct CalibrationSource {
   std::string sha256;      // of the file's bytes
   std::string instrument;  // [calibration] instrument of the file
   std::string created;     // [calibration] created of the file (ISO 8601 UTC)
+  std::string kind = "identified";  // [calibration] kind: "identified" or "prior from MPE" (vlt prior)
 };
 
 // A file a job was read from, for provenance (results.json "job.input_files", the report header).

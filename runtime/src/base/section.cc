@@ -257,6 +257,8 @@ bool HasControlCharacter(std::string_view text) {
   return false;
 }
 
+}  // namespace
+
 // A one-line text of the record: it is printed in headers and filed, so no control or layout
 // characters (a line break, an escape sequence or a bidirectional override would forge, hide or
 // reorder a line of the report).
@@ -270,6 +272,8 @@ std::string RecordText(Section& s, std::string_view key) {
   }
   return text;
 }
+
+namespace {
 
 void ReadRecord(Section& meta, JobRecord& record) {
   record.customer = RecordText(meta, "customer");

@@ -75,6 +75,10 @@ void ReadUncertain(Section& parent, std::string_view key, Dimension value_dim, D
                    UncertainInput& input);
 UncertainInput MakeInput(std::string name, std::string group, Dimension dim, double estimate, double u);
 
+// A one-line text (a record item, a source's citation): a string without control, line-break or
+// bidirectional-override characters; "" when the key is absent.
+std::string RecordText(Section& s, std::string_view key);
+
 // [job] name, description (optional; the name defaults to `default_name`); base/section.cc.
 // record: the job's administrative items ([job] customer, operator, place, conditions and
 // [job.instrument] make, model, serial; vlt/job_record.h), one-line texts; nullptr: a job kind

@@ -13,6 +13,7 @@
 #include "vlt/calibration.h"
 #include "vlt/error.h"
 #include "vlt/input_file.h"
+#include "vlt/job_record.h"
 #include "vlt/units.h"
 
 namespace vlt {
@@ -65,6 +66,25 @@ Mpe ReadMpe(Section& s, std::string_view key) {
     mpe.set = true;
   }
   return mpe;
+}
+
+// [tests] layout (a path relative to the file) and mpe.
+void ReadLayoutAndMpe(Section& tests, const std::filesystem::path& base_dir, TestLayout& layout,
+                      TestSettings& settings) {
+  const std::string file = AsString(tests.Require("layout"), tests.Where("layout"));
+  const std::filesystem::path layout_path = base_dir / file;
+  if (const std::string problem = InputFileProblem(layout_path.string()); !problem.empty()) {
+    throw InputError(tests.Where("layout") + ": cannot read '" + layout_path.string() + "': " + problem);
+  }
+  layout = LoadTestLayout(layout_path.string());
+  Section mpe = tests.Sub("mpe", false);
+  if (mpe.exists()) {
+    mpe.set_hint("length, ranging, two_face");
+    settings.length = ReadMpe(mpe, "length");
+    settings.ranging = ReadMpe(mpe, "ranging");
+    settings.two_face = ReadMpe(mpe, "two_face");
+    mpe.Finish();
+  }
 }
 
 }  // namespace
@@ -185,20 +205,7 @@ TestJob LoadTestJob(const std::string& path) {
   job.warnings = holder.warnings;
   Section tests = top.Sub("tests", true);
   tests.set_hint("layout, mpe, coverage_probability, simulate");
-  const std::string layout = AsString(tests.Require("layout"), tests.Where("layout"));
-  const std::filesystem::path layout_path = holder.base_dir / layout;
-  if (const std::string problem = InputFileProblem(layout_path.string()); !problem.empty()) {
-    throw InputError(tests.Where("layout") + ": cannot read '" + layout_path.string() + "': " + problem);
-  }
-  job.layout = LoadTestLayout(layout_path.string());
-  Section mpe = tests.Sub("mpe", false);
-  if (mpe.exists()) {
-    mpe.set_hint("length, ranging, two_face");
-    job.settings.length = ReadMpe(mpe, "length");
-    job.settings.ranging = ReadMpe(mpe, "ranging");
-    job.settings.two_face = ReadMpe(mpe, "two_face");
-    mpe.Finish();
-  }
+  ReadLayoutAndMpe(tests, holder.base_dir, job.layout, job.settings);
   ReadCoverageProbability(tests, "coverage_probability", job.settings.coverage_probability);
   Section sim = tests.Sub("simulate", false);
   if (sim.exists()) {
@@ -208,6 +215,71 @@ TestJob LoadTestJob(const std::string& path) {
     sim.Finish();
   }
   tests.Finish();
+  top.Finish();
+  return job;
+}
+
+// A datasheet's statement as a test file (docs/profiles.md): [job] (name, [job.instrument]),
+// [tracker] (model, noise; parameters only as u, the generic values the bound scales), [tests]
+// (layout, mpe), [prior] (conformance_probability, bound, [prior.source]).
+PriorJob LoadPriorJob(const std::string& path) {
+  const std::string text = ReadTextFile(path, "the profile");
+  toml::table root = ParseToml(text, path);
+  Section top(root, path, "");
+  top.set_hint("job, tracker, tests, prior");
+  PriorJob job;
+  job.file = path;
+  JobRecord record;
+  ReadJobMeta(top, job.name, nullptr, std::filesystem::path(path).stem().string(), &record);
+  job.instrument = DescribeInstrument(record.instrument);
+  Job holder;
+  holder.file = path;
+  holder.base_dir = BaseDirectory(path);
+  ReadTracker(top, holder);
+  if (holder.calibration) {
+    throw InputError(path + ": tracker.calibration: a profile derives priors from a datasheet; it loads no calibration");
+  }
+  job.tracker = holder.setup;
+  job.warnings = holder.warnings;
+  const ModelInfo& model = *job.tracker.model;
+  for (int k = 0; k < model.num_params; ++k) {
+    // The prior's mean is the tracker's compensation: a profile states how uncertain the
+    // parameters are, not an error state (that is `vlt test`'s).
+    if (job.tracker.params[k].estimate != model.params[k].default_estimate) {
+      throw InputError(path + ": tracker.parameters." + model.params[k].name +
+                       ": a profile gives only u (e.g. { estimate = \"0 um\", u = \"5 um\" }): the prior's "
+                       "estimate is the model's compensation");
+    }
+  }
+  if (!job.tracker.correlations.empty()) {
+    throw InputError(path + ": correlations: the prior from a datasheet is independent (docs/profiles.md)");
+  }
+  Section tests = top.Sub("tests", true);
+  tests.set_hint("layout, mpe");
+  ReadLayoutAndMpe(tests, holder.base_dir, job.layout, job.mpe);
+  tests.Finish();
+  if (!job.mpe.length.set && !job.mpe.ranging.set && !job.mpe.two_face.set)
+    throw InputError(tests.Where("mpe") + ": a profile needs at least one MPE (length, ranging, two_face)");
+  Section prior = top.Sub("prior", false);
+  if (prior.exists()) {
+    prior.set_hint("conformance_probability, bound, source");
+    ReadCoverageProbability(prior, "conformance_probability", job.settings.conformance_probability);
+    if (const toml::node* n = prior.Get("bound")) {
+      job.settings.bound = AsNumber(*n, prior.Where("bound"));
+      if (!(job.settings.bound >= 1.0 && job.settings.bound <= 1000.0))
+        throw InputError(prior.Where("bound") + ": expected a multiple of the generic u from 1 to 1000");
+    }
+    Section source = prior.Sub("source", false);
+    if (source.exists()) {
+      for (auto&& [key, node] : source.table()) {
+        (void)node;
+        const std::string name(key.str());
+        job.sources.emplace_back(name, RecordText(source, name));
+      }
+      source.Finish();
+    }
+    prior.Finish();
+  }
   top.Finish();
   return job;
 }
@@ -226,10 +298,12 @@ CalibrationJob LoadCalibrationJob(const std::string& path) {
   holder.file = path;
   holder.base_dir = BaseDirectory(path);
   ReadTracker(top, holder);
-  if (holder.calibration) {
+  // A prior from a datasheet (vlt prior) is a prior; an identified calibration is not a start.
+  if (holder.calibration && holder.calibration->kind != "prior from MPE") {
     throw InputError(path +
-                     ": tracker.calibration: a calibration job estimates the parameters; start from priors, "
-                     "not from another calibration file");
+                     ": tracker.calibration: a calibration job estimates the parameters; start from priors "
+                     "(the model's, [tracker.parameters] or a prior file of vlt prior), not from another "
+                     "calibration");
   }
   Section readings = top.Sub("readings", true);
   ReadReadings(readings, holder);

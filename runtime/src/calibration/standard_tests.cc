@@ -136,6 +136,9 @@ std::vector<TestResult> SimulateTests(const MeasurementSetup& tracker, const Tes
         g = eig.eigenvectors().col(2);
       }
       r.u = std::sqrt(g.dot(cov * g));
+      r.u_noise = r.u;
+      r.two_face_noise = cov;
+      r.two_face_sensitivity = d_delta;
       const Eigen::RowVectorXd gp = g.transpose() * d_delta;
       r.u_parameters = std::sqrt(std::max(0.0, (gp * cov_p * gp.transpose())(0, 0)));
       for (int q = 0; q < P; ++q) r.sensitivity(q) = d_delta.col(q).norm();
@@ -159,6 +162,7 @@ std::vector<TestResult> SimulateTests(const MeasurementSetup& tracker, const Tes
       const double var =
           (ga * sa.reading_cov * ga.transpose())(0, 0) + (gb * sb.reading_cov * gb.transpose())(0, 0);
       r.u = std::sqrt(var + u_ref * u_ref);
+      r.u_noise = std::sqrt(var);
       r.sensitivity = (unit.transpose() * (sb.d_y_d_params - sa.d_y_d_params)).transpose();
       r.u_parameters = std::sqrt(std::max(0.0, r.sensitivity.dot(cov_p * r.sensitivity)));
       mpe = test.kind == TestKind::kLength ? &settings.length : &settings.ranging;

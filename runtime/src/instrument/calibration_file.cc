@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include <Eigen/Eigenvalues>
@@ -100,9 +101,12 @@ std::string CalibrationFileToml(const CalibrationResult& result, const Calibrati
     os << "],\n";
   }
   os << "]\n";
-  // The file's own checksum, over its text without the line that carries it (LoadCalibrationFile):
-  // a job can tell a file vlt wrote from one edited since.
-  std::string text = os.str();
+  return SealCalibrationText(os.str());
+}
+
+// The file's own checksum, over its text without the line that carries it (LoadCalibrationFile):
+// a job can tell a file vlt wrote from one edited since.
+std::string SealCalibrationText(std::string text) {
   const std::string header = "[calibration]\n";
   text.insert(text.find(header) + header.size(),
               std::string(kContentKey) + " = \"" + Sha256Bytes(text) + "\"\n");
@@ -134,7 +138,10 @@ void CheckContent(const toml::table& root, const std::string& text, const std::s
 }  // namespace
 
 LoadedCalibration LoadCalibrationFile(const std::string& path) {
-  const std::string file_text = base_internal::ReadTextFile(path, "the calibration file");
+  return LoadCalibrationText(base_internal::ReadTextFile(path, "the calibration file"), path);
+}
+
+LoadedCalibration LoadCalibrationText(const std::string& file_text, const std::string& path) {
   const toml::table root = base_internal::ParseToml(file_text, path);
   LoadedCalibration c;
   CheckContent(root, file_text, path, c);
@@ -148,6 +155,11 @@ LoadedCalibration LoadCalibrationFile(const std::string& path) {
   c.model = text(*meta, "model", path + ": calibration");
   if (auto v = (*meta)["instrument"].value<std::string>()) c.instrument = *v;
   if (auto v = (*meta)["created"].value<std::string>()) c.created = *v;
+  if (const toml::node* kind = meta->get("kind")) {
+    c.kind = kind->value<std::string>().value_or("");
+    if (c.kind != "identified" && c.kind != "prior from MPE")
+      throw InputError(path + ": calibration.kind: expected \"identified\" or \"prior from MPE\"");
+  }
   if (const toml::node* fits = meta->get("fits")) {
     if (!fits->is_boolean()) throw InputError(path + ": calibration.fits: expected true or false");
     c.fits = fits->value<bool>().value_or(true);
@@ -174,8 +186,12 @@ LoadedCalibration LoadCalibrationFile(const std::string& path) {
     c.estimates.push_back(*estimate);
     c.u.push_back(*u);
     const std::string status = (*t)["status"].value<std::string>().value_or("");
-    if (status != "identified" && status != "partly" && status != "held" && status != "fixed") {
-      throw InputError(where + ".status: expected identified, partly, held or fixed");
+    // vlt calibrate's words, and vlt prior's for a prior from a datasheet (PriorStatusName).
+    static const std::set<std::string> kStatuses = {"identified", "partly",   "held",           "fixed",
+                                                    "from_mpe",   "at_bound", "not_constrained"};
+    if (!kStatuses.count(status)) {
+      throw InputError(where + ".status: expected identified, partly, held, fixed (a calibration) or from_mpe, "
+                               "at_bound, not_constrained (a prior from a datasheet)");
     }
     c.status.push_back(status);
   }

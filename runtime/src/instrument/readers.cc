@@ -167,18 +167,44 @@ void TrackerReader::SetDefaultParameters() {
 // [tracker] calibration = "<file>": estimates, u and correlation from `vlt calibrate`.
 // `vlt run --calibration FILE` replaces the key (FILE as given on the command line, relative to the
 // working directory): the calibration just identified, without editing the job.
+// [tracker] profile = "<name>": the prior of a built-in instrument profile (docs/profiles.md), read
+// as a calibration file; `--calibration` replaces it as it replaces `calibration`.
 void TrackerReader::ReadCalibrationFile() {
   const toml::node* n = tracker.Get("calibration");
-  if (!n && calibration_override == nullptr) return;
+  const toml::node* profile = tracker.Get("profile");
+  if (n && profile) {
+    throw InputError(tracker.Where("profile") +
+                     ": a job takes its parameters from a calibration or from a profile, not both");
+  }
+  if (!n && !profile && calibration_override == nullptr) return;
   MeasurementSetup& setup = job.setup;
-  const std::string where =
-      calibration_override ? std::string("--calibration") : tracker.Where("calibration");
-  const std::filesystem::path path = calibration_override ? std::filesystem::path(*calibration_override)
-                                                          : job.base_dir / AsString(*n, where);
-  if (const std::string problem = InputFileProblem(path.string()); !problem.empty())
-    throw InputError(where + ": cannot read '" + path.string() + "': " + problem);
-  LoadedCalibration c = LoadCalibrationFile(path.string());
-  calibration_path = path.string();
+  LoadedCalibration c;
+  std::string where, sha256;
+  if (profile && calibration_override == nullptr) {
+    where = tracker.Where("profile");
+    const std::string name = AsString(*profile, where);
+    const std::string* text = nullptr;
+    std::string names;
+    for (const auto& [known, prior] : BuiltInProfiles()) {
+      if (known == name) text = &prior;
+      names += (names.empty() ? "" : ", ") + known;
+    }
+    if (text == nullptr)
+      throw InputError(where + ": unknown profile '" + name + "' (built in: " + names +
+                       "; a profile of your own: vlt prior, then [tracker] calibration)");
+    calibration_path = "profile '" + name + "' (built in)";
+    c = LoadCalibrationText(*text, calibration_path);
+    sha256 = Sha256Bytes(*text);
+  } else {
+    where = calibration_override ? std::string("--calibration") : tracker.Where("calibration");
+    const std::filesystem::path path = calibration_override ? std::filesystem::path(*calibration_override)
+                                                            : job.base_dir / AsString(*n, where);
+    if (const std::string problem = InputFileProblem(path.string()); !problem.empty())
+      throw InputError(where + ": cannot read '" + path.string() + "': " + problem);
+    c = LoadCalibrationFile(path.string());
+    calibration_path = path.string();
+    sha256 = Sha256File(calibration_path);
+  }
   if (c.edited) {
     job.warnings.push_back(
         calibration_path +
@@ -186,7 +212,7 @@ void TrackerReader::ReadCalibrationFile() {
         "longer matches the checksum vlt recorded): its values may not be the calibration's");
   }
   if (!c.fits) {
-    job.warnings.push_back(where + ": '" + path.string() + "' is a calibration that does not fit its data (" +
+    job.warnings.push_back(where + ": '" + calibration_path + "' is a calibration that does not fit its data (" +
                            (c.fit_problem.empty() ? std::string("fits = false") : c.fit_problem) +
                            "): its uncertainties understate the tracker's errors");
   }
@@ -216,7 +242,7 @@ void TrackerReader::ReadCalibrationFile() {
   if (!c.names.empty()) {
     setup.correlations.push_back({"calibration", c.names, c.correlation, where, where});
   }
-  job.calibration = CalibrationSource{path.string(), Sha256File(path.string()), c.instrument, c.created};
+  job.calibration = CalibrationSource{calibration_path, sha256, c.instrument, c.created, c.kind};
   job.input_files.push_back({"calibration", job.calibration->file, job.calibration->sha256});
 }
 
@@ -338,7 +364,7 @@ void WarnImplausibleNoise(const Section& noise, const ReadingNoise& reading_nois
 
 void ReadTracker(Section& top, Job& job, const std::string* calibration) {
   Section tracker = top.Sub("tracker", true);
-  tracker.set_hint("model, ranging, calibration, parameters, correlations, noise");
+  tracker.set_hint("model, ranging, calibration, profile, parameters, correlations, noise");
   TrackerReader reader(tracker, job);
   reader.calibration_override = calibration;
   reader.FindTrackerModel();

@@ -464,7 +464,8 @@ json JobJson(const Results& r) {
     job["calibration"] = {{"file", r.calibration->file},
                           {"sha256", r.calibration->sha256},
                           {"instrument", r.calibration->instrument},
-                          {"created", r.calibration->created}};
+                          {"created", r.calibration->created},
+                          {"kind", r.calibration->kind}};
   }
   return job;
 }

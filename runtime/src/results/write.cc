@@ -61,8 +61,15 @@ void RunHeaderLines(const Results& r, std::ostringstream& out) {
       << (r.tasks.size() == 1 ? " task\n" : " tasks\n");
   out << output_internal::RecordLine(r.record);
   if (r.calibration) {
-    out << "Tracker parameters from the calibration file " << r.calibration->file << " (instrument '"
-        << r.calibration->instrument << "', calibrated " << r.calibration->created << ")\n";
+    if (r.calibration->kind == "identified") {
+      out << "Tracker parameters from the calibration file " << r.calibration->file << " (instrument '"
+          << r.calibration->instrument << "', calibrated " << r.calibration->created << ")\n";
+    } else {
+      // A prior from a datasheet (vlt prior) is no calibration of this instrument: say which it is.
+      out << "Tracker parameters: a prior from the datasheet's MPE (" << r.calibration->file << ", '"
+          << r.calibration->instrument << "', derived " << r.calibration->created
+          << "; not a calibration of this instrument)\n";
+    }
   }
   std::snprintf(line, sizeof line,
                 "Coverage probability %.4g: U = k u per axis with k = %.3f; |U| = sqrt(Ux^2+Uy^2+Uz^2); "
