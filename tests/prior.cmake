@@ -75,3 +75,11 @@ function(vlt_profile_error name regex)
 endfunction()
 vlt_profile_error(unknown_profile "unknown_profile\\.toml: tracker\\.profile: unknown profile 'nope' [(]built in: faro-vantage, leica-at500, mirror-15um-6um")
 vlt_profile_error(profile_and_calibration "profile_and_calibration\\.toml: tracker\\.profile: a job takes its parameters from a calibration or from a profile, not both")
+
+# Report safety (issue 32): hostile test names, profile name, instrument and sources are shown
+# literally (escaped in the tables and the plot data) and in the browser nothing of them runs.
+vlt_hostile_report(prior report.html "prior.toml;tests.csv;shares.csv;report.html"
+                   "report.html:&lt;/script&gt;&lt;script&gt;window[.]vltErrors[.]push[(]'source ran'[)]" 1
+                   prior ${_prior}/hostile_profile.toml)
+vlt_prior_error(source_bad_key "source_bad_key\\.toml: prior\\.source: a key of letters, digits")
+vlt_prior_error(zero_mpe "zero_mpe\\.toml: tests\\.mpe\\.ranging: an MPE of zero: no instrument meets it")

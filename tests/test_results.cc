@@ -194,6 +194,34 @@ TEST(Results, ScriptSafeJsonCannotEndItsScriptElement) {
   EXPECT_EQ(nlohmann::json::parse(safe).get<std::string>(), hostile);
 }
 
+// The report's name in the print design's page-margin box is a CSS string (CSS 2.1 4.1.3): decoded
+// by the rules of CSS it is the name again, and it holds no '<' (no "</style>"), no quote but its
+// delimiters and no line break.
+TEST(Results, CssStringDecodesToTheNameAndCannotEndItsStyle) {
+  const std::string hostile = "vlt \"a\" \\ </style><script>x()</script>\n\u202e µm";
+  const std::string css = base_internal::CssString(hostile);
+  ASSERT_GE(css.size(), 2u);
+  ASSERT_EQ(css.front(), '"');
+  ASSERT_EQ(css.back(), '"');
+  const std::string inner = css.substr(1, css.size() - 2);
+  EXPECT_EQ(inner.find('<'), std::string::npos);
+  EXPECT_EQ(inner.find('"'), std::string::npos);
+  EXPECT_EQ(inner.find('\n'), std::string::npos);
+  std::string decoded;
+  for (std::size_t i = 0; i < inner.size(); ++i) {
+    if (inner[i] != '\\') {
+      decoded += inner[i];
+      continue;
+    }
+    std::size_t j = i + 1;
+    while (j < inner.size() && j < i + 7 && std::isxdigit(static_cast<unsigned char>(inner[j]))) ++j;
+    ASSERT_GT(j, i + 1) << "a non-hex escape";
+    decoded += static_cast<char>(std::stoul(inner.substr(i + 1, j - i - 1), nullptr, 16));
+    i = (j < inner.size() && inner[j] == ' ') ? j : j - 1;  // one space ends a hex escape
+  }
+  EXPECT_EQ(decoded, hostile);
+}
+
 TEST(Results, ModifiedEdlenNamedInInputsAir) {
   // equation = "modified_edlen" (NIST's modified Edlén, vlt/refractive_index.h) reaches
   // results.json: inputs.environment_equation and inputs.air, whose n_phase is that equation's.

@@ -23,7 +23,7 @@ void AddPriorCommand(CLI::App& app, GlobalOptions& global) {
   command->footer(
       "Exit status: 0 success, 2 bad input or a statement no prior can meet (one line on stderr; no output\n"
       "file is written). Outputs: prior.toml (load it: vlt run JOB.toml --calibration prior.toml),\n"
-      "parameters.csv, tests.csv, shares.csv, results.json.");
+      "parameters.csv, tests.csv, shares.csv, results.json, report.html.");
   command->callback([file, output_arg, &global] {
     const PriorJob job = LoadPriorJob(*file);
     EmitWarnings(job.warnings, global);

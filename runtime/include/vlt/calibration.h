@@ -319,10 +319,12 @@ CalibrationJob LoadCalibrationJob(const std::string& path);
 // test is then at least p exactly, not by a bound. Among all v meeting every test, the solution maximises
 // sum_k log v_k (the entropy of the independent normal prior: the widest prior the statement
 // allows, and the same whatever units the parameters have), with v_k <= (bound u0_k)^2, u0 the
-// model's generic value. At the optimum every binding test's budget is shared among the
-// parameters it sees in proportions set by the KKT multipliers (equally when one test binds).
-// A parameter that takes less than 1 % of every test's budget even at its bound is one the
-// datasheet does not constrain: it keeps its generic u0 (status "not_constrained").
+// model's generic value; a two-face test's factor c_t is held at its value at the solution (the
+// maximum of the trace-form problem, not of P(|Delta| <= MPE) >= p itself). At the optimum every
+// binding test's budget is shared among the parameters it sees in proportions set by the KKT
+// multipliers (equally when one test binds). A parameter that would take less than 1e-6 of every
+// test's budget even at its bound is one the datasheet does not constrain: it keeps its generic u0
+// (status "not_constrained").
 struct PriorSettings {
   double conformance_probability = 0.95;  // p: P(|E| <= MPE) per test
   double bound = 10.0;                     // largest u as a multiple of the generic u0
@@ -459,7 +461,8 @@ std::pair<std::string, double> DisplayUnit(const std::string& quantity, const st
 
 // prior.toml (a calibration file of kind "prior from MPE": jobs load it as [tracker] calibration),
 // parameters.csv, tests.csv (per test: MPE, u, conformance, binding), shares.csv (each
-// parameter's share of each test's u^2), results.json.
+// parameter's share of each test's u^2), results.json, report.html (sources, parameters, tests,
+// the shares as a heat map).
 Files PriorFiles(const PriorJob& job, const PriorResult& result, const CalibrationProvenance& provenance);
 // One-line terminal summaries.
 std::string PriorSummary(const PriorJob& job, const PriorResult& result);

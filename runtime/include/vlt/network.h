@@ -24,6 +24,7 @@
 
 #include "vlt/calibration.h"
 #include "vlt/conformity.h"
+#include "vlt/job.h"
 #include "vlt/job_record.h"
 #include "vlt/measurement_model.h"
 #include "vlt/tasks.h"
@@ -384,7 +385,9 @@ struct NetworkJob {
   bool offline = false;                                          // stations `sees` targets of [targets]
   std::vector<std::pair<std::string, Eigen::Vector3d>> nominal;  // offline: [targets], part frame
   std::vector<TaskSpec> tasks;                                   // [[task]] over target names (as in a job)
-  std::vector<std::pair<std::string, std::string>> input_files;  // (role, path): the file, CSVs
+  // The network file, its CSVs, calibration files (role, path; sha256 when known at reading: a
+  // built-in profile's, whose path names no file)
+  std::vector<InputFile> input_files;
   std::vector<std::string> warnings;
   std::string output_directory;                  // [output] directory, "" = default
   std::optional<NetworkLengthTest> length_test;  // [network.length_test] (N-13)

@@ -2,12 +2,14 @@
 #include "base/format.h"
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <string_view>
 #include <system_error>
 
 #include "vlt/results.h"
@@ -250,6 +252,22 @@ std::string ScriptSafe(const std::string& text) {
     }
   }
   return safe;
+}
+
+std::string CssString(const std::string& text) {
+  std::string css = "\"";
+  for (const char c : text) {
+    const auto u = static_cast<unsigned char>(c);
+    const bool plain = u >= 0x80 || std::isalnum(u) || std::string_view(" -_.,:()/+").find(c) != std::string_view::npos;
+    if (plain) {
+      css += c;
+    } else {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "\\%x ", u);  // CSS 2.1 4.1.3: a hex escape ends at the space
+      css += hex;
+    }
+  }
+  return css + "\"";
 }
 
 }  // namespace vlt::base_internal

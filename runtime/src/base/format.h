@@ -68,6 +68,10 @@ std::string HtmlEscape(const std::string& text);
 // that no text inside a string ("</script>", "<!--") can close or change the element; the parsed
 // values are the same. The one escaping layer of every report's scripts.
 std::string ScriptSafe(const std::string& text);
+// A CSS string literal ("..."): backslash and quote escaped, every ASCII character that is not a
+// letter, digit, space or one of - _ . , : ( ) / + written as a hex escape (so that no '<' can end
+// the <style> element and no line break the string); other UTF-8 bytes kept.
+std::string CssString(const std::string& text);
 
 }  // namespace base_internal
 }  // namespace vlt

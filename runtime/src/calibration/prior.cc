@@ -114,16 +114,35 @@ Eigen::Vector3d Eigenvalues(const Eigen::Matrix3d& c) {
   return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(c, Eigen::EigenvaluesOnly).eigenvalues().cwiseMax(0.0);
 }
 
-// The p-quantile of |Delta| / sqrt(tr C) for Delta ~ N(0, C) (bisection on ProbabilityWithinSphere).
-double TwoFaceFactor(const Eigen::Matrix3d& c, double p) {
+// The p-quantile of |Delta| / sqrt(tr C) for Delta ~ N(0, C): the root of P(f sqrt(tr C)) - p,
+// bracketed around `hint` (the factor of the previous round) and found by the Illinois variant of
+// regula falsi (superlinear on this smooth, increasing function; the bracket keeps it safe) to
+// 1e-13 relative.
+double TwoFaceFactor(const Eigen::Matrix3d& c, double p, double hint) {
   const Eigen::Vector3d lambda = Eigenvalues(c);
   const double trace = lambda.sum();
   if (!(trace > 0.0)) return NormalCoverageFactor(p);
-  double lo = 0.0, hi = 5.0;
-  while (ProbabilityWithinSphere(lambda, hi * std::sqrt(trace)) < p && hi < 1e3) hi *= 2.0;
-  for (int it = 0; it < 48; ++it) {
-    const double mid = 0.5 * (lo + hi);
-    (ProbabilityWithinSphere(lambda, mid * std::sqrt(trace)) < p ? lo : hi) = mid;
+  auto g = [&](double f) { return ProbabilityWithinSphere(lambda, f * std::sqrt(trace)) - p; };
+  double lo = 0.98 * hint, hi = 1.02 * hint;
+  double glo = g(lo), ghi = g(hi);
+  while (glo >= 0.0 && lo > 1e-6) glo = g(lo *= 0.5);
+  while (ghi < 0.0 && hi < 1e3) ghi = g(hi *= 2.0);
+  int side = 0;
+  for (int it = 0; it < 200 && hi - lo > 1e-13 * hi; ++it) {
+    const double f = (lo * ghi - hi * glo) / (ghi - glo);
+    const double gf = g(f);
+    if (gf < 0.0) {
+      lo = f;
+      glo = gf;
+      if (side == -1) ghi *= 0.5;  // Illinois: halve the stale end's value
+      side = -1;
+    } else {
+      hi = f;
+      ghi = gf;
+      if (side == 1) glo *= 0.5;
+      side = 1;
+    }
+    if (gf == 0.0) return f;
   }
   return hi;
 }
@@ -136,7 +155,11 @@ struct SolveOutcome {
   int evaluations = 0;
 };
 
-SolveOutcome MaximiseEntropy(const Eigen::MatrixXd& a, const Eigen::VectorXd& budget, const Eigen::VectorXd& bound2) {
+// y = log(v / bound^2) >= kLowest: u down to e^-100 (1e-44) of its bound, far below any datasheet.
+constexpr double kLowest = -200.0;
+
+SolveOutcome MaximiseEntropy(const Eigen::MatrixXd& a, const Eigen::VectorXd& budget, const Eigen::VectorXd& bound2,
+                             const std::string& where) {
   const int n = static_cast<int>(bound2.size());
   // Scaled coefficients: constraint t is sum_k b_tk e^{y_k} <= 1.
   Eigen::MatrixXd b(a.rows(), n);
@@ -145,7 +168,7 @@ SolveOutcome MaximiseEntropy(const Eigen::MatrixXd& a, const Eigen::VectorXd& bu
   std::vector<double> y(n);
   for (int k = 0; k < n; ++k) {
     const double largest = b.col(k).maxCoeff();
-    y[k] = largest > 0.0 ? std::min(0.0, std::log(1.0 / (2.0 * n * largest))) : 0.0;
+    y[k] = largest > 0.0 ? std::clamp(std::log(1.0 / (2.0 * n * largest)), kLowest, 0.0) : 0.0;
   }
   nlopt::opt opt(nlopt::LD_SLSQP, static_cast<unsigned>(n));
   int evaluations = 0;
@@ -176,7 +199,7 @@ SolveOutcome MaximiseEntropy(const Eigen::MatrixXd& a, const Eigen::VectorXd& bu
     return s - 1.0;
   };
   for (Row& row : rows) opt.add_inequality_constraint(constraint, &row, 1e-13);
-  opt.set_lower_bounds(std::vector<double>(n, -80.0));
+  opt.set_lower_bounds(std::vector<double>(n, kLowest));
   opt.set_upper_bounds(std::vector<double>(n, 0.0));
   opt.set_xtol_abs(1e-11);
   opt.set_ftol_abs(1e-13);
@@ -187,7 +210,7 @@ SolveOutcome MaximiseEntropy(const Eigen::MatrixXd& a, const Eigen::VectorXd& bu
   } catch (const nlopt::roundoff_limited&) {
     // SLSQP at the limit of double precision: y is the best point found (checked below).
   } catch (const std::exception& e) {
-    throw NumericalError(std::string("the prior's optimiser (NLopt SLSQP) failed: ") + e.what());
+    throw NumericalError(where + ": the prior's optimiser (NLopt SLSQP) failed: " + e.what());
   }
   // Exactly feasible: scale every variance down by the largest excess (at most a rounding).
   double worst = 0.0;
@@ -204,8 +227,11 @@ SolveOutcome MaximiseEntropy(const Eigen::MatrixXd& a, const Eigen::VectorXd& bu
   return out;
 }
 
-// The constraints of the tests with an MPE, from the tests simulated at the compensation.
+// The constraints of the tests with an MPE, from the tests simulated at the compensation. A
+// two-face test starts with the factor of its noise's shape, so that "the noise alone breaks the
+// statement" is decided exactly.
 std::vector<Constraint> MpeConstraints(const std::vector<TestResult>& simulated, const PriorJob& job, double z) {
+  const double p = job.settings.conformance_probability;
   std::vector<Constraint> out;
   for (std::size_t i = 0; i < simulated.size(); ++i) {
     const TestResult& t = simulated[i];
@@ -217,15 +243,16 @@ std::vector<Constraint> MpeConstraints(const std::vector<TestResult>& simulated,
     if (t.kind == TestKind::kTwoFace) {
       c.a = t.two_face_sensitivity.colwise().squaredNorm().transpose();
       c.noise = t.two_face_noise.trace();
+      c.c = TwoFaceFactor(t.two_face_noise, p, z);
     } else {
       c.a = t.sensitivity.cwiseAbs2();
       c.noise = t.u_noise * t.u_noise;
     }
     if (c.c * c.c * c.noise >= c.mpe * c.mpe) {
       throw InputError(job.file + ": tests.mpe." + TestKindName(t.kind) + ": test '" + t.name +
-                       "': the reading noise alone (" + FormatQuantity(c.c * std::sqrt(c.noise), Dimension::kLength, "um", 3) +
-                       " at p = " + base_internal::Sig(job.settings.conformance_probability, 4) + ") exceeds its MPE (" +
-                       FormatQuantity(c.mpe, Dimension::kLength, "um", 3) +
+                       "': the reading noise alone (" +
+                       FormatQuantity(c.c * std::sqrt(c.noise), Dimension::kLength, "um", 3) + " at p = " +
+                       base_internal::Sig(p, 6) + ") exceeds its MPE (" + FormatQuantity(c.mpe, Dimension::kLength, "um", 3) +
                        "): no prior can meet the statement; check [tracker.noise] against the datasheet");
     }
     out.push_back(std::move(c));
@@ -234,25 +261,16 @@ std::vector<Constraint> MpeConstraints(const std::vector<TestResult>& simulated,
   return out;
 }
 
-}  // namespace
+// A parameter is one the statements do not constrain when, even at its bound, it would take less
+// than this share of every test's budget: no statement can then tell its size (docs/profiles.md).
+constexpr double kUnconstrainedShare = 1e-6;
 
-PriorResult DerivePrior(const PriorJob& job) {
+// Every parameter with its generic u, bound and status: fixed (u0 = 0), not constrained, or free
+// (from_mpe until the solve says at_bound).
+std::vector<PriorParameter> ClassifyParameters(const PriorJob& job, const std::vector<Constraint>& constraints) {
   const ModelInfo& model = *job.tracker.model;
-  const int P = model.num_params;
-  const double p = job.settings.conformance_probability;
-  const double z = NormalCoverageFactor(p);
-  // 1. The tests at the compensation (the prior's mean): sensitivities and the noise's part.
-  TestSettings settings = job.mpe;
-  settings.coverage_probability = p;
-  const std::vector<TestResult> simulated = SimulateTests(job.tracker, job.layout, settings);
-  std::vector<Constraint> constraints = MpeConstraints(simulated, job, z);
-  // 2. Each parameter: fixed (u0 = 0), not constrained (under 1 % of every budget at its bound),
-  //    or free.
-  PriorResult result;
-  result.model = model.name;
-  result.z = z;
-  std::vector<int> free;
-  for (int k = 0; k < P; ++k) {
+  std::vector<PriorParameter> out;
+  for (int k = 0; k < model.num_params; ++k) {
     PriorParameter q;
     q.name = model.params[k].name;
     q.unit = model.params[k].unit;
@@ -264,51 +282,116 @@ PriorResult DerivePrior(const PriorJob& job) {
     q.status = PriorStatus::kFixed;
     if (q.u0 > 0.0) {
       double largest_share = 0.0;
-      for (const Constraint& c : constraints)
-        largest_share = std::max(largest_share, c.a(k) * q.bound * q.bound / (c.mpe * c.mpe / (c.c * c.c) - c.noise));
-      q.status = largest_share < 0.01 ? PriorStatus::kNotConstrained : PriorStatus::kFromMpe;
-      if (q.status == PriorStatus::kFromMpe) free.push_back(k);
+      for (const Constraint& c : constraints) {
+        const double budget = c.mpe * c.mpe / (c.c * c.c) - c.noise;
+        largest_share = std::max(largest_share, c.a(k) * q.bound * q.bound / budget);
+      }
+      q.status = largest_share < kUnconstrainedShare ? PriorStatus::kNotConstrained : PriorStatus::kFromMpe;
     }
-    result.parameters.push_back(q);
+    out.push_back(q);
   }
-  if (free.empty()) throw InputError(job.file + ": tests.mpe: the layout's tests see none of the parameters");
-  // 3. Solve; a two-face test's factor follows its covariance's shape until it no longer moves.
+  return out;
+}
+
+// The variances of the free parameters for fixed factors c_t (the linear constraints), the others
+// at u0^2 (not constrained) or 0 (fixed).
+Eigen::VectorXd SolveForFactors(const PriorJob& job, const std::vector<TestResult>& simulated,
+                                const std::vector<Constraint>& constraints, const std::vector<PriorParameter>& params,
+                                int& evaluations) {
+  const int P = static_cast<int>(params.size());
   Eigen::VectorXd v = Eigen::VectorXd::Zero(P);
-  for (int k = 0; k < P; ++k)
-    if (result.parameters[k].status == PriorStatus::kNotConstrained) v(k) = std::pow(result.parameters[k].u0, 2);
-  Eigen::VectorXd bound2(static_cast<Eigen::Index>(free.size()));
-  for (std::size_t i = 0; i < free.size(); ++i) bound2(i) = std::pow(result.parameters[free[i]].bound, 2);
-  for (int round = 0;; ++round) {
-    Eigen::MatrixXd a(constraints.size(), free.size());
-    Eigen::VectorXd budget(constraints.size());
-    for (std::size_t t = 0; t < constraints.size(); ++t) {
-      const Constraint& c = constraints[t];
-      double held = c.noise;  // the noise and the parameters kept at u0 use part of the budget
-      for (int k = 0; k < P; ++k)
-        if (result.parameters[k].status == PriorStatus::kNotConstrained) held += c.a(k) * v(k);
-      budget(t) = c.mpe * c.mpe / (c.c * c.c) - held;
-      if (!(budget(t) > 0.0))
-        throw InputError(job.file + ": test '" + simulated[c.test].name +
-                         "': the noise and the parameters the datasheet does not constrain use its whole MPE");
-      for (std::size_t i = 0; i < free.size(); ++i) a(t, i) = c.a(free[i]);
+  std::vector<int> free;
+  for (int k = 0; k < P; ++k) {
+    if (params[k].status == PriorStatus::kNotConstrained) v(k) = params[k].u0 * params[k].u0;
+    if (params[k].status == PriorStatus::kFromMpe) free.push_back(k);
+  }
+  if (free.empty()) return v;
+  Eigen::MatrixXd a(constraints.size(), free.size());
+  Eigen::VectorXd budget(constraints.size()), bound2(free.size());
+  for (std::size_t i = 0; i < free.size(); ++i) bound2(i) = params[free[i]].bound * params[free[i]].bound;
+  for (std::size_t t = 0; t < constraints.size(); ++t) {
+    const Constraint& c = constraints[t];
+    budget(t) = c.mpe * c.mpe / (c.c * c.c) - c.noise - c.a.dot(v);  // v: the parameters kept at u0
+    if (!(budget(t) > 0.0)) {
+      const TestResult& r = simulated[c.test];
+      throw InputError(job.file + ": tests.mpe." + TestKindName(r.kind) + ": test '" + r.name +
+                       "': the reading noise and the parameters the statements do not constrain use its whole MPE");
     }
-    const SolveOutcome solved = MaximiseEntropy(a, budget, bound2);
-    result.evaluations += solved.evaluations;
-    for (std::size_t i = 0; i < free.size(); ++i) v(free[i]) = solved.v(i);
+    for (std::size_t i = 0; i < free.size(); ++i) a(t, i) = c.a(free[i]);
+  }
+  const SolveOutcome solved = MaximiseEntropy(a, budget, bound2, job.file + ": tests.mpe");
+  evaluations += solved.evaluations;
+  for (std::size_t i = 0; i < free.size(); ++i) v(free[i]) = solved.v(i);
+  return v;
+}
+
+double Conformance(const TestResult& t, const Constraint& c, const Eigen::VectorXd& v) {
+  if (t.kind == TestKind::kTwoFace) return ProbabilityWithinSphere(Eigenvalues(TwoFaceCovariance(t, v)), c.mpe);
+  const double u = std::sqrt(c.noise + c.a.dot(v));
+  return u > 0.0 ? std::erf(c.mpe / (u * std::sqrt(2.0))) : 1.0;
+}
+
+// The fixed point of the two-face factors: solve with the factors, recompute each from its test's
+// covariance at the solution, until no factor moves by 1e-9 (relative). Then, should rounding leave
+// a test a hair below p, the free variances are scaled down (bisection) until every test meets it.
+Eigen::VectorXd SolveWithTwoFaceFactors(const PriorJob& job, const std::vector<TestResult>& simulated,
+                                        std::vector<Constraint>& constraints,
+                                        const std::vector<PriorParameter>& params, int& evaluations) {
+  const double p = job.settings.conformance_probability;
+  Eigen::VectorXd v;
+  for (int round = 0;; ++round) {
+    v = SolveForFactors(job, simulated, constraints, params, evaluations);
     double moved = 0.0;
     for (Constraint& c : constraints) {
       if (simulated[c.test].kind != TestKind::kTwoFace) continue;
-      const double factor = TwoFaceFactor(TwoFaceCovariance(simulated[c.test], v), p);
+      const double factor = TwoFaceFactor(TwoFaceCovariance(simulated[c.test], v), p, c.c);
       moved = std::max(moved, std::abs(factor - c.c) / c.c);
       c.c = factor;
     }
-    if (moved < 1e-12) break;
-    if (round == 30) throw NumericalError(job.file + ": the two-face tests' factors did not settle in 30 rounds");
+    if (moved < 1e-9) break;
+    if (round == 200)
+      throw NumericalError(job.file + ": tests.mpe.two_face: the two-face factors did not settle in 200 rounds");
   }
-  // 4. The parameters' u and status, the tests' budgets and conformance.
-  for (int k : free) {
+  auto meets = [&](const Eigen::VectorXd& w) {
+    for (const Constraint& c : constraints)
+      if (Conformance(simulated[c.test], c, w) < p) return false;
+    return true;
+  };
+  if (meets(v)) return v;
+  Eigen::VectorXd free = Eigen::VectorXd::Zero(v.size());
+  for (Eigen::Index k = 0; k < v.size(); ++k)
+    if (params[k].status == PriorStatus::kFromMpe) free(k) = 1.0;
+  auto scaled = [&](double s) { return Eigen::VectorXd(v.cwiseProduct(Eigen::VectorXd::Ones(v.size()) - (1.0 - s) * free)); };
+  double lo = 0.5, hi = 1.0;  // meets at lo, not at hi
+  if (!meets(scaled(lo))) throw NumericalError(job.file + ": tests.mpe: the prior could not be brought within every MPE");
+  for (int it = 0; it < 60 && hi - lo > 1e-15; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (meets(scaled(mid)) ? lo : hi) = mid;
+  }
+  return scaled(lo);
+}
+
+}  // namespace
+
+PriorResult DerivePrior(const PriorJob& job) {
+  const double p = job.settings.conformance_probability;
+  PriorResult result;
+  result.model = job.tracker.model->name;
+  result.z = NormalCoverageFactor(p);
+  // 1. The tests at the compensation (the prior's mean): sensitivities and the noise's part.
+  TestSettings settings = job.mpe;
+  settings.coverage_probability = p;
+  const std::vector<TestResult> simulated = SimulateTests(job.tracker, job.layout, settings);
+  std::vector<Constraint> constraints = MpeConstraints(simulated, job, result.z);
+  // 2. Which parameters the statements can size.
+  result.parameters = ClassifyParameters(job, constraints);
+  // 3. The maximum-entropy variances, the two-face factors at their fixed point.
+  const Eigen::VectorXd v = SolveWithTwoFaceFactors(job, simulated, constraints, result.parameters, result.evaluations);
+  // 4. The parameters' u and status, the tests' budgets, shares and conformance.
+  for (std::size_t k = 0; k < result.parameters.size(); ++k) {
     PriorParameter& q = result.parameters[k];
-    q.u = std::sqrt(v(k));
+    if (q.status != PriorStatus::kFromMpe) continue;
+    q.u = std::sqrt(v(static_cast<Eigen::Index>(k)));
     if (q.u >= q.bound * (1.0 - 1e-6)) q.status = PriorStatus::kAtBound;
   }
   for (const Constraint& c : constraints) {
@@ -322,10 +405,9 @@ PriorResult DerivePrior(const PriorJob& job) {
     const double params = c.a.dot(v);
     r.u_parameters = std::sqrt(params);
     r.u = std::sqrt(c.noise + params);
-    r.share = c.a.cwiseProduct(v) / (c.noise + params);
-    r.conformance = t.kind == TestKind::kTwoFace
-                        ? ProbabilityWithinSphere(Eigenvalues(TwoFaceCovariance(t, v)), c.mpe)
-                        : std::erf(c.mpe / (r.u * std::sqrt(2.0)));
+    r.share = c.noise + params > 0.0 ? Eigen::VectorXd(c.a.cwiseProduct(v) / (c.noise + params))
+                                     : Eigen::VectorXd::Zero(c.a.size());
+    r.conformance = Conformance(t, c, v);
     r.binding = c.c * r.u >= c.mpe * (1.0 - 1e-6);
     result.tests.push_back(std::move(r));
   }

@@ -1,22 +1,31 @@
 // calibration/prior_outputs.cc — the files of `vlt prior` (vlt/calibration.h PriorFiles;
 // docs/profiles.md "Outputs"): the prior file a job loads, the parameters, the tests' budgets.
 #include <cstdio>
+#include <map>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
 
 #include "base/format.h"
 #include "base/toml_text.h"
+#include "output/page.h"
 #include "vlt/calibration.h"
+#include "vlt/models.h"
 
 namespace vlt::calibration_outputs {
 
 namespace {
 
 using base_internal::Fixed;
+using base_internal::HtmlEscape;
 using base_internal::Num;
+using output_internal::Page;
+using output_internal::ScriptJson;
 using base_internal::TomlQuoted;
 std::string Csv(const std::string& s) { return base_internal::CsvField(s); }
+
+// The reading noise's share of a test's u^2 (0 for a test without any spread).
+double NoiseShare(const PriorTest& t) { return t.u > 0.0 ? t.u_noise * t.u_noise / (t.u * t.u) : 0.0; }
 
 // A TOML float that reads back as the same double (never a TOML integer).
 std::string TomlFloat(double v) {
@@ -102,7 +111,7 @@ std::string PriorSharesCsv(const PriorResult& result) {
   for (const PriorTest& t : result.tests) {
     os << Csv(t.name);
     for (Eigen::Index k = 0; k < t.share.size(); ++k) os << ',' << Num(t.share(k));
-    os << ',' << Num(t.u_noise * t.u_noise / (t.u * t.u)) << '\n';
+    os << ',' << Num(NoiseShare(t)) << '\n';
   }
   return os.str();
 }
@@ -153,6 +162,100 @@ std::string PriorResultsJson(const PriorJob& job, const PriorResult& result, con
   return j.dump(1) + "\n";
 }
 
+// The report: what the statements were and where they come from, the derived uncertainties, each
+// test's budget and conformance, and each parameter's share of each test's budget.
+void PriorProvenanceSection(std::ostringstream& body, const PriorJob& job, const PriorResult& result,
+                            const CalibrationProvenance& provenance) {
+  body << "<section><h2>Prior from a datasheet</h2><p class=\"note\">Uncertainties of the error "
+          "parameters under which the simulated standard tests meet every MPE statement below with "
+          "probability p: a statement about every instrument that meets this datasheet, <b>not a "
+          "calibration of any instrument</b> (docs/profiles.md).</p><p>Profile <b>"
+       << HtmlEscape(job.name) << "</b>, instrument <b>"
+       << HtmlEscape(provenance.instrument.empty() ? "(not named)" : provenance.instrument) << "</b>, model <b>"
+       << HtmlEscape(result.model) << "</b>, layout <b>" << HtmlEscape(job.layout.name) << "</b>; p = "
+       << Fixed(job.settings.conformance_probability, 4) << " (z = " << Fixed(result.z, 3) << "), bound "
+       << Fixed(job.settings.bound, 1) << " × the generic u; computed " << HtmlEscape(provenance.created)
+       << ".</p><table><tr><th class=\"l\">statement</th><th class=\"l\">MPE</th><th class=\"l\">source</th></tr>";
+  auto mpe_text = [](const Mpe& m) {
+    return m.set ? Fixed(m.a * 1e6, 3) + " um + " + Fixed(m.b * 1e6, 3) + " um/m" : std::string("—");
+  };
+  std::map<std::string, std::string> cited(job.sources.begin(), job.sources.end());
+  const std::pair<const char*, const Mpe*> statements[] = {
+      {"length", &job.mpe.length}, {"ranging", &job.mpe.ranging}, {"two_face", &job.mpe.two_face}};
+  for (const auto& [kind, mpe] : statements) {
+    if (!mpe->set && !cited.count(kind)) continue;
+    body << "<tr><td class=\"l\">" << kind << "</td><td class=\"l\">" << mpe_text(*mpe) << "</td><td class=\"l\">"
+         << HtmlEscape(cited.count(kind) ? cited[kind] : "(no source given)") << "</td></tr>";
+    cited.erase(kind);
+  }
+  for (const auto& [what, citation] : cited)
+    body << "<tr><td class=\"l\">" << HtmlEscape(what) << "</td><td class=\"l\"></td><td class=\"l\">"
+         << HtmlEscape(citation) << "</td></tr>";
+  body << "</table><table><tr><th class=\"l\">file</th><th class=\"l\">SHA-256</th></tr>";
+  for (const auto& [file, sha] : provenance.data_files)
+    body << "<tr><td class=\"l\">" << HtmlEscape(file) << "</td><td class=\"l\">" << sha << "</td></tr>";
+  body << "</table></section>\n";
+}
+
+void PriorParametersSection(std::ostringstream& body, const PriorResult& result) {
+  body << "<section><h2>Error parameters</h2><p class=\"note\">from_mpe: set by the statements; at_bound: "
+          "the statements allow more, the bound decides; not_constrained: the statements say nothing about "
+          "it, the generic u is kept; fixed: u = 0.</p><table><tr><th class=\"l\">parameter</th><th "
+          "class=\"l\">status</th><th>u</th><th>generic u</th><th>bound</th><th class=\"l\">unit</th><th "
+          "class=\"l\">meaning</th></tr>";
+  const ModelInfo* model = FindModel(result.model);
+  for (const PriorParameter& p : result.parameters) {
+    const auto [unit, per] = DisplayUnit(p.quantity, p.unit);
+    std::string meaning;
+    for (int k = 0; model && k < model->num_params; ++k)
+      if (p.name == model->params[k].name) meaning = model->params[k].description;
+    body << "<tr><td class=\"l\">" << HtmlEscape(p.name) << "</td><td class=\"l "
+         << (p.status == PriorStatus::kFromMpe ? "ok" : "na") << "\">" << PriorStatusName(p.status) << "</td><td>"
+         << Fixed(p.u * per, 3) << "</td><td>" << Fixed(p.u0 * per, 3) << "</td><td>" << Fixed(p.bound * per, 3)
+         << "</td><td class=\"l\">" << HtmlEscape(unit) << "</td><td class=\"l\">" << HtmlEscape(meaning)
+         << "</td></tr>";
+  }
+  body << "</table></section>\n";
+}
+
+void PriorTestsSection(std::ostringstream& body, const PriorResult& result) {
+  body << "<section><h2>Tests</h2><p class=\"note\">u: the test's error under the derived prior, the reading "
+          "noise and the parameters in quadrature (two-face: square roots of the traces of the covariance of "
+          "back − front); conformance: P(|E| ≤ MPE), exact for the Gaussian; binding: the statement holds "
+          "with probability p exactly.</p><table><tr><th class=\"l\">test</th><th class=\"l\">kind</th><th>R max / "
+          "m</th><th>MPE / um</th><th>u(noise) / um</th><th>u(params) / um</th><th>u / um</th><th>conformance</th><th "
+          "class=\"l\">binding</th></tr>";
+  for (const PriorTest& t : result.tests) {
+    body << "<tr><td class=\"l\">" << HtmlEscape(t.name) << "</td><td class=\"l\">" << TestKindName(t.kind)
+         << "</td><td>" << Fixed(t.range_max, 3) << "</td><td>" << Fixed(t.mpe * 1e6, 2) << "</td><td>"
+         << Fixed(t.u_noise * 1e6, 2) << "</td><td>" << Fixed(t.u_parameters * 1e6, 2) << "</td><td>"
+         << Fixed(t.u * 1e6, 2) << "</td><td>" << Fixed(t.conformance, 4) << "</td><td class=\"l\">"
+         << (t.binding ? "yes" : "") << "</td></tr>";
+  }
+  body << "</table></section>\n";
+}
+
+// Each parameter's share of each test's u^2: where the datasheet's budget goes.
+void PriorSharesHeatmap(std::ostringstream& body, std::ostringstream& script, const PriorResult& result) {
+  body << "<section><h2>Budget: each parameter's share of each test's u²</h2><p class=\"note\">shares.csv has "
+          "the numbers; the last column is the reading noise. A column without colour is a parameter the "
+          "statements do not see.</p><div id=\"shares\" class=\"plot\"></div></section>\n";
+  nlohmann::json x = nlohmann::json::array(), y = nlohmann::json::array(), z = nlohmann::json::array();
+  for (const PriorParameter& p : result.parameters) x.push_back(p.name);
+  x.push_back("noise");
+  for (const PriorTest& t : result.tests) {
+    y.push_back(t.name);
+    nlohmann::json row = nlohmann::json::array();
+    for (Eigen::Index k = 0; k < t.share.size(); ++k) row.push_back(t.share(k));
+    row.push_back(NoiseShare(t));
+    z.push_back(row);
+  }
+  script << "Plotly.newPlot('shares',[{type:'heatmap',colorscale:'Viridis',zmin:0,zmax:1,x:" << ScriptJson(x)
+         << ",y:" << ScriptJson(y) << ",z:" << ScriptJson(z)
+         << ",hovertemplate:'%{y}<br>%{x}: %{z:.3f}<extra></extra>'}],{margin:{l:140,b:100},"
+            "yaxis:{autorange:'reversed'}},{responsive:true}).then(done);";
+}
+
 }  // namespace
 
 Files PriorFiles(const PriorJob& job, const PriorResult& result, const CalibrationProvenance& provenance) {
@@ -162,6 +265,13 @@ Files PriorFiles(const PriorJob& job, const PriorResult& result, const Calibrati
   files.emplace_back("tests.csv", PriorTestsCsv(result));
   files.emplace_back("shares.csv", PriorSharesCsv(result));
   files.emplace_back("results.json", PriorResultsJson(job, result, provenance));
+  std::ostringstream body, script;
+  PriorProvenanceSection(body, job, result, provenance);
+  PriorParametersSection(body, result);
+  PriorTestsSection(body, result);
+  PriorSharesHeatmap(body, script, result);
+  files.emplace_back("report.html", Page("vlt prior — " + job.name, "Error-parameter uncertainties from a datasheet",
+                                         body.str(), script.str()));
   return files;
 }
 
@@ -175,10 +285,10 @@ std::string PriorSummary(const PriorJob& job, const PriorResult& result) {
   }
   os << job.name << ": " << result.model << " tracker, prior from the MPE of "
      << (job.instrument.empty() ? std::string("the datasheet") : "'" + job.instrument + "'") << "; "
-     << result.tests.size() << " tests of layout '" << job.layout.name << "', " << binding
+     << result.tests.size() << " tests with an MPE (layout '" << job.layout.name << "'), " << binding
      << " binding; lowest conformance probability " << Fixed(lowest, 4) << " (stated "
      << Fixed(job.settings.conformance_probability, 4) << ")\n";
-  std::vector<std::string> unconstrained;
+  std::vector<std::string> unconstrained, at_bound;
   for (const PriorParameter& p : result.parameters) {
     const auto [unit, per] = DisplayUnit(p.quantity, p.unit);
     char line[200];
@@ -186,6 +296,12 @@ std::string PriorSummary(const PriorJob& job, const PriorResult& result) {
                   PriorStatusName(p.status), Fixed(p.u * per, 3).c_str(), unit.c_str(), Fixed(p.u0 * per, 3).c_str());
     os << line;
     if (p.status == PriorStatus::kNotConstrained) unconstrained.push_back(p.name);
+    if (p.status == PriorStatus::kAtBound) at_bound.push_back(p.name);
+  }
+  if (!at_bound.empty()) {
+    os << "  at their bound (the statements allow more; the bound decides):";
+    for (const std::string& n : at_bound) os << ' ' << n;
+    os << "\n";
   }
   if (!unconstrained.empty()) {
     os << "  the statements do not constrain:";

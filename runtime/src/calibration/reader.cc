@@ -2,6 +2,8 @@
 // input of `vlt test` and the input of `vlt calibrate`. They reuse the job's section readers
 // ([tracker], [readings]) so that a tracker and its readings are written the same way everywhere.
 // Keys, units and defaults: docs/calibration.md.
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <map>
 #include <set>
@@ -257,6 +259,11 @@ PriorJob LoadPriorJob(const std::string& path) {
   Section tests = top.Sub("tests", true);
   tests.set_hint("layout, mpe");
   ReadLayoutAndMpe(tests, holder.base_dir, job.layout, job.mpe);
+  for (const auto& [kind, mpe] : {std::pair{"length", &job.mpe.length}, std::pair{"ranging", &job.mpe.ranging},
+                                  std::pair{"two_face", &job.mpe.two_face}}) {
+    if (mpe->set && mpe->a <= 0.0 && mpe->b <= 0.0)
+      throw InputError(tests.Where("mpe") + "." + kind + ": an MPE of zero: no instrument meets it");
+  }
   tests.Finish();
   if (!job.mpe.length.set && !job.mpe.ranging.set && !job.mpe.two_face.set)
     throw InputError(tests.Where("mpe") + ": a profile needs at least one MPE (length, ranging, two_face)");
@@ -274,6 +281,12 @@ PriorJob LoadPriorJob(const std::string& path) {
       for (auto&& [key, node] : source.table()) {
         (void)node;
         const std::string name(key.str());
+        // The key names the statement in prior.toml and the report: a plain word.
+        const bool word = !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
+          return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.';
+        });
+        if (!word)
+          throw InputError(source.WhereSelf() + ": a key of letters, digits, '_', '-' or '.' expected (it names a statement)");
         job.sources.emplace_back(name, RecordText(source, name));
       }
       source.Finish();

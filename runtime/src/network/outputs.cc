@@ -887,8 +887,8 @@ nlohmann::ordered_json JobJson(const NetworkJob& job) {
   meta["coverage_probability"] = job.network.coverage_probability;
   meta["self_calibrate"] = job.network.self_calibrate;
   nlohmann::ordered_json inputs = nlohmann::ordered_json::array();
-  for (const auto& [role, path] : job.input_files)
-    inputs.push_back({{"role", role}, {"path", path}, {"sha256", Sha256File(path)}});
+  for (const InputFile& f : job.input_files)
+    inputs.push_back({{"role", f.role}, {"path", f.path}, {"sha256", f.sha256.empty() ? Sha256File(f.path) : f.sha256}});
   meta["input_files"] = inputs;
   return meta;
 }

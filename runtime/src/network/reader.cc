@@ -138,7 +138,8 @@ void NetworkFileReader::ReadInstrument(Section& s, const std::string& name) {
   ReadTracker(s, instrument);
   ReadEnvironment(s, instrument);
   ReadCorrelations(s, instrument);
-  if (instrument.calibration) job.input_files.emplace_back("calibration", instrument.calibration->file);
+  if (instrument.calibration)
+    job.input_files.push_back({"calibration", instrument.calibration->file, instrument.calibration->sha256});
   for (const std::string& w : instrument.warnings) job.warnings.push_back(w);
   net.instruments.push_back({name, instrument.setup});
 }
@@ -252,7 +253,7 @@ void NetworkFileReader::ReadTargets() {
     if (!names.insert(p.name).second) throw InputError(p.where + ": target '" + p.name + "' defined twice");
     job.nominal.emplace_back(p.name, p.nominal);
   }
-  for (const InputFile& f : points.input_files) job.input_files.emplace_back("targets csv", f.path);
+  for (const InputFile& f : points.input_files) job.input_files.push_back({"targets csv", f.path, ""});
 }
 
 // The index of the station's instrument (the first when it names none and the network has one).
@@ -419,7 +420,7 @@ void NetworkFileReader::ReadOnlineReadings(Section& s, NetworkStation& st) {
   ReadReadings(readings, r, true);
   for (const JobPoint& p : r.points)
     st.readings.push_back({p.name, p.face, p.readings, p.where, p.time, p.time_kind});
-  job.input_files.emplace_back("readings csv", r.readings_file);
+  job.input_files.push_back({"readings csv", r.readings_file, ""});
   for (const std::string& w : r.warnings) job.warnings.push_back(w);
   sees.emplace_back();
 }
@@ -740,7 +741,7 @@ void NetworkFileReader::ReadDriftChecks() {
       st->readings.push_back({p.name, p.face, p.readings, p.where, p.time ? p.time : time.seconds,
                               p.time ? p.time_kind : time.kind});
     }
-    job.input_files.emplace_back("readings csv", r.readings_file);
+    job.input_files.push_back({"readings csv", r.readings_file, ""});
     for (const std::string& w : r.warnings) job.warnings.push_back(w);
     check_times.push_back({st, time.seconds, time.kind, s.Where("time")});
     s.Finish();
@@ -865,7 +866,7 @@ NetworkJob LoadNetworkJob(const std::string& path) {
   job.file = path;
   job.text = text;
   job.base_dir = BaseDirectory(path);
-  job.input_files.emplace_back("network", path);
+  job.input_files.push_back({"network", path, ""});
   ReadJobMeta(top, job.name, &job.description, std::filesystem::path(path).stem().string(), &job.record);
   NetworkFileReader reader(path, top, job);
   job.network.where = path;

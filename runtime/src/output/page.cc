@@ -47,6 +47,36 @@ std::string ScriptJson(const nlohmann::json& value) { return base_internal::Scri
 
 // A self-contained page: header, sections of server-side tables, plotly.js for the figures. The
 // element #vlt-status carries data-errors / data-plots for the browser tests (as report.html).
+std::string PrintDesign(const std::string& name) {
+  const std::string box = "font-family:system-ui,sans-serif;font-size:8pt;color:#555";
+  std::ostringstream os;
+  os << "<style>@page{margin:15mm 12mm 16mm 12mm;@top-left{content:" << base_internal::CssString(name) << ";"
+     << box << "}@bottom-right{content:\"Page \" counter(page) \" of \" counter(pages);" << box
+     << "}}\n@media print{body{background:#fff;font-size:10px}"
+        "header{background:#fff!important;color:#000!important;border-bottom:2px solid #1f3a5f;padding:0 0 6px "
+        "0!important}header h1{font-size:16px}main{padding:0!important;max-width:none!important}"
+        "section{border:none!important;border-radius:0;padding:0!important;margin:0 0 12px 0!important;"
+        "break-inside:auto!important}h2{font-size:14px;break-after:avoid}"
+        "table{font-size:8px;max-width:100%}th,td{white-space:nowrap!important;padding:1px 3px!important}"
+        "td.l,th.l{white-space:normal!important;overflow-wrap:break-word}th{position:static!important}"
+        "thead{display:table-header-group}"
+        "tr{break-inside:avoid}.scroll{max-height:none!important;overflow:visible!important}"
+        ".plot{width:100%!important;break-inside:avoid}.modebar,.no-print,select{display:none!important}"
+        "footer{padding:6px 0 0 0!important}}</style>\n"
+        // Plots are drawn at the screen's width; printing lays the page out at the paper's, so each
+        // plot is redrawn there (else its labels overflow onto the next section). Header rows move
+        // into <thead>, which the browser repeats on every page a table continues on.
+        "<script>(function(){function fit(){if(!window.Plotly)return;"
+        "document.querySelectorAll('.js-plotly-plot').forEach(function(p){try{Plotly.Plots.resize(p);}"
+        "catch(e){}});}window.addEventListener('beforeprint',fit);if(window.matchMedia){var "
+        "m=window.matchMedia('print');if(m.addEventListener)m.addEventListener('change',function(e){if(e.matches)"
+        "fit();});}function heads(){document.querySelectorAll('table').forEach(function(t){if(t.tHead)return;"
+        "var r=t.rows[0];if(r&&r.cells.length&&Array.prototype.every.call(r.cells,function(c){return "
+        "c.tagName==='TH';})){t.createTHead().appendChild(r);}});}heads();window.addEventListener('beforeprint',"
+        "heads);})();</script>\n";
+  return os.str();
+}
+
 std::string Page(const std::string& title, const std::string& subtitle, const std::string& body,
                  const std::string& script) {
   std::ostringstream os;
@@ -67,7 +97,7 @@ std::string Page(const std::string& title, const std::string& subtitle, const st
         "td.l,th.l{text-align:left}.ok{color:#1a7f37;font-weight:600}.bad{color:#b42318;font-weight:600}.na{"
         "color:#777}"
         ".note{font-size:12px;color:#555;max-width:1100px}.plot{width:100%;height:560px}"
-        "@media print{section{break-inside:avoid}.plot{height:420px}}</style>\n<script>"
+        "</style>\n<script>"
      << output_internal::PlotlyJs() << "</script></head><body><header><h1>" << HtmlEscape(title) << "</h1><p>"
      << HtmlEscape(subtitle)
      << "</p></header><main><div id=\"vlt-status\" data-errors=\"0\" data-plots=\"0\" "
@@ -78,7 +108,8 @@ std::string Page(const std::string& title, const std::string& subtitle, const st
      << "(function(){var plots=0;function done(){plots++;var s=document.getElementById('vlt-status');"
         "s.setAttribute('data-plots',String(plots));if(window.vltErrors.length===0)s.textContent='plots-ok';}"
         "\n"
-     << script << "\n})();\n</script></body></html>\n";
+     << script << "\n})();\n</script>\n"
+     << PrintDesign(title) << "</body></html>\n";
   return os.str();
 }
 

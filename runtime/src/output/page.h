@@ -23,6 +23,13 @@ std::string RecordLine(const JobRecord& record);
 // name (a station's, a test's) can end the <script> element and run its own (issue 32).
 std::string ScriptJson(const nlohmann::json& value);
 
+// The print design every report shares (docs/results.md "Printing"): A4 or US Letter as the user's
+// print dialog picks, 15/12 mm margins, the report's name top left and "Page i of N" bottom right
+// of every page (CSS page-margin boxes), tables that break between rows and repeat their header,
+// plots redrawn to the page's width when printing, no controls. A <style> and a <script> for the end
+// of <body>; `name` is written as a CSS string (base_internal::CssString).
+std::string PrintDesign(const std::string& name);
+
 std::string Page(const std::string& title, const std::string& subtitle, const std::string& body,
                  const std::string& script);
 

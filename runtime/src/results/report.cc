@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "output/assets.h"
+#include "output/page.h"
 #include "results/internal.h"
 
 namespace vlt {
@@ -54,12 +55,14 @@ std::string_view CheckedPlotly() {
 std::string Page(const std::string& title, const std::string& data) {
   std::string escaped_title = base_internal::HtmlEscape(title);
   std::string version = VLT_VERSION;
+  const std::string print = output_internal::PrintDesign(title);  // held: Fill takes string_views
   return Fill(output_internal::ReportTemplate(), {{"VLT_TITLE", escaped_title},
                                          {"VLT_PLOTLY_JS", CheckedPlotly()},
                                          {"VLT_PLOTLY_LICENSE", output_internal::PlotlyLicense()},
                                          {"VLT_DATA", data},
                                          {"VLT_VERSION", version},
-                                         {"VLT_PLOTLY_VERSION", output_internal::PlotlyVersion()}});
+                                         {"VLT_PLOTLY_VERSION", output_internal::PlotlyVersion()},
+                                         {"VLT_PRINT", print}});
 }
 
 }  // namespace
