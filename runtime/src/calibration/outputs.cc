@@ -218,7 +218,8 @@ void SensitivityHeatmap(std::ostringstream& body, std::ostringstream& script, co
           "parameter| "
           "in um per um, um per arcsec, um per ppm (sensitivity.csv has the signs of length and ranging "
           "tests; two-face rows are magnitudes). A column without colour is a parameter "
-          "that no test of this layout sees.</p><div id=\"sens\" class=\"plot\"></div></section>\n";
+          "that no test of this layout sees.</p><div id=\"sens\" class=\"plot\" style=\"height:"
+       << 200 + 9 * results.size() << "px\"></div></section>\n";
   nlohmann::json z = nlohmann::json::array(), x = nlohmann::json::array(), y = nlohmann::json::array();
   for (int k = 0; k < P; ++k) {
     x.push_back(std::string(model.params[k].name) + " (" +
@@ -235,7 +236,7 @@ void SensitivityHeatmap(std::ostringstream& body, std::ostringstream& script, co
   script << "Plotly.newPlot('sens',[{type:'heatmap',colorscale:'Viridis',x:" << ScriptJson(x) << ",y:" << ScriptJson(y)
          << ",z:" << ScriptJson(z)
          << ",hovertemplate:'%{y}<br>%{x}: "
-            "%{z:.4g}<extra></extra>'}],{margin:{l:140,b:140},yaxis:{autorange:'reversed'}},"
+            "%{z:.4g}<extra></extra>'}],{margin:{l:140,b:140},yaxis:{autorange:'reversed',dtick:1,tickfont:{size:8}}},"
             "{responsive:true}).then(done);";
 }
 

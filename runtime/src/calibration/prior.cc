@@ -127,6 +127,8 @@ double TwoFaceFactor(const Eigen::Matrix3d& c, double p, double hint) {
   double glo = g(lo), ghi = g(hi);
   while (glo >= 0.0 && lo > 1e-6) glo = g(lo *= 0.5);
   while (ghi < 0.0 && hi < 1e3) ghi = g(hi *= 2.0);
+  if (glo >= 0.0 || ghi < 0.0)
+    throw NumericalError("the p-quantile of a two-face error could not be bracketed (p = " + std::to_string(p) + ")");
   int side = 0;
   for (int it = 0; it < 200 && hi - lo > 1e-13 * hi; ++it) {
     const double f = (lo * ghi - hi * glo) / (ghi - glo);

@@ -239,7 +239,8 @@ void PriorTestsSection(std::ostringstream& body, const PriorResult& result) {
 void PriorSharesHeatmap(std::ostringstream& body, std::ostringstream& script, const PriorResult& result) {
   body << "<section><h2>Budget: each parameter's share of each test's u²</h2><p class=\"note\">shares.csv has "
           "the numbers; the last column is the reading noise. A column without colour is a parameter the "
-          "statements do not see.</p><div id=\"shares\" class=\"plot\"></div></section>\n";
+          "statements do not see.</p><div id=\"shares\" class=\"plot\" style=\"height:"
+       << 160 + 9 * result.tests.size() << "px\"></div></section>\n";
   nlohmann::json x = nlohmann::json::array(), y = nlohmann::json::array(), z = nlohmann::json::array();
   for (const PriorParameter& p : result.parameters) x.push_back(p.name);
   x.push_back("noise");
@@ -253,7 +254,7 @@ void PriorSharesHeatmap(std::ostringstream& body, std::ostringstream& script, co
   script << "Plotly.newPlot('shares',[{type:'heatmap',colorscale:'Viridis',zmin:0,zmax:1,x:" << ScriptJson(x)
          << ",y:" << ScriptJson(y) << ",z:" << ScriptJson(z)
          << ",hovertemplate:'%{y}<br>%{x}: %{z:.3f}<extra></extra>'}],{margin:{l:140,b:100},"
-            "yaxis:{autorange:'reversed'}},{responsive:true}).then(done);";
+            "yaxis:{autorange:'reversed',dtick:1,tickfont:{size:8}}},{responsive:true}).then(done);";
 }
 
 }  // namespace

@@ -47,6 +47,36 @@ std::string ScriptJson(const nlohmann::json& value) { return base_internal::Scri
 
 // A self-contained page: header, sections of server-side tables, plotly.js for the figures. The
 // element #vlt-status carries data-errors / data-plots for the browser tests (as report.html).
+// The print script (PrintDesign). Plots are drawn at the window's width; before printing each is
+// relaid out synchronously at the paper's (186 mm: A4 between the margins, which fits Letter too),
+// scaled like its container, with a title too long for that width broken at a space; after
+// printing it is responsive again. A WebGL figure (a 3-D scene) does not print: once drawn, a
+// picture of it is placed after it for print. Header rows move into <thead>, which the browser
+// repeats on every page a table continues on.
+constexpr const char* kPrintScript = R"js((function(){
+var saved=[];
+function width(){var d=document.getElementById('vlt-print-width');return d?d.getBoundingClientRect().width:703;}
+function wrap(t,w,size){if(!t||t.indexOf('<br>')>=0)return t;var per=0.55*(size||17);if(t.length*per<=w-20)return t;
+var cut=t.lastIndexOf(' ',Math.floor(t.length/2)+8);if(cut<1)cut=t.indexOf(' ');return cut<1?t:t.slice(0,cut)+'<br>'+t.slice(cut+1);}
+function fit(){if(!window.Plotly)return;var W=width(),main=document.querySelector('main');
+var mw=main?main.getBoundingClientRect().width:0;saved=[];
+document.querySelectorAll('.js-plotly-plot').forEach(function(p){var r=p.getBoundingClientRect().width,L=p._fullLayout;
+if(!L||!r||!mw||p.classList.contains('vlt-screen-only'))return;var w=Math.min(r,W*Math.min(1,r/mw));
+var t=L.title&&L.title.text,u={width:w};var nt=wrap(t,w,L.title&&L.title.font&&L.title.font.size);if(nt!==t)u['title.text']=nt;
+saved.push([p,t]);try{Plotly.relayout(p,u);}catch(e){}});}
+function unfit(){saved.forEach(function(x){var u={width:null,autosize:true};if(x[1]!==undefined)u['title.text']=x[1];
+try{Plotly.relayout(x[0],u);}catch(e){}});saved=[];}
+function snap(p){if(p.classList.contains('screen-only')||p.vltSnapped||!p._fullLayout||!p._fullLayout.scene||!window.Plotly)return;p.vltSnapped=true;
+Plotly.toImage(p,{format:'png',width:900,height:700}).then(function(url){if(!p.isConnected||!p.parentNode)return;var i=new Image();i.src=url;i.className='vlt-print-img';
+i.style.maxWidth='100%';i.alt='the 3-D view as drawn';p.parentNode.insertBefore(i,p.nextSibling);p.classList.add('vlt-screen-only');}).catch(function(){p.vltSnapped=false;});}
+function snaps(){document.querySelectorAll('.js-plotly-plot').forEach(function(p){if(p.on&&!p.vltWatched){p.vltWatched=true;
+p.on('plotly_afterplot',function(){snap(p);});}snap(p);});}
+function heads(){document.querySelectorAll('table').forEach(function(t){if(t.tHead)return;var r=t.rows[0];
+if(r&&r.cells.length&&Array.prototype.every.call(r.cells,function(c){return c.tagName==='TH';})){t.createTHead().appendChild(r);}});}
+heads();snaps();window.addEventListener('load',function(){heads();snaps();setTimeout(snaps,500);});
+window.addEventListener('beforeprint',function(){heads();fit();});window.addEventListener('afterprint',unfit);
+})();)js";
+
 std::string PrintDesign(const std::string& name) {
   const std::string box = "font-family:system-ui,sans-serif;font-size:8pt;color:#555";
   std::ostringstream os;
@@ -57,23 +87,15 @@ std::string PrintDesign(const std::string& name) {
         "0!important}header h1{font-size:16px}main{padding:0!important;max-width:none!important}"
         "section{border:none!important;border-radius:0;padding:0!important;margin:0 0 12px 0!important;"
         "break-inside:auto!important}h2{font-size:14px;break-after:avoid}"
-        "table{font-size:8px;max-width:100%}th,td{white-space:nowrap!important;padding:1px 3px!important}"
-        "td.l,th.l{white-space:normal!important;overflow-wrap:break-word}th{position:static!important}"
+        "table{font-size:8px;max-width:100%}th,td{white-space:normal!important;padding:1px 3px!important}"
+        "td.l,th.l{overflow-wrap:break-word}th{position:static!important}"
         "thead{display:table-header-group}"
         "tr{break-inside:avoid}.scroll{max-height:none!important;overflow:visible!important}"
         ".plot{width:100%!important;break-inside:avoid}.modebar,.no-print,select{display:none!important}"
-        "footer{padding:6px 0 0 0!important}}</style>\n"
-        // Plots are drawn at the screen's width; printing lays the page out at the paper's, so each
-        // plot is redrawn there (else its labels overflow onto the next section). Header rows move
-        // into <thead>, which the browser repeats on every page a table continues on.
-        "<script>(function(){function fit(){if(!window.Plotly)return;"
-        "document.querySelectorAll('.js-plotly-plot').forEach(function(p){try{Plotly.Plots.resize(p);}"
-        "catch(e){}});}window.addEventListener('beforeprint',fit);if(window.matchMedia){var "
-        "m=window.matchMedia('print');if(m.addEventListener)m.addEventListener('change',function(e){if(e.matches)"
-        "fit();});}function heads(){document.querySelectorAll('table').forEach(function(t){if(t.tHead)return;"
-        "var r=t.rows[0];if(r&&r.cells.length&&Array.prototype.every.call(r.cells,function(c){return "
-        "c.tagName==='TH';})){t.createTHead().appendChild(r);}});}heads();window.addEventListener('beforeprint',"
-        "heads);})();</script>\n";
+        ".vlt-screen-only{display:none!important}footer{padding:6px 0 0 0!important}}"
+        "@media screen{.vlt-print-img{display:none}}</style>\n"
+        "<div id=\"vlt-print-width\" style=\"position:absolute;visibility:hidden;width:186mm;height:0\"></div>\n"
+     << "<script>" << kPrintScript << "</script>\n";
   return os.str();
 }
 

@@ -388,7 +388,7 @@ void StationSearch::KeepFeasibleNodes(const std::vector<StationEvaluation>& at) 
   map.U.assign(n, Eigen::Vector3d::Zero());
   map.U_norm.assign(n, 0.0);
   map.quantity = "Objective " + ObjectiveText() +
-                 " [m] with the station at each node (k = " + Fmt("%.4g", map.k) +
+                 " [µm] with the station at each node (k = " + Fmt("%.4g", map.k) +
                  ", p = " + Fmt("%g", map.coverage_probability) + ")";
   for (std::size_t i = 0; i < n; ++i) {
     if (at[i].feasible) {

@@ -189,6 +189,16 @@ json AirJson(const MeasurementSetup& s) {
               {"range_correction_uses", IndexOf(s.ranging) == RangingIndex::kPhase ? "n_phase" : "n_group"}};
 }
 
+// The practical unit of an input (what its practical sensitivity is per: "um/arcsec" -> "arcsec")
+// and the factor from its SI value to it.
+std::string PracticalInputUnit(const std::string& input_unit) {
+  const std::string per = results_internal::PracticalSensitivity(input_unit).first;
+  return per.substr(per.find('/') + 1);
+}
+double PracticalInputScale(const std::string& input_unit) {
+  return 1e6 / results_internal::PracticalSensitivity(input_unit).second;
+}
+
 json Budget(const BudgetRow& b) {
   return json{
       {"input", b.input},
@@ -204,6 +214,11 @@ json Budget(const BudgetRow& b) {
            : Vec(b.sensitivity * results_internal::PracticalSensitivity(b.input_unit).second)},
       {"sensitivity_practical_unit",
        b.group == "correlation" ? std::string() : results_internal::PracticalSensitivity(b.input_unit).first},
+      // The estimate and u in the unit the practical sensitivity is per (arcsec, ppm, hPa, ...), so
+      // that c u in um can be checked by hand from one row (issue 34).
+      {"practical_unit", b.group == "correlation" ? std::string() : PracticalInputUnit(b.input_unit)},
+      {"estimate_practical", b.group == "correlation" ? json(nullptr) : json(b.estimate * PracticalInputScale(b.input_unit))},
+      {"u_practical", b.group == "correlation" ? json(nullptr) : json(b.u * PracticalInputScale(b.input_unit))},
       {"contribution", Vec(b.contribution)},
       {"variance", Vec(b.variance)},
       {"share", Vec(b.share)},
