@@ -22,7 +22,8 @@ if ! command -v npm >/dev/null 2>&1; then
 fi
 # Extra packages for the test suite only: the headless browser that renders and prints report.html.
 VLT_TEST_PACKAGES=(chromium
-  poppler-utils)   # pdftotext / pdfinfo / pdfimages: the printed report (tests/cli/report_print.cmake)
+  poppler-utils    # pdftotext / pdfinfo / pdfimages: the printed reports (tests/cli/report_print.cmake, check_print.py)
+  python3-pip python3-setuptools python3-wheel)  # pip install --no-build-isolation . (python_pip_install)
 
 # The MPI build (-DVLT_MPI=ON, docs/mpi.md; scripts/test-mpi.sh): Open MPI.
 VLT_MPI_PACKAGES=(libopenmpi-dev openmpi-bin)
