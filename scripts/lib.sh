@@ -30,14 +30,61 @@ VLT_MPI_PACKAGES=(libopenmpi-dev openmpi-bin)
 # The sanitizer and fuzzing build (scripts/test-sanitizers.sh, scripts/test-fuzz.sh): Clang, libFuzzer.
 VLT_FUZZ_PACKAGES=(clang libfuzzer-14-dev)
 
+# The Fedora (dnf) name of each Debian package above (checked on packages.fedoraproject.org for
+# Fedora 40-42, 2026-11-27; docs/testing.md "Other distributions"). Open MPI's programs are then
+# under /usr/lib64/openmpi/bin (`module load mpi/openmpi-x86_64`); libFuzzer comes with compiler-rt.
+vlt_fedora_name() {
+  case "$1" in
+    g++) echo gcc-c++ ;;
+    cmake | make | ninja-build | lld | git | chromium | poppler-utils | clang) echo "$1" ;;
+    pkg-config) echo pkgconf-pkg-config ;;
+    libginac-dev) echo ginac-devel ;;
+    libeigen3-dev) echo eigen3-devel ;;
+    libgtest-dev) echo gtest-devel ;;
+    libgmock-dev) echo gmock-devel ;;
+    libbenchmark-dev) echo google-benchmark-devel ;;
+    libcli11-dev) echo cli11-devel ;;
+    libtomlplusplus-dev) echo tomlplusplus-devel ;;
+    nlohmann-json3-dev) echo json-devel ;;
+    librandom123-dev) echo Random123-devel ;;
+    libceres-dev) echo ceres-solver-devel ;;
+    libnlopt-cxx-dev) echo NLopt-devel ;;
+    coinor-libclp-dev) echo coin-or-Clp-devel ;;
+    libssl-dev) echo openssl-devel ;;
+    libhwy-dev) echo highway-devel ;;
+    pybind11-dev) echo pybind11-devel ;;
+    python3-dev) echo python3-devel ;;
+    python3-numpy | python3-pytest | python3-pip | python3-setuptools | python3-wheel) echo "$1" ;;
+    nodejs) echo nodejs ;;
+    npm) echo nodejs-npm ;;
+    libopenmpi-dev) echo openmpi-devel ;;
+    openmpi-bin) echo openmpi ;;
+    libfuzzer-14-dev) echo compiler-rt ;;
+    *) return 1 ;;
+  esac
+}
+
 vlt_as_root() {
   if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi
 }
 
-# vlt_install_packages PKG... : apt-get update once and install only what is missing.
+# vlt_install_packages PKG... : apt-get update once and install only what is missing (Debian names);
+# on a system with dnf and without apt-get, the same packages by their Fedora names.
 vlt_install_packages() {
   local missing=()
   local p
+  if ! command -v apt-get >/dev/null 2>&1 && command -v dnf >/dev/null 2>&1; then
+    local f
+    for p in "$@"; do
+      f=$(vlt_fedora_name "$p") || { echo "vlt: no Fedora name known for the Debian package $p" >&2; return 1; }
+      rpm -q "$f" >/dev/null 2>&1 || missing+=("$f")
+    done
+    if [ ${#missing[@]} -gt 0 ]; then
+      echo "vlt: installing Fedora packages: ${missing[*]}" >&2
+      vlt_as_root dnf install -y -q "${missing[@]}" >&2
+    fi
+    return 0
+  fi
   for p in "$@"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
   done

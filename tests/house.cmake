@@ -11,3 +11,6 @@ add_test(NAME function_length
 set_tests_properties(layering function_length PROPERTIES TIMEOUT 300)
 add_test(NAME house_rules_selftest
   COMMAND ${Python3_EXECUTABLE} ${CMAKE_CURRENT_SOURCE_DIR}/house/selftest.py)
+# scripts/lib.sh's Fedora names: one for every Debian package, and dnf asked for the missing ones.
+add_test(NAME setup_fedora_names COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/house/check_fedora_names.sh ${CMAKE_SOURCE_DIR})
+set_tests_properties(setup_fedora_names PROPERTIES PASS_REGULAR_EXPRESSION "ok: [0-9]+ Debian packages have Fedora names")
