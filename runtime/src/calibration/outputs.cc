@@ -14,6 +14,7 @@
 
 #include "output/assets.h"
 #include "output/page.h"
+#include "calibration/internal.h"
 #include "vlt/calibration.h"
 #include "vlt/models.h"
 #include "base/format.h"
@@ -426,15 +427,6 @@ void ProvenanceSection(std::ostringstream& body, const CalibrationResult& result
        << " outliers</span> (|w| above the limit).</p></section>\n";
 }
 
-// The model spec's description of a parameter ("" for a model or name vlt does not know).
-std::string ParameterMeaning(const ModelInfo* model, const std::string& name) {
-  if (model == nullptr) return "";
-  for (int k = 0; k < model->num_params; ++k) {
-    if (name == model->params[k].name) return model->params[k].description;
-  }
-  return "";
-}
-
 // The error parameters: table and plot of estimate and prior with their U.
 void ParametersSection(std::ostringstream& body, std::ostringstream& script,
                        const CalibrationResult& result) {
@@ -458,7 +450,7 @@ void ParametersSection(std::ostringstream& body, std::ostringstream& script,
          << Fixed(result.k * p.u * per, 3) << "</td><td>" << Fixed(p.u_data * per, 3) << "</td><td>"
          << Fixed(p.prior_estimate * per, 3) << "</td><td>" << Fixed(p.prior_u * per, 3)
          << "</td><td class=\"l\">" << unit << "</td><td class=\"l\">"
-         << HtmlEscape(ParameterMeaning(model, p.name)) << "</td></tr>";
+         << HtmlEscape(calibration_internal::ParameterMeaning(model, p.name)) << "</td></tr>";
     names.push_back(p.name + " (" + unit + ")");
     est.push_back(p.estimate * per);
     err.push_back(result.k * p.u * per);

@@ -8,6 +8,7 @@
 
 #include "base/format.h"
 #include "base/toml_text.h"
+#include "calibration/internal.h"
 #include "output/page.h"
 #include "vlt/calibration.h"
 #include "vlt/models.h"
@@ -206,9 +207,7 @@ void PriorParametersSection(std::ostringstream& body, const PriorResult& result)
   const ModelInfo* model = FindModel(result.model);
   for (const PriorParameter& p : result.parameters) {
     const auto [unit, per] = DisplayUnit(p.quantity, p.unit);
-    std::string meaning;
-    for (int k = 0; model && k < model->num_params; ++k)
-      if (p.name == model->params[k].name) meaning = model->params[k].description;
+    const std::string meaning = calibration_internal::ParameterMeaning(model, p.name);
     body << "<tr><td class=\"l\">" << HtmlEscape(p.name) << "</td><td class=\"l "
          << (p.status == PriorStatus::kFromMpe ? "ok" : "na") << "\">" << PriorStatusName(p.status) << "</td><td>"
          << Fixed(p.u * per, 3) << "</td><td>" << Fixed(p.u0 * per, 3) << "</td><td>" << Fixed(p.bound * per, 3)
