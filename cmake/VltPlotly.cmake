@@ -1,14 +1,22 @@
 # plotly.js for vlt's self-contained report.html.
 #
-# The version is pinned in package.json / package-lock.json at the top of the repository (npm
-# registry package `plotly.js-dist-min`, integrity hash in the lock file). At configure time
-# `npm ci` installs it into <build>/npm/node_modules; runtime/src/output/plotly.cc then compiles
-# the minified script INTO libvlt_runtime (assembler .incbin), so the `vlt` binary needs no file at
-# run time and every report.html it writes opens offline.
-#
-# -DVLT_PLOTLY_JS=/path/to/plotly.min.js skips npm (e.g. for an offline build with a copy of the
-# same file).
-set(VLT_PLOTLY_JS "" CACHE FILEPATH "plotly.min.js to embed (empty: npm ci from package-lock.json)")
+# Where the script comes from, the first that applies:
+#  1. -DVLT_PLOTLY_JS=/path/to/plotly.min.js: that file (an offline build with a copy of it);
+#  2. npm: the version pinned in package.json / package-lock.json at the top of the repository (npm
+#     registry package `plotly.js-dist-min`, integrity hash in the lock file), installed by `npm ci`
+#     into <build>/npm/node_modules — the build vlt is tested with;
+#  3. no npm on the machine (an air-gapped lab): the copy Debian's package python3-plotly ships,
+#     /usr/share/python3-plotly/plotly.js (plotly.js v2.6.3 in Debian 12, not minified: the reports
+#     grow by about 4 MB). The test report_browser_demo_debian_plotly draws the run report with it.
+# runtime/src/output/plotly.cc then compiles the script INTO libvlt_runtime (cmake/vlt_embed.cc),
+# so the `vlt` binary needs no file at run time and every report.html it writes opens offline.
+set(VLT_PLOTLY_JS "" CACHE FILEPATH "plotly.js to embed (empty: npm ci from package-lock.json, or Debian's python3-plotly copy without npm)")
+set(VLT_DEBIAN_PLOTLY_JS /usr/share/python3-plotly/plotly.js)
+find_program(VLT_NPM npm)
+if(NOT VLT_PLOTLY_JS AND NOT VLT_NPM AND EXISTS ${VLT_DEBIAN_PLOTLY_JS})
+  message(STATUS "vlt: npm not found: embedding Debian's python3-plotly copy of plotly.js")
+  set(VLT_PLOTLY_JS ${VLT_DEBIAN_PLOTLY_JS})
+endif()
 
 if(NOT VLT_PLOTLY_JS)
   set(_vlt_npm_dir ${CMAKE_BINARY_DIR}/npm)
@@ -21,10 +29,10 @@ if(NOT VLT_PLOTLY_JS)
     file(SHA256 ${_vlt_lock_stamp} _vlt_have_hash)
   endif()
   if(NOT _vlt_have_hash STREQUAL _vlt_lock_hash)
-    find_program(VLT_NPM npm)
     if(NOT VLT_NPM)
       message(FATAL_ERROR "vlt: npm not found (needed once to fetch plotly.js for report.html). "
-              "Install the Debian packages: apt-get install nodejs npm")
+              "Install the Debian packages nodejs and npm, or python3-plotly (its copy of plotly.js is "
+              "used without npm), or pass -DVLT_PLOTLY_JS=/path/to/plotly.min.js")
     endif()
     file(MAKE_DIRECTORY ${_vlt_npm_dir})
     configure_file(${CMAKE_SOURCE_DIR}/package.json ${_vlt_npm_dir}/package.json COPYONLY)

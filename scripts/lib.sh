@@ -23,7 +23,8 @@ fi
 # Extra packages for the test suite only: the headless browser that renders and prints report.html.
 VLT_TEST_PACKAGES=(chromium
   poppler-utils    # pdftotext / pdfinfo / pdfimages: the printed reports (tests/cli/report_print.cmake, check_print.py)
-  python3-pip python3-setuptools python3-wheel)  # pip install --no-build-isolation . (python_pip_install)
+  python3-pip python3-setuptools python3-wheel  # pip install --no-build-isolation . (python_pip_install)
+  python3-plotly)  # its plotly.js, what a build without npm embeds (report_browser_demo_debian_plotly)
 
 # The MPI build (-DVLT_MPI=ON, docs/mpi.md; scripts/test-mpi.sh): Open MPI.
 VLT_MPI_PACKAGES=(libopenmpi-dev openmpi-bin)
@@ -54,7 +55,7 @@ vlt_fedora_name() {
     libhwy-dev) echo highway-devel ;;
     pybind11-dev) echo pybind11-devel ;;
     python3-dev) echo python3-devel ;;
-    python3-numpy | python3-pytest | python3-pip | python3-setuptools | python3-wheel) echo "$1" ;;
+    python3-numpy | python3-pytest | python3-pip | python3-setuptools | python3-wheel | python3-plotly) echo "$1" ;;
     nodejs) echo nodejs ;;
     npm) echo nodejs-npm ;;
     libopenmpi-dev) echo openmpi-devel ;;

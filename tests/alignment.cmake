@@ -26,7 +26,7 @@ add_test(NAME cli_alignment_panel
           "-DARGS=run;${_al_ex}/panel_alignment.toml;--trials;${_al_trials};-o;${_al_out}/alignment_panel"
           -DOUT=${_al_out}/alignment_panel
           "-DFILES=points.csv;tasks.csv;results.json;report.html"
-          "-DEXPECT_STDOUT=to_cad +best_fit +rz +[-0-9.]+ deg .*jig_321 +rps +tx .*skin[.]S17 +deviation +deviation +0[.]2[0-9]+ mm.*in_jig[.]T2 +deviation +deviation +0[.]0000 mm[^\n]*um  validated\n.*skin_profile +profile +profile +0[.]42[0-9]+ mm.*skin_profile profile <= 0[.]3 mm: does not conform"
+          "-DEXPECT_STDOUT=to_cad +best_fit +rz +[-0-9.]+ deg .*jig_321 +rps +tx .*skin[.]S17 +deviation +deviation +0[.]2[0-9]+ mm.*in_jig[.]T2 +deviation +deviation +0[.]0000 mm[^\n]*µm  validated\n.*skin_profile +profile +profile +0[.]42[0-9]+ mm.*skin_profile profile <= 0[.]3 mm: does not conform"
           "-DEXPECT_FILE_REGEX=tasks.csv:skin[.]S17,deviation,deviation,mm,0[.]21[0-9]*,[^\n]*,does not conform,"
           -P ${_al_cli}/expect_outputs.cmake)
 set_tests_properties(cli_alignment_panel PROPERTIES FIXTURES_SETUP vlt_alignment_panel)

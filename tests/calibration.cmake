@@ -15,7 +15,7 @@ add_test(NAME cli_test_example
           "-DARGS=test;${_ex}/head_tracker_tests.toml;-o;${_out}/cal_test"
           -DOUT=${_out}/cal_test
           "-DFILES=tests.csv;sensitivity.csv;report.html;simulated_readings.csv;simulated_calibration.toml"
-          "-DEXPECT_STDOUT=78 tests of layout .* on a head tracker; largest \\|error\\| [0-9.]+ um .*pass, [0-9]+ fail"
+          "-DEXPECT_STDOUT=78 tests of layout .* on a head tracker; largest \\|error\\| [0-9.]+ µm .*pass, [0-9]+ fail"
           -P ${_cli}/expect_outputs.cmake)
 set_tests_properties(cli_test_example PROPERTIES FIXTURES_SETUP vlt_cal_test)
 add_test(NAME cli_test_reproduces_shipped_readings

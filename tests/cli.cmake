@@ -67,7 +67,7 @@ add_test(NAME cli_run_good_no_mcm
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
           "-DARGS=run;${_jobs}/good.toml;-o;${_out}/good_no_mcm;--no-mcm"
           -DOUT=${_out}/good_no_mcm "-DFILES=${_all_files}"
-          "-DEXPECT_STDOUT=Ux\\[um\\].*Monte Carlo: not run" -P ${_cli}/expect_outputs.cmake)
+          "-DEXPECT_STDOUT=Ux\\[µm\\].*Monte Carlo: not run" -P ${_cli}/expect_outputs.cmake)
 add_test(NAME cli_run_good_json
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
           "-DARGS=run;${_jobs}/good.toml;-o;${_out}/good_json;--trials;4000;--json"
@@ -110,8 +110,18 @@ set_tests_properties(report_browser_adaptive PROPERTIES FIXTURES_REQUIRED vlt_ad
 add_test(NAME report_print_demo
   COMMAND ${CMAKE_COMMAND} -DDIR=${_out}/demo -DPROFILE=${_out}/chromium-profile-print -DMIN_PAGES=6
           -P ${_cli}/report_print.cmake)
-set_tests_properties(report_browser_demo report_browser_map report_print_demo PROPERTIES
-  FIXTURES_REQUIRED vlt_demo_outputs TIMEOUT 300)
+# The bytes the build embedded (cmake/vlt_embed.cc), and the run report drawn with the plotly.js a
+# build without npm embeds (Debian's python3-plotly copy, cmake/VltPlotly.cmake).
+add_test(NAME report_embeds_plotly_bytes
+  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/demo/report.html -DPLOTLY=${VLT_PLOTLY_JS_FILE}
+          -DLICENSE=${VLT_PLOTLY_LICENSE_FILE} -P ${_cli}/check_embedded_assets.cmake)
+add_test(NAME report_browser_demo_debian_plotly
+  COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/demo/report.html -DPROFILE=${_out}/chromium-profile-debian-plotly
+          -DSWAP_PLOTLY=${VLT_PLOTLY_JS_FILE} -DWITH_PLOTLY=${VLT_DEBIAN_PLOTLY_JS}
+          -DSWAPPED=${_out}/demo_debian_plotly.html -DMIN_PLOTS=4 -P ${_cli}/report_browser.cmake)
+set_tests_properties(report_browser_demo_debian_plotly PROPERTIES SKIP_REGULAR_EXPRESSION "SKIPPED:")
+set_tests_properties(report_browser_demo report_browser_map report_print_demo report_embeds_plotly_bytes
+  report_browser_demo_debian_plotly PROPERTIES FIXTURES_REQUIRED vlt_demo_outputs TIMEOUT 300)
 
 # A scan (2000 points, one plane over all): report.html holds the 200 points with the largest |U|
 # and an overview, stays small and draws.
@@ -208,7 +218,7 @@ add_test(NAME cli_help_demo_folder COMMAND vlt demo --help)
 set_tests_properties(cli_help_demo_folder PROPERTIES PASS_REGULAR_EXPRESSION "Output directory \\(default: ./vlt-demo\\)")
 # model show: a gauge's nominal length in mm with all its digits, its u in um (GUM H.1).
 add_test(NAME cli_model_show_units COMMAND vlt model show gum_h1_end_gauge)
-set_tests_properties(cli_model_show_units PROPERTIES PASS_REGULAR_EXPRESSION "l_s +\\[m\\]  50\\.000623 mm  u = 0\\.025 um")
+set_tests_properties(cli_model_show_units PROPERTIES PASS_REGULAR_EXPRESSION "l_s +\\[m\\]  50\\.000623 mm  u = 0\\.025 µm")
 add_test(NAME cli_demo_show_job COMMAND vlt demo --show-job)
 set_tests_properties(cli_demo_show_job PROPERTIES PASS_REGULAR_EXPRESSION "model = \"mirror\"")
 
@@ -236,7 +246,7 @@ add_test(NAME cli_plan_example
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
           "-DARGS=plan;${CMAKE_SOURCE_DIR}/examples/station_plan.toml;--threads;2;-o;${_out}/plan"
           -DOUT=${_out}/plan "-DFILES=plan.json;station_map.csv;station_map.html;planned_job.toml"
-          "-DEXPECT_STDOUT=recommended +x = [-0-9.]+ m, y = [-0-9.]+ m, z = [-0-9.]+ m: objective [0-9.]+ um.*job's station"
+          "-DEXPECT_STDOUT=recommended +x = [-0-9.]+ m, y = [-0-9.]+ m, z = [-0-9.]+ m: objective [0-9.]+ µm.*job's station"
           -P ${_cli}/expect_outputs.cmake)
 set_tests_properties(cli_plan_example PROPERTIES FIXTURES_SETUP vlt_plan)
 add_test(NAME cli_plan_reproduced_by_run

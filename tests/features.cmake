@@ -19,7 +19,7 @@ add_test(NAME cli_features_shaft_line
           "-DARGS=run;${_ft_ex}/shaft_line.toml;--trials;2000;-o;${_ft_out}/features_shaft_line"
           -DOUT=${_ft_out}/features_shaft_line
           "-DFILES=points.csv;tasks.csv;results.json;report.html"
-          "-DEXPECT_STDOUT=aft_bore +cylinder +radius +300[.]0000 mm +[0-9.]+ um .*aft_bore +cylinder +cylindricity +0[.]0000 mm +n/a +[[][0-9.]+, [0-9.]+[]] um  GUM n/a [(]not differentiable[)].*shaft_taper +cone +half_angle +-1[.]909152 deg .*aft_bore_form +cylindricity +cylindricity +0[.]0000 mm +n/a +[[][0-9.]+, [0-9.]+[]] um  GUM n/a.*aft_bore_form +cylindricity +cylindricity_least_squares +0[.]0000 mm +n/a .*aft_section_1 +roundness +roundness +0[.]0000 mm +n/a .*aft_bore radius [[]299[.]95, 300[.]05[]] mm: conforms.*aft_bore_form cylindricity <= 0[.]05 mm: conforms [(]probability of conformity 1 Monte Carlo[)]"
+          "-DEXPECT_STDOUT=aft_bore +cylinder +radius +300[.]0000 mm +[0-9.]+ µm .*aft_bore +cylinder +cylindricity +0[.]0000 mm +n/a +[[][0-9.]+, [0-9.]+[]] µm  GUM n/a [(]not differentiable[)].*shaft_taper +cone +half_angle +-1[.]909152 deg .*aft_bore_form +cylindricity +cylindricity +0[.]0000 mm +n/a +[[][0-9.]+, [0-9.]+[]] µm  GUM n/a.*aft_bore_form +cylindricity +cylindricity_least_squares +0[.]0000 mm +n/a .*aft_section_1 +roundness +roundness +0[.]0000 mm +n/a .*aft_bore radius [[]299[.]95, 300[.]05[]] mm: conforms.*aft_bore_form cylindricity <= 0[.]05 mm: conforms [(]probability of conformity 1 Monte Carlo[)]"
           "-DEXPECT_FILE_REGEX=tasks.csv:shaft_taper,cone,radius,mm,243[.]3333333[0-9]*,"
           -P ${_ft_cli}/expect_outputs.cmake)
 

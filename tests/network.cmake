@@ -13,7 +13,7 @@ add_test(NAME cli_network_plan
           "-DARGS=network;${_ex}/wing_network_plan.toml;--simulate;7;-o;${_out}/network_plan"
           -DOUT=${_out}/network_plan
           "-DFILES=targets.csv;stations.csv;residuals.csv;covariance.csv;tasks.csv;results.json;report.html;simulated_S1.csv;simulated_S2.csv;simulated_S3.csv;simulated_network.toml"
-          "-DEXPECT_STDOUT=Planned network 'wing-network-plan': 3 stations, 18 targets, 159 observations, 72 unknowns, dof 87; predicted: largest \\|U\\| [(]k = 1[.]96[)] [0-9.]+ um at"
+          "-DEXPECT_STDOUT=Planned network 'wing-network-plan': 3 stations, 18 targets, 159 observations, 72 unknowns, dof 87; predicted: largest \\|U\\| [(]k = 1[.]96[)] [0-9.]+ µm at"
           "-DJSON_KEYS=schema;created;vlt_version;vlt_commit;units;job;summary;stations;targets;tasks;files"
           -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
 set_tests_properties(cli_network_plan PROPERTIES FIXTURES_SETUP vlt_network_plan)
@@ -164,7 +164,7 @@ add_test(NAME cli_network_drift
           "-DARGS=network;${_ex}/drift_network.toml;-o;${_out}/network_drift"
           -DOUT=${_out}/network_drift
           "-DFILES=targets.csv;stations.csv;residuals.csv;drift.csv;covariance.csv;tasks.csv;mcm.csv;results.json;report.html"
-          "-DEXPECT_STDOUT=Measured network 'drift-network': 3 stations, 18 targets, 216 observations, 84 unknowns, dof 132.*Drift of station S2 over 2[.]25 h [(]4 knots[)]: [0-9.]+ um, U [0-9.]+ um.*the GUM agrees"
+          "-DEXPECT_STDOUT=Measured network 'drift-network': 3 stations, 18 targets, 216 observations, 84 unknowns, dof 132.*Drift of station S2 over 2[.]25 h [(]4 knots[)]: [0-9.]+ µm, U [0-9.]+ µm.*the GUM agrees"
           "-DEXPECT_FILE_REGEX=results.json:\"air_changes\": \\[\n *{\n *\"time\": 1795686000[.]0,\n *\"elapsed_h\": 2[.]166[0-9]*,\n *\"temperature\": 21[.]2,[^}]*\"sensor\": \"WS1\"\n *}\n *\\],\n *\"drift\": {[^}]*\"model\": \"linear\",[^}]*\"translation_rate\": 2[.]7[0-9]*e-09"
           "-DJSON_KEYS=schema;summary;stations;targets;monte_carlo;files"
           -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
@@ -182,7 +182,7 @@ add_test(NAME cli_network_drift_plan
           "-DARGS=network;${_ex}/drift_network_plan.toml;--simulate;7;-o;${_out}/network_drift_plan"
           -DOUT=${_out}/network_drift_plan
           "-DFILES=targets.csv;stations.csv;drift.csv;results.json;report.html;simulated_S2.csv;simulated_S2_check1.csv;simulated_S2_check2.csv;simulated_network.toml"
-          "-DEXPECT_STDOUT=Planned network 'drift-network-plan': 3 stations, 18 targets, 201 observations, 90 unknowns, dof 111;.*Drift of station S2 over 1[.]42 h [(]4 knots[)]: predicted U [0-9.]+ um at the last knot"
+          "-DEXPECT_STDOUT=Planned network 'drift-network-plan': 3 stations, 18 targets, 201 observations, 90 unknowns, dof 111;.*Drift of station S2 over 1[.]42 h [(]4 knots[)]: predicted U [0-9.]+ µm at the last knot"
           "-DEXPECT_FILE_REGEX=simulated_S2_check2.csv:^name,range,azimuth,elevation,face,time\nR1,[0-9.]+,[0-9.]+,-?[0-9.e-]+,front,3600\n"
           "-DJSON_KEYS=schema;created;vlt_version;vlt_commit;units;job;summary;stations;targets;tasks;files"
           -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
@@ -191,7 +191,7 @@ add_test(NAME cli_network_drift_plan_simulated
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
           "-DARGS=network;${_out}/network_drift_plan/simulated_network.toml;-o;${_out}/network_drift_plan_simulated"
           -DOUT=${_out}/network_drift_plan_simulated "-DFILES=targets.csv;drift.csv;results.json"
-          "-DEXPECT_STDOUT=Measured network 'drift-network-plan-simulated-7': 3 stations, 18 targets, 201 observations, 90 unknowns, dof 111;.*Drift of station S2 over 1[.]42 h [(]4 knots[)]: [0-9.]+ um, U [0-9.]+ um"
+          "-DEXPECT_STDOUT=Measured network 'drift-network-plan-simulated-7': 3 stations, 18 targets, 201 observations, 90 unknowns, dof 111;.*Drift of station S2 over 1[.]42 h [(]4 knots[)]: [0-9.]+ µm, U [0-9.]+ µm"
           "-DJSON_KEYS=schema;created;vlt_version;vlt_commit;units;job;summary;stations;targets;tasks;files"
           -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
 set_tests_properties(cli_network_drift_plan_simulated PROPERTIES FIXTURES_REQUIRED vlt_network_drift_plan)
@@ -199,7 +199,7 @@ add_test(NAME cli_network_one_station_drift
   COMMAND ${CMAKE_COMMAND} -DVLT=$<TARGET_FILE:vlt>
           "-DARGS=network;${_cli}/network/one_station_drift.toml;-o;${_out}/network_one_station_drift"
           -DOUT=${_out}/network_one_station_drift "-DFILES=targets.csv;drift.csv;results.json"
-          "-DEXPECT_STDOUT=Measured network 'one-station-drift': 1 station, 18 targets, 108 observations, 72 unknowns, dof 36;.*Drift of station S2 over 2[.]25 h [(]4 knots[)]: [0-9.]+ um, U [0-9.]+ um"
+          "-DEXPECT_STDOUT=Measured network 'one-station-drift': 1 station, 18 targets, 108 observations, 72 unknowns, dof 36;.*Drift of station S2 over 2[.]25 h [(]4 knots[)]: [0-9.]+ µm, U [0-9.]+ µm"
           "-DJSON_KEYS=schema;created;vlt_version;vlt_commit;units;job;summary;stations;targets;tasks;files"
           -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)
 vlt_network_error(drift_plan_no_interval drift_plan_no_interval.toml
@@ -256,7 +256,7 @@ add_test(NAME cli_network_length_test
           "-DARGS=network;${_ex}/length_test_network.toml;--simulate;4;-o;${_out}/network_lt"
           -DOUT=${_out}/network_lt
           "-DFILES=length_test.csv;identifiability.csv;results.json;report.html;simulated_network.toml"
-          "-DEXPECT_STDOUT=Length test [(]ISO 10360-10 from the network, MPE 15[.]0 um [+] 6[.]00 um/m[)]: 760 lengths of at least 1[.]00 m, 760 conform, 0 do not, 0 undetermined; largest [|]E[|] / MPE 0[.]000 .*E 0[.]0 um.*: conforms"
+          "-DEXPECT_STDOUT=Length test [(]ISO 10360-10 from the network, MPE 15[.]0 µm [+] 6[.]00 µm/m[)]: 760 lengths of at least 1[.]00 m, 760 conform, 0 do not, 0 undetermined; largest [|]E[|] / MPE 0[.]000 .*E 0[.]0 µm.*: conforms"
           "-DEXPECT_FILE_REGEX=results.json:\"length_test\": {[^}]*\"lengths\": 760,[^}]*\"verdict\": \"conforms\""
           "-DJSON_KEYS=schema;summary;length_test;files"
           -DSCHEMA=vlt-network/1 -P ${_cli}/expect_outputs.cmake)

@@ -30,7 +30,7 @@ function(vlt_prior_error name regex)
             -DOUT=${_out}/error_prior_${name} "-DEXPECT=${regex}" -P ${_cli}/expect_error.cmake)
 endfunction()
 vlt_prior_error(noise_too_big
-  "noise_too_big\\.toml: tests\\.mpe\\.ranging: test 'RG2': the reading noise alone \\([0-9.]+ um at p = 0\\.95\\) exceeds its MPE \\(10 um\\)")
+  "noise_too_big\\.toml: tests\\.mpe\\.ranging: test 'RG2': the reading noise alone \\([0-9.]+ µm at p = 0\\.95\\) exceeds its MPE \\(10 µm\\)")
 vlt_prior_error(with_estimate "with_estimate\\.toml: tracker\\.parameters\\.ex: a profile gives only u")
 vlt_prior_error(no_mpe "no_mpe\\.toml: tests\\.mpe: a profile needs at least one MPE")
 vlt_prior_error(bad_bound "bad_bound\\.toml: prior\\.bound: expected a multiple of the generic u from 1 to 1000")

@@ -363,7 +363,7 @@ TEST(Conformity, DecisionRule) {
   const ConformityDecision d = DecideConformity(form, 30e-6, 5e-6, 10e-6);
   EXPECT_EQ(d.verdict, "conforms");
   EXPECT_NEAR(*d.probability_gum, StandardNormalCdf(4.0), 1e-15);
-  EXPECT_EQ(DescribeTolerance(form, "m"), "<= 5e-05 m");
+  EXPECT_EQ(DescribeTolerance(form, "m"), "<= 0.00005 m");
 }
 
 void ExpectError(const std::string& text, const std::string& fragment) {

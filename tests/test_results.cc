@@ -132,7 +132,7 @@ TEST(Results, JsonSchemaKeys) {
   EXPECT_EQ(shared("thermal.cte")["display_u"], "1 ppm/K");
   EXPECT_EQ(shared("a0")["display_u"], "0.35 arcsec");
   EXPECT_EQ(shared("a0")["display_estimate"], "0 arcsec");
-  EXPECT_EQ(shared("pose.ty")["display_estimate"], "0 um");  // not in the job: 0, readable
+  EXPECT_EQ(shared("pose.ty")["display_estimate"], "0 µm");  // not in the job: 0, readable
   for (const char* key : {"noise", "shared", "parameter_correlation", "correlations", "environment_equation",
                           "vacuum_wavelength", "part_reference_temperature"}) {
     EXPECT_TRUE(j["inputs"].contains(key)) << "inputs." << key;

@@ -4,12 +4,14 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <string>
 
 #include <gtest/gtest.h>
 
 #include "base/format.h"
 #include "results/internal.h"
+#include "vlt/conformity.h"
 #include "vlt/job.h"
 #include "vlt/results.h"
 
@@ -54,6 +56,19 @@ TEST(RoundLikeGum, TheExamplesOfJcgm100) {
   EXPECT_EQ(base_internal::ShortestAt(-1.5e-5, 1e3), "-0.015");
   EXPECT_EQ(base_internal::ShortestAt(2.0, 1e6), "2000000");
   EXPECT_EQ(base_internal::ShortestAt(0.0, 1e3), "0");
+  // A limit typed in mm is held in m with the conversion's rounding (300.05 * 1e-3 is
+  // 0.30005000000000004): it comes back as typed, not with 17 digits; a typed limit with 15
+  // significant digits keeps them all.
+  EXPECT_EQ(0.30005000000000004, 300.05 * 1e-3);
+  EXPECT_EQ(base_internal::ShortestAt(300.05 * 1e-3, 1e3), "300.05");
+  EXPECT_EQ(base_internal::ShortestAt(0.1 + 0.2, 1.0), "0.3");
+  EXPECT_EQ(base_internal::ShortestAt(-4000.01234567891 * 1e-3, 1e3), "-4000.01234567891");
+  EXPECT_EQ(base_internal::ShortestAt(1.23456789012345e-7, 1e6), "0.123456789012345");
+  // The same in the conformity lines and reports (vlt/conformity.h).
+  EXPECT_EQ(DescribeTolerance(Tolerance{299.95 * 1e-3, 300.05 * 1e-3}, 1e3, "mm"), "[299.95, 300.05] mm");
+  EXPECT_EQ(DescribeTolerance(Tolerance{-std::numeric_limits<double>::infinity(), 0.05 * 1e-3}, 1e6, "µm"),
+            "<= 50 µm");
+  EXPECT_EQ(DescribeTolerance(Tolerance{1e-3, std::numeric_limits<double>::infinity()}, "m"), ">= 0.001 m");
   // No "-0": a value that rounds to 0 at U's place.
   EXPECT_EQ(RoundLikeGum(-3.8e-16, 1.0, 6.62e-6, 1.0).value, "0.0000000");
   EXPECT_EQ(RoundLikeGum(-3.8e-16, 1.0, 6.62e-6, 1.0).expanded, "0.0000067");

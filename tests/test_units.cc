@@ -183,8 +183,8 @@ TEST(Units, TypedUnitAndReadableFormat) {
   EXPECT_EQ(TypedUnit("22.3degC"), "degC");
   EXPECT_EQ(TypedUnit("12"), "");
   EXPECT_EQ(TypedUnit("1e3 hPa"), "hPa");
-  // Readable: below 1 mm in um, a gauge in mm with every digit; small angles in arcsec.
-  EXPECT_EQ(FormatReadable(12e-6, Dimension::kLength), "12 um");
+  // Readable: below 1 mm in µm, a gauge in mm with every digit; small angles in arcsec.
+  EXPECT_EQ(FormatReadable(12e-6, Dimension::kLength), "12 µm");
   EXPECT_EQ(FormatReadable(0.050000623, Dimension::kLength), "50.000623 mm");
   EXPECT_EQ(FormatReadable(ToSi(0.35, Dimension::kAngle, "arcsec"), Dimension::kAngle), "0.35 arcsec");
   EXPECT_EQ(FormatReadable(ToSi(20, Dimension::kAngle, "deg"), Dimension::kAngle), "20 deg");

@@ -14,6 +14,6 @@ import vlt  # noqa: E402
 r = vlt.run(sys.argv[1], monte_carlo=False)
 worst = int(np.argmax(np.linalg.norm(r["U"], axis=1)))
 print(f"vlt {r['vlt_version']}: job '{r['job']['name']}', {len(r['names'])} points, {len(r['tasks'])} tasks")
-print(f"worst point {r['names'][worst]}: |U| = {np.linalg.norm(r['U'][worst]) * 1e6:.1f} um")
+print(f"worst point {r['names'][worst]}: |U| = {np.linalg.norm(r['U'][worst]) * 1e6:.1f} µm")
 task = r["tasks"][0]
-print(f"task {task['name']}: {task['quantities'][0]} = {task['gum']['value'][0]:.6f}, U = {task['gum']['U'][0] * 1e6:.2f} um")
+print(f"task {task['name']}: {task['quantities'][0]} = {task['gum']['value'][0]:.6f}, U = {task['gum']['U'][0] * 1e6:.2f} µm")

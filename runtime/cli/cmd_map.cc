@@ -99,7 +99,7 @@ void AddMapCommand(CLI::App& app, GlobalOptions& global) {
     }
     std::printf("Map of job '%s' (model %s): %s\n", job.name.c_str(), job.setup.model->name,
                 settings.description.c_str());
-    std::printf("|U| = sqrt(Ux^2+Uy^2+Uz^2), k = %.3f (p = %g): %.1f .. %.1f um over %zu nodes\n", map.k,
+    std::printf("|U| = sqrt(Ux^2+Uy^2+Uz^2), k = %.3f (p = %g): %.1f .. %.1f µm over %zu nodes\n", map.k,
                 map.coverage_probability, n ? lo * 1e6 : 0.0, hi * 1e6, n);
     if (!map.sources.empty() && n > 0) {
       // Where each source dominates: the number of nodes per dominant source, largest first.

@@ -189,7 +189,7 @@ void Simulate(const SimulateOptions& options, const GlobalOptions& global) {
               readings[0], readings[1] * kRadToDeg, readings[1], readings[2] * kRadToDeg, readings[2]);
   std::printf("reported:  (%.9f, %.9f, %.9f) m   (nominal, error-free model)\n", reported[0], reported[1],
               reported[2]);
-  std::printf("error:     (%+.3f, %+.3f, %+.3f) um   |error| %.3f um   (reported - true)\n", error[0] * 1e6,
+  std::printf("error:     (%+.3f, %+.3f, %+.3f) µm   |error| %.3f µm   (reported - true)\n", error[0] * 1e6,
               error[1] * 1e6, error[2] * 1e6, error_norm * 1e6);
 }
 

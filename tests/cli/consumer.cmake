@@ -24,7 +24,7 @@ run("configure the consumer" ${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/consumer
     -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_BUILD_TYPE=Release)
 run("build the consumer" ${CMAKE_COMMAND} --build ${OUT}/build)
 run("run the consumer" ${OUT}/build/vlt_consumer)
-if(NOT out MATCHES "job 'vlt-demo', [0-9]+ points.*worst point .*: \\|U\\| = [0-9.]+ um.*task ")
+if(NOT out MATCHES "job 'vlt-demo', [0-9]+ points.*worst point .*: \\|U\\| = [0-9.]+ µm.*task ")
   message(FATAL_ERROR "unexpected consumer output:\n${out}")
 endif()
 set(cmake_out "${out}")

@@ -5,6 +5,9 @@
 # data-errors. A missing Chromium is a FAILURE (scripts/test.sh installs the Debian package).
 #   -DPAGE=/abs/path/report.html -DPROFILE=/abs/tmp/dir [-DCHROMIUM=/usr/bin/chromium]
 #   [-DMAX_BYTES=N] (the page may not be larger) [-DFRAGMENT=layer=3] (appended as #...)
+#   [-DSWAP_PLOTLY=/abs/embedded.js -DWITH_PLOTLY=/abs/other.js -DSWAPPED=/abs/copy.html]: draw a copy
+#   of the page whose embedded plotly.js is replaced by another (the copy a build without npm embeds,
+#   cmake/VltPlotly.cmake); "SKIPPED:" when WITH_PLOTLY is not on this machine.
 cmake_minimum_required(VERSION 3.25)
 if(NOT CHROMIUM)
   find_program(CHROMIUM NAMES chromium chromium-browser google-chrome)
@@ -20,6 +23,22 @@ if(DEFINED MAX_BYTES)
   if(page_bytes GREATER MAX_BYTES)
     message(FATAL_ERROR "${PAGE} has ${page_bytes} bytes, more than ${MAX_BYTES}")
   endif()
+endif()
+if(DEFINED SWAP_PLOTLY)
+  if(NOT EXISTS ${WITH_PLOTLY})
+    message(STATUS "SKIPPED: ${WITH_PLOTLY} is not on this machine")
+    return()
+  endif()
+  file(READ ${PAGE} _page)
+  file(READ ${SWAP_PLOTLY} _embedded)
+  file(READ ${WITH_PLOTLY} _other)
+  string(FIND "${_page}" "${_embedded}" _at)
+  if(_at EQUAL -1)
+    message(FATAL_ERROR "${PAGE} does not embed ${SWAP_PLOTLY}")
+  endif()
+  string(REPLACE "${_embedded}" "${_other}" _page "${_page}")
+  file(WRITE ${SWAPPED} "${_page}")
+  set(PAGE ${SWAPPED})
 endif()
 set(_fragment "")
 if(DEFINED FRAGMENT)

@@ -41,7 +41,11 @@ ConformityDecision DecideConformity(const Tolerance& tolerance, double y, double
                                     std::optional<double> probability_mcm = std::nullopt,
                                     double dof = std::numeric_limits<double>::infinity());
 
-// "[a, b] m", "<= b m", ">= a m" for reports.
+// "[a, b] m", "<= b m", ">= a m" for files (SI, the shortest digits that read back).
 std::string DescribeTolerance(const Tolerance& tolerance, const std::string& unit);
+// The same in the unit the value beside it is shown in: the limits (SI) times `scale` (1e3 for mm,
+// 1e6 for µm), written as they were specified (the decimal point moved, not multiplied: 0.05 mm,
+// never 0.05000000000000001 mm), then `shown_unit`.
+std::string DescribeTolerance(const Tolerance& tolerance, double scale, const std::string& shown_unit);
 
 }  // namespace vlt

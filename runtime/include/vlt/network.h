@@ -340,7 +340,8 @@ struct NetworkTaskResult {
   Eigen::MatrixXd covariance;
   std::vector<bool> differentiable;
   std::vector<std::optional<ConformityDecision>> conformity;  // per quantity with a tolerance
-  std::vector<std::string> tolerance;                         // DescribeTolerance, "" without one
+  std::vector<std::string> tolerance;                         // DescribeTolerance (SI), "" without one
+  std::vector<std::optional<Tolerance>> limits;               // the tolerance itself, SI
 };
 std::vector<NetworkTaskResult> NetworkTasks(const std::vector<TaskSpec>& tasks, const NetworkResult& result,
                                             const std::string& where);

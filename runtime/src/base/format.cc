@@ -104,6 +104,34 @@ std::string HtmlEscape(const std::string& text) {
   return out;
 }
 
+std::string HumanUnit(std::string_view ascii_unit) {
+  std::string out;
+  auto letter = [](char c) { return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_'; };
+  for (std::size_t i = 0; i < ascii_unit.size(); ++i) {
+    const bool word_start = i == 0 || !letter(ascii_unit[i - 1]);
+    const bool word_end = i + 2 >= ascii_unit.size() || !letter(ascii_unit[i + 2]);
+    if (word_start && word_end && ascii_unit.substr(i, 2) == "um") {
+      out += "µm";
+      ++i;
+    } else {
+      out += ascii_unit[i];
+    }
+  }
+  return out;
+}
+
+std::string PadColumns(const std::string& text, int width, bool align_left) {
+  int columns = 0;
+  for (unsigned char c : text) columns += (c & 0xC0) != 0x80;  // UTF-8: one per lead byte
+  std::string out;
+  const std::size_t pad = width > columns ? static_cast<std::size_t>(width - columns) : 0;
+  out.reserve(text.size() + pad);
+  if (!align_left) out.append(pad, ' ');
+  out.append(text);
+  if (align_left) out.append(pad, ' ');
+  return out;
+}
+
 std::string CsvField(const std::string& field) {
   if (field.find_first_of(",\"\n\r") == std::string::npos) return field;
   std::string out = "\"";
@@ -170,10 +198,23 @@ std::string ShortestAt(double v, double scale) {
     std::snprintf(buffer, sizeof buffer, "%.10g", v * scale);
     return buffer;
   }
-  // Shortest round-trip digits and exponent: "-d.ddde+XX".
+  // Shortest round-trip digits and exponent: "-d.ddde+XX", at most 15 significant digits: a limit
+  // typed in mm and held in m (300.05 mm is 0.30005000000000004 m) comes back as typed, since 15
+  // decimal digits survive the trip through a double and the unit's rounding is far below them.
   char buffer[64];
-  const auto written = std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::scientific);
-  const std::string text(buffer, written.ptr);
+  auto written = std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::scientific);
+  const std::string_view shortest(buffer, static_cast<std::size_t>(written.ptr - buffer));
+  if (std::count_if(shortest.begin(), shortest.begin() + static_cast<std::ptrdiff_t>(shortest.find('e')),
+                    [](char c) { return c >= '0' && c <= '9'; }) > 15) {
+    written = std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::scientific, 14);
+  }
+  std::string text(buffer, written.ptr);
+  // Trailing zeros of the 15-digit form ("3.00050000000000e-01") are not digits of the limit.
+  const std::size_t mantissa_end = text.find('e');
+  std::size_t last = mantissa_end;
+  while (last > 1 && text[last - 1] == '0') --last;
+  if (last > 0 && text[last - 1] == '.') --last;
+  text.erase(last, mantissa_end - last);
   const std::size_t e = text.find('e');
   std::string digits;
   for (std::size_t i = 0; i < e; ++i) {

@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <string>
+#include <string_view>
 
 #include <Eigen/Core>
 
@@ -52,14 +53,22 @@ struct GumRounded {
   int value_decimals = 0;  // decimals of `value`, for other numbers printed beside it (an interval)
 };
 GumRounded RoundLikeGum(double value, double value_scale, double expanded, double expanded_scale);
-// The shortest decimal that reads back as v (SI), written in a unit `scale` times smaller (a power
-// of ten: 1, 1e3 for mm, 1e6 for um) by moving the decimal point, not by multiplying (3.9999905 m
-// is "3999.9905" mm, not 3999.9904999999999): a limit as it was specified. Other scales (degrees):
+// The shortest decimal that reads back as v (SI), at most 15 significant digits (so that a limit
+// typed in mm and rounded in its conversion to m comes back as typed: 300.05 mm, held as
+// 0.30005000000000004 m), written in a unit `scale` times smaller (a power of ten: 1, 1e3 for mm,
+// 1e6 for um) by moving the decimal point, not by multiplying (3.9999905 m is "3999.9905" mm, not
+// 3999.9904999999999): a limit as it was specified. Other scales (degrees):
 // ten significant digits of v * scale.
 std::string ShortestAt(double v, double scale);
 // v (SI) shown with `decimals` decimals after scaling (negative decimals: rounded to 10^-decimals),
 // never "-0".
 std::string ShownAt(double v, double scale, int decimals);
+// A unit as people read it: every "um" that is a unit of its own ("um", "um/m", "um/arcsec") as
+// "µm". Files for programs (CSV headers and unit columns, results.json) keep the ASCII spelling.
+std::string HumanUnit(std::string_view ascii_unit);
+// `text` padded with spaces to `width` columns of a terminal, counting characters, not bytes (a
+// "µm" is two bytes and one column): right-aligned, or left-aligned with align_left.
+std::string PadColumns(const std::string& text, int width, bool align_left = false);
 // A CSV field quoted when it holds a comma, quote or line break (RFC 4180).
 std::string CsvField(const std::string& field);
 // Text for HTML: & < > " ' escaped.

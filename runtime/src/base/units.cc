@@ -338,7 +338,7 @@ std::string FormatReadable(double si, Dimension dimension) {
   const double a = std::abs(si);
   switch (dimension) {
     case Dimension::kLength:
-      return a >= 1e-3 ? FormatQuantity(si, dimension, "mm", 12) : FormatQuantity(si, dimension, "um", 4);
+      return a >= 1e-3 ? FormatQuantity(si, dimension, "mm", 12) : FormatQuantity(si, dimension, "µm", 4);
     case Dimension::kAngle:
       return a >= 3.14159265358979323846 / 180.0 ? FormatQuantity(si, dimension, "deg", 8)
                                                  : FormatQuantity(si, dimension, "arcsec", 4);

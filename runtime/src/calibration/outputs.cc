@@ -29,6 +29,7 @@ namespace {
 
 using base_internal::Fixed;
 using base_internal::HtmlEscape;
+using base_internal::HumanUnit;
 using base_internal::Num;
 std::string Csv(const std::string& s) { return base_internal::CsvField(s); }
 
@@ -186,7 +187,7 @@ void TrackerAndLayoutSection(std::ostringstream& body, const TestJob& job,
     const auto [unit, per] = DisplayUnit(model.params[k].quantity, model.params[k].unit);
     body << "<tr><td class=\"l\">" << HtmlEscape(model.params[k].name) << "</td><td>"
          << Fixed(job.tracker.params[k].estimate * per, 3) << "</td><td>"
-         << Fixed(job.tracker.params[k].u * per, 3) << "</td><td class=\"l\">" << unit
+         << Fixed(job.tracker.params[k].u * per, 3) << "</td><td class=\"l\">" << HumanUnit(unit)
          << "</td><td class=\"l\">" << HtmlEscape(model.params[k].description) << "</td></tr>";
   }
   body << "</table></section>\n";
@@ -195,9 +196,9 @@ void TrackerAndLayoutSection(std::ostringstream& body, const TestJob& job,
 void TestsTable(std::ostringstream& body, const std::vector<TestResult>& results) {
   body << "<section><h2>Tests</h2><table><tr><th class=\"l\">test</th><th class=\"l\">kind</th><th>reference "
           "/ mm</th>"
-          "<th>R max / m</th><th>error / um</th><th>U / um</th><th>u(params) / um</th><th>MPE / um</th><th "
+          "<th>R max / m</th><th>error / µm</th><th>U / µm</th><th>u(params) / µm</th><th>MPE / µm</th><th "
           "class=\"l\">verdict</th>"
-          "<th>two-face radial / um</th><th>transverse / um</th></tr>";
+          "<th>two-face radial / µm</th><th>transverse / µm</th></tr>";
   for (const TestResult& r : results) {
     body << "<tr><td class=\"l\">" << HtmlEscape(r.name) << "</td><td class=\"l\">" << TestKindName(r.kind)
          << "</td><td>" << (r.kind == TestKind::kTwoFace ? "" : Fixed(r.reference * 1e3, 4)) << "</td><td>"
@@ -217,14 +218,14 @@ void SensitivityHeatmap(std::ostringstream& body, std::ostringstream& script, co
   const int P = model.num_params;
   body << "<section><h2>Sensitivity: which test sees which parameter</h2><p class=\"note\">|d error / d "
           "parameter| "
-          "in um per um, um per arcsec, um per ppm (sensitivity.csv has the signs of length and ranging "
+          "in µm per µm, µm per arcsec, µm per ppm (sensitivity.csv has the signs of length and ranging "
           "tests; two-face rows are magnitudes). A column without colour is a parameter "
           "that no test of this layout sees.</p><div id=\"sens\" class=\"plot\" style=\"height:"
        << 200 + 9 * results.size() << "px\"></div></section>\n";
   nlohmann::json z = nlohmann::json::array(), x = nlohmann::json::array(), y = nlohmann::json::array();
   for (int k = 0; k < P; ++k) {
     x.push_back(std::string(model.params[k].name) + " (" +
-                PerUnit(model.params[k].quantity, model.params[k].unit) + ")");
+                HumanUnit(PerUnit(model.params[k].quantity, model.params[k].unit)) + ")");
   }
   for (const TestResult& r : results) {
     y.push_back(r.name);
@@ -449,9 +450,9 @@ void ParametersSection(std::ostringstream& body, std::ostringstream& script,
          << "\">" << ParameterStatusName(p.status) << "</td><td>" << Fixed(p.estimate * per, 3) << "</td><td>"
          << Fixed(result.k * p.u * per, 3) << "</td><td>" << Fixed(p.u_data * per, 3) << "</td><td>"
          << Fixed(p.prior_estimate * per, 3) << "</td><td>" << Fixed(p.prior_u * per, 3)
-         << "</td><td class=\"l\">" << unit << "</td><td class=\"l\">"
+         << "</td><td class=\"l\">" << HumanUnit(unit) << "</td><td class=\"l\">"
          << HtmlEscape(calibration_internal::ParameterMeaning(model, p.name)) << "</td></tr>";
-    names.push_back(p.name + " (" + unit + ")");
+    names.push_back(p.name + " (" + HumanUnit(unit) + ")");
     est.push_back(p.estimate * per);
     err.push_back(result.k * p.u * per);
     prior.push_back(result.k * p.prior_u * per);
@@ -463,7 +464,7 @@ void ParametersSection(std::ostringstream& body, std::ostringstream& script,
          << ",color:'#aaa'},marker:{color:'rgba(0,0,0,0)'}},{type:'scatter',mode:'markers',"
             "name:'estimate ±U',x:"
          << ScriptJson(names) << ",y:" << ScriptJson(est) << ",error_y:{type:'data',array:" << ScriptJson(err)
-         << "}}],{margin:{b:140},yaxis:{title:'um, arcsec, ppm'}},{responsive:true}).then(done);";
+         << "}}],{margin:{b:140},yaxis:{title:'µm, arcsec, ppm'}},{responsive:true}).then(done);";
 }
 
 void IdentifiabilitySection(std::ostringstream& body, const CalibrationResult& result) {
@@ -491,7 +492,7 @@ void LargestResiduals(std::ostringstream& body, const CalibrationResult& result)
     const bool angle = r.unit == "rad";
     body << "<tr><td class=\"l\">" << HtmlEscape(r.observation) << "</td><td class=\"l\">"
          << HtmlEscape(r.where) << "</td><td>" << Fixed(r.residual * (angle ? 1.0 / kArcsec : 1e6), 3)
-         << "</td><td class=\"l\">" << (angle ? "arcsec" : "um") << "</td><td>" << Fixed(r.w, 2)
+         << "</td><td class=\"l\">" << (angle ? "arcsec" : "µm") << "</td><td>" << Fixed(r.w, 2)
          << "</td><td>" << Fixed(r.redundancy, 3) << "</td><td class=\"l " << (r.outlier ? "bad" : "")
          << "\">" << (r.outlier ? "yes" : "") << "</td></tr>";
   }
@@ -548,7 +549,7 @@ std::string TestSummary(const TestJob& job, const std::vector<TestResult>& resul
     }
   }
   os << job.name << ": " << results.size() << " tests of layout '" << job.layout.name << "' on a "
-     << job.tracker.model->name << " tracker; largest |error| " << Fixed(worst * 1e6, 2) << " um ("
+     << job.tracker.model->name << " tracker; largest |error| " << Fixed(worst * 1e6, 2) << " µm ("
      << worst_name << ")";
   if (pass + fail) os << "; " << pass << " pass, " << fail << " fail against the MPE";
   os << "\n";
@@ -593,7 +594,7 @@ std::string CalibrationSummary(const CalibrationJob& job, const CalibrationResul
     const auto [unit, per] = DisplayUnit(p.quantity, p.unit);
     char line[160];
     std::snprintf(line, sizeof line, "  %-8s %-10s %10s %s  U = %s\n", p.name.c_str(),
-                  ParameterStatusName(p.status), Fixed(p.estimate * per, 3).c_str(), unit.c_str(),
+                  ParameterStatusName(p.status), Fixed(p.estimate * per, 3).c_str(), HumanUnit(unit).c_str(),
                   Fixed(result.k * p.u * per, 3).c_str());
     os << line;
   }

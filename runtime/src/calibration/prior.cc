@@ -253,8 +253,8 @@ std::vector<Constraint> MpeConstraints(const std::vector<TestResult>& simulated,
     if (c.c * c.c * c.noise >= c.mpe * c.mpe) {
       throw InputError(job.file + ": tests.mpe." + TestKindName(t.kind) + ": test '" + t.name +
                        "': the reading noise alone (" +
-                       FormatQuantity(c.c * std::sqrt(c.noise), Dimension::kLength, "um", 3) + " at p = " +
-                       base_internal::Sig(p, 6) + ") exceeds its MPE (" + FormatQuantity(c.mpe, Dimension::kLength, "um", 3) +
+                       FormatQuantity(c.c * std::sqrt(c.noise), Dimension::kLength, "µm", 3) + " at p = " +
+                       base_internal::Sig(p, 6) + ") exceeds its MPE (" + FormatQuantity(c.mpe, Dimension::kLength, "µm", 3) +
                        "): no prior can meet the statement; check [tracker.noise] against the datasheet");
     }
     out.push_back(std::move(c));

@@ -19,6 +19,7 @@ namespace {
 
 using base_internal::Fixed;
 using base_internal::HtmlEscape;
+using base_internal::HumanUnit;
 using base_internal::Num;
 using output_internal::Page;
 using output_internal::ScriptJson;
@@ -178,7 +179,7 @@ void PriorProvenanceSection(std::ostringstream& body, const PriorJob& job, const
        << Fixed(job.settings.bound, 1) << " × the generic u; computed " << HtmlEscape(provenance.created)
        << ".</p><table><tr><th class=\"l\">statement</th><th class=\"l\">MPE</th><th class=\"l\">source</th></tr>";
   auto mpe_text = [](const Mpe& m) {
-    return m.set ? Fixed(m.a * 1e6, 3) + " um + " + Fixed(m.b * 1e6, 3) + " um/m" : std::string("—");
+    return m.set ? Fixed(m.a * 1e6, 3) + " µm + " + Fixed(m.b * 1e6, 3) + " µm/m" : std::string("—");
   };
   std::map<std::string, std::string> cited(job.sources.begin(), job.sources.end());
   const std::pair<const char*, const Mpe*> statements[] = {
@@ -211,7 +212,7 @@ void PriorParametersSection(std::ostringstream& body, const PriorResult& result)
     body << "<tr><td class=\"l\">" << HtmlEscape(p.name) << "</td><td class=\"l "
          << (p.status == PriorStatus::kFromMpe ? "ok" : "na") << "\">" << PriorStatusName(p.status) << "</td><td>"
          << Fixed(p.u * per, 3) << "</td><td>" << Fixed(p.u0 * per, 3) << "</td><td>" << Fixed(p.bound * per, 3)
-         << "</td><td class=\"l\">" << HtmlEscape(unit) << "</td><td class=\"l\">" << HtmlEscape(meaning)
+         << "</td><td class=\"l\">" << HtmlEscape(HumanUnit(unit)) << "</td><td class=\"l\">" << HtmlEscape(meaning)
          << "</td></tr>";
   }
   body << "</table></section>\n";
@@ -222,7 +223,7 @@ void PriorTestsSection(std::ostringstream& body, const PriorResult& result) {
           "noise and the parameters in quadrature (two-face: square roots of the traces of the covariance of "
           "back − front); conformance: P(|E| ≤ MPE), exact for the Gaussian; binding: the statement holds "
           "with probability p exactly.</p><table><tr><th class=\"l\">test</th><th class=\"l\">kind</th><th>R max / "
-          "m</th><th>MPE / um</th><th>u(noise) / um</th><th>u(params) / um</th><th>u / um</th><th>conformance</th><th "
+          "m</th><th>MPE / µm</th><th>u(noise) / µm</th><th>u(params) / µm</th><th>u / µm</th><th>conformance</th><th "
           "class=\"l\">binding</th></tr>";
   for (const PriorTest& t : result.tests) {
     body << "<tr><td class=\"l\">" << HtmlEscape(t.name) << "</td><td class=\"l\">" << TestKindName(t.kind)

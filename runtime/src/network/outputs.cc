@@ -179,7 +179,7 @@ void NetworkView(std::ostringstream& body, std::ostringstream& script, const Net
                  const NetworkResult& result) {
   const double scale = EllipsoidScale(result);
   body << "<section><h2>The network</h2><p class=\"note\">Part frame, m. Targets coloured by |U| = k "
-          "sqrt(trace C) in um; grey lines: lines of "
+          "sqrt(trace C) in µm; grey lines: lines of "
           "sight; the three principal axes of each target's coverage ellipsoid (k sqrt(eigenvalues)) drawn "
        << Num(scale) << " times enlarged.</p><div id=\"net\" class=\"plot\"></div></section>\n";
   Trace3d targets;
@@ -204,8 +204,8 @@ void NetworkView(std::ostringstream& body, std::ostringstream& script, const Net
          << EllipsoidAxes(result, scale).Xyz() << "},"
          << "{type:'scatter3d',mode:'markers',name:'targets',text:" << ScriptJson(tn) << "," << targets.Xyz()
          << ",marker:{size:4,color:" << ScriptJson(tc)
-         << ",colorscale:'Viridis',colorbar:{title:'|U| / um',x:1.02}},hovertemplate:'%{text}<br>|U| "
-            "%{marker.color:.1f} um<extra></extra>'},"
+         << ",colorscale:'Viridis',colorbar:{title:'|U| / µm',x:1.02}},hovertemplate:'%{text}<br>|U| "
+            "%{marker.color:.1f} µm<extra></extra>'},"
          << "{type:'scatter3d',mode:'markers+text',name:'stations',text:" << ScriptJson(sn) << ","
          << stations.Xyz() << ",marker:{size:7,symbol:'diamond',color:'#1f3a5f'}}"
          << "],{margin:{l:0,r:0,t:10,b:0},legend:{x:0,y:1},scene:{aspectmode:'data',xaxis:{title:'x / "
@@ -213,12 +213,12 @@ void NetworkView(std::ostringstream& body, std::ostringstream& script, const Net
 }
 
 void TargetsTable(std::ostringstream& body, const NetworkResult& result) {
-  body << "<section><h2>Targets</h2><p class=\"note\">Part frame. U = k u per coordinate, um; the full "
+  body << "<section><h2>Targets</h2><p class=\"note\">Part frame. U = k u per coordinate, µm; the full "
           "covariance (targets with each "
           "other and with the stations) is in covariance.csv.</p><table><tr><th class=\"l\">target</th><th>x "
           "/ m</th><th>y / m</th><th>z / m</th>"
-          "<th>U<sub>x</sub> / um</th><th>U<sub>y</sub> / um</th><th>U<sub>z</sub> / "
-          "um</th><th>stations</th><th class=\"l\">reference</th></tr>";
+          "<th>U<sub>x</sub> / µm</th><th>U<sub>y</sub> / µm</th><th>U<sub>z</sub> / "
+          "µm</th><th>stations</th><th class=\"l\">reference</th></tr>";
   for (const AdjustedTarget& t : result.targets) {
     body << "<tr><td class=\"l\">" << HtmlEscape(t.name) << "</td>";
     for (int c = 0; c < 3; ++c) body << "<td>" << Fixed(t.position(c), 6) << "</td>";
@@ -232,10 +232,10 @@ void TargetsTable(std::ostringstream& body, const NetworkResult& result) {
 void StationsTable(std::ostringstream& body, const NetworkResult& result) {
   body << "<section><h2>Stations</h2><p class=\"note\">Pose: x_part = R x_station + t, R = Rz(rz) Ry(ry) "
           "Rx(rx); "
-          "angles in degrees, their U in arcsec; t in m, its U in um.</p><table><tr><th "
+          "angles in degrees, their U in arcsec; t in m, its U in µm.</p><table><tr><th "
           "class=\"l\">station</th><th>rx / deg</th><th>ry / deg</th>"
           "<th>rz / deg</th><th>tx / m</th><th>ty / m</th><th>tz / m</th><th>U(rx, ry, rz) / "
-          "arcsec</th><th>U(tx, ty, tz) / um</th><th>readings</th></tr>";
+          "arcsec</th><th>U(tx, ty, tz) / µm</th><th>readings</th></tr>";
   for (const AdjustedStation& st : result.stations) {
     body << "<tr><td class=\"l\">" << HtmlEscape(st.name) << (st.datum ? " (datum)" : "") << "</td>";
     for (int c = 0; c < 3; ++c) body << "<td>" << Fixed(st.pose(c) * 180.0 / std::numbers::pi, 6) << "</td>";
@@ -309,15 +309,15 @@ void DriftSection(std::ostringstream& body, std::ostringstream& script, const Ne
   body
       << "<section><h2>Drift</h2><p class=\"note\">Each drifting station's pose change since its first "
          "reading (docs/network.md N-12: piecewise linear between its knots — first reading, drift checks, "
-         "last reading — each segment's rate an unknown with the stated prior). Translation in um with "
+         "last reading — each segment's rate an unknown with the stated prior). Translation in µm with "
          "error bars U = k u (k = "
       << Fixed(result.k, 2)
       << "), hours from the network's first reading. The poses of every reading "
          "between two knots are interpolated, and their uncertainty is in every target.</p>"
          "<div id=\"drift\" class=\"plot\" style=\"height:420px\"></div><table><tr><th "
          "class=\"l\">station</th>"
-         "<th>knot</th><th>time / h</th><th>&Delta;tx / um</th><th>&Delta;ty / um</th><th>&Delta;tz / um</th>"
-         "<th>U(&Delta;t) / um</th><th>&Delta;rx / arcsec</th><th>&Delta;ry / arcsec</th><th>&Delta;rz / "
+         "<th>knot</th><th>time / h</th><th>&Delta;tx / µm</th><th>&Delta;ty / µm</th><th>&Delta;tz / µm</th>"
+         "<th>U(&Delta;t) / µm</th><th>&Delta;rx / arcsec</th><th>&Delta;ry / arcsec</th><th>&Delta;rz / "
          "arcsec</th></tr>";
   std::ostringstream traces;
   static const char* kAxis[3] = {"x", "y", "z"};
@@ -348,7 +348,7 @@ void DriftSection(std::ostringstream& body, std::ostringstream& script, const Ne
   }
   body << "</table></section>\n";
   script << "Plotly.newPlot('drift',[" << traces.str()
-         << "],{margin:{l:60,r:10,t:10,b:50},xaxis:{title:'time / h'},yaxis:{title:'drift / um'}},"
+         << "],{margin:{l:60,r:10,t:10,b:50},xaxis:{title:'time / h'},yaxis:{title:'drift / µm'}},"
             "{responsive:true}).then(done);";
 }
 
@@ -378,16 +378,16 @@ void LengthTestSection(std::ostringstream& body, const NetworkJob& job,
   const NetworkLengthTest& test = *job.length_test;
   body << "<section><h2>Length test from the network (ISO 10360-10)</h2><p class=\"note\">Each station's own "
           "length between two targets (its readings through the instrument as it stands) against the "
-          "network's calibrated length (docs/network.md N-13; Wang, Muralikrishnan et al. 2020). E in um; "
+          "network's calibrated length (docs/network.md N-13; Wang, Muralikrishnan et al. 2020). E in µm; "
           "MPE = "
-       << Fixed(test.mpe_a * 1e6, 1) << " um + " << Fixed(test.mpe_b * 1e6, 2)
-       << " um/m; U the network length's expanded uncertainty, the guard band of the ISO 14253-1 "
+       << Fixed(test.mpe_a * 1e6, 1) << " µm + " << Fixed(test.mpe_b * 1e6, 2)
+       << " µm/m; U the network length's expanded uncertainty, the guard band of the ISO 14253-1 "
           "decision. Lengths from "
        << Fixed(test.min_length, 2)
        << " m; every length in length_test.csv.</p><table><tr><th class=\"l\">station</th>"
           "<th>lengths</th><th>conform</th><th>do not conform</th><th>undetermined</th><th>largest |E| / "
           "MPE</th>"
-          "<th class=\"l\">at</th><th>L / m</th><th>E / um</th><th>U / um</th><th "
+          "<th class=\"l\">at</th><th>L / m</th><th>E / µm</th><th>U / µm</th><th "
           "class=\"l\">verdict</th></tr>";
   std::vector<std::string> order;
   std::map<std::string, LengthTestSummary> by_station;
@@ -412,23 +412,26 @@ void LengthTestSection(std::ostringstream& body, const NetworkJob& job,
 // Tasks over adjusted targets, with the ISO 14253-1 decision where a tolerance is given.
 void TasksTable(std::ostringstream& body, const std::vector<NetworkTaskResult>& tasks) {
   body << "<section><h2>Tasks</h2><p class=\"note\">Over adjusted targets, whichever station read them, with "
-          "their joint covariance "
-          "through the adjustment (G C G<sup>T</sup>); lengths in um, directions dimensionless. n/a: no GUM "
-          "value (a form quantity of points "
-          "that fit exactly).</p><table><tr><th class=\"l\">task</th><th "
-          "class=\"l\">quantity</th><th>value</th><th>u</th><th>U</th>"
-          "<th class=\"l\">unit</th><th class=\"l\">tolerance</th><th class=\"l\">decision (ISO "
-          "14253-1)</th></tr>";
+          "their joint covariance through the adjustment (G C G<sup>T</sup>). Lengths: values and tolerances "
+          "in mm, u and U in µm; directions dimensionless. n/a: no GUM value (a form quantity of points that "
+          "fit exactly).</p><table><tr><th class=\"l\">task</th><th class=\"l\">quantity</th><th>value</th>"
+          "<th>u</th><th>U</th><th class=\"l\">tolerance</th><th class=\"l\">decision (ISO 14253-1)</th></tr>";
   for (const NetworkTaskResult& t : tasks) {
     for (std::size_t q = 0; q < t.quantities.size(); ++q) {
       const bool length = t.units[q] == "m";
-      const double f = length ? 1e6 : 1.0;
+      // The value to 0.1 µm like the run's task table; u and U to three significant digits.
+      const std::string value = length ? Fixed(t.value(q) * 1e3, 4) + " mm" : Fixed(t.value(q), 8);
+      auto uncertainty = [&](double u) {
+        return !t.differentiable[q] ? std::string("n/a")
+                                    : base_internal::Sig(u * (length ? 1e6 : 1.0), 3) + (length ? " µm" : "");
+      };
+      const std::string limits =
+          q < t.limits.size() && t.limits[q]
+              ? (length ? DescribeTolerance(*t.limits[q], 1e3, "mm") : DescribeTolerance(*t.limits[q], ""))
+              : std::string();
       body << "<tr><td class=\"l\">" << HtmlEscape(t.name) << "</td><td class=\"l\">"
-           << HtmlEscape(t.quantities[q]) << "</td><td>"
-           << (length ? Fixed(t.value(q) * 1e6, 1) : Fixed(t.value(q), 8)) << "</td><td>"
-           << (t.differentiable[q] ? base_internal::Sig(t.u(q) * f, 3) : "n/a") << "</td><td>"
-           << (t.differentiable[q] ? base_internal::Sig(t.U(q) * f, 3) : "n/a") << "</td><td class=\"l\">"
-           << (length ? "um" : "1") << "</td><td class=\"l\">" << HtmlEscape(t.tolerance[q])
+           << HtmlEscape(t.quantities[q]) << "</td><td>" << value << "</td><td>" << uncertainty(t.u(q))
+           << "</td><td>" << uncertainty(t.U(q)) << "</td><td class=\"l\">" << HtmlEscape(limits)
            << "</td><td class=\"l\">" << (t.conformity[q] ? HtmlEscape(t.conformity[q]->verdict) : "")
            << "</td></tr>";
     }
@@ -489,7 +492,7 @@ void FlaggedReadings(std::ostringstream& body, const NetworkJob& job, const Netw
       body << "<tr><td class=\"l\">" << HtmlEscape(r.station) << "</td><td class=\"l\">"
            << HtmlEscape(r.target) << "</td><td class=\"l\">" << FaceName(r.face) << "</td><td class=\"l\">"
            << r.component << "</td><td>" << Fixed(angle ? r.residual / kArcsec : r.residual * 1e6, 2)
-           << "</td><td class=\"l\">" << (angle ? "arcsec" : "um") << "</td><td>" << Fixed(r.redundancy, 3)
+           << "</td><td class=\"l\">" << (angle ? "arcsec" : "µm") << "</td><td>" << Fixed(r.redundancy, 3)
            << "</td><td class=\"bad\">" << Fixed(r.w, 2) << "</td><td class=\"l\">" << HtmlEscape(r.where)
            << "</td></tr>";
     }
@@ -503,8 +506,8 @@ void DistancesTable(std::ostringstream& body, const NetworkResult& result) {
   body << "<section><h2>Scale bars and distances</h2><p class=\"note\">observed: the calibrated length "
           "corrected to the bar's temperature; adjusted: the distance of the adjusted targets, its u from "
           "the full covariance.</p><table><tr><th class=\"l\">name</th><th class=\"l\">kind</th>"
-          "<th class=\"l\">from</th><th class=\"l\">to</th><th>observed (m)</th><th>u (um)</th>"
-          "<th>adjusted (m)</th><th>u (um)</th><th>adjusted &minus; observed (um)</th><th>redundancy</th>"
+          "<th class=\"l\">from</th><th class=\"l\">to</th><th>observed (m)</th><th>u (µm)</th>"
+          "<th>adjusted (m)</th><th>u (µm)</th><th>adjusted &minus; observed (µm)</th><th>redundancy</th>"
           "<th>w</th></tr>";
   for (const AdjustedDistance& d : result.distances) {
     body << "<tr><td class=\"l\">" << HtmlEscape(d.name) << "</td><td class=\"l\">"
@@ -681,9 +684,9 @@ std::string LengthTestLine(const NetworkJob& job, const NetworkResult& result) {
   const double e_um = std::abs(all.worst->error) < 5e-8 ? 0.0 : all.worst->error * 1e6;
   std::snprintf(
       line, sizeof line,
-      "Length test (ISO 10360-10 from the network, MPE %.1f um + %.2f um/m): %d lengths of at least %.2f m, "
-      "%d conform, %d do not, %d undetermined; largest |E| / MPE %.3f (%s, %.40s - %.40s: E %.1f um, U "
-      "%.1f um): %s (length_test.csv)\n",
+      "Length test (ISO 10360-10 from the network, MPE %.1f µm + %.2f µm/m): %d lengths of at least %.2f m, "
+      "%d conform, %d do not, %d undetermined; largest |E| / MPE %.3f (%s, %.40s - %.40s: E %.1f µm, U "
+      "%.1f µm): %s (length_test.csv)\n",
       job.length_test->mpe_a * 1e6, job.length_test->mpe_b * 1e6, all.count(), job.length_test->min_length,
       all.conforms, all.fails, all.undetermined, std::abs(all.worst->error) / all.worst->mpe,
       all.worst->station.c_str(), all.worst->from.c_str(), all.worst->to.c_str(), e_um, all.worst->U * 1e6,
@@ -1175,7 +1178,7 @@ std::string NetworkSummary(const NetworkJob& job, const NetworkResult& result, c
   std::snprintf(
       line, sizeof line,
       "%s network '%s': %zu station%s, %zu targets, %d observations, %d unknowns, dof %d; %s largest "
-      "|U| (k = %.2f) %.1f um at %s; variance from reading noise and references %.0f %%, from the "
+      "|U| (k = %.2f) %.1f µm at %s; variance from reading noise and references %.0f %%, from the "
       "instruments' errors and the air %.0f %%",
       job.offline ? "Planned" : "Measured", job.name.c_str(), result.stations.size(),
       result.stations.size() == 1 ? "" : "s", result.targets.size(), result.observations, result.unknowns,
@@ -1212,12 +1215,12 @@ std::string NetworkSummary(const NetworkJob& job, const NetworkResult& result, c
     if (job.offline) {  // planned: no drift was measured; the checks leave this U of it
       std::snprintf(
           line, sizeof line,
-          "Drift of station %s over %.2f h (%zu knots): predicted U %.1f um at the last knot (k = %.2f; "
+          "Drift of station %s over %.2f h (%zu knots): predicted U %.1f µm at the last knot (k = %.2f; "
           "drift.csv)\n",
           st.name.c_str(), hours, st.drift.size(), U, result.k);
     } else {
       std::snprintf(line, sizeof line,
-                    "Drift of station %s over %.2f h (%zu knots): %.1f um, U %.1f um (k = %.2f; drift.csv)\n",
+                    "Drift of station %s over %.2f h (%zu knots): %.1f µm, U %.1f µm (k = %.2f; drift.csv)\n",
                     st.name.c_str(), hours, st.drift.size(), last.offset.tail<3>().norm() * 1e6, U, result.k);
     }
     out += line;

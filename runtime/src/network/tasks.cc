@@ -57,6 +57,7 @@ std::vector<NetworkTaskResult> NetworkTasks(const std::vector<TaskSpec>& tasks, 
       }
       r.tolerance.push_back(tolerance ? DescribeTolerance(*tolerance, std::string(fit.outputs[q].unit))
                                       : std::string());
+      r.limits.push_back(tolerance ? std::optional<Tolerance>(*tolerance) : std::nullopt);
     }
     if (!r.value.allFinite() || !r.covariance.allFinite()) {
       throw NumericalError(where + ": task '" + spec.name + "' has no finite result");

@@ -167,7 +167,7 @@ std::string PlannedJob(const StationPlan& plan) {
   out << "# Written by vlt " << VLT_VERSION << " plan from " << job.file
       << ": [station] tx, ty, tz at the recommended\n"
       << "# station (objective " << plan.recommended.objective * kUm
-      << " um); everything else as in that job.\n"
+      << " µm); everything else as in that job.\n"
       << "# Comments of the original are not kept.\n\n"
       << doc << "\n";
   return out.str();
@@ -193,12 +193,12 @@ std::string PlanSummary(const StationPlan& plan) {
                   e.station.y(), e.station.z());
     s << line;
     if (e.feasible) {
-      std::snprintf(line, sizeof line, "objective %.4g um", e.objective * kUm);
+      std::snprintf(line, sizeof line, "objective %.4g µm", e.objective * kUm);
       s << line;
       if (e.terms.size() > 1) {
         s << " (";
         for (std::size_t i = 0; i < e.terms.size(); ++i) {
-          std::snprintf(line, sizeof line, "%s%s %.4g um", i ? ", " : "",
+          std::snprintf(line, sizeof line, "%s%s %.4g µm", i ? ", " : "",
                         plan.settings.objective[i].quantity.c_str(), e.terms[i] * kUm);
           s << line;
         }

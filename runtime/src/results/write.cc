@@ -88,6 +88,19 @@ void StatementLines(const Results& r, std::ostringstream& out) {
   out << "\n";
 }
 
+// A number of trials as people write it: two significant digits, whole, in groups of three
+// ("640 000", not "6.4e+05").
+std::string TrialCount(double m) {
+  const double scale = std::pow(10.0, std::max(0.0, std::floor(std::log10(m)) - 1.0));
+  const std::string digits = std::to_string(static_cast<long long>(std::llround(m / scale) * scale));
+  std::string out;
+  for (std::size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) out += ' ';
+    out += digits[i];
+  }
+  return out;
+}
+
 // The verdict column of a point: its validation by Monte Carlo, and whether the GUM is reliable.
 std::string PointVerdict(const PointResult& p) {
   const PointUncertainty& g = p.gum;
@@ -119,9 +132,12 @@ void PointTable(const Results& r, std::ostringstream& out) {
   for (std::size_t i = 0; i < r.points.size() && i < max_rows; ++i) {
     name_width = std::max(name_width, static_cast<int>(r.points[i].input.name.size()));
   }
-  out << FormatLine("%-*s %9s %10s %10s %10s %8s %8s %8s %8s %8s  %s\n", name_width, "point", "range[m]",
-                    "x[mm]", "y[mm]", "z[mm]", "Ux[um]", "Uy[um]", "Uz[um]", "|U|[um]", "a1[um]",
-                    "GUM vs MCM");
+  std::string u_headers;  // padded by columns: "µm" is one column and two bytes
+  for (const char* header : {"Ux[µm]", "Uy[µm]", "Uz[µm]", "|U|[µm]", "a1[µm]"}) {
+    u_headers.append(" ").append(base_internal::PadColumns(header, 8));
+  }
+  out << FormatLine("%-*s %9s %10s %10s %10s%s  %s\n", name_width, "point", "range[m]", "x[mm]", "y[mm]",
+                    "z[mm]", u_headers.c_str(), "GUM vs MCM");
   for (std::size_t i = 0; i < r.points.size(); ++i) {
     if (i == max_rows) {
       out << "... " << (r.points.size() - max_rows) << " more points in points.csv\n";
@@ -151,7 +167,7 @@ std::string TaskRow(const TaskResult& t, std::size_t q, const TaskColumns& colum
   const bool length = t.gum.units[q] == "m", angle = t.gum.units[q] == "rad";
   constexpr double kDegree = 180.0 / 3.14159265358979323846;
   const double vs = length ? 1e3 : angle ? kDegree : 1.0, us = length ? 1e6 : angle ? 3600.0 * kDegree : 1.0;
-  const char* u_unit = length ? " um" : angle ? " arcsec" : "";
+  const char* u_unit = length ? " µm" : angle ? " arcsec" : "";
   char value_text[64];
   // A value that rounds to zero is printed as 0, not -0.0000 (two_face of nominal points).
   if (length) {
@@ -187,9 +203,11 @@ std::string TaskRow(const TaskResult& t, std::size_t q, const TaskColumns& colum
               : first_order_zero            ? "GUM u 0 to rounding (2nd order only): MCM interval"
                                             : "GUM n/a (not differentiable): MCM interval";
   }
-  return FormatLine("%-*s %-*s %-*s %16s %11s %24s  %s\n", columns.name, t.spec.name.c_str(), columns.kind,
+  // U and the interval are padded by columns, not bytes: "µm" is two bytes wide in printf's count.
+  return FormatLine("%-*s %-*s %-*s %16s %s %s  %s\n", columns.name, t.spec.name.c_str(), columns.kind,
                     std::string(TaskKindName(t.spec.kind)).c_str(), columns.quantity, quantity.c_str(),
-                    value.c_str(), big_u.c_str(), interval.c_str(), verdict.c_str());
+                    value.c_str(), base_internal::PadColumns(big_u, 11).c_str(),
+                    base_internal::PadColumns(interval, 24).c_str(), verdict.c_str());
 }
 
 void TaskTable(const Results& r, std::ostringstream& out) {
@@ -223,14 +241,14 @@ void ConformityLines(const Results& r, std::ostringstream& out) {
       if (!t.conformity[q]) continue;
       const ConformityDecision& d = *t.conformity[q];
       const Tolerance tol = *t.spec.ToleranceOf(t.gum.quantities[q]);
-      const bool length = t.gum.units[q] == "m";
-      Tolerance shown = tol;
-      if (length) {
-        shown.lower *= 1e3;
-        shown.upper *= 1e3;
-      }
+      // In the unit of the task table's value beside it: mm, degrees, or as it is.
+      constexpr double kDegree = 180.0 / 3.14159265358979323846;
+      const std::string& unit = t.gum.units[q];
+      const std::string limits = unit == "m"     ? DescribeTolerance(tol, 1e3, "mm")
+                                 : unit == "rad" ? DescribeTolerance(tol, kDegree, "deg")
+                                                 : DescribeTolerance(tol, unit == "1" ? "" : unit);
       std::snprintf(line, sizeof line, "%s %s %s: %s", t.spec.name.c_str(), t.gum.quantities[q].c_str(),
-                    DescribeTolerance(shown, length ? "mm" : t.gum.units[q]).c_str(), d.verdict.c_str());
+                    limits.c_str(), d.verdict.c_str());
       out << (first_conformity ? "\n" : "") << line << " (probability of conformity";
       first_conformity = false;
       if (d.probability_gum) {
@@ -306,11 +324,11 @@ void MonteCarloLines(const Results& r, std::ostringstream& out) {
   std::snprintf(
       line, sizeof line,
       "Monte Carlo: %lld trials%s, seed %llu, %d thread(s), %.1f s. GUM validated by MCM (JCGM 101 8): "
-      "%d/%zu points, %zu/%zu task quantities",
+      "%d/%zu points, %zu/%zu task %s",
       static_cast<long long>(r.mcm.trials),
       r.mcm.adaptive ? (r.mcm.converged ? " (adaptive, converged)" : " (adaptive, NOT converged)") : "",
       static_cast<unsigned long long>(r.mcm.seed), r.mcm.threads, r.mcm.seconds, r.validated_points,
-      r.points.size(), validated, quantities);
+      r.points.size(), validated, quantities, quantities == 1 ? "quantity" : "quantities");
   out << line;
   // Those with no first-order GUM value (not differentiable, or a first-order u of 0 to rounding):
   // their Monte Carlo interval is the answer, nothing to validate.
@@ -318,7 +336,8 @@ void MonteCarloLines(const Results& r, std::ostringstream& out) {
   out << ".\n";
   if (r.inconclusive_points > 0 || inconclusive > 0) {
     out << "Inconclusive (Monte Carlo tolerance larger than delta; more trials or --adaptive): "
-        << r.inconclusive_points << " points, " << inconclusive << " task quantities";
+        << r.inconclusive_points << (r.inconclusive_points == 1 ? " point, " : " points, ") << inconclusive
+        << (inconclusive == 1 ? " task quantity" : " task quantities");
     // How many trials would decide most of them (ScalarValidation::trials_to_decide): 9 in 10, since
     // a difference that happens to sit at delta needs any number.
     std::vector<double> to_decide;
@@ -338,7 +357,7 @@ void MonteCarloLines(const Results& r, std::ostringstream& out) {
     if (!to_decide.empty()) {
       std::sort(to_decide.begin(), to_decide.end());
       const double m = to_decide[(to_decide.size() * 9 - 1) / 10];
-      out << "; " << (m > 1e9 ? std::string("more than 1e9") : "about " + base_internal::Sig(m, 2))
+      out << "; " << (m > 1e9 ? std::string("more than 10^9") : "about " + TrialCount(m))
           << " trials would decide " << (to_decide.size() >= 10 ? "9 in 10 of them" : "most of them");
     }
     out << ".\n";
@@ -356,7 +375,7 @@ void MapLine(const MapResult& map, std::ostringstream& out) {
     min_u = std::min(min_u, map.U_norm[i]);
   }
   std::snprintf(line, sizeof line,
-                "Map: %s: |U| %.1f .. %.1f um over %zu nodes (%zu skipped near the vertical axis).\n",
+                "Map: %s: |U| %.1f .. %.1f µm over %zu nodes (%zu skipped near the vertical axis).\n",
                 map.settings.description.c_str(), min_u * 1e6, max_u * 1e6, map.nodes.size(),
                 map.skipped.size());
   out << line;

@@ -680,7 +680,7 @@ FitResult FitAxialSurface(TaskKind kind, const Points& points, const FitOptions&
       !(seen.thickness > kSectionNoise * seen.section_rms)) {
     char why[160];
     std::snprintf(why, sizeof why,
-                  ", measured: %.3g um out of their plane against a scatter of %.3g um about it",
+                  ", measured: %.3g µm out of their plane against a scatter of %.3g µm about it",
                   seen.thickness * norm.scale * 1e6, seen.section_rms * norm.scale * 1e6);
     FailOneSection(kind, where, why);
   }

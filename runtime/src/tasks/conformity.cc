@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "base/format.h"
 #include "vlt/distributions.h"
 
 namespace vlt {
@@ -38,14 +39,21 @@ ConformityDecision DecideConformity(const Tolerance& tolerance, double y, double
 }
 
 std::string DescribeTolerance(const Tolerance& tolerance, const std::string& unit) {
-  char text[128];
+  return DescribeTolerance(tolerance, 1.0, unit);
+}
+
+std::string DescribeTolerance(const Tolerance& tolerance, double scale, const std::string& shown_unit) {
+  // Appended piece by piece (g++ 12 warns falsely on "literal" + std::string here).
+  std::string text;
   if (std::isinf(tolerance.lower)) {
-    std::snprintf(text, sizeof text, "<= %.9g %s", tolerance.upper, unit.c_str());
+    text.append("<= ").append(base_internal::ShortestAt(tolerance.upper, scale));
   } else if (std::isinf(tolerance.upper)) {
-    std::snprintf(text, sizeof text, ">= %.9g %s", tolerance.lower, unit.c_str());
+    text.append(">= ").append(base_internal::ShortestAt(tolerance.lower, scale));
   } else {
-    std::snprintf(text, sizeof text, "[%.9g, %.9g] %s", tolerance.lower, tolerance.upper, unit.c_str());
+    text.append("[").append(base_internal::ShortestAt(tolerance.lower, scale)).append(", ");
+    text.append(base_internal::ShortestAt(tolerance.upper, scale)).append("]");
   }
+  if (!shown_unit.empty()) text.append(" ").append(shown_unit);
   return text;
 }
 
