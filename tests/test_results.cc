@@ -476,6 +476,44 @@ TEST(Results, SummaryShowsLongPointNamesWhole) {
   EXPECT_EQ(header_range, row_range) << summary;
 }
 
+// The terminal's tables stay aligned with "µm" (two bytes, one column) in headers and cells, and
+// the task table's Monte Carlo interval has U's decimals (GUM 7.2.6: one decimal place per row).
+TEST(Results, SummaryColumnsAlignWithMicrometres) {
+  const std::string summary = SummaryText(SharedResults());
+  auto columns = [](const std::string& text, std::size_t begin, std::size_t end) {
+    std::size_t n = 0;
+    for (std::size_t i = begin; i < end; ++i) n += (static_cast<unsigned char>(text[i]) & 0xC0) != 0x80;
+    return n;
+  };
+  auto line_start = [&](std::size_t at) { return summary.rfind('\n', at) + 1; };
+  // Point table: "a1[µm]" ends over the row's tenth field (name, range, x, y, z, Ux, Uy, Uz, |U|, a1).
+  const std::size_t header = summary.find("a1[µm]");
+  ASSERT_NE(header, std::string::npos) << summary;
+  const std::size_t header_end = columns(summary, line_start(header), header + std::string("a1[µm]").size());
+  const std::size_t row = summary.find('\n', header) + 1;
+  std::size_t at = row;
+  for (int field = 0; field < 10; ++field) {
+    at = summary.find_first_not_of(' ', at);
+    at = summary.find(' ', at);
+  }
+  EXPECT_EQ(columns(summary, row, at), header_end) << summary;
+  // Task table: "U (GUM)" ends over the row's U ("... µm"), and the interval has U's decimals.
+  const std::size_t task_header = summary.find("U (GUM)");
+  ASSERT_NE(task_header, std::string::npos) << summary;
+  const std::size_t u_end = columns(summary, line_start(task_header), task_header + 7);
+  const std::size_t task_row = summary.find("\nAB ", task_header) + 1;
+  const std::size_t row_end = summary.find('\n', task_row);
+  const std::size_t u_unit = summary.find(" µm", task_row);
+  ASSERT_LT(u_unit, row_end) << summary;
+  EXPECT_EQ(columns(summary, task_row, u_unit + std::string(" µm").size()), u_end) << summary;
+  const std::size_t u_start = summary.rfind(' ', u_unit - 1) + 1;
+  const std::string u_text = summary.substr(u_start, u_unit - u_start);
+  const std::size_t u_decimals = u_text.size() - u_text.find('.') - 1;
+  const std::size_t open = summary.find('[', u_unit), comma = summary.find(", ", open);
+  const std::string low = summary.substr(open + 1, comma - open - 1);
+  EXPECT_EQ(low.size() - low.find('.') - 1, u_decimals) << summary.substr(task_row, row_end - task_row);
+}
+
 TEST(Results, ReportIsSelfContained) {
   const Results& r = SharedResults();
   std::string html = ReportHtml(r);

@@ -160,6 +160,12 @@ struct TaskColumns {
   int name = 18, kind = 9, quantity = 13;
 };
 
+// Decimals that show x (> 0) with three significant digits (13.2: 1; 0.00000724: 8), at most 12.
+int DecimalsForThreeDigits(double x) {
+  if (!(x > 0.0) || !std::isfinite(x)) return 1;
+  return std::clamp(2 - static_cast<int>(std::floor(std::log10(x))), 0, 12);
+}
+
 // One row of the task table: quantity q of task t, its GUM value and U and the Monte Carlo interval.
 std::string TaskRow(const TaskResult& t, std::size_t q, const TaskColumns& columns) {
   const std::string& quantity = t.gum.quantities[q];
@@ -168,7 +174,7 @@ std::string TaskRow(const TaskResult& t, std::size_t q, const TaskColumns& colum
   constexpr double kDegree = 180.0 / 3.14159265358979323846;
   const double vs = length ? 1e3 : angle ? kDegree : 1.0, us = length ? 1e6 : angle ? 3600.0 * kDegree : 1.0;
   const char* u_unit = length ? " µm" : angle ? " arcsec" : "";
-  char value_text[64];
+  char value_text[64] = "";
   // A value that rounds to zero is printed as 0, not -0.0000 (two_face of nominal points).
   if (length) {
     const double shown = std::abs(t.gum.value[i] * vs) < 5e-5 ? 0.0 : t.gum.value[i] * vs;
@@ -176,9 +182,6 @@ std::string TaskRow(const TaskResult& t, std::size_t q, const TaskColumns& colum
   } else if (angle) {
     const double shown = std::abs(t.gum.value[i] * vs) < 5e-7 ? 0.0 : t.gum.value[i] * vs;
     std::snprintf(value_text, sizeof value_text, "%.6f deg", shown);
-  } else {
-    std::snprintf(value_text, sizeof value_text, "%.6g",
-                  std::abs(t.gum.value[i]) < 1e-12 ? 0.0 : t.gum.value[i]);
   }
   std::string value = value_text;
   // A quantity without a first-order derivative (the form of nominal points) has no GUM U: "n/a",
@@ -188,15 +191,24 @@ std::string TaskRow(const TaskResult& t, std::size_t q, const TaskColumns& colum
   // is printed as 0, not as the rounding noise it is (7.24e-22).
   const bool first_order_zero =
       has_gum && t.has_mcm && q < t.validation.size() && t.validation[q].outcome == "not applicable";
+  const bool has_interval = t.has_mcm && q < t.validation.size();
+  const double low = has_interval ? (t.mcm[q].symmetric.low - t.gum.value[i]) * us : 0.0;
+  const double high = has_interval ? (t.mcm[q].symmetric.high - t.gum.value[i]) * us : 0.0;
+  // U to three significant digits; the interval's ends, and a dimensionless value, to the same
+  // decimal place (0.00000724, not 7.24e-06; [-39.1, 38.0], not [-39.1, 38]).
+  const bool shown_u = has_gum && !first_order_zero;
+  const int decimals = DecimalsForThreeDigits(shown_u ? t.gum.U[i] * us : std::max(std::abs(low), std::abs(high)));
+  if (!length && !angle) {
+    const double v = std::abs(t.gum.value[i]) < 1e-12 ? 0.0 : t.gum.value[i];
+    value = shown_u ? base_internal::Fixed(v, std::max(decimals, 6)) : base_internal::Sig(v, 6);
+  }
   std::string big_u = !has_gum           ? std::string("n/a")
                       : first_order_zero ? std::string("0") + u_unit
-                                         : base_internal::Sig(t.gum.U[i] * us, 3) + u_unit;
+                                         : base_internal::Fixed(t.gum.U[i] * us, decimals) + u_unit;
   std::string interval = "-", verdict = "not run";
-  if (t.has_mcm && q < t.validation.size()) {
-    char buffer[96];
-    std::snprintf(buffer, sizeof buffer, "[%.3g, %.3g]%s", (t.mcm[q].symmetric.low - t.gum.value[i]) * us,
-                  (t.mcm[q].symmetric.high - t.gum.value[i]) * us, u_unit);
-    interval = buffer;
+  if (has_interval) {
+    interval.assign("[").append(base_internal::Fixed(low, decimals)).append(", ");
+    interval.append(base_internal::Fixed(high, decimals)).append("]").append(u_unit);
     const std::string& outcome = t.validation[q].outcome;
     verdict = outcome == "not validated"    ? "NOT validated"
               : outcome != "not applicable" ? outcome
@@ -207,7 +219,7 @@ std::string TaskRow(const TaskResult& t, std::size_t q, const TaskColumns& colum
   return FormatLine("%-*s %-*s %-*s %16s %s %s  %s\n", columns.name, t.spec.name.c_str(), columns.kind,
                     std::string(TaskKindName(t.spec.kind)).c_str(), columns.quantity, quantity.c_str(),
                     value.c_str(), base_internal::PadColumns(big_u, 11).c_str(),
-                    base_internal::PadColumns(interval, 24).c_str(), verdict.c_str());
+                    base_internal::PadColumns(interval, 26).c_str(), verdict.c_str());
 }
 
 void TaskTable(const Results& r, std::ostringstream& out) {
@@ -222,7 +234,7 @@ void TaskTable(const Results& r, std::ostringstream& out) {
     }
   }
   out << "\n"
-      << FormatLine("%-*s %-*s %-*s %16s %11s %24s  %s\n", columns.name, "task", columns.kind, "kind",
+      << FormatLine("%-*s %-*s %-*s %16s %11s %26s  %s\n", columns.name, "task", columns.kind, "kind",
                     columns.quantity, "quantity", "value", "U (GUM)", "MCM interval - value", "GUM vs MCM");
   for (const TaskResult& t : r.tasks) {
     for (std::size_t q = 0; q < t.gum.quantities.size(); ++q) {
