@@ -115,6 +115,9 @@ add_test(NAME report_print_demo
 add_test(NAME report_embeds_plotly_bytes
   COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/demo/report.html -DPLOTLY=${VLT_PLOTLY_JS_FILE}
           -DLICENSE=${VLT_PLOTLY_LICENSE_FILE} -P ${_cli}/check_embedded_assets.cmake)
+add_test(NAME setup_plotly_fallback
+  COMMAND ${CMAKE_COMMAND} -DSOURCE_DIR=${CMAKE_SOURCE_DIR} -DOUT=${_out}/plotly_fallback
+          -P ${_cli}/check_plotly_fallback.cmake)
 add_test(NAME report_browser_demo_debian_plotly
   COMMAND ${CMAKE_COMMAND} -DPAGE=${_out}/demo/report.html -DPROFILE=${_out}/chromium-profile-debian-plotly
           -DSWAP_PLOTLY=${VLT_PLOTLY_JS_FILE} -DWITH_PLOTLY=${VLT_DEBIAN_PLOTLY_JS}

@@ -64,6 +64,12 @@ TEST(RoundLikeGum, TheExamplesOfJcgm100) {
   EXPECT_EQ(base_internal::ShortestAt(0.1 + 0.2, 1.0), "0.3");
   EXPECT_EQ(base_internal::ShortestAt(-4000.01234567891 * 1e-3, 1e3), "-4000.01234567891");
   EXPECT_EQ(base_internal::ShortestAt(1.23456789012345e-7, 1e6), "0.123456789012345");
+  // Far from 1: with an exponent, the shortest digits.
+  EXPECT_EQ(base_internal::ShortestAt(5e-12, 1.0), "5e-12");
+  EXPECT_EQ(base_internal::ShortestAt(-1.25e-9, 1e3), "-0.00000125");
+  EXPECT_EQ(base_internal::ShortestAt(1.5e-7, 1.0), "1.5e-7");
+  EXPECT_EQ(base_internal::ShortestAt(1.25e20, 1.0), "1.25e+20");
+  EXPECT_EQ(base_internal::ShortestAt(9.9999999999999995, 1.0), "10");
   // The same in the conformity lines and reports (vlt/conformity.h).
   EXPECT_EQ(DescribeTolerance(Tolerance{299.95 * 1e-3, 300.05 * 1e-3}, 1e3, "mm"), "[299.95, 300.05] mm");
   EXPECT_EQ(DescribeTolerance(Tolerance{-std::numeric_limits<double>::infinity(), 0.05 * 1e-3}, 1e6, "µm"),

@@ -41,7 +41,8 @@ ConformityDecision DecideConformity(const Tolerance& tolerance, double y, double
                                     std::optional<double> probability_mcm = std::nullopt,
                                     double dof = std::numeric_limits<double>::infinity());
 
-// "[a, b] m", "<= b m", ">= a m" for files (SI, the shortest digits that read back).
+// "[a, b] m", "<= b m", ">= a m" for files (SI; base_internal::ShortestAt: the shortest digits that
+// read back, at most 15 significant digits; below 10^-6 or from 10^16 with an exponent, 5e-12).
 std::string DescribeTolerance(const Tolerance& tolerance, const std::string& unit);
 // The same in the unit the value beside it is shown in: the limits (SI) times `scale` (1e3 for mm,
 // 1e6 for µm), written as they were specified (the decimal point moved, not multiplied: 0.05 mm,

@@ -76,7 +76,7 @@ double ToSi(double value, Dimension dimension, std::string_view unit);
 std::string FormatQuantity(double si, Dimension dimension, std::string_view unit = {},
                            int significant_digits = 6);
 
-// A value in the unit a metrologist reads it in: lengths below 1 mm in um, else in mm with 12
+// A value in the unit a metrologist reads it in: lengths below 1 mm in µm (UTF-8), else in mm with 12
 // digits (a gauge's 50.000623 mm); angles below 1 deg in arcsec, else deg; ratios, fractions and
 // expansion coefficients in ppm (ppm/K); pressures in hPa; temperatures in degC, differences in K.
 std::string FormatReadable(double si, Dimension dimension);

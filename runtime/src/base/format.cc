@@ -223,6 +223,13 @@ std::string ShortestAt(double v, double scale) {
   const int exponent = std::stoi(text.substr(e + 1)) + static_cast<int>(std::round(shift));
   // digits d0 d1 ... with the decimal point after d0 times 10^exponent.
   std::string out = v < 0.0 ? "-" : "";
+  if (exponent < -6 || exponent > 15) {
+    // Beyond six leading zeros or fifteen digits: with an exponent (5e-12, 1.25e+20), as people
+    // write such limits, not 0.000000000005.
+    out += digits.substr(0, 1);
+    if (digits.size() > 1) out += "." + digits.substr(1);
+    return out + "e" + (exponent < 0 ? "-" : "+") + std::to_string(std::abs(exponent));
+  }
   const int point = exponent + 1;  // digits before the decimal point
   if (point <= 0) {
     out += "0." + std::string(static_cast<std::size_t>(-point), '0') + digits;

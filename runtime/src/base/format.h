@@ -57,7 +57,8 @@ GumRounded RoundLikeGum(double value, double value_scale, double expanded, doubl
 // typed in mm and rounded in its conversion to m comes back as typed: 300.05 mm, held as
 // 0.30005000000000004 m), written in a unit `scale` times smaller (a power of ten: 1, 1e3 for mm,
 // 1e6 for um) by moving the decimal point, not by multiplying (3.9999905 m is "3999.9905" mm, not
-// 3999.9904999999999): a limit as it was specified. Other scales (degrees):
+// 3999.9904999999999): a limit as it was specified. Below 10^-6 or from 10^16 (in the shown unit)
+// with an exponent: 5e-12, 1.25e+20. Other scales (degrees):
 // ten significant digits of v * scale.
 std::string ShortestAt(double v, double scale);
 // v (SI) shown with `decimals` decimals after scaling (negative decimals: rounded to 10^-decimals),

@@ -293,8 +293,10 @@ std::string PriorSummary(const PriorJob& job, const PriorResult& result) {
   for (const PriorParameter& p : result.parameters) {
     const auto [unit, per] = DisplayUnit(p.quantity, p.unit);
     char line[200];
-    std::snprintf(line, sizeof line, "  %-8s %-16s u = %10s %-6s (generic %s)\n", p.name.c_str(),
-                  PriorStatusName(p.status), Fixed(p.u * per, 3).c_str(), unit.c_str(), Fixed(p.u0 * per, 3).c_str());
+    // The unit padded by columns ("µm" is two bytes, one column).
+    std::snprintf(line, sizeof line, "  %-8s %-16s u = %10s %s (generic %s)\n", p.name.c_str(),
+                  PriorStatusName(p.status), Fixed(p.u * per, 3).c_str(),
+                  base_internal::PadColumns(HumanUnit(unit), 6, true).c_str(), Fixed(p.u0 * per, 3).c_str());
     os << line;
     if (p.status == PriorStatus::kNotConstrained) unconstrained.push_back(p.name);
     if (p.status == PriorStatus::kAtBound) at_bound.push_back(p.name);

@@ -352,7 +352,7 @@ void WarnImplausibleNoise(const Section& noise, const ReadingNoise& reading_nois
                           std::vector<std::string>& warnings) {
   if (reading_noise.range_a > 1e-3 || reading_noise.range_b > 1e-4) {
     warnings.push_back(noise.Where("range") +
-                       ": range noise above 1 mm or 100 um/m is implausible for a laser tracker");
+                       ": range noise above 1 mm or 100 µm/m is implausible for a laser tracker");
   }
   if (std::max(reading_noise.azimuth, reading_noise.elevation) > 100.0 * 4.84813681109536e-6) {
     warnings.push_back(noise.Where("azimuth") +

@@ -413,22 +413,30 @@ void LengthTestSection(std::ostringstream& body, const NetworkJob& job,
 void TasksTable(std::ostringstream& body, const std::vector<NetworkTaskResult>& tasks) {
   body << "<section><h2>Tasks</h2><p class=\"note\">Over adjusted targets, whichever station read them, with "
           "their joint covariance through the adjustment (G C G<sup>T</sup>). Lengths: values and tolerances "
-          "in mm, u and U in µm; directions dimensionless. n/a: no GUM value (a form quantity of points that "
-          "fit exactly).</p><table><tr><th class=\"l\">task</th><th class=\"l\">quantity</th><th>value</th>"
+          "in mm, u and U in µm; angles (a cone's half angle): values and tolerances in degrees, u and U in "
+          "arcsec; directions dimensionless. n/a: no GUM value (a form quantity of points that fit "
+          "exactly).</p><table><tr><th class=\"l\">task</th><th class=\"l\">quantity</th><th>value</th>"
           "<th>u</th><th>U</th><th class=\"l\">tolerance</th><th class=\"l\">decision (ISO 14253-1)</th></tr>";
+  constexpr double kDegree = 180.0 / 3.14159265358979323846;
   for (const NetworkTaskResult& t : tasks) {
     for (std::size_t q = 0; q < t.quantities.size(); ++q) {
-      const bool length = t.units[q] == "m";
-      // The value to 0.1 µm like the run's task table; u and U to three significant digits.
-      const std::string value = length ? Fixed(t.value(q) * 1e3, 4) + " mm" : Fixed(t.value(q), 8);
+      const bool length = t.units[q] == "m", angle = t.units[q] == "rad";
+      // The value to 0.1 µm (10^-6 degree) like the run's task table; u and U to three significant
+      // digits; the tolerance in the value's unit.
+      const std::string value = length  ? Fixed(t.value(q) * 1e3, 4) + " mm"
+                                : angle ? Fixed(t.value(q) * kDegree, 6) + "°"
+                                        : Fixed(t.value(q), 8);
+      const double u_scale = length ? 1e6 : angle ? 3600.0 * kDegree : 1.0;
+      const std::string u_unit = length ? " µm" : angle ? "″" : "";
       auto uncertainty = [&](double u) {
-        return !t.differentiable[q] ? std::string("n/a")
-                                    : base_internal::Sig(u * (length ? 1e6 : 1.0), 3) + (length ? " µm" : "");
+        return !t.differentiable[q] ? std::string("n/a") : base_internal::Sig(u * u_scale, 3) + u_unit;
       };
-      const std::string limits =
-          q < t.limits.size() && t.limits[q]
-              ? (length ? DescribeTolerance(*t.limits[q], 1e3, "mm") : DescribeTolerance(*t.limits[q], ""))
-              : std::string();
+      std::string limits;
+      if (q < t.limits.size() && t.limits[q]) {
+        limits = length  ? DescribeTolerance(*t.limits[q], 1e3, "mm")
+                 : angle ? DescribeTolerance(*t.limits[q], kDegree, "deg")
+                         : DescribeTolerance(*t.limits[q], "");
+      }
       body << "<tr><td class=\"l\">" << HtmlEscape(t.name) << "</td><td class=\"l\">"
            << HtmlEscape(t.quantities[q]) << "</td><td>" << value << "</td><td>" << uncertainty(t.u(q))
            << "</td><td>" << uncertainty(t.U(q)) << "</td><td class=\"l\">" << HtmlEscape(limits)
