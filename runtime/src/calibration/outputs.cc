@@ -593,9 +593,11 @@ std::string CalibrationSummary(const CalibrationJob& job, const CalibrationResul
   for (const CalibratedParameter& p : result.parameters) {
     const auto [unit, per] = DisplayUnit(p.quantity, p.unit);
     char line[160];
-    std::snprintf(line, sizeof line, "  %-8s %-10s %10s %s  U = %s\n", p.name.c_str(),
-                  ParameterStatusName(p.status), Fixed(p.estimate * per, 3).c_str(), HumanUnit(unit).c_str(),
-                  Fixed(result.k * p.u * per, 3).c_str());
+    // The unit padded by columns ("µm" is two bytes, one column), and beside U too.
+    std::snprintf(line, sizeof line, "  %-8s %-10s %10s %s  U = %s %s\n", p.name.c_str(),
+                  ParameterStatusName(p.status), Fixed(p.estimate * per, 3).c_str(),
+                  base_internal::PadColumns(HumanUnit(unit), 6, true).c_str(), Fixed(result.k * p.u * per, 3).c_str(),
+                  HumanUnit(unit).c_str());
     os << line;
   }
   for (const HeldCombination& h : result.held) os << "  held: " << h.description << "\n";
