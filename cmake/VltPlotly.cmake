@@ -42,8 +42,9 @@ function(vlt_npm_ci error)
   configure_file(${CMAKE_SOURCE_DIR}/package.json ${_dir}/package.json COPYONLY)
   configure_file(${CMAKE_SOURCE_DIR}/package-lock.json ${_dir}/package-lock.json COPYONLY)
   message(STATUS "vlt: npm ci (plotly.js-dist-min, pinned in package-lock.json)")
+  # An unreachable registry can keep npm retrying for minutes: at most 5 minutes, then the fallback.
   execute_process(COMMAND ${VLT_NPM} ci --no-audit --no-fund --ignore-scripts WORKING_DIRECTORY ${_dir}
-                  RESULT_VARIABLE _rc OUTPUT_VARIABLE _out ERROR_VARIABLE _err)
+                  RESULT_VARIABLE _rc OUTPUT_VARIABLE _out ERROR_VARIABLE _err TIMEOUT 300)
   if(NOT _rc EQUAL 0 OR NOT EXISTS ${_dir}/node_modules/plotly.js-dist-min/plotly.min.js)
     file(REMOVE ${_dir}/package-lock.json)  # no stamp: the next configure tries again
     set(${error} "`npm ci` in ${_dir} failed (exit ${_rc}; it needs the npm registry once):\n${_out}${_err}"

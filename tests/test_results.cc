@@ -508,10 +508,16 @@ TEST(Results, SummaryColumnsAlignWithMicrometres) {
   EXPECT_EQ(columns(summary, task_row, u_unit + std::string(" µm").size()), u_end) << summary;
   const std::size_t u_start = summary.rfind(' ', u_unit - 1) + 1;
   const std::string u_text = summary.substr(u_start, u_unit - u_start);
-  const std::size_t u_decimals = u_text.size() - u_text.find('.') - 1;
+  auto decimals = [](const std::string& number) {
+    const std::size_t point = number.find('.');
+    return point == std::string::npos ? std::size_t{0} : number.size() - point - 1;
+  };
   const std::size_t open = summary.find('[', u_unit), comma = summary.find(", ", open);
-  const std::string low = summary.substr(open + 1, comma - open - 1);
-  EXPECT_EQ(low.size() - low.find('.') - 1, u_decimals) << summary.substr(task_row, row_end - task_row);
+  const std::size_t close = summary.find(']', comma);
+  ASSERT_LT(close, row_end) << summary;
+  const std::string low = summary.substr(open + 1, comma - open - 1), high = summary.substr(comma + 2, close - comma - 2);
+  EXPECT_EQ(decimals(low), decimals(u_text)) << summary.substr(task_row, row_end - task_row);
+  EXPECT_EQ(decimals(high), decimals(u_text)) << summary.substr(task_row, row_end - task_row);
 }
 
 TEST(Results, ReportIsSelfContained) {

@@ -592,12 +592,13 @@ std::string CalibrationSummary(const CalibrationJob& job, const CalibrationResul
      << result.outliers << " outliers\n";
   for (const CalibratedParameter& p : result.parameters) {
     const auto [unit, per] = DisplayUnit(p.quantity, p.unit);
-    char line[160];
-    // The unit padded by columns ("µm" is two bytes, one column), and beside U too.
-    std::snprintf(line, sizeof line, "  %-8s %-10s %10s %s  U = %s %s\n", p.name.c_str(),
+    char line[512];
+    // The unit padded by columns ("µm" is two bytes, one column), and beside U too (none for "1").
+    const std::string shown_unit = unit == "1" ? std::string() : HumanUnit(unit);
+    std::snprintf(line, sizeof line, "  %-8s %-10s %10s %s  U = %s%s%s\n", p.name.c_str(),
                   ParameterStatusName(p.status), Fixed(p.estimate * per, 3).c_str(),
-                  base_internal::PadColumns(HumanUnit(unit), 6, true).c_str(), Fixed(result.k * p.u * per, 3).c_str(),
-                  HumanUnit(unit).c_str());
+                  base_internal::PadColumns(shown_unit, 6, true).c_str(), Fixed(result.k * p.u * per, 3).c_str(),
+                  shown_unit.empty() ? "" : " ", shown_unit.c_str());
     os << line;
   }
   for (const HeldCombination& h : result.held) os << "  held: " << h.description << "\n";

@@ -130,6 +130,7 @@ void ReadPlan(Section& s, Job& job, bool check_reach) {
   }
   if (const toml::node* n = s.Get("point")) {
     if (!n->is_array()) throw InputError(s.Where("point") + ": expected [[plan.point]] tables");
+    job.points.reserve(job.points.size() + n->as_array()->size());
     int index = 0;
     for (const toml::node& e : *n->as_array()) {
       std::string path = s.path() + ".point[" + std::to_string(index++) + "]";

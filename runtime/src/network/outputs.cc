@@ -413,7 +413,7 @@ void LengthTestSection(std::ostringstream& body, const NetworkJob& job,
 void TasksTable(std::ostringstream& body, const std::vector<NetworkTaskResult>& tasks) {
   body << "<section><h2>Tasks</h2><p class=\"note\">Over adjusted targets, whichever station read them, with "
           "their joint covariance through the adjustment (G C G<sup>T</sup>). Lengths: values and tolerances "
-          "in mm, u and U in µm; angles (a cone's half angle): values and tolerances in degrees, u and U in "
+          "in mm, u and U in µm; angles (a cone's half angle): values and tolerances in deg, u and U in "
           "arcsec; directions dimensionless. n/a: no GUM value (a form quantity of points that fit "
           "exactly).</p><table><tr><th class=\"l\">task</th><th class=\"l\">quantity</th><th>value</th>"
           "<th>u</th><th>U</th><th class=\"l\">tolerance</th><th class=\"l\">decision (ISO 14253-1)</th></tr>";
@@ -424,10 +424,10 @@ void TasksTable(std::ostringstream& body, const std::vector<NetworkTaskResult>& 
       // The value to 0.1 µm (10^-6 degree) like the run's task table; u and U to three significant
       // digits; the tolerance in the value's unit.
       const std::string value = length  ? Fixed(t.value(q) * 1e3, 4) + " mm"
-                                : angle ? Fixed(t.value(q) * kDegree, 6) + "°"
+                                : angle ? Fixed(t.value(q) * kDegree, 6) + " deg"
                                         : Fixed(t.value(q), 8);
       const double u_scale = length ? 1e6 : angle ? 3600.0 * kDegree : 1.0;
-      const std::string u_unit = length ? " µm" : angle ? "″" : "";
+      const std::string u_unit = length ? " µm" : angle ? " arcsec" : "";
       auto uncertainty = [&](double u) {
         return !t.differentiable[q] ? std::string("n/a") : base_internal::Sig(u * u_scale, 3) + u_unit;
       };

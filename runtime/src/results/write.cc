@@ -195,20 +195,26 @@ std::string TaskRow(const TaskResult& t, std::size_t q, const TaskColumns& colum
   const double low = has_interval ? (t.mcm[q].symmetric.low - t.gum.value[i]) * us : 0.0;
   const double high = has_interval ? (t.mcm[q].symmetric.high - t.gum.value[i]) * us : 0.0;
   // U to three significant digits; the interval's ends, and a dimensionless value, to the same
-  // decimal place (0.00000724, not 7.24e-06; [-39.1, 38.0], not [-39.1, 38]).
+  // decimal place (0.00000724, not 7.24e-06; [-39.1, 38.0], not [-39.1, 38]); the ends keep two
+  // significant digits of their own where they are much narrower than U (a GUM NOT validated:
+  // [-0.41, 0.39] beside U = 385, not [0, 0]). Beyond eight decimals (a U of rounding noise
+  // without Monte Carlo to say so) three significant digits with an exponent, never 0.000000000000.
   const bool shown_u = has_gum && !first_order_zero;
-  const int decimals = DecimalsForThreeDigits(shown_u ? t.gum.U[i] * us : std::max(std::abs(low), std::abs(high)));
+  const double ends = std::max(std::abs(low), std::abs(high));
+  const int decimals = DecimalsForThreeDigits(shown_u ? t.gum.U[i] * us : ends);
+  const int end_decimals = std::max(decimals, DecimalsForThreeDigits(ends) - 1);
+  auto shown = [](double x, int d) { return d > 8 ? base_internal::Sig(x, 3) : base_internal::Fixed(x, d); };
   if (!length && !angle) {
     const double v = std::abs(t.gum.value[i]) < 1e-12 ? 0.0 : t.gum.value[i];
-    value = shown_u ? base_internal::Fixed(v, std::max(decimals, 6)) : base_internal::Sig(v, 6);
+    value = std::abs(v) < 1e6 ? base_internal::Fixed(v, std::clamp(decimals, 6, 8)) : base_internal::Sig(v, 6);
   }
   std::string big_u = !has_gum           ? std::string("n/a")
                       : first_order_zero ? std::string("0") + u_unit
-                                         : base_internal::Fixed(t.gum.U[i] * us, decimals) + u_unit;
+                                         : shown(t.gum.U[i] * us, decimals) + u_unit;
   std::string interval = "-", verdict = "not run";
   if (has_interval) {
-    interval.assign("[").append(base_internal::Fixed(low, decimals)).append(", ");
-    interval.append(base_internal::Fixed(high, decimals)).append("]").append(u_unit);
+    interval.assign("[").append(shown(low, end_decimals)).append(", ");
+    interval.append(shown(high, end_decimals)).append("]").append(u_unit);
     const std::string& outcome = t.validation[q].outcome;
     verdict = outcome == "not validated"    ? "NOT validated"
               : outcome != "not applicable" ? outcome
