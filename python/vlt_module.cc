@@ -123,9 +123,14 @@ vlt::Job JobOf(const py::object& job, const std::string& base_dir) {
 
 py::object JsonLoads(const std::string& text) { return py::module_::import("json").attr("loads")(text); }
 
-// "estimate" (N, 3) m, "covariance" (N, 3, 3) m^2, "U" (N, 3) m of N GUM results (part frame).
-void AddGumArrays(py::dict& out, std::size_t count,
-                  const std::function<const vlt::PointUncertainty&(std::size_t)>& at) {
+// The expanded uncertainty per axis of a point's GUM result, full or as a run keeps it.
+Eigen::Vector3d ExpandedOf(const vlt::PointUncertainty& g) { return g.U_part; }
+Eigen::Vector3d ExpandedOf(const vlt::PointGum& g) { return g.U_part(); }
+
+// "estimate" (N, 3) m, "covariance" (N, 3, 3) m^2, "U" (N, 3) m of N GUM results (part frame);
+// `at(i)`: point i's (vlt::PointUncertainty or vlt::PointGum).
+template <typename PointAt>
+void AddGumArrays(py::dict& out, std::size_t count, const PointAt& at) {
   const auto n = static_cast<py::ssize_t>(count);
   py::array_t<double> estimate({n, py::ssize_t{3}}), covariance({n, py::ssize_t{3}, py::ssize_t{3}}),
       expanded({n, py::ssize_t{3}});
@@ -133,10 +138,11 @@ void AddGumArrays(py::dict& out, std::size_t count,
   auto c = covariance.mutable_unchecked<3>();
   auto u = expanded.mutable_unchecked<2>();
   for (py::ssize_t i = 0; i < n; ++i) {
-    const vlt::PointUncertainty& g = at(static_cast<std::size_t>(i));
+    const auto& g = at(static_cast<std::size_t>(i));
+    const Eigen::Vector3d U = ExpandedOf(g);
     for (int a = 0; a < 3; ++a) {
       e(i, a) = g.part[a];
-      u(i, a) = g.U_part[a];
+      u(i, a) = U[a];
       for (int b = 0; b < 3; ++b) c(i, a, b) = g.cov_part(a, b);
     }
   }
@@ -157,7 +163,7 @@ py::dict ResultsDict(const vlt::Results& r) {
   for (const vlt::PointResult& p : r.points) names.append(p.input.name);
   out["names"] = names;
   AddGumArrays(out, r.points.size(),
-               [&](std::size_t i) -> const vlt::PointUncertainty& { return r.points[i].gum; });
+               [&](std::size_t i) -> const vlt::PointGum& { return r.points[i].gum; });
   return out;
 }
 

@@ -157,7 +157,7 @@ weight = 2
   options.monte_carlo = false;
   const Results r = RunJob(at, options);
   double largest = 0.0;
-  for (const PointResult& p : r.points) largest = std::max(largest, p.gum.U_part.norm());
+  for (const PointResult& p : r.points) largest = std::max(largest, p.gum.U_part().norm());
   ASSERT_EQ(e.terms.size(), 2u);
   EXPECT_EQ(e.terms[0], largest);
   EXPECT_EQ(e.terms[1], r.tasks[0].gum.U[0]);

@@ -180,7 +180,7 @@ TEST(Results, JsonSchemaKeys) {
     EXPECT_TRUE(j["map"].contains(key)) << "map." << key;
   }
   // The JSON holds exactly the GUM numbers (SI).
-  EXPECT_DOUBLE_EQ(p["gum"]["U"][1].get<double>(), r.points[0].gum.U_part[1]);
+  EXPECT_DOUBLE_EQ(p["gum"]["U"][1].get<double>(), r.points[0].gum.U_part()[1]);
   EXPECT_DOUBLE_EQ(j["tasks"][0]["gum"]["U"][0].get<double>(), r.tasks[0].gum.U[0]);
 }
 
@@ -251,7 +251,7 @@ TEST(Results, ModifiedEdlenNamedInInputsAir) {
   // CO2 does not enter this equation: its budget rows carry zero sensitivity and contribution.
   bool found = false;
   const std::size_t first[] = {0};
-  results_internal::ForEachPointBudget(r, first, [&](std::size_t, const PointUncertainty& g) {
+  results_internal::ForEachPointDetail(r, first, true, [&](std::size_t, const PointUncertainty& g) {
     for (const BudgetRow& row : g.budget) {
       if (row.input != "environment.co2") continue;
       found = true;
@@ -325,7 +325,7 @@ TEST(Results, CsvHeadersUnitsAndValues) {
   ASSERT_EQ(fields.size(), columns.size());
   // mm and um as the header says.
   EXPECT_NEAR(std::stod(fields[column("x_mm")]), r.points[0].gum.part.x() * 1e3, 1e-9);
-  EXPECT_NEAR(std::stod(fields[column("U_y_um")]), r.points[0].gum.U_part.y() * 1e6, 1e-9);
+  EXPECT_NEAR(std::stod(fields[column("U_y_um")]), r.points[0].gum.U_part().y() * 1e6, 1e-9);
   EXPECT_NEAR(std::stod(fields[column("azimuth_deg")]), r.points[0].gum.readings[1] * 180 / M_PI, 1e-9);
   EXPECT_EQ(fields.back(), r.points[0].outcome);
   // budget.csv: one row per input (3 readings + 32 shared + correlation rows, if any) per point.
@@ -337,9 +337,9 @@ TEST(Results, CsvHeadersUnitsAndValues) {
     EXPECT_EQ(SplitLine(row).size(), n_columns) << row;
     ++rows;
   }
-  // The budgets are not held in Results (empty there); budget.csv recomputes them with the run's
-  // model and readings: the same numbers as a direct propagation with budgets of the job's points.
-  for (const PointResult& p : r.points) EXPECT_TRUE(p.gum.budget.empty());
+  // The budgets are not held in Results (PointGum has none); budget.csv recomputes them with the
+  // run's model and readings: the same numbers as a direct propagation with budgets of the job's
+  // points.
   const Job job = ParseJob(kJob, "results.toml", ".");
   const MeasurementModel model(job.setup);
   GumOptions options;
@@ -350,7 +350,7 @@ TEST(Results, CsvHeadersUnitsAndValues) {
   for (const PointUncertainty& g : direct) expected_rows += g.budget.size();
   EXPECT_EQ(static_cast<std::size_t>(rows), expected_rows);
   EXPECT_GE(direct[0].budget.size(), 35u);
-  results_internal::ForEachPointBudget(r, {}, [&](std::size_t i, const PointUncertainty& g) {
+  results_internal::ForEachPointDetail(r, {}, true, [&](std::size_t i, const PointUncertainty& g) {
     ASSERT_EQ(g.budget.size(), direct[i].budget.size());
     for (std::size_t b = 0; b < g.budget.size(); ++b) {
       EXPECT_EQ(g.budget[b].input, direct[i].budget[b].input);
@@ -371,6 +371,62 @@ TEST(Results, CsvHeadersUnitsAndValues) {
   EXPECT_NEAR(std::stod(fields[8]), r.tasks[0].gum.U[0] * 1e6, 1e-9);
   // The distance of the nominal points, independently.
   EXPECT_NEAR(r.tasks[0].gum.value[0], std::sqrt(1.0 + 1.0 + 0.01), 1e-9);
+}
+
+// A run keeps a PointGum per point; PointDetails gives back the rest. Reference: the GUM engine
+// called directly on the job's points (PropagatePoints + CheckSecondOrder), compared bit for bit,
+// for every point and for a subset out of order, on 1 and 3 threads.
+TEST(Results, PointDetailsAreTheRunsBitForBit) {
+  const Results& r = SharedResults();
+  const Job job = ParseJob(kJob, "results.toml", ".");
+  const MeasurementModel model(job.setup);
+  const std::vector<PointReadings> readings = JobReadings(job, model);
+  GumOptions options;
+  options.coverage_probability = r.coverage_probability;
+  options.threads = 1;
+  std::vector<PointUncertainty> direct = PropagatePoints(model, readings, options);
+  CheckSecondOrder(model, readings, direct, kSecondOrderThreshold, 1);
+  ASSERT_EQ(direct.size(), r.points.size());
+  auto same = [](const PointUncertainty& a, const PointUncertainty& b) {
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_EQ(a.readings, b.readings);
+    EXPECT_EQ(a.part, b.part);
+    EXPECT_EQ(a.cov_part, b.cov_part);
+    EXPECT_EQ(a.U_part, b.U_part);
+    EXPECT_EQ(a.tracker, b.tracker);
+    EXPECT_EQ(a.cov_tracker, b.cov_tracker);
+    EXPECT_EQ(a.ellipsoid.semi_axes, b.ellipsoid.semi_axes);
+    EXPECT_EQ(a.ellipsoid.directions, b.ellipsoid.directions);
+    EXPECT_EQ(a.los_part.u_radial, b.los_part.u_radial);
+    EXPECT_EQ(a.los_tracker.u_vertical, b.los_tracker.u_vertical);
+    EXPECT_EQ(a.second_order_variance, b.second_order_variance);
+    EXPECT_EQ(a.second_order_ratio, b.second_order_ratio);
+    EXPECT_EQ(a.gum_reliable, b.gum_reliable);
+    EXPECT_EQ(a.second_order_decided, b.second_order_decided);
+  };
+  for (const int threads : {1, 3}) {
+    const std::vector<PointUncertainty> all = PointDetails(r, {}, true, threads);
+    ASSERT_EQ(all.size(), direct.size());
+    for (std::size_t i = 0; i < all.size(); ++i) {
+      SCOPED_TRACE(direct[i].name);
+      same(all[i], direct[i]);
+      EXPECT_EQ(all[i].budget.size(), direct[i].budget.size());
+      // What the run kept: the same estimate, covariance and U (the expressions of PropagatePoints).
+      EXPECT_EQ(r.points[i].gum.part, direct[i].part);
+      EXPECT_EQ(r.points[i].gum.cov_part, direct[i].cov_part);
+      EXPECT_EQ(r.points[i].gum.u_part(), direct[i].u_part);
+      EXPECT_EQ(r.points[i].gum.U_part(), direct[i].U_part);
+      EXPECT_EQ(r.points[i].gum.second_order_ratio, direct[i].second_order_ratio);
+    }
+  }
+  ASSERT_GE(r.points.size(), 3u);
+  const std::size_t subset[] = {2, 0, 2};
+  const std::vector<PointUncertainty> some = PointDetails(r, subset);
+  ASSERT_EQ(some.size(), 3u);
+  for (std::size_t n = 0; n < 3; ++n) same(some[n], direct[subset[n]]);
+  EXPECT_TRUE(some[0].budget.empty());  // without budgets unless asked
+  const std::size_t beyond[] = {r.points.size()};
+  EXPECT_THROW(PointDetails(r, beyond), std::out_of_range);
 }
 
 TEST(Results, BudgetSensitivitiesInTheUnitsPeopleRead) {
@@ -405,7 +461,9 @@ TEST(Results, BudgetSensitivitiesInTheUnitsPeopleRead) {
     ++checked;
   }
   EXPECT_GE(checked, 30);
-  const PointUncertainty& a = r.points[0].gum;
+  const std::size_t first_point[] = {0};
+  const PointUncertainty a = PointDetails(r, first_point, true)[0];
+  ASSERT_GE(a.budget.size(), 35u);
   const double rho = a.readings[0], e = a.readings[2];
   for (const BudgetRow& b : a.budget) {
     const auto [unit, factor] = results_internal::PracticalSensitivity(b.input_unit);
@@ -455,7 +513,7 @@ TEST(Results, MapSkipsTheVerticalAxisAndHasNoNaN) {
   MapSettings at_a = ParseMapPlane("z=0", "2,2,0.5,0.5", "1 m", "test");
   MapResult one = ComputeMap(model, at_a, 0.95, 1);
   ASSERT_EQ(one.nodes.size(), 1u);
-  EXPECT_LT((one.U[0] - r.points[0].gum.U_part).norm(), 1e-12);
+  EXPECT_LT((one.U[0] - r.points[0].gum.U_part()).norm(), 1e-12);
 }
 
 // SpatialAnalyzer-style names are shown whole in the terminal summary, the columns aligned.

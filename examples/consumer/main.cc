@@ -17,11 +17,11 @@ int main() {
     // The point with the largest |U| = sqrt(Ux^2 + Uy^2 + Uz^2) (part frame, k = 1.96 per axis).
     const vlt::PointResult* worst = &results.points.front();
     for (const vlt::PointResult& p : results.points) {
-      if (p.gum.U_part.norm() > worst->gum.U_part.norm()) worst = &p;
+      if (p.gum.U_part().norm() > worst->gum.U_part().norm()) worst = &p;
     }
     std::printf("vlt %s: job '%s', %zu points, %zu tasks\n", results.vlt_version.c_str(),
                 results.job_name.c_str(), results.points.size(), results.tasks.size());
-    std::printf("worst point %s: |U| = %.1f µm\n", worst->input.name.c_str(), worst->gum.U_part.norm() * 1e6);
+    std::printf("worst point %s: |U| = %.1f µm\n", worst->input.name.c_str(), worst->gum.U_part().norm() * 1e6);
     const vlt::TaskResult& task = results.tasks.front();
     std::printf("task %s: %s = %.6f, U = %.2f µm\n", task.spec.name.c_str(),
                 task.gum.quantities.front().c_str(), task.gum.value[0], task.gum.U[0] * 1e6);

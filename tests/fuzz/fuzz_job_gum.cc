@@ -22,7 +22,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     options.threads = 1;
     const vlt::Results results = vlt::RunJob(job, options);
     for (const vlt::PointResult& p : results.points) {
-      if (!p.gum.part.allFinite() || !p.gum.cov_part.allFinite() || !p.gum.U_part.allFinite()) std::abort();
+      if (!p.gum.part.allFinite() || !p.gum.cov_part.allFinite() || !p.gum.U_part().allFinite()) std::abort();
     }
     for (const vlt::TaskResult& t : results.tasks) {
       if (!t.gum.value.allFinite() || !t.gum.covariance.allFinite()) std::abort();

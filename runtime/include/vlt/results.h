@@ -14,6 +14,7 @@
 #include <memory>
 #include <functional>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -49,17 +50,40 @@ struct PointMcm {
   PointValidation region_validation;                // coverage ellipsoids (vlt/validation.h)
 };
 
+// What a run keeps of each point's GUM result (vlt/gum.h PointUncertainty): the readings it was
+// propagated from, the part-frame estimate and covariance, and the second-order check (the one
+// part that is costly to compute). The rest (tracker frame, line-of-sight splits, coverage
+// ellipsoid, budget) follows from these readings and the run's model and is recomputed, bit for
+// bit, where a file or a caller needs it (PointDetails): a scan of 10^6 points keeps 184 bytes of
+// GUM result a point instead of 736 (issue 33: a 10^6-point scan in 1 GiB).
+struct PointGum {
+  // Range [m], azimuth [rad], elevation [rad] propagated (plan: computed from the nominal point).
+  Eigen::Vector3d readings = Eigen::Vector3d::Zero();
+  Eigen::Vector3d part = Eigen::Vector3d::Zero();      // estimate, part frame [m]
+  Eigen::Matrix3d cov_part = Eigen::Matrix3d::Zero();  // its covariance [m^2]
+  double k = 0.0;                                      // NormalCoverageFactor(p)
+  // CheckSecondOrder's (vlt/gum.h PointUncertainty has their meaning).
+  Eigen::Vector3d second_order_variance = Eigen::Vector3d::Zero();
+  Eigen::Vector3d second_order_ratio = Eigen::Vector3d::Zero();
+  bool gum_reliable = true;
+  bool second_order_decided = true;
+
+  // The standard and expanded uncertainty per axis, by the expressions of PropagatePoints (the
+  // same bits as PointUncertainty::u_part and U_part).
+  Eigen::Vector3d u_part() const { return cov_part.diagonal().cwiseMax(0.0).cwiseSqrt(); }
+  Eigen::Vector3d U_part() const { return k * u_part(); }
+};
+PointGum KeptOf(const PointUncertainty& point);
+
 struct PointResult {
   JobPoint input;  // name, face, nominal (plan), readings as given
-  // budget empty (see results_internal::ForEachPointBudget); name and correlation_handling empty
-  // too: the name is input.name, the handling Results::correlation_handling (one copy, not 10^6).
-  PointUncertainty gum;
+  PointGum gum;    // the full PointUncertainty: PointDetails
   bool has_mcm = false;
+  bool validated = false;  // all of the Monte Carlo validations below passed
   // Set when has_mcm (held apart: a GUM-only scan of 10^6 points does not carry 1.6 kB of empty
   // Monte Carlo fields per point).
   std::shared_ptr<const PointMcm> monte_carlo;
-  bool validated = false;  // all of the above validated
-  std::string outcome;     // CombinedOutcome of the above (vlt/validation.h)
+  std::string outcome;  // CombinedOutcome of the validations (vlt/validation.h)
 };
 
 struct TaskResult {
@@ -178,6 +202,14 @@ std::string RunCreatedTime();
 // (InputError, before computing) a job whose estimated memory exceeds what is available.
 Results RunJob(const Job& job, const RunOptions& options = {});
 
+// The full GUM result of points of `results` (indices into results.points, in that order; every
+// point when empty): PropagatePoints of the readings the run propagated, through the run's model,
+// so the same bits as the run's (the estimate, covariance, u and U equal PointResult::gum's), with
+// the run's second-order check, the point's name and Results::correlation_handling; with its
+// budget when `budgets`. On `threads` threads (0: all); the result does not depend on the count.
+std::vector<PointUncertainty> PointDetails(const Results& results, std::span<const std::size_t> indices = {},
+                                           bool budgets = false, int threads = 0);
+
 // Memory a run of `job` needs, bytes (docs/performance.md "Memory of a job", measured):
 //   kJobBaseBytes
 //   + per point: kBytesPerPoint + kBytesPerPointInput per input of the point (3 readings + the
@@ -185,9 +217,11 @@ Results RunJob(const Job& job, const RunOptions& options = {});
 //   + with Monte Carlo: kBytesPerPointMcm per point, one batch of float values of every output
 //     (JCGM 101 7.9.4: up to 10^4 trials) and the stored values for the coverage intervals
 //     (at most McmSettings::memory_budget_bytes).
-// Per-point files are streamed and budgets recomputed when written: they add nothing.
+// Per-point files are streamed and budgets recomputed when written: they add nothing. Measured
+// (docs/performance.md §4.2, 2026-11-27): a scan of 10^6 points of a mirror tracker, 23 inputs a
+// point, one plane, peaked at 995 MB (920 bytes a point above 75 MB); this estimate says 1.6 GB.
 inline constexpr std::uint64_t kJobBaseBytes = std::uint64_t{64} << 20;
-inline constexpr std::uint64_t kBytesPerPoint = 1800;
+inline constexpr std::uint64_t kBytesPerPoint = 1000;
 inline constexpr std::uint64_t kBytesPerPointInput = 24;
 // (measured 1800, plus the histograms of the three coordinates, McmOutputResult::histogram)
 inline constexpr std::uint64_t kBytesPerPointMcm = 1800 + 3 * (kHistogramBins * 8 + 32);

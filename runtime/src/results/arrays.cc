@@ -26,7 +26,7 @@ std::vector<std::string> BudgetInputs(const Results& r) {
   for (const UncertainInput& in : r.shared_inputs) inputs.push_back(in.name);
   bool correlated = false;
   const std::size_t first[1] = {0};
-  results_internal::ForEachPointBudget(r, first, [&](std::size_t, const PointUncertainty& g) {
+  results_internal::ForEachPointDetail(r, first, true, [&](std::size_t, const PointUncertainty& g) {
     for (const BudgetRow& b : g.budget) correlated = correlated || b.group == "correlation";
   });
   if (correlated) inputs.push_back("correlations");
@@ -104,13 +104,13 @@ void AppendMonteCarlo(const PointResult& p, NpyRecordWriter& record) {
 }
 
 // One point's record, in PointLayout's order. `column` maps an input's name to its position in
-// `inputs`; the budget's rows (sorted by share) are put back into that order.
-void AppendPoint(const Results& r, const PointResult& p, const PointUncertainty& with_budget,
+// `inputs`; the budget's rows (sorted by share) are put back into that order. g: the point's full
+// GUM result with its budget (PointDetails).
+void AppendPoint(const Results& r, const PointResult& p, const PointUncertainty& g,
                  const std::unordered_map<std::string, std::size_t>& column, int name_width,
                  std::string& out) {
-  const PointUncertainty& g = p.gum;
   std::vector<const BudgetRow*> rows(column.size(), nullptr);
-  for (const BudgetRow& b : with_budget.budget) {
+  for (const BudgetRow& b : g.budget) {
     const auto c = column.find(b.input);
     if (c == column.end()) throw std::logic_error("points.npy: unexpected budget input '" + b.input + "'");
     rows[c->second] = &b;
@@ -151,8 +151,8 @@ void WritePointsNpy(const Results& r, OutputText& out) {
   const int name_width = NameWidth(r);
   const NpyLayout layout = PointLayout(r, inputs, name_width);
   out.Write(layout.Header(r.points.size()));
-  results_internal::WritePointBudgets(
-      r, out, [&](std::size_t first, std::span<const PointUncertainty> points, std::string& bytes) {
+  results_internal::WritePointDetails(
+      r, out, true, [&](std::size_t first, std::span<const PointUncertainty> points, std::string& bytes) {
         bytes.reserve(bytes.size() + points.size() * layout.record_size());
         for (std::size_t i = 0; i < points.size(); ++i) {
           AppendPoint(r, r.points[first + i], points[i], column, name_width, bytes);

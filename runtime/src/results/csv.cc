@@ -46,34 +46,6 @@ class Row {
   bool first_ = true;
 };
 
-// Rows of a per-point file, formatted into a buffer that is written every kWriteBufferBytes.
-class RowBuffer {
- public:
-  explicit RowBuffer(OutputText& out) : out_(out) {
-    buffer_.reserve(results_internal::kWriteBufferBytes + 4096);
-  }
-  ~RowBuffer() { out_.Write(buffer_); }
-  RowBuffer(const RowBuffer&) = delete;
-  RowBuffer& operator=(const RowBuffer&) = delete;
-  RowBuffer& operator<<(const char* header) {
-    buffer_ += header;
-    return *this;
-  }
-  RowBuffer& operator<<(const Row& row) {
-    buffer_ += row.line();
-    buffer_ += '\n';
-    if (buffer_.size() >= results_internal::kWriteBufferBytes) {
-      out_.Write(buffer_);
-      buffer_.clear();
-    }
-    return *this;
-  }
-
- private:
-  OutputText& out_;
-  std::string buffer_;
-};
-
 std::string Verdict(const PointResult& p) {
   if (!p.has_mcm) return "not run";
   return p.outcome;
@@ -81,74 +53,78 @@ std::string Verdict(const PointResult& p) {
 
 bool IsLength(const std::string& unit) { return unit == "m"; }
 
+// One row of the full points.csv: the point p, g its full GUM result (PointDetails).
+std::string PointRow(const Results& r, const PointResult& p, const PointUncertainty& g) {
+  Row row;
+  row << p.input.name << std::string(FaceName(p.input.face)) << g.readings[0] << g.readings[1] * kDeg
+      << g.readings[2] * kDeg;
+  if (r.mode == JobMode::kPlan) {
+    row << p.input.nominal.x() * kMm << p.input.nominal.y() * kMm << p.input.nominal.z() * kMm;
+  } else {
+    row.Empty().Empty().Empty();
+  }
+  row << g.part.x() * kMm << g.part.y() * kMm << g.part.z() * kMm;
+  for (int a = 0; a < 3; ++a) row << g.u_part[a] * kUm;
+  row << g.k;
+  for (int a = 0; a < 3; ++a) row << g.U_part[a] * kUm;
+  row << g.U_part.norm() * kUm << g.ellipsoid.k;
+  for (int a = 0; a < 3; ++a) row << g.ellipsoid.semi_axes[a] * kUm;
+  row << g.los_part.u_radial * kUm << g.los_part.u_horizontal * kUm << g.los_part.u_vertical * kUm;
+  // No ratio where the first-order u is 0 (infinite): an empty field, never a number.
+  if (const double ratio = g.second_order_ratio.maxCoeff(); std::isfinite(ratio)) {
+    row << ratio;
+  } else {
+    row.Empty();
+  }
+  row << std::string(g.gum_reliable ? "yes" : "no");
+  if (p.has_mcm) {
+    const PointMcm& m = *p.monte_carlo;
+    for (int a = 0; a < 3; ++a) row << m.axes[a].mean * kMm;
+    for (int a = 0; a < 3; ++a) row << m.axes[a].u * kUm;
+    for (int a = 0; a < 3; ++a) row << m.axes[a].symmetric.low * kMm << m.axes[a].symmetric.high * kMm;
+    double d_max = 0.0, delta = 0.0;
+    for (int a = 0; a < 3; ++a) {
+      d_max = std::max({d_max, m.axis_validation[a].d_low, m.axis_validation[a].d_high});
+      delta = a == 0 ? m.axis_validation[a].delta : std::min(delta, m.axis_validation[a].delta);
+    }
+    row << m.mcm.coverage_factor << d_max * kUm << delta * kUm << m.region_validation.worst_ratio;
+  } else {
+    for (int k = 0; k < 16; ++k) row.Empty();
+  }
+  row << Verdict(p);
+  return row.line() + '\n';
+}
+
 }  // namespace
 
-void WritePointsCsv(const Results& r, OutputText& text) {
-  RowBuffer out(text);
-  out << "name,face,range_m,azimuth_deg,elevation_deg,nominal_x_mm,nominal_y_mm,nominal_z_mm,"
+void WritePointsCsv(const Results& r, OutputText& out) {
+  out.Write("name,face,range_m,azimuth_deg,elevation_deg,nominal_x_mm,nominal_y_mm,nominal_z_mm,"
          "x_mm,y_mm,z_mm,u_x_um,u_y_um,u_z_um,k,U_x_um,U_y_um,U_z_um,U_norm_um,"
          "ellipsoid_k,ellipsoid_a1_um,ellipsoid_a2_um,ellipsoid_a3_um,"
          "u_radial_um,u_horizontal_um,u_vertical_um,second_order_ratio_max,gum_reliable,"
          "mcm_x_mm,mcm_y_mm,mcm_z_mm,mcm_u_x_um,mcm_u_y_um,mcm_u_z_um,"
          "mcm_low_x_mm,mcm_high_x_mm,mcm_low_y_mm,mcm_high_y_mm,mcm_low_z_mm,mcm_high_z_mm,"
-         "mcm_ellipsoid_k,d_max_um,delta_um,region_worst_ratio,gum_vs_mcm\n";
-  for (const PointResult& p : r.points) {
-    const PointUncertainty& g = p.gum;
-    Row row;
-    row << p.input.name << std::string(FaceName(p.input.face)) << g.readings[0] << g.readings[1] * kDeg
-        << g.readings[2] * kDeg;
-    if (r.mode == JobMode::kPlan) {
-      row << p.input.nominal.x() * kMm << p.input.nominal.y() * kMm << p.input.nominal.z() * kMm;
-    } else {
-      row.Empty().Empty().Empty();
-    }
-    row << g.part.x() * kMm << g.part.y() * kMm << g.part.z() * kMm;
-    for (int a = 0; a < 3; ++a) row << g.u_part[a] * kUm;
-    row << g.k;
-    for (int a = 0; a < 3; ++a) row << g.U_part[a] * kUm;
-    row << g.U_part.norm() * kUm << g.ellipsoid.k;
-    for (int a = 0; a < 3; ++a) row << g.ellipsoid.semi_axes[a] * kUm;
-    row << g.los_part.u_radial * kUm << g.los_part.u_horizontal * kUm << g.los_part.u_vertical * kUm;
-    // No ratio where the first-order u is 0 (infinite): an empty field, never a number.
-    if (const double ratio = g.second_order_ratio.maxCoeff(); std::isfinite(ratio)) {
-      row << ratio;
-    } else {
-      row.Empty();
-    }
-    row << std::string(g.gum_reliable ? "yes" : "no");
-    if (p.has_mcm) {
-      const PointMcm& m = *p.monte_carlo;
-      for (int a = 0; a < 3; ++a) row << m.axes[a].mean * kMm;
-      for (int a = 0; a < 3; ++a) row << m.axes[a].u * kUm;
-      for (int a = 0; a < 3; ++a) row << m.axes[a].symmetric.low * kMm << m.axes[a].symmetric.high * kMm;
-      double d_max = 0.0, delta = 0.0;
-      for (int a = 0; a < 3; ++a) {
-        d_max = std::max({d_max, m.axis_validation[a].d_low, m.axis_validation[a].d_high});
-        delta = a == 0 ? m.axis_validation[a].delta : std::min(delta, m.axis_validation[a].delta);
-      }
-      row << m.mcm.coverage_factor << d_max * kUm << delta * kUm << m.region_validation.worst_ratio;
-    } else {
-      for (int k = 0; k < 16; ++k) row.Empty();
-    }
-    row << Verdict(p);
-    out << row;
-  }
+         "mcm_ellipsoid_k,d_max_um,delta_um,region_worst_ratio,gum_vs_mcm\n");
+  results_internal::WritePointDetails(
+      r, out, false, [&](std::size_t first, std::span<const PointUncertainty> points, std::string& text) {
+        for (std::size_t i = 0; i < points.size(); ++i) text += PointRow(r, r.points[first + i], points[i]);
+      });
 }
 
 // One row per point (docs/results.md "points.csv, compact"): the estimate rounded to 0.1 um, U
 // rounded up to 3 significant digits, the rank-1 row of the point's budget and its share of trace(U_y). The
-// budgets are recomputed block by block (results_internal::WritePointBudgets), never held.
+// budgets are recomputed block by block (results_internal::WritePointDetails), never held.
 void WriteCompactPointsCsv(const Results& r, OutputText& out) {
   out.Write("name,x_mm,y_mm,z_mm,U_x_um,U_y_um,U_z_um,U_norm_um,dominant_input,dominant_share,gum_reliable");
   out.Write(r.has_mcm ? ",gum_vs_mcm\n" : "\n");
   constexpr int kCoordinateDecimals = 4;  // mm: 0.1 um
   constexpr int kUncertaintyDigits = 3;
   constexpr int kShareDecimals = 3;
-  results_internal::WritePointBudgets(
-      r, out, [&](std::size_t first, std::span<const PointUncertainty> points, std::string& text) {
+  results_internal::WritePointDetails(
+      r, out, true, [&](std::size_t first, std::span<const PointUncertainty> points, std::string& text) {
         for (std::size_t i = 0; i < points.size(); ++i) {
           const PointResult& p = r.points[first + i];
-          const PointUncertainty& g = p.gum;
+          const PointUncertainty& g = points[i];
           text += Csv(p.input.name);
           for (int a = 0; a < 3; ++a) {
             text += ',';
@@ -202,8 +178,8 @@ void WriteBudgetCsv(const Results& r, OutputText& out) {
       "sensitivity_unit,sensitivity_practical_x,sensitivity_practical_y,sensitivity_practical_z,"
       "sensitivity_practical_unit,contribution_x_um,contribution_y_um,contribution_z_um,"
       "share_x,share_y,share_z,share_total\n");
-  results_internal::WritePointBudgets(
-      r, out, [&](std::size_t first, std::span<const PointUncertainty> points, std::string& text) {
+  results_internal::WritePointDetails(
+      r, out, true, [&](std::size_t first, std::span<const PointUncertainty> points, std::string& text) {
         for (std::size_t i = 0; i < points.size(); ++i) {
           int rank = 0;
           for (const BudgetRow& b : points[i].budget) {

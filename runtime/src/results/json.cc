@@ -225,10 +225,9 @@ json Budget(const BudgetRow& b) {
       {"share_total", b.share_total}};
 }
 
-// One point's detail: a line of points.jsonl (budget == nullptr: the rows are in budget.csv) or an
-// element of the report's points (with its budget).
-json Point(const Results& r, const PointResult& p, const std::vector<BudgetRow>* budget) {
-  const PointUncertainty& g = p.gum;
+// One point's detail (g: its full GUM result, PointDetails): a line of points.jsonl (without its
+// budget: the rows are in budget.csv) or an element of the report's points (with its budget).
+json Point(const Results& r, const PointResult& p, const PointUncertainty& g, bool with_budget) {
   json j;
   j["name"] = p.input.name;
   j["face"] = std::string(FaceName(p.input.face));
@@ -257,9 +256,9 @@ json Point(const Results& r, const PointResult& p, const std::vector<BudgetRow>*
                          {"reliable", g.gum_reliable},
                          {"decided", g.second_order_decided}};
   j["gum"] = gum;
-  if (budget != nullptr) {
+  if (with_budget) {
     json rows = json::array();
-    for (const BudgetRow& b : *budget) rows.push_back(Budget(b));
+    for (const BudgetRow& b : g.budget) rows.push_back(Budget(b));
     j["budget"] = rows;
   }
   if (p.has_mcm) {
@@ -534,7 +533,7 @@ std::vector<std::size_t> LargestPoints(const Results& r) {
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
   std::partial_sort(order.begin(), order.begin() + results_internal::kReportDetailedPoints, order.end(),
                     [&](std::size_t a, std::size_t b) {
-                      const double ua = r.points[a].gum.U_part.norm(), ub = r.points[b].gum.U_part.norm();
+                      const double ua = r.points[a].gum.U_part().norm(), ub = r.points[b].gum.U_part().norm();
                       return ua != ub ? ua > ub : a < b;
                     });
   order.resize(results_internal::kReportDetailedPoints);
@@ -554,11 +553,11 @@ std::vector<std::size_t> PointsShown(const Results& r, bool for_html, json& j) {
                                results_internal::kReportOverviewPoints;
     json ox = json::array(), oy = json::array(), oz = json::array(), ou = json::array();
     for (std::size_t i = 0; i < r.points.size(); i += stride) {
-      const PointUncertainty& g = r.points[i].gum;
+      const PointGum& g = r.points[i].gum;
       ox.push_back(g.part.x());
       oy.push_back(g.part.y());
       oz.push_back(g.part.z());
-      ou.push_back(g.U_part.norm());
+      ou.push_back(g.U_part().norm());
     }
     j["points_total"] = r.points.size();
     j["points_overview"] = {{"every", stride}, {"x", ox}, {"y", oy}, {"z", oz}, {"U_norm", ou}};
@@ -573,10 +572,11 @@ json SummaryJson(const Results& r) {
   double max_u = 0.0, max_U_norm = 0.0, max_axis = 0.0;
   std::string worst;
   for (const PointResult& p : r.points) {
-    max_u = std::max(max_u, p.gum.u_part.maxCoeff());
-    max_axis = std::max(max_axis, p.gum.U_part.maxCoeff());
-    if (p.gum.U_part.norm() >= max_U_norm) {
-      max_U_norm = p.gum.U_part.norm();
+    const Eigen::Vector3d u = p.gum.u_part(), U = p.gum.U_part();
+    max_u = std::max(max_u, u.maxCoeff());
+    max_axis = std::max(max_axis, U.maxCoeff());
+    if (U.norm() >= max_U_norm) {
+      max_U_norm = U.norm();
       worst = p.input.name;
     }
   }
@@ -596,10 +596,8 @@ constexpr const char* kPointsPlaceholder = "@@vlt-points@@";
 // time in place of the placeholder.
 std::string WithPoints(const Results& r, const json& j, int indent,
                        const std::vector<std::size_t>& point_indices) {
-  // The points' budgets are not held in Results: recomputed for the points drawn.
-  std::vector<std::vector<BudgetRow>> budgets(point_indices.size());
-  results_internal::ForEachPointBudget(
-      r, point_indices, [&](std::size_t n, const PointUncertainty& g) { budgets[n] = g.budget; });
+  // The points' full results and budgets are not held in Results: recomputed for the points drawn.
+  const std::vector<PointUncertainty> details = PointDetails(r, point_indices, true, r.threads);
   const std::string outer = j.dump(indent, ' ', false, json::error_handler_t::replace);
   const std::string quoted = std::string("\"") + kPointsPlaceholder + "\"";
   const std::size_t at = outer.find(quoted);
@@ -615,7 +613,7 @@ std::string WithPoints(const Results& r, const json& j, int indent,
   } else {
     text += indent >= 0 ? "[\n" : "[";
     for (std::size_t n = 0; n < point_indices.size(); ++n) {
-      std::string one = Point(r, r.points[point_indices[n]], &budgets[n])
+      std::string one = Point(r, r.points[point_indices[n]], details[n], true)
                             .dump(indent, ' ', false, json::error_handler_t::replace);
       if (indent >= 0) {
         text += pad;
@@ -682,10 +680,10 @@ std::string ResultsJson(const Results& r, int indent) {
 }
 
 void WritePointsJsonl(const Results& r, OutputText& out) {
-  results_internal::WriteInBlocks(
-      out, r.points.size(), r.threads, [&](std::size_t begin, std::size_t end, std::string& text) {
-        for (std::size_t i = begin; i < end; ++i) {
-          text += Point(r, r.points[i], nullptr).dump(-1, ' ', false, json::error_handler_t::replace);
+  results_internal::WritePointDetails(
+      r, out, false, [&](std::size_t first, std::span<const PointUncertainty> points, std::string& text) {
+        for (std::size_t i = 0; i < points.size(); ++i) {
+          text += Point(r, r.points[first + i], points[i], false).dump(-1, ' ', false, json::error_handler_t::replace);
           text += '\n';
         }
       });

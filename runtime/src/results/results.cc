@@ -322,21 +322,32 @@ void CheckJobMemory(const Job& job, std::uint64_t available_bytes, const RunOpti
 
 namespace {
 
-// The budgets of points [begin, end) of `indices` (all points when empty), computed on one thread.
-std::vector<PointUncertainty> BudgetsOf(const Results& r, const MeasurementModel& model,
+// The full GUM results of points [begin, end) of `indices` (all points when empty), computed on
+// one thread: PropagatePoints of the readings the run propagated, with the run's second-order
+// check and the names that PointResult keeps once.
+std::vector<PointUncertainty> DetailsOf(const Results& r, const MeasurementModel& model,
                                         std::span<const std::size_t> indices, std::size_t begin,
-                                        std::size_t end) {
+                                        std::size_t end, bool budgets) {
+  auto at = [&](std::size_t i) -> const PointResult& { return r.points[indices.empty() ? i : indices[i]]; };
   std::vector<PointReadings> chunk(end - begin);
   for (std::size_t i = begin; i < end; ++i) {
-    const PointResult& p = r.points[indices.empty() ? i : indices[i]];
-    chunk[i - begin].name = p.input.name;
-    chunk[i - begin].readings = p.gum.readings;
+    chunk[i - begin].name = at(i).input.name;
+    chunk[i - begin].readings = at(i).gum.readings;
   }
   GumOptions options;
   options.coverage_probability = r.coverage_probability;
-  options.budgets = true;
+  options.budgets = budgets;
   options.threads = 1;  // the caller runs chunks in parallel
-  return PropagatePoints(model, chunk, options);
+  std::vector<PointUncertainty> details = PropagatePoints(model, chunk, options);
+  for (std::size_t i = begin; i < end; ++i) {
+    const PointGum& kept = at(i).gum;
+    PointUncertainty& d = details[i - begin];
+    d.second_order_variance = kept.second_order_variance;
+    d.second_order_ratio = kept.second_order_ratio;
+    d.gum_reliable = kept.gum_reliable;
+    d.second_order_decided = kept.second_order_decided;
+  }
+  return details;
 }
 
 }  // namespace
@@ -361,27 +372,58 @@ void results_internal::WriteInBlocks(OutputText& out, std::size_t n, int threads
   }
 }
 
-void results_internal::WritePointBudgets(
-    const Results& r, OutputText& out,
+void results_internal::WritePointDetails(
+    const Results& r, OutputText& out, bool budgets,
     const std::function<void(std::size_t, std::span<const PointUncertainty>, std::string&)>& format) {
   if (r.points.empty()) return;
   const MeasurementModel model(r.setup);
   WriteInBlocks(out, r.points.size(), r.threads, [&](std::size_t begin, std::size_t end, std::string& text) {
-    format(begin, BudgetsOf(r, model, {}, begin, end), text);
+    format(begin, DetailsOf(r, model, {}, begin, end, budgets), text);
   });
 }
 
-void results_internal::ForEachPointBudget(const Results& r, std::span<const std::size_t> indices,
-                                  const std::function<void(std::size_t, const PointUncertainty&)>& visit) {
+void results_internal::ForEachPointDetail(const Results& r, std::span<const std::size_t> indices, bool budgets,
+                                          const std::function<void(std::size_t, const PointUncertainty&)>& visit) {
   if (r.points.empty()) return;
   const MeasurementModel model(r.setup);
   const std::size_t n = indices.empty() ? r.points.size() : indices.size();
   constexpr std::size_t kChunk = 4096;
   for (std::size_t begin = 0; begin < n; begin += kChunk) {
     const std::size_t end = std::min(n, begin + kChunk);
-    const std::vector<PointUncertainty> gum = BudgetsOf(r, model, indices, begin, end);
-    for (std::size_t i = begin; i < end; ++i) visit(i, gum[i - begin]);
+    const std::vector<PointUncertainty> details = DetailsOf(r, model, indices, begin, end, budgets);
+    for (std::size_t i = begin; i < end; ++i) visit(i, details[i - begin]);
   }
+}
+
+PointGum KeptOf(const PointUncertainty& point) {
+  PointGum kept;
+  kept.readings = point.readings;
+  kept.part = point.part;
+  kept.cov_part = point.cov_part;
+  kept.k = point.k;
+  kept.second_order_variance = point.second_order_variance;
+  kept.second_order_ratio = point.second_order_ratio;
+  kept.gum_reliable = point.gum_reliable;
+  kept.second_order_decided = point.second_order_decided;
+  return kept;
+}
+
+std::vector<PointUncertainty> PointDetails(const Results& results, std::span<const std::size_t> indices,
+                                           bool budgets, int threads) {
+  const std::size_t n = indices.empty() ? results.points.size() : indices.size();
+  std::vector<PointUncertainty> details(n);
+  if (n == 0) return details;
+  for (const std::size_t i : indices) {
+    if (i >= results.points.size()) throw std::out_of_range("PointDetails: no point " + std::to_string(i));
+  }
+  const MeasurementModel model(results.setup);
+  // Chunks of a fixed size (not of the thread count): the same work, the same bits, any count.
+  constexpr std::size_t kChunk = 256;
+  parallel_internal::ForEachChunk(n, kChunk, threads, [&](std::size_t, std::size_t b, std::size_t e) {
+    std::vector<PointUncertainty> part = DetailsOf(results, model, indices, b, e, budgets);
+    std::move(part.begin(), part.end(), details.begin() + static_cast<std::ptrdiff_t>(b));
+  });
+  return details;
 }
 
 Results RunJob(const Job& job, const RunOptions& options) {
@@ -421,12 +463,20 @@ Results RunHeader(const Job& job) {
   return results;
 }
 
+// What the results keep of a job's point: all but where it was defined (a text for the job's
+// messages, 40 bytes a point of a scan on the heap).
+JobPoint JobPointKept(const JobPoint& point) {
+  JobPoint kept = point;
+  std::string().swap(kept.where);
+  return kept;
+}
+
 // The GUM uncertainty of every point of the job.
 void PropagateJobPoints(const Job& job, const MeasurementModel& model,
                         const std::vector<PointReadings>& readings, const GumOptions& gum_options,
                         Results& results) {
-  // In blocks moved into the results as they are done: a scan never holds two copies of its
-  // points (point names are never empty, so messages name the point, not a block position).
+  // In blocks kept (PointGum) as they are done: a scan never holds the full result of more than
+  // one block (point names are never empty, so messages name the point, not a block position).
   results.points.resize(job.points.size());
   constexpr std::size_t kGumBlock = 65536;
   for (std::size_t begin = 0; begin < readings.size(); begin += kGumBlock) {
@@ -442,12 +492,8 @@ void PropagateJobPoints(const Job& job, const MeasurementModel& model,
                                     [&](std::size_t, std::size_t b, std::size_t e) {
                                       for (std::size_t i = b; i < e; ++i) {
                                         PointResult& point = results.points[begin + i];
-                                        point.input = job.points[begin + i];
-                                        point.gum = std::move(gum_points[i]);
-                                        // Held once (input.name, Results::correlation_handling): a scan's 10^6 copies were about
-                                        // 100 bytes a point.
-                                        std::string().swap(point.gum.name);
-                                        std::string().swap(point.gum.correlation_handling);
+                                        point.input = JobPointKept(job.points[begin + i]);
+                                        point.gum = KeptOf(gum_points[i]);
                                       }
                                     });
   }
@@ -514,14 +560,14 @@ void ValidatePointResult(const McmResult& mcm, std::size_t i, Results& results) 
   std::vector<std::string> outcomes;
   for (int a = 0; a < 3; ++a) {
     m->axes[a] = mcm.outputs[3 * i + a];
-    m->axis_validation[a] = ValidateScalar(m->axes[a].name, "m", pr.gum.part[a], pr.gum.u_part[a],
-                                           pr.gum.U_part[a], m->axes[a].symmetric, results.n_dig, mcm.trials,
+    m->axis_validation[a] = ValidateScalar(m->axes[a].name, "m", pr.gum.part[a], pr.gum.u_part()[a],
+                                           pr.gum.U_part()[a], m->axes[a].symmetric, results.n_dig, mcm.trials,
                                            m->axes[a].u, results.coverage_probability);
     CheckFiniteVariance(m->axes[a], m->axis_validation[a]);
     outcomes.push_back(m->axis_validation[a].outcome);
   }
   try {
-    m->region_validation = ValidatePoint(pr.input.name, pr.gum.part, pr.gum.cov_part, pr.gum.ellipsoid.k,
+    m->region_validation = ValidatePoint(pr.input.name, pr.gum.part, pr.gum.cov_part, results.k_region,
                                          m->mcm, results.n_dig, mcm.trials, results.coverage_probability);
     outcomes.push_back(m->region_validation.outcome);
   } catch (const NumericalError& e) {
@@ -615,17 +661,26 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
   results.k_axis = NormalCoverageFactor(results.coverage_probability);
   results.k_region = ChiSquareCoverageFactor(results.coverage_probability, 3);
 
-  // GUM (JCGM 100 5.1.2 / JCGM 102 6.2.1.3): every point, then every task.
+  // GUM (JCGM 100 5.1.2 / JCGM 102 6.2.1.3): every task, then every point.
   auto gum_start = std::chrono::steady_clock::now();
   std::vector<PointReadings> readings = JobReadings(job, model, threads);
   GumOptions gum_options;
   gum_options.coverage_probability = results.coverage_probability;
-  // Budgets are written from ForEachPointBudget when the files are (not held: O(N) memory).
+  // Budgets are written from ForEachPointDetail when the files are (not held: O(N) memory).
   gum_options.budgets = false;
   gum_options.threads = threads;
   results.threads = threads;
+  // Tasks first: a scan's task (its fit Jacobian, 8 x 3N doubles) is done and freed before the
+  // points' results are held, so the two never add up (issue 33: a 10^6-point scan in 1 GiB).
+  // Neither depends on the other. The error said stays a point's where a point is at fault: when
+  // a task fails, the points are propagated and their error, if any, is thrown instead.
+  try {
+    PropagateJobTasks(job, model, readings, gum_options, results);
+  } catch (const std::exception&) {
+    PropagateJobPoints(job, model, readings, gum_options, results);
+    throw;
+  }
   PropagateJobPoints(job, model, readings, gum_options, results);
-  PropagateJobTasks(job, model, readings, gum_options, results);
   results.gum_seconds = base_internal::Seconds(gum_start);
 
   if (options.monte_carlo && job.monte_carlo.enabled) {

@@ -103,7 +103,7 @@ std::string TrialCount(double m) {
 
 // The verdict column of a point: its validation by Monte Carlo, and whether the GUM is reliable.
 std::string PointVerdict(const PointResult& p) {
-  const PointUncertainty& g = p.gum;
+  const PointGum& g = p.gum;
   std::string verdict = !p.has_mcm ? "not run" : p.outcome == "not validated" ? "NOT validated" : p.outcome;
   if (!g.gum_reliable) {
     // JCGM 100 5.1.2 note, computed without Monte Carlo: said with --no-mcm too.
@@ -138,13 +138,17 @@ void PointTable(const Results& r, std::ostringstream& out) {
   }
   out << FormatLine("%-*s %9s %10s %10s %10s%s  %s\n", name_width, "point", "range[m]", "x[mm]", "y[mm]",
                     "z[mm]", u_headers.c_str(), "GUM vs MCM");
+  // The rows' full results (the ellipsoid's largest semi-axis) recomputed: Results keep PointGum.
+  std::vector<std::size_t> shown(std::min(r.points.size(), max_rows));
+  for (std::size_t i = 0; i < shown.size(); ++i) shown[i] = i;
+  const std::vector<PointUncertainty> details = PointDetails(r, shown, false, r.threads);
   for (std::size_t i = 0; i < r.points.size(); ++i) {
     if (i == max_rows) {
       out << "... " << (r.points.size() - max_rows) << " more points in points.csv\n";
       break;
     }
     const PointResult& p = r.points[i];
-    const PointUncertainty& g = p.gum;
+    const PointUncertainty& g = details[i];
     const std::string verdict = PointVerdict(p);
     out << FormatLine("%-*s %9.3f %10.3f %10.3f %10.3f %8.1f %8.1f %8.1f %8.1f %8.1f  %s\n", name_width,
                       p.input.name.c_str(), g.readings[0], g.part.x() * 1e3, g.part.y() * 1e3,
