@@ -11,7 +11,10 @@
 #                                  VLT_BASELINE=<vlt binary> adds a baseline build to compare with
 #   scripts/device-check.sh run    there (the device tool: carry .devcarry, OUT set): runs every
 #                                  check within about five minutes, writing logs and JSON to $OUT;
-#                                  `run scan`: only the machine and the scans (about one minute)
+#                                  `run scan`: only the machine and the scans (about one minute);
+#                                  `run gpu`: only the machine and the GPU path (docs/gpu.md: its
+#                                  tests, a point at 10^7 trials and a map of 10^4 nodes at 10^5
+#                                  trials on --device gpu and cpu, the files compared)
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 CARRY=/tmp/vlt-devcarry  # the unpacked bundle, here while packing and there while running
@@ -20,10 +23,10 @@ pack() {
   rm -rf "$CARRY" "$ROOT/.devcarry"
   mkdir -p "$CARRY/lib" "$CARRY/jobs" "$ROOT/.devcarry"
   grep -qx '/.devcarry/' "$ROOT/.git/info/exclude" 2>/dev/null || echo '/.devcarry/' >>"$ROOT/.git/info/exclude"
-  cp "$ROOT/build/runtime/vlt" "$ROOT/build/bench/vlt_bench" "$CARRY/"
+  cp "$ROOT/build/runtime/vlt" "$ROOT/build/bench/vlt_bench" "$ROOT/build/tests/test_gpu_kernel" "$CARRY/"
   [[ -n "${VLT_BASELINE:-}" ]] && cp "$VLT_BASELINE" "$CARRY/vlt_baseline"
   g++ -O2 -std=c++20 -ffp-contract=off "$ROOT/bench/experiments/gpu_probe.cc" -ldl -o "$CARRY/gpu_probe"
-  for bin in "$CARRY"/vlt "$CARRY"/vlt_bench; do
+  for bin in "$CARRY"/vlt "$CARRY"/vlt_bench "$CARRY"/test_gpu_kernel; do
     ldd "$bin" | awk '/=> \// {print $3}' |
       grep -v -E '/(libc|libm|libpthread|libdl|librt|ld-linux[^/]*)\.so' |
       while read -r lib; do cp -L "$lib" "$CARRY/lib/"; done
@@ -37,15 +40,47 @@ pack() {
   # A Monte Carlo map (357 nodes, docs/performance.md 4.6) and a scan of 10^5 points (GUM only).
   cp "$ROOT/examples/online_readings.toml" "$ROOT/examples/online_readings.csv" "$CARRY/jobs/"
   python3 "$ROOT/tests/cli/make_scan.py" 100000 "$CARRY/jobs/scan"
+  gpu_jobs
   tar -C "$CARRY" -cJf "$ROOT/.devcarry/bundle.tar.xz" .
   du -sh "$CARRY" "$ROOT/.devcarry/bundle.tar.xz"
+}
+
+# The jobs of the GPU path (docs/gpu.md: a mirror tracker, nothing of [environment], [station] or
+# [part]): one point at 10^7 trials, and a Monte Carlo map of 101 x 101 nodes at 10^5 trials.
+gpu_jobs() {
+  local tracker='[tracker]\nmodel = "mirror"\n[tracker.noise]\nrange = "5 um + 0.5 um/m"\nazimuth = "1 arcsec"\nelevation = "1 arcsec"\n'
+  printf '[job]\nname = "gpu_point"\n'"$tracker"'[plan]\nunit = "m"\npoint = [{name = "P", x = 5, y = 1, z = 0.4}]\n[monte_carlo]\ntrials = 10000000\nseed = 1\n' \
+    >"$CARRY/jobs/gpu_point.toml"
+  printf '[job]\nname = "gpu_map"\n'"$tracker"'[plan]\nunit = "m"\npoint = [{name = "P", x = 5, y = 1, z = 0.4}]\n[map]\nplane = "z=0.3"\nextent = "1,11,-5,5"\nstep = "0.1 m"\nmonte_carlo = true\n[monte_carlo]\ntrials = 100000\nseed = 1\n' \
+    >"$CARRY/jobs/gpu_map.toml"
+}
+
+# gpu: the GPU path's tests (the real-GPU one must pass, not skip), then the point and the map on
+# --device gpu and --device cpu: their files the same bytes, the times in cli_times.txt.
+gpu() {
+  "$CARRY/test_gpu_kernel" --gtest_filter='GpuKernel.*:GpuPath.*:-GpuKernel.EmbeddedSources*' 2>&1 |
+    tee "$OUT/gpu_tests.txt" || true
+  local job device
+  for job in gpu_point gpu_map; do
+    for device in gpu cpu; do
+      rm -rf "/tmp/vlt-$job-$device"
+      timed "$job --device $device" "$CARRY/vlt" run "$CARRY/jobs/$job.toml" --device "$device" \
+        -o "/tmp/vlt-$job-$device" --quiet
+      strip_timings "/tmp/vlt-$job-$device/results.json" >"/tmp/$job-$device.json" 2>/dev/null || true
+    done
+    python3 -c 'import json,sys; print(sys.argv[1], json.load(open(sys.argv[2]))["monte_carlo"]["device"])' \
+      "$job" "/tmp/vlt-$job-gpu/results.json" >>"$OUT/cli_times.txt" 2>&1 || true
+    same "$job results.json --device gpu" "/tmp/$job-gpu.json" "/tmp/$job-cpu.json"
+    same "$job points.csv --device gpu" "/tmp/vlt-$job-gpu/points.csv" "/tmp/vlt-$job-cpu/points.csv"
+  done
+  same "gpu_map map.csv --device gpu" /tmp/vlt-gpu_map-gpu/map.csv /tmp/vlt-gpu_map-cpu/map.csv
 }
 
 # Results of a run without the timings, for comparing two runs byte for byte.
 strip_timings() {
   python3 -c '
 import json, sys
-drop = {"seconds", "gum_seconds", "mcm_seconds", "created", "threads"}
+drop = {"seconds", "gum_seconds", "mcm_seconds", "created", "threads", "device", "device_note"}
 def strip(o):
     if isinstance(o, dict): return {k: strip(v) for k, v in o.items() if k not in drop}
     if isinstance(o, list): return [strip(x) for x in o]
@@ -142,6 +177,11 @@ run() {
     cat "$OUT/cli_times.txt"
     return
   fi
+  if [[ ${1:-all} == gpu ]]; then
+    gpu
+    cat "$OUT/cli_times.txt"
+    return
+  fi
   "$CARRY/gpu_probe" 2>&1 | tee "$OUT/gpu_probe.txt" || true
   # Monte Carlo thread scaling (bench/bench_mcm.cc mcm/scaling/*): three repetitions, their median.
   "$CARRY/vlt_bench" --benchmark_filter='mcm/scaling' --benchmark_repetitions=3 \
@@ -171,5 +211,5 @@ run() {
 case "${1:-}" in
   pack) pack ;;
   run) run "${2:-all}" ;;
-  *) echo "usage: $0 pack | run [all|scan]" >&2; exit 2 ;;
+  *) echo "usage: $0 pack | run [all|scan|gpu]" >&2; exit 2 ;;
 esac

@@ -15,14 +15,11 @@ namespace vlt::test {
 
 inline constexpr double kArcsec = 4.84813681109536e-6;
 
-// The mirror tracker with every error parameter at its generated default (estimate 0, default u,
-// normal), reading noise 5 um + 0.5 um/m, 1 arcsec, and a station pose.
-inline MeasurementSetup MirrorSetup(bool pose = true) {
-  MeasurementSetup setup;
-  setup.model = FindModel("mirror");
-  EXPECT_NE(setup.model, nullptr);
-  for (int k = 0; k < setup.model->num_params; ++k) {
-    const QuantityInfo& q = setup.model->params[k];
+// A tracker model's error parameters at their generated defaults (estimate, u, distribution).
+inline std::vector<UncertainInput> DefaultParams(const ModelInfo& model) {
+  std::vector<UncertainInput> params;
+  for (int k = 0; k < model.num_params; ++k) {
+    const QuantityInfo& q = model.params[k];
     UncertainInput in;
     in.name = q.name;
     in.unit = q.unit;
@@ -31,8 +28,18 @@ inline MeasurementSetup MirrorSetup(bool pose = true) {
     in.u = q.default_u;
     in.distribution = q.default_distribution;
     in.shape = q.default_shape;
-    setup.params.push_back(in);
+    params.push_back(in);
   }
+  return params;
+}
+
+// The mirror tracker with every error parameter at its generated default (estimate 0, default u,
+// normal), reading noise 5 um + 0.5 um/m, 1 arcsec, and a station pose.
+inline MeasurementSetup MirrorSetup(bool pose = true) {
+  MeasurementSetup setup;
+  setup.model = FindModel("mirror");
+  EXPECT_NE(setup.model, nullptr);
+  setup.params = DefaultParams(*setup.model);
   setup.noise.range_a = 5e-6;
   setup.noise.range_b = 0.5e-6;
   setup.noise.azimuth = kArcsec;

@@ -81,6 +81,8 @@ void AddRunOptions(CLI::App& command, RunCliOptions& options, const std::string&
       ->check(UnsignedInteger64());
   command.add_option("--threads", options.threads, "Threads (0 = all hardware threads)")
       ->check(IntegerIn(0, 1024));
+  command.add_option("--device", options.device,
+                     "Where the Monte Carlo trials run: auto, cpu or gpu (overrides [monte_carlo] device; docs/gpu.md)");
 }
 
 std::filesystem::path OutputPath(const OutputSettings& job_output, const std::filesystem::path& base_dir,
@@ -136,6 +138,7 @@ RunOptions RunOptionsFrom(const RunCliOptions& options, const MonteCarloSettings
     run.seed = seed;
   }
   if (options.threads >= 0) run.threads = options.threads;
+  if (!options.device.empty()) run.device = McmDeviceNamed(options.device, "command line: --device");
   run.progress = !global.quiet && !global.json;
   return run;
 }

@@ -21,6 +21,7 @@ struct RunCliOptions {
   bool adaptive = false;
   std::string seed;  // "": from the job; else an integer 0 .. 2^64-1
   int threads = -1;
+  std::string device;  // --device: "": from the job; else "auto", "cpu" or "gpu"
 };
 
 // CLI11 validators that read the whole text as one integer and refuse anything else with a

@@ -21,6 +21,7 @@
 
 #include "vlt/inverse.h"
 #include "vlt/job_record.h"
+#include "vlt/mcm.h"
 #include "vlt/measurement_model.h"
 #include "vlt/tasks.h"
 #include "vlt/units.h"
@@ -50,6 +51,10 @@ struct JobPoint {
 };
 
 // JCGM 101 7.2 / 7.9: fixed number of trials or the adaptive procedure.
+// [monte_carlo] device and --device: "auto", "cpu", "gpu" (docs/gpu.md); InputError
+// "<where>: '<name>': expected ..." for another word.
+McmDevice McmDeviceNamed(std::string_view name, const std::string& where);
+
 struct MonteCarloSettings {
   bool enabled = true;
   std::int64_t trials = 200000;   // fixed M (ignored when adaptive)
@@ -58,6 +63,7 @@ struct MonteCarloSettings {
   std::uint64_t seed = 20090101;  // Philox key: same seed, same result for any thread count
   double coverage_probability = 0.95;
   int threads = 0;  // 0: all hardware threads
+  McmDevice device = McmDevice::kAuto;  // where the trials run (docs/gpu.md)
 };
 
 // Largest range [m] vlt accepts from a reading or a planned point: beyond any laser tracker (the

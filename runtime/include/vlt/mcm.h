@@ -37,8 +37,16 @@
 
 namespace vlt {
 
+// Where the trials of a job's Monte Carlo run (docs/gpu.md, [monte_carlo] device): kAuto on a GPU
+// when one works here and the GPU kernel covers the job, else on the CPU (McmResult::device_note
+// says why); kCpu always on the CPU; kGpu on a GPU or not at all (InputError saying why). The
+// trials' values, so every result, are the same bits on both.
+enum class McmDevice { kAuto, kCpu, kGpu };
+
 struct McmSettings {
   std::uint64_t seed = 1;
+  McmDevice device = McmDevice::kAuto;
+  std::string device_where = "monte_carlo.device";  // where `device` was given, for messages
   // Number of trials M. 0 = adaptive procedure (JCGM 101 7.9.4): batches of
   // max(ceil(100 / (1 - p)), 10^4) trials until twice the standard deviation of the batch values of
   // the mean, u, y_low and y_high of EVERY output is within the numerical tolerance delta (7.9.2).
@@ -158,6 +166,10 @@ struct McmResult {
   int threads = 1;       // per rank
   int ranks = 1;         // MPI ranks that shared the trials (docs/mpi.md); 1 without MPI
   double seconds = 0.0;  // wall time of the trials
+  // Where the trials ran: "cpu", or "gpu: <device> (compute x.y; CUDA driver a.b, NVRTC c.d)";
+  // device_note: under McmDevice::kAuto, why not on a GPU ("" when on one or when kCpu was asked).
+  std::string device = "cpu";
+  std::string device_note;
   // "order statistics of all M values" or
   // "average of the batch endpoints (memory budget exceeded)".
   std::string interval_method;

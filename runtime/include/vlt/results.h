@@ -38,6 +38,7 @@ struct RunOptions {
   std::optional<std::int64_t> trials;  // --trials (0 = adaptive)
   std::optional<std::uint64_t> seed;   // --seed
   std::optional<int> threads;          // --threads
+  std::optional<McmDevice> device;     // --device
   bool compute_map = true;             // compute the job's [map] when it has one
   bool progress = false;               // MCM progress bar on a terminal
 };

@@ -14,6 +14,8 @@
 #include <cstdint>
 #include <cstring>
 
+#include "base/portable_math.h"
+
 // A generated ForwardLanes is compiled twice (GCC target_clones: AVX2 and the x86-64 baseline; the
 // loader picks one), with the kernel inlined into each (flatten). The operations are the same in
 // both: -ffp-contract=off, no FMA.
@@ -77,42 +79,19 @@ inline Double4 Load(const double* from) {
 }
 inline void Store(double* to, const Double4& x) { std::memcpy(to, &x.v, sizeof x.v); }
 
-// sin r and cos r for |r| <= pi/4 (double or lanes): Taylor series in r^2 to r^17 and r^16,
-// Horner with the coefficients (-1)^k / (2k+1)! and (-1)^k / (2k)!; truncation below 3e-18.
-// Shared by the Box-Muller transform (mcm/random.h SinCosTwoPi).
-template <class T>
-inline void SinCosTaylor(const T& r, T* sin_r, T* cos_r) {
-  const T r2 = r * r;
-  T sp = (1.0 / 355687428096000.0) * r2 - 1.0 / 1307674368000.0;  // 1/17!, 1/15!
-  sp = sp * r2 + 1.0 / 6227020800.0;                              // 1/13!
-  sp = sp * r2 - 1.0 / 39916800.0;                                // 1/11!
-  sp = sp * r2 + 1.0 / 362880.0;                                  // 1/9!
-  sp = sp * r2 - 1.0 / 5040.0;                                    // 1/7!
-  sp = sp * r2 + 1.0 / 120.0;                                     // 1/5!
-  sp = sp * r2 - 1.0 / 6.0;                                       // 1/3!
-  *sin_r = r + r * r2 * sp;
-  T cp = (1.0 / 20922789888000.0) * r2 - 1.0 / 87178291200.0;  // 1/16!, 1/14!
-  cp = cp * r2 + 1.0 / 479001600.0;                            // 1/12!
-  cp = cp * r2 - 1.0 / 3628800.0;                              // 1/10!
-  cp = cp * r2 + 1.0 / 40320.0;                                // 1/8!
-  cp = cp * r2 - 1.0 / 720.0;                                  // 1/6!
-  cp = cp * r2 + 1.0 / 24.0;                                   // 1/4!
-  cp = cp * r2 - 0.5;                                          // 1/2!
-  *cos_r = 1.0 + r2 * cp;
-}
+// sin r and cos r for |r| <= pi/4, the Taylor series of base/portable_math.h (on lanes here).
+using portable::SinCosTaylor;
 
 // where ? a : b, lane by lane, by bits.
 inline Vector Select(Mask where, Vector a, Vector b) {
   return reinterpret_cast<Vector>((where & reinterpret_cast<Mask>(a)) | (~where & reinterpret_cast<Mask>(b)));
 }
 
-// sin x and cos x, lane by lane, branch-free for |x| <= kSinCosReduced: k = nearest integer to
-// x / (pi/2), r = x - k pi/2 with pi/2 in three parts of 32, 33 and 28 bits (fdlibm's pio2_1,
-// pio2_2, pio2_3: each k * part is exact for |k| < 2^20; their sum is pi/2 to 8.5e-32), Taylor
-// series of sin to r^17 and cos to r^16 on |r| <= pi/4 (truncation below 3e-18), and the
-// quadrant k mod 4 applied by selects and exact sign flips. Beyond kSinCosReduced, and for
+// sin x and cos x, lane by lane, branch-free for |x| <= kSinCosReduced: base/portable_math.h
+// SinCos in lanes (the same operations and constants, so each lane has the scalar's bits:
+// tests/test_lanes.cc), the quadrant applied by selects. Beyond kSinCosReduced, and for
 // infinities and NaN, the lane is libm's.
-inline constexpr double kSinCosReduced = 0x1.0p19;
+using portable::kSinCosReduced;
 
 inline void SinCos(const Double4& x_in, Double4* sine, Double4* cosine) {
   const Vector x_abs = reinterpret_cast<Vector>(reinterpret_cast<Mask>(x_in.v) & (Mask{} + INT64_MAX));
@@ -120,13 +99,13 @@ inline void SinCos(const Double4& x_in, Double4* sine, Double4* cosine) {
   const Vector zero = {0.0, 0.0, 0.0, 0.0};
   const Vector x = Select(in, x_in.v, zero);
   // Nearest integer to x 2/pi for |x 2/pi| < 2^51 (round to nearest even, default mode).
-  const Vector k = (x * 0x1.45f306dc9c883p-1 + 0x1.8p52) - 0x1.8p52;
-  const Vector r = ((x - k * 0x1.921fb544p+0) - k * 0x1.0b4611a6p-34) - k * 0x1.3198a2ep-69;
+  const Vector k = (x * portable::kTwoOverPi + portable::kRoundingShift) - portable::kRoundingShift;
+  const Vector r = ((x - k * portable::kPiOverTwo1) - k * portable::kPiOverTwo2) - k * portable::kPiOverTwo3;
   Vector sin_r, cos_r;
   SinCosTaylor(r, &sin_r, &cos_r);
   // Quadrant q = k mod 4: (sin, cos) = (s, c), (c, -s), (-s, -c), (-c, s). k + 1.5 2^52 holds
   // k's two's-complement low bits in its mantissa.
-  const Mask q = reinterpret_cast<Mask>(k + 0x1.8p52);
+  const Mask q = reinterpret_cast<Mask>(k + portable::kRoundingShift);
   const Mask odd = (q & 1) != 0;
   const Mask sign_bit = Mask{} + INT64_MIN;
   const Mask sin_flip = ((q & 2) != 0) & sign_bit;

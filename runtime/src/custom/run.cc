@@ -96,7 +96,7 @@ CustomResults RunCustomJob(const CustomJob& job, const RunOptions& options) {
       }
     }
     McmSettings settings = results_internal::McmSettingsFor(
-        job.monte_carlo, options, options.threads.value_or(job.monte_carlo.threads));
+        job.monte_carlo, options, options.threads.value_or(job.monte_carlo.threads), job.file);
     for (int o = 0; o < model.num_outputs; ++o) {
       if (job.tolerances[o])
         settings.tolerances.push_back({o, job.tolerances[o]->lower, job.tolerances[o]->upper});

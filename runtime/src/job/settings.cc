@@ -11,12 +11,23 @@
 #include "vlt/job.h"
 #include "vlt/units.h"
 
+namespace vlt {
+
+McmDevice McmDeviceNamed(std::string_view name, const std::string& where) {
+  if (name == "auto") return McmDevice::kAuto;
+  if (name == "cpu") return McmDevice::kCpu;
+  if (name == "gpu") return McmDevice::kGpu;
+  throw InputError(where + ": '" + std::string(name) + "': expected \"auto\", \"cpu\" or \"gpu\"");
+}
+
+}  // namespace vlt
+
 namespace vlt::job_internal {
 
 void ReadMonteCarlo(Section& top, MonteCarloSettings& mc) {
   Section s = top.Sub("monte_carlo", false);
   if (!s.exists()) return;
-  s.set_hint("enabled, trials, adaptive, n_dig, seed, coverage_probability, threads");
+  s.set_hint("enabled, trials, adaptive, n_dig, seed, coverage_probability, threads, device");
   if (const toml::node* n = s.Get("enabled")) mc.enabled = AsBool(*n, s.Where("enabled"));
   if (const toml::node* n = s.Get("adaptive")) mc.adaptive = AsBool(*n, s.Where("adaptive"));
   ReadCoverageProbability(s, "coverage_probability", mc.coverage_probability);
@@ -33,6 +44,7 @@ void ReadMonteCarlo(Section& top, MonteCarloSettings& mc) {
   }
   ReadSeed(s, "seed", mc.seed);
   ReadThreads(s, "threads", mc.threads);
+  if (const toml::node* n = s.Get("device")) mc.device = McmDeviceNamed(AsString(*n, s.Where("device")), s.Where("device"));
   s.Finish();
 }
 

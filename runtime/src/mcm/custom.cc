@@ -107,7 +107,12 @@ McmResult RunMcmCustom(const ModelInfo& model, std::span<const UncertainInput> i
     spec.units.emplace_back(model.outputs[o].unit);
   }
   if (model.num_outputs >= 2) spec.groups.push_back({model.name, 0, model.num_outputs, false});
-  return mcm_internal::RunEngine(kernel, spec, settings);
+  // The GPU kernel covers the points of tracker jobs (docs/gpu.md), not custom models.
+  constexpr const char* kNoKernel = "the GPU kernel covers the points of tracker jobs, not custom models";
+  if (settings.device == McmDevice::kGpu) throw InputError(settings.device_where + ": \"gpu\": " + kNoKernel);
+  McmResult result = mcm_internal::RunEngine(kernel, spec, settings);
+  if (settings.device == McmDevice::kAuto) result.device_note = kNoKernel;
+  return result;
 }
 
 }  // namespace vlt

@@ -2,10 +2,17 @@
 // once per trial (common to every point), readings per point, each point through the exact
 // measurement model, then each task from the drawn points.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <future>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "gpu/trials.h"
 #include "mcm/engine.h"
 #include "vlt/error.h"
 #include "vlt/fits.h"
@@ -171,7 +178,12 @@ class JobKernel final : public mcm_internal::TrialKernel {
       }
     }
 
-    // Tasks from the drawn points of this trial (the fit is part of the propagated model).
+    RunTasks(n, scratch, outputs);
+  }
+
+  // The tasks' outputs of trials 0 .. n - 1 of a sub-batch from its points' outputs (the fit is
+  // part of the propagated model): the CPU's part of a trial whose points a GPU computed too.
+  void RunTasks(int n, Scratch& scratch, double* outputs) const {
     for (std::size_t t = 0; t < job_.tasks.size(); ++t) {
       const McmTask& task = job_.tasks[t];
       const std::size_t np = task.points.size(), no = task.output_names.size();
@@ -253,7 +265,225 @@ std::vector<McmTask> FitTasks(const McmJob& job) {
   return out;
 }
 
+// The job's trials on a GPU (docs/gpu.md): the points' values of each trial from the device
+// (gpu/point_trials.h: the same draws and model as JobKernel::Run, the same bits), the tasks from
+// them on the CPU by JobKernel's own code. The device computes blocks of block_ trials, one block
+// at a time; the engine's threads ask for sub-batches (at most kSubBatch trials, anywhere in a
+// block) and copy theirs out of the block that holds them. A block is computed by the first thread
+// that needs it and forgotten once all its trials were copied out.
+class GpuJobKernel final : public mcm_internal::TrialKernel {
+ public:
+  // Most bytes of values a block holds (kSubBatch trials at least: KernelJob refuses more points).
+  static constexpr std::int64_t kBlockBytes = std::int64_t{64} << 20;
+
+  // trials: the run's M (0: adaptive). fall_back: on a GPU failure during the run, compute the
+  // remaining trials on the CPU (the same bits; McmDevice::kAuto) instead of failing.
+  GpuJobKernel(const McmJob& job, std::unique_ptr<gpu_internal::TrialsBackend> backend, std::int64_t trials,
+               bool fall_back)
+      : cpu_(job), backend_(std::move(backend)), point_outputs_(3 * static_cast<int>(job.points.size())),
+        fall_back_(fall_back) {
+    // An eighth of M a block (the device busy while the engine's threads copy out the previous
+    // one), at least 4096 trials, at most 2^20 and kBlockBytes of values.
+    const std::int64_t fit = kBlockBytes / (8 * std::max(1, point_outputs_));
+    const std::int64_t wanted = trials > 0 ? std::max<std::int64_t>(4096, (trials + 7) / 8) : std::int64_t{1} << 20;
+    block_ = std::max<std::int64_t>(kSubBatch, std::min({wanted, std::int64_t{1} << 20, fit}));
+  }
+
+  int num_outputs() const override { return cpu_.num_outputs(); }
+  void InitScratch(Scratch& scratch) const override { cpu_.InitScratch(scratch); }
+  std::vector<double> AtEstimates() const override { return cpu_.AtEstimates(); }
+
+  void Run(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch, double* outputs) const override {
+    if (failed_.load()) return cpu_.Run(rng, first, n, scratch, outputs);
+    try {
+      CopyFromBlocks(first, n, outputs);
+    } catch (const std::exception& e) {
+      if (!fall_back_) throw;
+      Fail(e.what());
+      return cpu_.Run(rng, first, n, scratch, outputs);
+    }
+    cpu_.RunTasks(n, scratch, outputs);
+  }
+
+  std::string Description() const { return backend_->Description(); }
+  // Why the trials after the GPU failed ran on the CPU; "" when it did not fail.
+  std::string failure() const {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    return failure_;
+  }
+
+ private:
+  using Values = std::shared_ptr<const std::vector<double>>;
+  struct Entry {
+    std::shared_future<Values> values;
+    std::int64_t left = 0;  // trials not yet copied out
+  };
+
+  void CopyFromBlocks(std::int64_t first, int n, double* outputs) const {
+    for (int done = 0; done < n;) {
+      const std::int64_t trial = first + done;
+      const std::int64_t index = trial / block_;
+      const Values values = Block(index);
+      const std::int64_t offset = trial - index * block_;
+      const int count = static_cast<int>(std::min<std::int64_t>(n - done, block_ - offset));
+      for (int o = 0; o < point_outputs_; ++o) {
+        const double* from = values->data() + static_cast<std::size_t>(o) * static_cast<std::size_t>(block_) + offset;
+        std::copy(from, from + count, outputs + static_cast<std::size_t>(o) * kSubBatch + done);
+      }
+      CopiedOut(index, count);
+      done += count;
+    }
+  }
+
+  // Block `index`'s values (values[o * block_ + i]), computed once, one block at a time.
+  Values Block(std::int64_t index) const {
+    std::promise<Values> promise;
+    std::shared_future<Values> future;
+    bool compute = false;
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      auto it = blocks_.find(index);
+      if (it == blocks_.end()) {
+        future = promise.get_future().share();
+        blocks_.emplace(index, Entry{future, block_});
+        compute = true;
+      } else {
+        future = it->second.values;
+      }
+    }
+    if (compute) {
+      try {
+        const std::lock_guard<std::mutex> one_at_a_time(compute_mutex_);
+        auto values = std::make_shared<std::vector<double>>(static_cast<std::size_t>(point_outputs_) *
+                                                            static_cast<std::size_t>(block_));
+        backend_->Compute(static_cast<std::uint64_t>(index * block_), static_cast<int>(block_), values->data());
+        promise.set_value(std::move(values));
+      } catch (...) {
+        promise.set_exception(std::current_exception());
+      }
+    }
+    return future.get();
+  }
+
+  // `count` more trials of block `index` copied out: forgotten when all were (the last block's
+  // trials beyond M never are; it goes with the kernel).
+  void CopiedOut(std::int64_t index, int count) const {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    auto it = blocks_.find(index);
+    if (it != blocks_.end() && (it->second.left -= count) <= 0) blocks_.erase(it);
+  }
+
+  void Fail(const std::string& why) const {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (failure_.empty()) failure_ = why;
+    failed_.store(true);
+  }
+
+  JobKernel cpu_;
+  std::unique_ptr<gpu_internal::TrialsBackend> backend_;
+  int point_outputs_;
+  bool fall_back_;
+  std::int64_t block_ = kSubBatch;
+  mutable std::mutex mutex_;
+  mutable std::mutex compute_mutex_;
+  mutable std::map<std::int64_t, Entry> blocks_;
+  mutable std::atomic<bool> failed_{false};
+  mutable std::string failure_;
+};
+
+// The GPU kernel's job for `job` (gpu/point_trials.h), or why the kernel does not cover it.
+std::optional<gpu_internal::TrialsJob> KernelJob(const McmJob& job, std::uint64_t seed, std::string* why_not) {
+  const MeasurementModel& model = *job.model;
+  const MeasurementSetup& setup = model.setup();
+  const auto refuse = [&](const std::string& why) {
+    *why_not = why;
+    return std::nullopt;
+  };
+  if (!gpu_internal::KernelHasModel(setup.model->name) || !model.has_forward_lanes()) {
+    return refuse(std::string("the GPU kernel has no model '") + setup.model->name + "'");
+  }
+  if (setup.environment || setup.pose || setup.thermal) {
+    return refuse("the GPU kernel covers the tracker's parameters and readings only, not [environment], [station] or [part]");
+  }
+  const Eigen::MatrixXd& correlation = model.shared_correlation();
+  if (correlation.size() > 0 && !correlation.isIdentity(0.0)) return refuse("the GPU kernel has no correlated inputs");
+  if (setup.model->num_params > gpu_internal::kMaxParams || model.num_shared() != setup.model->num_params) {
+    return refuse("the GPU kernel takes the tracker's parameters (at most " + std::to_string(gpu_internal::kMaxParams) +
+                  ") and no other shared input");
+  }
+  // A block holds kSubBatch trials of every point at least.
+  const std::size_t most_points = static_cast<std::size_t>(GpuJobKernel::kBlockBytes / (8 * 3 * kSubBatch));
+  if (job.points.size() > most_points) {
+    return refuse("the GPU kernel takes at most " + std::to_string(most_points) + " points a run");
+  }
+  gpu_internal::TrialsJob trials;
+  trials.model = setup.model->name;
+  gpu_internal::PointTrialsJob& kernel = trials.job;
+  kernel.seed = seed;
+  kernel.num_params = setup.model->num_params;
+  const std::vector<Distribution> inputs = SharedDistributions(model);
+  for (int k = 0; k < kernel.num_params; ++k) {
+    const Distribution& d = inputs[static_cast<std::size_t>(k)];
+    if (d.u() != 0.0 && d.kind() != DistributionKind::kNormal) {
+      return refuse("the GPU kernel draws normal parameters only ('" + model.shared_inputs()[k].name + "' is not)");
+    }
+    kernel.param_estimate[k] = d.estimate();
+    kernel.param_u[k] = d.u();
+  }
+  kernel.num_points = static_cast<int>(job.points.size());
+  trials.points.resize(job.points.size());
+  for (std::size_t p = 0; p < job.points.size(); ++p) {
+    const Eigen::Vector3d& r = job.points[p].readings;
+    const Eigen::Vector3d u = model.reading_uncertainty(r(0));
+    for (int j = 0; j < 3; ++j) {
+      trials.points[p].reading[j] = r(j);
+      trials.points[p].reading_u[j] = u(j);
+    }
+  }
+  return trials;
+}
+
+// The GPU kernel of `job` for `settings.device`: nullptr for the CPU, with result.device_note
+// saying why under kAuto; InputError under kGpu when no GPU can run it.
+std::unique_ptr<GpuJobKernel> GpuKernelFor(const McmJob& job, const McmSettings& settings, McmResult& result) {
+  if (settings.device == McmDevice::kCpu) return nullptr;
+  std::string why_not;
+  std::unique_ptr<gpu_internal::TrialsBackend> backend;
+  if (const auto trials = KernelJob(job, settings.seed, &why_not)) {
+    backend = gpu_internal::MakeBackend(*trials, &why_not);
+  }
+  if (backend == nullptr) {
+    if (settings.device == McmDevice::kGpu) throw InputError(settings.device_where + ": \"gpu\": " + why_not);
+    result.device_note = why_not;
+    return nullptr;
+  }
+  return std::make_unique<GpuJobKernel>(job, std::move(backend), settings.trials,
+                                        settings.device == McmDevice::kAuto);
+}
+
 }  // namespace
+
+std::vector<double> mcm_internal::JobTrialValues(const McmJob& job, std::uint64_t seed, std::int64_t first,
+                                                 int n) {
+  if (!job.fit_tasks.empty() || !job.tasks.empty()) throw InputError("JobTrialValues: a job of points only");
+  const JobKernel kernel(job);
+  mcm_internal::Scratch scratch;
+  kernel.InitScratch(scratch);
+  const mcm_internal::KeyedStream rng(seed);
+  const int outputs = kernel.num_outputs();
+  std::vector<double> batch(static_cast<std::size_t>(outputs) * mcm_internal::kSubBatch);
+  std::vector<double> values(static_cast<std::size_t>(outputs) * static_cast<std::size_t>(n));
+  for (int begin = 0; begin < n; begin += mcm_internal::kSubBatch) {
+    const int count = std::min(mcm_internal::kSubBatch, n - begin);
+    kernel.Run(rng, first + begin, count, scratch, batch.data());
+    for (int o = 0; o < outputs; ++o) {
+      for (int i = 0; i < count; ++i) {
+        values[static_cast<std::size_t>(o) * n + begin + i] = batch[static_cast<std::size_t>(o) * mcm_internal::kSubBatch + i];
+      }
+    }
+  }
+  return values;
+}
 
 McmResult RunMcm(const McmJob& job_in, const McmSettings& settings) {
   if (job_in.model == nullptr) throw InputError("Monte Carlo: job has no measurement model");
@@ -277,7 +507,17 @@ McmResult RunMcm(const McmJob& job_in, const McmSettings& settings) {
     spec.names.insert(spec.names.end(), task.output_names.begin(), task.output_names.end());
     spec.units.insert(spec.units.end(), task.output_units.begin(), task.output_units.end());
   }
-  return mcm_internal::RunEngine(kernel, spec, settings);
+  McmResult where;
+  const std::unique_ptr<GpuJobKernel> gpu = GpuKernelFor(job, settings, where);
+  McmResult result = mcm_internal::RunEngine(gpu ? static_cast<const mcm_internal::TrialKernel&>(*gpu) : kernel, spec,
+                                             settings);
+  result.device = gpu ? "gpu: " + gpu->Description() : "cpu";
+  result.device_note = where.device_note;
+  if (gpu && !gpu->failure().empty()) {
+    result.device_note = "the GPU failed during the run (" + gpu->failure() +
+                         "); the trials from there on ran on the CPU (the same bits)";
+  }
+  return result;
 }
 
 }  // namespace vlt

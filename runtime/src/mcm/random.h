@@ -33,6 +33,7 @@
 #include <Random123/philox.h>
 
 #include "base/lanes.h"
+#include "base/portable_math.h"
 
 namespace vlt::mcm_internal {
 
@@ -41,7 +42,7 @@ class KeyedStream {
   using Generator = r123::Philox4x64;
   using NormalGenerator = r123::Philox4x32;
 
-  explicit KeyedStream(std::uint64_t seed) {
+  explicit KeyedStream(std::uint64_t seed) : seed_(seed) {
     key_[0] = seed;
     key_[1] = 0;
     normal_key_[0] = static_cast<std::uint32_t>(seed);
@@ -60,20 +61,7 @@ class KeyedStream {
   // Four standard normals for trials 4*group .. 4*group+3 of `input` (Box-Muller, see above):
   // the scalar reference of NormalsBulk.
   void Normals(std::uint64_t group, std::uint64_t input, double out[4]) const {
-    for (int half = 0; half < 2; ++half) {
-      const std::uint64_t pair = 2 * group + static_cast<std::uint64_t>(half);
-      const NormalGenerator::ctr_type ctr = {
-          {static_cast<std::uint32_t>(pair), static_cast<std::uint32_t>(pair >> 32),
-           static_cast<std::uint32_t>(input), static_cast<std::uint32_t>(input >> 32)}};
-      const NormalGenerator::ctr_type w = NormalGenerator()(ctr, normal_key_);
-      const double u = OpenUnitFromHalves(w[0], w[1]);
-      const double v = OpenUnitFromHalves(w[2], w[3]);
-      const double r = std::sqrt(-2.0 * LogOpenUnit(u));
-      double s, c;
-      SinCosTwoPi(v, &s, &c);
-      out[2 * half] = r * c;
-      out[2 * half + 1] = r * s;
-    }
+    base_internal::portable::NormalsOfGroup(seed_, group, input, out);
   }
 
   // The normals of `groups` consecutive groups (groups <= kBulkGroups) of `input`:
@@ -83,65 +71,12 @@ class KeyedStream {
   void NormalsBulk(std::uint64_t first_group, int groups, std::uint64_t input, double* out) const;
 
   // The uniform on the open interval (0, 1) of the 64-bit word hi:lo, equal to ToOpenUnit of it
-  // but written with bit operations only, so that it vectorises: with k the word's 52 high bits,
-  // the double with exponent 0 and mantissa k is 1 + k 2^-52; subtracting 1 and adding 2^-53
-  // are exact.
-  static double OpenUnitFromHalves(std::uint32_t hi, std::uint32_t lo) {
-    const std::uint64_t k = ((static_cast<std::uint64_t>(hi) << 32) | lo) >> 12;
-    return (std::bit_cast<double>(k | 0x3FF0000000000000ull) - 1.0) + 0x1.0p-53;
-  }
-
-  // ln u for a normal double u in (0, 1) (the uniforms above lie in [2^-53, 1 - 2^-53]), without
-  // a branch or a libm call: u = 2^e m with m in [sqrt(2)/2, sqrt(2)), f = m - 1 (exact),
-  // s = f / (2 + f), ln(1 + f) = 2 atanh(s) = f - f^2/2 + s (f^2/2 + R(s^2)) with the minimax
-  // polynomial R of fdlibm's e_log.c (Sun Microsystems, 1993; error below 1 ulp, checked against
-  // long double in tests/test_distributions.cc), and e ln 2 in two parts (e ln2_hi is exact).
-  static double LogOpenUnit(double u) {
-    const std::uint64_t bits = std::bit_cast<std::uint64_t>(u);
-    const std::uint64_t mantissa = bits & 0x000FFFFFFFFFFFFFull;
-    // m >= sqrt(2) (the mantissa field above that of sqrt(2)): halve m, one more in e.
-    const bool high = mantissa > 0x6A09E667F3BCCull;
-    const std::uint64_t biased = (bits >> 52) + (high ? 1u : 0u);  // e + 1023, in [970, 1023]
-    const double m = std::bit_cast<double>(mantissa | (high ? 0x3FE0000000000000ull : 0x3FF0000000000000ull));
-    // e as a double, exactly: 2^52 + biased has `biased` in its mantissa field.
-    const double e = std::bit_cast<double>(0x4330000000000000ull | biased) - (0x1.0p52 + 1023.0);
-    const double f = m - 1.0;
-    const double s = f / (2.0 + f);
-    const double z = s * s;
-    const double w = z * z;
-    const double t1 = w * (0x1.999999997fa04p-2 + w * (0x1.c71c51d8e78afp-3 + w * 0x1.39a09d078c69fp-3));
-    const double t2 =
-        z * (0x1.5555555555593p-1 +
-             w * (0x1.2492494229359p-2 + w * (0x1.7466496cb03dep-3 + w * 0x1.2f112df3e5244p-3)));
-    const double r = t2 + t1;
-    const double hfsq = 0.5 * f * f;
-    constexpr double kLn2Hi = 0x1.62e42feep-1, kLn2Lo = 0x1.a39ef35793c76p-33;
-    return e * kLn2Hi - ((hfsq - (s * (hfsq + r) + e * kLn2Lo)) - f);
-  }
-
-  // sin and cos of 2 pi u for u in [0, 1], accurate to ~1 ulp, without a libm call (the
-  // Box-Muller transform spent most of its time in sincos): u is reduced EXACTLY to the nearest
-  // quarter turn q (4u - q is exact in binary floating point), x = (4u - q) pi/2 lies in
-  // [-pi/4, pi/4], where the Taylor series of sin to x^17 and cos to x^16 have a truncation
-  // error below 3e-18.
-  static void SinCosTwoPi(double u, double* sine, double* cosine) {
-    const double t = 4.0 * u;
-    // q = nearbyint(t) for 0 <= t < 2^51 in the default rounding mode (to nearest, ties to
-    // even): adding and subtracting 1.5 * 2^52 rounds away the fraction. Unlike nearbyint this
-    // needs no libm call on baseline x86-64 (no SSE4.1 roundsd) and vectorises.
-    const double q = (t + 0x1.8p52) - 0x1.8p52;
-    const double x = (t - q) * 1.5707963267948966192313216916397514;
-    double sin_x, cos_x;
-    base_internal::lanes::SinCosTaylor(x, &sin_x, &cos_x);
-    // Quarter turn q: (sin, cos) = (s, c), (c, -s), (-s, -c), (-c, s) for q mod 4 = 0, 1, 2, 3;
-    // selects and sign flips only (exact), no branch.
-    const int quarter = static_cast<int>(q);
-    const bool odd = (quarter & 1) != 0;
-    const double sin_sel = odd ? cos_x : sin_x;
-    const double cos_sel = odd ? sin_x : cos_x;
-    *sine = (quarter & 2) != 0 ? -sin_sel : sin_sel;
-    *cosine = ((quarter + 1) & 2) != 0 ? -cos_sel : cos_sel;
-  }
+  // (base/portable_math.h: the lines the GPU kernel runs too).
+  static double OpenUnitFromHalves(std::uint32_t hi, std::uint32_t lo) { return base_internal::portable::OpenUnitFromHalves(hi, lo); }
+  // ln u for u in [2^-53, 1 - 2^-53], within 1 ulp, branch-free (base/portable_math.h).
+  static double LogOpenUnit(double u) { return base_internal::portable::LogOpenUnit(u); }
+  // sin and cos of 2 pi u for u in [0, 1], ~1 ulp, branch-free (base/portable_math.h).
+  static void SinCosTwoPi(double u, double* sine, double* cosine) { base_internal::portable::SinCosTwoPi(u, sine, cosine); }
 
   // Four uniforms of one trial for a rejection method, attempt 0, 1, 2, ...
   void TrialUniforms(std::uint64_t trial, std::uint64_t input, std::uint64_t attempt, double out[4]) const {
@@ -157,6 +92,7 @@ class KeyedStream {
   }
 
  private:
+  std::uint64_t seed_;
   Generator generator_;
   Generator::key_type key_;
   NormalGenerator::key_type normal_key_;

@@ -518,6 +518,8 @@ json MonteCarloJson(const Results& r) {
           {"batches", r.mcm.batches},
           {"threads", r.mcm.threads},
           {"ranks", r.mcm.ranks},
+          {"device", r.mcm.device},
+          {"device_note", r.mcm.device_note.empty() ? json(nullptr) : json(r.mcm.device_note)},
           {"seconds", r.mcm.seconds},
           {"interval_method", r.mcm.interval_method},
           {"n_dig", r.n_dig},

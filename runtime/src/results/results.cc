@@ -36,13 +36,16 @@ std::string RunCreatedTime() {
   return buffer;
 }
 
-McmSettings results_internal::McmSettingsFor(const MonteCarloSettings& job, const RunOptions& options, int threads) {
+McmSettings results_internal::McmSettingsFor(const MonteCarloSettings& job, const RunOptions& options, int threads,
+                                             const std::string& file) {
   McmSettings settings;
   settings.seed = options.seed.value_or(job.seed);
   settings.trials = options.trials.value_or(job.adaptive ? 0 : job.trials);
   settings.coverage_probability = job.coverage_probability;
   settings.significant_digits = job.n_dig;
   settings.num_threads = threads;
+  settings.device = options.device.value_or(job.device);
+  settings.device_where = options.device ? "command line: --device" : file + ": monte_carlo.device";
   settings.quiet = !options.progress;
   return settings;
 }
@@ -632,7 +635,7 @@ void RunMonteCarlo(const Job& job, const RunOptions& options, const MeasurementM
     mcm_job.tasks.push_back(results_internal::MakeMcmTask(task.spec, task.point_indices, task.gum));
   }
   const std::vector<std::size_t> task_first_output = TaskFirstOutputs(mcm_job, readings.size());
-  McmSettings settings = results_internal::McmSettingsFor(job.monte_carlo, options, threads);
+  McmSettings settings = results_internal::McmSettingsFor(job.monte_carlo, options, threads, job.file);
   AddTaskTolerances(results, mcm_job, task_first_output, settings);
   auto mcm_start = std::chrono::steady_clock::now();
   McmResult mcm = RunMcm(mcm_job, settings);

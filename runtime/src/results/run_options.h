@@ -8,7 +8,9 @@
 
 namespace vlt::results_internal {
 
-// The Monte Carlo settings of a run: the job's [monte_carlo] with the command line's overrides.
-McmSettings McmSettingsFor(const MonteCarloSettings& job, const RunOptions& options, int threads);
+// The Monte Carlo settings of a run: the job's [monte_carlo] (of `file`, for messages) with the
+// command line's overrides.
+McmSettings McmSettingsFor(const MonteCarloSettings& job, const RunOptions& options, int threads,
+                           const std::string& file);
 
 }  // namespace vlt::results_internal

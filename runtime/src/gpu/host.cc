@@ -1,0 +1,86 @@
+// The kernel code run on the host (gpu/trials.h HostBackend), and the choice of backend.
+#include <mutex>
+#include <utility>
+
+#include "generated/head.h"
+#include "generated/mirror.h"
+#include "generated/total_station.h"
+#include "gpu/trials.h"
+
+namespace vlt::gpu_internal {
+namespace {
+
+using TrialFn = void (*)(const PointTrialsJob&, const TrialPoint&, int, U64, double*);
+
+// A generated model namespace as PointTrial's Model (the kernel source's is the same, gpu/cuda.cc).
+#define VLT_KERNEL_MODEL(name)                                              \
+  struct Model_##name {                                                     \
+    template <class S>                                                      \
+    static void Forward(const S* readings, const S* params, S* out) {       \
+      gen::name::Forward<S>(readings, params, out);                         \
+    }                                                                       \
+  };
+VLT_KERNEL_MODEL(mirror)
+VLT_KERNEL_MODEL(head)
+VLT_KERNEL_MODEL(total_station)
+#undef VLT_KERNEL_MODEL
+
+TrialFn TrialOf(std::string_view model_name) {
+  if (model_name == "mirror") return &PointOfTrial<Model_mirror>;
+  if (model_name == "head") return &PointOfTrial<Model_head>;
+  if (model_name == "total_station") return &PointOfTrial<Model_total_station>;
+  return nullptr;
+}
+
+class Host final : public TrialsBackend {
+ public:
+  Host(const TrialsJob& job, TrialFn trial) : job_(job), trial_(trial) {}
+  void Compute(std::uint64_t first, int n, double* values) override {
+    for (int p = 0; p < job_.job.num_points; ++p) {
+      for (int i = 0; i < n; ++i) {
+        double y[3];
+        trial_(job_.job, job_.points[static_cast<std::size_t>(p)], p, static_cast<U64>(first) + static_cast<U64>(i), y);
+        for (int a = 0; a < 3; ++a) values[static_cast<std::size_t>(3 * p + a) * static_cast<std::size_t>(n) + i] = y[a];
+      }
+    }
+  }
+  std::string Description() const override { return "host (the GPU kernel's code on the CPU)"; }
+
+ private:
+  TrialsJob job_;
+  TrialFn trial_;
+};
+
+std::mutex& FactoryMutex() {
+  static std::mutex mutex;
+  return mutex;
+}
+BackendFactory& Factory() {
+  static BackendFactory factory;
+  return factory;
+}
+
+}  // namespace
+
+bool KernelHasModel(std::string_view model_name) { return TrialOf(model_name) != nullptr; }
+
+std::unique_ptr<TrialsBackend> HostBackend(const TrialsJob& job) {
+  const TrialFn trial = TrialOf(job.model);
+  return trial == nullptr ? nullptr : std::make_unique<Host>(job, trial);
+}
+
+void SetBackendForTest(BackendFactory factory) {
+  const std::lock_guard<std::mutex> lock(FactoryMutex());
+  Factory() = std::move(factory);
+}
+
+std::unique_ptr<TrialsBackend> MakeBackend(const TrialsJob& job, std::string* why_not) {
+  BackendFactory factory;
+  {
+    const std::lock_guard<std::mutex> lock(FactoryMutex());
+    factory = Factory();
+  }
+  return factory ? factory(job, why_not) : CudaBackend(job, why_not);
+}
+
+}  // namespace vlt::gpu_internal

@@ -1,0 +1,470 @@
+// The GPU kernel's source compiled as C++ on the CPU (issue 37, docs/gpu.md): the same lines as
+// the kernel NVRTC compiles (base/portable_math.h, gpu/point_trials.h, the generated models'
+// Forward) must give the CPU engine's values bit for bit. References: Random123's Philox4x32-10,
+// the lanes of base/lanes.h, the generated ForwardLanes and the Monte Carlo engine's own job
+// kernel (mcm_internal::JobTrialValues).
+#include <gtest/gtest.h>
+
+#include <Random123/philox.h>
+
+#include <unistd.h>
+
+#include <bit>
+#include <cstdlib>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "generated/head.h"
+#include "generated/mirror.h"
+#include "base/lanes.h"
+#include "base/portable_math.h"
+#include "gpu/point_trials.h"
+#include "mcm/engine.h"
+#include "test_mcm_helpers.h"
+#include "gpu/kernel_source.h"
+#include "gpu/trials.h"
+#include "vlt/error.h"
+#include "vlt/job.h"
+#include "vlt/measurement_model.h"
+#include "vlt/models.h"
+#include "vlt/results.h"
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+namespace vlt {
+namespace {
+
+std::uint64_t Bits(double x) { return std::bit_cast<std::uint64_t>(x); }
+
+TEST(GpuKernel, PhiloxIsRandom123WordForWord) {
+  std::mt19937_64 draw(37);
+  for (int n = 0; n < 20000; ++n) {
+    const std::uint64_t a = draw(), b = draw(), keys = draw();
+    const r123::Philox4x32::ctr_type ctr = {{static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(a >> 32),
+                                             static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(b >> 32)}};
+    const r123::Philox4x32::key_type key = {{static_cast<std::uint32_t>(keys), static_cast<std::uint32_t>(keys >> 32)}};
+    const r123::Philox4x32::ctr_type expected = r123::Philox4x32()(ctr, key);
+    unsigned int got[4];
+    const unsigned int in[4] = {ctr[0], ctr[1], ctr[2], ctr[3]};
+    base_internal::portable::Philox4x32(in, key[0], key[1], got);
+    for (int j = 0; j < 4; ++j) ASSERT_EQ(got[j], expected[j]) << "word " << j << " of draw " << n;
+  }
+}
+
+// The scalar SinCos is each lane of base/lanes.h SinCos: over random angles, every quadrant
+// boundary's neighbours, signed zeros, the reduction's limit 2^19 and beyond, infinities, NaN.
+TEST(GpuKernel, ScalarSinCosIsEveryLaneOfTheSimdOne) {
+  std::vector<double> xs = {0.0, -0.0, 1e-300, -1e-300, base_internal::portable::kSinCosReduced,
+                            std::nextafter(base_internal::portable::kSinCosReduced, 1e300), -base_internal::portable::kSinCosReduced, 1e300,
+                            std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
+                            std::numeric_limits<double>::quiet_NaN()};
+  for (int k = -40; k <= 40; ++k) {
+    const double boundary = k * 0.78539816339744830962;  // multiples of pi/4
+    xs.push_back(std::nextafter(boundary, -1e300));
+    xs.push_back(boundary);
+    xs.push_back(std::nextafter(boundary, 1e300));
+  }
+  std::mt19937_64 draw(19);
+  std::uniform_real_distribution<double> angle(-7.0, 7.0), wide(-6e5, 6e5), small(-1e-5, 1e-5);
+  for (int n = 0; n < 40000; ++n) xs.push_back(n % 3 == 0 ? angle(draw) : n % 3 == 1 ? wide(draw) : small(draw));
+  while (xs.size() % 4 != 0) xs.push_back(1.0);
+  for (std::size_t i = 0; i < xs.size(); i += 4) {
+    base_internal::lanes::Double4 s4, c4;
+    base_internal::lanes::SinCos(base_internal::lanes::Load(&xs[i]), &s4, &c4);
+    for (int l = 0; l < 4; ++l) {
+      double s, c;
+      base_internal::portable::SinCos(xs[i + l], &s, &c);
+      if (std::isnan(s4[l])) {
+        EXPECT_TRUE(std::isnan(s) && std::isnan(c)) << xs[i + l];
+        continue;
+      }
+      ASSERT_EQ(Bits(s), Bits(s4[l])) << "sin of " << xs[i + l];
+      ASSERT_EQ(Bits(c), Bits(c4[l])) << "cos of " << xs[i + l];
+    }
+  }
+}
+
+// The generated Forward on one base_internal::portable::Lane is each lane of the generated ForwardLanes (what the
+// engine runs), for the tracker models with a lanes kernel.
+template <int kParams, class Forward>
+void ExpectForwardIsEveryLane(const char* name, Forward forward) {
+  const ModelInfo* model = FindModel(name);
+  ASSERT_NE(model, nullptr) << name;
+  ASSERT_NE(model->forward_lanes, nullptr) << name;
+  ASSERT_EQ(model->num_params, kParams);
+  std::mt19937_64 draw(7);
+  std::uniform_real_distribution<double> range(0.5, 40.0), azimuth(-7.0, 7.0), elevation(-1.2, 1.2),
+      error(-3e-5, 3e-5);
+  for (int n = 0; n < 5000; ++n) {
+    double readings[3 * kForwardLanes], params[kParams * kForwardLanes], lanes_out[3 * kForwardLanes];
+    for (int l = 0; l < kForwardLanes; ++l) {
+      readings[l] = range(draw);
+      readings[kForwardLanes + l] = azimuth(draw);
+      readings[2 * kForwardLanes + l] = elevation(draw);
+      for (int k = 0; k < kParams; ++k) params[kForwardLanes * k + l] = error(draw);
+    }
+    model->forward_lanes(readings, params, lanes_out);
+    for (int l = 0; l < kForwardLanes; ++l) {
+      base_internal::portable::Lane r[3], p[kParams], o[3];
+      for (int j = 0; j < 3; ++j) r[j] = readings[kForwardLanes * j + l];
+      for (int k = 0; k < kParams; ++k) p[k] = params[kForwardLanes * k + l];
+      forward(r, p, o);
+      for (int a = 0; a < 3; ++a) ASSERT_EQ(Bits(o[a].v), Bits(lanes_out[kForwardLanes * a + l])) << name << " output " << a;
+    }
+  }
+}
+
+TEST(GpuKernel, GeneratedForwardOnOneLaneIsEveryLaneOfTheEngines) {
+  ExpectForwardIsEveryLane<gen::mirror::kNumParams>("mirror", [](auto r, auto p, auto o) {
+    gen::mirror::Forward<base_internal::portable::Lane>(r, p, o);
+  });
+  ExpectForwardIsEveryLane<gen::head::kNumParams>("head", [](auto r, auto p, auto o) {
+    gen::head::Forward<base_internal::portable::Lane>(r, p, o);
+  });
+}
+
+// The generated model namespace as PointTrial's Model.
+struct Mirror {
+  template <class S>
+  static void Forward(const S* readings, const S* params, S* out) {
+    gen::mirror::Forward<S>(readings, params, out);
+  }
+};
+struct Head {
+  template <class S>
+  static void Forward(const S* readings, const S* params, S* out) {
+    gen::head::Forward<S>(readings, params, out);
+  }
+};
+
+MeasurementSetup NormalSetup(const char* name) {
+  MeasurementSetup setup;
+  setup.model = FindModel(name);
+  setup.params = test::DefaultParams(*setup.model);
+  for (std::size_t k = 0; k < setup.params.size(); ++k) {
+    // One parameter fixed (u = 0: no draw), the others normal with the model's u or 1 um / 1 urad.
+    UncertainInput& in = setup.params[k];
+    in.u = k == 2 ? 0.0 : in.u > 0.0 ? in.u : 1e-6;
+    in.distribution = "normal";
+    in.shape = 0.0;
+  }
+  setup.noise.range_a = 5e-6;
+  setup.noise.range_b = 0.5e-6;
+  setup.noise.azimuth = 4.8e-6;
+  setup.noise.elevation = 4.8e-6;
+  return setup;
+}
+
+// Every value of every trial, against the engine's job kernel, from an unaligned first trial (the
+// keyed streams give each trial its draws whatever batch it is in).
+template <class Model>
+void ExpectTrialsAreTheEngines(const char* name) {
+  const MeasurementSetup setup = NormalSetup(name);
+  const MeasurementModel model(setup);
+  McmJob job;
+  job.model = &model;
+  job.points = {McmPoint{"P1", Eigen::Vector3d(3.0, 0.4, 0.1)}, McmPoint{"P2", Eigen::Vector3d(12.5, -2.0, -0.3)},
+                McmPoint{"P3", Eigen::Vector3d(28.0, 3.1, 0.7)}};
+  const std::uint64_t seed = 0x123456789abcdefull;
+  const std::int64_t first = 999'997;
+  const int n = 3000;
+  const std::vector<double> engine = mcm_internal::JobTrialValues(job, seed, first, n);
+
+  gpu_internal::TrialsJob trials;
+  trials.model = name;
+  gpu_internal::PointTrialsJob& kernel_job = trials.job;
+  kernel_job.seed = seed;
+  kernel_job.num_params = setup.model->num_params;
+  for (int k = 0; k < kernel_job.num_params; ++k) {
+    kernel_job.param_estimate[k] = setup.params[k].estimate;
+    kernel_job.param_u[k] = setup.params[k].u;
+  }
+  kernel_job.num_points = static_cast<int>(job.points.size());
+  trials.points.resize(job.points.size());
+  for (std::size_t p = 0; p < job.points.size(); ++p) {
+    const Eigen::Vector3d u = model.reading_uncertainty(job.points[p].readings(0));
+    for (int j = 0; j < 3; ++j) {
+      trials.points[p].reading[j] = job.points[p].readings(j);
+      trials.points[p].reading_u[j] = u(j);
+    }
+  }
+  int differing = 0;
+  for (int p = 0; p < kernel_job.num_points; ++p) {
+    for (int i = 0; i < n; ++i) {
+      double y[3];
+      gpu_internal::PointOfTrial<Model>(kernel_job, trials.points[static_cast<std::size_t>(p)], p,
+                                        static_cast<std::uint64_t>(first + i), y);
+      for (int a = 0; a < 3; ++a) differing += Bits(y[a]) != Bits(engine[static_cast<std::size_t>(3 * p + a) * n + i]);
+    }
+  }
+  // The host backend (the tests' GPU) lays the same values out as the engine's.
+  std::vector<double> values(static_cast<std::size_t>(3 * kernel_job.num_points) * n);
+  gpu_internal::HostBackend(trials)->Compute(static_cast<std::uint64_t>(first), n, values.data());
+  for (std::size_t v = 0; v < values.size(); ++v) differing += Bits(values[v]) != Bits(engine[v]);
+  const int outputs = 3 * kernel_job.num_points;
+  EXPECT_EQ(differing, 0) << name << ": values of " << n << " trials x " << outputs << " outputs, twice";
+  // Not a comparison of constants: the trials spread as the inputs say (u of x at P3 > 10 um).
+  double mean = 0.0, sq = 0.0;
+  for (int i = 0; i < n; ++i) mean += engine[6 * static_cast<std::size_t>(n) + i] / n;
+  for (int i = 0; i < n; ++i) sq += std::pow(engine[6 * static_cast<std::size_t>(n) + i] - mean, 2) / (n - 1);
+  EXPECT_GT(std::sqrt(sq), 10e-6) << name;
+}
+
+TEST(GpuKernel, TrialsAreTheCpuEnginesBitForBit) {
+  ExpectTrialsAreTheEngines<Mirror>("mirror");
+  ExpectTrialsAreTheEngines<Head>("head");
+}
+
+// What NVRTC is given is what these tests compiled: the embedded kernel files are the source
+// tree's, byte for byte.
+TEST(GpuKernel, EmbeddedSourcesAreTheFilesTheCpuBuildCompiles) {
+  for (const char* name : {"base/portable_math.h", "gpu/point_trials.h", "generated/mirror.h", "generated/head.h",
+                           "generated/total_station.h"}) {
+    const std::string where = std::string(name).rfind("generated/", 0) == 0 ? "" : "runtime/src/";
+    std::ifstream in(std::filesystem::path(VLT_SOURCE_DIR) / (where + name), std::ios::binary);
+    ASSERT_TRUE(in) << name;
+    const std::string file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(gpu_internal::EmbeddedKernelFile(name), file) << name;
+  }
+  const gpu_internal::KernelSource source = gpu_internal::PointTrialsSource("head");
+  EXPECT_NE(source.main.find("vlt::gen::head::Forward<S>"), std::string::npos);
+  EXPECT_NE(source.main.find("extern \"C\" __global__ void vlt_point_trials"), std::string::npos);
+  EXPECT_EQ(source.headers.size(), 4u);
+  EXPECT_THROW(gpu_internal::PointTrialsSource("jcgm101_mass"), std::invalid_argument);
+}
+
+// The kernel source exactly as NVRTC is given it — main file and headers (but its <cmath> of three
+// using-declarations), written out as files — compiled as C++ by the host compiler, with a harness that stands in for CUDA's launch
+// (__global__ empty, blockIdx/blockDim/threadIdx plain variables, every block run in turn): its
+// values are the CPU engine's, bit for bit.
+TEST(GpuKernel, TheKernelSourceCompiledAsCppGivesTheEnginesValues) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("vlt-kernel-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const gpu_internal::KernelSource source = gpu_internal::PointTrialsSource("mirror");
+  auto write = [&](const std::filesystem::path& path, const std::string& text) {
+    std::filesystem::create_directories(path.parent_path());
+    std::ofstream(path, std::ios::binary) << text;
+  };
+  // Every header but NVRTC's <cmath> (the host has its own).
+  for (const auto& [name, text] : source.headers) {
+    if (name != "cmath") write(dir / "include" / name, text);
+  }
+  write(dir / "vlt_point_trials.cu", source.main);
+  write(dir / "harness.cc", R"(#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#define __global__
+struct VltDim3 { unsigned x; };
+static VltDim3 blockIdx, blockDim, threadIdx;
+#include "vlt_point_trials.cu"
+// stdin: the job, the points; argv: first trial, trials. stdout: the values.
+int main(int argc, char** argv) {
+  vlt::gpu_internal::PointTrialsJob job;
+  if (argc != 3 || fread(&job, sizeof job, 1, stdin) != 1) return 2;
+  static vlt::gpu_internal::TrialPoint points[16];
+  if (job.num_points > 16 || fread(points, sizeof points[0], job.num_points, stdin) != (size_t)job.num_points) return 2;
+  const unsigned long long first = strtoull(argv[1], 0, 10);
+  const int n = atoi(argv[2]);
+  static double values[3 * 16 * 4096];
+  if (n > 4096) return 2;
+  blockDim.x = 128;
+  const unsigned long long threads = (unsigned long long)n * job.num_points;
+  for (blockIdx.x = 0; blockIdx.x * 128ull < threads; ++blockIdx.x)
+    for (threadIdx.x = 0; threadIdx.x < 128; ++threadIdx.x) vlt_point_trials(&job, points, first, n, values);
+  fwrite(values, sizeof(double), 3 * job.num_points * (size_t)n, stdout);
+  return 0;
+}
+)");
+  const std::string program = (dir / "harness").string();
+  const std::string compile = std::string(VLT_TEST_CXX) + " -std=c++17 -O2 -ffp-contract=off -I" + (dir / "include").string() +
+                              " -I" + dir.string() + " " + (dir / "harness.cc").string() + " -o " + program;
+  ASSERT_EQ(std::system(compile.c_str()), 0) << compile;
+
+  const MeasurementSetup setup = NormalSetup("mirror");
+  const MeasurementModel model(setup);
+  McmJob job;
+  job.model = &model;
+  job.points = {McmPoint{"P1", Eigen::Vector3d(4.0, 0.3, 0.2)}, McmPoint{"P2", Eigen::Vector3d(17.0, -1.0, -0.1)}};
+  const std::uint64_t seed = 20090101;
+  const std::int64_t first = 123'457;
+  const int n = 2000;
+  const std::vector<double> engine = mcm_internal::JobTrialValues(job, seed, first, n);
+  gpu_internal::PointTrialsJob kernel;
+  kernel.seed = seed;
+  kernel.num_params = setup.model->num_params;
+  for (int k = 0; k < kernel.num_params; ++k) {
+    kernel.param_estimate[k] = setup.params[k].estimate;
+    kernel.param_u[k] = setup.params[k].u;
+  }
+  kernel.num_points = 2;
+  std::vector<gpu_internal::TrialPoint> points(2);
+  for (int p = 0; p < 2; ++p) {
+    const Eigen::Vector3d u = model.reading_uncertainty(job.points[p].readings(0));
+    for (int j = 0; j < 3; ++j) {
+      points[p].reading[j] = job.points[p].readings(j);
+      points[p].reading_u[j] = u(j);
+    }
+  }
+  {
+    std::ofstream in(dir / "job.bin", std::ios::binary);
+    in.write(reinterpret_cast<const char*>(&kernel), sizeof kernel);
+    in.write(reinterpret_cast<const char*>(points.data()), static_cast<std::streamsize>(points.size() * sizeof points[0]));
+  }
+  const std::string run = program + " " + std::to_string(first) + " " + std::to_string(n) + " < " +
+                          (dir / "job.bin").string() + " > " + (dir / "values.bin").string();
+  ASSERT_EQ(std::system(run.c_str()), 0) << run;
+  std::ifstream out(dir / "values.bin", std::ios::binary);
+  std::vector<double> values(engine.size());
+  out.read(reinterpret_cast<char*>(values.data()), static_cast<std::streamsize>(values.size() * sizeof(double)));
+  ASSERT_EQ(out.gcount(), static_cast<std::streamsize>(values.size() * sizeof(double)));
+  int differing = 0;
+  for (std::size_t v = 0; v < values.size(); ++v) differing += Bits(values[v]) != Bits(engine[v]);
+  EXPECT_EQ(differing, 0) << "of " << values.size() << " values";
+  std::filesystem::remove_all(dir);
+}
+
+// A tracker job the kernel covers: the mirror tracker with its parameters (normal, one fixed),
+// four points, a plane over them and a Monte Carlo map; nothing of [environment], [station], [part].
+constexpr const char* kGpuJob = R"(
+[job]
+name = "gpu-path"
+[tracker]
+model = "mirror"
+[tracker.noise]
+range = "5 um + 0.5 um/m"
+azimuth = "1 arcsec"
+elevation = "1 arcsec"
+[tracker.parameters]
+tmv = {estimate = "0 um", u = "0 um"}
+[plan]
+unit = "m"
+point = [
+  {name = "A", x = 3, y = 0, z = 0},
+  {name = "B", x = 4, y = 1, z = 0.05},
+  {name = "C", x = 3, y = 1, z = 0.5},
+  {name = "D", x = 5, y = -1, z = 0.2},
+]
+[[task]]
+name = "face"
+kind = "plane"
+points = ["A", "B", "C", "D"]
+[map]
+plane = "z=0.3"
+extent = "2,6,-2,2"
+step = "1 m"
+monte_carlo = true
+[monte_carlo]
+trials = 20000
+seed = 11
+)";
+
+std::map<std::string, std::string> FilesOf(const Results& r) {
+  std::map<std::string, std::string> files;
+  for (const OutputFile& f : ResultFiles(r)) {
+    StringText text;
+    f.write(text);
+    files[f.name] = text.text();
+  }
+  return files;
+}
+
+// The GPU path end to end — the engine's blocks of trials from a backend, the tasks on the CPU,
+// the map's nodes — with the host backend standing in for a GPU: every file the same bytes as on
+// the CPU but the lines that say where and how long the trials ran.
+TEST(GpuPath, TheSameFilesAsTheCpuWithTheKernelOnTheHost) {
+  const Job job = ParseJob(kGpuJob, "gpu.toml", ".");
+  RunOptions cpu;
+  cpu.threads = 3;
+  cpu.device = McmDevice::kCpu;
+  const Results on_cpu = RunJob(job, cpu);
+  gpu_internal::SetBackendForTest(
+      [](const gpu_internal::TrialsJob& trials, std::string*) { return gpu_internal::HostBackend(trials); });
+  RunOptions gpu = cpu;
+  gpu.device = McmDevice::kGpu;
+  const Results on_gpu = RunJob(job, gpu);
+  gpu_internal::SetBackendForTest(nullptr);
+  EXPECT_EQ(on_cpu.mcm.device, "cpu");
+  EXPECT_EQ(on_gpu.mcm.device.rfind("gpu: host", 0), 0u) << on_gpu.mcm.device;
+  ASSERT_TRUE(on_gpu.map && on_gpu.map->has_mcm);
+  std::map<std::string, std::string> a = FilesOf(on_cpu), b = FilesOf(on_gpu);
+  ASSERT_EQ(a.size(), b.size());
+  for (const auto& [name, text] : a) {
+    if (name == "results.json" || name == "report.html") continue;  // timings, device
+    EXPECT_TRUE(text == b[name]) << name << " differs";
+  }
+  // results.json: the same but "seconds", "gum_seconds", "mcm_seconds", "device" and "created" (the
+  // second the run began).
+  auto without_run_lines = [](const std::string& text) {
+    std::string out;
+    std::istringstream lines(text);
+    for (std::string line; std::getline(lines, line);) {
+      if (line.find("seconds\"") != std::string::npos || line.find("\"device") != std::string::npos ||
+          line.find("\"created\"") != std::string::npos) {
+        continue;
+      }
+      out += line + "\n";
+    }
+    return out;
+  };
+  EXPECT_TRUE(without_run_lines(a["results.json"]) == without_run_lines(b["results.json"]));
+  EXPECT_GT(on_gpu.points[0].monte_carlo->axes[0].u, 0.0);
+}
+
+// device = "gpu" where no GPU works is one line naming the setting and why; "auto" runs on the CPU
+// and says why. On a machine with a GPU the first part is skipped (the next test runs there).
+TEST(GpuPath, GpuWithoutAWorkingOneIsAnInputErrorAndAutoSaysWhy) {
+  Job job = ParseJob(kGpuJob, "gpu.toml", ".");
+  job.map.reset();
+  gpu_internal::TrialsJob probe;
+  probe.model = "mirror";
+  probe.job.num_params = 20;
+  std::string why_not;
+  if (gpu_internal::CudaBackend(probe, &why_not) != nullptr) GTEST_SKIP() << "a GPU works here";
+  EXPECT_FALSE(why_not.empty());
+  job.monte_carlo.device = McmDevice::kGpu;
+  RunOptions options;
+  options.trials = 2000;
+  try {
+    RunJob(job, options);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "gpu.toml: monte_carlo.device: \"gpu\": " + why_not);
+  }
+  job.monte_carlo.device = McmDevice::kAuto;
+  const Results r = RunJob(job, options);
+  EXPECT_EQ(r.mcm.device, "cpu");
+  EXPECT_EQ(r.mcm.device_note, why_not);
+}
+
+// On a machine with a working GPU (a lent one: scripts/device-check.sh): the GPU's files are the
+// CPU's. Reports skipped, not passed, elsewhere.
+TEST(GpuPath, OnARealGpuTheSameFilesAsTheCpu) {
+  gpu_internal::TrialsJob probe;
+  probe.model = "mirror";
+  probe.job.num_params = 20;
+  std::string why_not;
+  if (gpu_internal::CudaBackend(probe, &why_not) == nullptr) GTEST_SKIP() << "no GPU: " << why_not;
+  const Job job = ParseJob(kGpuJob, "gpu.toml", ".");
+  RunOptions cpu;
+  cpu.device = McmDevice::kCpu;
+  RunOptions gpu;
+  gpu.device = McmDevice::kGpu;
+  const Results on_cpu = RunJob(job, cpu), on_gpu = RunJob(job, gpu);
+  EXPECT_EQ(on_gpu.mcm.device.rfind("gpu: ", 0), 0u);
+  std::map<std::string, std::string> a = FilesOf(on_cpu), b = FilesOf(on_gpu);
+  for (const char* name : {"points.csv", "points.jsonl", "budget.csv", "tasks.csv", "map.csv"}) {
+    EXPECT_TRUE(a[name] == b[name]) << name << " differs between the CPU and " << on_gpu.mcm.device;
+  }
+}
+
+}  // namespace
+}  // namespace vlt
