@@ -417,6 +417,9 @@ TEST(GpuPath, TheSameFilesAsTheCpuWithTheKernelOnTheHost) {
   };
   EXPECT_TRUE(without_run_lines(a["results.json"]) == without_run_lines(b["results.json"]));
   EXPECT_GT(on_gpu.points[0].monte_carlo->axes[0].u, 0.0);
+  // The summary names the device that ran the trials.
+  EXPECT_NE(SummaryText(on_gpu).find("thread(s) and the GPU host ("), std::string::npos) << SummaryText(on_gpu);
+  EXPECT_EQ(SummaryText(on_cpu).find("GPU"), std::string::npos);
 }
 
 // device = "gpu" where no GPU works is one line naming the setting and why; "auto" runs on the CPU

@@ -343,14 +343,16 @@ void MonteCarloLines(const Results& r, std::ostringstream& out) {
       }
     }
   }
+  // "gpu: <device>" (docs/gpu.md): said as "and the GPU <device>".
+  const bool on_gpu = r.mcm.device.rfind("gpu: ", 0) == 0;
   std::snprintf(
       line, sizeof line,
       "Monte Carlo: %lld trials%s, seed %llu, %d thread(s)%s%s, %.1f s. GUM validated by MCM (JCGM 101 8): "
       "%d/%zu points, %zu/%zu task %s",
       static_cast<long long>(r.mcm.trials),
       r.mcm.adaptive ? (r.mcm.converged ? " (adaptive, converged)" : " (adaptive, NOT converged)") : "",
-      static_cast<unsigned long long>(r.mcm.seed), r.mcm.threads, r.mcm.device == "cpu" ? "" : " and the ",
-      r.mcm.device == "cpu" ? "" : r.mcm.device.c_str(), r.mcm.seconds, r.validated_points,
+      static_cast<unsigned long long>(r.mcm.seed), r.mcm.threads, on_gpu ? " and the GPU " : "",
+      on_gpu ? r.mcm.device.c_str() + 5 : "", r.mcm.seconds, r.validated_points,
       r.points.size(), validated, quantities, quantities == 1 ? "quantity" : "quantities");
   out << line;
   // Those with no first-order GUM value (not differentiable, or a first-order u of 0 to rounding):
