@@ -448,6 +448,43 @@ TEST(GpuPath, GpuWithoutAWorkingOneIsAnInputErrorAndAutoSaysWhy) {
   EXPECT_EQ(r.mcm.device_note, why_not);
 }
 
+// A backend whose values are not the CPU's (one value one ulp off) is never used: "auto" runs on
+// the CPU and says why; "gpu" is refused. Checked on the first trials of every run.
+class OneUlpOff final : public gpu_internal::TrialsBackend {
+ public:
+  explicit OneUlpOff(const gpu_internal::TrialsJob& trials) : host_(gpu_internal::HostBackend(trials)) {}
+  void Compute(std::uint64_t first, int n, double* values) override {
+    host_->Compute(first, n, values);
+    values[n + 5] = std::nextafter(values[n + 5], 1e300);  // point 0, y, trial first + 5
+  }
+  std::string Description() const override { return "a broken GPU"; }
+
+ private:
+  std::unique_ptr<gpu_internal::TrialsBackend> host_;
+};
+
+TEST(GpuPath, AGpuWhoseValuesAreNotTheCpusIsNotUsed) {
+  Job job = ParseJob(kGpuJob, "gpu.toml", ".");
+  job.map.reset();
+  gpu_internal::SetBackendForTest(
+      [](const gpu_internal::TrialsJob& trials, std::string*) { return std::make_unique<OneUlpOff>(trials); });
+  RunOptions options;
+  options.trials = 2000;
+  options.device = McmDevice::kAuto;
+  const Results r = RunJob(job, options);
+  EXPECT_EQ(r.mcm.device, "cpu");
+  EXPECT_EQ(r.mcm.device_note,
+            "a broken GPU: its values differ from the CPU's in 1 of 768 (the first 64 trials checked): not used");
+  options.device = McmDevice::kGpu;
+  try {
+    RunJob(job, options);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "command line: --device: \"gpu\": " + r.mcm.device_note);
+  }
+  gpu_internal::SetBackendForTest(nullptr);
+}
+
 // On a machine with a working GPU (a lent one: scripts/device-check.sh): the GPU's files are the
 // CPU's. Reports skipped, not passed, elsewhere.
 TEST(GpuPath, OnARealGpuTheSameFilesAsTheCpu) {

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstring>
 #include <future>
 #include <map>
 #include <memory>
@@ -443,14 +444,52 @@ std::optional<gpu_internal::TrialsJob> KernelJob(const McmJob& job, std::uint64_
   return trials;
 }
 
+// Whether `backend` gives the CPU engine's values for the first kCheckTrials trials of `job`, bit
+// for bit: "" when it does, else what differs. Every GPU run is checked so before it is used (the
+// GPU path rests on the same bits; a driver or compiler that breaks them is not used).
+constexpr int kCheckTrials = 64;
+std::string DiffersFromTheCpu(const McmJob& job, std::uint64_t seed, gpu_internal::TrialsBackend& backend) {
+  const JobKernel cpu(job);
+  Scratch scratch;
+  cpu.InitScratch(scratch);
+  std::vector<double> on_cpu(static_cast<std::size_t>(cpu.num_outputs()) * kSubBatch);
+  cpu.Run(KeyedStream(seed), 0, kCheckTrials, scratch, on_cpu.data());
+  const std::size_t outputs = 3 * job.points.size();
+  std::vector<double> on_gpu(outputs * kCheckTrials);
+  backend.Compute(0, kCheckTrials, on_gpu.data());
+  std::size_t differing = 0;
+  for (std::size_t o = 0; o < outputs; ++o) {
+    for (int i = 0; i < kCheckTrials; ++i) {
+      const double a = on_cpu[o * kSubBatch + static_cast<std::size_t>(i)], b = on_gpu[o * kCheckTrials + static_cast<std::size_t>(i)];
+      differing += std::memcmp(&a, &b, sizeof a) != 0 ? 1 : 0;
+    }
+  }
+  if (differing == 0) return "";
+  return "its values differ from the CPU's in " + std::to_string(differing) + " of " +
+         std::to_string(outputs * kCheckTrials) + " (the first " + std::to_string(kCheckTrials) +
+         " trials checked): not used";
+}
+
 // The GPU kernel of `job` for `settings.device`: nullptr for the CPU, with result.device_note
-// saying why under kAuto; InputError under kGpu when no GPU can run it.
+// saying why under kAuto; InputError under kGpu when no GPU can run it, or when its values are
+// not the CPU's (DiffersFromTheCpu).
 std::unique_ptr<GpuJobKernel> GpuKernelFor(const McmJob& job, const McmSettings& settings, McmResult& result) {
   if (settings.device == McmDevice::kCpu) return nullptr;
   std::string why_not;
   std::unique_ptr<gpu_internal::TrialsBackend> backend;
   if (const auto trials = KernelJob(job, settings.seed, &why_not)) {
     backend = gpu_internal::MakeBackend(*trials, &why_not);
+  }
+  if (backend != nullptr) {
+    try {
+      why_not = DiffersFromTheCpu(job, settings.seed, *backend);
+    } catch (const std::exception& e) {
+      why_not = std::string("the GPU failed its check against the CPU (") + e.what() + ")";
+    }
+    if (!why_not.empty()) {
+      why_not = backend->Description() + ": " + why_not;
+      backend.reset();
+    }
   }
   if (backend == nullptr) {
     if (settings.device == McmDevice::kGpu) throw InputError(settings.device_where + ": \"gpu\": " + why_not);
