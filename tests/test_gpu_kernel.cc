@@ -163,6 +163,29 @@ MeasurementSetup NormalSetup(const char* name) {
   return setup;
 }
 
+// The kernel's job for `job` (built here from the setup, independently of mcm/job.cc KernelJob).
+gpu_internal::TrialsJob KernelTrials(const char* name, const MeasurementSetup& setup, const MeasurementModel& model,
+                                     const McmJob& job, std::uint64_t seed) {
+  gpu_internal::TrialsJob trials;
+  trials.model = name;
+  trials.job.seed = seed;
+  trials.job.num_params = setup.model->num_params;
+  for (int k = 0; k < trials.job.num_params; ++k) {
+    trials.job.param_estimate[k] = setup.params[k].estimate;
+    trials.job.param_u[k] = setup.params[k].u;
+  }
+  trials.job.num_points = static_cast<int>(job.points.size());
+  trials.points.resize(job.points.size());
+  for (std::size_t p = 0; p < job.points.size(); ++p) {
+    const Eigen::Vector3d u = model.reading_uncertainty(job.points[p].readings(0));
+    for (int j = 0; j < 3; ++j) {
+      trials.points[p].reading[j] = job.points[p].readings(j);
+      trials.points[p].reading_u[j] = u(j);
+    }
+  }
+  return trials;
+}
+
 // Every value of every trial, against the engine's job kernel, from an unaligned first trial (the
 // keyed streams give each trial its draws whatever batch it is in).
 template <class Model>
@@ -178,24 +201,8 @@ void ExpectTrialsAreTheEngines(const char* name) {
   const int n = 3000;
   const std::vector<double> engine = mcm_internal::JobTrialValues(job, seed, first, n);
 
-  gpu_internal::TrialsJob trials;
-  trials.model = name;
-  gpu_internal::PointTrialsJob& kernel_job = trials.job;
-  kernel_job.seed = seed;
-  kernel_job.num_params = setup.model->num_params;
-  for (int k = 0; k < kernel_job.num_params; ++k) {
-    kernel_job.param_estimate[k] = setup.params[k].estimate;
-    kernel_job.param_u[k] = setup.params[k].u;
-  }
-  kernel_job.num_points = static_cast<int>(job.points.size());
-  trials.points.resize(job.points.size());
-  for (std::size_t p = 0; p < job.points.size(); ++p) {
-    const Eigen::Vector3d u = model.reading_uncertainty(job.points[p].readings(0));
-    for (int j = 0; j < 3; ++j) {
-      trials.points[p].reading[j] = job.points[p].readings(j);
-      trials.points[p].reading_u[j] = u(j);
-    }
-  }
+  const gpu_internal::TrialsJob trials = KernelTrials(name, setup, model, job, seed);
+  const gpu_internal::PointTrialsJob& kernel_job = trials.job;
   int differing = 0;
   for (int p = 0; p < kernel_job.num_points; ++p) {
     for (int i = 0; i < n; ++i) {
@@ -298,22 +305,9 @@ int main(int argc, char** argv) {
   const std::int64_t first = 123'457;
   const int n = 2000;
   const std::vector<double> engine = mcm_internal::JobTrialValues(job, seed, first, n);
-  gpu_internal::PointTrialsJob kernel;
-  kernel.seed = seed;
-  kernel.num_params = setup.model->num_params;
-  for (int k = 0; k < kernel.num_params; ++k) {
-    kernel.param_estimate[k] = setup.params[k].estimate;
-    kernel.param_u[k] = setup.params[k].u;
-  }
-  kernel.num_points = 2;
-  std::vector<gpu_internal::TrialPoint> points(2);
-  for (int p = 0; p < 2; ++p) {
-    const Eigen::Vector3d u = model.reading_uncertainty(job.points[p].readings(0));
-    for (int j = 0; j < 3; ++j) {
-      points[p].reading[j] = job.points[p].readings(j);
-      points[p].reading_u[j] = u(j);
-    }
-  }
+  const gpu_internal::TrialsJob trials = KernelTrials("mirror", setup, model, job, seed);
+  const gpu_internal::PointTrialsJob& kernel = trials.job;
+  const std::vector<gpu_internal::TrialPoint>& points = trials.points;
   {
     std::ofstream in(dir / "job.bin", std::ios::binary);
     in.write(reinterpret_cast<const char*>(&kernel), sizeof kernel);

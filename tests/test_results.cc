@@ -251,14 +251,12 @@ TEST(Results, ModifiedEdlenNamedInInputsAir) {
   // CO2 does not enter this equation: its budget rows carry zero sensitivity and contribution.
   bool found = false;
   const std::size_t first[] = {0};
-  results_internal::ForEachPointDetail(r, first, true, [&](std::size_t, const PointUncertainty& g) {
-    for (const BudgetRow& row : g.budget) {
-      if (row.input != "environment.co2") continue;
-      found = true;
-      EXPECT_EQ(row.sensitivity, Eigen::Vector3d::Zero());
-      EXPECT_EQ(row.contribution, Eigen::Vector3d::Zero());
-    }
-  });
+  for (const BudgetRow& row : PointDetails(r, first, true).front().budget) {
+    if (row.input != "environment.co2") continue;
+    found = true;
+    EXPECT_EQ(row.sensitivity, Eigen::Vector3d::Zero());
+    EXPECT_EQ(row.contribution, Eigen::Vector3d::Zero());
+  }
   EXPECT_TRUE(found);
 }
 
@@ -350,7 +348,10 @@ TEST(Results, CsvHeadersUnitsAndValues) {
   for (const PointUncertainty& g : direct) expected_rows += g.budget.size();
   EXPECT_EQ(static_cast<std::size_t>(rows), expected_rows);
   EXPECT_GE(direct[0].budget.size(), 35u);
-  results_internal::ForEachPointDetail(r, {}, true, [&](std::size_t i, const PointUncertainty& g) {
+  const std::vector<PointUncertainty> recomputed = PointDetails(r, {}, true);
+  ASSERT_EQ(recomputed.size(), direct.size());
+  for (std::size_t i = 0; i < recomputed.size(); ++i) {
+    const PointUncertainty& g = recomputed[i];
     ASSERT_EQ(g.budget.size(), direct[i].budget.size());
     for (std::size_t b = 0; b < g.budget.size(); ++b) {
       EXPECT_EQ(g.budget[b].input, direct[i].budget[b].input);
@@ -358,7 +359,7 @@ TEST(Results, CsvHeadersUnitsAndValues) {
       EXPECT_EQ(g.budget[b].contribution, direct[i].budget[b].contribution);
       EXPECT_EQ(g.budget[b].share_total, direct[i].budget[b].share_total);
     }
-  });
+  }
   // tasks.csv: the distance in mm, its U in um.
   std::stringstream tasks(TasksCsv(r));
   std::getline(tasks, header);

@@ -167,10 +167,10 @@ bool GatherRegionTail(const std::vector<const float*>& series, std::int64_t n,
                       const Eigen::VectorXd& mean_minus_y0, const Eigen::MatrixXd& cov, double p, int threads,
                       Tails<double>* tails);
 
-// The values of trials first .. first + n - 1 of a points-only `job` under `seed` as the CPU
-// engine computes them (its job kernel, sub-batch by sub-batch): values[o * n + i], outputs o in
-// RunMcm's order (x, y, z of every point). The reference of the GPU kernel's test
-// (tests/test_gpu_kernel.cc); InputError for a job with tasks.
+// The points' values of trials first .. first + n - 1 of `job` under `seed` as the CPU engine
+// computes them (its job kernel, sub-batch by sub-batch): values[o * n + i], outputs o the x, y, z
+// of every point (a task's are left out). The reference the GPU path is checked against, at run
+// time (mcm/job.cc) and in tests/test_gpu_kernel.cc.
 std::vector<double> JobTrialValues(const McmJob& job, std::uint64_t seed, std::int64_t first, int n);
 
 }  // namespace vlt::mcm_internal

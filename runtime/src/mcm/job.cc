@@ -449,25 +449,14 @@ std::optional<gpu_internal::TrialsJob> KernelJob(const McmJob& job, std::uint64_
 // GPU path rests on the same bits; a driver or compiler that breaks them is not used).
 constexpr int kCheckTrials = 64;
 std::string DiffersFromTheCpu(const McmJob& job, std::uint64_t seed, gpu_internal::TrialsBackend& backend) {
-  const JobKernel cpu(job);
-  Scratch scratch;
-  cpu.InitScratch(scratch);
-  std::vector<double> on_cpu(static_cast<std::size_t>(cpu.num_outputs()) * kSubBatch);
-  cpu.Run(KeyedStream(seed), 0, kCheckTrials, scratch, on_cpu.data());
-  const std::size_t outputs = 3 * job.points.size();
-  std::vector<double> on_gpu(outputs * kCheckTrials);
+  const std::vector<double> on_cpu = mcm_internal::JobTrialValues(job, seed, 0, kCheckTrials);
+  std::vector<double> on_gpu(on_cpu.size());
   backend.Compute(0, kCheckTrials, on_gpu.data());
   std::size_t differing = 0;
-  for (std::size_t o = 0; o < outputs; ++o) {
-    for (int i = 0; i < kCheckTrials; ++i) {
-      const double a = on_cpu[o * kSubBatch + static_cast<std::size_t>(i)], b = on_gpu[o * kCheckTrials + static_cast<std::size_t>(i)];
-      differing += std::memcmp(&a, &b, sizeof a) != 0 ? 1 : 0;
-    }
-  }
+  for (std::size_t v = 0; v < on_cpu.size(); ++v) differing += std::memcmp(&on_cpu[v], &on_gpu[v], sizeof(double)) != 0;
   if (differing == 0) return "";
-  return "its values differ from the CPU's in " + std::to_string(differing) + " of " +
-         std::to_string(outputs * kCheckTrials) + " (the first " + std::to_string(kCheckTrials) +
-         " trials checked): not used";
+  return "its values differ from the CPU's in " + std::to_string(differing) + " of " + std::to_string(on_cpu.size()) +
+         " (the first " + std::to_string(kCheckTrials) + " trials checked): not used";
 }
 
 // The GPU kernel of `job` for `settings.device`: nullptr for the CPU, with result.device_note
@@ -504,13 +493,12 @@ std::unique_ptr<GpuJobKernel> GpuKernelFor(const McmJob& job, const McmSettings&
 
 std::vector<double> mcm_internal::JobTrialValues(const McmJob& job, std::uint64_t seed, std::int64_t first,
                                                  int n) {
-  if (!job.fit_tasks.empty() || !job.tasks.empty()) throw InputError("JobTrialValues: a job of points only");
   const JobKernel kernel(job);
   mcm_internal::Scratch scratch;
   kernel.InitScratch(scratch);
   const mcm_internal::KeyedStream rng(seed);
-  const int outputs = kernel.num_outputs();
-  std::vector<double> batch(static_cast<std::size_t>(outputs) * mcm_internal::kSubBatch);
+  const int outputs = 3 * static_cast<int>(job.points.size());
+  std::vector<double> batch(static_cast<std::size_t>(kernel.num_outputs()) * mcm_internal::kSubBatch);
   std::vector<double> values(static_cast<std::size_t>(outputs) * static_cast<std::size_t>(n));
   for (int begin = 0; begin < n; begin += mcm_internal::kSubBatch) {
     const int count = std::min(mcm_internal::kSubBatch, n - begin);

@@ -26,9 +26,9 @@ std::vector<std::string> BudgetInputs(const Results& r) {
   for (const UncertainInput& in : r.shared_inputs) inputs.push_back(in.name);
   bool correlated = false;
   const std::size_t first[1] = {0};
-  results_internal::ForEachPointDetail(r, first, true, [&](std::size_t, const PointUncertainty& g) {
-    for (const BudgetRow& b : g.budget) correlated = correlated || b.group == "correlation";
-  });
+  for (const BudgetRow& b : PointDetails(r, first, true, 1).front().budget) {
+    correlated = correlated || b.group == "correlation";
+  }
   if (correlated) inputs.push_back("correlations");
   return inputs;
 }

@@ -59,21 +59,13 @@ std::string ResultsJsonText(const Results& results, int indent, bool for_html);
 // beyond it the page would not draw in a browser (docs/results.md); map.csv has them all.
 inline constexpr std::size_t kMaxMapLayerValues = 4000000;
 
-// The full GUM results of points of `results` (indices into results.points; all when empty), in
-// that order: visit(n, point), n = position in `indices` (or the point index), with its budget
-// when `budgets`. Results keep a PointGum per point (for a scan the full results, and the budgets
-// above all, were most of its memory): the rest is recomputed, chunk by chunk, by the same engine
-// from the same model and readings, so it is the run's bit for bit (test_results.cc).
-void ForEachPointDetail(const Results& results, std::span<const std::size_t> indices, bool budgets,
-                        const std::function<void(std::size_t, const PointUncertainty&)>& visit);
-
 // Writes the text of n items (points) to `out` in item order: format(begin, end, text) appends
 // the text of items [begin, end) to `text`; ranges are formatted on up to `threads` threads
 // (0: all), the output does not depend on the thread count.
 void WriteInBlocks(OutputText& out, std::size_t n, int threads,
                    const std::function<void(std::size_t, std::size_t, std::string&)>& format);
-// WriteInBlocks over every point of `results` with the points' full GUM results (recomputed as in
-// ForEachPointDetail, with budgets when `budgets`): format(first, points first.., text).
+// WriteInBlocks over every point of `results` with the points' full GUM results (recomputed as
+// PointDetails does, with budgets when `budgets`): format(first, points first.., text).
 void WritePointDetails(
     const Results& results, OutputText& out, bool budgets,
     const std::function<void(std::size_t, std::span<const PointUncertainty>, std::string&)>& format);

@@ -385,19 +385,6 @@ void results_internal::WritePointDetails(
   });
 }
 
-void results_internal::ForEachPointDetail(const Results& r, std::span<const std::size_t> indices, bool budgets,
-                                          const std::function<void(std::size_t, const PointUncertainty&)>& visit) {
-  if (r.points.empty()) return;
-  const MeasurementModel model(r.setup);
-  const std::size_t n = indices.empty() ? r.points.size() : indices.size();
-  constexpr std::size_t kChunk = 4096;
-  for (std::size_t begin = 0; begin < n; begin += kChunk) {
-    const std::size_t end = std::min(n, begin + kChunk);
-    const std::vector<PointUncertainty> details = DetailsOf(r, model, indices, begin, end, budgets);
-    for (std::size_t i = begin; i < end; ++i) visit(i, details[i - begin]);
-  }
-}
-
 PointGum KeptOf(const PointUncertainty& point) {
   PointGum kept;
   kept.readings = point.readings;
@@ -669,7 +656,7 @@ Results RunJobUnplaced(const Job& job, const RunOptions& options) {
   std::vector<PointReadings> readings = JobReadings(job, model, threads);
   GumOptions gum_options;
   gum_options.coverage_probability = results.coverage_probability;
-  // Budgets are written from ForEachPointDetail when the files are (not held: O(N) memory).
+  // Budgets are recomputed (PointDetails) when the files are written (not held: O(N) memory).
   gum_options.budgets = false;
   gum_options.threads = threads;
   results.threads = threads;
