@@ -251,7 +251,8 @@ TEST(Results, ModifiedEdlenNamedInInputsAir) {
   // CO2 does not enter this equation: its budget rows carry zero sensitivity and contribution.
   bool found = false;
   const std::size_t first[] = {0};
-  for (const BudgetRow& row : PointDetails(r, first, true).front().budget) {
+  const std::vector<PointUncertainty> point = PointDetails(r, first, true);
+  for (const BudgetRow& row : point.front().budget) {
     if (row.input != "environment.co2") continue;
     found = true;
     EXPECT_EQ(row.sensitivity, Eigen::Vector3d::Zero());

@@ -26,7 +26,8 @@ std::vector<std::string> BudgetInputs(const Results& r) {
   for (const UncertainInput& in : r.shared_inputs) inputs.push_back(in.name);
   bool correlated = false;
   const std::size_t first[1] = {0};
-  for (const BudgetRow& b : PointDetails(r, first, true, 1).front().budget) {
+  const std::vector<PointUncertainty> point = PointDetails(r, first, true, 1);
+  for (const BudgetRow& b : point.front().budget) {
     correlated = correlated || b.group == "correlation";
   }
   if (correlated) inputs.push_back("correlations");
