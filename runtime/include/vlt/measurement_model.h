@@ -193,6 +193,9 @@ class MeasurementModel {
   bool EvaluatePreparedLanes(const PreparedShared* const* prepared, const double* readings,
                              const double* params, double* y) const;
   bool has_forward_lanes() const { return setup_.model->forward_lanes != nullptr; }
+  // Whether any stage around the tracker model (air, station pose, thermal) is on; without one,
+  // y = x_t and PrepareShared's result is the same for every shared vector.
+  bool has_shared_stages() const { return env_offset_ >= 0 || pose_offset_ >= 0 || thermal_offset_ >= 0; }
   // Same plus d y / d readings (3x3, column-major) and d y / d shared (3 x S, column-major).
   // Chain rule (docs/gum.md "Measurement model"), with rho' = rho n_est / n(t, p, RH, x):
   //   x_t = f(rho', A, E; params)                       tracker model (generated Jacobians)

@@ -77,6 +77,10 @@ double DrawChiSquare(const KeyedStream& rng, std::uint64_t stream, std::uint64_t
 
 // Normals for trials [first, first + n) of one stream: out[i] = z(trial first + i).
 void DrawNormals(const KeyedStream& rng, std::uint64_t stream, std::int64_t first, int n, double* out);
+// An input x ~ N(mean, u^2) for the same trials: out[i] = mean + u z(trial first + i), the
+// scaling done as the normals are copied out (the same operations as scaling DrawNormals' out).
+void DrawScaledNormals(const KeyedStream& rng, std::uint64_t stream, std::int64_t first, int n, double mean,
+                       double u, double* out);
 
 // Per-thread scratch owned by the driver, sized by the kernel.
 struct Scratch {

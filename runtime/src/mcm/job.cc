@@ -124,7 +124,9 @@ class JobKernel final : public mcm_internal::TrialKernel {
     // the lanes kernel, which takes the tracker model's parameters from the draws directly
     // (below), only the inputs after them (air, pose, thermal).
     shared_.Draw(rng, first, n, shared_soa, kSubBatch, copula);
-    for (int i = 0; i < n; ++i) {
+    // Without air, pose or thermal stage the lanes kernel reads nothing prepared (y = x_t).
+    const bool prepare = lanes_params_ == 0 || model_.has_shared_stages();
+    for (int i = 0; prepare && i < n; ++i) {
       double* aos = shared_aos + static_cast<std::size_t>(i) * s_count;
       for (int k = lanes_params_; k < s_count; ++k)
         aos[k] = shared_soa[static_cast<std::size_t>(k) * kSubBatch + i];
@@ -139,8 +141,7 @@ class JobKernel final : public mcm_internal::TrialKernel {
       const Eigen::Vector3d& u = reading_u_[p];
       for (int j = 0; j < 3; ++j) {
         double* row = readings + j * kSubBatch;
-        mcm_internal::DrawNormals(rng, first_reading_stream + 3 * p + j, first, n, row);
-        for (int i = 0; i < n; ++i) row[i] = estimate(j) + u(j) * row[i];
+        mcm_internal::DrawScaledNormals(rng, first_reading_stream + 3 * p + j, first, n, estimate(j), u(j), row);
       }
       double* out_x = outputs + 3 * p * kSubBatch;
       // kForwardLanes trials at a time through the model's SIMD kernel (the last group padded
@@ -152,20 +153,20 @@ class JobKernel final : public mcm_internal::TrialKernel {
         for (int i = 0; i < n; i += kL) {
           const MeasurementModel::PreparedShared* lane_states[kL];
           double r[3 * kL], y[3 * kL];
-          int trial[kL];
-          for (int l = 0; l < kL; ++l) {
-            trial[l] = std::min(i + l, n - 1);
-            lane_states[l] = &states[trial[l]];
-            for (int j = 0; j < 3; ++j) r[kL * j + l] = readings[j * kSubBatch + trial[l]];
-          }
-          for (int k = 0; k < lanes_params_; ++k) {
-            const double* row = shared_soa + static_cast<std::size_t>(k) * kSubBatch;
-            for (int l = 0; l < kL; ++l) params_lanes[kL * k + l] = row[trial[l]];
+          if (i + kL <= n) {
+            // A whole group: each row's kL trials are already side by side.
+            for (int l = 0; l < kL; ++l) lane_states[l] = &states[i + l];
+            for (int j = 0; j < 3; ++j) std::memcpy(r + kL * j, readings + j * kSubBatch + i, sizeof(double) * kL);
+            for (int k = 0; k < lanes_params_; ++k) {
+              std::memcpy(params_lanes + kL * k, shared_soa + static_cast<std::size_t>(k) * kSubBatch + i,
+                          sizeof(double) * kL);
+            }
+          } else {
+            LastGroupLanes(i, n, shared_soa, readings, states, lane_states, r, params_lanes);
           }
           model_.EvaluatePreparedLanes(lane_states, r, params_lanes, y);
-          for (int l = 0; l < std::min(kL, n - i); ++l) {
-            for (int j = 0; j < 3; ++j) out_x[j * kSubBatch + i + l] = y[kL * j + l];
-          }
+          const int kept = std::min(kL, n - i);
+          for (int j = 0; j < 3; ++j) std::memcpy(out_x + j * kSubBatch + i, y + kL * j, sizeof(double) * kept);
         }
       } else {
         for (int i = 0; i < n; ++i) {
@@ -180,6 +181,24 @@ class JobKernel final : public mcm_internal::TrialKernel {
     }
 
     RunTasks(n, scratch, outputs);
+  }
+
+  // The sub-batch's last, short group of trials i .. n - 1 in lanes, padded with trial n - 1.
+  void LastGroupLanes(int i, int n, const double* shared_soa, const double* readings,
+                      const MeasurementModel::PreparedShared* states,
+                      const MeasurementModel::PreparedShared** lane_states, double* r,
+                      double* params_lanes) const {
+    constexpr int kL = kForwardLanes;
+    int trial[kL];
+    for (int l = 0; l < kL; ++l) {
+      trial[l] = std::min(i + l, n - 1);
+      lane_states[l] = &states[trial[l]];
+      for (int j = 0; j < 3; ++j) r[kL * j + l] = readings[j * kSubBatch + trial[l]];
+    }
+    for (int k = 0; k < lanes_params_; ++k) {
+      const double* row = shared_soa + static_cast<std::size_t>(k) * kSubBatch;
+      for (int l = 0; l < kL; ++l) params_lanes[kL * k + l] = row[trial[l]];
+    }
   }
 
   // The tasks' outputs of trials 0 .. n - 1 of a sub-batch from its points' outputs (the fit is

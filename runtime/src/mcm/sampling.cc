@@ -13,20 +13,41 @@
 
 namespace vlt::mcm_internal {
 
-void DrawNormals(const KeyedStream& rng, std::uint64_t stream, std::int64_t first, int n, double* out) {
-  // Groups of 4 trials share one Philox call (random.h); trials outside [first, first + n) of
-  // the edge groups are computed and discarded. Up to KeyedStream::kBulkGroups groups at once.
+namespace {
+
+// Groups of 4 trials share one Philox call (random.h); trials outside [first, first + n) of the
+// edge groups are computed and discarded. Up to KeyedStream::kBulkGroups groups at once; each
+// block's normals z of trials first + i go to copy_out(z, i, count).
+template <typename CopyOut>
+void ForEachNormalsBlock(const KeyedStream& rng, std::uint64_t stream, std::int64_t first, int n,
+                         CopyOut copy_out) {
   constexpr int kBulk = KeyedStream::kBulkGroups;
   const std::int64_t last = first + n;
   const std::int64_t group_end = (last + 3) >> 2;
-  double z[4 * kBulk];
+  alignas(64) double z[4 * kBulk];
   for (std::int64_t g = first >> 2; g < group_end; g += kBulk) {
     const int groups = static_cast<int>(std::min<std::int64_t>(kBulk, group_end - g));
     rng.NormalsBulk(static_cast<std::uint64_t>(g), groups, stream, z);
     const std::int64_t t0 = std::max(first, 4 * g);
     const std::int64_t t1 = std::min(last, 4 * (g + groups));
-    std::copy(z + (t0 - 4 * g), z + (t1 - 4 * g), out + (t0 - first));
+    copy_out(z + (t0 - 4 * g), t0 - first, static_cast<int>(t1 - t0));
   }
+}
+
+}  // namespace
+
+void DrawNormals(const KeyedStream& rng, std::uint64_t stream, std::int64_t first, int n, double* out) {
+  ForEachNormalsBlock(rng, stream, first, n, [out](const double* z, std::int64_t i, int count) {
+    std::copy(z, z + count, out + i);
+  });
+}
+
+void DrawScaledNormals(const KeyedStream& rng, std::uint64_t stream, std::int64_t first, int n, double mean,
+                       double u, double* out) {
+  ForEachNormalsBlock(rng, stream, first, n, [out, mean, u](const double* z, std::int64_t i, int count) {
+    double* x = out + i;
+    for (int k = 0; k < count; ++k) x[k] = mean + u * z[k];
+  });
 }
 
 namespace {
@@ -159,9 +180,7 @@ void InputSampler::Draw(const KeyedStream& rng, std::int64_t first, int n, doubl
     }
     switch (dist.kind()) {
       case DistributionKind::kNormal: {
-        DrawNormals(rng, stream, first, n, row);
-        const double mu = dist.estimate(), u = dist.u();
-        for (int i = 0; i < n; ++i) row[i] = mu + u * row[i];
+        DrawScaledNormals(rng, stream, first, n, dist.estimate(), dist.u(), row);
         break;
       }
       case DistributionKind::kStudentT: DrawStudentT(rng, dist, stream, first, n, row); break;

@@ -309,6 +309,11 @@ bool MeasurementModel::EvaluatePreparedLanes(const PreparedShared* const* prepar
   const ModelInfo& model = *setup_.model;
   constexpr int kL = kForwardLanes;
   if (model.forward_lanes == nullptr) return false;
+  if (!has_shared_stages()) {
+    // rho' = rho and y = x_t exactly (Place multiplies by nothing): the kernel alone.
+    model.forward_lanes(readings, params, y);
+    return true;
+  }
   double r[3 * kL], x[3 * kL];
   for (int l = 0; l < kL; ++l) {
     // TrackerPoint's air correction, lane by lane.
