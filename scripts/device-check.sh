@@ -45,8 +45,9 @@ pack() {
   du -sh "$CARRY" "$ROOT/.devcarry/bundle.tar.xz"
 }
 
-# The jobs of the GPU path (docs/gpu.md: a mirror tracker, nothing of [environment], [station] or
-# [part]): one point at 10^7 trials, and a Monte Carlo map of 101 x 101 nodes at 10^5 trials.
+# The jobs of the GPU path (docs/gpu.md: a mirror tracker without stages): one point at 10^7
+# trials, and a Monte Carlo map of 101 x 101 nodes at 10^5 trials. (The demo, with the air, runs
+# from vlt itself.)
 gpu_jobs() {
   local tracker='[tracker]\nmodel = "mirror"\n[tracker.noise]\nrange = "5 um + 0.5 um/m"\nazimuth = "1 arcsec"\nelevation = "1 arcsec"\n'
   printf '[job]\nname = "gpu_point"\n'"$tracker"'[plan]\nunit = "m"\npoint = [{name = "P", x = 5, y = 1, z = 0.4}]\n[monte_carlo]\ntrials = 10000000\nseed = 1\n' \
@@ -74,6 +75,17 @@ gpu() {
     same "$job points.csv --device gpu" "/tmp/vlt-$job-gpu/points.csv" "/tmp/vlt-$job-cpu/points.csv"
   done
   same "gpu_map map.csv --device gpu" /tmp/vlt-gpu_map-gpu/map.csv /tmp/vlt-gpu_map-cpu/map.csv
+  # The demo (the air stage prepared on the CPU, 34 points, three tasks, 2 10^5 trials).
+  for device in gpu cpu; do
+    rm -rf "/tmp/vlt-demo-$device"
+    timed "demo --device $device" "$CARRY/vlt" demo --device "$device" -o "/tmp/vlt-demo-$device" --quiet
+    strip_timings "/tmp/vlt-demo-$device/results.json" >"/tmp/demo-$device.json" 2>/dev/null || true
+  done
+  same "demo results.json --device gpu" /tmp/demo-gpu.json /tmp/demo-cpu.json
+  local file
+  for file in points.csv points.jsonl budget.csv tasks.csv map.csv; do
+    same "demo $file --device gpu" "/tmp/vlt-demo-gpu/$file" "/tmp/vlt-demo-cpu/$file"
+  done
 }
 
 # Results of a run without the timings, for comparing two runs byte for byte.

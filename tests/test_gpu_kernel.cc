@@ -145,8 +145,41 @@ struct Head {
   }
 };
 
-MeasurementSetup NormalSetup(const char* name) {
+UncertainInput Input(const char* name, double estimate, double u) {
+  UncertainInput in;
+  in.name = name;
+  in.estimate = estimate;
+  in.u = u;
+  return in;
+}
+
+// The stages the CPU prepares for the kernel: the air (Ciddor, its humidity rectangular), a
+// station pose and the part's thermal expansion, each uncertain.
+void AddStages(MeasurementSetup& setup) {
+  Environment env;
+  env.temperature = Input("environment.temperature", 20.5, 0.2);
+  env.pressure = Input("environment.pressure", 101325.0, 30.0);
+  env.humidity = Input("environment.humidity", 45.0, 5.0);
+  env.humidity.distribution = "rectangular";
+  env.co2 = Input("environment.co2", 450e-6, 30e-6);
+  setup.environment = env;
+  StationPose pose;
+  pose.rx = Input("pose.rx", 0.001, 1e-5);
+  pose.ry = Input("pose.ry", -0.002, 1e-5);
+  pose.rz = Input("pose.rz", 0.3, 1e-5);
+  pose.tx = Input("pose.tx", 1.0, 10e-6);
+  pose.ty = Input("pose.ty", -2.0, 10e-6);
+  pose.tz = Input("pose.tz", 0.5, 10e-6);
+  setup.pose = pose;
+  PartThermal thermal;
+  thermal.cte = Input("thermal.cte", 11.5e-6, 1e-6);
+  thermal.temperature = Input("thermal.temperature", 21.0, 0.2);
+  setup.thermal = thermal;
+}
+
+MeasurementSetup NormalSetup(const char* name, bool stages = false) {
   MeasurementSetup setup;
+  if (stages) AddStages(setup);
   setup.model = FindModel(name);
   setup.params = test::DefaultParams(*setup.model);
   for (std::size_t k = 0; k < setup.params.size(); ++k) {
@@ -170,6 +203,12 @@ gpu_internal::TrialsJob KernelTrials(const char* name, const MeasurementSetup& s
   trials.model = name;
   trials.job.seed = seed;
   trials.job.num_params = setup.model->num_params;
+  // The readings' streams follow every shared input: the parameters, then the stages' inputs.
+  trials.job.first_reading_stream = trials.job.num_params + (setup.environment ? 4 : 0) + (setup.pose ? 6 : 0) +
+                                    (setup.thermal ? 2 : 0);
+  trials.job.air = setup.environment.has_value();
+  trials.job.pose = setup.pose.has_value();
+  trials.job.thermal = setup.thermal.has_value();
   for (int k = 0; k < trials.job.num_params; ++k) {
     trials.job.param_estimate[k] = setup.params[k].estimate;
     trials.job.param_u[k] = setup.params[k].u;
@@ -187,10 +226,12 @@ gpu_internal::TrialsJob KernelTrials(const char* name, const MeasurementSetup& s
 }
 
 // Every value of every trial, against the engine's job kernel, from an unaligned first trial (the
-// keyed streams give each trial its draws whatever batch it is in).
+// keyed streams give each trial its draws whatever batch it is in); with stages, each trial's as
+// the CPU prepares them for the kernel.
 template <class Model>
-void ExpectTrialsAreTheEngines(const char* name) {
-  const MeasurementSetup setup = NormalSetup(name);
+void ExpectTrialsAreTheEngines(const char* name, bool with_stages) {
+  SCOPED_TRACE(with_stages ? "air, pose and thermal stages" : "no stage");
+  const MeasurementSetup setup = NormalSetup(name, with_stages);
   const MeasurementModel model(setup);
   McmJob job;
   job.model = &model;
@@ -203,18 +244,22 @@ void ExpectTrialsAreTheEngines(const char* name) {
 
   const gpu_internal::TrialsJob trials = KernelTrials(name, setup, model, job, seed);
   const gpu_internal::PointTrialsJob& kernel_job = trials.job;
+  ASSERT_EQ(kernel_job.first_reading_stream, model.num_shared());
+  const std::vector<gpu_internal::TrialStages> stages =
+      with_stages ? mcm_internal::JobTrialStages(job, seed, first, n) : std::vector<gpu_internal::TrialStages>{};
+  const gpu_internal::TrialStages* stages_of = with_stages ? stages.data() : nullptr;
   int differing = 0;
   for (int p = 0; p < kernel_job.num_points; ++p) {
     for (int i = 0; i < n; ++i) {
       double y[3];
       gpu_internal::PointOfTrial<Model>(kernel_job, trials.points[static_cast<std::size_t>(p)], p,
-                                        static_cast<std::uint64_t>(first + i), y);
+                                        static_cast<std::uint64_t>(first + i), with_stages ? &stages[i] : nullptr, y);
       for (int a = 0; a < 3; ++a) differing += Bits(y[a]) != Bits(engine[static_cast<std::size_t>(3 * p + a) * n + i]);
     }
   }
   // The host backend (the tests' GPU) lays the same values out as the engine's.
   std::vector<double> values(static_cast<std::size_t>(3 * kernel_job.num_points) * n);
-  gpu_internal::HostBackend(trials)->Compute(static_cast<std::uint64_t>(first), n, values.data());
+  gpu_internal::HostBackend(trials)->Compute(static_cast<std::uint64_t>(first), n, stages_of, values.data());
   for (std::size_t v = 0; v < values.size(); ++v) differing += Bits(values[v]) != Bits(engine[v]);
   const int outputs = 3 * kernel_job.num_points;
   EXPECT_EQ(differing, 0) << name << ": values of " << n << " trials x " << outputs << " outputs, twice";
@@ -223,11 +268,26 @@ void ExpectTrialsAreTheEngines(const char* name) {
   for (int i = 0; i < n; ++i) mean += engine[6 * static_cast<std::size_t>(n) + i] / n;
   for (int i = 0; i < n; ++i) sq += std::pow(engine[6 * static_cast<std::size_t>(n) + i] - mean, 2) / (n - 1);
   EXPECT_GT(std::sqrt(sq), 10e-6) << name;
+  if (with_stages) {
+    // Each stage really moved the trials (so that the comparison above covers it): the air's
+    // range scale, the pose and the thermal scale differ from one, identity and one in every trial.
+    int air = 0, pose = 0, thermal = 0;
+    for (const gpu_internal::TrialStages& t : stages) {
+      air += t.range_scale != 1.0;
+      pose += t.rotation[1] != 0.0 && t.translation[0] != 0.0;
+      thermal += t.thermal_scale != 1.0;
+    }
+    EXPECT_EQ(air, n);
+    EXPECT_EQ(pose, n);
+    EXPECT_EQ(thermal, n);
+  }
 }
 
 TEST(GpuKernel, TrialsAreTheCpuEnginesBitForBit) {
-  ExpectTrialsAreTheEngines<Mirror>("mirror");
-  ExpectTrialsAreTheEngines<Head>("head");
+  for (bool with_stages : {false, true}) {
+    ExpectTrialsAreTheEngines<Mirror>("mirror", with_stages);
+    ExpectTrialsAreTheEngines<Head>("head", with_stages);
+  }
 }
 
 // What NVRTC is given is what these tests compiled: the embedded kernel files are the source
@@ -246,6 +306,42 @@ TEST(GpuKernel, EmbeddedSourcesAreTheFilesTheCpuBuildCompiles) {
   EXPECT_NE(source.main.find("extern \"C\" __global__ void vlt_point_trials"), std::string::npos);
   EXPECT_EQ(source.headers.size(), 4u);
   EXPECT_THROW(gpu_internal::PointTrialsSource("jcgm101_mass"), std::invalid_argument);
+}
+
+// Runs the compiled kernel (`program`, in `dir`) on a two-point mirror job and compares its values
+// with the CPU engine's.
+void ExpectCompiledKernelIsTheEngine(const std::filesystem::path& dir, const std::string& program, bool with_stages) {
+  const MeasurementSetup setup = NormalSetup("mirror", with_stages);
+  const MeasurementModel model(setup);
+  McmJob job;
+  job.model = &model;
+  job.points = {McmPoint{"P1", Eigen::Vector3d(4.0, 0.3, 0.2)}, McmPoint{"P2", Eigen::Vector3d(17.0, -1.0, -0.1)}};
+  const std::uint64_t seed = 20090101;
+  const std::int64_t first = 123'457;
+  const int n = 2000;
+  const std::vector<double> engine = mcm_internal::JobTrialValues(job, seed, first, n);
+  const gpu_internal::TrialsJob trials = KernelTrials("mirror", setup, model, job, seed);
+  const gpu_internal::PointTrialsJob& kernel = trials.job;
+  const std::vector<gpu_internal::TrialPoint>& points = trials.points;
+  {
+    std::ofstream in(dir / "job.bin", std::ios::binary);
+    in.write(reinterpret_cast<const char*>(&kernel), sizeof kernel);
+    in.write(reinterpret_cast<const char*>(points.data()), static_cast<std::streamsize>(points.size() * sizeof points[0]));
+    if (with_stages) {
+      const std::vector<gpu_internal::TrialStages> stages = mcm_internal::JobTrialStages(job, seed, first, n);
+      in.write(reinterpret_cast<const char*>(stages.data()), static_cast<std::streamsize>(stages.size() * sizeof stages[0]));
+    }
+  }
+  const std::string run = program + " " + std::to_string(first) + " " + std::to_string(n) + " < " +
+                          (dir / "job.bin").string() + " > " + (dir / "values.bin").string();
+  ASSERT_EQ(std::system(run.c_str()), 0) << run;
+  std::ifstream out(dir / "values.bin", std::ios::binary);
+  std::vector<double> values(engine.size());
+  out.read(reinterpret_cast<char*>(values.data()), static_cast<std::streamsize>(values.size() * sizeof(double)));
+  ASSERT_EQ(out.gcount(), static_cast<std::streamsize>(values.size() * sizeof(double)));
+  int differing = 0;
+  for (std::size_t v = 0; v < values.size(); ++v) differing += Bits(values[v]) != Bits(engine[v]);
+  EXPECT_EQ(differing, 0) << "of " << values.size() << " values";
 }
 
 // The kernel source exactly as NVRTC is given it — main file and headers (but its <cmath> of three
@@ -273,7 +369,8 @@ TEST(GpuKernel, TheKernelSourceCompiledAsCppGivesTheEnginesValues) {
 struct VltDim3 { unsigned x; };
 static VltDim3 blockIdx, blockDim, threadIdx;
 #include "vlt_point_trials.cu"
-// stdin: the job, the points; argv: first trial, trials. stdout: the values.
+// stdin: the job, the points, each trial's stages where the job has any; argv: first trial,
+// trials. stdout: the values.
 int main(int argc, char** argv) {
   vlt::gpu_internal::PointTrialsJob job;
   if (argc != 3 || fread(&job, sizeof job, 1, stdin) != 1) return 2;
@@ -282,11 +379,15 @@ int main(int argc, char** argv) {
   const unsigned long long first = strtoull(argv[1], 0, 10);
   const int n = atoi(argv[2]);
   static double values[3 * 16 * 4096];
+  static vlt::gpu_internal::TrialStages stages[4096];
   if (n > 4096) return 2;
+  const bool staged = job.air || job.pose || job.thermal;
+  if (staged && fread(stages, sizeof stages[0], n, stdin) != (size_t)n) return 2;
   blockDim.x = 128;
   const unsigned long long threads = (unsigned long long)n * job.num_points;
   for (blockIdx.x = 0; blockIdx.x * 128ull < threads; ++blockIdx.x)
-    for (threadIdx.x = 0; threadIdx.x < 128; ++threadIdx.x) vlt_point_trials(&job, points, first, n, values);
+    for (threadIdx.x = 0; threadIdx.x < 128; ++threadIdx.x)
+      vlt_point_trials(&job, points, staged ? stages : nullptr, first, n, values);
   fwrite(values, sizeof(double), 3 * job.num_points * (size_t)n, stdout);
   return 0;
 }
@@ -295,36 +396,13 @@ int main(int argc, char** argv) {
   const std::string compile = std::string(VLT_TEST_CXX) + " -std=c++17 -O2 -ffp-contract=off -I" + (dir / "include").string() +
                               " -I" + dir.string() + " " + (dir / "harness.cc").string() + " -o " + program;
   ASSERT_EQ(std::system(compile.c_str()), 0) << compile;
-
-  const MeasurementSetup setup = NormalSetup("mirror");
-  const MeasurementModel model(setup);
-  McmJob job;
-  job.model = &model;
-  job.points = {McmPoint{"P1", Eigen::Vector3d(4.0, 0.3, 0.2)}, McmPoint{"P2", Eigen::Vector3d(17.0, -1.0, -0.1)}};
-  const std::uint64_t seed = 20090101;
-  const std::int64_t first = 123'457;
-  const int n = 2000;
-  const std::vector<double> engine = mcm_internal::JobTrialValues(job, seed, first, n);
-  const gpu_internal::TrialsJob trials = KernelTrials("mirror", setup, model, job, seed);
-  const gpu_internal::PointTrialsJob& kernel = trials.job;
-  const std::vector<gpu_internal::TrialPoint>& points = trials.points;
-  {
-    std::ofstream in(dir / "job.bin", std::ios::binary);
-    in.write(reinterpret_cast<const char*>(&kernel), sizeof kernel);
-    in.write(reinterpret_cast<const char*>(points.data()), static_cast<std::streamsize>(points.size() * sizeof points[0]));
+  for (bool with_stages : {false, true}) {
+    SCOPED_TRACE(with_stages ? "air, pose and thermal stages" : "no stage");
+    ExpectCompiledKernelIsTheEngine(dir, program, with_stages);
   }
-  const std::string run = program + " " + std::to_string(first) + " " + std::to_string(n) + " < " +
-                          (dir / "job.bin").string() + " > " + (dir / "values.bin").string();
-  ASSERT_EQ(std::system(run.c_str()), 0) << run;
-  std::ifstream out(dir / "values.bin", std::ios::binary);
-  std::vector<double> values(engine.size());
-  out.read(reinterpret_cast<char*>(values.data()), static_cast<std::streamsize>(values.size() * sizeof(double)));
-  ASSERT_EQ(out.gcount(), static_cast<std::streamsize>(values.size() * sizeof(double)));
-  int differing = 0;
-  for (std::size_t v = 0; v < values.size(); ++v) differing += Bits(values[v]) != Bits(engine[v]);
-  EXPECT_EQ(differing, 0) << "of " << values.size() << " values";
   std::filesystem::remove_all(dir);
 }
+
 
 // A tracker job the kernel covers: the mirror tracker with its parameters (normal, one fixed),
 // four points, a plane over them and a Monte Carlo map; nothing of [environment], [station], [part].
@@ -361,6 +439,30 @@ trials = 20000
 seed = 11
 )";
 
+// The same job with every stage around the tracker model, drawn and prepared on the CPU for the
+// kernel: the air (its humidity rectangular), a station pose and the part's thermal expansion.
+const std::string kGpuJobWithStages = std::string(kGpuJob) + R"(
+[environment]
+temperature = { estimate = "20.5 degC", u = "0.2 K" }
+pressure = { estimate = "1013.25 hPa", u = "0.3 hPa" }
+humidity = { estimate = "45 %", u = "5 %", distribution = "rectangular" }
+[station]
+rz = { estimate = "0.3 rad", u = "2 arcsec" }
+tx = { estimate = "0.2 m", u = "10 um" }
+[part]
+cte = { estimate = "11.5 ppm/K", u = "1 ppm/K" }
+temperature = { estimate = "21 degC", u = "0.3 K" }
+)";
+
+// The jobs the GPU path is checked on: kGpuJob, the same with stages, and the demo's (vlt demo:
+// the air, 34 points, 3 tasks) at 20 000 trials.
+std::vector<Job> GpuPathJobs() {
+  std::vector<Job> jobs = {ParseJob(kGpuJob, "gpu.toml", "."), ParseJob(kGpuJobWithStages, "gpu-stages.toml", "."),
+                           ParseJob(std::string(DefaultJobToml()), kDefaultJobName, ".")};
+  jobs.back().monte_carlo.trials = 20000;
+  return jobs;
+}
+
 std::map<std::string, std::string> FilesOf(const Results& r) {
   std::map<std::string, std::string> files;
   for (const OutputFile& f : ResultFiles(r)) {
@@ -374,8 +476,8 @@ std::map<std::string, std::string> FilesOf(const Results& r) {
 // The GPU path end to end — the engine's blocks of trials from a backend, the tasks on the CPU,
 // the map's nodes — with the host backend standing in for a GPU: every file the same bytes as on
 // the CPU but the lines that say where and how long the trials ran.
-TEST(GpuPath, TheSameFilesAsTheCpuWithTheKernelOnTheHost) {
-  const Job job = ParseJob(kGpuJob, "gpu.toml", ".");
+void ExpectTheSameFilesWithTheKernelOnTheHost(const Job& job) {
+  SCOPED_TRACE(job.file);
   RunOptions cpu;
   cpu.threads = 3;
   cpu.device = McmDevice::kCpu;
@@ -388,7 +490,9 @@ TEST(GpuPath, TheSameFilesAsTheCpuWithTheKernelOnTheHost) {
   gpu_internal::SetBackendForTest(nullptr);
   EXPECT_EQ(on_cpu.mcm.device, "cpu");
   EXPECT_EQ(on_gpu.mcm.device.rfind("gpu: host", 0), 0u) << on_gpu.mcm.device;
-  ASSERT_TRUE(on_gpu.map && on_gpu.map->has_mcm);
+  if (job.map && job.map->monte_carlo) {
+    ASSERT_TRUE(on_gpu.map && on_gpu.map->has_mcm);
+  }
   std::map<std::string, std::string> a = FilesOf(on_cpu), b = FilesOf(on_gpu);
   ASSERT_EQ(a.size(), b.size());
   for (const auto& [name, text] : a) {
@@ -414,6 +518,10 @@ TEST(GpuPath, TheSameFilesAsTheCpuWithTheKernelOnTheHost) {
   // The summary names the device that ran the trials.
   EXPECT_NE(SummaryText(on_gpu).find("thread(s) and the GPU host ("), std::string::npos) << SummaryText(on_gpu);
   EXPECT_EQ(SummaryText(on_cpu).find("GPU"), std::string::npos);
+}
+
+TEST(GpuPath, TheSameFilesAsTheCpuWithTheKernelOnTheHost) {
+  for (const Job& job : GpuPathJobs()) ExpectTheSameFilesWithTheKernelOnTheHost(job);
 }
 
 // device = "gpu" where no GPU works is one line naming the setting and why; "auto" runs on the CPU
@@ -447,8 +555,8 @@ TEST(GpuPath, GpuWithoutAWorkingOneIsAnInputErrorAndAutoSaysWhy) {
 class OneUlpOff final : public gpu_internal::TrialsBackend {
  public:
   explicit OneUlpOff(const gpu_internal::TrialsJob& trials) : host_(gpu_internal::HostBackend(trials)) {}
-  void Compute(std::uint64_t first, int n, double* values) override {
-    host_->Compute(first, n, values);
+  void Compute(std::uint64_t first, int n, const gpu_internal::TrialStages* stages, double* values) override {
+    host_->Compute(first, n, stages, values);
     values[n + 5] = std::nextafter(values[n + 5], 1e300);  // point 0, y, trial first + 5
   }
   std::string Description() const override { return "a broken GPU"; }
@@ -487,16 +595,18 @@ TEST(GpuPath, OnARealGpuTheSameFilesAsTheCpu) {
   probe.job.num_params = 20;
   std::string why_not;
   if (gpu_internal::CudaBackend(probe, &why_not) == nullptr) GTEST_SKIP() << "no GPU: " << why_not;
-  const Job job = ParseJob(kGpuJob, "gpu.toml", ".");
-  RunOptions cpu;
-  cpu.device = McmDevice::kCpu;
-  RunOptions gpu;
-  gpu.device = McmDevice::kGpu;
-  const Results on_cpu = RunJob(job, cpu), on_gpu = RunJob(job, gpu);
-  EXPECT_EQ(on_gpu.mcm.device.rfind("gpu: ", 0), 0u);
-  std::map<std::string, std::string> a = FilesOf(on_cpu), b = FilesOf(on_gpu);
-  for (const char* name : {"points.csv", "points.jsonl", "budget.csv", "tasks.csv", "map.csv"}) {
-    EXPECT_TRUE(a[name] == b[name]) << name << " differs between the CPU and " << on_gpu.mcm.device;
+  for (const Job& job : GpuPathJobs()) {
+    SCOPED_TRACE(job.file);
+    RunOptions cpu;
+    cpu.device = McmDevice::kCpu;
+    RunOptions gpu;
+    gpu.device = McmDevice::kGpu;
+    const Results on_cpu = RunJob(job, cpu), on_gpu = RunJob(job, gpu);
+    EXPECT_EQ(on_gpu.mcm.device.rfind("gpu: ", 0), 0u);
+    std::map<std::string, std::string> a = FilesOf(on_cpu), b = FilesOf(on_gpu);
+    for (const char* name : {"points.csv", "points.jsonl", "budget.csv", "tasks.csv", "map.csv"}) {
+      EXPECT_TRUE(a[name] == b[name]) << name << " differs between the CPU and " << on_gpu.mcm.device;
+    }
   }
 }
 

@@ -666,7 +666,13 @@ void ComposedByHand(const MeasurementModel& model, const double* readings, const
   Eigen::Vector3d x_t;
   setup.model->forward(corrected, shared, x_t.data());
   Eigen::Vector3d x = x_t;
-  if (setup.pose) x = model.PoseRotation(shared) * x_t + model.PoseTranslation(shared);
+  if (setup.pose) {
+    // Each row summed left to right (MeasurementModel::Place's documented order, which the GPU
+    // kernel shares; Eigen's own product sums its last row in another order).
+    const Eigen::Matrix3d r = model.PoseRotation(shared);
+    const Eigen::Vector3d t = model.PoseTranslation(shared);
+    for (int i = 0; i < 3; ++i) x(i) = ((r(i, 0) * x_t(0) + r(i, 1) * x_t(1)) + r(i, 2) * x_t(2)) + t(i);
+  }
   if (setup.thermal) x *= model.ThermalScale(shared);
   y[0] = x(0);
   y[1] = x(1);

@@ -234,25 +234,27 @@ class Cuda final : public TrialsBackend {
   ~Cuda() override {
     cu_.cuCtxSetCurrent(context_);
     if (values_ != 0) cu_.cuMemFree(values_);
+    if (stages_ != 0) cu_.cuMemFree(stages_);
     cu_.cuMemFree(points_);
     cu_.cuMemFree(job_);
   }
 
-  void Compute(std::uint64_t first, int n, double* values) override {
+  void Compute(std::uint64_t first, int n, const TrialStages* stages, double* values) override {
     // One launch per block of trials, from whichever engine thread asks: one at a time.
     const std::lock_guard<std::mutex> lock(mutex_);
     Check("cuCtxSetCurrent", cu_.cuCtxSetCurrent(context_));
     const std::size_t bytes = 3 * static_cast<std::size_t>(num_points_) * static_cast<std::size_t>(n) * sizeof(double);
-    if (bytes > capacity_) {
-      if (values_ != 0) cu_.cuMemFree(values_);
-      values_ = 0;
-      capacity_ = 0;
-      Check("cuMemAlloc", cu_.cuMemAlloc(&values_, bytes));
-      capacity_ = bytes;
+    Reserve(values_, values_capacity_, bytes);
+    CUdeviceptr stages_arg = 0;
+    if (stages != nullptr) {
+      const std::size_t stage_bytes = static_cast<std::size_t>(n) * sizeof(TrialStages);
+      Reserve(stages_, stages_capacity_, stage_bytes);
+      Check("cuMemcpyHtoD", cu_.cuMemcpyHtoD(stages_, stages, stage_bytes));
+      stages_arg = stages_;
     }
     unsigned long long first_trial = first;
     int count = n;
-    void* params[] = {&job_, &points_, &first_trial, &count, &values_};
+    void* params[] = {&job_, &points_, &stages_arg, &first_trial, &count, &values_};
     // One thread per (trial, point).
     constexpr unsigned kThreads = 128;
     const unsigned long long threads = static_cast<unsigned long long>(n) * static_cast<unsigned long long>(num_points_);
@@ -269,6 +271,16 @@ class Cuda final : public TrialsBackend {
     if (r != 0) throw std::runtime_error("GPU: " + DriverError(cu_, call, r));
   }
 
+  // A device buffer of at least `bytes` (grown, never shrunk, while the backend lives).
+  void Reserve(CUdeviceptr& buffer, std::size_t& capacity, std::size_t bytes) const {
+    if (bytes <= capacity) return;
+    if (buffer != 0) cu_.cuMemFree(buffer);
+    buffer = 0;
+    capacity = 0;
+    Check("cuMemAlloc", cu_.cuMemAlloc(&buffer, bytes));
+    capacity = bytes;
+  }
+
   const Driver& cu_;
   CUcontext context_;
   CUfunction kernel_;
@@ -278,7 +290,9 @@ class Cuda final : public TrialsBackend {
   std::string description_;
   std::mutex mutex_;
   CUdeviceptr values_ = 0;
-  std::size_t capacity_ = 0;
+  std::size_t values_capacity_ = 0;
+  CUdeviceptr stages_ = 0;  // the block's trials' stages, where the job has any
+  std::size_t stages_capacity_ = 0;
 };
 
 }  // namespace

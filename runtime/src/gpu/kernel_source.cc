@@ -63,9 +63,10 @@ KernelSource PointTrialsSource(std::string_view model_name) {
                 "  }\n"
                 "};\n"
                 "// One thread per (trial, point), trials fastest: values[(3 p + a) * n + i] = coordinate a of\n"
-                "// point p in trial first + i.\n"
+                "// point p in trial first + i; stages[i]: that trial's stages (nullptr: the job has none).\n"
                 "extern \"C\" __global__ void vlt_point_trials(const vlt::gpu_internal::PointTrialsJob* job,\n"
                 "                                              const vlt::gpu_internal::TrialPoint* points,\n"
+                "                                              const vlt::gpu_internal::TrialStages* stages,\n"
                 "                                              unsigned long long first, int n, double* values) {\n"
                 "  const unsigned long long t = static_cast<unsigned long long>(blockIdx.x) * blockDim.x + threadIdx.x;\n"
                 "  const unsigned long long count = static_cast<unsigned long long>(n);\n"
@@ -73,7 +74,8 @@ KernelSource PointTrialsSource(std::string_view model_name) {
                 "  const int p = static_cast<int>(t / count);\n"
                 "  const unsigned long long i = t % count;\n"
                 "  double y[3];\n"
-                "  vlt::gpu_internal::PointOfTrial<KernelModel>(*job, points[p], p, first + i, y);\n"
+                "  vlt::gpu_internal::PointOfTrial<KernelModel>(*job, points[p], p, first + i,\n"
+                "                                               stages == nullptr ? nullptr : stages + i, y);\n"
                 "  for (int a = 0; a < 3; ++a) values[static_cast<unsigned long long>(3 * p + a) * count + i] = y[a];\n"
                 "}\n";
   return source;

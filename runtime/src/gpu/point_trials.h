@@ -6,8 +6,10 @@
 // C++ and compares it with the engine, value for value.
 //
 // Scope (what the kernel covers; mcm/job.cc KernelJob decides, docs/gpu.md): a tracker model
-// with a lanes kernel, every error parameter independent and normal (or fixed: u = 0), no
-// environment, pose or thermal inputs, the readings' noise normal. Other jobs run on the CPU.
+// with a lanes kernel, every error parameter independent and normal (or fixed: u = 0), the
+// readings' noise normal. The stages around the tracker model (air, station pose, part thermal
+// expansion) depend on a trial's shared inputs only: the CPU draws and prepares them with the
+// engine's own code and hands each trial's TrialStages to the kernel. Other jobs run on the CPU.
 #pragma once
 
 #include "base/portable_math.h"
@@ -23,9 +25,22 @@ inline constexpr int kMaxParams = 32;
 struct PointTrialsJob {
   U64 seed = 0;        // McmSettings::seed: the Philox key
   int num_params = 0;  // the tracker model's error parameters, streams 0 .. num_params - 1
-  int num_points = 0;  // readings of point p: streams num_params + 3 p + j
+  int num_points = 0;  // readings of point p: streams num_params + 3 p + j (num_shared + 3 p + j)
+  int first_reading_stream = 0;  // the shared inputs' count: num_params + air, pose, thermal inputs
+  // Which stages are on (1) — each trial's TrialStages given when any is.
+  int air = 0, pose = 0, thermal = 0;
   double param_estimate[kMaxParams] = {};
   double param_u[kMaxParams] = {};  // 0: fixed at the estimate (no draw, InputSampler's rule)
+};
+
+// One trial's stages around the tracker model (MeasurementModel::PreparedShared), prepared on the
+// CPU (mcm/job.cc): the air's refractive index calls libm (pow, exp), whose bits a GPU's
+// functions need not have, and it is the same for every point of the trial.
+struct TrialStages {
+  double range_scale = 1.0;                          // n_est / n: the range is multiplied by it
+  double rotation[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  // R, column-major: R(i, j) = rotation[3 j + i]
+  double translation[3] = {};                        // t [m]
+  double thermal_scale = 1.0;                        // s = 1 / (1 + cte (T - T_ref))
 };
 
 // One point's readings (range [m], azimuth, elevation [rad]) and their standard uncertainties
@@ -35,12 +50,30 @@ struct TrialPoint {
   double reading_u[3] = {};
 };
 
-// Point p of trial `trial`: y = its coordinates (tracker frame = part frame here, m). Model: a
-// generated model namespace's Forward (vlt::gen::<model>), as a functor. Each (trial, point) is
-// computed on its own (a GPU thread each), so the trial's parameters are drawn again for every
-// point: the same draws (they depend on the seed, the trial and the stream only).
+// y = s (R x_t + t), each row summed left to right: MeasurementModel::Place's operations in its
+// order (the part frame; x_t where no stage is on).
+VLT_PORTABLE void PlaceOnPart(const PointTrialsJob& job, const TrialStages* stages, const portable::Lane x_t[3],
+                              double y[3]) {
+  for (int i = 0; i < 3; ++i) y[i] = x_t[i].v;
+  if (job.pose) {
+    const double* r = stages->rotation;
+    for (int i = 0; i < 3; ++i) {
+      y[i] = ((r[i] * x_t[0].v + r[3 + i] * x_t[1].v) + r[6 + i] * x_t[2].v) + stages->translation[i];
+    }
+  }
+  if (job.thermal) {
+    for (int i = 0; i < 3; ++i) y[i] *= stages->thermal_scale;
+  }
+}
+
+// Point p of trial `trial`: y = its part coordinates (m); stages: the trial's (nullptr where no
+// stage is on). Model: a generated model namespace's Forward (vlt::gen::<model>), as a functor.
+// Each (trial, point) is computed on its own (a GPU thread each), so the trial's parameters are
+// drawn again for every point: the same draws (they depend on the seed, the trial and the stream
+// only).
 template <class Model>
-VLT_PORTABLE void PointOfTrial(const PointTrialsJob& job, const TrialPoint& point, int p, U64 trial, double y[3]) {
+VLT_PORTABLE void PointOfTrial(const PointTrialsJob& job, const TrialPoint& point, int p, U64 trial,
+                               const TrialStages* stages, double y[3]) {
   portable::Lane params[kMaxParams];
   for (int k = 0; k < job.num_params; ++k) {
     // mcm/sampling.cc: estimate + u z, or the estimate itself where u = 0.
@@ -50,11 +83,13 @@ VLT_PORTABLE void PointOfTrial(const PointTrialsJob& job, const TrialPoint& poin
   }
   portable::Lane readings[3], out[3];
   for (int j = 0; j < 3; ++j) {
-    const U64 stream = static_cast<U64>(job.num_params + 3 * p + j);
+    const U64 stream = static_cast<U64>(job.first_reading_stream + 3 * p + j);
     readings[j] = point.reading[j] + point.reading_u[j] * portable::NormalOfTrial(job.seed, trial, stream);
   }
+  // The air: the tracker converted optical path with n_est, the range is rho n_est / n.
+  if (job.air) readings[0] = readings[0].v * stages->range_scale;
   Model::Forward(readings, params, out);
-  for (int a = 0; a < 3; ++a) y[a] = out[a].v;
+  PlaceOnPart(job, stages, out, y);
 }
 
 }  // namespace vlt::gpu_internal

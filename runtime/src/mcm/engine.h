@@ -14,6 +14,7 @@
 
 #include <Eigen/Core>
 
+#include "gpu/point_trials.h"
 #include "mcm/order.h"
 #include "mcm/random.h"
 #include "vlt/distributions.h"
@@ -176,5 +177,8 @@ bool GatherRegionTail(const std::vector<const float*>& series, std::int64_t n,
 // of every point (a task's are left out). The reference the GPU path is checked against, at run
 // time (mcm/job.cc) and in tests/test_gpu_kernel.cc.
 std::vector<double> JobTrialValues(const McmJob& job, std::uint64_t seed, std::int64_t first, int n);
+// The stages (air, pose, thermal) of the same trials as the job kernel prepares them for the GPU
+// kernel (gpu/point_trials.h TrialStages), one per trial.
+std::vector<gpu_internal::TrialStages> JobTrialStages(const McmJob& job, std::uint64_t seed, std::int64_t first, int n);
 
 }  // namespace vlt::mcm_internal

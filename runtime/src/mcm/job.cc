@@ -118,22 +118,8 @@ class JobKernel final : public mcm_internal::TrialKernel {
     double* readings = copula + shared_.scratch_size(kSubBatch);
     double* params_lanes = readings + 3 * kSubBatch;
     MeasurementModel::PreparedShared* states = scratch.trial_states.data();
-
-    // Shared inputs: drawn once per trial, common to every point. Each trial's vector of them is
-    // copied out of the draws' structure of arrays for PrepareShared and the scalar kernel; with
-    // the lanes kernel, which takes the tracker model's parameters from the draws directly
-    // (below), only the inputs after them (air, pose, thermal).
-    shared_.Draw(rng, first, n, shared_soa, kSubBatch, copula);
     // Without air, pose or thermal stage the lanes kernel reads nothing prepared (y = x_t).
-    const bool prepare = lanes_params_ == 0 || model_.has_shared_stages();
-    for (int i = 0; prepare && i < n; ++i) {
-      double* aos = shared_aos + static_cast<std::size_t>(i) * s_count;
-      for (int k = lanes_params_; k < s_count; ++k)
-        aos[k] = shared_soa[static_cast<std::size_t>(k) * kSubBatch + i];
-      // Air index, pose and thermal scale depend on the shared inputs only: once per trial,
-      // not once per point (states[i] refers to aos, which stays put until the sub-batch ends).
-      states[i] = model_.PrepareShared(aos);
-    }
+    DrawShared(rng, first, n, scratch, lanes_params_ == 0 || model_.has_shared_stages());
 
     const std::uint64_t first_reading_stream = static_cast<std::uint64_t>(s_count);
     for (std::size_t p = 0; p < job_.points.size(); ++p) {
@@ -183,6 +169,43 @@ class JobKernel final : public mcm_internal::TrialKernel {
     RunTasks(n, scratch, outputs);
   }
 
+  // The stages of trials first .. first + n - 1 (n <= kSubBatch) for the GPU kernel, drawn and
+  // prepared as Run prepares them (gpu/point_trials.h TrialStages).
+  void PrepareStages(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch,
+                     gpu_internal::TrialStages* out) const {
+    DrawShared(rng, first, n, scratch, true);
+    for (int i = 0; i < n; ++i) {
+      const MeasurementModel::PreparedShared& state = scratch.trial_states[static_cast<std::size_t>(i)];
+      gpu_internal::TrialStages& stages = out[i];
+      stages.range_scale = state.range_scale;
+      std::copy(state.rotation.data(), state.rotation.data() + 9, stages.rotation);
+      std::copy(state.translation.data(), state.translation.data() + 3, stages.translation);
+      stages.thermal_scale = state.thermal_scale;
+    }
+  }
+
+ private:
+  // Shared inputs: drawn once per trial, common to every point, into the scratch's structure of
+  // arrays. With `prepare`, each trial's vector of them is copied out for PrepareShared and the
+  // scalar kernel — with the lanes kernel, which takes the tracker model's parameters from the
+  // draws directly, only the inputs after them (air, pose, thermal) — and its stages prepared
+  // into scratch.trial_states.
+  void DrawShared(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch, bool prepare) const {
+    const int s_count = num_shared_;
+    double* shared_soa = scratch.doubles.data();
+    double* shared_aos = shared_soa + static_cast<std::size_t>(s_count) * kSubBatch;
+    double* copula = shared_aos + static_cast<std::size_t>(s_count) * kSubBatch;
+    shared_.Draw(rng, first, n, shared_soa, kSubBatch, copula);
+    for (int i = 0; prepare && i < n; ++i) {
+      double* aos = shared_aos + static_cast<std::size_t>(i) * s_count;
+      for (int k = lanes_params_; k < s_count; ++k)
+        aos[k] = shared_soa[static_cast<std::size_t>(k) * kSubBatch + i];
+      // Air index, pose and thermal scale depend on the shared inputs only: once per trial,
+      // not once per point (states[i] refers to aos, which stays put until the sub-batch ends).
+      scratch.trial_states[static_cast<std::size_t>(i)] = model_.PrepareShared(aos);
+    }
+  }
+
   // The sub-batch's last, short group of trials i .. n - 1 in lanes, padded with trial n - 1.
   void LastGroupLanes(int i, int n, const double* shared_soa, const double* readings,
                       const MeasurementModel::PreparedShared* states,
@@ -201,6 +224,8 @@ class JobKernel final : public mcm_internal::TrialKernel {
     }
   }
 
+
+ public:
   // The tasks' outputs of trials 0 .. n - 1 of a sub-batch from its points' outputs (the fit is
   // part of the propagated model): the CPU's part of a trial whose points a GPU computed too.
   void RunTasks(int n, Scratch& scratch, double* outputs) const {
@@ -285,6 +310,26 @@ std::vector<McmTask> FitTasks(const McmJob& job) {
   return out;
 }
 
+// The stages (air, pose, thermal) of trials first .. first + n - 1, drawn and prepared on the CPU
+// by the job kernel's own code, a sub-batch at a time.
+std::vector<gpu_internal::TrialStages> StagesOfTrials(const JobKernel& cpu, const KeyedStream& rng, std::int64_t first,
+                                                      int n, Scratch& scratch) {
+  std::vector<gpu_internal::TrialStages> stages(static_cast<std::size_t>(n));
+  for (int done = 0; done < n; done += kSubBatch) {
+    cpu.PrepareStages(rng, first + done, std::min(kSubBatch, n - done), scratch, stages.data() + done);
+  }
+  return stages;
+}
+
+// Trials first .. first + n - 1 of a GPU kernel's job computed by `backend`, values[o * n + i],
+// with their stages where the job has any.
+void ComputeOnBackend(const JobKernel& cpu, bool has_stages, gpu_internal::TrialsBackend& backend,
+                      const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch, double* values) {
+  const std::vector<gpu_internal::TrialStages> stages =
+      has_stages ? StagesOfTrials(cpu, rng, first, n, scratch) : std::vector<gpu_internal::TrialStages>{};
+  backend.Compute(static_cast<std::uint64_t>(first), n, has_stages ? stages.data() : nullptr, values);
+}
+
 // The job's trials on a GPU (docs/gpu.md): the points' values of each trial from the device
 // (gpu/point_trials.h: the same draws and model as JobKernel::Run, the same bits), the tasks from
 // them on the CPU by JobKernel's own code. The device computes blocks of block_ trials, one block
@@ -301,12 +346,18 @@ class GpuJobKernel final : public mcm_internal::TrialKernel {
   GpuJobKernel(const McmJob& job, std::unique_ptr<gpu_internal::TrialsBackend> backend, std::int64_t trials,
                bool fall_back)
       : cpu_(job), backend_(std::move(backend)), point_outputs_(3 * static_cast<int>(job.points.size())),
-        fall_back_(fall_back) {
+        has_stages_(job.model->has_shared_stages()), fall_back_(fall_back) {
     // An eighth of M a block (the device busy while the engine's threads copy out the previous
-    // one), at least 4096 trials, at most 2^20 and kBlockBytes of values.
-    const std::int64_t fit = kBlockBytes / (8 * std::max(1, point_outputs_));
+    // one), at least 4096 trials, at most 2^20 and kBlockBytes of values and stages.
+    const std::int64_t fit = kBlockBytes / BytesPerTrial(static_cast<int>(job.points.size()), has_stages_);
     const std::int64_t wanted = trials > 0 ? std::max<std::int64_t>(4096, (trials + 7) / 8) : std::int64_t{1} << 20;
     block_ = std::max<std::int64_t>(kSubBatch, std::min({wanted, std::int64_t{1} << 20, fit}));
+  }
+
+  // A trial's values in a block, and its stages where the job has any.
+  static std::int64_t BytesPerTrial(int points, bool stages) {
+    return 3 * 8 * std::int64_t{std::max(1, points)} +
+           (stages ? static_cast<std::int64_t>(sizeof(gpu_internal::TrialStages)) : 0);
   }
 
   int num_outputs() const override { return cpu_.num_outputs(); }
@@ -316,7 +367,7 @@ class GpuJobKernel final : public mcm_internal::TrialKernel {
   void Run(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch, double* outputs) const override {
     if (failed_.load()) return cpu_.Run(rng, first, n, scratch, outputs);
     try {
-      CopyFromBlocks(first, n, outputs);
+      CopyFromBlocks(rng, first, n, scratch, outputs);
     } catch (const std::exception& e) {
       if (!fall_back_) throw;
       Fail(e.what());
@@ -339,11 +390,11 @@ class GpuJobKernel final : public mcm_internal::TrialKernel {
     std::int64_t left = 0;  // trials not yet copied out
   };
 
-  void CopyFromBlocks(std::int64_t first, int n, double* outputs) const {
+  void CopyFromBlocks(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch, double* outputs) const {
     for (int done = 0; done < n;) {
       const std::int64_t trial = first + done;
       const std::int64_t index = trial / block_;
-      const Values values = Block(index);
+      const Values values = Block(index, rng, scratch);
       const std::int64_t offset = trial - index * block_;
       const int count = static_cast<int>(std::min<std::int64_t>(n - done, block_ - offset));
       for (int o = 0; o < point_outputs_; ++o) {
@@ -355,8 +406,9 @@ class GpuJobKernel final : public mcm_internal::TrialKernel {
     }
   }
 
-  // Block `index`'s values (values[o * block_ + i]), computed once, one block at a time.
-  Values Block(std::int64_t index) const {
+  // Block `index`'s values (values[o * block_ + i]), computed once, one block at a time (its
+  // stages prepared by the thread that computes it, in its scratch).
+  Values Block(std::int64_t index, const KeyedStream& rng, Scratch& scratch) const {
     std::promise<Values> promise;
     std::shared_future<Values> future;
     bool compute = false;
@@ -376,7 +428,8 @@ class GpuJobKernel final : public mcm_internal::TrialKernel {
         const std::lock_guard<std::mutex> one_at_a_time(compute_mutex_);
         auto values = std::make_shared<std::vector<double>>(static_cast<std::size_t>(point_outputs_) *
                                                             static_cast<std::size_t>(block_));
-        backend_->Compute(static_cast<std::uint64_t>(index * block_), static_cast<int>(block_), values->data());
+        ComputeOnBackend(cpu_, has_stages_, *backend_, rng, index * block_, static_cast<int>(block_), scratch,
+                         values->data());
         promise.set_value(std::move(values));
       } catch (...) {
         promise.set_exception(std::current_exception());
@@ -402,6 +455,7 @@ class GpuJobKernel final : public mcm_internal::TrialKernel {
   JobKernel cpu_;
   std::unique_ptr<gpu_internal::TrialsBackend> backend_;
   int point_outputs_;
+  bool has_stages_;
   bool fall_back_;
   std::int64_t block_ = kSubBatch;
   mutable std::mutex mutex_;
@@ -422,17 +476,25 @@ std::optional<gpu_internal::TrialsJob> KernelJob(const McmJob& job, std::uint64_
   if (!gpu_internal::KernelHasModel(setup.model->name) || !model.has_forward_lanes()) {
     return refuse(std::string("the GPU kernel has no model '") + setup.model->name + "'");
   }
-  if (setup.environment || setup.pose || setup.thermal) {
-    return refuse("the GPU kernel covers the tracker's parameters and readings only, not [environment], [station] or [part]");
-  }
+  // The tracker's parameters are drawn on the device, each from its own stream: none may be
+  // correlated with another input (the air's, pose's and thermal inputs, drawn on the CPU, may).
+  const int num_params = setup.model->num_params;
   const Eigen::MatrixXd& correlation = model.shared_correlation();
-  if (correlation.size() > 0 && !correlation.isIdentity(0.0)) return refuse("the GPU kernel has no correlated inputs");
-  if (setup.model->num_params > gpu_internal::kMaxParams || model.num_shared() != setup.model->num_params) {
-    return refuse("the GPU kernel takes the tracker's parameters (at most " + std::to_string(gpu_internal::kMaxParams) +
-                  ") and no other shared input");
+  for (Eigen::Index i = 0; i < correlation.rows(); ++i) {
+    for (Eigen::Index j = 0; j < correlation.cols(); ++j) {
+      if (i != j && (i < num_params || j < num_params) && correlation(i, j) != 0.0) {
+        return refuse("the GPU kernel has no correlated tracker parameters");
+      }
+    }
+  }
+  if (num_params > gpu_internal::kMaxParams) {
+    return refuse("the GPU kernel takes at most " + std::to_string(gpu_internal::kMaxParams) + " tracker parameters");
   }
   // A block holds kSubBatch trials of every point at least.
-  const std::size_t most_points = static_cast<std::size_t>(GpuJobKernel::kBlockBytes / (8 * 3 * kSubBatch));
+  const bool stages = model.has_shared_stages();
+  const std::int64_t stage_bytes = GpuJobKernel::BytesPerTrial(1, stages) - GpuJobKernel::BytesPerTrial(1, false);
+  const std::size_t most_points =
+      static_cast<std::size_t>((GpuJobKernel::kBlockBytes / kSubBatch - stage_bytes) / (3 * 8));
   if (job.points.size() > most_points) {
     return refuse("the GPU kernel takes at most " + std::to_string(most_points) + " points a run");
   }
@@ -440,7 +502,11 @@ std::optional<gpu_internal::TrialsJob> KernelJob(const McmJob& job, std::uint64_
   trials.model = setup.model->name;
   gpu_internal::PointTrialsJob& kernel = trials.job;
   kernel.seed = seed;
-  kernel.num_params = setup.model->num_params;
+  kernel.num_params = num_params;
+  kernel.first_reading_stream = model.num_shared();
+  kernel.air = model.environment_offset() >= 0;
+  kernel.pose = model.pose_offset() >= 0;
+  kernel.thermal = model.thermal_offset() >= 0;
   const std::vector<Distribution> inputs = SharedDistributions(model);
   for (int k = 0; k < kernel.num_params; ++k) {
     const Distribution& d = inputs[static_cast<std::size_t>(k)];
@@ -470,7 +536,11 @@ constexpr int kCheckTrials = 64;
 std::string DiffersFromTheCpu(const McmJob& job, std::uint64_t seed, gpu_internal::TrialsBackend& backend) {
   const std::vector<double> on_cpu = mcm_internal::JobTrialValues(job, seed, 0, kCheckTrials);
   std::vector<double> on_gpu(on_cpu.size());
-  backend.Compute(0, kCheckTrials, on_gpu.data());
+  const JobKernel cpu(job);
+  Scratch scratch;
+  cpu.InitScratch(scratch);
+  ComputeOnBackend(cpu, job.model->has_shared_stages(), backend, KeyedStream(seed), 0, kCheckTrials, scratch,
+                   on_gpu.data());
   std::size_t differing = 0;
   for (std::size_t v = 0; v < on_cpu.size(); ++v) differing += std::memcmp(&on_cpu[v], &on_gpu[v], sizeof(double)) != 0;
   if (differing == 0) return "";
@@ -529,6 +599,14 @@ std::vector<double> mcm_internal::JobTrialValues(const McmJob& job, std::uint64_
     }
   }
   return values;
+}
+
+std::vector<gpu_internal::TrialStages> mcm_internal::JobTrialStages(const McmJob& job, std::uint64_t seed,
+                                                                    std::int64_t first, int n) {
+  const JobKernel kernel(job);
+  mcm_internal::Scratch scratch;
+  kernel.InitScratch(scratch);
+  return StagesOfTrials(kernel, mcm_internal::KeyedStream(seed), first, n, scratch);
 }
 
 McmResult RunMcm(const McmJob& job_in, const McmSettings& settings) {

@@ -287,14 +287,23 @@ MeasurementModel::PreparedShared MeasurementModel::PrepareShared(const double* s
   return prepared;
 }
 
-// The one implementation of the composition y = s (R x_t + t) (Evaluate goes through here).
+// The one implementation of the composition y = s (R x_t + t) (Evaluate goes through here). Each
+// row's sum is written out, ((R_i0 x + R_i1 y) + R_i2 z) + t_i, rather than left to Eigen, whose
+// order depends on its vectorisation (its packet rows and its scalar last row differ): the GPU
+// kernel (gpu/point_trials.h PlaceOnPart) does the same operations in the same order.
 void MeasurementModel::Place(const PreparedShared& prepared, const Eigen::Vector3d& x_t, double* y) const {
-  Eigen::Vector3d x = x_t;
-  if (pose_offset_ >= 0) x = prepared.rotation * x_t + prepared.translation;
-  if (thermal_offset_ >= 0) x *= prepared.thermal_scale;
-  y[0] = x(0);
-  y[1] = x(1);
-  y[2] = x(2);
+  double x[3] = {x_t(0), x_t(1), x_t(2)};
+  if (pose_offset_ >= 0) {
+    const Eigen::Matrix3d& r = prepared.rotation;
+    const Eigen::Vector3d& t = prepared.translation;
+    for (int i = 0; i < 3; ++i) x[i] = ((r(i, 0) * x_t(0) + r(i, 1) * x_t(1)) + r(i, 2) * x_t(2)) + t(i);
+  }
+  if (thermal_offset_ >= 0) {
+    for (double& c : x) c *= prepared.thermal_scale;
+  }
+  y[0] = x[0];
+  y[1] = x[1];
+  y[2] = x[2];
 }
 
 void MeasurementModel::EvaluatePrepared(const PreparedShared& prepared, const double* readings,
