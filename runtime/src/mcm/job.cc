@@ -534,13 +534,18 @@ std::optional<gpu_internal::TrialsJob> KernelJob(const McmJob& job, std::uint64_
 // GPU path rests on the same bits; a driver or compiler that breaks them is not used).
 constexpr int kCheckTrials = 64;
 std::string DiffersFromTheCpu(const McmJob& job, std::uint64_t seed, gpu_internal::TrialsBackend& backend) {
+  // The CPU's part first, outside the catch below: an error of the job's own inputs (an air
+  // index out of its equation's range) is the job's error, not the GPU's.
   const std::vector<double> on_cpu = mcm_internal::JobTrialValues(job, seed, 0, kCheckTrials);
+  const std::vector<gpu_internal::TrialStages> stages =
+      job.model->has_shared_stages() ? mcm_internal::JobTrialStages(job, seed, 0, kCheckTrials)
+                                     : std::vector<gpu_internal::TrialStages>{};
   std::vector<double> on_gpu(on_cpu.size());
-  const JobKernel cpu(job);
-  Scratch scratch;
-  cpu.InitScratch(scratch);
-  ComputeOnBackend(cpu, job.model->has_shared_stages(), backend, KeyedStream(seed), 0, kCheckTrials, scratch,
-                   on_gpu.data());
+  try {
+    backend.Compute(0, kCheckTrials, stages.empty() ? nullptr : stages.data(), on_gpu.data());
+  } catch (const std::exception& e) {
+    return std::string("the GPU failed its check against the CPU (") + e.what() + ")";
+  }
   std::size_t differing = 0;
   for (std::size_t v = 0; v < on_cpu.size(); ++v) differing += std::memcmp(&on_cpu[v], &on_gpu[v], sizeof(double)) != 0;
   if (differing == 0) return "";
@@ -559,11 +564,7 @@ std::unique_ptr<GpuJobKernel> GpuKernelFor(const McmJob& job, const McmSettings&
     backend = gpu_internal::MakeBackend(*trials, &why_not);
   }
   if (backend != nullptr) {
-    try {
-      why_not = DiffersFromTheCpu(job, settings.seed, *backend);
-    } catch (const std::exception& e) {
-      why_not = std::string("the GPU failed its check against the CPU (") + e.what() + ")";
-    }
+    why_not = DiffersFromTheCpu(job, settings.seed, *backend);
     if (!why_not.empty()) {
       why_not = backend->Description() + ": " + why_not;
       backend.reset();
