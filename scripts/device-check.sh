@@ -81,6 +81,9 @@ gpu() {
     timed "demo --device $device" "$CARRY/vlt" demo --device "$device" -o "/tmp/vlt-demo-$device" --quiet
     strip_timings "/tmp/vlt-demo-$device/results.json" >"/tmp/demo-$device.json" 2>/dev/null || true
   done
+  # Where the trials ran, and why not on the GPU if not (the comparison strips both lines).
+  python3 -c 'import json,sys; m = json.load(open(sys.argv[1]))["monte_carlo"]; print("demo", m["device"], m.get("device_note", ""))' \
+    /tmp/vlt-demo-gpu/results.json >>"$OUT/cli_times.txt" 2>&1 || true
   same "demo results.json --device gpu" /tmp/demo-gpu.json /tmp/demo-cpu.json
   local file
   for file in points.csv points.jsonl budget.csv tasks.csv map.csv; do

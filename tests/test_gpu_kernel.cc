@@ -153,16 +153,23 @@ UncertainInput Input(const char* name, double estimate, double u) {
   return in;
 }
 
-// The stages the CPU prepares for the kernel: the air (Ciddor, its humidity rectangular), a
-// station pose and the part's thermal expansion, each uncertain.
-void AddStages(MeasurementSetup& setup) {
+// Which of the stages the CPU prepares for the kernel a test job has.
+struct Stages {
+  bool air = false, pose = false, thermal = false;
+  bool any() const { return air || pose || thermal; }
+};
+constexpr Stages kNoStage{}, kAllStages{true, true, true};
+
+// The air (Ciddor, its humidity rectangular), a station pose and the part's thermal expansion,
+// each uncertain, where `stages` says.
+void AddStages(MeasurementSetup& setup, Stages stages) {
   Environment env;
   env.temperature = Input("environment.temperature", 20.5, 0.2);
   env.pressure = Input("environment.pressure", 101325.0, 30.0);
   env.humidity = Input("environment.humidity", 45.0, 5.0);
   env.humidity.distribution = "rectangular";
   env.co2 = Input("environment.co2", 450e-6, 30e-6);
-  setup.environment = env;
+  if (stages.air) setup.environment = env;
   StationPose pose;
   pose.rx = Input("pose.rx", 0.001, 1e-5);
   pose.ry = Input("pose.ry", -0.002, 1e-5);
@@ -170,16 +177,16 @@ void AddStages(MeasurementSetup& setup) {
   pose.tx = Input("pose.tx", 1.0, 10e-6);
   pose.ty = Input("pose.ty", -2.0, 10e-6);
   pose.tz = Input("pose.tz", 0.5, 10e-6);
-  setup.pose = pose;
+  if (stages.pose) setup.pose = pose;
   PartThermal thermal;
   thermal.cte = Input("thermal.cte", 11.5e-6, 1e-6);
   thermal.temperature = Input("thermal.temperature", 21.0, 0.2);
-  setup.thermal = thermal;
+  if (stages.thermal) setup.thermal = thermal;
 }
 
-MeasurementSetup NormalSetup(const char* name, bool stages = false) {
+MeasurementSetup NormalSetup(const char* name, Stages stages = kNoStage) {
   MeasurementSetup setup;
-  if (stages) AddStages(setup);
+  AddStages(setup, stages);
   setup.model = FindModel(name);
   setup.params = test::DefaultParams(*setup.model);
   for (std::size_t k = 0; k < setup.params.size(); ++k) {
@@ -229,9 +236,10 @@ gpu_internal::TrialsJob KernelTrials(const char* name, const MeasurementSetup& s
 // keyed streams give each trial its draws whatever batch it is in); with stages, each trial's as
 // the CPU prepares them for the kernel.
 template <class Model>
-void ExpectTrialsAreTheEngines(const char* name, bool with_stages) {
-  SCOPED_TRACE(with_stages ? "air, pose and thermal stages" : "no stage");
-  const MeasurementSetup setup = NormalSetup(name, with_stages);
+void ExpectTrialsAreTheEngines(const char* name, Stages with) {
+  SCOPED_TRACE(::testing::Message() << "air " << with.air << ", pose " << with.pose << ", thermal " << with.thermal);
+  const bool with_stages = with.any();
+  const MeasurementSetup setup = NormalSetup(name, with);
   const MeasurementModel model(setup);
   McmJob job;
   job.model = &model;
@@ -277,16 +285,18 @@ void ExpectTrialsAreTheEngines(const char* name, bool with_stages) {
       pose += t.rotation[1] != 0.0 && t.translation[0] != 0.0;
       thermal += t.thermal_scale != 1.0;
     }
-    EXPECT_EQ(air, n);
-    EXPECT_EQ(pose, n);
-    EXPECT_EQ(thermal, n);
+    EXPECT_EQ(air, with.air ? n : 0);
+    EXPECT_EQ(pose, with.pose ? n : 0);
+    EXPECT_EQ(thermal, with.thermal ? n : 0);
   }
 }
 
 TEST(GpuKernel, TrialsAreTheCpuEnginesBitForBit) {
-  for (bool with_stages : {false, true}) {
-    ExpectTrialsAreTheEngines<Mirror>("mirror", with_stages);
-    ExpectTrialsAreTheEngines<Head>("head", with_stages);
+  // No stage, all three, and each alone (the kernel's flags: one swapped would show).
+  for (Stages with : {kNoStage, kAllStages, Stages{true, false, false}, Stages{false, true, false},
+                      Stages{false, false, true}}) {
+    ExpectTrialsAreTheEngines<Mirror>("mirror", with);
+    ExpectTrialsAreTheEngines<Head>("head", with);
   }
 }
 
@@ -311,7 +321,7 @@ TEST(GpuKernel, EmbeddedSourcesAreTheFilesTheCpuBuildCompiles) {
 // Runs the compiled kernel (`program`, in `dir`) on a two-point mirror job and compares its values
 // with the CPU engine's.
 void ExpectCompiledKernelIsTheEngine(const std::filesystem::path& dir, const std::string& program, bool with_stages) {
-  const MeasurementSetup setup = NormalSetup("mirror", with_stages);
+  const MeasurementSetup setup = NormalSetup("mirror", with_stages ? kAllStages : kNoStage);
   const MeasurementModel model(setup);
   McmJob job;
   job.model = &model;
@@ -454,10 +464,18 @@ cte = { estimate = "11.5 ppm/K", u = "1 ppm/K" }
 temperature = { estimate = "21 degC", u = "0.3 K" }
 )";
 
-// The jobs the GPU path is checked on: kGpuJob, the same with stages, and the demo's (vlt demo:
-// the air, 34 points, 3 tasks) at 20 000 trials.
+// The same with the station's pose alone (the kernel's pose flag on, the others off).
+const std::string kGpuJobWithPose = std::string(kGpuJob) + R"(
+[station]
+rz = { estimate = "0.3 rad", u = "2 arcsec" }
+tx = { estimate = "0.2 m", u = "10 um" }
+)";
+
+// The jobs the GPU path is checked on: kGpuJob, the same with every stage and with the pose
+// alone, and the demo's (vlt demo: the air, 34 points, 3 tasks) at 20 000 trials.
 std::vector<Job> GpuPathJobs() {
   std::vector<Job> jobs = {ParseJob(kGpuJob, "gpu.toml", "."), ParseJob(kGpuJobWithStages, "gpu-stages.toml", "."),
+                           ParseJob(kGpuJobWithPose, "gpu-pose.toml", "."),
                            ParseJob(std::string(DefaultJobToml()), kDefaultJobName, ".")};
   jobs.back().monte_carlo.trials = 20000;
   return jobs;
@@ -584,6 +602,82 @@ TEST(GpuPath, AGpuWhoseValuesAreNotTheCpusIsNotUsed) {
   } catch (const InputError& e) {
     EXPECT_EQ(std::string(e.what()), "command line: --device: \"gpu\": " + r.mcm.device_note);
   }
+  gpu_internal::SetBackendForTest(nullptr);
+}
+
+// A block holds trials the run never uses (here the 2096 past M = 2000 of the first block of
+// 4096): one of them with a drawn humidity past 100 % — which the CPU's stages refuse — is not
+// the run's error, nor the GPU's. The run gives the CPU's files and no note.
+TEST(GpuPath, AnInputErrorPastTheRunsTrialsIsNotAnError) {
+  Job job = ParseJob(std::string(kGpuJob) + R"(
+[environment]
+temperature = { estimate = "20.5 degC", u = "0.2 K" }
+pressure = { estimate = "1013.25 hPa", u = "0.3 hPa" }
+humidity = { estimate = "99 %", u = "0.3 %" }
+)", "humid.toml", ".");
+  job.map.reset();
+  job.monte_carlo.seed = 2;
+  RunOptions cpu;
+  cpu.device = McmDevice::kCpu;
+  // Not vacuous: the first 4096 trials hold such a draw, the first 2000 none.
+  cpu.trials = 4096;
+  EXPECT_THROW(RunJob(job, cpu), InputError);
+  cpu.trials = 2000;
+  const Results on_cpu = RunJob(job, cpu);
+  gpu_internal::SetBackendForTest(
+      [](const gpu_internal::TrialsJob& trials, std::string*) { return gpu_internal::HostBackend(trials); });
+  for (McmDevice device : {McmDevice::kGpu, McmDevice::kAuto}) {
+    RunOptions gpu = cpu;
+    gpu.device = device;
+    const Results on_gpu = RunJob(job, gpu);
+    EXPECT_EQ(on_gpu.mcm.device.rfind("gpu: host", 0), 0u) << on_gpu.mcm.device;
+    EXPECT_EQ(on_gpu.mcm.device_note, "");
+    std::map<std::string, std::string> a = FilesOf(on_cpu), b = FilesOf(on_gpu);
+    for (const char* name : {"points.csv", "points.jsonl", "budget.csv", "tasks.csv"}) {
+      EXPECT_TRUE(a[name] == b[name]) << name << " differs";
+    }
+  }
+  gpu_internal::SetBackendForTest(nullptr);
+}
+
+// A tracker parameter correlated with another input is drawn on the CPU's copula, which the
+// kernel has not: "gpu" refuses, saying so; correlated stage inputs alone are the kernel's.
+TEST(GpuPath, ACorrelatedTrackerParameterIsRefused) {
+  const std::string part = R"(
+[part]
+cte = "11.5 ppm/K"
+temperature = { estimate = "21 degC", u = "0.3 K" }
+)";
+  Job job = ParseJob(std::string(kGpuJob) + part + R"(
+[correlations.thermometer]
+inputs = ["thermal.temperature", "tmv"]
+matrix = [[1, 0.5], [0.5, 1]]
+)", "correlated.toml", ".");
+  job.map.reset();
+  gpu_internal::SetBackendForTest(
+      [](const gpu_internal::TrialsJob& trials, std::string*) { return gpu_internal::HostBackend(trials); });
+  RunOptions options;
+  options.trials = 2000;
+  options.device = McmDevice::kGpu;
+  try {
+    RunJob(job, options);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "command line: --device: \"gpu\": the GPU kernel has no correlated tracker parameters");
+  }
+  Job stages_only = ParseJob(std::string(kGpuJob) + R"(
+[environment]
+temperature = { estimate = "20.5 degC", u = "0.2 K" }
+pressure = { estimate = "1013.25 hPa", u = "0.3 hPa" }
+humidity = { estimate = "45 %", u = "5 %" }
+)" + part + R"(
+[correlations.room]
+inputs = ["thermal.temperature", "environment.temperature"]
+matrix = [[1, 0.8], [0.8, 1]]
+)", "room.toml", ".");
+  stages_only.map.reset();
+  const Results r = RunJob(stages_only, options);
+  EXPECT_EQ(r.mcm.device.rfind("gpu: host", 0), 0u) << r.mcm.device;
   gpu_internal::SetBackendForTest(nullptr);
 }
 

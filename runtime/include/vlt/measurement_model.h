@@ -194,7 +194,7 @@ class MeasurementModel {
                              const double* params, double* y) const;
   bool has_forward_lanes() const { return setup_.model->forward_lanes != nullptr; }
   // Whether any stage around the tracker model (air, station pose, thermal) is on; without one,
-  // y = x_t and PrepareShared's result is the same for every shared vector.
+  // y = x_t and PrepareShared's stages are the same (identity) for every shared vector.
   bool has_shared_stages() const { return env_offset_ >= 0 || pose_offset_ >= 0 || thermal_offset_ >= 0; }
   // Same plus d y / d readings (3x3, column-major) and d y / d shared (3 x S, column-major).
   // Chain rule (docs/gum.md "Measurement model"), with rho' = rho n_est / n(t, p, RH, x):

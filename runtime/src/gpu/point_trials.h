@@ -25,7 +25,7 @@ inline constexpr int kMaxParams = 32;
 struct PointTrialsJob {
   U64 seed = 0;        // McmSettings::seed: the Philox key
   int num_params = 0;  // the tracker model's error parameters, streams 0 .. num_params - 1
-  int num_points = 0;  // readings of point p: streams num_params + 3 p + j (num_shared + 3 p + j)
+  int num_points = 0;  // readings of point p: streams first_reading_stream + 3 p + j
   int first_reading_stream = 0;  // the shared inputs' count: num_params + air, pose, thermal inputs
   // Which stages are on (1) — each trial's TrialStages given when any is.
   int air = 0, pose = 0, thermal = 0;

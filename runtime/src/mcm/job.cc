@@ -311,23 +311,43 @@ std::vector<McmTask> FitTasks(const McmJob& job) {
 }
 
 // The stages (air, pose, thermal) of trials first .. first + n - 1, drawn and prepared on the CPU
-// by the job kernel's own code, a sub-batch at a time.
+// by the job kernel's own code, a sub-batch of kSubBatch trials at a time. With `unprepared`, a
+// sub-batch whose stages fail (a drawn humidity past 100 %: an error of the job's own inputs) is
+// marked there, (*unprepared)[k] = 1 for trials first + k kSubBatch .., instead of failing: a
+// block holds trials the run may never use (past M, after an adaptive run stops), and where the
+// run does use them the CPU path computes them and says what is wrong, at the trial it is wrong.
 std::vector<gpu_internal::TrialStages> StagesOfTrials(const JobKernel& cpu, const KeyedStream& rng, std::int64_t first,
-                                                      int n, Scratch& scratch) {
+                                                      int n, Scratch& scratch, std::vector<char>* unprepared = nullptr) {
   std::vector<gpu_internal::TrialStages> stages(static_cast<std::size_t>(n));
+  if (unprepared != nullptr) unprepared->assign(static_cast<std::size_t>((n + kSubBatch - 1) / kSubBatch), 0);
   for (int done = 0; done < n; done += kSubBatch) {
-    cpu.PrepareStages(rng, first + done, std::min(kSubBatch, n - done), scratch, stages.data() + done);
+    const int count = std::min(kSubBatch, n - done);
+    try {
+      cpu.PrepareStages(rng, first + done, count, scratch, stages.data() + done);
+    } catch (const std::exception&) {
+      if (unprepared == nullptr) throw;
+      (*unprepared)[static_cast<std::size_t>(done / kSubBatch)] = 1;
+      std::fill(stages.begin() + done, stages.begin() + done + count, gpu_internal::TrialStages{});
+    }
   }
   return stages;
 }
 
-// Trials first .. first + n - 1 of a GPU kernel's job computed by `backend`, values[o * n + i],
-// with their stages where the job has any.
+// A block of trials computed by a backend: values[o * n + i], and the sub-batches whose stages the
+// CPU could not prepare (StagesOfTrials), whose values are not the trials'.
+struct BlockValues {
+  std::vector<double> values;
+  std::vector<char> unprepared;
+};
+
+// Trials first .. first + n - 1 of a GPU kernel's job computed by `backend`, with their stages
+// where the job has any.
 void ComputeOnBackend(const JobKernel& cpu, bool has_stages, gpu_internal::TrialsBackend& backend,
-                      const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch, double* values) {
+                      const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch, BlockValues& block) {
   const std::vector<gpu_internal::TrialStages> stages =
-      has_stages ? StagesOfTrials(cpu, rng, first, n, scratch) : std::vector<gpu_internal::TrialStages>{};
-  backend.Compute(static_cast<std::uint64_t>(first), n, has_stages ? stages.data() : nullptr, values);
+      has_stages ? StagesOfTrials(cpu, rng, first, n, scratch, &block.unprepared)
+                 : std::vector<gpu_internal::TrialStages>{};
+  backend.Compute(static_cast<std::uint64_t>(first), n, has_stages ? stages.data() : nullptr, block.values.data());
 }
 
 // The job's trials on a GPU (docs/gpu.md): the points' values of each trial from the device
@@ -338,7 +358,8 @@ void ComputeOnBackend(const JobKernel& cpu, bool has_stages, gpu_internal::Trial
 // that needs it and forgotten once all its trials were copied out.
 class GpuJobKernel final : public mcm_internal::TrialKernel {
  public:
-  // Most bytes of values a block holds (kSubBatch trials at least: KernelJob refuses more points).
+  // Most bytes of values and stages a block holds (kSubBatch trials at least: KernelJob refuses
+  // more points).
   static constexpr std::int64_t kBlockBytes = std::int64_t{64} << 20;
 
   // trials: the run's M (0: adaptive). fall_back: on a GPU failure during the run, compute the
@@ -366,13 +387,17 @@ class GpuJobKernel final : public mcm_internal::TrialKernel {
 
   void Run(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch, double* outputs) const override {
     if (failed_.load()) return cpu_.Run(rng, first, n, scratch, outputs);
+    bool from_blocks = false;
     try {
-      CopyFromBlocks(rng, first, n, scratch, outputs);
+      from_blocks = CopyFromBlocks(rng, first, n, scratch, outputs);
     } catch (const std::exception& e) {
       if (!fall_back_) throw;
       Fail(e.what());
       return cpu_.Run(rng, first, n, scratch, outputs);
     }
+    // Trials whose stages the CPU could not prepare: the CPU path computes them, or says what is
+    // wrong with the job's inputs (not the GPU's failure).
+    if (!from_blocks) return cpu_.Run(rng, first, n, scratch, outputs);
     cpu_.RunTasks(n, scratch, outputs);
   }
 
@@ -384,26 +409,34 @@ class GpuJobKernel final : public mcm_internal::TrialKernel {
   }
 
  private:
-  using Values = std::shared_ptr<const std::vector<double>>;
+  using Values = std::shared_ptr<const BlockValues>;
   struct Entry {
     std::shared_future<Values> values;
     std::int64_t left = 0;  // trials not yet copied out
   };
 
-  void CopyFromBlocks(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch, double* outputs) const {
+  // Copies trials first .. first + n - 1 out of their blocks; false when some of them had stages
+  // the CPU could not prepare (their blocks' trials are counted as copied out all the same).
+  bool CopyFromBlocks(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch, double* outputs) const {
+    bool prepared = true;
     for (int done = 0; done < n;) {
       const std::int64_t trial = first + done;
       const std::int64_t index = trial / block_;
-      const Values values = Block(index, rng, scratch);
+      const Values block = Block(index, rng, scratch);
       const std::int64_t offset = trial - index * block_;
       const int count = static_cast<int>(std::min<std::int64_t>(n - done, block_ - offset));
-      for (int o = 0; o < point_outputs_; ++o) {
-        const double* from = values->data() + static_cast<std::size_t>(o) * static_cast<std::size_t>(block_) + offset;
+      for (std::int64_t k = offset / kSubBatch; !block->unprepared.empty() && k <= (offset + count - 1) / kSubBatch; ++k) {
+        prepared = prepared && block->unprepared[static_cast<std::size_t>(k)] == 0;
+      }
+      for (int o = 0; prepared && o < point_outputs_; ++o) {
+        const double* from =
+            block->values.data() + static_cast<std::size_t>(o) * static_cast<std::size_t>(block_) + offset;
         std::copy(from, from + count, outputs + static_cast<std::size_t>(o) * kSubBatch + done);
       }
       CopiedOut(index, count);
       done += count;
     }
+    return prepared;
   }
 
   // Block `index`'s values (values[o * block_ + i]), computed once, one block at a time (its
@@ -426,11 +459,10 @@ class GpuJobKernel final : public mcm_internal::TrialKernel {
     if (compute) {
       try {
         const std::lock_guard<std::mutex> one_at_a_time(compute_mutex_);
-        auto values = std::make_shared<std::vector<double>>(static_cast<std::size_t>(point_outputs_) *
-                                                            static_cast<std::size_t>(block_));
-        ComputeOnBackend(cpu_, has_stages_, *backend_, rng, index * block_, static_cast<int>(block_), scratch,
-                         values->data());
-        promise.set_value(std::move(values));
+        auto block = std::make_shared<BlockValues>();
+        block->values.resize(static_cast<std::size_t>(point_outputs_) * static_cast<std::size_t>(block_));
+        ComputeOnBackend(cpu_, has_stages_, *backend_, rng, index * block_, static_cast<int>(block_), scratch, *block);
+        promise.set_value(std::move(block));
       } catch (...) {
         promise.set_exception(std::current_exception());
       }
