@@ -224,7 +224,6 @@ class JobKernel final : public mcm_internal::TrialKernel {
     }
   }
 
-
  public:
   // The tasks' outputs of trials 0 .. n - 1 of a sub-batch from its points' outputs (the fit is
   // part of the propagated model): the CPU's part of a trial whose points a GPU computed too.
@@ -377,13 +376,21 @@ class GpuJobKernel final : public mcm_internal::TrialKernel {
 
   // A trial's values in a block, and its stages where the job has any.
   static std::int64_t BytesPerTrial(int points, bool stages) {
-    return 3 * 8 * std::int64_t{std::max(1, points)} +
-           (stages ? static_cast<std::int64_t>(sizeof(gpu_internal::TrialStages)) : 0);
+    return 3 * 8 * std::int64_t{std::max(1, points)} + StageBytes(stages);
   }
+  // The most points whose kSubBatch trials (the least a block holds) fit in kBlockBytes.
+  static std::int64_t MostPoints(bool stages) { return (kBlockBytes / kSubBatch - StageBytes(stages)) / (3 * 8); }
 
   int num_outputs() const override { return cpu_.num_outputs(); }
   void InitScratch(Scratch& scratch) const override { cpu_.InitScratch(scratch); }
   std::vector<double> AtEstimates() const override { return cpu_.AtEstimates(); }
+
+ private:
+  static std::int64_t StageBytes(bool stages) {
+    return stages ? static_cast<std::int64_t>(sizeof(gpu_internal::TrialStages)) : 0;
+  }
+
+ public:
 
   void Run(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch, double* outputs) const override {
     if (failed_.load()) return cpu_.Run(rng, first, n, scratch, outputs);
@@ -512,21 +519,16 @@ std::optional<gpu_internal::TrialsJob> KernelJob(const McmJob& job, std::uint64_
   // correlated with another input (the air's, pose's and thermal inputs, drawn on the CPU, may).
   const int num_params = setup.model->num_params;
   const Eigen::MatrixXd& correlation = model.shared_correlation();
-  for (Eigen::Index i = 0; i < correlation.rows(); ++i) {
+  // (The matrix is symmetric: a parameter's row holds every pair it is in.)
+  for (Eigen::Index i = 0; i < std::min<Eigen::Index>(num_params, correlation.rows()); ++i) {
     for (Eigen::Index j = 0; j < correlation.cols(); ++j) {
-      if (i != j && (i < num_params || j < num_params) && correlation(i, j) != 0.0) {
-        return refuse("the GPU kernel has no correlated tracker parameters");
-      }
+      if (i != j && correlation(i, j) != 0.0) return refuse("the GPU kernel has no correlated tracker parameters");
     }
   }
   if (num_params > gpu_internal::kMaxParams) {
     return refuse("the GPU kernel takes at most " + std::to_string(gpu_internal::kMaxParams) + " tracker parameters");
   }
-  // A block holds kSubBatch trials of every point at least.
-  const bool stages = model.has_shared_stages();
-  const std::int64_t stage_bytes = GpuJobKernel::BytesPerTrial(1, stages) - GpuJobKernel::BytesPerTrial(1, false);
-  const std::size_t most_points =
-      static_cast<std::size_t>((GpuJobKernel::kBlockBytes / kSubBatch - stage_bytes) / (3 * 8));
+  const std::size_t most_points = static_cast<std::size_t>(GpuJobKernel::MostPoints(model.has_shared_stages()));
   if (job.points.size() > most_points) {
     return refuse("the GPU kernel takes at most " + std::to_string(most_points) + " points a run");
   }
