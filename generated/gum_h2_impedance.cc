@@ -108,10 +108,10 @@ const ModelInfo kModel_gum_h2_impedance = {
     nullptr,  // nominal_jacobians_batch
     nullptr,  // forward_lanes
     &Hessians,
-    7,  // ops_forward
-    18,  // ops_forward_jacobians
+    6,  // ops_forward
+    17,  // ops_forward_jacobians
     4,  // ops_nominal_jacobians
-    31,  // ops_hessians
+    30,  // ops_hessians
 };
 
 }  // namespace vlt::generated

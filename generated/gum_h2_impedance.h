@@ -14,13 +14,13 @@
 //   2  Z         [ohm]   — Magnitude of the impedance Z = V / I (GUM: 254.260 ohm, u = 0.236 ohm)
 //
 // Operations after common-subexpression elimination (+ - * / unary minus, calls):
-//   Forward           7
-//   ForwardJacobians  18
+//   Forward           6
+//   ForwardJacobians  17
 //   NominalJacobians  4
-//   Hessians          31
-//   Sensitivity_V     5
-//   Sensitivity_I_amp 11
-//   Sensitivity_phi   7
+//   Hessians          30
+//   Sensitivity_V     4
+//   Sensitivity_I_amp 10
+//   Sensitivity_phi   6
 //
 // Jacobians are column-major: J[rows * k + i] = d out_i / d input_k.
 #pragma once
@@ -43,16 +43,28 @@ enum Index : int {
 };
 }  // namespace param
 
+// sin x and cos x where a kernel uses both: std::sin and std::cos for a double (the same bits as
+// two calls) and for other scalars (ceres::Jet) by argument-dependent lookup. The SIMD lanes
+// and the GPU's lane have their own SinCos, found by argument-dependent lookup and chosen over
+// this template, which computes both from one range reduction.
+template <typename Scalar>
+void SinCos(const Scalar& x, Scalar* sine, Scalar* cosine) {
+  using std::cos;
+  using std::sin;
+  *sine = sin(x);
+  *cosine = cos(x);
+}
+
 // Outputs from readings and parameters.
 template <typename Scalar>
 void Forward([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* out) {
-  using std::cos;
-  using std::sin;
   const Scalar V = params[param::V];
   const Scalar I_amp = params[param::I_amp];
   const Scalar phi = params[param::phi];
-  out[0] = V*cos(phi)/I_amp;
-  out[1] = sin(phi)*V/I_amp;
+  Scalar _sin0, _cos0;
+  SinCos(phi, &_sin0, &_cos0);
+  out[0] = V*_cos0/I_amp;
+  out[1] = _sin0*V/I_amp;
   out[2] = V/I_amp;
 }
 
@@ -60,29 +72,27 @@ void Forward([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Sca
 template <typename Scalar>
 void ForwardJacobians([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* out,
                       [[maybe_unused]] Scalar* d_out_d_readings, [[maybe_unused]] Scalar* d_out_d_params) {
-  using std::cos;
-  using std::sin;
   const Scalar V = params[param::V];
   const Scalar I_amp = params[param::I_amp];
   const Scalar phi = params[param::phi];
-  const Scalar _tmp0 = cos(phi);
-  const Scalar _tmp1 = V*_tmp0;
-  const Scalar _tmp2 = _tmp1/I_amp;
-  const Scalar _tmp3 = sin(phi);
-  const Scalar _tmp4 = _tmp3*V;
-  const Scalar _tmp5 = _tmp4/I_amp;
-  const Scalar _tmp6 = I_amp*I_amp;
-  out[0] = _tmp2;
-  out[1] = _tmp5;
+  Scalar _sin0, _cos0;
+  SinCos(phi, &_sin0, &_cos0);
+  const Scalar _tmp0 = V*_cos0;
+  const Scalar _tmp1 = _tmp0/I_amp;
+  const Scalar _tmp2 = _sin0*V;
+  const Scalar _tmp3 = _tmp2/I_amp;
+  const Scalar _tmp4 = I_amp*I_amp;
+  out[0] = _tmp1;
+  out[1] = _tmp3;
   out[2] = V/I_amp;
-  d_out_d_params[0] = _tmp0/I_amp;
-  d_out_d_params[1] = _tmp3/I_amp;
+  d_out_d_params[0] = _cos0/I_amp;
+  d_out_d_params[1] = _sin0/I_amp;
   d_out_d_params[2] = 1.0/I_amp;
-  d_out_d_params[3] = -(_tmp1/_tmp6);
-  d_out_d_params[4] = -(_tmp4/_tmp6);
-  d_out_d_params[5] = -(V/_tmp6);
-  d_out_d_params[6] = -_tmp5;
-  d_out_d_params[7] = _tmp2;
+  d_out_d_params[3] = -(_tmp0/_tmp4);
+  d_out_d_params[4] = -(_tmp2/_tmp4);
+  d_out_d_params[5] = -(V/_tmp4);
+  d_out_d_params[6] = -_tmp3;
+  d_out_d_params[7] = _tmp1;
   d_out_d_params[8] = 0.0;
 }
 
@@ -108,32 +118,30 @@ void NominalJacobians([[maybe_unused]] const Scalar* readings, Scalar* out,
 // x = (readings, params); each output's matrix symmetric and column-major (one CSE pass).
 template <typename Scalar>
 void Hessians([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* hessians) {
-  using std::cos;
-  using std::sin;
   const Scalar V = params[param::V];
   const Scalar I_amp = params[param::I_amp];
   const Scalar phi = params[param::phi];
-  const Scalar _tmp0 = cos(phi);
-  const Scalar _tmp1 = I_amp*I_amp;
-  const Scalar _tmp2 = I_amp*I_amp*I_amp;
-  const Scalar _tmp3 = sin(phi);
-  const Scalar _tmp4 = _tmp3*V;
-  const Scalar _tmp5 = V*_tmp0;
+  Scalar _sin0, _cos0;
+  SinCos(phi, &_sin0, &_cos0);
+  const Scalar _tmp0 = I_amp*I_amp;
+  const Scalar _tmp1 = I_amp*I_amp*I_amp;
+  const Scalar _tmp2 = _sin0*V;
+  const Scalar _tmp3 = V*_cos0;
   hessians[0] = 0.0;
-  hessians[3] = -(_tmp0/_tmp1);
-  hessians[4] = 2.0*V*_tmp0/_tmp2;
-  hessians[6] = -(_tmp3/I_amp);
-  hessians[7] = _tmp4/_tmp1;
-  hessians[8] = -(_tmp5/I_amp);
+  hessians[3] = -(_cos0/_tmp0);
+  hessians[4] = 2.0*V*_cos0/_tmp1;
+  hessians[6] = -(_sin0/I_amp);
+  hessians[7] = _tmp2/_tmp0;
+  hessians[8] = -(_tmp3/I_amp);
   hessians[9] = 0.0;
-  hessians[12] = -(_tmp3/_tmp1);
-  hessians[13] = 2.0*_tmp3*V/_tmp2;
-  hessians[15] = _tmp0/I_amp;
-  hessians[16] = -(_tmp5/_tmp1);
-  hessians[17] = -(_tmp4/I_amp);
+  hessians[12] = -(_sin0/_tmp0);
+  hessians[13] = 2.0*_sin0*V/_tmp1;
+  hessians[15] = _cos0/I_amp;
+  hessians[16] = -(_tmp3/_tmp0);
+  hessians[17] = -(_tmp2/I_amp);
   hessians[18] = 0.0;
-  hessians[21] = -(1.0/_tmp1);
-  hessians[22] = 2.0*V/_tmp2;
+  hessians[21] = -(1.0/_tmp0);
+  hessians[22] = 2.0*V/_tmp1;
   hessians[24] = 0.0;
   hessians[25] = 0.0;
   hessians[26] = 0.0;
@@ -149,39 +157,39 @@ void Hessians([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Sc
 // Column 0 of d_out_d_params: d out / d V.
 template <typename Scalar>
 void Sensitivity_V([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* column) {
-  using std::cos;
-  using std::sin;
   const Scalar I_amp = params[param::I_amp];
   const Scalar phi = params[param::phi];
-  column[0] = cos(phi)/I_amp;
-  column[1] = sin(phi)/I_amp;
+  Scalar _sin0, _cos0;
+  SinCos(phi, &_sin0, &_cos0);
+  column[0] = _cos0/I_amp;
+  column[1] = _sin0/I_amp;
   column[2] = 1.0/I_amp;
 }
 
 // Column 1 of d_out_d_params: d out / d I_amp.
 template <typename Scalar>
 void Sensitivity_I_amp([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* column) {
-  using std::cos;
-  using std::sin;
   const Scalar V = params[param::V];
   const Scalar I_amp = params[param::I_amp];
   const Scalar phi = params[param::phi];
+  Scalar _sin0, _cos0;
+  SinCos(phi, &_sin0, &_cos0);
   const Scalar _tmp0 = I_amp*I_amp;
-  column[0] = -(V*cos(phi)/_tmp0);
-  column[1] = -(sin(phi)*V/_tmp0);
+  column[0] = -(V*_cos0/_tmp0);
+  column[1] = -(_sin0*V/_tmp0);
   column[2] = -(V/_tmp0);
 }
 
 // Column 2 of d_out_d_params: d out / d phi.
 template <typename Scalar>
 void Sensitivity_phi([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* column) {
-  using std::cos;
-  using std::sin;
   const Scalar V = params[param::V];
   const Scalar I_amp = params[param::I_amp];
   const Scalar phi = params[param::phi];
-  column[0] = -(sin(phi)*V/I_amp);
-  column[1] = V*cos(phi)/I_amp;
+  Scalar _sin0, _cos0;
+  SinCos(phi, &_sin0, &_cos0);
+  column[0] = -(_sin0*V/I_amp);
+  column[1] = V*_cos0/I_amp;
   column[2] = 0.0;
 }
 

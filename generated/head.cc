@@ -253,10 +253,10 @@ const ModelInfo kModel_head = {
     &NominalJacobiansBatch,
     &ForwardLanes,
     &Hessians,
-    136,  // ops_forward
-    1179,  // ops_forward_jacobians
-    115,  // ops_nominal_jacobians
-    9742,  // ops_hessians
+    127,  // ops_forward
+    1170,  // ops_forward_jacobians
+    111,  // ops_nominal_jacobians
+    9733,  // ops_hessians
 };
 
 }  // namespace vlt::generated

@@ -253,10 +253,10 @@ const ModelInfo kModel_mirror = {
     &NominalJacobiansBatch,
     &ForwardLanes,
     &Hessians,
-    126,  // ops_forward
-    1292,  // ops_forward_jacobians
-    197,  // ops_nominal_jacobians
-    13212,  // ops_hessians
+    117,  // ops_forward
+    1283,  // ops_forward_jacobians
+    195,  // ops_nominal_jacobians
+    13203,  // ops_hessians
 };
 
 }  // namespace vlt::generated

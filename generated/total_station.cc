@@ -163,10 +163,10 @@ const ModelInfo kModel_total_station = {
     &NominalJacobiansBatch,
     &ForwardLanes,
     &Hessians,
-    38,  // ops_forward
-    147,  // ops_forward_jacobians
-    22,  // ops_nominal_jacobians
-    372,  // ops_hessians
+    34,  // ops_forward
+    143,  // ops_forward_jacobians
+    20,  // ops_nominal_jacobians
+    368,  // ops_hessians
 };
 
 }  // namespace vlt::generated

@@ -18,15 +18,15 @@
 //   2  z         [m]     — True reflector-centre z coordinate in the tracker frame (up)
 //
 // Operations after common-subexpression elimination (+ - * / unary minus, calls):
-//   Forward           38
-//   ForwardJacobians  147
-//   NominalJacobians  22
-//   Hessians          372
-//   Sensitivity_lam   32
-//   Sensitivity_mu    35
-//   Sensitivity_alpha 55
-//   Sensitivity_gamma 41
-//   Sensitivity_ae0   49
+//   Forward           34
+//   ForwardJacobians  143
+//   NominalJacobians  20
+//   Hessians          368
+//   Sensitivity_lam   28
+//   Sensitivity_mu    31
+//   Sensitivity_alpha 51
+//   Sensitivity_gamma 37
+//   Sensitivity_ae0   45
 //
 // Jacobians are column-major: J[rows * k + i] = d out_i / d input_k.
 #pragma once
@@ -51,11 +51,21 @@ enum Index : int {
 };
 }  // namespace param
 
+// sin x and cos x where a kernel uses both: std::sin and std::cos for a double (the same bits as
+// two calls) and for other scalars (ceres::Jet) by argument-dependent lookup. The SIMD lanes
+// and the GPU's lane have their own SinCos, found by argument-dependent lookup and chosen over
+// this template, which computes both from one range reduction.
+template <typename Scalar>
+void SinCos(const Scalar& x, Scalar* sine, Scalar* cosine) {
+  using std::cos;
+  using std::sin;
+  *sine = sin(x);
+  *cosine = cos(x);
+}
+
 // Outputs from readings and parameters.
 template <typename Scalar>
 void Forward([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* out) {
-  using std::cos;
-  using std::sin;
   const Scalar range = readings[0];
   const Scalar azimuth = readings[1];
   const Scalar elevation = readings[2];
@@ -65,29 +75,27 @@ void Forward([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Sca
   const Scalar gamma = params[param::gamma];
   const Scalar ae0 = params[param::ae0];
   const Scalar _tmp0 = range*(1.0 + mu) + lam;
-  const Scalar _tmp1 = sin(azimuth);
-  const Scalar _tmp2 = cos(gamma);
-  const Scalar _tmp3 = ae0 + 1.5707963267948966 - elevation;
-  const Scalar _tmp4 = cos(_tmp3);
-  const Scalar _tmp5 = sin(_tmp3);
-  const Scalar _tmp6 = sin(gamma);
-  const Scalar _tmp7 = sin(alpha);
-  const Scalar _tmp8 = _tmp2*_tmp4 - _tmp5*_tmp6*_tmp7;
-  const Scalar _tmp9 = cos(alpha);
-  const Scalar _tmp10 = _tmp8*_tmp7 - (_tmp9*_tmp9)*_tmp6;
-  const Scalar _tmp11 = _tmp5*_tmp2 + _tmp6*_tmp7*_tmp4;
-  const Scalar _tmp12 = cos(azimuth);
-  out[0] = _tmp0*(_tmp1*_tmp10 + _tmp11*_tmp12);
-  out[1] = _tmp0*(_tmp11*_tmp1 - _tmp12*_tmp10);
-  out[2] = _tmp0*(_tmp9*_tmp6*_tmp7 + _tmp9*_tmp8);
+  Scalar _sin0, _cos0;
+  SinCos(azimuth, &_sin0, &_cos0);
+  Scalar _sin1, _cos1;
+  SinCos(gamma, &_sin1, &_cos1);
+  const Scalar _tmp1 = ae0 + 1.5707963267948966 - elevation;
+  Scalar _sin2, _cos2;
+  SinCos(_tmp1, &_sin2, &_cos2);
+  Scalar _sin3, _cos3;
+  SinCos(alpha, &_sin3, &_cos3);
+  const Scalar _tmp2 = _cos1*_cos2 - _sin2*_sin1*_sin3;
+  const Scalar _tmp3 = _tmp2*_sin3 - (_cos3*_cos3)*_sin1;
+  const Scalar _tmp4 = _sin2*_cos1 + _sin1*_sin3*_cos2;
+  out[0] = _tmp0*(_sin0*_tmp3 + _tmp4*_cos0);
+  out[1] = _tmp0*(_tmp4*_sin0 - _cos0*_tmp3);
+  out[2] = _tmp0*(_cos3*_sin1*_sin3 + _cos3*_tmp2);
 }
 
 // Outputs and both Jacobians (one CSE pass).
 template <typename Scalar>
 void ForwardJacobians([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* out,
                       [[maybe_unused]] Scalar* d_out_d_readings, [[maybe_unused]] Scalar* d_out_d_params) {
-  using std::cos;
-  using std::sin;
   const Scalar range = readings[0];
   const Scalar azimuth = readings[1];
   const Scalar elevation = readings[2];
@@ -98,122 +106,118 @@ void ForwardJacobians([[maybe_unused]] const Scalar* readings, [[maybe_unused]] 
   const Scalar ae0 = params[param::ae0];
   const Scalar _tmp0 = 1.0 + mu;
   const Scalar _tmp1 = range*_tmp0 + lam;
-  const Scalar _tmp2 = sin(azimuth);
-  const Scalar _tmp3 = cos(gamma);
-  const Scalar _tmp4 = ae0 + 1.5707963267948966 - elevation;
-  const Scalar _tmp5 = cos(_tmp4);
-  const Scalar _tmp6 = _tmp3*_tmp5;
-  const Scalar _tmp7 = sin(_tmp4);
-  const Scalar _tmp8 = sin(gamma);
-  const Scalar _tmp9 = sin(alpha);
-  const Scalar _tmp10 = -(_tmp7*_tmp8*_tmp9);
-  const Scalar _tmp11 = _tmp6 + _tmp10;
-  const Scalar _tmp12 = cos(alpha);
-  const Scalar _tmp13 = _tmp12*_tmp12;
-  const Scalar _tmp14 = _tmp11*_tmp9 - _tmp13*_tmp8;
-  const Scalar _tmp15 = _tmp7*_tmp3 + _tmp8*_tmp9*_tmp5;
-  const Scalar _tmp16 = cos(azimuth);
-  const Scalar _tmp17 = _tmp2*_tmp14 + _tmp15*_tmp16;
-  const Scalar _tmp18 = _tmp1*_tmp17;
-  const Scalar _tmp19 = _tmp15*_tmp2 - _tmp16*_tmp14;
-  const Scalar _tmp20 = _tmp1*_tmp19;
-  const Scalar _tmp21 = _tmp12*_tmp8*_tmp9;
-  const Scalar _tmp22 = _tmp21 + _tmp12*_tmp11;
-  const Scalar _tmp23 = _tmp9*_tmp9;
-  const Scalar _tmp24 = ((_tmp16*_tmp3 - _tmp2*_tmp8*_tmp23)*_tmp5 - _tmp7*(_tmp8*_tmp9*_tmp16 + _tmp2*_tmp9*_tmp3))*_tmp1;
-  const Scalar _tmp25 = _tmp1*(_tmp7*(_tmp2*_tmp8*_tmp9 - _tmp9*_tmp16*_tmp3) - (_tmp8*_tmp16*_tmp23 + _tmp2*_tmp3)*_tmp5);
-  const Scalar _tmp26 = (_tmp7*(_tmp12*_tmp3) + _tmp21*_tmp5)*_tmp1;
-  const Scalar _tmp27 = 2.0*_tmp7*_tmp8*_tmp9 - _tmp6;
-  const Scalar _tmp28 = _tmp8*_tmp5 + _tmp7*_tmp9*_tmp3;
-  const Scalar _tmp29 = _tmp13*_tmp3 + _tmp9*_tmp28;
-  const Scalar _tmp30 = _tmp7*_tmp8 - _tmp9*_tmp3*_tmp5;
-  out[0] = _tmp18;
-  out[1] = _tmp20;
-  out[2] = _tmp1*_tmp22;
-  d_out_d_readings[0] = _tmp0*_tmp17;
-  d_out_d_readings[1] = _tmp0*_tmp19;
-  d_out_d_readings[2] = _tmp0*_tmp22;
-  d_out_d_readings[3] = -_tmp20;
-  d_out_d_readings[4] = _tmp18;
+  Scalar _sin0, _cos0;
+  SinCos(azimuth, &_sin0, &_cos0);
+  Scalar _sin1, _cos1;
+  SinCos(gamma, &_sin1, &_cos1);
+  const Scalar _tmp2 = ae0 + 1.5707963267948966 - elevation;
+  Scalar _sin2, _cos2;
+  SinCos(_tmp2, &_sin2, &_cos2);
+  const Scalar _tmp3 = _cos1*_cos2;
+  Scalar _sin3, _cos3;
+  SinCos(alpha, &_sin3, &_cos3);
+  const Scalar _tmp4 = -(_sin2*_sin1*_sin3);
+  const Scalar _tmp5 = _tmp3 + _tmp4;
+  const Scalar _tmp6 = _cos3*_cos3;
+  const Scalar _tmp7 = _tmp5*_sin3 - _tmp6*_sin1;
+  const Scalar _tmp8 = _sin2*_cos1 + _sin1*_sin3*_cos2;
+  const Scalar _tmp9 = _sin0*_tmp7 + _tmp8*_cos0;
+  const Scalar _tmp10 = _tmp1*_tmp9;
+  const Scalar _tmp11 = _tmp8*_sin0 - _cos0*_tmp7;
+  const Scalar _tmp12 = _tmp1*_tmp11;
+  const Scalar _tmp13 = _cos3*_sin1*_sin3;
+  const Scalar _tmp14 = _tmp13 + _cos3*_tmp5;
+  const Scalar _tmp15 = _sin3*_sin3;
+  const Scalar _tmp16 = ((_cos0*_cos1 - _sin0*_sin1*_tmp15)*_cos2 - _sin2*(_sin1*_sin3*_cos0 + _sin0*_sin3*_cos1))*_tmp1;
+  const Scalar _tmp17 = _tmp1*(_sin2*(_sin0*_sin1*_sin3 - _sin3*_cos0*_cos1) - (_sin1*_cos0*_tmp15 + _sin0*_cos1)*_cos2);
+  const Scalar _tmp18 = (_sin2*(_cos3*_cos1) + _tmp13*_cos2)*_tmp1;
+  const Scalar _tmp19 = 2.0*_sin2*_sin1*_sin3 - _tmp3;
+  const Scalar _tmp20 = _sin1*_cos2 + _sin2*_sin3*_cos1;
+  const Scalar _tmp21 = _tmp6*_cos1 + _sin3*_tmp20;
+  const Scalar _tmp22 = _sin2*_sin1 - _sin3*_cos1*_cos2;
+  out[0] = _tmp10;
+  out[1] = _tmp12;
+  out[2] = _tmp1*_tmp14;
+  d_out_d_readings[0] = _tmp0*_tmp9;
+  d_out_d_readings[1] = _tmp0*_tmp11;
+  d_out_d_readings[2] = _tmp0*_tmp14;
+  d_out_d_readings[3] = -_tmp12;
+  d_out_d_readings[4] = _tmp10;
   d_out_d_readings[5] = 0.0;
-  d_out_d_readings[6] = -_tmp24;
-  d_out_d_readings[7] = _tmp25;
-  d_out_d_readings[8] = _tmp26;
-  d_out_d_params[0] = _tmp17;
-  d_out_d_params[1] = _tmp19;
-  d_out_d_params[2] = _tmp22;
-  d_out_d_params[3] = range*_tmp17;
-  d_out_d_params[4] = range*_tmp19;
-  d_out_d_params[5] = range*_tmp22;
-  d_out_d_params[6] = -(_tmp1*(_tmp12*(_tmp2*_tmp27 - _tmp8*_tmp16*_tmp5) - _tmp9*(2.0*_tmp12*_tmp2*_tmp8)));
-  d_out_d_params[7] = (_tmp12*(_tmp2*_tmp8*_tmp5 + _tmp16*_tmp27) - _tmp9*(2.0*_tmp12*_tmp8*_tmp16))*_tmp1;
-  d_out_d_params[8] = -(_tmp1*(_tmp9*(_tmp6 + _tmp8*_tmp9 + _tmp10) - _tmp12*(_tmp12*_tmp8 - _tmp12*_tmp7*_tmp8)));
-  d_out_d_params[9] = -(_tmp1*(_tmp2*_tmp29 + _tmp30*_tmp16));
-  d_out_d_params[10] = -(_tmp1*(_tmp2*_tmp30 - _tmp16*_tmp29));
-  d_out_d_params[11] = -(_tmp1*(_tmp12*_tmp28 - _tmp12*_tmp9*_tmp3));
-  d_out_d_params[12] = _tmp24;
-  d_out_d_params[13] = -_tmp25;
-  d_out_d_params[14] = -_tmp26;
+  d_out_d_readings[6] = -_tmp16;
+  d_out_d_readings[7] = _tmp17;
+  d_out_d_readings[8] = _tmp18;
+  d_out_d_params[0] = _tmp9;
+  d_out_d_params[1] = _tmp11;
+  d_out_d_params[2] = _tmp14;
+  d_out_d_params[3] = range*_tmp9;
+  d_out_d_params[4] = range*_tmp11;
+  d_out_d_params[5] = range*_tmp14;
+  d_out_d_params[6] = -(_tmp1*(_cos3*(_sin0*_tmp19 - _sin1*_cos0*_cos2) - _sin3*(2.0*_cos3*_sin0*_sin1)));
+  d_out_d_params[7] = (_cos3*(_sin0*_sin1*_cos2 + _cos0*_tmp19) - _sin3*(2.0*_cos3*_sin1*_cos0))*_tmp1;
+  d_out_d_params[8] = -(_tmp1*(_sin3*(_tmp3 + _sin1*_sin3 + _tmp4) - _cos3*(_cos3*_sin1 - _cos3*_sin2*_sin1)));
+  d_out_d_params[9] = -(_tmp1*(_sin0*_tmp21 + _tmp22*_cos0));
+  d_out_d_params[10] = -(_tmp1*(_sin0*_tmp22 - _cos0*_tmp21));
+  d_out_d_params[11] = -(_tmp1*(_cos3*_tmp20 - _cos3*_sin3*_cos1));
+  d_out_d_params[12] = _tmp16;
+  d_out_d_params[13] = -_tmp17;
+  d_out_d_params[14] = -_tmp18;
 }
 
 // Outputs and both Jacobians with every parameter at 0 (substituted symbolically).
 template <typename Scalar>
 void NominalJacobians([[maybe_unused]] const Scalar* readings, Scalar* out,
                       [[maybe_unused]] Scalar* d_out_d_readings, [[maybe_unused]] Scalar* d_out_d_params) {
-  using std::cos;
-  using std::sin;
   const Scalar range = readings[0];
   const Scalar azimuth = readings[1];
   const Scalar elevation = readings[2];
-  const Scalar _tmp0 = cos(azimuth);
-  const Scalar _tmp1 = 1.5707963267948966 - elevation;
-  const Scalar _tmp2 = sin(_tmp1);
-  const Scalar _tmp3 = _tmp0*_tmp2;
+  Scalar _sin0, _cos0;
+  SinCos(azimuth, &_sin0, &_cos0);
+  const Scalar _tmp0 = 1.5707963267948966 - elevation;
+  Scalar _sin1, _cos1;
+  SinCos(_tmp0, &_sin1, &_cos1);
+  const Scalar _tmp1 = _cos0*_sin1;
+  const Scalar _tmp2 = range*_tmp1;
+  const Scalar _tmp3 = _sin0*_sin1;
   const Scalar _tmp4 = range*_tmp3;
-  const Scalar _tmp5 = sin(azimuth);
-  const Scalar _tmp6 = _tmp5*_tmp2;
-  const Scalar _tmp7 = range*_tmp6;
-  const Scalar _tmp8 = cos(_tmp1);
-  const Scalar _tmp9 = range*_tmp8;
-  const Scalar _tmp10 = range*(_tmp0*_tmp8);
-  const Scalar _tmp11 = -_tmp10;
-  const Scalar _tmp12 = range*(_tmp5*_tmp8);
-  const Scalar _tmp13 = range*_tmp2;
-  out[0] = _tmp4;
-  out[1] = _tmp7;
-  out[2] = _tmp9;
-  d_out_d_readings[0] = _tmp3;
-  d_out_d_readings[1] = _tmp6;
-  d_out_d_readings[2] = _tmp8;
-  d_out_d_readings[3] = -_tmp7;
-  d_out_d_readings[4] = _tmp4;
+  const Scalar _tmp5 = range*_cos1;
+  const Scalar _tmp6 = range*(_cos0*_cos1);
+  const Scalar _tmp7 = -_tmp6;
+  const Scalar _tmp8 = range*(_sin0*_cos1);
+  const Scalar _tmp9 = range*_sin1;
+  out[0] = _tmp2;
+  out[1] = _tmp4;
+  out[2] = _tmp5;
+  d_out_d_readings[0] = _tmp1;
+  d_out_d_readings[1] = _tmp3;
+  d_out_d_readings[2] = _cos1;
+  d_out_d_readings[3] = -_tmp4;
+  d_out_d_readings[4] = _tmp2;
   d_out_d_readings[5] = 0.0;
-  d_out_d_readings[6] = _tmp11;
-  d_out_d_readings[7] = -_tmp12;
-  d_out_d_readings[8] = _tmp13;
-  d_out_d_params[0] = _tmp3;
-  d_out_d_params[1] = _tmp6;
-  d_out_d_params[2] = _tmp8;
-  d_out_d_params[3] = _tmp4;
-  d_out_d_params[4] = _tmp7;
-  d_out_d_params[5] = _tmp9;
-  d_out_d_params[6] = _tmp12;
-  d_out_d_params[7] = _tmp11;
+  d_out_d_readings[6] = _tmp7;
+  d_out_d_readings[7] = -_tmp8;
+  d_out_d_readings[8] = _tmp9;
+  d_out_d_params[0] = _tmp1;
+  d_out_d_params[1] = _tmp3;
+  d_out_d_params[2] = _cos1;
+  d_out_d_params[3] = _tmp2;
+  d_out_d_params[4] = _tmp4;
+  d_out_d_params[5] = _tmp5;
+  d_out_d_params[6] = _tmp8;
+  d_out_d_params[7] = _tmp7;
   d_out_d_params[8] = 0.0;
-  d_out_d_params[9] = -(_tmp5*range);
-  d_out_d_params[10] = range*_tmp0;
+  d_out_d_params[9] = -(_sin0*range);
+  d_out_d_params[10] = range*_cos0;
   d_out_d_params[11] = 0.0;
-  d_out_d_params[12] = _tmp10;
-  d_out_d_params[13] = _tmp12;
-  d_out_d_params[14] = -_tmp13;
+  d_out_d_params[12] = _tmp6;
+  d_out_d_params[13] = _tmp8;
+  d_out_d_params[14] = -_tmp9;
 }
 
 // Second derivatives: hessians[kNumInputs^2 * o + kNumInputs * l + k] = d2 out_o / dx_k dx_l,
 // x = (readings, params); each output's matrix symmetric and column-major (one CSE pass).
 template <typename Scalar>
 void Hessians([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* hessians) {
-  using std::cos;
-  using std::sin;
   const Scalar range = readings[0];
   const Scalar azimuth = readings[1];
   const Scalar elevation = readings[2];
@@ -224,203 +228,203 @@ void Hessians([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Sc
   const Scalar ae0 = params[param::ae0];
   const Scalar _tmp0 = 1.0 + mu;
   const Scalar _tmp1 = ae0 + 1.5707963267948966 - elevation;
-  const Scalar _tmp2 = sin(_tmp1);
-  const Scalar _tmp3 = cos(gamma);
-  const Scalar _tmp4 = _tmp2*_tmp3;
-  const Scalar _tmp5 = sin(gamma);
-  const Scalar _tmp6 = sin(alpha);
-  const Scalar _tmp7 = cos(_tmp1);
-  const Scalar _tmp8 = _tmp4 + _tmp5*_tmp6*_tmp7;
-  const Scalar _tmp9 = sin(azimuth);
-  const Scalar _tmp10 = cos(azimuth);
-  const Scalar _tmp11 = _tmp3*_tmp7;
-  const Scalar _tmp12 = -(_tmp2*_tmp5*_tmp6);
-  const Scalar _tmp13 = _tmp11 + _tmp12;
-  const Scalar _tmp14 = cos(alpha);
-  const Scalar _tmp15 = _tmp14*_tmp14;
-  const Scalar _tmp16 = _tmp13*_tmp6 - _tmp15*_tmp5;
-  const Scalar _tmp17 = _tmp8*_tmp9 - _tmp10*_tmp16;
-  const Scalar _tmp18 = range*_tmp0 + lam;
-  const Scalar _tmp19 = _tmp9*_tmp16 + _tmp8*_tmp10;
-  const Scalar _tmp20 = -(_tmp18*_tmp19);
-  const Scalar _tmp21 = _tmp10*_tmp3;
-  const Scalar _tmp22 = _tmp6*_tmp6;
-  const Scalar _tmp23 = _tmp21 - _tmp9*_tmp5*_tmp22;
-  const Scalar _tmp24 = _tmp5*_tmp6*_tmp10 + _tmp9*_tmp6*_tmp3;
-  const Scalar _tmp25 = _tmp2*_tmp24;
-  const Scalar _tmp26 = _tmp23*_tmp7 - _tmp25;
-  const Scalar _tmp27 = _tmp26*_tmp0;
-  const Scalar _tmp28 = _tmp5*_tmp6;
-  const Scalar _tmp29 = -_tmp11;
-  const Scalar _tmp30 = _tmp2*_tmp28 + _tmp29;
-  const Scalar _tmp31 = _tmp6*_tmp3;
-  const Scalar _tmp32 = _tmp31*_tmp2;
-  const Scalar _tmp33 = (_tmp5*_tmp22)*_tmp7 + _tmp32;
-  const Scalar _tmp34 = (_tmp9*_tmp30 - _tmp33*_tmp10)*_tmp18;
-  const Scalar _tmp35 = (_tmp23*_tmp2 + _tmp24*_tmp7)*_tmp18;
-  const Scalar _tmp36 = -_tmp35;
-  const Scalar _tmp37 = range*_tmp26;
-  const Scalar _tmp38 = 2.0*_tmp2*_tmp5*_tmp6 + _tmp29;
-  const Scalar _tmp39 = _tmp9*_tmp38 - _tmp5*_tmp10*_tmp7;
-  const Scalar _tmp40 = 2.0*_tmp14*_tmp9*_tmp5;
-  const Scalar _tmp41 = _tmp14*_tmp39 - _tmp6*_tmp40;
-  const Scalar _tmp42 = _tmp5*_tmp7;
-  const Scalar _tmp43 = _tmp14*_tmp42;
-  const Scalar _tmp44 = _tmp6*(2.0*_tmp14*_tmp5) - _tmp14*_tmp38;
-  const Scalar _tmp45 = 2.0*_tmp9*_tmp5*_tmp6;
-  const Scalar _tmp46 = _tmp5*_tmp10;
-  const Scalar _tmp47 = _tmp9*_tmp3;
-  const Scalar _tmp48 = _tmp46 + _tmp47;
-  const Scalar _tmp49 = _tmp2*_tmp6*_tmp3;
-  const Scalar _tmp50 = _tmp42 + _tmp49;
-  const Scalar _tmp51 = _tmp15*_tmp3 + _tmp6*_tmp50;
-  const Scalar _tmp52 = _tmp2*_tmp5;
-  const Scalar _tmp53 = _tmp52 - _tmp6*_tmp3*_tmp7;
-  const Scalar _tmp54 = _tmp9*_tmp51 + _tmp53*_tmp10;
-  const Scalar _tmp55 = _tmp9*_tmp53 - _tmp10*_tmp51;
-  const Scalar _tmp56 = _tmp9*_tmp5*_tmp6 - _tmp6*_tmp10*_tmp3;
-  const Scalar _tmp57 = _tmp2*_tmp56;
-  const Scalar _tmp58 = ((_tmp46 + _tmp9*_tmp3*_tmp22)*_tmp7 - _tmp57)*_tmp18;
-  const Scalar _tmp59 = _tmp42 + 2.0*_tmp2*_tmp6*_tmp3;
-  const Scalar _tmp60 = -(_tmp18*_tmp17);
-  const Scalar _tmp61 = _tmp5*_tmp10*_tmp22 + _tmp47;
-  const Scalar _tmp62 = _tmp57 - _tmp61*_tmp7;
-  const Scalar _tmp63 = _tmp0*_tmp62;
-  const Scalar _tmp64 = _tmp18*(_tmp9*_tmp33 + _tmp30*_tmp10);
-  const Scalar _tmp65 = (_tmp56*_tmp7 + _tmp2*_tmp61)*_tmp18;
-  const Scalar _tmp66 = -_tmp65;
-  const Scalar _tmp67 = range*_tmp62;
-  const Scalar _tmp68 = _tmp9*_tmp5*_tmp7 + _tmp10*_tmp38;
-  const Scalar _tmp69 = 2.0*_tmp14*_tmp5*_tmp10;
-  const Scalar _tmp70 = _tmp14*_tmp68 - _tmp6*_tmp69;
-  const Scalar _tmp71 = 2.0*_tmp5*_tmp6*_tmp10;
-  const Scalar _tmp72 = -(_tmp9*_tmp5);
-  const Scalar _tmp73 = _tmp21 + _tmp72;
-  const Scalar _tmp74 = (_tmp25 - (_tmp10*_tmp3*_tmp22 + _tmp72)*_tmp7)*_tmp18;
-  const Scalar _tmp75 = _tmp14*_tmp3;
-  const Scalar _tmp76 = _tmp14*_tmp5*_tmp6;
-  const Scalar _tmp77 = _tmp2*_tmp75 + _tmp76*_tmp7;
-  const Scalar _tmp78 = _tmp77*_tmp0;
-  const Scalar _tmp79 = _tmp18*(_tmp75*_tmp7 - _tmp2*_tmp76);
-  const Scalar _tmp80 = -_tmp79;
-  const Scalar _tmp81 = _tmp76 + _tmp14*_tmp13;
-  const Scalar _tmp82 = range*_tmp77;
-  const Scalar _tmp83 = _tmp11 + _tmp28 + _tmp12;
-  const Scalar _tmp84 = _tmp14*_tmp5;
-  const Scalar _tmp85 = _tmp84 - _tmp14*_tmp2*_tmp5;
-  const Scalar _tmp86 = _tmp6*_tmp83 - _tmp14*_tmp85;
-  const Scalar _tmp87 = _tmp5 - _tmp52;
-  const Scalar _tmp88 = _tmp14*_tmp6*_tmp3;
-  const Scalar _tmp89 = _tmp14*_tmp50 - _tmp88;
-  const Scalar _tmp90 = _tmp18*(_tmp2*_tmp84 - _tmp88*_tmp7);
+  Scalar _sin0, _cos0;
+  SinCos(_tmp1, &_sin0, &_cos0);
+  Scalar _sin1, _cos1;
+  SinCos(gamma, &_sin1, &_cos1);
+  const Scalar _tmp2 = _sin0*_cos1;
+  Scalar _sin2, _cos2;
+  SinCos(alpha, &_sin2, &_cos2);
+  const Scalar _tmp3 = _tmp2 + _sin1*_sin2*_cos0;
+  Scalar _sin3, _cos3;
+  SinCos(azimuth, &_sin3, &_cos3);
+  const Scalar _tmp4 = _cos1*_cos0;
+  const Scalar _tmp5 = -(_sin0*_sin1*_sin2);
+  const Scalar _tmp6 = _tmp4 + _tmp5;
+  const Scalar _tmp7 = _cos2*_cos2;
+  const Scalar _tmp8 = _tmp6*_sin2 - _tmp7*_sin1;
+  const Scalar _tmp9 = _tmp3*_sin3 - _cos3*_tmp8;
+  const Scalar _tmp10 = range*_tmp0 + lam;
+  const Scalar _tmp11 = _sin3*_tmp8 + _tmp3*_cos3;
+  const Scalar _tmp12 = -(_tmp10*_tmp11);
+  const Scalar _tmp13 = _cos3*_cos1;
+  const Scalar _tmp14 = _sin2*_sin2;
+  const Scalar _tmp15 = _tmp13 - _sin3*_sin1*_tmp14;
+  const Scalar _tmp16 = _sin1*_sin2*_cos3 + _sin3*_sin2*_cos1;
+  const Scalar _tmp17 = _sin0*_tmp16;
+  const Scalar _tmp18 = _tmp15*_cos0 - _tmp17;
+  const Scalar _tmp19 = _tmp18*_tmp0;
+  const Scalar _tmp20 = _sin1*_sin2;
+  const Scalar _tmp21 = -_tmp4;
+  const Scalar _tmp22 = _sin0*_tmp20 + _tmp21;
+  const Scalar _tmp23 = _sin2*_cos1;
+  const Scalar _tmp24 = _tmp23*_sin0;
+  const Scalar _tmp25 = (_sin1*_tmp14)*_cos0 + _tmp24;
+  const Scalar _tmp26 = (_sin3*_tmp22 - _tmp25*_cos3)*_tmp10;
+  const Scalar _tmp27 = (_tmp15*_sin0 + _tmp16*_cos0)*_tmp10;
+  const Scalar _tmp28 = -_tmp27;
+  const Scalar _tmp29 = range*_tmp18;
+  const Scalar _tmp30 = 2.0*_sin0*_sin1*_sin2 + _tmp21;
+  const Scalar _tmp31 = _sin3*_tmp30 - _sin1*_cos3*_cos0;
+  const Scalar _tmp32 = 2.0*_cos2*_sin3*_sin1;
+  const Scalar _tmp33 = _cos2*_tmp31 - _sin2*_tmp32;
+  const Scalar _tmp34 = _sin1*_cos0;
+  const Scalar _tmp35 = _cos2*_tmp34;
+  const Scalar _tmp36 = _sin2*(2.0*_cos2*_sin1) - _cos2*_tmp30;
+  const Scalar _tmp37 = 2.0*_sin3*_sin1*_sin2;
+  const Scalar _tmp38 = _sin1*_cos3;
+  const Scalar _tmp39 = _sin3*_cos1;
+  const Scalar _tmp40 = _tmp38 + _tmp39;
+  const Scalar _tmp41 = _sin0*_sin2*_cos1;
+  const Scalar _tmp42 = _tmp34 + _tmp41;
+  const Scalar _tmp43 = _tmp7*_cos1 + _sin2*_tmp42;
+  const Scalar _tmp44 = _sin0*_sin1;
+  const Scalar _tmp45 = _tmp44 - _sin2*_cos1*_cos0;
+  const Scalar _tmp46 = _sin3*_tmp43 + _tmp45*_cos3;
+  const Scalar _tmp47 = _sin3*_tmp45 - _cos3*_tmp43;
+  const Scalar _tmp48 = _sin3*_sin1*_sin2 - _sin2*_cos3*_cos1;
+  const Scalar _tmp49 = _sin0*_tmp48;
+  const Scalar _tmp50 = ((_tmp38 + _sin3*_cos1*_tmp14)*_cos0 - _tmp49)*_tmp10;
+  const Scalar _tmp51 = _tmp34 + 2.0*_sin0*_sin2*_cos1;
+  const Scalar _tmp52 = -(_tmp10*_tmp9);
+  const Scalar _tmp53 = _sin1*_cos3*_tmp14 + _tmp39;
+  const Scalar _tmp54 = _tmp49 - _tmp53*_cos0;
+  const Scalar _tmp55 = _tmp0*_tmp54;
+  const Scalar _tmp56 = _tmp10*(_sin3*_tmp25 + _tmp22*_cos3);
+  const Scalar _tmp57 = (_tmp48*_cos0 + _sin0*_tmp53)*_tmp10;
+  const Scalar _tmp58 = -_tmp57;
+  const Scalar _tmp59 = range*_tmp54;
+  const Scalar _tmp60 = _sin3*_sin1*_cos0 + _cos3*_tmp30;
+  const Scalar _tmp61 = 2.0*_cos2*_sin1*_cos3;
+  const Scalar _tmp62 = _cos2*_tmp60 - _sin2*_tmp61;
+  const Scalar _tmp63 = 2.0*_sin1*_sin2*_cos3;
+  const Scalar _tmp64 = -(_sin3*_sin1);
+  const Scalar _tmp65 = _tmp13 + _tmp64;
+  const Scalar _tmp66 = (_tmp17 - (_cos3*_cos1*_tmp14 + _tmp64)*_cos0)*_tmp10;
+  const Scalar _tmp67 = _cos2*_cos1;
+  const Scalar _tmp68 = _cos2*_sin1*_sin2;
+  const Scalar _tmp69 = _sin0*_tmp67 + _tmp68*_cos0;
+  const Scalar _tmp70 = _tmp69*_tmp0;
+  const Scalar _tmp71 = _tmp10*(_tmp67*_cos0 - _sin0*_tmp68);
+  const Scalar _tmp72 = -_tmp71;
+  const Scalar _tmp73 = _tmp68 + _cos2*_tmp6;
+  const Scalar _tmp74 = range*_tmp69;
+  const Scalar _tmp75 = _tmp4 + _tmp20 + _tmp5;
+  const Scalar _tmp76 = _cos2*_sin1;
+  const Scalar _tmp77 = _tmp76 - _cos2*_sin0*_sin1;
+  const Scalar _tmp78 = _sin2*_tmp75 - _cos2*_tmp77;
+  const Scalar _tmp79 = _sin1 - _tmp44;
+  const Scalar _tmp80 = _cos2*_sin2*_cos1;
+  const Scalar _tmp81 = _cos2*_tmp42 - _tmp80;
+  const Scalar _tmp82 = _tmp10*(_sin0*_tmp76 - _tmp80*_cos0);
   hessians[0] = 0.0;
-  hessians[8] = -(_tmp0*_tmp17);
-  hessians[9] = _tmp20;
-  hessians[16] = -_tmp27;
-  hessians[17] = -_tmp34;
-  hessians[18] = _tmp36;
+  hessians[8] = -(_tmp0*_tmp9);
+  hessians[9] = _tmp12;
+  hessians[16] = -_tmp19;
+  hessians[17] = -_tmp26;
+  hessians[18] = _tmp28;
   hessians[24] = 0.0;
-  hessians[25] = -_tmp17;
-  hessians[26] = -_tmp26;
+  hessians[25] = -_tmp9;
+  hessians[26] = -_tmp18;
   hessians[27] = 0.0;
-  hessians[32] = _tmp19;
-  hessians[33] = -(range*_tmp17);
-  hessians[34] = -_tmp37;
+  hessians[32] = _tmp11;
+  hessians[33] = -(range*_tmp9);
+  hessians[34] = -_tmp29;
   hessians[35] = 0.0;
   hessians[36] = 0.0;
-  hessians[40] = -(_tmp41*_tmp0);
-  hessians[41] = -((_tmp9*_tmp43 - _tmp10*_tmp44)*_tmp18);
-  hessians[42] = _tmp18*((_tmp14*_tmp45)*_tmp7 + _tmp2*(_tmp14*_tmp48));
-  hessians[43] = -_tmp41;
-  hessians[44] = -(range*_tmp41);
-  hessians[45] = _tmp18*(_tmp6*_tmp39 + _tmp14*_tmp40 - _tmp14*(_tmp14*(2.0*_tmp9*_tmp2*_tmp5)) - _tmp6*(_tmp6*(2.0*_tmp9*_tmp5)));
-  hessians[48] = -(_tmp54*_tmp0);
-  hessians[49] = _tmp18*_tmp55;
-  hessians[50] = _tmp58;
-  hessians[51] = -_tmp54;
-  hessians[52] = -(range*_tmp54);
-  hessians[53] = _tmp18*(_tmp14*(_tmp10*_tmp3*_tmp7 - _tmp9*_tmp59) + _tmp6*(2.0*_tmp14*_tmp9*_tmp3));
-  hessians[54] = _tmp20;
-  hessians[56] = _tmp27;
-  hessians[57] = _tmp34;
-  hessians[58] = _tmp35;
-  hessians[59] = _tmp26;
-  hessians[60] = _tmp37;
-  hessians[61] = -(_tmp18*(_tmp14*(_tmp2*_tmp48 + _tmp45*_tmp7)));
-  hessians[62] = -_tmp58;
-  hessians[63] = _tmp36;
+  hessians[40] = -(_tmp33*_tmp0);
+  hessians[41] = -((_sin3*_tmp35 - _cos3*_tmp36)*_tmp10);
+  hessians[42] = _tmp10*((_cos2*_tmp37)*_cos0 + _sin0*(_cos2*_tmp40));
+  hessians[43] = -_tmp33;
+  hessians[44] = -(range*_tmp33);
+  hessians[45] = _tmp10*(_sin2*_tmp31 + _cos2*_tmp32 - _cos2*(_cos2*(2.0*_sin3*_sin0*_sin1)) - _sin2*(_sin2*(2.0*_sin3*_sin1)));
+  hessians[48] = -(_tmp46*_tmp0);
+  hessians[49] = _tmp10*_tmp47;
+  hessians[50] = _tmp50;
+  hessians[51] = -_tmp46;
+  hessians[52] = -(range*_tmp46);
+  hessians[53] = _tmp10*(_cos2*(_cos3*_cos1*_cos0 - _sin3*_tmp51) + _sin2*(2.0*_cos2*_sin3*_cos1));
+  hessians[54] = _tmp12;
+  hessians[56] = _tmp19;
+  hessians[57] = _tmp26;
+  hessians[58] = _tmp27;
+  hessians[59] = _tmp18;
+  hessians[60] = _tmp29;
+  hessians[61] = -(_tmp10*(_cos2*(_sin0*_tmp40 + _tmp37*_cos0)));
+  hessians[62] = -_tmp50;
+  hessians[63] = _tmp28;
   hessians[64] = 0.0;
-  hessians[72] = _tmp0*_tmp19;
-  hessians[73] = _tmp60;
-  hessians[80] = _tmp63;
-  hessians[81] = _tmp64;
-  hessians[82] = _tmp66;
+  hessians[72] = _tmp0*_tmp11;
+  hessians[73] = _tmp52;
+  hessians[80] = _tmp55;
+  hessians[81] = _tmp56;
+  hessians[82] = _tmp58;
   hessians[88] = 0.0;
-  hessians[89] = _tmp19;
-  hessians[90] = _tmp62;
+  hessians[89] = _tmp11;
+  hessians[90] = _tmp54;
   hessians[91] = 0.0;
-  hessians[96] = _tmp17;
-  hessians[97] = range*_tmp19;
-  hessians[98] = _tmp67;
+  hessians[96] = _tmp9;
+  hessians[97] = range*_tmp11;
+  hessians[98] = _tmp59;
   hessians[99] = 0.0;
   hessians[100] = 0.0;
-  hessians[104] = _tmp70*_tmp0;
-  hessians[105] = _tmp18*(_tmp10*_tmp43 + _tmp9*_tmp44);
-  hessians[106] = -(_tmp18*((_tmp14*_tmp71)*_tmp7 + _tmp2*(_tmp14*_tmp73)));
-  hessians[107] = _tmp70;
-  hessians[108] = range*_tmp70;
-  hessians[109] = -(_tmp18*(_tmp14*_tmp69 + _tmp6*_tmp68 - _tmp14*(_tmp14*(2.0*_tmp2*_tmp5*_tmp10)) - _tmp6*((2.0*_tmp5*_tmp10)*_tmp6)));
-  hessians[112] = -(_tmp0*_tmp55);
-  hessians[113] = -(_tmp18*_tmp54);
-  hessians[114] = _tmp74;
-  hessians[115] = -_tmp55;
-  hessians[116] = -(range*_tmp55);
-  hessians[117] = _tmp18*(_tmp14*(_tmp9*_tmp3*_tmp7 + _tmp59*_tmp10) - (2.0*_tmp14*_tmp10*_tmp3)*_tmp6);
-  hessians[118] = _tmp60;
-  hessians[120] = -_tmp63;
-  hessians[121] = -_tmp64;
-  hessians[122] = _tmp65;
-  hessians[123] = -_tmp62;
-  hessians[124] = -_tmp67;
-  hessians[125] = _tmp18*(_tmp14*(_tmp2*_tmp73 + _tmp71*_tmp7));
-  hessians[126] = -_tmp74;
-  hessians[127] = _tmp66;
+  hessians[104] = _tmp62*_tmp0;
+  hessians[105] = _tmp10*(_cos3*_tmp35 + _sin3*_tmp36);
+  hessians[106] = -(_tmp10*((_cos2*_tmp63)*_cos0 + _sin0*(_cos2*_tmp65)));
+  hessians[107] = _tmp62;
+  hessians[108] = range*_tmp62;
+  hessians[109] = -(_tmp10*(_cos2*_tmp61 + _sin2*_tmp60 - _cos2*(_cos2*(2.0*_sin0*_sin1*_cos3)) - _sin2*((2.0*_sin1*_cos3)*_sin2)));
+  hessians[112] = -(_tmp0*_tmp47);
+  hessians[113] = -(_tmp10*_tmp46);
+  hessians[114] = _tmp66;
+  hessians[115] = -_tmp47;
+  hessians[116] = -(range*_tmp47);
+  hessians[117] = _tmp10*(_cos2*(_sin3*_cos1*_cos0 + _tmp51*_cos3) - (2.0*_cos2*_cos3*_cos1)*_sin2);
+  hessians[118] = _tmp52;
+  hessians[120] = -_tmp55;
+  hessians[121] = -_tmp56;
+  hessians[122] = _tmp57;
+  hessians[123] = -_tmp54;
+  hessians[124] = -_tmp59;
+  hessians[125] = _tmp10*(_cos2*(_sin0*_tmp65 + _tmp63*_cos0));
+  hessians[126] = -_tmp66;
+  hessians[127] = _tmp58;
   hessians[128] = 0.0;
   hessians[136] = 0.0;
   hessians[137] = 0.0;
-  hessians[144] = _tmp78;
+  hessians[144] = _tmp70;
   hessians[145] = 0.0;
-  hessians[146] = _tmp80;
+  hessians[146] = _tmp72;
   hessians[152] = 0.0;
   hessians[153] = 0.0;
-  hessians[154] = _tmp77;
+  hessians[154] = _tmp69;
   hessians[155] = 0.0;
-  hessians[160] = _tmp81;
+  hessians[160] = _tmp73;
   hessians[161] = 0.0;
-  hessians[162] = _tmp82;
+  hessians[162] = _tmp74;
   hessians[163] = 0.0;
   hessians[164] = 0.0;
-  hessians[168] = -(_tmp0*_tmp86);
+  hessians[168] = -(_tmp0*_tmp78);
   hessians[169] = 0.0;
-  hessians[170] = ((_tmp14*_tmp84 - _tmp6*_tmp28)*_tmp7 - _tmp32)*_tmp18;
-  hessians[171] = -_tmp86;
-  hessians[172] = -(range*_tmp86);
-  hessians[173] = -(((_tmp14*_tmp87)*_tmp6 + _tmp6*_tmp85 + _tmp14*_tmp83 + _tmp14*(_tmp6*_tmp87))*_tmp18);
-  hessians[176] = -(_tmp89*_tmp0);
+  hessians[170] = ((_cos2*_tmp76 - _sin2*_tmp20)*_cos0 - _tmp24)*_tmp10;
+  hessians[171] = -_tmp78;
+  hessians[172] = -(range*_tmp78);
+  hessians[173] = -(((_cos2*_tmp79)*_sin2 + _sin2*_tmp77 + _cos2*_tmp75 + _cos2*(_sin2*_tmp79))*_tmp10);
+  hessians[176] = -(_tmp81*_tmp0);
   hessians[177] = 0.0;
-  hessians[178] = -_tmp90;
-  hessians[179] = -_tmp89;
-  hessians[180] = -(range*_tmp89);
-  hessians[181] = -(_tmp18*(_tmp6*(_tmp31 - _tmp49 - _tmp42) + (_tmp14*_tmp2*_tmp3 - _tmp75)*_tmp14));
-  hessians[182] = -(_tmp18*_tmp81);
-  hessians[184] = -_tmp78;
+  hessians[178] = -_tmp82;
+  hessians[179] = -_tmp81;
+  hessians[180] = -(range*_tmp81);
+  hessians[181] = -(_tmp10*(_sin2*(_tmp23 - _tmp41 - _tmp34) + (_cos2*_sin0*_cos1 - _tmp67)*_cos2));
+  hessians[182] = -(_tmp10*_tmp73);
+  hessians[184] = -_tmp70;
   hessians[185] = 0.0;
-  hessians[186] = _tmp79;
-  hessians[187] = -_tmp77;
-  hessians[188] = -_tmp82;
-  hessians[189] = _tmp18*(_tmp6*(_tmp28*_tmp7 + _tmp4) - _tmp14*(_tmp84*_tmp7));
-  hessians[190] = _tmp90;
-  hessians[191] = _tmp80;
+  hessians[186] = _tmp71;
+  hessians[187] = -_tmp69;
+  hessians[188] = -_tmp74;
+  hessians[189] = _tmp10*(_sin2*(_tmp20*_cos0 + _tmp2) - _cos2*(_tmp76*_cos0));
+  hessians[190] = _tmp82;
+  hessians[191] = _tmp72;
   // Symmetric: the lower triangle from the upper.
   for (int o = 0; o < kNumOutputs; ++o) {
     Scalar* h = hessians + kNumInputs * kNumInputs * o;
@@ -433,63 +437,57 @@ void Hessians([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Sc
 // Column 0 of d_out_d_params: d out / d lam.
 template <typename Scalar>
 void Sensitivity_lam([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* column) {
-  using std::cos;
-  using std::sin;
   const Scalar azimuth = readings[1];
   const Scalar elevation = readings[2];
   const Scalar alpha = params[param::alpha];
   const Scalar gamma = params[param::gamma];
   const Scalar ae0 = params[param::ae0];
-  const Scalar _tmp0 = sin(azimuth);
-  const Scalar _tmp1 = cos(gamma);
-  const Scalar _tmp2 = ae0 + 1.5707963267948966 - elevation;
-  const Scalar _tmp3 = cos(_tmp2);
-  const Scalar _tmp4 = sin(_tmp2);
-  const Scalar _tmp5 = sin(gamma);
-  const Scalar _tmp6 = sin(alpha);
-  const Scalar _tmp7 = _tmp1*_tmp3 - _tmp4*_tmp5*_tmp6;
-  const Scalar _tmp8 = cos(alpha);
-  const Scalar _tmp9 = _tmp7*_tmp6 - (_tmp8*_tmp8)*_tmp5;
-  const Scalar _tmp10 = _tmp4*_tmp1 + _tmp5*_tmp6*_tmp3;
-  const Scalar _tmp11 = cos(azimuth);
-  column[0] = _tmp0*_tmp9 + _tmp10*_tmp11;
-  column[1] = _tmp10*_tmp0 - _tmp11*_tmp9;
-  column[2] = _tmp8*_tmp5*_tmp6 + _tmp8*_tmp7;
+  Scalar _sin0, _cos0;
+  SinCos(azimuth, &_sin0, &_cos0);
+  Scalar _sin1, _cos1;
+  SinCos(gamma, &_sin1, &_cos1);
+  const Scalar _tmp0 = ae0 + 1.5707963267948966 - elevation;
+  Scalar _sin2, _cos2;
+  SinCos(_tmp0, &_sin2, &_cos2);
+  Scalar _sin3, _cos3;
+  SinCos(alpha, &_sin3, &_cos3);
+  const Scalar _tmp1 = _cos1*_cos2 - _sin2*_sin1*_sin3;
+  const Scalar _tmp2 = _tmp1*_sin3 - (_cos3*_cos3)*_sin1;
+  const Scalar _tmp3 = _sin2*_cos1 + _sin1*_sin3*_cos2;
+  column[0] = _sin0*_tmp2 + _tmp3*_cos0;
+  column[1] = _tmp3*_sin0 - _cos0*_tmp2;
+  column[2] = _cos3*_sin1*_sin3 + _cos3*_tmp1;
 }
 
 // Column 1 of d_out_d_params: d out / d mu.
 template <typename Scalar>
 void Sensitivity_mu([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* column) {
-  using std::cos;
-  using std::sin;
   const Scalar range = readings[0];
   const Scalar azimuth = readings[1];
   const Scalar elevation = readings[2];
   const Scalar alpha = params[param::alpha];
   const Scalar gamma = params[param::gamma];
   const Scalar ae0 = params[param::ae0];
-  const Scalar _tmp0 = sin(azimuth);
-  const Scalar _tmp1 = cos(gamma);
-  const Scalar _tmp2 = ae0 + 1.5707963267948966 - elevation;
-  const Scalar _tmp3 = cos(_tmp2);
-  const Scalar _tmp4 = sin(_tmp2);
-  const Scalar _tmp5 = sin(gamma);
-  const Scalar _tmp6 = sin(alpha);
-  const Scalar _tmp7 = _tmp1*_tmp3 - _tmp4*_tmp5*_tmp6;
-  const Scalar _tmp8 = cos(alpha);
-  const Scalar _tmp9 = _tmp7*_tmp6 - (_tmp8*_tmp8)*_tmp5;
-  const Scalar _tmp10 = _tmp4*_tmp1 + _tmp5*_tmp6*_tmp3;
-  const Scalar _tmp11 = cos(azimuth);
-  column[0] = range*(_tmp0*_tmp9 + _tmp10*_tmp11);
-  column[1] = range*(_tmp10*_tmp0 - _tmp11*_tmp9);
-  column[2] = range*(_tmp8*_tmp5*_tmp6 + _tmp8*_tmp7);
+  Scalar _sin0, _cos0;
+  SinCos(azimuth, &_sin0, &_cos0);
+  Scalar _sin1, _cos1;
+  SinCos(gamma, &_sin1, &_cos1);
+  const Scalar _tmp0 = ae0 + 1.5707963267948966 - elevation;
+  Scalar _sin2, _cos2;
+  SinCos(_tmp0, &_sin2, &_cos2);
+  Scalar _sin3, _cos3;
+  SinCos(alpha, &_sin3, &_cos3);
+  const Scalar _tmp1 = _cos1*_cos2 - _sin2*_sin1*_sin3;
+  const Scalar _tmp2 = _tmp1*_sin3 - (_cos3*_cos3)*_sin1;
+  const Scalar _tmp3 = _sin2*_cos1 + _sin1*_sin3*_cos2;
+  column[0] = range*(_sin0*_tmp2 + _tmp3*_cos0);
+  column[1] = range*(_tmp3*_sin0 - _cos0*_tmp2);
+  column[2] = range*(_cos3*_sin1*_sin3 + _cos3*_tmp1);
 }
 
 // Column 2 of d_out_d_params: d out / d alpha.
 template <typename Scalar>
 void Sensitivity_alpha([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* column) {
-  using std::cos;
-  using std::sin;
   const Scalar range = readings[0];
   const Scalar azimuth = readings[1];
   const Scalar elevation = readings[2];
@@ -499,26 +497,25 @@ void Sensitivity_alpha([[maybe_unused]] const Scalar* readings, [[maybe_unused]]
   const Scalar gamma = params[param::gamma];
   const Scalar ae0 = params[param::ae0];
   const Scalar _tmp0 = range*(1.0 + mu) + lam;
-  const Scalar _tmp1 = cos(alpha);
-  const Scalar _tmp2 = sin(azimuth);
-  const Scalar _tmp3 = ae0 + 1.5707963267948966 - elevation;
-  const Scalar _tmp4 = sin(_tmp3);
-  const Scalar _tmp5 = sin(gamma);
-  const Scalar _tmp6 = sin(alpha);
-  const Scalar _tmp7 = cos(_tmp3);
-  const Scalar _tmp8 = cos(gamma)*_tmp7;
-  const Scalar _tmp9 = 2.0*_tmp4*_tmp5*_tmp6 - _tmp8;
-  const Scalar _tmp10 = cos(azimuth);
-  column[0] = -(_tmp0*(_tmp1*(_tmp2*_tmp9 - _tmp5*_tmp10*_tmp7) - _tmp6*(2.0*_tmp1*_tmp2*_tmp5)));
-  column[1] = (_tmp1*(_tmp2*_tmp5*_tmp7 + _tmp10*_tmp9) - _tmp6*(2.0*_tmp1*_tmp5*_tmp10))*_tmp0;
-  column[2] = -(_tmp0*(_tmp6*(_tmp8 + _tmp5*_tmp6 - _tmp4*_tmp5*_tmp6) - _tmp1*(_tmp1*_tmp5 - _tmp1*_tmp4*_tmp5)));
+  Scalar _sin0, _cos0;
+  SinCos(alpha, &_sin0, &_cos0);
+  Scalar _sin1, _cos1;
+  SinCos(azimuth, &_sin1, &_cos1);
+  const Scalar _tmp1 = ae0 + 1.5707963267948966 - elevation;
+  Scalar _sin2, _cos2;
+  SinCos(_tmp1, &_sin2, &_cos2);
+  Scalar _sin3, _cos3;
+  SinCos(gamma, &_sin3, &_cos3);
+  const Scalar _tmp2 = _cos3*_cos2;
+  const Scalar _tmp3 = 2.0*_sin2*_sin3*_sin0 - _tmp2;
+  column[0] = -(_tmp0*(_cos0*(_sin1*_tmp3 - _sin3*_cos1*_cos2) - _sin0*(2.0*_cos0*_sin1*_sin3)));
+  column[1] = (_cos0*(_sin1*_sin3*_cos2 + _cos1*_tmp3) - _sin0*(2.0*_cos0*_sin3*_cos1))*_tmp0;
+  column[2] = -(_tmp0*(_sin0*(_tmp2 + _sin3*_sin0 - _sin2*_sin3*_sin0) - _cos0*(_cos0*_sin3 - _cos0*_sin2*_sin3)));
 }
 
 // Column 3 of d_out_d_params: d out / d gamma.
 template <typename Scalar>
 void Sensitivity_gamma([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* column) {
-  using std::cos;
-  using std::sin;
   const Scalar range = readings[0];
   const Scalar azimuth = readings[1];
   const Scalar elevation = readings[2];
@@ -528,28 +525,26 @@ void Sensitivity_gamma([[maybe_unused]] const Scalar* readings, [[maybe_unused]]
   const Scalar gamma = params[param::gamma];
   const Scalar ae0 = params[param::ae0];
   const Scalar _tmp0 = range*(1.0 + mu) + lam;
-  const Scalar _tmp1 = sin(azimuth);
-  const Scalar _tmp2 = cos(alpha);
-  const Scalar _tmp3 = cos(gamma);
-  const Scalar _tmp4 = sin(alpha);
-  const Scalar _tmp5 = sin(gamma);
-  const Scalar _tmp6 = ae0 + 1.5707963267948966 - elevation;
-  const Scalar _tmp7 = cos(_tmp6);
-  const Scalar _tmp8 = sin(_tmp6);
-  const Scalar _tmp9 = _tmp5*_tmp7 + _tmp8*_tmp4*_tmp3;
-  const Scalar _tmp10 = (_tmp2*_tmp2)*_tmp3 + _tmp4*_tmp9;
-  const Scalar _tmp11 = _tmp8*_tmp5 - _tmp4*_tmp3*_tmp7;
-  const Scalar _tmp12 = cos(azimuth);
-  column[0] = -(_tmp0*(_tmp1*_tmp10 + _tmp11*_tmp12));
-  column[1] = -(_tmp0*(_tmp1*_tmp11 - _tmp12*_tmp10));
-  column[2] = -(_tmp0*(_tmp2*_tmp9 - _tmp2*_tmp4*_tmp3));
+  Scalar _sin0, _cos0;
+  SinCos(azimuth, &_sin0, &_cos0);
+  Scalar _sin1, _cos1;
+  SinCos(alpha, &_sin1, &_cos1);
+  Scalar _sin2, _cos2;
+  SinCos(gamma, &_sin2, &_cos2);
+  const Scalar _tmp1 = ae0 + 1.5707963267948966 - elevation;
+  Scalar _sin3, _cos3;
+  SinCos(_tmp1, &_sin3, &_cos3);
+  const Scalar _tmp2 = _sin2*_cos3 + _sin3*_sin1*_cos2;
+  const Scalar _tmp3 = (_cos1*_cos1)*_cos2 + _sin1*_tmp2;
+  const Scalar _tmp4 = _sin3*_sin2 - _sin1*_cos2*_cos3;
+  column[0] = -(_tmp0*(_sin0*_tmp3 + _tmp4*_cos0));
+  column[1] = -(_tmp0*(_sin0*_tmp4 - _cos0*_tmp3));
+  column[2] = -(_tmp0*(_cos1*_tmp2 - _cos1*_sin1*_cos2));
 }
 
 // Column 4 of d_out_d_params: d out / d ae0.
 template <typename Scalar>
 void Sensitivity_ae0([[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params, Scalar* column) {
-  using std::cos;
-  using std::sin;
   const Scalar range = readings[0];
   const Scalar azimuth = readings[1];
   const Scalar elevation = readings[2];
@@ -558,20 +553,20 @@ void Sensitivity_ae0([[maybe_unused]] const Scalar* readings, [[maybe_unused]] c
   const Scalar alpha = params[param::alpha];
   const Scalar gamma = params[param::gamma];
   const Scalar ae0 = params[param::ae0];
-  const Scalar _tmp0 = cos(azimuth);
-  const Scalar _tmp1 = cos(gamma);
-  const Scalar _tmp2 = sin(azimuth);
-  const Scalar _tmp3 = sin(gamma);
-  const Scalar _tmp4 = sin(alpha);
-  const Scalar _tmp5 = _tmp4*_tmp4;
-  const Scalar _tmp6 = ae0 + 1.5707963267948966 - elevation;
-  const Scalar _tmp7 = cos(_tmp6);
-  const Scalar _tmp8 = sin(_tmp6);
-  const Scalar _tmp9 = range*(1.0 + mu) + lam;
-  const Scalar _tmp10 = cos(alpha);
-  column[0] = ((_tmp0*_tmp1 - _tmp2*_tmp3*_tmp5)*_tmp7 - _tmp8*(_tmp3*_tmp4*_tmp0 + _tmp2*_tmp4*_tmp1))*_tmp9;
-  column[1] = -(_tmp9*(_tmp8*(_tmp2*_tmp3*_tmp4 - _tmp4*_tmp0*_tmp1) - (_tmp3*_tmp0*_tmp5 + _tmp2*_tmp1)*_tmp7));
-  column[2] = -((_tmp8*(_tmp10*_tmp1) + (_tmp10*_tmp3*_tmp4)*_tmp7)*_tmp9);
+  Scalar _sin0, _cos0;
+  SinCos(azimuth, &_sin0, &_cos0);
+  Scalar _sin1, _cos1;
+  SinCos(gamma, &_sin1, &_cos1);
+  Scalar _sin2, _cos2;
+  SinCos(alpha, &_sin2, &_cos2);
+  const Scalar _tmp0 = _sin2*_sin2;
+  const Scalar _tmp1 = ae0 + 1.5707963267948966 - elevation;
+  Scalar _sin3, _cos3;
+  SinCos(_tmp1, &_sin3, &_cos3);
+  const Scalar _tmp2 = range*(1.0 + mu) + lam;
+  column[0] = ((_cos0*_cos1 - _sin0*_sin1*_tmp0)*_cos3 - _sin3*(_sin1*_sin2*_cos0 + _sin0*_sin2*_cos1))*_tmp2;
+  column[1] = -(_tmp2*(_sin3*(_sin0*_sin1*_sin2 - _sin2*_cos0*_cos1) - (_sin1*_cos0*_tmp0 + _sin0*_cos1)*_cos3));
+  column[2] = -((_sin3*(_cos2*_cos1) + (_cos2*_sin1*_sin2)*_cos3)*_tmp2);
 }
 
 }  // namespace vlt::gen::total_station

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstring>
 #include <functional>
+#include <map>
 #include <set>
 #include <stdexcept>
 #include <tuple>
@@ -355,7 +356,8 @@ class Printer {
         uses_(ir.size(), 0),
         temp_(ir.size(), -1),
         is_temp_(ir.size(), false),
-        seen_(ir.size(), false) {}
+        seen_(ir.size(), false),
+        pair_of_(ir.size(), -1) {}
 
   void CountUses(int id) {
     ++uses_[id];
@@ -372,6 +374,28 @@ class Printer {
       if (uses_[id] >= 2) is_temp_[id] = true;
     }
     for (int id : forced_) is_temp_[id] = true;
+    PairSinCos();
+  }
+
+  // sin a and cos a of one argument a, both used: one SinCos(a, &s, &c) call computes both from
+  // one range reduction (the SIMD lanes' and the GPU lane's SinCos; std::sin and std::cos for a
+  // double, so its bits are those of the two calls). The pair's outputs are named variables, not
+  // temporaries.
+  void PairSinCos() {
+    std::map<int, std::pair<int, int>> by_argument;  // a -> (sin a, cos a)
+    for (int id = 0; id < ir_.size(); ++id) {
+      const Node& n = ir_[id];
+      if (!seen_[id] || n.op != Op::kCall || n.args.size() != 1) continue;
+      if (n.name != "sin" && n.name != "cos") continue;
+      auto [at, fresh] = by_argument.try_emplace(n.args[0], -1, -1);
+      (n.name == "sin" ? at->second.first : at->second.second) = id;
+    }
+    for (const auto& [argument, calls] : by_argument) {
+      if (calls.first < 0 || calls.second < 0) continue;
+      pair_of_[calls.first] = pair_of_[calls.second] = static_cast<int>(pair_name_.size());
+      is_temp_[calls.first] = is_temp_[calls.second] = false;
+      pair_name_.push_back(-1);
+    }
   }
 
   // Emits the temporaries needed by `id` (post-order, children in print order).
@@ -379,11 +403,23 @@ class Printer {
     if (Leaf(id) || done_.count(id)) return;
     done_.insert(id);
     for (int a : Children(id)) EmitTemps(a, code);
+    if (pair_of_[id] >= 0) EmitSinCos(id, code);
     if (is_temp_[id]) {
       const std::string rhs = Print(id, 0, true);
       temp_[id] = next_temp_++;
       code += "  const Scalar _tmp" + std::to_string(temp_[id]) + " = " + rhs + ";\n";
     }
+  }
+
+  // The SinCos call of the pair of `id` (a sin or cos call), before the first use of either.
+  void EmitSinCos(int id, std::string& code) {
+    int& name = pair_name_[pair_of_[id]];
+    if (name >= 0) return;
+    name = next_pair_++;
+    ++ops_;
+    const std::string n = std::to_string(name);
+    code += "  Scalar _sin" + n + ", _cos" + n + ";\n";
+    code += "  SinCos(" + Print(ir_[id].args[0], 0, false) + ", &_sin" + n + ", &_cos" + n + ");\n";
   }
 
   std::string PrintRoot(int id) { return Print(id, 0, false); }
@@ -432,6 +468,7 @@ class Printer {
   std::string Print(int id, int /*unused*/, bool definition) {
     if (!definition && temp_[id] >= 0) return "_tmp" + std::to_string(temp_[id]);
     const Node& n = ir_[id];
+    if (pair_of_[id] >= 0) return (n.name == "sin" ? "_sin" : "_cos") + std::to_string(pair_name_[pair_of_[id]]);
     switch (n.op) {
       case Op::kNum: return Literal(n.value);
       case Op::kSym: used_.insert(n.name); return n.name;
@@ -507,7 +544,10 @@ class Printer {
   std::vector<int> forced_;
   std::set<int> done_;
   std::set<std::string> used_;
+  std::vector<int> pair_of_;    // node -> its sin/cos pair, -1 if none
+  std::vector<int> pair_name_;  // pair -> its number in _sinN/_cosN, -1 until emitted
   int next_temp_ = 0;
+  int next_pair_ = 0;
   int ops_ = 0;
 };
 

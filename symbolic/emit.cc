@@ -91,6 +91,7 @@ struct ModelEmitter {
   void ChooseBatchKernels();
   void ListQuantities(const char* title, const std::vector<QuantitySpec>& qs, bool with_u);
   void HeaderFunction(const std::string& comment, const std::string& signature, const FunctionBody& body);
+  bool CallsSinCos() const;
   std::string Header();
   void SourceWrappers();
   void SourceNominalBatch();
@@ -195,6 +196,16 @@ void ModelEmitter::HeaderFunction(const std::string& comment, const std::string&
        "}\n\n";
 }
 
+// Does a kernel call SinCos (codegen.cc pairs sin a and cos a)?
+bool ModelEmitter::CallsSinCos() const {
+  const FunctionBody* bodies[] = {&forward, &jacobians, &nominal, &hessians};
+  for (const FunctionBody* b : bodies)
+    if (b->code.find("SinCos(") != std::string::npos) return true;
+  for (const FunctionBody& b : sensitivity)
+    if (b.code.find("SinCos(") != std::string::npos) return true;
+  return false;
+}
+
 std::string ModelEmitter::Header() {
   const std::string& name = spec.name;
   h = Banner(spec.spec_file);
@@ -223,6 +234,14 @@ std::string ModelEmitter::Header() {
   h += "namespace param {\nenum Index : int {\n";
   for (int k = 0; k < np; ++k) h += "  " + spec.params[k].name + " = " + std::to_string(k) + ",\n";
   h += "};\n}  // namespace param\n\n";
+  if (CallsSinCos()) {
+    h += "// sin x and cos x where a kernel uses both: std::sin and std::cos for a double (the same bits as\n"
+         "// two calls) and for other scalars (ceres::Jet) by argument-dependent lookup. The SIMD lanes\n"
+         "// and the GPU's lane have their own SinCos, found by argument-dependent lookup and chosen over\n"
+         "// this template, which computes both from one range reduction.\n";
+    h += "template <typename Scalar>\nvoid SinCos(const Scalar& x, Scalar* sine, Scalar* cosine) {\n"
+         "  using std::cos;\n  using std::sin;\n  *sine = sin(x);\n  *cosine = cos(x);\n}\n\n";
+  }
   const std::string sig_in = "[[maybe_unused]] const Scalar* readings, [[maybe_unused]] const Scalar* params";
   HeaderFunction("// Outputs from readings and parameters.\n", "Forward(" + sig_in + ", Scalar* out)",
                  forward);

@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <string>
 
@@ -225,3 +226,28 @@ TEST(VltGen, SummaryListsParametersAndOperationCounts) {
 }
 
 }  // namespace
+
+// Where a kernel uses both sin a and cos a, the generator emits one SinCos(a, &s, &c) (one range
+// reduction in the SIMD lanes) and no sin(a) or cos(a) call beside it; each angle once per kernel.
+TEST(VltGen, EachAngleOfAKernelHasOneSinCos) {
+  int pairs = 0;
+  for (const char* model : {"mirror", "head", "total_station", "gum_h2_impedance"}) {
+    const std::string text = Read(fs::path(VLT_SOURCE_DIR) / "generated" / (std::string(model) + ".h"));
+    std::size_t at = 0;
+    while ((at = text.find("\ntemplate <typename Scalar>\nvoid ", at)) != std::string::npos) {
+      const std::size_t end = text.find("\n}\n", at);
+      const std::string kernel = text.substr(at, end - at);
+      at = end;
+      std::set<std::string> paired;
+      for (std::size_t p = 0; (p = kernel.find("  SinCos(", p)) != std::string::npos; ++p) {
+        const std::size_t open = p + 9, comma = kernel.find(',', open);
+        const std::string angle = kernel.substr(open, comma - open);
+        EXPECT_TRUE(paired.insert(angle).second) << model << ": SinCos(" << angle << ") twice";
+        EXPECT_EQ(kernel.find("sin(" + angle + ")"), std::string::npos) << model << ": sin(" << angle << ")";
+        EXPECT_EQ(kernel.find("cos(" + angle + ")"), std::string::npos) << model << ": cos(" << angle << ")";
+        ++pairs;
+      }
+    }
+  }
+  EXPECT_GE(pairs, 9);  // the mirror model's Forward alone has nine angles
+}

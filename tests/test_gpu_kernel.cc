@@ -60,7 +60,8 @@ TEST(GpuKernel, PhiloxIsRandom123WordForWord) {
 }
 
 // The scalar SinCos is each lane of base/lanes.h SinCos: over random angles, every quadrant
-// boundary's neighbours, signed zeros, the reduction's limit 2^19 and beyond, infinities, NaN.
+// boundary's neighbours, signed zeros, the short series' limit, lanes all small and mixed, the
+// reduction's limit 2^19 and beyond, infinities, NaN.
 TEST(GpuKernel, ScalarSinCosIsEveryLaneOfTheSimdOne) {
   std::vector<double> xs = {0.0, -0.0, 1e-300, -1e-300, base_internal::portable::kSinCosReduced,
                             std::nextafter(base_internal::portable::kSinCosReduced, 1e300), -base_internal::portable::kSinCosReduced, 1e300,
@@ -75,6 +76,15 @@ TEST(GpuKernel, ScalarSinCosIsEveryLaneOfTheSimdOne) {
   std::mt19937_64 draw(19);
   std::uniform_real_distribution<double> angle(-7.0, 7.0), wide(-6e5, 6e5), small(-1e-5, 1e-5);
   for (int n = 0; n < 40000; ++n) xs.push_back(n % 3 == 0 ? angle(draw) : n % 3 == 1 ? wide(draw) : small(draw));
+  // The short series' limit kSmallAngle and its neighbours, and groups of four small angles (the
+  // lanes then compute the short series alone).
+  for (const double edge : {base_internal::portable::kSmallAngle, -base_internal::portable::kSmallAngle}) {
+    xs.push_back(std::nextafter(edge, 0.0));
+    xs.push_back(edge);
+    xs.push_back(std::nextafter(edge, 2.0 * edge));
+  }
+  while (xs.size() % 4 != 0) xs.push_back(0.25);
+  for (int n = 0; n < 4000; ++n) xs.push_back(small(draw));
   while (xs.size() % 4 != 0) xs.push_back(1.0);
   for (std::size_t i = 0; i < xs.size(); i += 4) {
     base_internal::lanes::Double4 s4, c4;

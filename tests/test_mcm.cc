@@ -574,6 +574,74 @@ TEST(OrderStatistics, SortedTailsEqualFullSort) {
   EXPECT_EQ(d, expected);
 }
 
+// The gathering pass before the tails' sorts (mcm/order.h GatherTails) gathers the same values in
+// the same order whether it runs in AVX-512 or the portable loop, on one thread (one pass) or in
+// blocks on several (each worker appending to its own buffers, copied out in block order).
+template <typename T>
+void CheckGatheringPaths(std::uint64_t seed) {
+  std::mt19937_64 gen(seed);
+  std::normal_distribution<double> normal;
+  for (int m : {4096, 10'007, 100'003, 1'000'003}) {
+    std::vector<T> v(static_cast<std::size_t>(m));
+    for (T& x : v) x = static_cast<T>(normal(gen));
+    for (std::size_t i = 0; i < v.size(); i += 97) v[i] = std::round(v[i] * T{8}) / T{8};  // ties
+    for (const std::int64_t tail : {std::int64_t{1}, std::int64_t{m / 40}, std::int64_t{m / 9}}) {
+      mcm_internal::Tails<T> reference;
+      mcm_internal::GatherTails(std::span<const T>(v), tail, tail / 2 + 1, &reference, 1);
+      for (const int threads : {1, 2, 3}) {
+        for (const bool avx512 : {true, false}) {
+          mcm_internal::AllowAvx512Gathering(avx512);
+          mcm_internal::Tails<T> tails;
+          mcm_internal::GatherTails(std::span<const T>(v), tail, tail / 2 + 1, &tails, threads);
+          mcm_internal::AllowAvx512Gathering(true);
+          ASSERT_EQ(tails.sorted, reference.sorted) << m << " " << threads << " " << avx512;
+          ASSERT_EQ(tails.low_values, reference.low_values) << m << " " << tail << " " << threads << " " << avx512;
+          ASSERT_EQ(tails.high_values, reference.high_values) << m << " " << tail << " " << threads << " " << avx512;
+        }
+      }
+    }
+  }
+}
+
+TEST(OrderStatistics, GatheringIsTheSameOnEveryPathAndThreadCount) {
+  CheckGatheringPaths<float>(21);
+  CheckGatheringPaths<double>(22);
+}
+
+// The histogram's counts (mcm/order.h CountHistogram, bins computed in SIMD lanes) against the
+// definition written out value by value: bin floor(b), b = ((reference + v) - low) / width, below
+// for b < 0 or NaN, above for b >= bins; values on every bin edge, outside, and NaN.
+TEST(OrderStatistics, HistogramCountsFollowTheBinDefinition) {
+  constexpr int kBins = 60;
+  const double reference = 0.375, low = -1.25, width = 2.5 / kBins;
+  std::mt19937_64 gen(23);
+  std::normal_distribution<double> normal(0.0, 0.6);
+  std::vector<float> v;
+  for (int i = 0; i < 100'001; ++i) v.push_back(static_cast<float>(normal(gen)));
+  for (int edge = -2; edge <= kBins + 2; ++edge) {
+    const float at = static_cast<float>(low + edge * width - reference);
+    v.insert(v.end(), {std::nextafter(at, -1.0f), at, std::nextafter(at, 1.0f)});
+  }
+  v.push_back(std::numeric_limits<float>::quiet_NaN());
+  v.push_back(std::numeric_limits<float>::infinity());
+  v.push_back(-std::numeric_limits<float>::infinity());
+  std::vector<std::int64_t> expected(kBins + 2, 0), got(kBins + 2, 0);
+  for (const float x : v) {
+    const double b = (reference + static_cast<double>(x) - low) / width;
+    if (!(b >= 0.0)) {
+      ++expected[kBins];
+    } else if (b >= kBins) {
+      ++expected[kBins + 1];
+    } else {
+      ++expected[static_cast<std::size_t>(std::floor(b))];
+    }
+  }
+  mcm_internal::CountHistogram(std::span<const float>(v), reference, low, width, kBins, got.data());
+  EXPECT_EQ(got, expected);
+  EXPECT_GT(expected[kBins], 1);
+  EXPECT_GT(expected[kBins + 1], 1);
+}
+
 TEST(NumericalToleranceRule, Jcgm101Clause792) {
   EXPECT_DOUBLE_EQ(NumericalTolerance(2.0, 2), 0.05);      // 20 x 10^-1
   EXPECT_DOUBLE_EQ(NumericalTolerance(2.0, 1), 0.5);       // 2 x 10^0

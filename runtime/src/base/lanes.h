@@ -3,7 +3,7 @@
 // Double4 holds one double per trial for kForwardLanes = 4 trials. Its arithmetic is lane by lane
 // (+, -, *, / and sqrt: IEEE correctly rounded; the project compiles with -ffp-contract=off, so
 // nothing is fused), written as loops over the lanes that the compiler turns into SIMD
-// instructions. sin and cos are vlt's own (SinCos below), branch-free so that they vectorise too:
+// instructions. sin and cos are vlt's own (SinCos below), branch-free per lane so that they vectorise:
 // unlike the libm sin/cos of the double kernel they may differ from the correctly rounded value
 // by about one unit in the last place (tests/test_lanes.cc measures it against long double). Each
 // lane depends only on its own inputs, so a trial's value does not depend on which lane or batch
@@ -87,14 +87,14 @@ inline Vector Select(Mask where, Vector a, Vector b) {
   return reinterpret_cast<Vector>((where & reinterpret_cast<Mask>(a)) | (~where & reinterpret_cast<Mask>(b)));
 }
 
-// sin x and cos x, lane by lane, branch-free for |x| <= kSinCosReduced: base/portable_math.h
-// SinCos in lanes (the same operations and constants, so each lane has the scalar's bits:
-// tests/test_lanes.cc), the quadrant applied by selects. Beyond kSinCosReduced, and for
-// infinities and NaN, the lane is libm's.
+// base/portable_math.h SinCos in lanes: the same operations and constants, so each lane has the
+// scalar's bits (tests/test_lanes.cc, tests/test_gpu_kernel.cc).
 using portable::kSinCosReduced;
 
-inline void SinCos(const Double4& x_in, Double4* sine, Double4* cosine) {
-  const Vector x_abs = reinterpret_cast<Vector>(reinterpret_cast<Mask>(x_in.v) & (Mask{} + INT64_MAX));
+// SinCos past kSmallAngle, branch-free for |x| <= kSinCosReduced: the reduction to the nearest
+// quarter turn, the full series, the quadrant applied by selects. Beyond kSinCosReduced, and for
+// infinities and NaN, the lane is libm's.
+inline void SinCosReduced(const Double4& x_in, Vector x_abs, Double4* sine, Double4* cosine) {
   const Mask in = x_abs <= kSinCosReduced;  // false for NaN
   const Vector zero = {0.0, 0.0, 0.0, 0.0};
   const Vector x = Select(in, x_in.v, zero);
@@ -122,6 +122,30 @@ inline void SinCos(const Double4& x_in, Double4* sine, Double4* cosine) {
   }
   sine->v = s;
   cosine->v = c;
+}
+
+// sin x and cos x, lane by lane. Lanes with |x| <= kSmallAngle take SinCosSmall, as the scalar
+// does: when every lane does (a tracker's error angles), only it is computed; when some do, both,
+// and a select per lane.
+inline void SinCos(const Double4& x_in, Double4* sine, Double4* cosine) {
+  const Vector x_abs = reinterpret_cast<Vector>(reinterpret_cast<Mask>(x_in.v) & (Mask{} + INT64_MAX));
+  const Mask small = x_abs <= portable::kSmallAngle;  // false for NaN
+  bool all = true, any = false;
+  for (int l = 0; l < kWidth; ++l) {
+    all = all && small[l] != 0;
+    any = any || small[l] != 0;
+  }
+  if (all) {
+    portable::SinCosSmall(x_in.v, &sine->v, &cosine->v);
+    return;
+  }
+  SinCosReduced(x_in, x_abs, sine, cosine);
+  if (any) {
+    Vector s, c;
+    portable::SinCosSmall(x_in.v, &s, &c);
+    sine->v = Select(small, s, sine->v);
+    cosine->v = Select(small, c, cosine->v);
+  }
 }
 
 inline Double4 sin(const Double4& x) {

@@ -64,6 +64,21 @@ VLT_PORTABLE void SinCosTaylor(const T& r, T* sin_r, T* cos_r) {
   *cos_r = 1.0 + r2 * cp;
 }
 
+// sin x and cos x for |x| <= kSmallAngle (double or lanes): the Taylor series to x^5 and x^4,
+// sin x = x + x x^2 (-1/6 + x^2/120) and cos x = 1 + x^2 (-1/2 + x^2/24). The first terms left
+// out, x^7/7! and x^6/6!, are below 2^-60/5040 = 1.7e-22 of the value (2^-53 = 1.1e-16 is half an
+// ulp), and the correction added to x or 1 is at most 2^-20/6 of it, so its own rounding errors
+// reach the sum only below 2^-70: each is the rounded exact value, but when that lies within about
+// 2^-70 of a rounding boundary — as the full series' (tests/test_lanes.cc). The error angles of a
+// tracker (micro-radians) take this path: a quarter of the full series' operations.
+inline constexpr double kSmallAngle = 0x1.0p-10;
+template <class T>
+VLT_PORTABLE void SinCosSmall(const T& x, T* sin_x, T* cos_x) {
+  const T x2 = x * x;
+  *sin_x = x + x * x2 * ((1.0 / 120.0) * x2 - 1.0 / 6.0);
+  *cos_x = 1.0 + x2 * ((1.0 / 24.0) * x2 - 0.5);
+}
+
 // The constants of SinCos's reduction (base/lanes.h uses them for its lanes): 2/pi, and pi/2 in
 // three parts of 32, 33 and 28 bits (fdlibm's pio2_1, pio2_2, pio2_3: each k * part is exact for
 // |k| < 2^20; their sum is pi/2 to 8.5e-32), and the largest |x| reduced so.
@@ -78,13 +93,17 @@ inline constexpr double kSinCosReduced = 0x1.0p19;
 inline constexpr double kRoundingShift = 0x1.8p52;
 
 // sin x and cos x of one double: the scalar twin of base/lanes.h SinCos (the same operations, so a
-// lane and this give the same bits; tests/test_lanes.cc): k = nearest integer to x 2/pi, r = x -
-// k pi/2 in three parts, the Taylor series on |r| <= pi/4, the quadrant k mod 4 by exact selects
-// and sign flips. Beyond kSinCosReduced, and for infinities and NaN, libm's (the device's on a
-// GPU: there the bits may differ, which no model input reaches: angles and offsets of a tracker
-// are far below 2^19 rad).
+// lane and this give the same bits; tests/test_lanes.cc): for |x| <= kSmallAngle SinCosSmall;
+// else k = nearest integer to x 2/pi, r = x - k pi/2 in three parts, the Taylor series on
+// |r| <= pi/4, the quadrant k mod 4 by exact selects and sign flips. Beyond kSinCosReduced, and
+// for infinities and NaN, libm's (the device's on a GPU: there the bits may differ, which no model
+// input reaches: angles and offsets of a tracker are far below 2^19 rad).
 VLT_PORTABLE void SinCos(double x_in, double* sine, double* cosine) {
   const double x_abs = DoubleFromBits(BitsOfDouble(x_in) & 0x7FFFFFFFFFFFFFFFull);
+  if (x_abs <= kSmallAngle) {
+    SinCosSmall(x_in, sine, cosine);
+    return;
+  }
   if (!(x_abs <= kSinCosReduced)) {  // rare: |x| > 2^19, infinite or NaN
     *sine = VLT_LIBM(sin)(x_in);
     *cosine = VLT_LIBM(cos)(x_in);
@@ -241,5 +260,8 @@ VLT_PORTABLE Lane cos(Lane a) {
   SinCos(a.v, &s, &c);
   return c;
 }
+// Both at once, for the generated code's SinCos(x, &s, &c) where a kernel uses both (found by
+// argument-dependent lookup).
+VLT_PORTABLE void SinCos(Lane a, Lane* sine, Lane* cosine) { SinCos(a.v, &sine->v, &cosine->v); }
 
 }  // namespace vlt::base_internal::portable

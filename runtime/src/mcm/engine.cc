@@ -1064,20 +1064,11 @@ void MonteCarloRun::CountHistogramPass(McmResult& result, std::size_t item, std:
   const std::int64_t pass = static_cast<std::int64_t>(item) % passes;
   const McmOutputResult::Histogram* h = HistogramOf(result, i);
   if (h == nullptr) return;
-  const double reference = y0[own_first + i];
   std::int64_t* cell = cells.data() + static_cast<std::size_t>(item) * kCells;
-  const std::int64_t end = std::min(done, (pass + 1) * kPassChunk);
-  for (std::int64_t t = pass * kPassChunk; t < end; ++t) {
-    // Bin floor(b): below for b < 0, above for b >= kHistogramBins, else the truncation of
-    // b (= its floor for b >= 0; no libm floor call on baseline x86-64).
-    const double b = (reference + static_cast<double>(series[i][t]) - h->low) / h->width;
-    if (!(b >= 0.0))
-      ++cell[kHistogramBins];
-    else if (b >= kHistogramBins)
-      ++cell[kHistogramBins + 1];
-    else
-      ++cell[static_cast<std::size_t>(b)];
-  }
+  const std::int64_t first = pass * kPassChunk, end = std::min(done, first + kPassChunk);
+  CountHistogram(std::span<const float>(series[i]).subspan(static_cast<std::size_t>(first),
+                                                           static_cast<std::size_t>(end - first)),
+                 y0[own_first + i], h->low, h->width, kHistogramBins, cell);
 }
 
 void MonteCarloRun::AddHistogramPasses(McmResult& result, std::int64_t passes,

@@ -2,14 +2,26 @@
 #include "mcm/order.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstddef>
 #include <limits>
 #include <span>
+#include <type_traits>
 #include <vector>
 
 #include <hwy/contrib/sort/vqsort.h>
 
+// The gathering pass in AVX-512 with GCC on x86-64 (chosen when the processor has it); elsewhere
+// the portable loop, which gathers the same values.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define VLT_GATHER_SIMD 1
+#include <immintrin.h>
+#else
+#define VLT_GATHER_SIMD 0
+#endif
+
+#include "base/lanes.h"
 #include "mcm/storage.h"
 #include "parallel/pool.h"
 
@@ -28,73 +40,189 @@ const hwy::Sorter& ThreadSorter() {
 // sorted: the gathering pass would not pay off.
 constexpr std::int64_t kGatherMin = 4096;
 
-// Every value x <= lo into lows[0, *n_low) and x >= hi into highs[0, *n_high), in the values'
-// order, in one branch-free pass: every value is written to both buffers and kept (the count
-// advanced) when it lies beyond its threshold. The buffers start at `guess` and grow a block
-// ahead of the counts.
+// Every value x <= lo appended to l at *nl and x >= hi to h at *nh, in the values' order, in one
+// branch-free pass: every value is written to both buffers and kept (the count advanced) when it
+// lies beyond its threshold. l and h have room for n values past the counts.
 template <typename T>
-void GatherBeyond(std::span<const T> values, T lo, T hi, std::size_t guess, std::vector<T>& lows,
-                  std::vector<T>& highs, std::size_t* n_low, std::size_t* n_high) {
+void GatherBlockPortable(const T* x, std::size_t n, T lo, T hi, T* l, T* h, std::size_t* nl, std::size_t* nh) {
+  std::size_t kept_low = *nl, kept_high = *nh;
+  for (std::size_t i = 0; i < n; ++i) {
+    const T v = x[i];
+    l[kept_low] = v;
+    kept_low += v <= lo ? 1 : 0;
+    h[kept_high] = v;
+    kept_high += v >= hi ? 1 : 0;
+  }
+  *nl = kept_low;
+  *nh = kept_high;
+}
+
+#if VLT_GATHER_SIMD
+// The same with AVX-512: a register's values beyond a threshold compressed to its front (in
+// order) and the whole register stored, the count advanced by the number kept; the values past
+// the count are overwritten by the next store, as in the portable loop. (A compress to registers,
+// then an ordinary store: the compress to memory is microcoded and slow on AMD's AVX-512.)
+#define VLT_AVX512 __attribute__((target("avx512f"), always_inline)) static
+template <typename T>
+struct Avx512Register {
+  using V = __m512d;
+};
+template <>
+struct Avx512Register<float> {
+  using V = __m512;
+};
+template <typename T>
+struct Avx512 {
+  static constexpr bool kFloat = std::is_same_v<T, float>;
+  using V = typename Avx512Register<T>::V;
+  static constexpr std::size_t kWidth = kFloat ? 16 : 8;
+  VLT_AVX512 V Splat(T x) {
+    if constexpr (kFloat) return _mm512_set1_ps(x); else return _mm512_set1_pd(x);
+  }
+  VLT_AVX512 V Load(const T* p) {
+    if constexpr (kFloat) return _mm512_loadu_ps(p); else return _mm512_loadu_pd(p);
+  }
+  VLT_AVX512 unsigned AtMost(V v, V t) {
+    if constexpr (kFloat) return _mm512_cmp_ps_mask(v, t, _CMP_LE_OQ); else return _mm512_cmp_pd_mask(v, t, _CMP_LE_OQ);
+  }
+  VLT_AVX512 unsigned AtLeast(V v, V t) {
+    if constexpr (kFloat) return _mm512_cmp_ps_mask(v, t, _CMP_GE_OQ); else return _mm512_cmp_pd_mask(v, t, _CMP_GE_OQ);
+  }
+  VLT_AVX512 void StoreKept(T* p, unsigned kept, V v) {
+    if constexpr (kFloat) {
+      _mm512_storeu_ps(p, _mm512_maskz_compress_ps(static_cast<__mmask16>(kept), v));
+    } else {
+      _mm512_storeu_pd(p, _mm512_maskz_compress_pd(static_cast<__mmask8>(kept), v));
+    }
+  }
+};
+#undef VLT_AVX512
+
+template <typename T>
+__attribute__((target("avx512f"))) void GatherBlockAvx512(const T* x, std::size_t n, T lo, T hi, T* l, T* h,
+                                                          std::size_t* nl, std::size_t* nh) {
+  using Simd = Avx512<T>;
+  const typename Simd::V low = Simd::Splat(lo), high = Simd::Splat(hi);
+  std::size_t i = 0;
+  for (; i + Simd::kWidth <= n; i += Simd::kWidth) {
+    const typename Simd::V v = Simd::Load(x + i);
+    const unsigned at_low = Simd::AtMost(v, low), at_high = Simd::AtLeast(v, high);
+    Simd::StoreKept(l + *nl, at_low, v);
+    Simd::StoreKept(h + *nh, at_high, v);
+    *nl += static_cast<std::size_t>(__builtin_popcount(at_low));
+    *nh += static_cast<std::size_t>(__builtin_popcount(at_high));
+  }
+  GatherBlockPortable(x + i, n - i, lo, hi, l, h, nl, nh);
+}
+
+#endif
+
+std::atomic<bool> allow_avx512_gathering{true};  // AllowAvx512Gathering
+
+template <typename T>
+void GatherBlock(const T* x, std::size_t n, T lo, T hi, T* l, T* h, std::size_t* nl, std::size_t* nh) {
+#if VLT_GATHER_SIMD
+  static const bool has_avx512 = __builtin_cpu_supports("avx512f");
+  if (has_avx512 && allow_avx512_gathering.load(std::memory_order_relaxed)) {
+    return GatherBlockAvx512(x, n, lo, hi, l, h, nl, nh);
+  }
+#endif
+  GatherBlockPortable(x, n, lo, hi, l, h, nl, nh);
+}
+
+// Every value x <= lo appended to lows at *n_low and x >= hi to highs at *n_high, in the values'
+// order (GatherBlock); the counts are advanced. The buffers grow a block ahead of the counts.
+template <typename T, class Buffer>
+void GatherBeyond(std::span<const T> values, T lo, T hi, Buffer& lows, Buffer& highs, std::size_t* n_low,
+                  std::size_t* n_high) {
   constexpr std::size_t kBlock = 4096;
-  std::size_t nl = 0, nh = 0;
-  lows.resize(guess + kBlock);
-  highs.resize(guess + kBlock);
-  const T* x = values.data();
+  std::size_t nl = *n_low, nh = *n_high;
   for (std::size_t start = 0; start < values.size(); start += kBlock) {
     const std::size_t end = std::min(values.size(), start + kBlock);
-    if (lows.size() < nl + kBlock) lows.resize(2 * lows.size());
-    if (highs.size() < nh + kBlock) highs.resize(2 * highs.size());
-    T* l = lows.data();
-    T* h = highs.data();
-    for (std::size_t i = start; i < end; ++i) {
-      const T v = x[i];
-      l[nl] = v;
-      nl += v <= lo ? 1 : 0;
-      h[nh] = v;
-      nh += v >= hi ? 1 : 0;
-    }
+    if (lows.size() < nl + kBlock) lows.resize(std::max(2 * lows.size(), nl + kBlock));
+    if (highs.size() < nh + kBlock) highs.resize(std::max(2 * highs.size(), nh + kBlock));
+    GatherBlock(values.data() + start, end - start, lo, hi, lows.data(), highs.data(), &nl, &nh);
   }
   *n_low = nl;
   *n_high = nh;
 }
 
 // GatherBeyond over blocks of kPassChunk values as parallel items, each block's values appended
-// in block order to tails->low_values / high_values (the same values as one pass gathers).
+// in block order to tails->low_values / high_values (the same values as one pass gathers). Each
+// worker appends the blocks it runs to its own buffers (uninitialised, grown by doubling: no
+// allocation per block, no zeroing); the blocks are then copied out in block order.
 template <typename T>
-void GatherInBlocks(std::span<const T> values, T lo, T hi, int threads, Tails<T>* tails, std::size_t* n_low,
-                    std::size_t* n_high) {
+void GatherInBlocks(std::span<const T> values, T lo, T hi, int threads, std::size_t guess, Tails<T>* tails,
+                    std::size_t* n_low, std::size_t* n_high) {
+  using Buffer = std::vector<T, UninitializedAllocator<T>>;
+  struct Gathered {
+    int worker = 0;
+    std::size_t low_at = 0, low_end = 0, high_at = 0, high_end = 0;
+  };
   const std::size_t n = values.size();
   const std::size_t blocks = (n + kPassChunk - 1) / kPassChunk;
-  std::vector<std::vector<T>> block_lows(blocks), block_highs(blocks);
-  std::vector<std::size_t> counts(2 * blocks);
-  // Each worker gathers into its own buffers (one block long); a block keeps only what it gathered.
   const auto workers = static_cast<std::size_t>(parallel_internal::ResolveThreads(threads));
-  std::vector<std::vector<T>> scratch_lows(workers), scratch_highs(workers);
+  std::vector<Buffer> lows(workers), highs(workers);
+  for (std::size_t w = 0; w < workers; ++w) {
+    lows[w].resize(guess / workers + static_cast<std::size_t>(kPassChunk));
+    highs[w].resize(guess / workers + static_cast<std::size_t>(kPassChunk));
+  }
+  std::vector<std::size_t> used_low(workers, 0), used_high(workers, 0);
+  std::vector<Gathered> where(blocks);
   parallel_internal::ForEach(blocks, threads, [&](std::size_t b, int w) {
     const std::size_t begin = b * kPassChunk, end = std::min(n, begin + kPassChunk);
-    std::size_t nl = 0, nh = 0;
-    GatherBeyond(values.subspan(begin, end - begin), lo, hi, 0, scratch_lows[w], scratch_highs[w], &nl, &nh);
-    block_lows[b].assign(scratch_lows[w].begin(), scratch_lows[w].begin() + static_cast<std::ptrdiff_t>(nl));
-    block_highs[b].assign(scratch_highs[w].begin(), scratch_highs[w].begin() + static_cast<std::ptrdiff_t>(nh));
-    counts[2 * b] = nl;
-    counts[2 * b + 1] = nh;
+    Gathered& g = where[b];
+    g.worker = w;
+    g.low_at = g.low_end = used_low[w];
+    g.high_at = g.high_end = used_high[w];
+    GatherBeyond(values.subspan(begin, end - begin), lo, hi, lows[w], highs[w], &g.low_end, &g.high_end);
+    used_low[w] = g.low_end;
+    used_high[w] = g.high_end;
   });
   std::size_t nl = 0, nh = 0;
-  for (std::size_t b = 0; b < blocks; ++b) nl += counts[2 * b], nh += counts[2 * b + 1];
-  tails->low_values.resize(nl);
-  tails->high_values.resize(nh);
-  nl = nh = 0;
-  for (std::size_t b = 0; b < blocks; ++b) {
-    std::copy_n(block_lows[b].begin(), counts[2 * b], tails->low_values.begin() + static_cast<std::ptrdiff_t>(nl));
-    std::copy_n(block_highs[b].begin(), counts[2 * b + 1], tails->high_values.begin() + static_cast<std::ptrdiff_t>(nh));
-    nl += counts[2 * b];
-    nh += counts[2 * b + 1];
+  for (const Gathered& g : where) nl += g.low_end - g.low_at, nh += g.high_end - g.high_at;
+  tails->low_values.clear();
+  tails->high_values.clear();
+  tails->low_values.reserve(nl);
+  tails->high_values.reserve(nh);
+  for (const Gathered& g : where) {
+    const T* low = lows[g.worker].data();
+    const T* high = highs[g.worker].data();
+    tails->low_values.insert(tails->low_values.end(), low + g.low_at, low + g.low_end);
+    tails->high_values.insert(tails->high_values.end(), high + g.high_at, high + g.high_end);
   }
   *n_low = nl;
   *n_high = nh;
 }
 
+// The bin of each of n values (CountHistogram), in lanes: no branch, a division per value that
+// the compiler vectorises (AVX-512, AVX2 or baseline clones; a scalar division was most of the
+// count's time).
+VLT_ARRAY_CLONES
+void BinsOf(const float* values, int n, double reference, double low, double width, int bins, int* bin) {
+  const double top = static_cast<double>(bins);
+  for (int i = 0; i < n; ++i) {
+    const double b = (reference + static_cast<double>(values[i]) - low) / width;
+    const bool inside = b >= 0.0 && b < top;  // false for NaN
+    const int floor_b = static_cast<int>(inside ? b : 0.0);  // truncation = floor for b >= 0
+    bin[i] = inside ? floor_b : (b >= 0.0 ? bins + 1 : bins);
+  }
+}
+
 }  // namespace
+
+void AllowAvx512Gathering(bool allow) { allow_avx512_gathering.store(allow); }
+
+void CountHistogram(std::span<const float> values, double reference, double low, double width, int bins,
+                    std::int64_t* cells) {
+  constexpr std::size_t kBlock = 1024;
+  int bin[kBlock];
+  for (std::size_t start = 0; start < values.size(); start += kBlock) {
+    const std::size_t n = std::min(kBlock, values.size() - start);
+    BinsOf(values.data() + start, static_cast<int>(n), reference, low, width, bins, bin);
+    for (std::size_t i = 0; i < n; ++i) ++cells[bin[i]];
+  }
+}
 
 void SortAscending(std::span<float> values) {
   ThreadSorter()(values.data(), values.size(), hwy::SortAscending());
@@ -145,12 +273,14 @@ void GatherTails(std::span<const T> values, std::int64_t low, std::int64_t high,
   const T hi = high > 0 ? tails->sample[s - 1 - k_high] : kInf;  // gather x >= hi
 
   std::size_t n_low = 0, n_high = 0;
+  const std::size_t guess =
+      static_cast<std::size_t>(m / s) * static_cast<std::size_t>(std::max(k_low, k_high) + 1);
   if (threads > 1 && m > 2 * kPassChunk) {
-    GatherInBlocks(values, lo, hi, threads, tails, &n_low, &n_high);
+    GatherInBlocks(values, lo, hi, threads, guess, tails, &n_low, &n_high);
   } else {
-    const std::size_t guess =
-        static_cast<std::size_t>(m / s) * static_cast<std::size_t>(std::max(k_low, k_high) + 1);
-    GatherBeyond(values, lo, hi, guess, lows, highs, &n_low, &n_high);
+    lows.resize(guess);
+    highs.resize(guess);
+    GatherBeyond(values, lo, hi, lows, highs, &n_low, &n_high);
   }
   // The gathered values are every value <= lo (>= hi), so once there are enough of them their
   // smallest (largest) are exactly the tail, ties included.

@@ -47,4 +47,15 @@ void GatherTails(std::span<const T> values, std::int64_t low, std::int64_t high,
 template <typename T>
 void FinishTail(Tails<T>* tails, int which);
 
+// Whether the gathering pass of GatherTails may use AVX-512 where the processor has it (the
+// default). Tests turn it off to check that the portable loop gathers the same values.
+void AllowAvx512Gathering(bool allow);
+
+// Adds the histogram counts of `values` to cells[0, bins + 2): value v falls in bin floor(b),
+// b = ((reference + v) - low) / width, into cells[bins] (below) for b < 0 or NaN and into
+// cells[bins + 1] (above) for b >= bins. The b of a block are computed in SIMD lanes (the same
+// IEEE operations, so the same bins), then counted.
+void CountHistogram(std::span<const float> values, double reference, double low, double width, int bins,
+                    std::int64_t* cells);
+
 }  // namespace vlt::mcm_internal
