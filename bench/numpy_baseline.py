@@ -4,7 +4,8 @@
 #
 # 1. Ports the generated kernel `Forward` of a model (generated/<model>.h) to numpy MECHANICALLY:
 #    every `const Scalar _tmpN = <expr>;` becomes a numpy array expression (sin/cos/sqrt/atan2 ->
-#    numpy), so the numpy model is the same arithmetic as vlt's, not a re-derivation.
+#    numpy; a SinCos(a, &s, &c) pair -> np.sin(a), np.cos(a)), so the numpy model is the same
+#    arithmetic as vlt's, not a re-derivation.
 # 2. Checks the port against the C++ kernel through the `vlt` command: `vlt simulate --json` gives
 #    the readings a tracker with a given error state shows at a point (vlt's exact inverse); the
 #    numpy Forward at those readings and that error state must return the point (1e-9 m), and at
@@ -57,6 +58,15 @@ def port_forward(header_path):
         a = re.match(r"const Scalar (\w+) = (.*);", line)
         if a:
             lines.append(f"    {a.group(1)} = {translate(a.group(2))}")
+            continue
+        # One SinCos(a, &_sinN, &_cosN) where a kernel uses both (docs/generator.md): numpy has no
+        # sincos, so np.sin and np.cos, as a port by hand would write.
+        if re.match(r"Scalar _sin\d+, _cos\d+;", line):
+            continue
+        a = re.match(r"SinCos\((.*), &(_sin\d+), &(_cos\d+)\);", line)
+        if a:
+            lines.append(f"    {a.group(2)} = np.sin({translate(a.group(1))})")
+            lines.append(f"    {a.group(3)} = np.cos({translate(a.group(1))})")
             continue
         a = re.match(r"out\[(\d)\] = (.*);", line)
         if a:
@@ -209,6 +219,8 @@ def main():
     ap.add_argument("--model", default="mirror")
     ap.add_argument("--trials", type=int, default=1000000)
     ap.add_argument("--repetitions", type=int, default=3)
+    ap.add_argument("--port-only", action="store_true",
+                    help="port and check the model against vlt, then stop (the test of the port)")
     args = ap.parse_args()
     here = os.path.dirname(os.path.abspath(__file__))
     header = os.path.join(here, "..", "generated", f"{args.model}.h")
@@ -219,6 +231,8 @@ def main():
     vlt = os.path.join(args.build, "runtime", "vlt")
     err = check_port(forward, names, vlt, args.model)
     print(f"numpy port of {args.model} Forward checked against vlt: max |difference| {err:.2e} m")
+    if args.port_only:
+        return
 
     u_params = spec_uncertainties(os.path.join(here, "..", "models", f"{args.model}.toml"), names)
     # The benchmark's point: part (= tracker) frame (5, 0.25, -0.8) m, readings of an ideal tracker.

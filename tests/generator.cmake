@@ -48,3 +48,9 @@ add_test(NAME generated_hand_edit_is_detected
     -DCHECK=${CMAKE_SOURCE_DIR}/cmake/CheckGenerated.cmake
     -DWORK=${CMAKE_BINARY_DIR}/hand_edit_check
     -P ${CMAKE_CURRENT_LIST_FILE})
+
+# bench/numpy_baseline.py ports the generated mirror Forward to numpy line by line (the benchmark
+# against numpy, docs/performance.md): the port must still read every line the generator writes
+# and give vlt's points (its own check against `vlt simulate`, 1e-9 m and 1e-12 m).
+add_test(NAME numpy_baseline_port_matches_vlt
+  COMMAND ${Python3_EXECUTABLE} ${CMAKE_SOURCE_DIR}/bench/numpy_baseline.py --build ${CMAKE_BINARY_DIR} --port-only)

@@ -1020,9 +1020,10 @@ void MonteCarloRun::CoverageRegion(int gi, McmVectorResult& r) const {
 
 // Few outputs for the threads (one point: three outputs and one region): each pass over a series
 // (the region's distances, the gathering of the tails) is shared over the threads, one series
-// after the other; then the sorts of every tail run side by side (two per output, one per region:
-// each at most M - q values), then the endpoints of each output (the shortest interval's scan over
-// M - q values) side by side (mcm/order.h: the same values as one item per output).
+// after the other; then the sorts of every tail run side by side (two per output; the region's one
+// order statistic by a selection), then the endpoints and the tail index of each output (the
+// shortest interval's scan over M - q values, Hill's sums) side by side (mcm/order.h: the same
+// values as one item per output).
 void MonteCarloRun::SharedOrderStatistics(McmResult& result, std::vector<McmVectorResult>& vectors) const {
   const int n_regions = static_cast<int>(share.groups.size());
   std::vector<Tails<double>> region_tails(static_cast<std::size_t>(n_regions));
@@ -1037,23 +1038,29 @@ void MonteCarloRun::SharedOrderStatistics(McmResult& result, std::vector<McmVect
   std::vector<Tails<float>> output_tails(static_cast<std::size_t>(n_own));
   for (int i = 0; i < n_own; ++i)
     GatherIntervalTails(std::span<const float>(series[i]), p, threads, &output_tails[i]);
+  std::vector<double> region_k(static_cast<std::size_t>(n_regions), 0.0);
   ParallelFor(2 * n_own + n_regions, [&](int item, int) {
     if (item < 2 * n_own) {
       FinishTail(&output_tails[item / 2], item % 2);
     } else if (has_region[item - 2 * n_own]) {
-      FinishTail(&region_tails[item - 2 * n_own], 1);
+      region_k[item - 2 * n_own] = SmallestOfHighTail(&region_tails[item - 2 * n_own]);
     }
   });
   for (int j = 0; j < n_regions; ++j) {
     McmVectorResult& r = vectors[share.groups[j]];
     r.has_region = has_region[j] != 0;
-    r.coverage_factor = r.has_region ? region_tails[j].high_values.front() : 0.0;
+    r.coverage_factor = r.has_region ? region_k[j] : 0.0;
   }
-  ParallelFor(n_own, [&](int i, int) {
+  // Per output two items: its intervals, and its tail index (whether u means anything here,
+  // McmOutputResult::tail_index); each writes its own fields.
+  ParallelFor(2 * n_own, [&](int item, int) {
+    const int i = item / 2;
     McmOutputResult& out = result.outputs[own_first + i];
-    IntervalsFromTails(output_tails[i], done, y0[own_first + i], p, &out.symmetric, &out.shortest);
-    // Whether u means anything here (McmOutputResult::tail_index).
-    SetTailIndex(output_tails[i], done, y0[own_first + i], out);
+    if (item % 2 == 0) {
+      IntervalsFromTails(output_tails[i], done, y0[own_first + i], p, &out.symmetric, &out.shortest);
+    } else {
+      SetTailIndex(output_tails[i], done, y0[own_first + i], p, out);
+    }
   });
 }
 

@@ -154,8 +154,9 @@ struct TailIndexEstimate {
 };
 TailIndexEstimate EstimateTailIndex(const Tails<float>& tails, std::int64_t m, double centre);
 // McmOutputResult::tail_index and infinite_variance from the tails of the output's deviations
-// from `reference` (out.symmetric already set).
-void SetTailIndex(const Tails<float>& tails, std::int64_t m, double reference, McmOutputResult& out);
+// from `reference`, measured from the middle of its probabilistically symmetric interval at p
+// (computed here, so that this may run beside IntervalsFromTails).
+void SetTailIndex(const Tails<float>& tails, std::int64_t m, double reference, double p, McmOutputResult& out);
 // CoverageIntervals of one output's deviations and its tail index (one pass, one thread).
 void IntervalsAndTailIndex(std::span<const float> values, double reference, double p, McmOutputResult& out);
 

@@ -304,6 +304,17 @@ void FinishTail(Tails<T>* tails, int which) {
 }
 
 template <typename T>
+T SmallestOfHighTail(Tails<T>* tails) {
+  std::vector<T>& highs = tails->high_values;
+  if (tails->sorted) return highs.front();  // the exact tail, sorted by GatherTails
+  // Every value >= the threshold was gathered, at least `high` of them: the `high` largest of all
+  // are the `high` largest gathered, and the smallest of those is the gathered (n - high)-th.
+  const auto k = static_cast<std::ptrdiff_t>(highs.size()) - static_cast<std::ptrdiff_t>(tails->high);
+  std::nth_element(highs.begin(), highs.begin() + k, highs.end());
+  return highs[static_cast<std::size_t>(k)];
+}
+
+template <typename T>
 void SortedTails(std::span<const T> values, std::int64_t low, std::int64_t high, Tails<T>* tails, int threads) {
   GatherTails(values, low, high, tails, threads);
   FinishTail(tails, 0);
@@ -315,6 +326,8 @@ template void SortedTails<double>(std::span<const double>, std::int64_t, std::in
 template void GatherTails<float>(std::span<const float>, std::int64_t, std::int64_t, Tails<float>*, int);
 template void GatherTails<double>(std::span<const double>, std::int64_t, std::int64_t, Tails<double>*, int);
 template void FinishTail<float>(Tails<float>*, int);
+template float SmallestOfHighTail<float>(Tails<float>*);
+template double SmallestOfHighTail<double>(Tails<double>*);
 template void FinishTail<double>(Tails<double>*, int);
 
 }  // namespace vlt::mcm_internal

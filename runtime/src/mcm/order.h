@@ -47,6 +47,12 @@ void GatherTails(std::span<const T> values, std::int64_t low, std::int64_t high,
 template <typename T>
 void FinishTail(Tails<T>* tails, int which);
 
+// The smallest of the `high` largest values, from GatherTails's gathered values without sorting
+// them: a selection (std::nth_element) — FinishTail(tails, 1) followed by high_values.front(), in
+// linear time (the coverage region's k_p, JCGM 102 7.7.3, is this one order statistic).
+template <typename T>
+T SmallestOfHighTail(Tails<T>* tails);
+
 // Whether the gathering pass of GatherTails may use AVX-512 where the processor has it (the
 // default). Tests turn it off to check that the portable loop gathers the same values.
 void AllowAvx512Gathering(bool allow);

@@ -78,8 +78,7 @@ bool RegionFactor(const std::vector<const float*>& series, std::int64_t n,
                   double* k) {
   Tails<double> tails;
   if (!GatherRegionTail(series, n, mean_minus_y0, cov, p, threads, &tails)) return false;
-  FinishTail(&tails, 1);
-  *k = tails.high_values.front();
+  *k = SmallestOfHighTail(&tails);
   return true;
 }
 
