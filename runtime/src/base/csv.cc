@@ -15,17 +15,28 @@
 namespace vlt {
 namespace {
 
-std::string Trim(std::string_view s) {
+std::string_view TrimView(std::string_view s) {
   std::size_t b = 0, e = s.size();
   while (b < e && (s[b] == ' ' || s[b] == '\t')) ++b;
   while (e > b && (s[e - 1] == ' ' || s[e - 1] == '\t' || s[e - 1] == '\r')) --e;
-  return std::string(s.substr(b, e - b));
+  return s.substr(b, e - b);
 }
 
-// Splits one physical line into fields. Quoted fields may not span lines (plan and readings
-// files never need that, and it keeps line numbers exact).
-std::vector<std::string> SplitLine(std::string_view line, const std::string& where, char delimiter) {
+std::string Trim(std::string_view s) { return std::string(TrimView(s)); }
+
+// "<file>: line N" of a message, put together only when there is one (a plan of 10^6 rows).
+struct LinePlace {
+  const std::string& file;
+  int line;
+  std::string str() const { return file + ": line " + std::to_string(line); }
+};
+
+// Splits one physical line into fields (`expected` of them, for the reservation). Quoted fields
+// may not span lines (plan and readings files never need that, and it keeps line numbers exact).
+std::vector<std::string> SplitLine(std::string_view line, const LinePlace& where, char delimiter,
+                                   std::size_t expected = 0) {
   std::vector<std::string> fields;
+  fields.reserve(expected);
   std::size_t i = 0;
   while (true) {
     while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
@@ -46,10 +57,10 @@ std::vector<std::string> SplitLine(std::string_view line, const std::string& whe
         }
         field += line[i++];
       }
-      if (!closed) throw InputError(where + ": unterminated quoted field");
+      if (!closed) throw InputError(where.str() + ": unterminated quoted field");
       while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
       if (i < line.size() && line[i] != delimiter) {
-        throw InputError(where + ": unexpected text after a quoted field");
+        throw InputError(where.str() + ": unexpected text after a quoted field");
       }
     } else {
       std::size_t start = i;
@@ -66,8 +77,9 @@ std::vector<std::string> SplitLine(std::string_view line, const std::string& whe
 // Splits a line of a file whose fields are separated by blanks (a run of spaces and tabs is one
 // separator; a field with a blank is quoted): `name x y z` lists that tracker and CAD software
 // export.
-std::vector<std::string> SplitOnBlanks(std::string_view line, const std::string& where) {
+std::vector<std::string> SplitOnBlanks(std::string_view line, const LinePlace& where, std::size_t expected = 0) {
   std::vector<std::string> fields;
+  fields.reserve(expected);
   std::size_t i = 0;
   auto blank = [&](std::size_t k) { return line[k] == ' ' || line[k] == '\t' || line[k] == '\r'; };
   while (true) {
@@ -79,10 +91,10 @@ std::vector<std::string> SplitOnBlanks(std::string_view line, const std::string&
       while (end < line.size() && (line[end] != '"' || (end + 1 < line.size() && line[end + 1] == '"'))) {
         end += line[end] == '"' ? 2 : 1;
       }
-      if (end >= line.size()) throw InputError(where + ": unterminated quoted field");
+      if (end >= line.size()) throw InputError(where.str() + ": unterminated quoted field");
       field = SplitLine(line.substr(i, end + 1 - i), where, ',')[0];
       i = end + 1;
-      if (i < line.size() && !blank(i)) throw InputError(where + ": unexpected text after a quoted field");
+      if (i < line.size() && !blank(i)) throw InputError(where.str() + ": unexpected text after a quoted field");
     } else {
       const std::size_t start = i;
       while (i < line.size() && !blank(i)) ++i;
@@ -169,33 +181,34 @@ CsvTable ParseCsv(std::string_view text, const std::string& file, const std::vec
     ++line_number;
     pos = end + 1;
     if (end < text.size() && text[end] == '\r' && pos < text.size() && text[pos] == '\n') ++pos;
-    std::string trimmed = Trim(line);
+    const std::string_view trimmed = TrimView(line);
     if (trimmed.empty() || trimmed[0] == '#') {
       if (end >= text.size()) break;
       continue;
     }
-    std::string where = file + ": line " + std::to_string(line_number);
+    const LinePlace where{file, line_number};
     if (!delimiter_known) {
       table.delimiter = DetectDelimiter(line, !headerless);
       delimiter_known = true;
     }
-    std::vector<std::string> fields =
-        table.delimiter == ' ' ? SplitOnBlanks(line, where) : SplitLine(line, where, table.delimiter);
+    std::vector<std::string> fields = table.delimiter == ' '
+                                          ? SplitOnBlanks(line, where, table.header.size())
+                                          : SplitLine(line, where, table.delimiter, table.header.size());
     if (table.delimiter != ',' && !table.header.empty()) {
       for (std::string& field : fields) DecimalCommaToPoint(field);
     }
     if (table.header.empty()) {
       for (const std::string& name : fields) {
-        if (name.empty()) throw InputError(where + ": empty column name in the header");
+        if (name.empty()) throw InputError(where.str() + ": empty column name in the header");
         for (const std::string& other : table.header) {
-          if (other == name) throw InputError(where + ": column '" + name + "' appears twice");
+          if (other == name) throw InputError(where.str() + ": column '" + name + "' appears twice");
         }
         table.header.push_back(name);
       }
       table.header_line = line_number;
     } else {
       if (fields.size() != table.header.size()) {
-        throw InputError(where + ": " + std::to_string(fields.size()) + " fields, " +
+        throw InputError(where.str() + ": " + std::to_string(fields.size()) + " fields, " +
                          (headerless ? "the columns name " : "the header has ") +
                          std::to_string(table.header.size()) + " (separator '" +
                          SeparatorName(table.delimiter) +

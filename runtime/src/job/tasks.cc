@@ -102,11 +102,13 @@ void ReadTasks(Section& top, Job& job) {
     const auto fits = ReadWeighting(t, spec.kind, spec.name, "task");
     t.Finish();
     const std::vector<int> indices = ResolveTaskPoints(spec, point_names, t.Where("points"));
-    for (const auto& [weighted, name] : fits) {
+    for (std::size_t f = 0; f < fits.size(); ++f) {
+      const auto& [weighted, name] = fits[f];
       if (name != spec.name && !seen.insert(name).second)
         throw InputError(t.Where("weighting") + ": its weighted fit's name '" + name +
                          "' is already a task's");
-      TaskSpec fit = spec;
+      // The last fit takes the spec itself: a scan's task over 10^6 points is not copied.
+      TaskSpec fit = f + 1 < fits.size() ? spec : std::move(spec);
       fit.name = name;
       fit.weighted = weighted;
       job.task_points.push_back(indices);
