@@ -609,6 +609,45 @@ TEST(OrderStatistics, GatheringIsTheSameOnEveryPathAndThreadCount) {
   CheckGatheringPaths<double>(22);
 }
 
+// GatherHighTail (values filled block by block, the coverage region's distances) gathers what
+// GatherTails gathers from an array: its smallest kept value is the (M - high + 1)-th smallest of
+// all, on 1, 2 and 3 threads; it declines a small M, and a sample that saw only the largest value
+// (the count then falls short), so that the caller's array path takes over.
+TEST(OrderStatistics, HighTailFromBlocksIsTheArraysTail) {
+  std::mt19937_64 gen(24);
+  std::chi_squared_distribution<double> distance2(3.0);
+  for (int m : {1000, 4096, 10'007, 100'003, 1'000'003}) {
+    std::vector<double> v(static_cast<std::size_t>(m));
+    for (double& x : v) x = std::sqrt(distance2(gen));
+    for (std::size_t i = 0; i < v.size(); i += 101) v[i] = std::round(v[i] * 16.0) / 16.0;  // ties
+    std::vector<double> sorted = v;
+    std::sort(sorted.begin(), sorted.end());
+    auto fill = [&](std::int64_t begin, std::int64_t end, double* out) {
+      std::copy(v.begin() + begin, v.begin() + end, out);
+    };
+    for (const std::int64_t high : {std::int64_t{1}, std::int64_t{m / 20 + 1}, std::int64_t{m / 5}}) {
+      for (const int threads : {1, 2, 3}) {
+        mcm_internal::Tails<double> tails;
+        const bool gathered = mcm_internal::GatherHighTail(m, high, fill, threads, &tails);
+        EXPECT_EQ(gathered, m >= 4096) << m << " " << high << " " << threads;
+        if (!gathered) continue;
+        EXPECT_EQ(mcm_internal::SmallestOfHighTail(&tails), sorted[static_cast<std::size_t>(m - high)])
+            << m << " " << high << " " << threads;
+      }
+    }
+  }
+  // Every sampled value (1 in 16 at the middle of its stride, mcm/order.cc) the largest: the
+  // threshold is that value, too few lie at or beyond it.
+  const int m = 100'000;
+  std::vector<double> v(m);
+  for (int i = 0; i < m; ++i) v[i] = static_cast<double>(i % 7);
+  const std::int64_t s = std::clamp<std::int64_t>(m / 16, 256, 4096), step = m / s;
+  for (std::int64_t i = 0; i < s; ++i) v[static_cast<std::size_t>(i * step + step / 2)] = 100.0;
+  auto fill = [&](std::int64_t begin, std::int64_t end, double* out) { std::copy(v.begin() + begin, v.begin() + end, out); };
+  mcm_internal::Tails<double> tails;
+  EXPECT_FALSE(mcm_internal::GatherHighTail(m, m / 10, fill, 2, &tails));
+}
+
 // The histogram's counts (mcm/order.h CountHistogram, bins computed in SIMD lanes) against the
 // definition written out value by value: bin floor(b), b = ((reference + v) - low) / width, below
 // for b < 0 or NaN, above for b >= bins; values on every bin edge, outside, and NaN.

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstddef>
+#include <functional>
 #include <limits>
 #include <span>
 #include <type_traits>
@@ -236,6 +237,18 @@ void SortAscending(std::span<double> values) {
   }
 }
 
+namespace {
+
+// The rank in a sorted sample of s of M values beyond which a tail of `tail` values is gathered:
+// the tail's expected count in the sample + 6 binomial standard deviations + 8, so that at least
+// `tail` values lie beyond it except with a negligible probability (and then the counts catch it).
+std::int64_t MarginRank(std::int64_t tail, std::int64_t m, std::int64_t s) {
+  const double expected = static_cast<double>(tail) / static_cast<double>(m) * static_cast<double>(s);
+  return std::min<std::int64_t>(s / 2 - 1, static_cast<std::int64_t>(expected + 6.0 * std::sqrt(expected) + 8.0));
+}
+
+}  // namespace
+
 template <typename T>
 void GatherTails(std::span<const T> values, std::int64_t low, std::int64_t high, Tails<T>* tails, int threads) {
   tails->low = low;
@@ -262,12 +275,7 @@ void GatherTails(std::span<const T> values, std::int64_t low, std::int64_t high,
   tails->sample.resize(static_cast<std::size_t>(s));
   for (std::int64_t i = 0; i < s; ++i) tails->sample[i] = values[i * step + step / 2];
   SortAscending(std::span<T>(tails->sample));
-  auto margin_rank = [&](std::int64_t tail) {
-    const double expected = static_cast<double>(tail) / static_cast<double>(m) * static_cast<double>(s);
-    return std::min<std::int64_t>(s / 2 - 1,
-                                  static_cast<std::int64_t>(expected + 6.0 * std::sqrt(expected) + 8.0));
-  };
-  const std::int64_t k_low = margin_rank(low), k_high = margin_rank(high);
+  const std::int64_t k_low = MarginRank(low, m, s), k_high = MarginRank(high, m, s);
   constexpr T kInf = std::numeric_limits<T>::infinity();
   const T lo = low > 0 ? tails->sample[k_low] : -kInf;           // gather x <= lo
   const T hi = high > 0 ? tails->sample[s - 1 - k_high] : kInf;  // gather x >= hi
@@ -301,6 +309,54 @@ void FinishTail(Tails<T>* tails, int which) {
     SortAscending(std::span<T>(highs));
     highs.erase(highs.begin(), highs.end() - tails->high);
   }
+}
+
+bool GatherHighTail(std::int64_t m, std::int64_t high,
+                    const std::function<void(std::int64_t begin, std::int64_t end, double* out)>& fill, int threads,
+                    Tails<double>* tails) {
+  tails->low = 0;
+  tails->high = high;
+  tails->sorted = false;
+  if (m < kGatherMin || 4 * high > m) return false;
+  // The threshold from a strided sample, as GatherTails.
+  const std::int64_t s = std::clamp<std::int64_t>(m / 16, 256, 4096);
+  const std::int64_t step = m / s;
+  tails->sample.resize(static_cast<std::size_t>(s));
+  for (std::int64_t i = 0; i < s; ++i) fill(i * step + step / 2, i * step + step / 2 + 1, &tails->sample[i]);
+  SortAscending(std::span<double>(tails->sample));
+  const double hi = high > 0 ? tails->sample[s - 1 - MarginRank(high, m, s)] : std::numeric_limits<double>::infinity();
+  // Blocks of kPassChunk values, each filled into its worker's buffer and gathered into the
+  // worker's own tail (as GatherInBlocks), then copied out in block order.
+  using Buffer = std::vector<double, UninitializedAllocator<double>>;
+  struct Gathered {
+    int worker = 0;
+    std::size_t at = 0, end = 0;
+  };
+  const auto workers = static_cast<std::size_t>(parallel_internal::ResolveThreads(threads));
+  const std::size_t blocks = static_cast<std::size_t>((m + kPassChunk - 1) / kPassChunk);
+  // (A worker's block of values: one ordinary vector of kPassChunk, zeroed once.)
+  std::vector<std::vector<double>> values(workers, std::vector<double>(static_cast<std::size_t>(kPassChunk)));
+  std::vector<Buffer> unused_lows(workers), highs(workers);
+  std::vector<std::size_t> used(workers, 0);
+  std::vector<Gathered> where(blocks);
+  parallel_internal::ForEach(blocks, threads, [&](std::size_t b, int w) {
+    const std::int64_t begin = static_cast<std::int64_t>(b) * kPassChunk, end = std::min(m, begin + kPassChunk);
+    fill(begin, end, values[w].data());
+    std::size_t no_low = 0, kept = used[w];
+    GatherBeyond(std::span<const double>(values[w].data(), static_cast<std::size_t>(end - begin)),
+                 -std::numeric_limits<double>::infinity(), hi, unused_lows[w], highs[w], &no_low, &kept);
+    where[b] = {w, used[w], kept};
+    used[w] = kept;
+  });
+  std::size_t count = 0;
+  for (const Gathered& g : where) count += g.end - g.at;
+  if (static_cast<std::int64_t>(count) < high) return false;
+  tails->high_values.clear();
+  tails->high_values.reserve(count);
+  for (const Gathered& g : where) {
+    tails->high_values.insert(tails->high_values.end(), highs[g.worker].data() + g.at, highs[g.worker].data() + g.end);
+  }
+  return true;
 }
 
 template <typename T>

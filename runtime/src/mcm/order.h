@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -46,6 +47,17 @@ template <typename T>
 void GatherTails(std::span<const T> values, std::int64_t low, std::int64_t high, Tails<T>* tails, int threads);
 template <typename T>
 void FinishTail(Tails<T>* tails, int which);
+
+// GatherTails's high tail (low = 0) of m values that `fill(begin, end, out)` computes into
+// out[0, end - begin) on demand, one block of kPassChunk values at a time on each worker, instead
+// of read from an array of m values (the coverage region's distances: no array of 8 M bytes,
+// whose fresh pages the threads would fault at once). The sample's values are filled one by one.
+// Returns false, leaving the tail unusable, where GatherTails would have sorted every value (a
+// small m, a long tail) or a count fell short: the caller then fills an array and calls
+// GatherTails.
+bool GatherHighTail(std::int64_t m, std::int64_t high,
+                    const std::function<void(std::int64_t begin, std::int64_t end, double* out)>& fill, int threads,
+                    Tails<double>* tails);
 
 // The smallest of the `high` largest values, from GatherTails's gathered values without sorting
 // them: a selection (std::nth_element) — FinishTail(tails, 1) followed by high_values.front(), in

@@ -17,7 +17,7 @@
 namespace vlt::mcm_internal {
 namespace {
 
-// d[r] = |L^-1 (y_r - mean)| for the trials r in [begin, end) of one group of `dim` components
+// d[r - begin] = |L^-1 (y_r - mean)| for the trials r in [begin, end) of one group of `dim` components
 // (series[a]: component a's deviations from y0; rows: L^-1 row-major). kDim > 0 fixes the size at
 // compile time (a point: 3), so that the rows' sums of a trial are computed side by side rather
 // than one loop after another; the arithmetic, and so every bit, is the same as for kDim = 0.
@@ -37,7 +37,7 @@ void RegionDistances(int dim, const float* const* series, const double* mean_min
       for (int b = 0; b < n; ++b) w += rows[a * n + b] * dev[b];
       sum2 += w * w;
     }
-    d[r] = std::sqrt(sum2);
+    d[r - begin] = std::sqrt(sum2);
   }
 }
 
@@ -45,8 +45,10 @@ void RegionDistances(int dim, const float* const* series, const double* mean_min
 
 // k_p of JCGM 102 7.7.3 from the deviations (float, relative to y0) of n trials of one group:
 // the q-th smallest |L^-1 (y_r - mean)|. series[a] holds component a. Returns false when the
-// covariance is not positive definite. The distances are computed in parallel (each on its own:
-// the same bits for any thread count), and so is the pass of the order statistic (mcm/order.h).
+// covariance is not positive definite. The distances are computed block by block on the threads
+// (each on its own: the same bits for any thread count) and only those beyond the sample's
+// threshold kept (mcm/order.h GatherHighTail); where that does not apply, into one array of n
+// distances, then the pass of the order statistic (GatherTails).
 bool GatherRegionTail(const std::vector<const float*>& series, std::int64_t n,
                       const Eigen::VectorXd& mean_minus_y0, const Eigen::MatrixXd& cov, double p, int threads,
                       Tails<double>* tails) {
@@ -57,19 +59,24 @@ bool GatherRegionTail(const std::vector<const float*>& series, std::int64_t n,
   if (!l_inv.allFinite()) return false;
   // Row-major copy of L^-1; |w| with w_a = sum_b (L^-1)_ab dev_b summed in b order (RegionDistances).
   const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rows = l_inv;
-  std::vector<double, UninitializedAllocator<double>> d(static_cast<std::size_t>(n));
-  parallel_internal::ForEachChunk(
-      static_cast<std::size_t>(n), kPassChunk, threads, [&](std::size_t, std::size_t begin, std::size_t end) {
-        const float* const* components = series.data();
-        if (dim == 3) {
-          RegionDistances<3>(3, components, mean_minus_y0.data(), rows.data(), begin, end, d.data());
-        } else {
-          RegionDistances<0>(dim, components, mean_minus_y0.data(), rows.data(), begin, end, d.data());
-        }
-      });
+  auto distances = [&](std::int64_t begin, std::int64_t end, double* out) {
+    const auto b = static_cast<std::size_t>(begin), e = static_cast<std::size_t>(end);
+    if (dim == 3) {
+      RegionDistances<3>(3, series.data(), mean_minus_y0.data(), rows.data(), b, e, out);
+    } else {
+      RegionDistances<0>(dim, series.data(), mean_minus_y0.data(), rows.data(), b, e, out);
+    }
+  };
   // The q-th smallest distance is the smallest of the n - q + 1 largest.
-  const std::int64_t q = CoverageCount(n, p);
-  GatherTails(std::span<const double>(d.data(), d.size()), 0, n - q + 1, tails, threads);
+  const std::int64_t high = n - CoverageCount(n, p) + 1;
+  if (GatherHighTail(n, high, distances, threads, tails)) return true;
+  std::vector<double, UninitializedAllocator<double>> d(static_cast<std::size_t>(n));
+  parallel_internal::ForEachChunk(static_cast<std::size_t>(n), kPassChunk, threads,
+                                  [&](std::size_t, std::size_t begin, std::size_t end) {
+                                    distances(static_cast<std::int64_t>(begin), static_cast<std::int64_t>(end),
+                                              d.data() + begin);
+                                  });
+  GatherTails(std::span<const double>(d.data(), d.size()), 0, high, tails, threads);
   return true;
 }
 
