@@ -168,7 +168,7 @@ bool RegionFactor(const std::vector<const float*>& series, std::int64_t n,
                   const Eigen::VectorXd& mean_minus_y0, const Eigen::MatrixXd& cov, double p, int threads,
                   double* k);
 // RegionFactor in steps: the distances and the pass that gathers their high tail (false: the
-// covariance is not positive definite), then FinishTail(tails, 1); k_p = tails->high_values.front().
+// covariance is not positive definite), then k_p = SmallestOfHighTail(tails) (mcm/order.h).
 bool GatherRegionTail(const std::vector<const float*>& series, std::int64_t n,
                       const Eigen::VectorXd& mean_minus_y0, const Eigen::MatrixXd& cov, double p, int threads,
                       Tails<double>* tails);

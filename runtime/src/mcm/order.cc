@@ -131,6 +131,18 @@ void GatherBlock(const T* x, std::size_t n, T lo, T hi, T* l, T* h, std::size_t*
   GatherBlockPortable(x, n, lo, hi, l, h, nl, nh);
 }
 
+// `buffer` at least `size` long, its first `kept` values kept: a new one of twice the size (or
+// `size`) with those copied, so that the values past the count — uninitialised in the workers'
+// buffers (UninitializedAllocator) — are never read.
+template <class Buffer>
+void GrowKeeping(Buffer& buffer, std::size_t kept, std::size_t size) {
+  if (buffer.size() >= size) return;
+  Buffer bigger;
+  bigger.resize(std::max(2 * buffer.size(), size));
+  std::copy(buffer.begin(), buffer.begin() + static_cast<std::ptrdiff_t>(kept), bigger.begin());
+  buffer.swap(bigger);
+}
+
 // Every value x <= lo appended to lows at *n_low and x >= hi to highs at *n_high, in the values'
 // order (GatherBlock); the counts are advanced. The buffers grow a block ahead of the counts.
 template <typename T, class Buffer>
@@ -140,8 +152,8 @@ void GatherBeyond(std::span<const T> values, T lo, T hi, Buffer& lows, Buffer& h
   std::size_t nl = *n_low, nh = *n_high;
   for (std::size_t start = 0; start < values.size(); start += kBlock) {
     const std::size_t end = std::min(values.size(), start + kBlock);
-    if (lows.size() < nl + kBlock) lows.resize(std::max(2 * lows.size(), nl + kBlock));
-    if (highs.size() < nh + kBlock) highs.resize(std::max(2 * highs.size(), nh + kBlock));
+    GrowKeeping(lows, nl, nl + kBlock);
+    GrowKeeping(highs, nh, nh + kBlock);
     GatherBlock(values.data() + start, end - start, lo, hi, lows.data(), highs.data(), &nl, &nh);
   }
   *n_low = nl;
