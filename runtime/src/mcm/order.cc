@@ -160,19 +160,20 @@ void GatherBeyond(std::span<const T> values, T lo, T hi, Buffer& lows, Buffer& h
   *n_high = nh;
 }
 
-// GatherBeyond over blocks of kPassChunk values as parallel items, each block's values appended
-// in block order to tails->low_values / high_values (the same values as one pass gathers). Each
+// GatherBeyond over blocks of kPassChunk of n values as parallel items — block(begin, end, worker)
+// gives a block's values — each block's values appended in block order to tails->low_values /
+// high_values (the same values as one pass gathers). Each
 // worker appends the blocks it runs to its own buffers (uninitialised, grown by doubling: no
 // allocation per block, no zeroing); the blocks are then copied out in block order.
 template <typename T>
-void GatherInBlocks(std::span<const T> values, T lo, T hi, int threads, std::size_t guess, Tails<T>* tails,
-                    std::size_t* n_low, std::size_t* n_high) {
+void GatherInBlocks(std::size_t n, const std::function<std::span<const T>(std::size_t, std::size_t, int)>& block,
+                    T lo, T hi, int threads, std::size_t guess, Tails<T>* tails, std::size_t* n_low,
+                    std::size_t* n_high) {
   using Buffer = std::vector<T, UninitializedAllocator<T>>;
   struct Gathered {
     int worker = 0;
     std::size_t low_at = 0, low_end = 0, high_at = 0, high_end = 0;
   };
-  const std::size_t n = values.size();
   const std::size_t blocks = (n + kPassChunk - 1) / kPassChunk;
   const auto workers = static_cast<std::size_t>(parallel_internal::ResolveThreads(threads));
   std::vector<Buffer> lows(workers), highs(workers);
@@ -188,7 +189,7 @@ void GatherInBlocks(std::span<const T> values, T lo, T hi, int threads, std::siz
     g.worker = w;
     g.low_at = g.low_end = used_low[w];
     g.high_at = g.high_end = used_high[w];
-    GatherBeyond(values.subspan(begin, end - begin), lo, hi, lows[w], highs[w], &g.low_end, &g.high_end);
+    GatherBeyond(block(begin, end, w), lo, hi, lows[w], highs[w], &g.low_end, &g.high_end);
     used_low[w] = g.low_end;
     used_high[w] = g.high_end;
   });
@@ -259,6 +260,18 @@ std::int64_t MarginRank(std::int64_t tail, std::int64_t m, std::int64_t s) {
   return std::min<std::int64_t>(s / 2 - 1, static_cast<std::int64_t>(expected + 6.0 * std::sqrt(expected) + 8.0));
 }
 
+// The sorted strided sample of M values whose ranks set the thresholds: s values (1 in 16, 256 to
+// 4096), value_at(i step + step / 2). Returns s.
+template <typename T, class ValueAt>
+std::int64_t SortedSample(std::int64_t m, const ValueAt& value_at, std::vector<T>& sample) {
+  const std::int64_t s = std::clamp<std::int64_t>(m / 16, 256, 4096);
+  const std::int64_t step = m / s;
+  sample.resize(static_cast<std::size_t>(s));
+  for (std::int64_t i = 0; i < s; ++i) sample[static_cast<std::size_t>(i)] = value_at(i * step + step / 2);
+  SortAscending(std::span<T>(sample));
+  return s;
+}
+
 }  // namespace
 
 template <typename T>
@@ -282,11 +295,8 @@ void GatherTails(std::span<const T> values, std::int64_t low, std::int64_t high,
   // is the sample's k-th smallest, k the tail's expected count in the sample + 6 binomial
   // standard deviations + 8, so that at least `low` values lie at or below it except with a
   // negligible probability (and then the counts below catch it).
-  const std::int64_t s = std::clamp<std::int64_t>(m / 16, 256, 4096);
-  const std::int64_t step = m / s;
-  tails->sample.resize(static_cast<std::size_t>(s));
-  for (std::int64_t i = 0; i < s; ++i) tails->sample[i] = values[i * step + step / 2];
-  SortAscending(std::span<T>(tails->sample));
+  const std::int64_t s =
+      SortedSample(m, [&](std::int64_t i) { return values[static_cast<std::size_t>(i)]; }, tails->sample);
   const std::int64_t k_low = MarginRank(low, m, s), k_high = MarginRank(high, m, s);
   constexpr T kInf = std::numeric_limits<T>::infinity();
   const T lo = low > 0 ? tails->sample[k_low] : -kInf;           // gather x <= lo
@@ -296,7 +306,8 @@ void GatherTails(std::span<const T> values, std::int64_t low, std::int64_t high,
   const std::size_t guess =
       static_cast<std::size_t>(m / s) * static_cast<std::size_t>(std::max(k_low, k_high) + 1);
   if (threads > 1 && m > 2 * kPassChunk) {
-    GatherInBlocks(values, lo, hi, threads, guess, tails, &n_low, &n_high);
+    auto block = [&](std::size_t begin, std::size_t end, int) { return values.subspan(begin, end - begin); };
+    GatherInBlocks<T>(values.size(), block, lo, hi, threads, guess, tails, &n_low, &n_high);
   } else {
     lows.resize(guess);
     highs.resize(guess);
@@ -330,45 +341,27 @@ bool GatherHighTail(std::int64_t m, std::int64_t high,
   tails->high = high;
   tails->sorted = false;
   if (m < kGatherMin || 4 * high > m) return false;
-  // The threshold from a strided sample, as GatherTails.
-  const std::int64_t s = std::clamp<std::int64_t>(m / 16, 256, 4096);
-  const std::int64_t step = m / s;
-  tails->sample.resize(static_cast<std::size_t>(s));
-  for (std::int64_t i = 0; i < s; ++i) fill(i * step + step / 2, i * step + step / 2 + 1, &tails->sample[i]);
-  SortAscending(std::span<double>(tails->sample));
-  const double hi = high > 0 ? tails->sample[s - 1 - MarginRank(high, m, s)] : std::numeric_limits<double>::infinity();
-  // Blocks of kPassChunk values, each filled into its worker's buffer and gathered into the
-  // worker's own tail (as GatherInBlocks), then copied out in block order.
-  using Buffer = std::vector<double, UninitializedAllocator<double>>;
-  struct Gathered {
-    int worker = 0;
-    std::size_t at = 0, end = 0;
+  // The threshold from the strided sample, and the pass in blocks, as GatherTails; each block
+  // filled into its worker's buffer (kPassChunk values, zeroed once) first.
+  auto value_at = [&](std::int64_t i) {
+    double x;
+    fill(i, i + 1, &x);
+    return x;
   };
+  const std::int64_t s = SortedSample(m, value_at, tails->sample);
+  const std::int64_t k_high = MarginRank(high, m, s);
+  const double hi = tails->sample[static_cast<std::size_t>(s - 1 - k_high)];
   const auto workers = static_cast<std::size_t>(parallel_internal::ResolveThreads(threads));
-  const std::size_t blocks = static_cast<std::size_t>((m + kPassChunk - 1) / kPassChunk);
-  // (A worker's block of values: one ordinary vector of kPassChunk, zeroed once.)
-  std::vector<std::vector<double>> values(workers, std::vector<double>(static_cast<std::size_t>(kPassChunk)));
-  std::vector<Buffer> unused_lows(workers), highs(workers);
-  std::vector<std::size_t> used(workers, 0);
-  std::vector<Gathered> where(blocks);
-  parallel_internal::ForEach(blocks, threads, [&](std::size_t b, int w) {
-    const std::int64_t begin = static_cast<std::int64_t>(b) * kPassChunk, end = std::min(m, begin + kPassChunk);
-    fill(begin, end, values[w].data());
-    std::size_t no_low = 0, kept = used[w];
-    GatherBeyond(std::span<const double>(values[w].data(), static_cast<std::size_t>(end - begin)),
-                 -std::numeric_limits<double>::infinity(), hi, unused_lows[w], highs[w], &no_low, &kept);
-    where[b] = {w, used[w], kept};
-    used[w] = kept;
-  });
-  std::size_t count = 0;
-  for (const Gathered& g : where) count += g.end - g.at;
-  if (static_cast<std::int64_t>(count) < high) return false;
-  tails->high_values.clear();
-  tails->high_values.reserve(count);
-  for (const Gathered& g : where) {
-    tails->high_values.insert(tails->high_values.end(), highs[g.worker].data() + g.at, highs[g.worker].data() + g.end);
-  }
-  return true;
+  std::vector<std::vector<double>> buffers(workers, std::vector<double>(static_cast<std::size_t>(kPassChunk)));
+  auto block = [&](std::size_t begin, std::size_t end, int w) {
+    fill(static_cast<std::int64_t>(begin), static_cast<std::int64_t>(end), buffers[w].data());
+    return std::span<const double>(buffers[w].data(), end - begin);
+  };
+  std::size_t no_low = 0, count = 0;
+  const std::size_t guess = static_cast<std::size_t>(m / s) * static_cast<std::size_t>(k_high + 1);
+  GatherInBlocks<double>(static_cast<std::size_t>(m), block, -std::numeric_limits<double>::infinity(), hi,
+                         threads, guess, tails, &no_low, &count);
+  return static_cast<std::int64_t>(count) >= high;
 }
 
 template <typename T>
