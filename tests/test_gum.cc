@@ -2,6 +2,7 @@
 // differences and brute-force 3N x 3N references.
 #include "vlt/gum.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -250,6 +251,46 @@ TEST(GumPoint, LineOfSightSplitClosedForm) {
   EXPECT_NEAR(r.ellipsoid.semi_axes(1), k3 * rho * std::cos(e) * 3e-6, 1e-14);
   EXPECT_NEAR(r.ellipsoid.semi_axes(2), k3 * (2e-6 + 1e-6 * rho), 1e-14);
   EXPECT_NEAR(std::abs(r.ellipsoid.directions.col(2).dot(r.los_part.directions.col(0))), 1.0, 1e-9);
+}
+
+// The budget lists its rows by share of trace(U_y), largest first; rows of equal share (inputs
+// that do not vary: 0) keep the inputs' order (range, azimuth, elevation, then the shared inputs
+// as the model lists them), and each row carries its own input's estimate and u.
+TEST(GumBudget, EqualSharesKeepTheInputOrder) {
+  MeasurementSetup s = FullSetup(false);
+  s.params[3].u = 0.0;
+  s.params[1].u = 0.0;
+  s.pose->ry.u = 0.0;
+  s.pose->tx.u = 0.0;
+  MeasurementModel m(s);
+  std::vector<std::string> input_order = {"range", "azimuth", "elevation"};
+  for (const UncertainInput& in : m.shared_inputs()) input_order.push_back(in.name);
+  auto position = [&](const std::string& name) {
+    return std::find(input_order.begin(), input_order.end(), name) - input_order.begin();
+  };
+  const auto pts = SomePoints(3);
+  const auto res = PropagatePoints(m, pts);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const auto& budget = res[i].budget;
+    ASSERT_EQ(budget.size(), input_order.size());
+    int zero_rows = 0;
+    for (std::size_t b = 0; b < budget.size(); ++b) {
+      const BudgetRow& row = budget[b];
+      const auto at = position(row.input);
+      ASSERT_LT(at, static_cast<std::ptrdiff_t>(input_order.size())) << row.input;
+      if (at >= 3) {
+        EXPECT_EQ(row.u, m.shared_inputs()[at - 3].u) << row.input;
+        EXPECT_EQ(row.estimate, m.shared_inputs()[at - 3].estimate) << row.input;
+      } else {
+        EXPECT_EQ(row.estimate, pts[i].readings(at)) << row.input;
+      }
+      if (b == 0) continue;
+      EXPECT_GE(budget[b - 1].share_total, row.share_total);
+      if (budget[b - 1].share_total == row.share_total) EXPECT_LT(position(budget[b - 1].input), at);
+      if (row.share_total == 0.0) ++zero_rows;
+    }
+    EXPECT_EQ(zero_rows, 4);
+  }
 }
 
 TEST(GumBudget, SensitivitiesUnitsAndShares) {

@@ -293,3 +293,68 @@ TEST(GumSecondOrder, TheRuleComparesTheTwoSecondOrderTerms) {
 
 }  // namespace
 }  // namespace vlt
+
+namespace vlt {
+namespace {
+
+// The terms over +-1 u, written out as their definition: H_a's column k is half the difference
+// of J_z = J_x diag(u) at x0 +- u_k e_k (independent inputs: F diagonal), and u2^2 = 1/2 ||(H +
+// H^T) / 2||_F^2. CheckSecondOrder computes the columns from the kernel's Jacobians without
+// forming J_z (issue 33: a scan's 10^6 points); its numbers must be these, bit for bit, at points
+// where the local terms do not replace them (terms below a tenth of the threshold).
+TEST(GumSecondOrder, TheTermsOverOneUncertaintyAreTheirDefinitionBitForBit) {
+  const ModelInfo* mirror = FindModel("mirror");
+  for (const bool stages : {false, true}) {
+    MeasurementSetup s = MirrorWithEveryStage(mirror);
+    if (!stages) {
+      s.environment.reset();
+      s.pose.reset();
+      s.thermal.reset();
+    }
+    s.params[4].u = 0.0;  // an input that does not vary: a zero column
+    const MeasurementModel model(s);
+    const int S = model.num_shared(), n = 3 + S;
+    Eigen::VectorXd u_shared(S);
+    for (int k = 0; k < S; ++k) u_shared(k) = model.shared_inputs()[k].u;
+    const Eigen::VectorXd x0 = model.shared_estimates();
+    int compared = 0;
+    for (const Eigen::Vector3d& r0 : {Eigen::Vector3d(5.0, 0.3, 0.2), Eigen::Vector3d(12.0, -2.1, -0.4),
+                                      Eigen::Vector3d(2.5, 3.0, 0.9)}) {
+      const Eigen::Vector3d u_r = model.reading_uncertainty(r0(0));
+      Eigen::VectorXd d(n);
+      d << u_r, u_shared;
+      std::vector<Eigen::MatrixXd> h(3, Eigen::MatrixXd(n, n));
+      for (int k = 0; k < n; ++k) {
+        Eigen::MatrixXd jz[2];
+        for (int side = 0; side < 2; ++side) {
+          const double sign = side == 0 ? 1.0 : -1.0;
+          Eigen::Vector3d r = r0;
+          Eigen::VectorXd x = x0;
+          if (k < 3) r(k) += sign * u_r(k);
+          else x += sign * u_shared(k - 3) * Eigen::VectorXd::Unit(S, k - 3);
+          Eigen::Vector3d y;
+          Eigen::Matrix3d jr;
+          Eigen::MatrixXd js(3, S);
+          model.EvaluateWithJacobian(r.data(), x.data(), y.data(), jr.data(), js.data());
+          jz[side].resize(3, n);
+          jz[side] << jr, js;
+          jz[side] = jz[side] * d.asDiagonal();
+        }
+        for (int a = 0; a < 3; ++a) h[a].col(k) = 0.5 * (jz[0].row(a) - jz[1].row(a)).transpose();
+      }
+      const PointUncertainty p = Check(model, r0);
+      for (int a = 0; a < 3; ++a) {
+        const double expected = 0.5 * (0.5 * (h[a] + h[a].transpose())).squaredNorm();
+        ASSERT_GT(expected, 0.0);
+        if (expected > 0.1 * kSecondOrderThreshold * p.cov_part(a, a)) continue;  // local terms replace it
+        EXPECT_EQ(p.second_order_variance(a), expected) << "stages " << stages << ", point " << r0.transpose()
+                                                        << ", axis " << a;
+        ++compared;
+      }
+    }
+    EXPECT_GE(compared, 6);
+  }
+}
+
+}  // namespace
+}  // namespace vlt

@@ -6,6 +6,8 @@
 #include "vlt/job.h"
 
 #include <cmath>
+#include <exception>
+#include <functional>
 #include <filesystem>
 #include <fstream>
 #include <numbers>
@@ -753,6 +755,78 @@ TEST(Csv, QuotesCommentsAndLineNumbers) {
   EXPECT_THROW(base_internal::ParseCsv("a,b\n\"x,1\n", "f.csv"), InputError);
   EXPECT_THROW(base_internal::ParseCsv("a,a\n", "f.csv"), InputError);
   EXPECT_THROW(base_internal::ParseCsv("# only\n", "f.csv"), InputError);
+}
+
+// A text of many pieces (issue 33: a scan's plan is parsed piece by piece side by side): every
+// row with its own fields and line number, whatever the line ends (LF, CRLF, a lone CR), blank and
+// comment lines, quotes and decimal commas; the same table when the pieces run in reverse order;
+// the first wrong row of the file is the one said, also when a later piece fails too.
+TEST(Csv, ManyPiecesGiveEveryRowWithItsLine) {
+  std::mt19937_64 rng(33);
+  const char* const ends[] = {"\n", "\r\n", "\r"};
+  struct Expected {
+    int line;
+    std::string name, x;
+  };
+  auto make = [&](char separator, std::vector<Expected>& expected, int bad_at, int second_bad_at) {
+    std::string text = "# plan\r\n\nname" + std::string(1, separator) + "x\n";
+    int line = 4;
+    for (int i = 0; i < 60000; ++i, ++line) {
+      const std::uint64_t r = rng();
+      if (r % 17 == 0) {
+        text += r % 2 ? "# comment" : "  ";
+      } else if (i == bad_at || i == second_bad_at) {
+        text += "P" + std::to_string(i);  // one field of two
+      } else {
+        const bool quoted = r % 5 == 0;
+        const std::string name = quoted ? "Q \"" + std::to_string(i) + "\"" : "P" + std::to_string(i);
+        const std::string x = std::to_string(i % 1000) + (separator == ';' ? "," : ".") + std::to_string(r % 97);
+        text += quoted ? "\"Q \"\"" + std::to_string(i) + "\"\"\"" : name;
+        text += separator;
+        text += " " + x + " ";
+        expected.push_back({line, name, separator == ';' ? std::to_string(i % 1000) + "." + std::to_string(r % 97) : x});
+      }
+      text += ends[(r >> 8) % (separator == ';' ? 2 : 3)];
+    }
+    return text;
+  };
+  auto reverse = [](std::size_t count, const std::function<void(std::size_t)>& task) {
+    std::exception_ptr first;
+    for (std::size_t k = count; k-- > 0;) {
+      try {
+        task(k);
+      } catch (...) {
+        first = std::current_exception();
+      }
+    }
+    if (first) std::rethrow_exception(first);
+  };
+  for (const char separator : {',', ';'}) {
+    std::vector<Expected> expected, unused;
+    const std::string text = make(separator, expected, -1, -1);
+    ASSERT_GT(text.size(), 3u << 18);  // several pieces of 256 KiB
+    for (int order = 0; order < 2; ++order) {
+      const base_internal::CsvTable t =
+          order == 0 ? base_internal::ParseCsv(text, "f.csv") : base_internal::ParseCsv(text, "f.csv", nullptr, reverse);
+      ASSERT_EQ(t.rows.size(), expected.size());
+      for (std::size_t i = 0; i < expected.size(); ++i) {
+        ASSERT_EQ(t.rows[i].line, expected[i].line) << i;
+        ASSERT_EQ(t.rows[i].fields[0], expected[i].name) << i;
+        ASSERT_EQ(t.rows[i].fields[1], expected[i].x) << i;
+      }
+    }
+    // Rows 41000 and 59000 are wrong (in later pieces): the message names the first one's line.
+    const std::string bad = make(separator, unused, 41000, 59000);
+    for (int order = 0; order < 2; ++order) {
+      try {
+        order == 0 ? base_internal::ParseCsv(bad, "f.csv") : base_internal::ParseCsv(bad, "f.csv", nullptr, reverse);
+        FAIL();
+      } catch (const InputError& e) {
+        const std::string said = "f.csv: line " + std::to_string(41000 + 4) + ": 1 fields, the header has 2";
+        EXPECT_EQ(std::string(e.what()).substr(0, said.size()), said);
+      }
+    }
+  }
 }
 
 // Spreadsheet exports in locales with a decimal comma: ';' separators (or tabs), numbers such as

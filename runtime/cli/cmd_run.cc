@@ -189,6 +189,7 @@ void AddRunCommand(CLI::App& app, GlobalOptions& global) {
     }
     JobOverrides overrides;
     if (!calibration->empty()) overrides.calibration = *calibration;
+    if (options->threads >= 0) overrides.threads = options->threads;
     Job job = LoadJob(*job_file, overrides);
     std::filesystem::path fallback = std::filesystem::path("vlt-out") / SafeFileName(job.name);
     RunAndWrite(job, *options, global, fallback);

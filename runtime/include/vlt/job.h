@@ -217,6 +217,9 @@ struct JobOverrides {
   // working directory, not to the job file): the calibration `vlt calibrate` just wrote, used
   // without editing the job.
   std::optional<std::string> calibration;
+  // The threads that read the job's files (`--threads`), in place of [monte_carlo] threads: a
+  // scan's plan of 10^6 points is read side by side. The job read is the same for any count.
+  std::optional<int> threads;
 };
 
 // Reads and checks the job file at `path` (relative paths inside resolve against its directory).

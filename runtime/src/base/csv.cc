@@ -2,6 +2,8 @@
 
 #include <charconv>
 #include <cmath>
+#include <functional>
+#include <iterator>
 
 #include <cctype>
 #include <filesystem>
@@ -163,62 +165,155 @@ int CsvTable::Column(std::string_view name) const {
 
 std::string CsvTable::Where(const CsvRow& row) const { return file + ": line " + std::to_string(row.line); }
 
+namespace {
+
+// The line of `text` that starts at `pos`: a line ends at LF, CRLF or a lone CR (old spreadsheet
+// exports on macOS); `next` is where the following line starts, `last` whether this one ends the text.
+struct Line {
+  std::string_view text;
+  std::size_t next = 0;
+  bool last = false;
+};
+
+Line LineAt(std::string_view text, std::size_t pos) {
+  std::size_t end = text.find_first_of("\r\n", pos);
+  if (end == std::string_view::npos) end = text.size();
+  Line line{text.substr(pos, end - pos), end + 1, end >= text.size()};
+  if (end < text.size() && text[end] == '\r' && line.next < text.size() && text[line.next] == '\n') ++line.next;
+  return line;
+}
+
+bool Skipped(std::string_view line) {
+  const std::string_view trimmed = TrimView(line);
+  return trimmed.empty() || trimmed[0] == '#';
+}
+
+// The fields of a row of `table` (its separator and columns), or the error of the line.
+std::vector<std::string> RowFields(const CsvTable& table, bool headerless, std::string_view line,
+                                   const LinePlace& where) {
+  std::vector<std::string> fields = table.delimiter == ' '
+                                        ? SplitOnBlanks(line, where, table.header.size())
+                                        : SplitLine(line, where, table.delimiter, table.header.size());
+  if (table.delimiter != ',') {
+    for (std::string& field : fields) DecimalCommaToPoint(field);
+  }
+  if (fields.size() != table.header.size()) {
+    throw InputError(where.str() + ": " + std::to_string(fields.size()) + " fields, " +
+                     (headerless ? "the columns name " : "the header has ") +
+                     std::to_string(table.header.size()) + " (separator '" + SeparatorName(table.delimiter) +
+                     (headerless ? "', taken from the first row)" : "', taken from the header line)"));
+  }
+  return fields;
+}
+
+// The rows of the whole lines text[begin, end), the first of them line `first_line`.
+std::vector<CsvRow> RowsOf(std::string_view text, std::size_t begin, std::size_t end, int first_line,
+                           const CsvTable& table, bool headerless) {
+  std::vector<CsvRow> rows;
+  int line_number = first_line;
+  for (std::size_t pos = begin; pos < end;) {
+    const Line line = LineAt(text, pos);
+    if (!Skipped(line.text)) {
+      rows.push_back(CsvRow{line_number, RowFields(table, headerless, line.text, LinePlace{table.file, line_number})});
+    }
+    if (line.last) break;
+    ++line_number;
+    pos = line.next;
+  }
+  return rows;
+}
+
+// Line ends in text[begin, end) as LineAt counts them (CRLF once).
+int LinesIn(std::string_view text, std::size_t begin, std::size_t end) {
+  int lines = 0;
+  for (std::size_t i = begin; i < end; ++i) {
+    if (text[i] == '\n' || (text[i] == '\r' && (i + 1 >= text.size() || text[i + 1] != '\n'))) ++lines;
+  }
+  return lines;
+}
+
+// Pieces of whole lines of about kPieceBytes from `begin`: each ends just after a LF (a text with
+// lone CR line ends is one piece). Fixed by the text alone, never by the thread count.
+constexpr std::size_t kPieceBytes = std::size_t{1} << 18;
+
+std::vector<std::size_t> PieceStarts(std::string_view text, std::size_t begin) {
+  std::vector<std::size_t> starts = {begin};
+  while (text.size() - starts.back() > kPieceBytes) {
+    const std::size_t lf = text.find('\n', starts.back() + kPieceBytes - 1);
+    if (lf == std::string_view::npos || lf + 1 >= text.size()) break;
+    starts.push_back(lf + 1);
+  }
+  return starts;
+}
+
+}  // namespace
+
 CsvTable ParseCsv(std::string_view text, const std::string& file, const std::vector<std::string>* columns) {
+  return ParseCsv(text, file, columns, [](std::size_t count, const std::function<void(std::size_t)>& task) {
+    for (std::size_t i = 0; i < count; ++i) task(i);
+  });
+}
+
+CsvTable ParseCsv(std::string_view text, const std::string& file, const std::vector<std::string>* columns,
+                  const RunTasks& run) {
   CsvTable table;
   table.file = file;
   const bool headerless = columns != nullptr;
-  bool delimiter_known = false;
   if (headerless) table.header = *columns;
-  int line_number = 0;
-  std::size_t pos = 0;
   // Skip a UTF-8 byte order mark (spreadsheets write one).
-  if (text.substr(0, 3) == "\xEF\xBB\xBF") pos = 3;
-  while (pos <= text.size()) {
-    // A line ends at LF, CRLF or a lone CR (old spreadsheet exports on macOS).
-    std::size_t end = text.find_first_of("\r\n", pos);
-    if (end == std::string_view::npos) end = text.size();
-    std::string_view line = text.substr(pos, end - pos);
-    ++line_number;
-    pos = end + 1;
-    if (end < text.size() && text[end] == '\r' && pos < text.size() && text[pos] == '\n') ++pos;
-    const std::string_view trimmed = TrimView(line);
-    if (trimmed.empty() || trimmed[0] == '#') {
-      if (end >= text.size()) break;
-      continue;
-    }
-    const LinePlace where{file, line_number};
-    if (!delimiter_known) {
-      table.delimiter = DetectDelimiter(line, !headerless);
-      delimiter_known = true;
-    }
-    std::vector<std::string> fields = table.delimiter == ' '
-                                          ? SplitOnBlanks(line, where, table.header.size())
-                                          : SplitLine(line, where, table.delimiter, table.header.size());
-    if (table.delimiter != ',' && !table.header.empty()) {
-      for (std::string& field : fields) DecimalCommaToPoint(field);
-    }
-    if (table.header.empty()) {
-      for (const std::string& name : fields) {
-        if (name.empty()) throw InputError(where.str() + ": empty column name in the header");
-        for (const std::string& other : table.header) {
-          if (other == name) throw InputError(where.str() + ": column '" + name + "' appears twice");
+  std::size_t pos = text.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;
+  int line_number = 1;
+  // The first line that is not blank or a comment sets the separator and, in a file with a header,
+  // is the header.
+  for (bool found = false; !found;) {
+    const Line line = LineAt(text, pos);
+    if (!Skipped(line.text)) {
+      found = true;
+      table.delimiter = DetectDelimiter(line.text, !headerless);
+      if (!headerless) {
+        const LinePlace where{file, line_number};
+        std::vector<std::string> fields = table.delimiter == ' ' ? SplitOnBlanks(line.text, where)
+                                                                 : SplitLine(line.text, where, table.delimiter);
+        for (const std::string& name : fields) {
+          if (name.empty()) throw InputError(where.str() + ": empty column name in the header");
+          for (const std::string& other : table.header) {
+            if (other == name) throw InputError(where.str() + ": column '" + name + "' appears twice");
+          }
+          table.header.push_back(name);
         }
-        table.header.push_back(name);
+        table.header_line = line_number;
+      } else {
+        break;  // this line is the first row
       }
-      table.header_line = line_number;
-    } else {
-      if (fields.size() != table.header.size()) {
-        throw InputError(where.str() + ": " + std::to_string(fields.size()) + " fields, " +
-                         (headerless ? "the columns name " : "the header has ") +
-                         std::to_string(table.header.size()) + " (separator '" +
-                         SeparatorName(table.delimiter) +
-                         (headerless ? "', taken from the first row)" : "', taken from the header line)"));
-      }
-      table.rows.push_back(CsvRow{line_number, std::move(fields)});
     }
-    if (end >= text.size()) break;
+    if (line.last) {
+      pos = text.size() + 1;  // no rows
+      break;
+    }
+    ++line_number;
+    pos = line.next;
   }
   if (table.header.empty()) throw InputError(file + ": empty CSV file (no header line)");
+  // The rows, piece by piece side by side (a scan's plan: 10^6 rows); a failure is the first
+  // failing row of the file, as one pass would find it.
+  if (pos <= text.size()) {
+    const std::vector<std::size_t> starts = PieceStarts(text, pos);
+    std::vector<int> first_lines(starts.size(), line_number);
+    for (std::size_t k = 1; k < starts.size(); ++k) {
+      first_lines[k] = first_lines[k - 1] + LinesIn(text, starts[k - 1], starts[k]);
+    }
+    std::vector<std::vector<CsvRow>> pieces(starts.size());
+    run(starts.size(), [&](std::size_t k) {
+      const std::size_t end = k + 1 < starts.size() ? starts[k + 1] : text.size();
+      pieces[k] = RowsOf(text, starts[k], end, first_lines[k], table, headerless);
+    });
+    std::size_t rows = 0;
+    for (const std::vector<CsvRow>& piece : pieces) rows += piece.size();
+    table.rows.reserve(rows);
+    for (std::vector<CsvRow>& piece : pieces) {
+      std::move(piece.begin(), piece.end(), std::back_inserter(table.rows));
+    }
+  }
   if (headerless && table.rows.empty()) throw InputError(file + ": empty file (no rows)");
   return table;
 }

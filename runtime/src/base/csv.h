@@ -9,6 +9,8 @@
 // CRLF and CR line ends and a UTF-8 byte order mark are accepted.
 #pragma once
 
+#include <cstddef>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -43,6 +45,16 @@ struct CsvTable {
 // above, and where it has none of them, runs of blanks (`name x y z` lists).
 CsvTable ParseCsv(std::string_view text, const std::string& file,
                   const std::vector<std::string>* columns = nullptr);
+
+// Runs task(0), ..., task(count - 1), side by side where it can; what a failing task throws is
+// rethrown, that of the first failing task in task order (parallel/pool.h ForEach is one: base/
+// does not start threads itself).
+using RunTasks = std::function<void(std::size_t count, const std::function<void(std::size_t)>& task)>;
+
+// ParseCsv with the rows parsed in pieces of whole lines (about 256 KiB each, fixed by the text)
+// that `run` may run side by side: the same table and the same first error as one pass.
+CsvTable ParseCsv(std::string_view text, const std::string& file, const std::vector<std::string>* columns,
+                  const RunTasks& run);
 
 // Reads and parses `path`; `label` names it in messages (InputError if it cannot be read).
 CsvTable ReadCsvFile(const std::string& path, const std::string& label,

@@ -108,6 +108,10 @@ Job ParseJob(std::string_view text, const std::string& file, const std::filesyst
   ReadPart(top, job);
   ReadCorrelations(top, job);
 
+  // [monte_carlo] before the points: its threads (or --threads) read a scan's plan.
+  ReadMonteCarlo(top, job.monte_carlo);
+  const int threads = overrides.threads.value_or(job.monte_carlo.threads);
+
   Section plan = top.Sub("plan", false);
   Section readings = top.Sub("readings", false);
   if (plan.exists() && readings.exists()) {
@@ -115,7 +119,7 @@ Job ParseJob(std::string_view text, const std::string& file, const std::filesyst
   }
   if (plan.exists()) {
     job.mode = JobMode::kPlan;
-    ReadPlan(plan, job);
+    ReadPlan(plan, job, true, threads);
   } else if (readings.exists()) {
     job.mode = JobMode::kReadings;
     ReadReadings(readings, job);
@@ -128,7 +132,6 @@ Job ParseJob(std::string_view text, const std::string& file, const std::filesyst
   }
   ReadTasks(top, job);
   ReadAlignments(top, job);
-  ReadMonteCarlo(top, job.monte_carlo);
   ReadMap(top, job);
   ReadOptimize(top, job);
   ReadOutput(top, job.output, /*point_files=*/true);

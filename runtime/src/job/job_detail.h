@@ -32,8 +32,9 @@ using namespace instrument_internal;
 // with a job-file message for a bad unit.
 double UnitScale(const std::string& unit, Dimension dim, const std::string& where);
 // points.cc: [plan]; check_reach: every point within range of the job's station and off its
-// vertical axis (a network's [targets] are checked per station instead).
-void ReadPlan(Section& plan, Job& job, bool check_reach = true);
+// vertical axis (a network's [targets] are checked per station instead). A plan CSV is read on up
+// to `threads` threads (0: all; the same points and the same first error for any count).
+void ReadPlan(Section& plan, Job& job, bool check_reach = true, int threads = 1);
 // points.cc: [readings]. The time column is read when `columns.time` names it, or, with
 // `times_by_default` (a network, whose drift models need times), when a column is called "time".
 void ReadReadings(Section& readings, Job& job, bool times_by_default = false);

@@ -10,11 +10,14 @@
 #include <string>
 #include <vector>
 
+#include <functional>
+
 #include "base/csv.h"
 #include "base/time.h"
 #include <toml++/toml.h>
 
 #include "job/job_detail.h"
+#include "parallel/pool.h"
 #include "vlt/calibration.h"
 #include "vlt/error.h"
 #include "vlt/input_file.h"
@@ -84,7 +87,65 @@ double UnitScale(const std::string& unit, Dimension dim, const std::string& wher
   return one - zero;
 }
 
-void ReadPlan(Section& s, Job& job, bool check_reach) {
+namespace {
+
+// A planned point must have a defined azimuth: not on the tracker's vertical axis, and within a
+// tracker's range.
+void CheckReach(const Job& job, const JobPoint& p) {
+    Eigen::Vector3d t = PartToTrackerNominal(job.setup, p.nominal);
+    if (!(t.stableNorm() <= kMaxRange)) {
+      throw InputError(p.where + ": point '" + p.name + "' is " +
+                       FormatQuantity(t.stableNorm(), Dimension::kLength, "m", 6) +
+                       " from the tracker: beyond any laser tracker (at most " +
+                       FormatQuantity(kMaxRange, Dimension::kLength, "km", 3) + ")");
+    }
+    if (std::hypot(t.x(), t.y()) < kVerticalAxisTolerance) {
+      throw InputError(
+          p.where + ": point '" + p.name +
+          "' lies on the tracker's vertical axis (azimuth undefined; move the point or the station)");
+    }
+}
+
+// The points of a plan CSV's rows, appended to job.points in the rows' order: chunks of rows side
+// by side, each row's fields freed as it is read (a scan's 10^6 rows of strings).
+void ReadPlanRows(CsvTable& table, double scale, int threads, Job& job) {
+  const std::string& rel = table.file;
+  for (const char* col : {"name", "x", "y", "z"}) {
+    if (table.Column(col) < 0) {
+      throw InputError(rel + ": line " + std::to_string(table.header_line) + ": missing column '" + col +
+                       "' (plan CSV columns: name, x, y, z [, face]; a file without a header line: "
+                       "header = false and columns = [\"name\", \"x\", \"y\", \"z\"])");
+    }
+  }
+  for (const std::string& col : table.header) {
+    if (col != "name" && col != "x" && col != "y" && col != "z" && col != "face") {
+      throw InputError(rel + ": line " + std::to_string(table.header_line) + ": unknown column '" + col +
+                       "' (plan CSV columns: name, x, y, z [, face])");
+    }
+  }
+  const int cn = table.Column("name"), cx = table.Column("x"), cy = table.Column("y"), cz = table.Column("z"),
+            cf = table.Column("face");
+  const std::size_t first = job.points.size();
+  job.points.resize(first + table.rows.size());  // a scan's 10^6 points: no growth slack
+  constexpr std::size_t kChunk = 4096;
+  parallel_internal::ForEachChunk(table.rows.size(), kChunk, threads, [&](std::size_t, std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) {
+      CsvRow& row = table.rows[i];
+      JobPoint& p = job.points[first + i];
+      p.where = table.Where(row);
+      p.name = std::move(row.fields[cn]);
+      if (p.name.empty()) throw InputError(p.where + ": empty point name");
+      p.nominal = {CsvQuantity(row.fields[cx], Dimension::kLength, scale, 0, p.where, ": x"),
+                   CsvQuantity(row.fields[cy], Dimension::kLength, scale, 0, p.where, ": y"),
+                   CsvQuantity(row.fields[cz], Dimension::kLength, scale, 0, p.where, ": z")};
+      if (cf >= 0 && !row.fields[cf].empty()) p.face = ParseFaceField(row.fields[cf], p.where);
+    }
+  });
+}
+
+}  // namespace
+
+void ReadPlan(Section& s, Job& job, bool check_reach, int threads) {
   s.set_hint("unit, csv, header, columns, point");
   std::string unit = "m";
   if (const toml::node* n = s.Get("unit")) unit = AsString(*n, s.Where("unit"));
@@ -97,36 +158,16 @@ void ReadPlan(Section& s, Job& job, bool check_reach) {
       throw InputError(s.Where("csv") + ": cannot read '" + path.string() + "': " + problem);
     }
     const std::optional<std::vector<std::string>> columns = PlanColumns(s);
-    CsvTable table = ReadCsvFile(path.string(), path.string(), columns ? &*columns : nullptr);
     rel = path.string();
-    job.input_files.push_back({"plan csv", rel, Sha256File(rel)});
-    for (const char* col : {"name", "x", "y", "z"}) {
-      if (table.Column(col) < 0) {
-        throw InputError(rel + ": line " + std::to_string(table.header_line) + ": missing column '" + col +
-                         "' (plan CSV columns: name, x, y, z [, face]; a file without a header line: "
-                         "header = false and columns = [\"name\", \"x\", \"y\", \"z\"])");
-      }
-    }
-    for (const std::string& col : table.header) {
-      if (col != "name" && col != "x" && col != "y" && col != "z" && col != "face") {
-        throw InputError(rel + ": line " + std::to_string(table.header_line) + ": unknown column '" + col +
-                         "' (plan CSV columns: name, x, y, z [, face])");
-      }
-    }
-    int cn = table.Column("name"), cx = table.Column("x"), cy = table.Column("y"), cz = table.Column("z"),
-        cf = table.Column("face");
-    job.points.reserve(job.points.size() + table.rows.size());  // a scan's 10^6 points: no growth slack
-    for (const CsvRow& row : table.rows) {
-      JobPoint p;
-      p.where = table.Where(row);
-      p.name = row.fields[cn];
-      if (p.name.empty()) throw InputError(p.where + ": empty point name");
-      p.nominal = {CsvQuantity(row.fields[cx], Dimension::kLength, scale, 0, p.where, ": x"),
-                   CsvQuantity(row.fields[cy], Dimension::kLength, scale, 0, p.where, ": y"),
-                   CsvQuantity(row.fields[cz], Dimension::kLength, scale, 0, p.where, ": z")};
-      if (cf >= 0 && !row.fields[cf].empty()) p.face = ParseFaceField(row.fields[cf], p.where);
-      job.points.push_back(std::move(p));
-    }
+    // A scan's plan of 10^6 rows is parsed and converted side by side (issue 33); the first error
+    // in the file is the one said, whatever the thread count (parallel/pool.h).
+    const std::string text = ReadInputFile(rel, rel, "cannot read CSV file '" + rel + "'");
+    CsvTable table = ParseCsv(text, rel, columns ? &*columns : nullptr,
+                              [&](std::size_t count, const std::function<void(std::size_t)>& task) {
+                                parallel_internal::ForEach(count, threads, [&](std::size_t k, int) { task(k); });
+                              });
+    job.input_files.push_back({"plan csv", rel, Sha256Bytes(text)});
+    ReadPlanRows(table, scale, threads, job);
   }
   if (const toml::node* n = s.Get("point")) {
     if (!n->is_array()) throw InputError(s.Where("point") + ": expected [[plan.point]] tables");
@@ -156,20 +197,10 @@ void ReadPlan(Section& s, Job& job, bool check_reach) {
 
   // A planned point must have a defined azimuth: not on the tracker's vertical axis.
   if (!check_reach) return;
-  for (const JobPoint& p : job.points) {
-    Eigen::Vector3d t = PartToTrackerNominal(job.setup, p.nominal);
-    if (!(t.stableNorm() <= kMaxRange)) {
-      throw InputError(p.where + ": point '" + p.name + "' is " +
-                       FormatQuantity(t.stableNorm(), Dimension::kLength, "m", 6) +
-                       " from the tracker: beyond any laser tracker (at most " +
-                       FormatQuantity(kMaxRange, Dimension::kLength, "km", 3) + ")");
-    }
-    if (std::hypot(t.x(), t.y()) < kVerticalAxisTolerance) {
-      throw InputError(
-          p.where + ": point '" + p.name +
-          "' lies on the tracker's vertical axis (azimuth undefined; move the point or the station)");
-    }
-  }
+  // In chunks side by side; the first point out of reach in the plan's order is the one said.
+  parallel_internal::ForEachChunk(job.points.size(), 4096, threads, [&](std::size_t, std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) CheckReach(job, job.points[i]);
+  });
 }
 
 // A reading's time (the time column), of the same kind as the file's first.

@@ -1,5 +1,6 @@
 // job/tasks.cc — the [[task]] tables of a job file (kind, name, points). Keys: docs/job-file.md.
 #include <cmath>
+#include <optional>
 #include <set>
 
 #include "vlt/fits.h"
@@ -74,7 +75,9 @@ void ReadTasks(Section& top, Job& job) {
   const toml::node* n = top.Get("task");
   if (!n) return;
   if (!n->is_array()) throw InputError(top.Where("task") + ": expected [[task]] tables");
-  std::vector<std::string> point_names = job.point_names();
+  // The job's point names, copied only for a task that lists points (a scan's task over "all"
+  // takes them once, into its spec).
+  std::optional<std::vector<std::string>> point_names;
   int index = 0;
   std::set<std::string> seen;
   for (const toml::node& e : *n->as_array()) {
@@ -91,7 +94,7 @@ void ReadTasks(Section& top, Job& job) {
       throw InputError(t.Where("name") + ": task '" + spec.name + "' defined twice");
     const toml::node& pts = t.Require("points");
     if (pts.is_string() && *pts.value<std::string>() == "all") {
-      spec.points = point_names;  // a scan: every point of the job, in the job's order
+      spec.points = job.point_names();  // a scan: every point of the job, in the job's order
       spec.all_points = true;
     } else if (!pts.is_array()) {
       throw InputError(t.Where("points") + ": expected an array of point names or \"all\"");
@@ -101,7 +104,9 @@ void ReadTasks(Section& top, Job& job) {
     ReadTaskTolerances(t, spec);
     const auto fits = ReadWeighting(t, spec.kind, spec.name, "task");
     t.Finish();
-    const std::vector<int> indices = ResolveTaskPoints(spec, point_names, t.Where("points"));
+    if (!spec.all_points && !point_names) point_names = job.point_names();
+    const std::vector<int> indices =
+        ResolveTaskPoints(spec, spec.all_points ? spec.points : *point_names, t.Where("points"));
     for (std::size_t f = 0; f < fits.size(); ++f) {
       const auto& [weighted, name] = fits[f];
       if (name != spec.name && !seen.insert(name).second)
