@@ -14,6 +14,7 @@
 #include <random>
 #include <set>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -853,6 +854,64 @@ TEST(Csv, SemicolonsAndDecimalCommasAreDetected) {
   } catch (const InputError& e) {
     EXPECT_EQ(std::string(e.what()),
               "s.csv: line 2: 2 fields, the header has 3 (separator ';', taken from the header line)");
+  }
+}
+
+// A scan's plan is read in pieces side by side (issue 33): the same points for 1, 2 and 3
+// threads, and the first wrong row of the file is the one said, whether its value or its fields
+// are wrong: a wrong value before a short row in a later piece or the next line, a short row
+// before a wrong value.
+TEST_F(JobFiles, APlanOfManyPiecesIsTheSameOnAnyThreadCount) {
+  auto plan = [](int bad_value_at, int short_row_at) {
+    std::string text = "name,x,y,z\n";
+    for (int i = 0; i < 40000; ++i) {
+      if (i % 1000 == 7) text += "# a comment\n";
+      if (i == short_row_at) {
+        text += "S" + std::to_string(i) + ",1,2\n";
+        continue;
+      }
+      text += "P" + std::to_string(i) + "," + (i == bad_value_at ? "abc" : std::to_string(1.0 + i * 1e-4)) + "," +
+              std::to_string(-1.0 + i * 2e-5) + ",0.5\n";
+    }
+    return text;
+  };
+  const std::string job = kTracker + "[plan]\ncsv = \"plan.csv\"\n";
+  Write("job.toml", job);
+  Write("plan.csv", plan(-1, -1));
+  std::vector<Job> jobs;
+  for (const int threads : {1, 2, 3}) {
+    JobOverrides overrides;
+    overrides.threads = threads;
+    jobs.push_back(LoadJob((dir_ / "job.toml").string(), overrides));
+  }
+  ASSERT_EQ(jobs[0].points.size(), 40000u);
+  EXPECT_EQ(jobs[0].points[39999].name, "P39999");
+  EXPECT_EQ(jobs[0].points[39999].where, (dir_ / "plan.csv").string() + ": line " + std::to_string(1 + 40 + 40000));
+  for (std::size_t j = 1; j < jobs.size(); ++j) {
+    ASSERT_EQ(jobs[j].points.size(), jobs[0].points.size());
+    for (std::size_t i = 0; i < jobs[0].points.size(); ++i) {
+      ASSERT_EQ(jobs[j].points[i].name, jobs[0].points[i].name);
+      ASSERT_EQ(jobs[j].points[i].where, jobs[0].points[i].where);
+      ASSERT_EQ(jobs[j].points[i].nominal, jobs[0].points[i].nominal);
+    }
+  }
+  // Row 30000 is on line 1 + 30 comments + 30001.
+  const std::string at_30000 = (dir_ / "plan.csv").string() + ": line 30032: ";
+  const std::string at_20000 = (dir_ / "plan.csv").string() + ": line 20022: ";
+  for (const auto& [bad_value_at, short_row_at, said] :
+       {std::tuple{30000, 35000, at_30000 + "x"}, std::tuple{35000, 30000, at_30000 + "3 fields"},
+        std::tuple{20000, 20001, at_20000 + "x"}}) {
+    Write("plan.csv", plan(bad_value_at, short_row_at));
+    for (const int threads : {1, 2, 3}) {
+      JobOverrides overrides;
+      overrides.threads = threads;
+      try {
+        LoadJob((dir_ / "job.toml").string(), overrides);
+        FAIL() << threads;
+      } catch (const InputError& e) {
+        EXPECT_EQ(std::string(e.what()).substr(0, said.size()), said) << e.what();
+      }
+    }
   }
 }
 

@@ -206,23 +206,6 @@ std::vector<std::string> RowFields(const CsvTable& table, bool headerless, std::
   return fields;
 }
 
-// The rows of the whole lines text[begin, end), the first of them line `first_line`.
-std::vector<CsvRow> RowsOf(std::string_view text, std::size_t begin, std::size_t end, int first_line,
-                           const CsvTable& table, bool headerless) {
-  std::vector<CsvRow> rows;
-  int line_number = first_line;
-  for (std::size_t pos = begin; pos < end;) {
-    const Line line = LineAt(text, pos);
-    if (!Skipped(line.text)) {
-      rows.push_back(CsvRow{line_number, RowFields(table, headerless, line.text, LinePlace{table.file, line_number})});
-    }
-    if (line.last) break;
-    ++line_number;
-    pos = line.next;
-  }
-  return rows;
-}
-
 // Line ends in text[begin, end) as LineAt counts them (CRLF once).
 int LinesIn(std::string_view text, std::size_t begin, std::size_t end) {
   int lines = 0;
@@ -248,18 +231,10 @@ std::vector<std::size_t> PieceStarts(std::string_view text, std::size_t begin) {
 
 }  // namespace
 
-CsvTable ParseCsv(std::string_view text, const std::string& file, const std::vector<std::string>* columns) {
-  return ParseCsv(text, file, columns, [](std::size_t count, const std::function<void(std::size_t)>& task) {
-    for (std::size_t i = 0; i < count; ++i) task(i);
-  });
-}
-
-CsvTable ParseCsv(std::string_view text, const std::string& file, const std::vector<std::string>* columns,
-                  const RunTasks& run) {
-  CsvTable table;
-  table.file = file;
-  const bool headerless = columns != nullptr;
-  if (headerless) table.header = *columns;
+CsvPieces::CsvPieces(std::string_view text, const std::string& file, const std::vector<std::string>* columns)
+    : text_(text), headerless_(columns != nullptr) {
+  head_.file = file;
+  if (headerless_) head_.header = *columns;
   // Skip a UTF-8 byte order mark (spreadsheets write one).
   std::size_t pos = text.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;
   int line_number = 1;
@@ -269,22 +244,19 @@ CsvTable ParseCsv(std::string_view text, const std::string& file, const std::vec
     const Line line = LineAt(text, pos);
     if (!Skipped(line.text)) {
       found = true;
-      table.delimiter = DetectDelimiter(line.text, !headerless);
-      if (!headerless) {
-        const LinePlace where{file, line_number};
-        std::vector<std::string> fields = table.delimiter == ' ' ? SplitOnBlanks(line.text, where)
-                                                                 : SplitLine(line.text, where, table.delimiter);
-        for (const std::string& name : fields) {
-          if (name.empty()) throw InputError(where.str() + ": empty column name in the header");
-          for (const std::string& other : table.header) {
-            if (other == name) throw InputError(where.str() + ": column '" + name + "' appears twice");
-          }
-          table.header.push_back(name);
+      head_.delimiter = DetectDelimiter(line.text, !headerless_);
+      if (headerless_) break;  // this line is the first row
+      const LinePlace where{file, line_number};
+      std::vector<std::string> fields = head_.delimiter == ' ' ? SplitOnBlanks(line.text, where)
+                                                               : SplitLine(line.text, where, head_.delimiter);
+      for (const std::string& name : fields) {
+        if (name.empty()) throw InputError(where.str() + ": empty column name in the header");
+        for (const std::string& other : head_.header) {
+          if (other == name) throw InputError(where.str() + ": column '" + name + "' appears twice");
         }
-        table.header_line = line_number;
-      } else {
-        break;  // this line is the first row
+        head_.header.push_back(name);
       }
+      head_.header_line = line_number;
     }
     if (line.last) {
       pos = text.size() + 1;  // no rows
@@ -293,28 +265,75 @@ CsvTable ParseCsv(std::string_view text, const std::string& file, const std::vec
     ++line_number;
     pos = line.next;
   }
-  if (table.header.empty()) throw InputError(file + ": empty CSV file (no header line)");
+  if (head_.header.empty()) throw InputError(file + ": empty CSV file (no header line)");
+  if (pos <= text.size()) starts_ = PieceStarts(text, pos);
+  first_lines_.assign(starts_.size(), line_number);
+}
+
+std::size_t CsvPieces::End(std::size_t piece) const {
+  return piece + 1 < starts_.size() ? starts_[piece + 1] : text_.size();
+}
+
+void CsvPieces::Count(const RunTasks& run) {
+  std::vector<int> lines(starts_.size());
+  rows_.assign(starts_.size(), 0);
+  run(starts_.size(), [&](std::size_t k) {
+    lines[k] = LinesIn(text_, starts_[k], End(k));
+    for (std::size_t pos = starts_[k]; pos < End(k);) {
+      const Line line = LineAt(text_, pos);
+      if (!Skipped(line.text)) ++rows_[k];
+      if (line.last) break;
+      pos = line.next;
+    }
+  });
+  for (std::size_t k = 1; k < starts_.size(); ++k) first_lines_[k] = first_lines_[k - 1] + lines[k - 1];
+}
+
+std::size_t CsvPieces::rows() const {
+  std::size_t all = 0;
+  for (const std::size_t n : rows_) all += n;
+  return all;
+}
+
+void CsvPieces::CheckHasRows() const {
+  if (headerless_ && rows() == 0) throw InputError(head_.file + ": empty file (no rows)");
+}
+
+void CsvPieces::Read(std::size_t piece, const std::function<void(CsvRow&)>& take) const {
+  int line_number = first_lines_.at(piece);
+  for (std::size_t pos = starts_[piece]; pos < End(piece);) {
+    const Line line = LineAt(text_, pos);
+    if (!Skipped(line.text)) {
+      CsvRow row{line_number, RowFields(head_, headerless_, line.text, LinePlace{head_.file, line_number})};
+      take(row);
+    }
+    if (line.last) break;
+    ++line_number;
+    pos = line.next;
+  }
+}
+
+CsvTable ParseCsv(std::string_view text, const std::string& file, const std::vector<std::string>* columns) {
+  return ParseCsv(text, file, columns, [](std::size_t count, const std::function<void(std::size_t)>& task) {
+    for (std::size_t i = 0; i < count; ++i) task(i);
+  });
+}
+
+CsvTable ParseCsv(std::string_view text, const std::string& file, const std::vector<std::string>* columns,
+                  const RunTasks& run) {
+  CsvPieces pieces(text, file, columns);
+  pieces.Count(run);
   // The rows, piece by piece side by side (a scan's plan: 10^6 rows); a failure is the first
   // failing row of the file, as one pass would find it.
-  if (pos <= text.size()) {
-    const std::vector<std::size_t> starts = PieceStarts(text, pos);
-    std::vector<int> first_lines(starts.size(), line_number);
-    for (std::size_t k = 1; k < starts.size(); ++k) {
-      first_lines[k] = first_lines[k - 1] + LinesIn(text, starts[k - 1], starts[k]);
-    }
-    std::vector<std::vector<CsvRow>> pieces(starts.size());
-    run(starts.size(), [&](std::size_t k) {
-      const std::size_t end = k + 1 < starts.size() ? starts[k + 1] : text.size();
-      pieces[k] = RowsOf(text, starts[k], end, first_lines[k], table, headerless);
-    });
-    std::size_t rows = 0;
-    for (const std::vector<CsvRow>& piece : pieces) rows += piece.size();
-    table.rows.reserve(rows);
-    for (std::vector<CsvRow>& piece : pieces) {
-      std::move(piece.begin(), piece.end(), std::back_inserter(table.rows));
-    }
-  }
-  if (headerless && table.rows.empty()) throw InputError(file + ": empty file (no rows)");
+  std::vector<std::vector<CsvRow>> rows(pieces.size());
+  run(pieces.size(), [&](std::size_t k) {
+    rows[k].reserve(pieces.RowsIn(k));
+    pieces.Read(k, [&](CsvRow& row) { rows[k].push_back(std::move(row)); });
+  });
+  CsvTable table = pieces.head();
+  table.rows.reserve(pieces.rows());
+  for (std::vector<CsvRow>& piece : rows) std::move(piece.begin(), piece.end(), std::back_inserter(table.rows));
+  pieces.CheckHasRows();
   return table;
 }
 

@@ -51,10 +51,41 @@ CsvTable ParseCsv(std::string_view text, const std::string& file,
 // does not start threads itself).
 using RunTasks = std::function<void(std::size_t count, const std::function<void(std::size_t)>& task)>;
 
-// ParseCsv with the rows parsed in pieces of whole lines (about 256 KiB each, fixed by the text)
-// that `run` may run side by side: the same table and the same first error as one pass.
+// ParseCsv with the rows parsed in pieces of whole lines (CsvPieces) that `run` may run side by
+// side: the same table and the same first error as one pass.
 CsvTable ParseCsv(std::string_view text, const std::string& file, const std::vector<std::string>* columns,
                   const RunTasks& run);
+
+// A CSV text read as ParseCsv reads it, in pieces of whole lines (about 256 KiB each, fixed by the
+// text alone) that may be read side by side, without a table of every row (a scan's plan of 10^6
+// rows: each row is taken where it is parsed). The constructor reads the header (or takes the
+// columns) and the separator, with ParseCsv's errors; `text` must outlive it.
+class CsvPieces {
+ public:
+  CsvPieces(std::string_view text, const std::string& file, const std::vector<std::string>* columns);
+  // file, header, header_line and delimiter (no rows).
+  const CsvTable& head() const { return head_; }
+  std::size_t size() const { return starts_.size(); }
+  // Counts the lines and rows of every piece (side by side through `run`); before the rest.
+  void Count(const RunTasks& run);
+  std::size_t RowsIn(std::size_t piece) const { return rows_.at(piece); }
+  std::size_t rows() const;
+  // ParseCsv's error for a file without a header line and without rows.
+  void CheckHasRows() const;
+  // Parses the rows of `piece` in order and hands each to `take` (which may move its fields);
+  // the first error of the piece — a row's, or what `take` throws — ends it.
+  void Read(std::size_t piece, const std::function<void(CsvRow&)>& take) const;
+
+ private:
+  std::size_t End(std::size_t piece) const;
+
+  std::string_view text_;
+  bool headerless_ = false;
+  CsvTable head_;
+  std::vector<std::size_t> starts_;  // where each piece begins
+  std::vector<int> first_lines_;     // the line number of each piece's first line
+  std::vector<std::size_t> rows_;    // each piece's rows (Count)
+};
 
 // Reads and parses `path`; `label` names it in messages (InputError if it cannot be read).
 CsvTable ReadCsvFile(const std::string& path, const std::string& label,

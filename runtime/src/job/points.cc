@@ -106,40 +106,47 @@ void CheckReach(const Job& job, const JobPoint& p) {
     }
 }
 
-// The points of a plan CSV's rows, appended to job.points in the rows' order: chunks of rows side
-// by side, each row's fields freed as it is read (a scan's 10^6 rows of strings).
-void ReadPlanRows(CsvTable& table, double scale, int threads, Job& job) {
-  const std::string& rel = table.file;
+// The points of a plan CSV's rows, appended to job.points in the rows' order: the CSV's pieces
+// side by side, each row made a point where it is parsed (no table of 10^6 rows of strings; a
+// thread frees what it allocated). The first error in the file is the one said.
+void ReadPlanRows(CsvPieces pieces, double scale, int threads, Job& job) {
+  const CsvTable& head = pieces.head();
+  const std::string& rel = head.file;
+  auto run = [&](std::size_t count, const std::function<void(std::size_t)>& task) {
+    parallel_internal::ForEach(count, threads, [&](std::size_t k, int) { task(k); });
+  };
+  pieces.Count(run);
+  pieces.CheckHasRows();
   for (const char* col : {"name", "x", "y", "z"}) {
-    if (table.Column(col) < 0) {
-      throw InputError(rel + ": line " + std::to_string(table.header_line) + ": missing column '" + col +
+    if (head.Column(col) < 0) {
+      throw InputError(rel + ": line " + std::to_string(head.header_line) + ": missing column '" + col +
                        "' (plan CSV columns: name, x, y, z [, face]; a file without a header line: "
                        "header = false and columns = [\"name\", \"x\", \"y\", \"z\"])");
     }
   }
-  for (const std::string& col : table.header) {
+  for (const std::string& col : head.header) {
     if (col != "name" && col != "x" && col != "y" && col != "z" && col != "face") {
-      throw InputError(rel + ": line " + std::to_string(table.header_line) + ": unknown column '" + col +
+      throw InputError(rel + ": line " + std::to_string(head.header_line) + ": unknown column '" + col +
                        "' (plan CSV columns: name, x, y, z [, face])");
     }
   }
-  const int cn = table.Column("name"), cx = table.Column("x"), cy = table.Column("y"), cz = table.Column("z"),
-            cf = table.Column("face");
-  const std::size_t first = job.points.size();
-  job.points.resize(first + table.rows.size());  // a scan's 10^6 points: no growth slack
-  constexpr std::size_t kChunk = 4096;
-  parallel_internal::ForEachChunk(table.rows.size(), kChunk, threads, [&](std::size_t, std::size_t b, std::size_t e) {
-    for (std::size_t i = b; i < e; ++i) {
-      CsvRow& row = table.rows[i];
-      JobPoint& p = job.points[first + i];
-      p.where = table.Where(row);
+  const int cn = head.Column("name"), cx = head.Column("x"), cy = head.Column("y"), cz = head.Column("z"),
+            cf = head.Column("face");
+  std::vector<std::size_t> first(pieces.size() + 1, job.points.size());
+  for (std::size_t k = 0; k < pieces.size(); ++k) first[k + 1] = first[k] + pieces.RowsIn(k);
+  job.points.resize(first.back());  // a scan's 10^6 points: no growth slack
+  run(pieces.size(), [&](std::size_t k) {
+    std::size_t i = first[k];
+    pieces.Read(k, [&](CsvRow& row) {
+      JobPoint& p = job.points[i++];
+      p.where = head.Where(row);
       p.name = std::move(row.fields[cn]);
       if (p.name.empty()) throw InputError(p.where + ": empty point name");
       p.nominal = {CsvQuantity(row.fields[cx], Dimension::kLength, scale, 0, p.where, ": x"),
                    CsvQuantity(row.fields[cy], Dimension::kLength, scale, 0, p.where, ": y"),
                    CsvQuantity(row.fields[cz], Dimension::kLength, scale, 0, p.where, ": z")};
       if (cf >= 0 && !row.fields[cf].empty()) p.face = ParseFaceField(row.fields[cf], p.where);
-    }
+    });
   });
 }
 
@@ -162,12 +169,8 @@ void ReadPlan(Section& s, Job& job, bool check_reach, int threads) {
     // A scan's plan of 10^6 rows is parsed and converted side by side (issue 33); the first error
     // in the file is the one said, whatever the thread count (parallel/pool.h).
     const std::string text = ReadInputFile(rel, rel, "cannot read CSV file '" + rel + "'");
-    CsvTable table = ParseCsv(text, rel, columns ? &*columns : nullptr,
-                              [&](std::size_t count, const std::function<void(std::size_t)>& task) {
-                                parallel_internal::ForEach(count, threads, [&](std::size_t k, int) { task(k); });
-                              });
+    ReadPlanRows(CsvPieces(text, rel, columns ? &*columns : nullptr), scale, threads, job);
     job.input_files.push_back({"plan csv", rel, Sha256Bytes(text)});
-    ReadPlanRows(table, scale, threads, job);
   }
   if (const toml::node* n = s.Get("point")) {
     if (!n->is_array()) throw InputError(s.Where("point") + ": expected [[plan.point]] tables");
