@@ -4,6 +4,7 @@
 #include <cmath>
 #include <functional>
 #include <iterator>
+#include <stdexcept>
 
 #include <cctype>
 #include <filesystem>
@@ -300,6 +301,8 @@ void CsvPieces::CheckHasRows() const {
 }
 
 void CsvPieces::Read(std::size_t piece, const std::function<void(CsvRow&)>& take) const {
+  // The pieces' first line numbers are known once every piece is counted.
+  if (rows_.size() != starts_.size()) throw std::logic_error("CsvPieces::Read before Count");
   int line_number = first_lines_.at(piece);
   for (std::size_t pos = starts_[piece]; pos < End(piece);) {
     const Line line = LineAt(text_, pos);

@@ -66,7 +66,8 @@ class CsvPieces {
   // file, header, header_line and delimiter (no rows).
   const CsvTable& head() const { return head_; }
   std::size_t size() const { return starts_.size(); }
-  // Counts the lines and rows of every piece (side by side through `run`); before the rest.
+  // Counts the lines and rows of every piece (side by side through `run`); before the rest (Read
+  // before it is a std::logic_error).
   void Count(const RunTasks& run);
   std::size_t RowsIn(std::size_t piece) const { return rows_.at(piece); }
   std::size_t rows() const;
