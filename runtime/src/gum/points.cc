@@ -99,7 +99,6 @@ std::string CorrelationHandling(const MeasurementModel& model, const SharedFacto
          "included, sum to 100 %";
 }
 
-// Per-thread scratch space, allocated once per chunk, not per point.
 // One input's numbers in a point's budget (BudgetRow without its names and units).
 struct BudgetTerm {
   double estimate = 0.0, u = 0.0, share_total = 0.0;
@@ -107,6 +106,7 @@ struct BudgetTerm {
                   variance = Eigen::Vector3d::Zero();
 };
 
+// Per-thread scratch space, allocated once per chunk, not per point.
 struct Scratch {
   explicit Scratch(int num_shared) : js(3 * num_shared), a(3 * num_shared), instrument(3 * num_shared) {}
   std::vector<double> js, a, instrument;
