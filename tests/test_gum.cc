@@ -286,7 +286,9 @@ TEST(GumBudget, EqualSharesKeepTheInputOrder) {
       }
       if (b == 0) continue;
       EXPECT_GE(budget[b - 1].share_total, row.share_total);
-      if (budget[b - 1].share_total == row.share_total) EXPECT_LT(position(budget[b - 1].input), at);
+      if (budget[b - 1].share_total == row.share_total) {
+        EXPECT_LT(position(budget[b - 1].input), at);
+      }
       if (row.share_total == 0.0) ++zero_rows;
     }
     EXPECT_EQ(zero_rows, 4);
