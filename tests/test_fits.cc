@@ -7,6 +7,8 @@
 #include <numbers>
 #include <random>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -399,6 +401,70 @@ TEST(Fits, DegenerateInputsAreRefused) {
   for (int i = 0; i < 8; ++i) cube.col(i) = Vector3d(i & 1, (i >> 1) & 1, (i >> 2) & 1);
   ExpectRefusal<NumericalError>(TaskKind::kPlane, cube, "no preferred plane");
   ExpectRefusal<NumericalError>(TaskKind::kLine, cube, "no preferred direction");
+}
+
+// The Jacobian of a scan's plane or sphere is computed in chunks side by side (FitOptions::threads,
+// issue 33): the same bits for any thread count, and an exact plane's statistic rows still zero
+// (its matrix is no longer zeroed before it is filled: the memory a poisoned block left is reused
+// where the allocator can).
+TEST(Fits, PlaneAndSphereJacobiansAreTheSameOnAnyThreadCount) {
+  const int n = 5000;  // 10 chunks of 512 points
+  const Vector3d normal = Vector3d(0.3, -0.2, 1.0).normalized();
+  // A 4 m x 4 m panel, 71 points a side (the first 5000), scanned with 10 um of noise.
+  const auto [u, w] = PlaneBasis(normal);
+  Matrix3Xd exact(3, n);
+  for (int i = 0; i < n; ++i) {
+    exact.col(i) = Vector3d(1, 2, 0) + (4.0 * (i % 71) / 70 - 2) * u + (4.0 * (i / 71) / 70 - 2) * w;
+  }
+  const Matrix3Xd plane = Noisy(exact, 1e-5, 31);
+  const Matrix3Xd sphere = Noisy(SpherePoints(Vector3d(1, -1, 2), 0.4, n, 1.8), 1e-5, 32);
+  auto fit = [](TaskKind kind, const Matrix3Xd& points, int threads) {
+    { std::vector<double> poison(8 * 3 * static_cast<std::size_t>(n), std::nan("")); }
+    FitOptions options;
+    options.jacobian = true;
+    options.threads = threads;
+    return FitTask(kind, points, options);
+  };
+  using Case = std::pair<TaskKind, const Matrix3Xd*>;
+  for (const auto& [kind, points] : {Case{TaskKind::kPlane, &plane}, Case{TaskKind::kPlane, &exact},
+                                     Case{TaskKind::kSphere, &sphere}}) {
+    const FitResult one = fit(kind, *points, 1);
+    ASSERT_TRUE(one.jacobian.allFinite());
+    for (const int threads : {2, 3, 16}) {
+      const FitResult many = fit(kind, *points, threads);
+      ASSERT_EQ(many.jacobian.cols(), 3 * n);
+      EXPECT_EQ(many.values, one.values) << threads;
+      EXPECT_TRUE(many.jacobian == one.jacobian) << static_cast<int>(kind) << " on " << threads << " threads";
+    }
+    if (points == &exact) {
+      const FitResult r = fit(kind, *points, 3);
+      EXPECT_EQ(r.differentiable[6], false);
+      EXPECT_EQ(r.jacobian.bottomRows<2>().cwiseAbs().maxCoeff(), 0.0);
+    }
+  }
+  // And the columns are the derivatives: a few against central differences (the first and last
+  // point of a chunk among them).
+  FitOptions options;
+  options.jacobian = true;
+  options.threads = 3;
+  const FitResult r = FitPlane(plane, options);
+  FitOptions value_only;
+  value_only.orientation = r.values.segment<3>(3);
+  for (const long j : {0L, 511L, 512L, 2047L, 4999L}) {
+    for (int c = 0; c < 3; ++c) {
+      Matrix3Xd plus = plane, minus = plane;
+      plus(c, j) += 1e-4;
+      minus(c, j) -= 1e-4;
+      const Eigen::VectorXd fd = (FitPlane(plus, value_only).values - FitPlane(minus, value_only).values) / 2e-4;
+      for (int row = 0; row < 6; ++row) {
+        // A step of 0.1 mm: the scatter's sums round to about 1e-10 (the normal to 1e-14), the
+        // centroid's to 3e-14: under 2e-10 over 2h; the third-order term about h^2 times the slope.
+        // The slopes: 1/N = 2e-4 (centroid), about 1e-4 per metre (normal).
+        EXPECT_NEAR(r.jacobian(row, 3 * j + c), fd(row), 1e-9 + 1e-6 * std::abs(fd(row)))
+            << "row " << row << " point " << j << " coordinate " << c;
+      }
+    }
+  }
 }
 
 TEST(Fits, LargePointSetsScale) {

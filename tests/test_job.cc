@@ -915,6 +915,48 @@ TEST_F(JobFiles, APlanOfManyPiecesIsTheSameOnAnyThreadCount) {
   }
 }
 
+// The first repeated name of a large plan (several chunks of 8192 names, 256 buckets searched
+// side by side) is the one a set finds inserting the names in order, on any thread count.
+TEST_F(JobFiles, TheFirstRepeatedNameOfALargePlanOnAnyThreadCount) {
+  std::mt19937 gen(43);
+  Write("job.toml", kTracker + "[plan]\ncsv = \"plan.csv\"\n");
+  for (int plan = 0; plan < 10; ++plan) {
+    const int n = 17000 + static_cast<int>(gen() % 6000);
+    std::vector<std::string> names;
+    for (int i = 0; i < n; ++i) names.push_back("P" + std::to_string(i));
+    // 0 to 4 later points take an earlier point's name (plan 0: none).
+    for (int r = 0, repeats = static_cast<int>(gen() % 5); plan > 0 && r < repeats; ++r) {
+      const int to = 1 + static_cast<int>(gen() % static_cast<unsigned>(n - 1));
+      names[static_cast<std::size_t>(to)] = names[gen() % static_cast<unsigned>(to)];
+    }
+    std::string text = "name,x,y,z\n";
+    for (int i = 0; i < n; ++i) {
+      text += names[static_cast<std::size_t>(i)] + "," + std::to_string(1.0 + i * 1e-4) + "," +
+              std::to_string(-1.0 + i * 2e-5) + ",0.5\n";
+    }
+    Write("plan.csv", text);
+    std::string expected;
+    std::set<std::string> seen;
+    for (int i = 0; i < n && expected.empty(); ++i) {
+      if (!seen.insert(names[static_cast<std::size_t>(i)]).second) {
+        expected = (dir_ / "plan.csv").string() + ": line " + std::to_string(i + 2) + ": point name '" +
+                   names[static_cast<std::size_t>(i)] + "' used twice";
+      }
+    }
+    for (const int threads : {1, 2, 3}) {
+      JobOverrides overrides;
+      overrides.threads = threads;
+      std::string said;
+      try {
+        LoadJob((dir_ / "job.toml").string(), overrides);
+      } catch (const InputError& e) {
+        said = e.what();
+      }
+      EXPECT_EQ(said, expected) << "plan " << plan << " on " << threads << " threads";
+    }
+  }
+}
+
 // A plain point list without a header line, fields separated by blanks (issue 36): read when the
 // job names its columns, refused with a message that says how otherwise.
 TEST_F(JobFiles, PlainPointListWithoutAHeader) {

@@ -5,6 +5,9 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <memory>
+#include <utility>
+#include <vector>
 
 #include "run_job.h"
 #include "vlt/custom_job.h"
@@ -95,6 +98,18 @@ std::filesystem::path OutputPath(const OutputSettings& job_output, const std::fi
   return fallback;
 }
 
+namespace {
+
+// What a command leaves to the process's exit (LeaveToExit): reachable from here, never freed.
+std::vector<std::shared_ptr<const void>>& LeftToExit() {
+  static auto* left = new std::vector<std::shared_ptr<const void>>();
+  return *left;
+}
+
+}  // namespace
+
+void LeaveToExit(std::shared_ptr<const void> object) { LeftToExit().push_back(std::move(object)); }
+
 int RunAndWrite(const Job& job, const RunCliOptions& options, const GlobalOptions& global,
                 const std::filesystem::path& fallback_dir) {
   if (options.adaptive && options.trials > 0) {
@@ -106,14 +121,15 @@ int RunAndWrite(const Job& job, const RunCliOptions& options, const GlobalOption
   OutputDirectory output(OutputPath(job.output, job.base_dir, options, fallback_dir));
   const std::filesystem::path& dir = output.path();
 
-  Results results = RunJob(job, run);
-  auto files = ResultFiles(results);
+  auto results = std::make_shared<const Results>(RunJob(job, run));
+  auto files = ResultFiles(*results);
   output.Commit(files);
 
-  PrintWritten(files, SummaryText(results), dir, global);
+  PrintWritten(files, SummaryText(*results), dir, global);
   if (!global.json && !global.quiet) {
     std::printf("Open %s in a browser for the report.\n", (dir / "report.html").string().c_str());
   }
+  LeaveToExit(std::move(results));
   return 0;
 }
 
@@ -190,9 +206,10 @@ void AddRunCommand(CLI::App& app, GlobalOptions& global) {
     JobOverrides overrides;
     if (!calibration->empty()) overrides.calibration = *calibration;
     if (options->threads >= 0) overrides.threads = options->threads;
-    Job job = LoadJob(*job_file, overrides);
-    std::filesystem::path fallback = std::filesystem::path("vlt-out") / SafeFileName(job.name);
-    RunAndWrite(job, *options, global, fallback);
+    auto job = std::make_shared<const Job>(LoadJob(*job_file, overrides));
+    std::filesystem::path fallback = std::filesystem::path("vlt-out") / SafeFileName(job->name);
+    RunAndWrite(*job, *options, global, fallback);
+    LeaveToExit(std::move(job));
   });
 }
 

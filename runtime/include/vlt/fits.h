@@ -69,6 +69,9 @@ std::span<const TaskOutput> TaskOutputs(TaskKind kind);
 struct FitOptions {
   // Compute FitResult::jacobian (GUM). Off for Monte Carlo trials.
   bool jacobian = false;
+  // Threads for the Jacobian's columns of a plane or sphere fit (a scan's plane over 10^6 points:
+  // 8 x 3N values); 0: all. Each column is computed alone: the same bits for any count.
+  int threads = 1;
   // Sign of the plane/circle normal and of the line/cylinder/cone direction: chosen so that
   // dot(normal, orientation) >= 0. When zero (default), the component of largest magnitude is
   // made positive (ties: the first of x, y, z). A Monte Carlo engine should pass the normal /

@@ -188,6 +188,11 @@ void CheckSecondOrder(const MeasurementModel& model, std::span<const PointReadin
 std::vector<PointUncertainty> PropagatePoints(const MeasurementModel& model,
                                               std::span<const PointReadings> points,
                                               const GumOptions& options = {});
+// The same into `results`, resized to the points' count; every field of a record is written
+// (second_order_* reset as before CheckSecondOrder), so a scan's blocks reuse one array of records
+// instead of constructing 65 536 new ones per block on one thread (issue 33).
+void PropagatePoints(const MeasurementModel& model, std::span<const PointReadings> points,
+                     const GumOptions& options, std::vector<PointUncertainty>& results);
 
 // Lean path for maps: expanded uncertainty per axis (part frame, k = NormalCoverageFactor(p))
 // for each reading triple, no budgets, no names (the singular-point message names the index).

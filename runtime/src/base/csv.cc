@@ -177,8 +177,11 @@ struct Line {
 };
 
 Line LineAt(std::string_view text, std::size_t pos) {
-  std::size_t end = text.find_first_of("\r\n", pos);
+  // The first LF, then the first CR before it: two memchr passes over the line (find_first_of
+  // with the set "\r\n" calls memchr on the set for every byte: a fifth of a scan's loading).
+  std::size_t end = text.find('\n', pos);
   if (end == std::string_view::npos) end = text.size();
+  end = std::min(end, text.substr(0, end).find('\r', pos));
   Line line{text.substr(pos, end - pos), end + 1, end >= text.size()};
   if (end < text.size() && text[end] == '\r' && line.next < text.size() && text[line.next] == '\n') ++line.next;
   return line;
@@ -209,9 +212,10 @@ std::vector<std::string> RowFields(const CsvTable& table, bool headerless, std::
 
 // Line ends in text[begin, end) as LineAt counts them (CRLF once).
 int LinesIn(std::string_view text, std::size_t begin, std::size_t end) {
-  int lines = 0;
-  for (std::size_t i = begin; i < end; ++i) {
-    if (text[i] == '\n' || (text[i] == '\r' && (i + 1 >= text.size() || text[i + 1] != '\n'))) ++lines;
+  int lines = static_cast<int>(std::count(text.begin() + begin, text.begin() + end, '\n'));
+  const std::string_view piece = text.substr(0, end);
+  for (std::size_t cr = piece.find('\r', begin); cr != std::string_view::npos; cr = piece.find('\r', cr + 1)) {
+    if (cr + 1 >= text.size() || text[cr + 1] != '\n') ++lines;
   }
   return lines;
 }

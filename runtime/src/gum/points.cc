@@ -12,6 +12,7 @@
 #include <Eigen/Dense>
 
 #include "gum/internal.h"
+#include "parallel/memory.h"
 #include "parallel/pool.h"
 #include "vlt/error.h"
 #include "vlt/gum.h"
@@ -175,7 +176,15 @@ void PropagateOne(const MeasurementModel& model, const Factors& factors, const E
   out.los_part = Split(rotation * los, out.cov_part);
   out.ellipsoid = Ellipsoid(out.cov_part, k3);
   out.correlation_handling = factors.correlation_handling;
-  if (templates_or_null == nullptr) return;
+  // A reused record (PropagatePoints into an array): what CheckSecondOrder fills, as new.
+  out.second_order_variance.setZero();
+  out.second_order_ratio.setZero();
+  out.gum_reliable = true;
+  out.second_order_decided = true;
+  if (templates_or_null == nullptr) {
+    out.budget.clear();
+    return;
+  }
   const std::vector<BudgetRow>& templates = *templates_or_null;
 
   // Budget (JCGM 100 8 step 5-6): c_i, c_i u_i per axis, share of u^2(y_axis).
@@ -319,6 +328,13 @@ int NumInstrument(const MeasurementModel& model) {
 std::vector<PointUncertainty> PropagatePoints(const MeasurementModel& model,
                                               std::span<const PointReadings> points,
                                               const GumOptions& options) {
+  std::vector<PointUncertainty> results;
+  PropagatePoints(model, points, options, results);
+  return results;
+}
+
+void PropagatePoints(const MeasurementModel& model, std::span<const PointReadings> points,
+                     const GumOptions& options, std::vector<PointUncertainty>& results) {
   const double k = NormalCoverageFactor(options.coverage_probability);
   const double k3 = ChiSquareCoverageFactor(options.coverage_probability, 3);
   Factors factors;
@@ -334,7 +350,9 @@ std::vector<PointUncertainty> PropagatePoints(const MeasurementModel& model,
   const double scale = model.ThermalScale(x.data());
   const std::vector<BudgetRow> templates = BudgetTemplates(model);
   const std::vector<BudgetRow>* budget_templates = options.budgets ? &templates : nullptr;
-  std::vector<PointUncertainty> results(points.size());
+  // A scan's block of records is paged in side by side first (parallel/memory.h).
+  parallel_internal::ReserveMapped(results, points.size(), options.threads);
+  results.resize(points.size());
   parallel_internal::ForEachChunk(points.size(), kChunk, options.threads,
                          [&](std::size_t, std::size_t begin, std::size_t end) {
                            Scratch scratch(model.num_shared());
@@ -343,7 +361,6 @@ std::vector<PointUncertainty> PropagatePoints(const MeasurementModel& model,
                                           k3, budget_templates, scratch, results[i]);
                            }
                          });
-  return results;
 }
 
 namespace {

@@ -214,6 +214,7 @@ TaskUncertainty PropagateTask(const MeasurementModel& model, std::span<const Poi
         }
       });
   FitOptions fit_options = TaskFitOptions(task, true);
+  fit_options.threads = options.threads;
   if (task.weighted) {
     fit_options.covariance =
         std::make_shared<const PointCovariance>(TaskPointCovariance(model, points, indices, options.threads));

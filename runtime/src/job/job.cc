@@ -5,9 +5,11 @@
 #include "vlt/job.h"
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <fstream>
 #include <functional>
+#include <span>
 #include <sstream>
 #include <string_view>
 #include <tuple>
@@ -17,6 +19,7 @@
 #include <toml++/toml.h>
 
 #include "job/job_detail.h"
+#include "parallel/pool.h"
 #include "vlt/calibration.h"
 #include "vlt/error.h"
 
@@ -35,17 +38,12 @@ using namespace job_internal;  // Section, AsString and the section readers
 
 namespace {
 
-// The first point (in the job's order) whose name an earlier point has, or -1 — what inserting
-// every name into a set in order finds, without a set of 10^6 strings (a scan's plan: 0.24 s of
-// allocations and comparisons): the names' hashes with their indices sorted, then, among the
-// points of one hash, the same name next to each other (by name, then index), so that the second
-// of each name is its first repeat; the smallest such index over all names.
-std::ptrdiff_t FirstRepeatedName(const std::vector<JobPoint>& points) {
-  std::vector<std::pair<std::size_t, std::uint32_t>> keyed(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    keyed[i] = {std::hash<std::string_view>{}(points[i].name), static_cast<std::uint32_t>(i)};
-  }
-  std::sort(keyed.begin(), keyed.end());
+using KeyedName = std::pair<std::size_t, std::uint32_t>;  // the name's hash, the point's index
+
+// Among points sorted by (hash, index): the smallest index of a point whose name a point of lower
+// index has, or -1. Among the points of one hash, the same name next to each other (by name,
+// then index), so that the second of each name is its first repeat.
+std::ptrdiff_t FirstRepeatAmong(std::span<const KeyedName> keyed, const std::vector<JobPoint>& points) {
   std::ptrdiff_t first = -1;
   for (std::size_t begin = 0; begin < keyed.size();) {
     std::size_t end = begin + 1;
@@ -67,6 +65,51 @@ std::ptrdiff_t FirstRepeatedName(const std::vector<JobPoint>& points) {
     begin = end;
   }
   return first;
+}
+
+// The first point (in the job's order) whose name an earlier point has, or -1 — what inserting
+// every name into a set in order finds, without a set of 10^6 strings (a scan's plan: 0.24 s of
+// allocations and comparisons). The names' hashes with their indices go into 256 buckets by the
+// hash's top byte, each bucket in index order (chunks of points counted, then placed, side by
+// side); each bucket is sorted and searched on its own (FirstRepeatAmong): a repeated name has
+// one hash, so its points share a bucket. The smallest index over the buckets is the answer,
+// whatever the thread count.
+std::ptrdiff_t FirstRepeatedName(const std::vector<JobPoint>& points, int threads) {
+  constexpr std::size_t kChunk = 8192, kBuckets = 256;
+  const std::size_t n = points.size(), chunks = (n + kChunk - 1) / kChunk;
+  auto bucket_of = [](std::size_t hash) { return hash >> (8 * sizeof(std::size_t) - 8); };
+  std::vector<KeyedName> keyed(n);
+  std::vector<std::array<std::size_t, kBuckets>> at(chunks);  // per chunk: count, then next place
+  parallel_internal::ForEachChunk(n, kChunk, threads, [&](std::size_t c, std::size_t b, std::size_t e) {
+    at[c].fill(0);
+    for (std::size_t i = b; i < e; ++i) {
+      keyed[i] = {std::hash<std::string_view>{}(points[i].name), static_cast<std::uint32_t>(i)};
+      ++at[c][bucket_of(keyed[i].first)];
+    }
+  });
+  // Bucket k holds the points of chunk 0, then chunk 1, ...: in index order.
+  std::array<std::size_t, kBuckets + 1> bucket_begin{};
+  for (std::size_t k = 0, place = 0; k < kBuckets; ++k) {
+    bucket_begin[k] = place;
+    for (std::size_t c = 0; c < chunks; ++c) place += std::exchange(at[c][k], place);
+    bucket_begin[k + 1] = place;
+  }
+  std::vector<KeyedName> bucketed(n);
+  parallel_internal::ForEachChunk(n, kChunk, threads, [&](std::size_t c, std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) bucketed[at[c][bucket_of(keyed[i].first)]++] = keyed[i];
+  });
+  std::array<std::ptrdiff_t, kBuckets> first{};
+  parallel_internal::ForEach(kBuckets, threads, [&](std::size_t k, int) {
+    const auto begin = bucketed.begin() + static_cast<std::ptrdiff_t>(bucket_begin[k]);
+    const auto end = bucketed.begin() + static_cast<std::ptrdiff_t>(bucket_begin[k + 1]);
+    std::sort(begin, end);
+    first[k] = FirstRepeatAmong(std::span<const KeyedName>(begin, end), points);
+  });
+  std::ptrdiff_t repeat = -1;
+  for (const std::ptrdiff_t f : first) {
+    if (f >= 0 && (repeat < 0 || f < repeat)) repeat = f;
+  }
+  return repeat;
 }
 
 }  // namespace
@@ -126,11 +169,11 @@ Job ParseJob(std::string_view text, const std::string& file, const std::filesyst
   } else {
     throw InputError(file + ": plan: required key is missing (give [plan] points, or [readings] from a CSV)");
   }
-  if (const std::ptrdiff_t repeat = FirstRepeatedName(job.points); repeat >= 0) {
+  if (const std::ptrdiff_t repeat = FirstRepeatedName(job.points, threads); repeat >= 0) {
     const JobPoint& p = job.points[static_cast<std::size_t>(repeat)];
     throw InputError(p.where + ": point name '" + p.name + "' used twice");
   }
-  ReadTasks(top, job);
+  ReadTasks(top, job, threads);
   ReadAlignments(top, job);
   ReadMap(top, job);
   ReadOptimize(top, job);

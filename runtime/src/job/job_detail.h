@@ -38,7 +38,7 @@ void ReadPlan(Section& plan, Job& job, bool check_reach = true, int threads = 1)
 // points.cc: [readings]. The time column is read when `columns.time` names it, or, with
 // `times_by_default` (a network, whose drift models need times), when a column is called "time".
 void ReadReadings(Section& readings, Job& job, bool times_by_default = false);
-void ReadTasks(Section& top, Job& job);  // tasks.cc: [[task]]
+void ReadTasks(Section& top, Job& job, int threads = 1);  // tasks.cc: [[task]]; threads copy a scan's names
 // tasks.cc: [<table>.tolerance.<quantity>] lower, upper of a task's quantities (TaskOutputs).
 // `weighting` of a [[task]] or [[alignment]] table: the fits it asks for, as (weighted, name)
 // pairs: "none" (default) the ordinary fit under `name`; "covariance" the fit weighted by the

@@ -17,6 +17,7 @@
 #include <toml++/toml.h>
 
 #include "job/job_detail.h"
+#include "parallel/memory.h"
 #include "parallel/pool.h"
 #include "vlt/calibration.h"
 #include "vlt/error.h"
@@ -134,7 +135,9 @@ void ReadPlanRows(CsvPieces pieces, double scale, int threads, Job& job) {
             cf = head.Column("face");
   std::vector<std::size_t> first(pieces.size() + 1, job.points.size());
   for (std::size_t k = 0; k < pieces.size(); ++k) first[k + 1] = first[k] + pieces.RowsIn(k);
-  job.points.resize(first.back());  // a scan's 10^6 points: no growth slack
+  // A scan's 10^6 points: no growth slack, the pages mapped side by side (parallel/memory.h).
+  parallel_internal::ReserveMapped(job.points, first.back(), threads);
+  job.points.resize(first.back());
   run(pieces.size(), [&](std::size_t k) {
     std::size_t i = first[k];
     pieces.Read(k, [&](CsvRow& row) {

@@ -24,6 +24,7 @@
 
 #include <Eigen/Dense>
 
+#include "parallel/pool.h"
 #include "tasks/alignment.h"
 #include "tasks/axial.h"
 #include "tasks/fit_support.h"
@@ -156,6 +157,10 @@ using tasks_internal::CheckPoints;
 using tasks_internal::Fail;
 using tasks_internal::MakeResult;
 using tasks_internal::OrientationSign;
+
+// Points per work item of a fit's Jacobian (FitOptions::threads): a scan's plane over 10^5 points
+// offers 196 items, 8 for each of 16 threads (issue 33).
+constexpr std::size_t kJacobianChunk = 512;
 
 // Centroid and eigen-decomposition of the centred scatter matrix (two passes for accuracy).
 struct Scatter {
@@ -538,27 +543,37 @@ FitResult FitPlane(const Points& points, const FitOptions& options, std::string_
   }
   const double rms = std::sqrt(sum_sq / nd);
 
-  FitResult result = MakeResult(TaskKind::kPlane, n, options);
+  FitOptions without_jacobian = options;
+  without_jacobian.jacobian = false;
+  FitResult result = MakeResult(TaskKind::kPlane, n, without_jacobian);
   result.values << c, normal, r_max - r_min, rms;
   const bool exact = rms <= kExactFit * plane.extent;
   result.differentiable[6] = result.differentiable[7] = !exact;
   if (!options.jacobian) return result;
 
+  // Every column is written (not zeroed first: 8 x 3N values of a scan), in chunks side by side.
+  result.jacobian.resize(8, 3 * n);
   const Vector3d d_max_minus_min = points.col(i_max) - points.col(i_min);
-  for (long j = 0; j < n; ++j) {
-    const Vector3d d_j = points.col(j) - c;
-    const Matrix3d dn = EigenvectorDerivative(plane.scatter, 0, normal, d_j);
-    auto block = result.jacobian.middleCols<3>(3 * j);
-    block.topRows<3>() = Matrix3d::Identity() / nd;
-    block.middleRows<3>(3) = dn;
-    if (exact) continue;
-    // flatness = r_max - r_min, r_i = n . (p_i - c): the centroid terms cancel.
-    Eigen::RowVector3d flat = d_max_minus_min.transpose() * dn;
-    if (j == i_max) flat += normal.transpose();
-    if (j == i_min) flat -= normal.transpose();
-    block.row(6) = flat;
-    block.row(7) = normal.dot(d_j) * normal.transpose() / (nd * rms);  // envelope theorem
-  }
+  parallel_internal::ForEachChunk(
+      static_cast<std::size_t>(n), kJacobianChunk, options.threads, [&](std::size_t, std::size_t b, std::size_t e) {
+        for (long j = static_cast<long>(b); j < static_cast<long>(e); ++j) {
+          const Vector3d d_j = points.col(j) - c;
+          const Matrix3d dn = EigenvectorDerivative(plane.scatter, 0, normal, d_j);
+          auto block = result.jacobian.middleCols<3>(3 * j);
+          block.topRows<3>() = Matrix3d::Identity() / nd;
+          block.middleRows<3>(3) = dn;
+          if (exact) {
+            block.bottomRows<2>().setZero();
+            continue;
+          }
+          // flatness = r_max - r_min, r_i = n . (p_i - c): the centroid terms cancel.
+          Eigen::RowVector3d flat = d_max_minus_min.transpose() * dn;
+          if (j == i_max) flat += normal.transpose();
+          if (j == i_min) flat -= normal.transpose();
+          block.row(6) = flat;
+          block.row(7) = normal.dot(d_j) * normal.transpose() / (nd * rms);  // envelope theorem
+        }
+      });
   return result;
 }
 
@@ -584,12 +599,15 @@ FitResult FitSphere(const Points& points, const FitOptions& options, std::string
   const bool exact = rms <= kExactFit * fit.radius;
   result.differentiable[4] = !exact;
   if (!options.jacobian) return result;
-  for (long j = 0; j < n; ++j) {
-    const RadialResidual<3> r = Radial<3>(points.col(j), fit.centre, fit.radius);
-    auto block = result.jacobian.middleCols<3>(3 * j);
-    block.topRows<4>() = HypersphereSensitivity<3>(fit, r);
-    if (!exact) block.row(4) = r.e * r.u.transpose() / (nd * rms);  // envelope theorem
-  }
+  parallel_internal::ForEachChunk(
+      static_cast<std::size_t>(n), kJacobianChunk, options.threads, [&](std::size_t, std::size_t b, std::size_t e) {
+        for (long j = static_cast<long>(b); j < static_cast<long>(e); ++j) {
+          const RadialResidual<3> r = Radial<3>(points.col(j), fit.centre, fit.radius);
+          auto block = result.jacobian.middleCols<3>(3 * j);
+          block.topRows<4>() = HypersphereSensitivity<3>(fit, r);
+          if (!exact) block.row(4) = r.e * r.u.transpose() / (nd * rms);  // envelope theorem
+        }
+      });
   return result;
 }
 
