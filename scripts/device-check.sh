@@ -11,7 +11,7 @@
 #                                  VLT_BASELINE=<vlt binary> adds a baseline build to compare with
 #   scripts/device-check.sh run    there (the device tool: carry .devcarry, OUT set): runs every
 #                                  check within about five minutes, writing logs and JSON to $OUT;
-#                                  `run scan`: only the machine and the scans (about one minute);
+#                                  `run scan`: only the machine and the scans (one to two minutes);
 #                                  `run gpu`: only the machine and the GPU path (docs/gpu.md: its
 #                                  tests, a point at 10^7 trials and a map of 10^4 nodes at 10^5
 #                                  trials on --device gpu and cpu, the files compared)
@@ -153,7 +153,8 @@ mcm_map() {
 
 # scans: the scan of 10^6 points (issue 33, docs/performance.md 4.2: GUM, the compact per-point
 # file by default) on 1, 2, 4, 8 and 16 threads, points.csv and tasks.csv the same bytes as on 1
-# thread; the 10^5-point scan in full detail (what every scan wrote before), 1 and 16 threads.
+# thread, and the baseline build's on 1 and 16 threads; the 10^5-point scan in full detail (what
+# every scan wrote before), 1 and 16 threads.
 scans() {
   python3 "$ROOT/tests/cli/make_scan.py" 1000000 "$CARRY/jobs/scan6" >/dev/null
   local threads dir
@@ -166,6 +167,17 @@ scans() {
     [[ $threads == 1 ]] || same "scan 1e6 points.csv threads=$threads" "$dir/points.csv" /tmp/vlt-scan6-1/points.csv
     [[ $threads == 1 ]] || same "scan 1e6 tasks.csv threads=$threads" "$dir/tasks.csv" /tmp/vlt-scan6-1/tasks.csv
   done
+  # Like for like with the baseline build (VLT_BASELINE at packing), where there is one: 1 and 16
+  # threads, its files the same bytes as this build's.
+  if [[ -x "$CARRY/vlt_baseline" ]]; then
+    for threads in 1 16; do
+      dir="/tmp/vlt-scan6-baseline-$threads"
+      rm -rf "$dir"
+      timed "scan 1e6 vlt_baseline threads=$threads" \
+        "$CARRY/vlt_baseline" run "$CARRY/jobs/scan6/scan.toml" --threads "$threads" -o "$dir" --quiet
+      same "scan 1e6 baseline points.csv threads=$threads" "$dir/points.csv" /tmp/vlt-scan6-1/points.csv
+    done
+  fi
   # Like for like, the detail every scan wrote before (points.jsonl, budget.csv, the full
   # points.csv): the 10^5-point scan with [output] detail = "full", 1 and 16 threads.
   cp "$CARRY/jobs/scan/scan.toml" "$CARRY/jobs/scan/scan_full.toml"

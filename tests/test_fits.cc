@@ -436,7 +436,9 @@ TEST(Fits, PlaneAndSphereJacobiansAreTheSameOnAnyThreadCount) {
       EXPECT_EQ(many.values, one.values) << threads;
       EXPECT_TRUE(many.jacobian == one.jacobian) << static_cast<int>(kind) << " on " << threads << " threads";
     }
-    if (points == &exact) {
+    // Three times: glibc hands a freed block of this size back to the next request most of the
+    // time, not always (and a sanitizer's allocator never does).
+    for (int again = 0; points == &exact && again < 3; ++again) {
       const FitResult r = fit(kind, *points, 3);
       EXPECT_EQ(r.differentiable[6], false);
       EXPECT_EQ(r.jacobian.bottomRows<2>().cwiseAbs().maxCoeff(), 0.0);

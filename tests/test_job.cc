@@ -830,6 +830,33 @@ TEST(Csv, ManyPiecesGiveEveryRowWithItsLine) {
   }
 }
 
+// Lines longer than the windows a line's end is searched in (512 bytes, doubling), and a file of
+// lone CRs only (no LF: a search for an LF to the end of the text per line was quadratic in the
+// file's size): every row with its fields and line number.
+TEST(Csv, LongLinesAndLoneCarriageReturns) {
+  std::mt19937_64 rng(34);
+  for (const bool lone_cr_only : {false, true}) {
+    std::string text = "name,x";
+    text += lone_cr_only ? "\r" : "\n";
+    std::vector<std::string> names;
+    for (int i = 0; i < 20000; ++i) {
+      const std::uint64_t r = rng();
+      std::string name = "P" + std::to_string(i);
+      if (r % 50 == 0) name += std::string(500 + r % 5000, 'a' + static_cast<char>(r % 26));
+      names.push_back(name);
+      text += name + "," + std::to_string(i);
+      text += lone_cr_only ? "\r" : (r >> 8) % 3 == 0 ? "\r" : (r >> 8) % 3 == 1 ? "\r\n" : "\n";
+    }
+    const base_internal::CsvTable t = base_internal::ParseCsv(text, "f.csv");
+    ASSERT_EQ(t.rows.size(), names.size()) << lone_cr_only;
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      ASSERT_EQ(t.rows[i].line, static_cast<int>(i) + 2) << i;
+      ASSERT_EQ(t.rows[i].fields[0], names[i]) << i;
+      ASSERT_EQ(t.rows[i].fields[1], std::to_string(i)) << i;
+    }
+  }
+}
+
 // Spreadsheet exports in locales with a decimal comma: ';' separators (or tabs), numbers such as
 // "4000,5" and "-0,25e-3" and "12,5 mm" read with a decimal point; a name with a comma stays.
 TEST(Csv, SemicolonsAndDecimalCommasAreDetected) {

@@ -546,6 +546,7 @@ std::vector<std::size_t> LargestPoints(const Results& r) {
   std::vector<std::vector<std::size_t>> largest((r.points.size() + chunk - 1) / chunk);
   parallel_internal::ForEachChunk(r.points.size(), chunk, r.threads, [&](std::size_t c, std::size_t b, std::size_t e) {
     std::vector<std::size_t>& order = largest[c];
+    order.reserve(e - b);
     for (std::size_t i = b; i < e; ++i) {
       norm[i] = r.points[i].gum.U_part().norm();
       order.push_back(i);

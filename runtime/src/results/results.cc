@@ -365,8 +365,9 @@ void results_internal::WriteInBlocks(OutputText& out, std::size_t n, int threads
   // formatted in parallel, each into its own text, then written in order; the text does not
   // depend on the thread count. 128 parts: 8 for each of 16 threads in every block, the last one
   // too (issue 33); a block of the full budget.csv text is then about 60 MB (8192 points of 7 kB).
-  // The previous block is written while this one is formatted: one more item, the first handed
-  // out, so that no thread waits for the disk (a 10^6-point scan's points.csv: 0.3 s of writes).
+  // The previous block is written while this one is formatted: one more item (129), the first
+  // handed out, so that no thread waits for the disk (a 10^6-point scan's points.csv: 0.3 s of
+  // writes). Two blocks of text are held then (the full budget.csv: about 120 MB).
   constexpr std::size_t kBlock = 8192, kParts = 128;
   const std::size_t blocks = (n + kBlock - 1) / kBlock;
   std::array<std::vector<std::string>, 2> parts{std::vector<std::string>(kParts),
