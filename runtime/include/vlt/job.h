@@ -208,7 +208,9 @@ struct Job {
   std::optional<OptimizeSettings> optimize;  // [optimize] (vlt plan)
   OutputSettings output;
 
-  std::vector<std::string> point_names() const;
+  // Every point's name in the job's order, copied on `threads` threads (0: all; a scan's task over
+  // "all": 10^6 names).
+  std::vector<std::string> point_names(int threads = 1) const;
 };
 
 // What the command line changes in a job as it is read (`vlt run`, docs/cli.md).

@@ -19,16 +19,20 @@
 #include <toml++/toml.h>
 
 #include "job/job_detail.h"
+#include "parallel/memory.h"
 #include "parallel/pool.h"
 #include "vlt/calibration.h"
 #include "vlt/error.h"
 
 namespace vlt {
 
-std::vector<std::string> Job::point_names() const {
+std::vector<std::string> Job::point_names(int threads) const {
   std::vector<std::string> names;
-  names.reserve(points.size());
-  for (const JobPoint& p : points) names.push_back(p.name);
+  parallel_internal::ReserveMapped(names, points.size(), threads);
+  names.resize(points.size());
+  parallel_internal::ForEachChunk(names.size(), 8192, threads, [&](std::size_t, std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) names[i] = points[i].name;
+  });
   return names;
 }
 
