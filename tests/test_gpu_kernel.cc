@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <limits>
 #include <map>
+#include <span>
 #include <sstream>
 #include <random>
 #include <string>
@@ -164,8 +165,11 @@ UncertainInput Input(const char* name, double estimate, double u) {
 }
 
 // Which of the stages the CPU prepares for the kernel a test job has.
+// And whether the tracker's parameters are ones the kernel cannot draw itself (CpuDrawnParameters):
+// then the CPU draws them for it.
 struct Stages {
   bool air = false, pose = false, thermal = false;
+  bool cpu_params = false;
   bool any() const { return air || pose || thermal; }
 };
 constexpr Stages kNoStage{}, kAllStages{true, true, true};
@@ -194,6 +198,27 @@ void AddStages(MeasurementSetup& setup, Stages stages) {
   if (stages.thermal) setup.thermal = thermal;
 }
 
+// Parameters the kernel cannot draw itself: parameter 0 rectangular, parameter 1 arcsine, and
+// parameters 3 and 4 correlated (r = 0.7) with each other and parameter 5 with the part's
+// temperature where the part is in the setup (r = -0.4) — the copula's path, whose inverse CDFs
+// call libm.
+void CpuDrawnParameters(MeasurementSetup& setup) {
+  setup.params[0].distribution = "rectangular";
+  setup.params[1].distribution = "arcsine";
+  CorrelationGroup pair;
+  pair.name = "pair";
+  pair.inputs = {setup.params[3].name, setup.params[4].name};
+  pair.matrix = Eigen::Matrix2d{{1.0, 0.7}, {0.7, 1.0}};
+  setup.correlations.push_back(pair);
+  if (setup.thermal) {
+    CorrelationGroup part;
+    part.name = "part";
+    part.inputs = {setup.params[5].name, "thermal.temperature"};
+    part.matrix = Eigen::Matrix2d{{1.0, -0.4}, {-0.4, 1.0}};
+    setup.correlations.push_back(part);
+  }
+}
+
 MeasurementSetup NormalSetup(const char* name, Stages stages = kNoStage) {
   MeasurementSetup setup;
   AddStages(setup, stages);
@@ -210,6 +235,7 @@ MeasurementSetup NormalSetup(const char* name, Stages stages = kNoStage) {
   setup.noise.range_b = 0.5e-6;
   setup.noise.azimuth = 4.8e-6;
   setup.noise.elevation = 4.8e-6;
+  if (stages.cpu_params) CpuDrawnParameters(setup);
   return setup;
 }
 
@@ -226,6 +252,7 @@ gpu_internal::TrialsJob KernelTrials(const char* name, const MeasurementSetup& s
   trials.job.air = setup.environment.has_value();
   trials.job.pose = setup.pose.has_value();
   trials.job.thermal = setup.thermal.has_value();
+  trials.job.params_drawn = !setup.correlations.empty() || setup.params[0].distribution != "normal";
   for (int k = 0; k < trials.job.num_params; ++k) {
     trials.job.param_estimate[k] = setup.params[k].estimate;
     trials.job.param_u[k] = setup.params[k].u;
@@ -242,12 +269,47 @@ gpu_internal::TrialsJob KernelTrials(const char* name, const MeasurementSetup& s
   return trials;
 }
 
+// The parameters the CPU drew for the kernel are the draws the setup asks for (so that the
+// comparison with the engine covers the copula and the non-normal marginals, not constants):
+// the rectangular one within +-sqrt(3) u, the arcsine one within +-sqrt(2) u and dense near its
+// ends, the correlated pair's sample correlation near 0.7, and each with its standard deviation u.
+void ExpectTheDrawnParametersFollowTheirDistributions(const MeasurementSetup& setup, const std::vector<double>& params,
+                                                      int n) {
+  auto row = [&](int k) { return std::span<const double>(params.data() + static_cast<std::size_t>(k) * n, n); };
+  auto mean = [&](int k) {
+    double m = 0.0;
+    for (double x : row(k)) m += x / n;
+    return m;
+  };
+  auto sd = [&](int k) {
+    const double m = mean(k);
+    double s = 0.0;
+    for (double x : row(k)) s += (x - m) * (x - m) / (n - 1);
+    return std::sqrt(s);
+  };
+  for (int k : {0, 1, 3, 4}) EXPECT_NEAR(sd(k), setup.params[k].u, 0.06 * setup.params[k].u) << "parameter " << k;
+  const double u0 = setup.params[0].u, u1 = setup.params[1].u;
+  for (double x : row(0)) EXPECT_LE(std::abs(x - setup.params[0].estimate), std::sqrt(3.0) * u0 * (1 + 1e-12));
+  int near_ends = 0;
+  for (double x : row(1)) {
+    EXPECT_LE(std::abs(x - setup.params[1].estimate), std::sqrt(2.0) * u1 * (1 + 1e-12));
+    near_ends += std::abs(x - setup.params[1].estimate) > 0.9 * std::sqrt(2.0) * u1;
+  }
+  // Arcsine on [-a, a]: P(|x| > 0.9 a) = 1 - (2/pi) asin(0.9) = 0.287 (a normal: 0.16).
+  EXPECT_NEAR(static_cast<double>(near_ends) / n, 0.287, 0.04);
+  double r = 0.0;
+  const double m3 = mean(3), m4 = mean(4), s3 = sd(3), s4 = sd(4);
+  for (int i = 0; i < n; ++i) r += (row(3)[i] - m3) * (row(4)[i] - m4) / ((n - 1) * s3 * s4);
+  EXPECT_NEAR(r, 0.7, 0.05);
+}
+
 // Every value of every trial, against the engine's job kernel, from an unaligned first trial (the
 // keyed streams give each trial its draws whatever batch it is in); with stages, each trial's as
 // the CPU prepares them for the kernel.
 template <class Model>
 void ExpectTrialsAreTheEngines(const char* name, Stages with) {
-  SCOPED_TRACE(::testing::Message() << "air " << with.air << ", pose " << with.pose << ", thermal " << with.thermal);
+  SCOPED_TRACE(::testing::Message() << "air " << with.air << ", pose " << with.pose << ", thermal " << with.thermal
+                                    << ", parameters drawn on the CPU " << with.cpu_params);
   const bool with_stages = with.any();
   const MeasurementSetup setup = NormalSetup(name, with);
   const MeasurementModel model(setup);
@@ -263,21 +325,27 @@ void ExpectTrialsAreTheEngines(const char* name, Stages with) {
   const gpu_internal::TrialsJob trials = KernelTrials(name, setup, model, job, seed);
   const gpu_internal::PointTrialsJob& kernel_job = trials.job;
   ASSERT_EQ(kernel_job.first_reading_stream, model.num_shared());
-  const std::vector<gpu_internal::TrialStages> stages =
-      with_stages ? mcm_internal::JobTrialStages(job, seed, first, n) : std::vector<gpu_internal::TrialStages>{};
-  const gpu_internal::TrialStages* stages_of = with_stages ? stages.data() : nullptr;
+  ASSERT_EQ(kernel_job.params_drawn, with.cpu_params ? 1 : 0);
+  const mcm_internal::CpuTrialInputs inputs =
+      mcm_internal::JobTrialInputs(job, seed, first, n, mcm_internal::CpuTrialInputs::For(kernel_job));
+  ASSERT_EQ(inputs.stages.size(), with_stages ? static_cast<std::size_t>(n) : 0u);
+  ASSERT_EQ(inputs.params.size(), with.cpu_params ? static_cast<std::size_t>(kernel_job.num_params) * n : 0u);
+  const std::vector<gpu_internal::TrialStages>& stages = inputs.stages;
   int differing = 0;
   for (int p = 0; p < kernel_job.num_points; ++p) {
     for (int i = 0; i < n; ++i) {
       double y[3];
+      const gpu_internal::DrawnParams drawn{with.cpu_params ? inputs.params.data() + i : nullptr,
+                                            static_cast<std::uint64_t>(n)};
       gpu_internal::PointOfTrial<Model>(kernel_job, trials.points[static_cast<std::size_t>(p)], p,
-                                        static_cast<std::uint64_t>(first + i), with_stages ? &stages[i] : nullptr, y);
+                                        static_cast<std::uint64_t>(first + i), with_stages ? &stages[i] : nullptr,
+                                        drawn, y);
       for (int a = 0; a < 3; ++a) differing += Bits(y[a]) != Bits(engine[static_cast<std::size_t>(3 * p + a) * n + i]);
     }
   }
   // The host backend (the tests' GPU) lays the same values out as the engine's.
   std::vector<double> values(static_cast<std::size_t>(3 * kernel_job.num_points) * n);
-  gpu_internal::HostBackend(trials)->Compute(static_cast<std::uint64_t>(first), n, stages_of, values.data());
+  gpu_internal::HostBackend(trials)->Compute(static_cast<std::uint64_t>(first), n, inputs.prepared(), values.data());
   for (std::size_t v = 0; v < values.size(); ++v) differing += Bits(values[v]) != Bits(engine[v]);
   const int outputs = 3 * kernel_job.num_points;
   EXPECT_EQ(differing, 0) << name << ": values of " << n << " trials x " << outputs << " outputs, twice";
@@ -299,12 +367,15 @@ void ExpectTrialsAreTheEngines(const char* name, Stages with) {
     EXPECT_EQ(pose, with.pose ? n : 0);
     EXPECT_EQ(thermal, with.thermal ? n : 0);
   }
+  if (with.cpu_params) ExpectTheDrawnParametersFollowTheirDistributions(setup, inputs.params, n);
 }
 
 TEST(GpuKernel, TrialsAreTheCpuEnginesBitForBit) {
   // No stage, all three, and each alone (the kernel's flags: one swapped would show).
+  // Then with parameters the CPU draws for the kernel, with no stage and with all three (one of
+  // them correlated with the part's temperature).
   for (Stages with : {kNoStage, kAllStages, Stages{true, false, false}, Stages{false, true, false},
-                      Stages{false, false, true}}) {
+                      Stages{false, false, true}, Stages{false, false, false, true}, Stages{true, true, true, true}}) {
     ExpectTrialsAreTheEngines<Mirror>("mirror", with);
     ExpectTrialsAreTheEngines<Head>("head", with);
   }
@@ -330,8 +401,9 @@ TEST(GpuKernel, EmbeddedSourcesAreTheFilesTheCpuBuildCompiles) {
 
 // Runs the compiled kernel (`program`, in `dir`) on a two-point mirror job and compares its values
 // with the CPU engine's.
-void ExpectCompiledKernelIsTheEngine(const std::filesystem::path& dir, const std::string& program, bool with_stages) {
-  const MeasurementSetup setup = NormalSetup("mirror", with_stages ? kAllStages : kNoStage);
+void ExpectCompiledKernelIsTheEngine(const std::filesystem::path& dir, const std::string& program, Stages with) {
+  const bool with_stages = with.any();
+  const MeasurementSetup setup = NormalSetup("mirror", with);
   const MeasurementModel model(setup);
   McmJob job;
   job.model = &model;
@@ -347,10 +419,14 @@ void ExpectCompiledKernelIsTheEngine(const std::filesystem::path& dir, const std
     std::ofstream in(dir / "job.bin", std::ios::binary);
     in.write(reinterpret_cast<const char*>(&kernel), sizeof kernel);
     in.write(reinterpret_cast<const char*>(points.data()), static_cast<std::streamsize>(points.size() * sizeof points[0]));
-    if (with_stages) {
-      const std::vector<gpu_internal::TrialStages> stages = mcm_internal::JobTrialStages(job, seed, first, n);
-      in.write(reinterpret_cast<const char*>(stages.data()), static_cast<std::streamsize>(stages.size() * sizeof stages[0]));
-    }
+    const mcm_internal::CpuTrialInputs inputs =
+        mcm_internal::JobTrialInputs(job, seed, first, n, mcm_internal::CpuTrialInputs::For(kernel));
+    ASSERT_EQ(inputs.stages.size(), with_stages ? static_cast<std::size_t>(n) : 0u);
+    ASSERT_EQ(inputs.params.empty(), !with.cpu_params);
+    in.write(reinterpret_cast<const char*>(inputs.stages.data()),
+             static_cast<std::streamsize>(inputs.stages.size() * sizeof inputs.stages[0]));
+    in.write(reinterpret_cast<const char*>(inputs.params.data()),
+             static_cast<std::streamsize>(inputs.params.size() * sizeof inputs.params[0]));
   }
   const std::string run = program + " " + std::to_string(first) + " " + std::to_string(n) + " < " +
                           (dir / "job.bin").string() + " > " + (dir / "values.bin").string();
@@ -389,8 +465,8 @@ TEST(GpuKernel, TheKernelSourceCompiledAsCppGivesTheEnginesValues) {
 struct VltDim3 { unsigned x; };
 static VltDim3 blockIdx, blockDim, threadIdx;
 #include "vlt_point_trials.cu"
-// stdin: the job, the points, each trial's stages where the job has any; argv: first trial,
-// trials. stdout: the values.
+// stdin: the job, the points, each trial's stages where the job has any, the trials' parameters
+// where the CPU drew them; argv: first trial, trials. stdout: the values.
 int main(int argc, char** argv) {
   vlt::gpu_internal::PointTrialsJob job;
   if (argc != 3 || fread(&job, sizeof job, 1, stdin) != 1) return 2;
@@ -400,14 +476,17 @@ int main(int argc, char** argv) {
   const int n = atoi(argv[2]);
   static double values[3 * 16 * 4096];
   static vlt::gpu_internal::TrialStages stages[4096];
+  static double params[vlt::gpu_internal::kMaxParams * 4096];
   if (n > 4096) return 2;
   const bool staged = job.air || job.pose || job.thermal;
   if (staged && fread(stages, sizeof stages[0], n, stdin) != (size_t)n) return 2;
+  const size_t drawn = job.params_drawn ? (size_t)job.num_params * n : 0;
+  if (fread(params, sizeof params[0], drawn, stdin) != drawn) return 2;
   blockDim.x = 128;
   const unsigned long long threads = (unsigned long long)n * job.num_points;
   for (blockIdx.x = 0; blockIdx.x * 128ull < threads; ++blockIdx.x)
     for (threadIdx.x = 0; threadIdx.x < 128; ++threadIdx.x)
-      vlt_point_trials(&job, points, staged ? stages : nullptr, first, n, values);
+      vlt_point_trials(&job, points, staged ? stages : nullptr, drawn ? params : nullptr, first, n, values);
   fwrite(values, sizeof(double), 3 * job.num_points * (size_t)n, stdout);
   return 0;
 }
@@ -416,9 +495,9 @@ int main(int argc, char** argv) {
   const std::string compile = std::string(VLT_TEST_CXX) + " -std=c++17 -O2 -ffp-contract=off -I" + (dir / "include").string() +
                               " -I" + dir.string() + " " + (dir / "harness.cc").string() + " -o " + program;
   ASSERT_EQ(std::system(compile.c_str()), 0) << compile;
-  for (bool with_stages : {false, true}) {
-    SCOPED_TRACE(with_stages ? "air, pose and thermal stages" : "no stage");
-    ExpectCompiledKernelIsTheEngine(dir, program, with_stages);
+  for (Stages with : {kNoStage, kAllStages, Stages{false, false, false, true}, Stages{true, true, true, true}}) {
+    SCOPED_TRACE(::testing::Message() << "stages " << with.any() << ", parameters drawn on the CPU " << with.cpu_params);
+    ExpectCompiledKernelIsTheEngine(dir, program, with);
   }
   std::filesystem::remove_all(dir);
 }
@@ -481,11 +560,29 @@ rz = { estimate = "0.3 rad", u = "2 arcsec" }
 tx = { estimate = "0.2 m", u = "10 um" }
 )";
 
-// The jobs the GPU path is checked on: kGpuJob, the same with every stage and with the pose
-// alone, and the demo's (vlt demo: the air, 34 points, 3 tasks) at 20 000 trials.
+// The same with tracker parameters the kernel cannot draw itself, so that the CPU draws them for
+// it: a rectangular and an arcsine one, two correlated with each other, and one correlated with the
+// part's temperature (a stage's input).
+const std::string kGpuJobWithCpuDrawnParameters = std::string(kGpuJobWithStages) + R"(
+[tracker.parameters.a0]
+distribution = "rectangular"
+[tracker.parameters.e0]
+distribution = "arcsine"
+[tracker.correlations.axes]
+parameters = ["eac", "eas"]
+matrix = [[1, 0.6], [0.6, 1]]
+[correlations.thermometer]
+inputs = ["thermal.temperature", "R0"]
+matrix = [[1, 0.5], [0.5, 1]]
+)";
+
+// The jobs the GPU path is checked on: kGpuJob, the same with every stage, with the pose alone and
+// with parameters the CPU draws, and the demo's (vlt demo: the air, 34 points, 3 tasks) at 20 000
+// trials.
 std::vector<Job> GpuPathJobs() {
   std::vector<Job> jobs = {ParseJob(kGpuJob, "gpu.toml", "."), ParseJob(kGpuJobWithStages, "gpu-stages.toml", "."),
                            ParseJob(kGpuJobWithPose, "gpu-pose.toml", "."),
+                           ParseJob(kGpuJobWithCpuDrawnParameters, "gpu-cpu-drawn.toml", "."),
                            ParseJob(std::string(DefaultJobToml()), kDefaultJobName, ".")};
   jobs.back().monte_carlo.trials = 20000;
   return jobs;
@@ -583,8 +680,8 @@ TEST(GpuPath, GpuWithoutAWorkingOneIsAnInputErrorAndAutoSaysWhy) {
 class OneUlpOff final : public gpu_internal::TrialsBackend {
  public:
   explicit OneUlpOff(const gpu_internal::TrialsJob& trials) : host_(gpu_internal::HostBackend(trials)) {}
-  void Compute(std::uint64_t first, int n, const gpu_internal::TrialStages* stages, double* values) override {
-    host_->Compute(first, n, stages, values);
+  void Compute(std::uint64_t first, int n, const gpu_internal::PreparedTrials& prepared, double* values) override {
+    host_->Compute(first, n, prepared, values);
     values[n + 5] = std::nextafter(values[n + 5], 1e300);  // point 0, y, trial first + 5
   }
   std::string Description() const override { return "a broken GPU"; }
@@ -650,45 +747,67 @@ humidity = { estimate = "99 %", u = "0.3 %" }
   gpu_internal::SetBackendForTest(nullptr);
 }
 
-// A tracker parameter correlated with another input is drawn on the CPU's copula, which the
-// kernel has not: "gpu" refuses, saying so; correlated stage inputs alone are the kernel's.
-TEST(GpuPath, ACorrelatedTrackerParameterIsRefused) {
+// The kernel draws the tracker's parameters itself where each is normal or fixed and correlated
+// with no other input (stage inputs correlated among themselves included); otherwise the CPU
+// draws them all for it (PointTrialsJob::params_drawn) and the run is the CPU's all the same
+// (TheSameFilesAsTheCpuWithTheKernelOnTheHost covers kGpuJobWithCpuDrawnParameters).
+TEST(GpuPath, TheCpuDrawsTheParametersOnlyWhereTheKernelCannot) {
   const std::string part = R"(
 [part]
 cte = "11.5 ppm/K"
 temperature = { estimate = "21 degC", u = "0.3 K" }
 )";
-  Job job = ParseJob(std::string(kGpuJob) + part + R"(
-[correlations.thermometer]
-inputs = ["thermal.temperature", "tmv"]
-matrix = [[1, 0.5], [0.5, 1]]
-)", "correlated.toml", ".");
-  job.map.reset();
-  gpu_internal::SetBackendForTest(
-      [](const gpu_internal::TrialsJob& trials, std::string*) { return gpu_internal::HostBackend(trials); });
-  RunOptions options;
-  options.trials = 2000;
-  options.device = McmDevice::kGpu;
-  try {
-    RunJob(job, options);
-    ADD_FAILURE() << "no error";
-  } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()), "command line: --device: \"gpu\": the GPU kernel has no correlated tracker parameters");
-  }
-  Job stages_only = ParseJob(std::string(kGpuJob) + R"(
+  const std::string environment = R"(
 [environment]
 temperature = { estimate = "20.5 degC", u = "0.2 K" }
 pressure = { estimate = "1013.25 hPa", u = "0.3 hPa" }
 humidity = { estimate = "45 %", u = "5 %" }
-)" + part + R"(
+)";
+  struct Case {
+    std::string what, toml;
+    int params_drawn;
+  };
+  const std::vector<Case> cases = {
+      {"normal parameters", kGpuJob, 0},
+      {"every stage, its humidity rectangular", kGpuJobWithStages, 0},
+      {"stage inputs correlated among themselves", std::string(kGpuJob) + environment + part + R"(
 [correlations.room]
 inputs = ["thermal.temperature", "environment.temperature"]
 matrix = [[1, 0.8], [0.8, 1]]
-)", "room.toml", ".");
-  stages_only.map.reset();
-  const Results r = RunJob(stages_only, options);
-  EXPECT_EQ(r.mcm.device.rfind("gpu: host", 0), 0u) << r.mcm.device;
-  gpu_internal::SetBackendForTest(nullptr);
+)", 0},
+      {"a fixed parameter that is not normal (no draw)", std::string(kGpuJob) + R"(
+[tracker.parameters.a0]
+distribution = "rectangular"
+u = "0 arcsec"
+)", 0},
+      {"a rectangular parameter", std::string(kGpuJob) + R"(
+[tracker.parameters.a0]
+distribution = "rectangular"
+)", 1},
+      {"a parameter correlated with the part's temperature", std::string(kGpuJob) + part + R"(
+[correlations.thermometer]
+inputs = ["thermal.temperature", "tmv"]
+matrix = [[1, 0.5], [0.5, 1]]
+)", 1},
+      {"every kind at once", kGpuJobWithCpuDrawnParameters, 1},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    Job job = ParseJob(c.toml, "drawn.toml", ".");
+    job.map.reset();
+    int params_drawn = -1;
+    gpu_internal::SetBackendForTest([&params_drawn](const gpu_internal::TrialsJob& trials, std::string*) {
+      params_drawn = trials.job.params_drawn;
+      return gpu_internal::HostBackend(trials);
+    });
+    RunOptions options;
+    options.trials = 2000;
+    options.device = McmDevice::kGpu;
+    const Results r = RunJob(job, options);
+    gpu_internal::SetBackendForTest(nullptr);
+    EXPECT_EQ(r.mcm.device.rfind("gpu: host", 0), 0u) << r.mcm.device;
+    EXPECT_EQ(params_drawn, c.params_drawn);
+  }
 }
 
 // On a machine with a working GPU (a lent one: scripts/device-check.sh): the GPU's files are the

@@ -226,35 +226,44 @@ std::string CompileKernel(const Nvrtc& rtc, const KernelSource& source, int majo
 
 class Cuda final : public TrialsBackend {
  public:
-  // job, points: the job and its points on the device (freed with the backend).
+  // job, points: the job and its points on the device (freed with the backend); num_params: the
+  // tracker parameters of each trial where the CPU draws them.
   Cuda(const Driver& cu, CUcontext context, CUfunction kernel, CUdeviceptr job, CUdeviceptr points, int num_points,
-       std::string description)
+       int num_params, std::string description)
       : cu_(cu), context_(context), kernel_(kernel), job_(job), points_(points), num_points_(num_points),
-        description_(std::move(description)) {}
+        description_(std::move(description)), num_params_(num_params) {}
   ~Cuda() override {
     cu_.cuCtxSetCurrent(context_);
     if (values_ != 0) cu_.cuMemFree(values_);
     if (stages_ != 0) cu_.cuMemFree(stages_);
+    if (params_ != 0) cu_.cuMemFree(params_);
     cu_.cuMemFree(points_);
     cu_.cuMemFree(job_);
   }
 
-  void Compute(std::uint64_t first, int n, const TrialStages* stages, double* values) override {
+  void Compute(std::uint64_t first, int n, const PreparedTrials& prepared, double* values) override {
     // One launch per block of trials, from whichever engine thread asks: one at a time.
     const std::lock_guard<std::mutex> lock(mutex_);
     Check("cuCtxSetCurrent", cu_.cuCtxSetCurrent(context_));
     const std::size_t bytes = 3 * static_cast<std::size_t>(num_points_) * static_cast<std::size_t>(n) * sizeof(double);
     Reserve(values_, values_capacity_, bytes);
     CUdeviceptr stages_arg = 0;
-    if (stages != nullptr) {
+    if (prepared.stages != nullptr) {
       const std::size_t stage_bytes = static_cast<std::size_t>(n) * sizeof(TrialStages);
       Reserve(stages_, stages_capacity_, stage_bytes);
-      Check("cuMemcpyHtoD", cu_.cuMemcpyHtoD(stages_, stages, stage_bytes));
+      Check("cuMemcpyHtoD", cu_.cuMemcpyHtoD(stages_, prepared.stages, stage_bytes));
       stages_arg = stages_;
+    }
+    CUdeviceptr params_arg = 0;
+    if (prepared.params != nullptr) {
+      const std::size_t param_bytes = static_cast<std::size_t>(num_params_) * static_cast<std::size_t>(n) * sizeof(double);
+      Reserve(params_, params_capacity_, param_bytes);
+      Check("cuMemcpyHtoD", cu_.cuMemcpyHtoD(params_, prepared.params, param_bytes));
+      params_arg = params_;
     }
     unsigned long long first_trial = first;
     int count = n;
-    void* params[] = {&job_, &points_, &stages_arg, &first_trial, &count, &values_};
+    void* params[] = {&job_, &points_, &stages_arg, &params_arg, &first_trial, &count, &values_};
     // One thread per (trial, point).
     constexpr unsigned kThreads = 128;
     const unsigned long long threads = static_cast<unsigned long long>(n) * static_cast<unsigned long long>(num_points_);
@@ -293,6 +302,9 @@ class Cuda final : public TrialsBackend {
   std::size_t values_capacity_ = 0;
   CUdeviceptr stages_ = 0;  // the block's trials' stages, where the job has any
   std::size_t stages_capacity_ = 0;
+  int num_params_;
+  CUdeviceptr params_ = 0;  // the block's trials' parameters, where the CPU drew them
+  std::size_t params_capacity_ = 0;
 };
 
 }  // namespace
@@ -359,7 +371,7 @@ std::unique_ptr<TrialsBackend> CudaBackend(const TrialsJob& trials, std::string*
   std::snprintf(description, sizeof description, "%s (compute %d.%d; CUDA driver %d.%d, NVRTC %d.%d)", name, major,
                 minor, driver / 1000, (driver % 1000) / 10, rtc_major, rtc_minor);
   return std::make_unique<Cuda>(cu, context, kernel, job_on_device, points_on_device, trials.job.num_points,
-                                description);
+                                trials.job.num_params, description);
 }
 
 }  // namespace vlt::gpu_internal

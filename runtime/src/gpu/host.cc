@@ -10,7 +10,7 @@
 namespace vlt::gpu_internal {
 namespace {
 
-using TrialFn = void (*)(const PointTrialsJob&, const TrialPoint&, int, U64, const TrialStages*, double*);
+using TrialFn = void (*)(const PointTrialsJob&, const TrialPoint&, int, U64, const TrialStages*, DrawnParams, double*);
 
 // A generated model namespace as PointTrial's Model (the kernel source's is the same, gpu/cuda.cc).
 #define VLT_KERNEL_MODEL(name)                                              \
@@ -35,12 +35,13 @@ TrialFn TrialOf(std::string_view model_name) {
 class Host final : public TrialsBackend {
  public:
   Host(const TrialsJob& job, TrialFn trial) : job_(job), trial_(trial) {}
-  void Compute(std::uint64_t first, int n, const TrialStages* stages, double* values) override {
+  void Compute(std::uint64_t first, int n, const PreparedTrials& prepared, double* values) override {
     for (int p = 0; p < job_.job.num_points; ++p) {
       for (int i = 0; i < n; ++i) {
         double y[3];
+        const DrawnParams drawn{prepared.params == nullptr ? nullptr : prepared.params + i, static_cast<U64>(n)};
         trial_(job_.job, job_.points[static_cast<std::size_t>(p)], p, static_cast<U64>(first) + static_cast<U64>(i),
-               stages == nullptr ? nullptr : stages + i, y);
+               prepared.stages == nullptr ? nullptr : prepared.stages + i, drawn, y);
         for (int a = 0; a < 3; ++a) values[static_cast<std::size_t>(3 * p + a) * static_cast<std::size_t>(n) + i] = y[a];
       }
     }

@@ -6,10 +6,13 @@
 // C++ and compares it with the engine, value for value.
 //
 // Scope (what the kernel covers; mcm/job.cc KernelJob decides, docs/gpu.md): a tracker model
-// with a lanes kernel, every error parameter independent and normal (or fixed: u = 0), the
-// readings' noise normal. The stages around the tracker model (air, station pose, part thermal
-// expansion) depend on a trial's shared inputs only: the CPU draws and prepares them with the
-// engine's own code and hands each trial's TrialStages to the kernel. Other jobs run on the CPU.
+// with a lanes kernel, the readings' noise normal. The kernel draws the error parameters itself
+// where each is independent and normal (or fixed: u = 0); where one is correlated with another
+// input or not normal, the CPU draws them all (the copula and the inverse CDFs call libm, whose
+// bits a GPU's functions need not have) and hands each trial's to the kernel (DrawnParams). The
+// stages around the tracker model (air, station pose, part thermal expansion) depend on a trial's
+// shared inputs only: the CPU draws and prepares them with the engine's own code and hands each
+// trial's TrialStages to the kernel. Other jobs run on the CPU.
 #pragma once
 
 #include "base/portable_math.h"
@@ -29,6 +32,9 @@ struct PointTrialsJob {
   int first_reading_stream = 0;  // the shared inputs' count: num_params + air, pose, thermal inputs
   // Which stages are on (1) — each trial's TrialStages given when any is.
   int air = 0, pose = 0, thermal = 0;
+  // 1: the CPU drew each trial's parameters (DrawnParams); 0: the kernel draws them from
+  // param_estimate and param_u.
+  int params_drawn = 0;
   double param_estimate[kMaxParams] = {};
   double param_u[kMaxParams] = {};  // 0: fixed at the estimate (no draw, InputSampler's rule)
 };
@@ -41,6 +47,14 @@ struct TrialStages {
   double rotation[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  // R, column-major: R(i, j) = rotation[3 j + i]
   double translation[3] = {};                        // t [m]
   double thermal_scale = 1.0;                        // s = 1 / (1 + cte (T - T_ref))
+};
+
+// One trial's tracker parameters where the CPU drew them (PointTrialsJob::params_drawn): parameter
+// k at values[k * stride]. A block's are parameter-major, values[k n + i] for its trial i, so that
+// neighbouring GPU threads (neighbouring trials) read neighbouring doubles.
+struct DrawnParams {
+  const double* values = nullptr;
+  U64 stride = 0;
 };
 
 // One point's readings (range [m], azimuth, elevation [rad]) and their standard uncertainties
@@ -67,19 +81,23 @@ VLT_PORTABLE void PlaceOnPart(const PointTrialsJob& job, const TrialStages* stag
 }
 
 // Point p of trial `trial`: y = its part coordinates (m); stages: the trial's (nullptr where no
-// stage is on). Model: a generated model namespace's Forward (vlt::gen::<model>), as a functor.
+// stage is on); drawn: the trial's parameters where the CPU drew them. Model: a generated model namespace's Forward (vlt::gen::<model>), as a functor.
 // Each (trial, point) is computed on its own (a GPU thread each), so the trial's parameters are
 // drawn again for every point: the same draws (they depend on the seed, the trial and the stream
 // only).
 template <class Model>
 VLT_PORTABLE void PointOfTrial(const PointTrialsJob& job, const TrialPoint& point, int p, U64 trial,
-                               const TrialStages* stages, double y[3]) {
+                               const TrialStages* stages, DrawnParams drawn, double y[3]) {
   portable::Lane params[kMaxParams];
   for (int k = 0; k < job.num_params; ++k) {
-    // mcm/sampling.cc: estimate + u z, or the estimate itself where u = 0.
-    params[k] = job.param_u[k] == 0.0
-                    ? job.param_estimate[k]
-                    : job.param_estimate[k] + job.param_u[k] * portable::NormalOfTrial(job.seed, trial, static_cast<U64>(k));
+    if (job.params_drawn) {
+      params[k] = drawn.values[static_cast<U64>(k) * drawn.stride];
+    } else {
+      // mcm/sampling.cc: estimate + u z, or the estimate itself where u = 0.
+      params[k] = job.param_u[k] == 0.0 ? job.param_estimate[k]
+                                        : job.param_estimate[k] + job.param_u[k] * portable::NormalOfTrial(
+                                                                                       job.seed, trial, static_cast<U64>(k));
+    }
   }
   portable::Lane readings[3], out[3];
   for (int j = 0; j < 3; ++j) {

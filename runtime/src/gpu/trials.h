@@ -17,12 +17,19 @@
 
 namespace vlt::gpu_internal {
 
+// What the CPU prepared for a block of n trials: stages[i], trial i's stages, where the job has any
+// (PointTrialsJob air, pose, thermal), else nullptr; params[k n + i], parameter k of trial i, where
+// the CPU drew them (PointTrialsJob params_drawn), else nullptr.
+struct PreparedTrials {
+  const TrialStages* stages = nullptr;
+  const double* params = nullptr;
+};
+
 class TrialsBackend {
  public:
   virtual ~TrialsBackend() = default;
-  // values[o * n + i] = output o (x, y, z of each point) of trial first + i, i < n; stages[i]: that
-  // trial's stages (n of them) where the job has any (PointTrialsJob air, pose, thermal), else nullptr.
-  virtual void Compute(std::uint64_t first, int n, const TrialStages* stages, double* values) = 0;
+  // values[o * n + i] = output o (x, y, z of each point) of trial first + i, i < n.
+  virtual void Compute(std::uint64_t first, int n, const PreparedTrials& prepared, double* values) = 0;
   // "NVIDIA H100 80GB HBM3 (compute 9.0; CUDA driver 13.0, NVRTC 13.0)" or "host (GPU kernel code on the CPU)".
   virtual std::string Description() const = 0;
 };

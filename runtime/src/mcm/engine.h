@@ -14,7 +14,7 @@
 
 #include <Eigen/Core>
 
-#include "gpu/point_trials.h"
+#include "gpu/trials.h"
 #include "mcm/order.h"
 #include "mcm/random.h"
 #include "vlt/distributions.h"
@@ -178,8 +178,26 @@ bool GatherRegionTail(const std::vector<const float*>& series, std::int64_t n,
 // of every point (a task's are left out). The reference the GPU path is checked against, at run
 // time (mcm/job.cc) and in tests/test_gpu_kernel.cc.
 std::vector<double> JobTrialValues(const McmJob& job, std::uint64_t seed, std::int64_t first, int n);
-// The stages (air, pose, thermal) of the same trials as the job kernel prepares them for the GPU
-// kernel (gpu/point_trials.h TrialStages), one per trial.
-std::vector<gpu_internal::TrialStages> JobTrialStages(const McmJob& job, std::uint64_t seed, std::int64_t first, int n);
+// What the CPU prepares for a block of the GPU kernel's trials (docs/gpu.md): each trial's stages
+// (air, pose, thermal; gpu/point_trials.h TrialStages) where the job has any, and the tracker
+// parameters, params[k n + i] for parameter k of trial i, where the CPU draws them
+// (PointTrialsJob::params_drawn). Empty where not prepared.
+struct CpuTrialInputs {
+  struct What {
+    bool stages = false;
+    int params = 0;  // the parameters drawn per trial (0: the kernel draws them)
+    bool any() const { return stages || params > 0; }
+  };
+  // What the kernel's job takes from the CPU.
+  static What For(const gpu_internal::PointTrialsJob& job);
+
+  std::vector<gpu_internal::TrialStages> stages;
+  std::vector<double> params;
+  // The backend's view of them (gpu/trials.h).
+  gpu_internal::PreparedTrials prepared() const;
+};
+// What the job kernel prepares for the GPU kernel's trials first .. first + n - 1 (`what` of it),
+// drawn and prepared as the CPU engine draws and prepares them.
+CpuTrialInputs JobTrialInputs(const McmJob& job, std::uint64_t seed, std::int64_t first, int n, CpuTrialInputs::What what);
 
 }  // namespace vlt::mcm_internal

@@ -169,18 +169,26 @@ class JobKernel final : public mcm_internal::TrialKernel {
     RunTasks(n, scratch, outputs);
   }
 
-  // The stages of trials first .. first + n - 1 (n <= kSubBatch) for the GPU kernel, drawn and
-  // prepared as Run prepares them (gpu/point_trials.h TrialStages).
-  void PrepareStages(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch,
-                     gpu_internal::TrialStages* out) const {
-    DrawShared(rng, first, n, scratch, true);
-    for (int i = 0; i < n; ++i) {
+  // What the GPU kernel takes from the CPU for trials first .. first + n - 1 (n <= kSubBatch),
+  // drawn and prepared as Run draws and prepares them: with `stages`, each trial's
+  // (gpu/point_trials.h TrialStages); with `params`, the tracker model's parameters,
+  // params[k stride + i] for parameter k of trial first + i (DrawnParams).
+  void PrepareTrials(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch,
+                     gpu_internal::TrialStages* stages, double* params, std::int64_t stride) const {
+    DrawShared(rng, first, n, scratch, stages != nullptr);
+    for (int i = 0; stages != nullptr && i < n; ++i) {
       const MeasurementModel::PreparedShared& state = scratch.trial_states[static_cast<std::size_t>(i)];
-      gpu_internal::TrialStages& stages = out[i];
-      stages.range_scale = state.range_scale;
-      std::copy(state.rotation.data(), state.rotation.data() + 9, stages.rotation);
-      std::copy(state.translation.data(), state.translation.data() + 3, stages.translation);
-      stages.thermal_scale = state.thermal_scale;
+      gpu_internal::TrialStages& trial = stages[i];
+      trial.range_scale = state.range_scale;
+      std::copy(state.rotation.data(), state.rotation.data() + 9, trial.rotation);
+      std::copy(state.translation.data(), state.translation.data() + 3, trial.translation);
+      trial.thermal_scale = state.thermal_scale;
+    }
+    // The sampler's rows of the parameters: the values Run hands the lanes kernel.
+    const double* shared_soa = scratch.doubles.data();
+    for (int k = 0; params != nullptr && k < lanes_params_; ++k) {
+      const double* row = shared_soa + static_cast<std::size_t>(k) * kSubBatch;
+      std::copy(row, row + n, params + k * stride);
     }
   }
 
@@ -309,44 +317,51 @@ std::vector<McmTask> FitTasks(const McmJob& job) {
   return out;
 }
 
-// The stages (air, pose, thermal) of trials first .. first + n - 1, drawn and prepared on the CPU
-// by the job kernel's own code, a sub-batch of kSubBatch trials at a time. With `unprepared`, a
-// sub-batch whose stages fail (a drawn humidity past 100 %: an error of the job's own inputs) is
-// marked there, (*unprepared)[k] = 1 for trials first + k kSubBatch .., instead of failing: a
-// block holds trials the run may never use (past M, after an adaptive run stops), and where the
-// run does use them the CPU path computes them and says what is wrong, at the trial it is wrong.
-std::vector<gpu_internal::TrialStages> StagesOfTrials(const JobKernel& cpu, const KeyedStream& rng, std::int64_t first,
-                                                      int n, Scratch& scratch, std::vector<char>* unprepared = nullptr) {
-  std::vector<gpu_internal::TrialStages> stages(static_cast<std::size_t>(n));
+// What the GPU kernel takes from the CPU for trials first .. first + n - 1 (what.stages: the
+// stages — air, pose, thermal; what.params: the tracker parameters, num_params of them), drawn and
+// prepared by the job kernel's own code, a sub-batch of kSubBatch trials at a time. With
+// `unprepared`, a sub-batch whose stages fail (a drawn humidity past 100 %: an error of the job's
+// own inputs) is marked there, (*unprepared)[k] = 1 for trials first + k kSubBatch .., instead of
+// failing: a block holds trials the run may never use (past M, after an adaptive run stops), and
+// where the run does use them the CPU path computes them and says what is wrong, at the trial it
+// is wrong.
+mcm_internal::CpuTrialInputs InputsOfTrials(const JobKernel& cpu, const KeyedStream& rng, std::int64_t first, int n,
+                                            Scratch& scratch, mcm_internal::CpuTrialInputs::What what,
+                                            std::vector<char>* unprepared = nullptr) {
+  mcm_internal::CpuTrialInputs inputs;
+  if (what.stages) inputs.stages.resize(static_cast<std::size_t>(n));
+  inputs.params.resize(static_cast<std::size_t>(what.params) * static_cast<std::size_t>(n));
   if (unprepared != nullptr) unprepared->assign(static_cast<std::size_t>((n + kSubBatch - 1) / kSubBatch), 0);
   for (int done = 0; done < n; done += kSubBatch) {
     const int count = std::min(kSubBatch, n - done);
+    gpu_internal::TrialStages* stages = what.stages ? inputs.stages.data() + done : nullptr;
+    double* params = what.params > 0 ? inputs.params.data() + done : nullptr;
     try {
-      cpu.PrepareStages(rng, first + done, count, scratch, stages.data() + done);
+      cpu.PrepareTrials(rng, first + done, count, scratch, stages, params, n);
     } catch (const std::exception&) {
       if (unprepared == nullptr) throw;
       (*unprepared)[static_cast<std::size_t>(done / kSubBatch)] = 1;
-      std::fill(stages.begin() + done, stages.begin() + done + count, gpu_internal::TrialStages{});
+      if (stages != nullptr) std::fill(stages, stages + count, gpu_internal::TrialStages{});
     }
   }
-  return stages;
+  return inputs;
 }
 
 // A block of trials computed by a backend: values[o * n + i], and the sub-batches whose stages the
-// CPU could not prepare (StagesOfTrials), whose values are not the trials'.
+// CPU could not prepare (InputsOfTrials), whose values are not the trials'.
 struct BlockValues {
   std::vector<double> values;
   std::vector<char> unprepared;
 };
 
-// Trials first .. first + n - 1 of a GPU kernel's job computed by `backend`, with their stages
-// where the job has any.
-void ComputeOnBackend(const JobKernel& cpu, bool has_stages, gpu_internal::TrialsBackend& backend,
-                      const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch, BlockValues& block) {
-  const std::vector<gpu_internal::TrialStages> stages =
-      has_stages ? StagesOfTrials(cpu, rng, first, n, scratch, &block.unprepared)
-                 : std::vector<gpu_internal::TrialStages>{};
-  backend.Compute(static_cast<std::uint64_t>(first), n, has_stages ? stages.data() : nullptr, block.values.data());
+// Trials first .. first + n - 1 of a GPU kernel's job computed by `backend`, with what the CPU
+// prepares for them (`what`: stages, parameters) where the job needs any.
+void ComputeOnBackend(const JobKernel& cpu, mcm_internal::CpuTrialInputs::What what,
+                      gpu_internal::TrialsBackend& backend, const KeyedStream& rng, std::int64_t first, int n,
+                      Scratch& scratch, BlockValues& block) {
+  const mcm_internal::CpuTrialInputs inputs =
+      what.any() ? InputsOfTrials(cpu, rng, first, n, scratch, what, &block.unprepared) : mcm_internal::CpuTrialInputs{};
+  backend.Compute(static_cast<std::uint64_t>(first), n, inputs.prepared(), block.values.data());
 }
 
 // The job's trials on a GPU (docs/gpu.md): the points' values of each trial from the device
@@ -357,37 +372,39 @@ void ComputeOnBackend(const JobKernel& cpu, bool has_stages, gpu_internal::Trial
 // that needs it and forgotten once all its trials were copied out.
 class GpuJobKernel final : public mcm_internal::TrialKernel {
  public:
-  // Most bytes of values and stages a block holds (kSubBatch trials at least: KernelJob refuses
-  // more points).
+  // Most bytes of values and of what the CPU prepares a block holds (kSubBatch trials at least:
+  // KernelJob refuses more points).
   static constexpr std::int64_t kBlockBytes = std::int64_t{64} << 20;
+  using What = mcm_internal::CpuTrialInputs::What;
 
-  // trials: the run's M (0: adaptive). fall_back: on a GPU failure during the run, compute the
-  // remaining trials on the CPU (the same bits; McmDevice::kAuto) instead of failing.
-  GpuJobKernel(const McmJob& job, std::unique_ptr<gpu_internal::TrialsBackend> backend, std::int64_t trials,
-               bool fall_back)
+  // what: the stages and parameters the CPU prepares for the kernel (KernelJob). trials: the
+  // run's M (0: adaptive). fall_back: on a GPU failure during the run, compute the remaining
+  // trials on the CPU (the same bits; McmDevice::kAuto) instead of failing.
+  GpuJobKernel(const McmJob& job, std::unique_ptr<gpu_internal::TrialsBackend> backend, What what,
+               std::int64_t trials, bool fall_back)
       : cpu_(job), backend_(std::move(backend)), point_outputs_(3 * static_cast<int>(job.points.size())),
-        has_stages_(job.model->has_shared_stages()), fall_back_(fall_back) {
+        what_(what), fall_back_(fall_back) {
     // An eighth of M a block (the device busy while the engine's threads copy out the previous
-    // one), at least 4096 trials, at most 2^20 and kBlockBytes of values and stages.
-    const std::int64_t fit = kBlockBytes / BytesPerTrial(static_cast<int>(job.points.size()), has_stages_);
+    // one), at least 4096 trials, at most 2^20 and kBlockBytes of values, stages and parameters.
+    const std::int64_t fit = kBlockBytes / BytesPerTrial(static_cast<int>(job.points.size()), what_);
     const std::int64_t wanted = trials > 0 ? std::max<std::int64_t>(4096, (trials + 7) / 8) : std::int64_t{1} << 20;
     block_ = std::max<std::int64_t>(kSubBatch, std::min({wanted, std::int64_t{1} << 20, fit}));
   }
 
-  // A trial's values in a block, and its stages where the job has any.
-  static std::int64_t BytesPerTrial(int points, bool stages) {
-    return 3 * 8 * std::int64_t{std::max(1, points)} + StageBytes(stages);
+  // A trial's values in a block, and what the CPU prepares for it.
+  static std::int64_t BytesPerTrial(int points, What what) {
+    return 3 * 8 * std::int64_t{std::max(1, points)} + PreparedBytes(what);
   }
   // The most points whose kSubBatch trials (the least a block holds) fit in kBlockBytes.
-  static std::int64_t MostPoints(bool stages) { return (kBlockBytes / kSubBatch - StageBytes(stages)) / (3 * 8); }
+  static std::int64_t MostPoints(What what) { return (kBlockBytes / kSubBatch - PreparedBytes(what)) / (3 * 8); }
 
   int num_outputs() const override { return cpu_.num_outputs(); }
   void InitScratch(Scratch& scratch) const override { cpu_.InitScratch(scratch); }
   std::vector<double> AtEstimates() const override { return cpu_.AtEstimates(); }
 
  private:
-  static std::int64_t StageBytes(bool stages) {
-    return stages ? static_cast<std::int64_t>(sizeof(gpu_internal::TrialStages)) : 0;
+  static std::int64_t PreparedBytes(What what) {
+    return (what.stages ? static_cast<std::int64_t>(sizeof(gpu_internal::TrialStages)) : 0) + 8 * std::int64_t{what.params};
   }
 
  public:
@@ -468,7 +485,7 @@ class GpuJobKernel final : public mcm_internal::TrialKernel {
         const std::lock_guard<std::mutex> one_at_a_time(compute_mutex_);
         auto block = std::make_shared<BlockValues>();
         block->values.resize(static_cast<std::size_t>(point_outputs_) * static_cast<std::size_t>(block_));
-        ComputeOnBackend(cpu_, has_stages_, *backend_, rng, index * block_, static_cast<int>(block_), scratch, *block);
+        ComputeOnBackend(cpu_, what_, *backend_, rng, index * block_, static_cast<int>(block_), scratch, *block);
         promise.set_value(std::move(block));
       } catch (...) {
         promise.set_exception(std::current_exception());
@@ -494,7 +511,7 @@ class GpuJobKernel final : public mcm_internal::TrialKernel {
   JobKernel cpu_;
   std::unique_ptr<gpu_internal::TrialsBackend> backend_;
   int point_outputs_;
-  bool has_stages_;
+  What what_;
   bool fall_back_;
   std::int64_t block_ = kSubBatch;
   mutable std::mutex mutex_;
@@ -503,6 +520,28 @@ class GpuJobKernel final : public mcm_internal::TrialKernel {
   mutable std::atomic<bool> failed_{false};
   mutable std::string failure_;
 };
+
+// Whether the GPU kernel can draw the tracker's parameters itself, each from its own stream
+// (gpu/point_trials.h PointOfTrial): each is normal or fixed, and correlated with no other input
+// (the air's, pose's and thermal inputs, drawn on the CPU, may be correlated among themselves).
+// Otherwise the CPU draws them — through the copula and the inverse CDFs, which call libm — and
+// hands them to the kernel.
+bool DeviceDrawsTheParameters(const MeasurementModel& model) {
+  const int num_params = model.setup().model->num_params;
+  const std::vector<Distribution> inputs = SharedDistributions(model);
+  for (int k = 0; k < num_params; ++k) {
+    const Distribution& d = inputs[static_cast<std::size_t>(k)];
+    if (d.u() != 0.0 && d.kind() != DistributionKind::kNormal) return false;
+  }
+  // (The matrix is symmetric: a parameter's row holds every pair it is in.)
+  const Eigen::MatrixXd& correlation = model.shared_correlation();
+  for (Eigen::Index i = 0; i < std::min<Eigen::Index>(num_params, correlation.rows()); ++i) {
+    for (Eigen::Index j = 0; j < correlation.cols(); ++j) {
+      if (i != j && correlation(i, j) != 0.0) return false;
+    }
+  }
+  return true;
+}
 
 // The GPU kernel's job for `job` (gpu/point_trials.h), or why the kernel does not cover it.
 std::optional<gpu_internal::TrialsJob> KernelJob(const McmJob& job, std::uint64_t seed, std::string* why_not) {
@@ -515,22 +554,9 @@ std::optional<gpu_internal::TrialsJob> KernelJob(const McmJob& job, std::uint64_
   if (!gpu_internal::KernelHasModel(setup.model->name) || !model.has_forward_lanes()) {
     return refuse(std::string("the GPU kernel has no model '") + setup.model->name + "'");
   }
-  // The tracker's parameters are drawn on the device, each from its own stream: none may be
-  // correlated with another input (the air's, pose's and thermal inputs, drawn on the CPU, may).
   const int num_params = setup.model->num_params;
-  const Eigen::MatrixXd& correlation = model.shared_correlation();
-  // (The matrix is symmetric: a parameter's row holds every pair it is in.)
-  for (Eigen::Index i = 0; i < std::min<Eigen::Index>(num_params, correlation.rows()); ++i) {
-    for (Eigen::Index j = 0; j < correlation.cols(); ++j) {
-      if (i != j && correlation(i, j) != 0.0) return refuse("the GPU kernel has no correlated tracker parameters");
-    }
-  }
   if (num_params > gpu_internal::kMaxParams) {
     return refuse("the GPU kernel takes at most " + std::to_string(gpu_internal::kMaxParams) + " tracker parameters");
-  }
-  const std::size_t most_points = static_cast<std::size_t>(GpuJobKernel::MostPoints(model.has_shared_stages()));
-  if (job.points.size() > most_points) {
-    return refuse("the GPU kernel takes at most " + std::to_string(most_points) + " points a run");
   }
   gpu_internal::TrialsJob trials;
   trials.model = setup.model->name;
@@ -541,14 +567,17 @@ std::optional<gpu_internal::TrialsJob> KernelJob(const McmJob& job, std::uint64_
   kernel.air = model.environment_offset() >= 0;
   kernel.pose = model.pose_offset() >= 0;
   kernel.thermal = model.thermal_offset() >= 0;
+  kernel.params_drawn = !DeviceDrawsTheParameters(model);
   const std::vector<Distribution> inputs = SharedDistributions(model);
   for (int k = 0; k < kernel.num_params; ++k) {
     const Distribution& d = inputs[static_cast<std::size_t>(k)];
-    if (d.u() != 0.0 && d.kind() != DistributionKind::kNormal) {
-      return refuse("the GPU kernel draws normal parameters only ('" + model.shared_inputs()[k].name + "' is not)");
-    }
     kernel.param_estimate[k] = d.estimate();
     kernel.param_u[k] = d.u();
+  }
+  const std::size_t most_points =
+      static_cast<std::size_t>(GpuJobKernel::MostPoints(mcm_internal::CpuTrialInputs::For(kernel)));
+  if (job.points.size() > most_points) {
+    return refuse("the GPU kernel takes at most " + std::to_string(most_points) + " points a run");
   }
   kernel.num_points = static_cast<int>(job.points.size());
   trials.points.resize(job.points.size());
@@ -567,16 +596,15 @@ std::optional<gpu_internal::TrialsJob> KernelJob(const McmJob& job, std::uint64_
 // for bit: "" when it does, else what differs. Every GPU run is checked so before it is used (the
 // GPU path rests on the same bits; a driver or compiler that breaks them is not used).
 constexpr int kCheckTrials = 64;
-std::string DiffersFromTheCpu(const McmJob& job, std::uint64_t seed, gpu_internal::TrialsBackend& backend) {
+std::string DiffersFromTheCpu(const McmJob& job, std::uint64_t seed, mcm_internal::CpuTrialInputs::What what,
+                              gpu_internal::TrialsBackend& backend) {
   // The CPU's part first, outside the catch below: an error of the job's own inputs (an air
   // index out of its equation's range) is the job's error, not the GPU's.
   const std::vector<double> on_cpu = mcm_internal::JobTrialValues(job, seed, 0, kCheckTrials);
-  const std::vector<gpu_internal::TrialStages> stages =
-      job.model->has_shared_stages() ? mcm_internal::JobTrialStages(job, seed, 0, kCheckTrials)
-                                     : std::vector<gpu_internal::TrialStages>{};
+  const mcm_internal::CpuTrialInputs inputs = mcm_internal::JobTrialInputs(job, seed, 0, kCheckTrials, what);
   std::vector<double> on_gpu(on_cpu.size());
   try {
-    backend.Compute(0, kCheckTrials, stages.empty() ? nullptr : stages.data(), on_gpu.data());
+    backend.Compute(0, kCheckTrials, inputs.prepared(), on_gpu.data());
   } catch (const std::exception& e) {
     return std::string("the GPU failed its check against the CPU (") + e.what() + ")";
   }
@@ -594,11 +622,13 @@ std::unique_ptr<GpuJobKernel> GpuKernelFor(const McmJob& job, const McmSettings&
   if (settings.device == McmDevice::kCpu) return nullptr;
   std::string why_not;
   std::unique_ptr<gpu_internal::TrialsBackend> backend;
+  mcm_internal::CpuTrialInputs::What what;
   if (const auto trials = KernelJob(job, settings.seed, &why_not)) {
+    what = mcm_internal::CpuTrialInputs::For(trials->job);
     backend = gpu_internal::MakeBackend(*trials, &why_not);
   }
   if (backend != nullptr) {
-    why_not = DiffersFromTheCpu(job, settings.seed, *backend);
+    why_not = DiffersFromTheCpu(job, settings.seed, what, *backend);
     if (!why_not.empty()) {
       why_not = backend->Description() + ": " + why_not;
       backend.reset();
@@ -609,7 +639,7 @@ std::unique_ptr<GpuJobKernel> GpuKernelFor(const McmJob& job, const McmSettings&
     result.device_note = why_not;
     return nullptr;
   }
-  return std::make_unique<GpuJobKernel>(job, std::move(backend), settings.trials,
+  return std::make_unique<GpuJobKernel>(job, std::move(backend), what, settings.trials,
                                         settings.device == McmDevice::kAuto);
 }
 
@@ -636,12 +666,20 @@ std::vector<double> mcm_internal::JobTrialValues(const McmJob& job, std::uint64_
   return values;
 }
 
-std::vector<gpu_internal::TrialStages> mcm_internal::JobTrialStages(const McmJob& job, std::uint64_t seed,
-                                                                    std::int64_t first, int n) {
+mcm_internal::CpuTrialInputs mcm_internal::JobTrialInputs(const McmJob& job, std::uint64_t seed, std::int64_t first,
+                                                          int n, CpuTrialInputs::What what) {
   const JobKernel kernel(job);
   mcm_internal::Scratch scratch;
   kernel.InitScratch(scratch);
-  return StagesOfTrials(kernel, mcm_internal::KeyedStream(seed), first, n, scratch);
+  return InputsOfTrials(kernel, mcm_internal::KeyedStream(seed), first, n, scratch, what);
+}
+
+mcm_internal::CpuTrialInputs::What mcm_internal::CpuTrialInputs::For(const gpu_internal::PointTrialsJob& job) {
+  return What{job.air != 0 || job.pose != 0 || job.thermal != 0, job.params_drawn != 0 ? job.num_params : 0};
+}
+
+gpu_internal::PreparedTrials mcm_internal::CpuTrialInputs::prepared() const {
+  return gpu_internal::PreparedTrials{stages.empty() ? nullptr : stages.data(), params.empty() ? nullptr : params.data()};
 }
 
 McmResult RunMcm(const McmJob& job_in, const McmSettings& settings) {
