@@ -6,7 +6,11 @@
 # one computation over hundreds of seeds (a calibration, a network adjustment) or over 10^5 points
 # (and the count of the work items of a 10^6-trial Monte Carlo run on 16 threads, 44 s here; the
 # alignment's Monte Carlo reference, 40000 re-alignments of 4 tasks, 19 s here; the cylinder and
-# cone fits' 8000 refits with Jacobian, 40 s here):
+# cone fits' 8000 refits with Jacobian, 40 s here; the air by time over 300 seeds, 26 s; the
+# weighted fits over 4000 draws and against a tracker job's Monte Carlo, 24 s and 11 s; 2000 trackers
+# drawn from a prior, twice 14 s; 800 random bores and shafts, 12 s; the shaft line's 2000 Monte
+# Carlo trials of cylinder, cone and minimum-zone fits, 66 s, the least the JCGM 101 7.2.2 rule
+# allows for p = 0.95, whose fits run here in AxialFits.* and MinimumZone.*; measured 2026-11-28):
 # their code paths run here once in the tests that check them against closed forms and finite
 # differences, and stage 1 runs the studies themselves (docs/testing.md). Under the sanitizers they
 # took 348 of the stage's 728 test seconds (measured 2026-11-26; the two calibration coverage
@@ -31,6 +35,13 @@ studies=(
   ScanFiles.EveryParallelPhaseOfA1e5PointScanOffersEightItemsToEachOfSixteenThreads
   ScanFiles.SameBytesForOneTwoThreeAndSixteenThreads
   TailIndex.ARatioWhoseDivisorMayBeZeroHasNoFiniteVariance
+  Network.AirThatChangesCoversTheTruth
+  WeightedFits.SpreadOverDrawsIsTheGumCovarianceAndBelowTheOrdinaryFit
+  WeightedFits.OnATrackerJobTheGumAgreesWithMonteCarloAndWeightingHelps
+  DerivePrior.DrawnTrackersMeetTheStatementsAtTheStatedProbability
+  DerivePrior.DrawnTrackersConformAtOtherProbabilities
+  AxialFits.SurfacesAsLongAsTheyAreWideAreFoundAndNotRefused
+  cli_features_shaft_line
 )
 exclude="^($(IFS='|'; echo "${studies[*]}" | sed 's/[.]/[.]/g'))$"
 vlt_build_sanitize
