@@ -9,10 +9,19 @@
 //                                         4, 8, 16 threads, up to the machine's cores
 //   mcm/ceiling/*                         a tight loop of the same per-trial work without the
 //                                         engine: 23 SIMD Box-Muller normals + ForwardLanes
+//   mcm/gpu_prepare/{air,parameters,both} what the CPU prepares for each trial of the GPU kernel
+//                                         (docs/gpu.md), 65 536 trials on the one thread that
+//                                         asks for a block: the air's range scale (Ciddor), the
+//                                         mirror's 20 parameters drawn (one rectangular), or both
+//   mcm/gpu_path/air/M:1048576/threads:<t> the whole GPU path of a one-point job with the air on a
+//                                         stand-in device that costs nothing (it copies the CPU
+//                                         engine's values, computed before the run): the engine's
+//                                         threads preparing the blocks and doing the statistics
 // Wall-clock time (UseRealTime): the engine runs its own threads.
 #include <array>
 #include <cstdint>
 #include <algorithm>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
@@ -21,6 +30,8 @@
 
 #include "bench_common.h"
 #include "bench_kernels.h"
+#include "gpu/trials.h"
+#include "mcm/engine.h"
 #include "mcm/random.h"
 #include "vlt/gum.h"
 #include "vlt/mcm.h"
@@ -132,6 +143,75 @@ void BM_McmCeiling(benchmark::State& state) {
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * kGroups * 4));
 }
 
+// What the CPU prepares for the GPU kernel's trials (mcm/job.cc InputsOfTrials through
+// mcm_internal::JobTrialInputs): the stages where the job has the air, the parameters where one is
+// not normal. Items = trials prepared; the rate bounds a GPU run of such a job (one thread
+// prepares a block while the engine's other threads wait for it).
+void BM_GpuPrepare(benchmark::State& state, bool air, bool drawn) {
+  MeasurementSetup setup = TrackerSetup("mirror", air);
+  if (drawn) setup.params[0].distribution = "rectangular";
+  const MeasurementModel model(setup);
+  McmJob job;
+  job.model = &model;
+  job.points.push_back({"P", ReadingsForPartPoint(model, Eigen::Vector3d(5.0, 0.25, -0.8))});
+  const mcm_internal::CpuTrialInputs::What what{air, drawn ? setup.model->num_params : 0};
+  constexpr int kTrials = 65536;
+  std::int64_t first = 0;
+  for (auto _ : state) {
+    const mcm_internal::CpuTrialInputs inputs = mcm_internal::JobTrialInputs(job, 20260101, first, kTrials, what);
+    benchmark::DoNotOptimize(inputs.params.data());
+    benchmark::DoNotOptimize(inputs.stages.data());
+    first += kTrials;
+  }
+  state.SetItemsProcessed(state.iterations() * kTrials);
+}
+
+// A device that costs nothing: each block's values copied from the CPU engine's values of the
+// run's trials (zeros past them), so that a GPU path run shows what the CPU's part costs.
+class ReplayDevice final : public gpu_internal::TrialsBackend {
+ public:
+  ReplayDevice(std::shared_ptr<const std::vector<double>> values, std::int64_t trials, int outputs)
+      : values_(std::move(values)), trials_(trials), outputs_(outputs) {}
+  void Compute(std::uint64_t first, int n, const gpu_internal::PreparedTrials&, double* values) override {
+    const std::int64_t begin = static_cast<std::int64_t>(first);
+    const std::int64_t kept = std::clamp<std::int64_t>(trials_ - begin, 0, n);
+    for (int o = 0; o < outputs_; ++o) {
+      const double* from = values_->data() + static_cast<std::size_t>(o) * static_cast<std::size_t>(trials_) + begin;
+      double* to = values + static_cast<std::size_t>(o) * static_cast<std::size_t>(n);
+      std::copy(from, from + kept, to);
+      std::fill(to + kept, to + n, 0.0);
+    }
+  }
+  std::string Description() const override { return "replay"; }
+
+ private:
+  std::shared_ptr<const std::vector<double>> values_;
+  std::int64_t trials_;
+  int outputs_;
+};
+
+void BM_GpuPathAir(benchmark::State& state, std::int64_t trials, int threads) {
+  const MeasurementModel model(TrackerSetup("mirror", true));
+  McmJob job;
+  job.model = &model;
+  job.points.push_back({"P", ReadingsForPartPoint(model, Eigen::Vector3d(5.0, 0.25, -0.8))});
+  McmSettings settings = Settings(trials, threads);
+  settings.device = McmDevice::kGpu;
+  const auto values = std::make_shared<const std::vector<double>>(
+      mcm_internal::JobTrialValues(job, settings.seed, 0, static_cast<int>(trials)));
+  gpu_internal::SetBackendForTest([values, trials](const gpu_internal::TrialsJob& kernel, std::string*) {
+    return std::make_unique<ReplayDevice>(values, trials, 3 * kernel.job.num_points);
+  });
+  McmResult result;
+  for (auto _ : state) {
+    result = RunMcm(job, settings);
+    benchmark::DoNotOptimize(result.outputs.data());
+  }
+  gpu_internal::SetBackendForTest(nullptr);
+  if (result.device != "gpu: replay") state.SkipWithError(("ran on " + result.device).c_str());
+  state.SetItemsProcessed(state.iterations() * trials);
+}
+
 const bool kRegistered = [] {
   using benchmark::RegisterBenchmark;
   for (int threads : {1, 2}) {
@@ -169,6 +249,19 @@ const bool kRegistered = [] {
   RegisterBenchmark("mcm/ceiling/normals_and_forward", BM_McmCeiling<true, true>);
   RegisterBenchmark("mcm/ceiling/normals_only", BM_McmCeiling<false, true>);
   RegisterBenchmark("mcm/ceiling/forward_only", BM_McmCeiling<true, false>);
+  RegisterBenchmark("mcm/gpu_prepare/air", BM_GpuPrepare, true, false)->UseRealTime()->Unit(benchmark::kMillisecond);
+  RegisterBenchmark("mcm/gpu_prepare/parameters", BM_GpuPrepare, false, true)
+      ->UseRealTime()
+      ->Unit(benchmark::kMillisecond);
+  RegisterBenchmark("mcm/gpu_prepare/both", BM_GpuPrepare, true, true)->UseRealTime()->Unit(benchmark::kMillisecond);
+  for (int threads : {1, 2, 4, 8, 16}) {
+    if (threads > std::max(cores, 1)) break;
+    RegisterBenchmark(("mcm/gpu_path/air/M:1048576/threads:" + std::to_string(threads)).c_str(), BM_GpuPathAir,
+                      std::int64_t{1} << 20, threads)
+        ->UseRealTime()
+        ->Iterations(3)
+        ->Unit(benchmark::kMillisecond);
+  }
   return true;
 }();
 

@@ -61,6 +61,10 @@ gpu_jobs() {
 gpu() {
   "$CARRY/test_gpu_kernel" --gtest_filter='GpuKernel.*:GpuPath.*:-GpuKernel.EmbeddedSources*' 2>&1 |
     tee "$OUT/gpu_tests.txt" || true
+  # The CPU's part of a GPU run with the air, on 1 to 16 threads (bench/bench_mcm.cc
+  # mcm/gpu_prepare/*, mcm/gpu_path/*: a stand-in device that costs nothing).
+  "$CARRY/vlt_bench" --benchmark_filter='mcm/gpu_prepare|mcm/gpu_path' 2>&1 | grep -E '^mcm' |
+    tee "$OUT/gpu_cpu_part.txt" || true
   local job device
   for job in gpu_point gpu_map; do
     for device in gpu cpu; do

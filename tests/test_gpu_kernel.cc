@@ -757,6 +757,33 @@ humidity = { estimate = "99 %", u = "0.3 %" }
   gpu_internal::SetBackendForTest(nullptr);
 }
 
+// What the CPU prepares for a block (the stages, the parameters it draws) is prepared by every
+// engine thread that needs the block (mcm/job.cc SharedPreparation): on 1, 2, 3 and 16 threads the
+// GPU path's files are the CPU's, byte for byte.
+TEST(GpuPath, BlocksPreparedBySeveralThreadsGiveTheSameFiles) {
+  Job job = ParseJob(kGpuJobWithCpuDrawnParameters, "gpu-cpu-drawn.toml", ".");
+  job.map.reset();
+  RunOptions cpu;
+  cpu.threads = 1;
+  cpu.device = McmDevice::kCpu;
+  const std::map<std::string, std::string> on_cpu = FilesOf(RunJob(job, cpu));
+  gpu_internal::SetBackendForTest(
+      [](const gpu_internal::TrialsJob& trials, std::string*) { return gpu_internal::HostBackend(trials); });
+  for (int threads : {1, 2, 3, 16}) {
+    SCOPED_TRACE(::testing::Message() << threads << " thread(s)");
+    RunOptions gpu = cpu;
+    gpu.threads = threads;
+    gpu.device = McmDevice::kGpu;
+    const Results r = RunJob(job, gpu);
+    EXPECT_EQ(r.mcm.device.rfind("gpu: host", 0), 0u) << r.mcm.device;
+    std::map<std::string, std::string> on_gpu = FilesOf(r);
+    for (const char* name : {"points.csv", "points.jsonl", "budget.csv", "tasks.csv"}) {
+      EXPECT_TRUE(on_cpu.at(name) == on_gpu[name]) << name << " differs";
+    }
+  }
+  gpu_internal::SetBackendForTest(nullptr);
+}
+
 // The kernel draws the tracker's parameters itself where each is normal or fixed and correlated
 // with no other input (stage inputs correlated among themselves included); otherwise the CPU
 // draws them all for it (PointTrialsJob::params_drawn) and the run is the CPU's all the same

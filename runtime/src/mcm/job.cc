@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <condition_variable>
 #include <cstring>
 #include <future>
 #include <map>
@@ -318,34 +319,118 @@ std::vector<McmTask> FitTasks(const McmJob& job) {
 }
 
 // What the GPU kernel takes from the CPU for trials first .. first + n - 1 (what.stages: the
-// stages — air, pose, thermal; what.params: the tracker parameters, num_params of them), drawn and
-// prepared by the job kernel's own code, a sub-batch of kSubBatch trials at a time. With
-// `unprepared`, a sub-batch whose stages fail (a drawn humidity past 100 %: an error of the job's
-// own inputs) is marked there, (*unprepared)[k] = 1 for trials first + k kSubBatch .., instead of
-// failing: a block holds trials the run may never use (past M, after an adaptive run stops), and
-// where the run does use them the CPU path computes them and says what is wrong, at the trial it
-// is wrong.
-mcm_internal::CpuTrialInputs InputsOfTrials(const JobKernel& cpu, const KeyedStream& rng, std::int64_t first, int n,
-                                            Scratch& scratch, mcm_internal::CpuTrialInputs::What what,
-                                            std::vector<char>* unprepared = nullptr) {
+// stages — air, pose, thermal; what.params: the tracker parameters, num_params of them), sized.
+mcm_internal::CpuTrialInputs SizedInputs(mcm_internal::CpuTrialInputs::What what, int n) {
   mcm_internal::CpuTrialInputs inputs;
   if (what.stages) inputs.stages.resize(static_cast<std::size_t>(n));
   inputs.params.resize(static_cast<std::size_t>(what.params) * static_cast<std::size_t>(n));
-  if (unprepared != nullptr) unprepared->assign(static_cast<std::size_t>((n + kSubBatch - 1) / kSubBatch), 0);
-  for (int done = 0; done < n; done += kSubBatch) {
-    const int count = std::min(kSubBatch, n - done);
-    gpu_internal::TrialStages* stages = what.stages ? inputs.stages.data() + done : nullptr;
-    double* params = what.params > 0 ? inputs.params.data() + done : nullptr;
-    try {
-      cpu.PrepareTrials(rng, first + done, count, scratch, stages, params, n);
-    } catch (const std::exception&) {
-      if (unprepared == nullptr) throw;
-      (*unprepared)[static_cast<std::size_t>(done / kSubBatch)] = 1;
-      if (stages != nullptr) std::fill(stages, stages + count, gpu_internal::TrialStages{});
-    }
-  }
   return inputs;
 }
+
+// Sub-batch k (trials first + k kSubBatch .., at most kSubBatch of the n) of `inputs`, drawn and
+// prepared by the job kernel's own code. With `unprepared`, a sub-batch whose stages fail (a drawn
+// humidity past 100 %: an error of the job's own inputs) is marked there, (*unprepared)[k] = 1,
+// instead of failing: a block holds trials the run may never use (past M, after an adaptive run
+// stops), and where the run does use them the CPU path computes them and says what is wrong, at
+// the trial it is wrong.
+void PrepareSubBatch(const JobKernel& cpu, const KeyedStream& rng, std::int64_t first, int n, int k, Scratch& scratch,
+                     mcm_internal::CpuTrialInputs& inputs, std::vector<char>* unprepared) {
+  const int done = k * kSubBatch;
+  const int count = std::min(kSubBatch, n - done);
+  gpu_internal::TrialStages* stages = inputs.stages.empty() ? nullptr : inputs.stages.data() + done;
+  double* params = inputs.params.empty() ? nullptr : inputs.params.data() + done;
+  try {
+    cpu.PrepareTrials(rng, first + done, count, scratch, stages, params, n);
+  } catch (const std::exception&) {
+    if (unprepared == nullptr) throw;
+    (*unprepared)[static_cast<std::size_t>(k)] = 1;
+    if (stages != nullptr) std::fill(stages, stages + count, gpu_internal::TrialStages{});
+  }
+}
+
+int SubBatches(int n) { return (n + kSubBatch - 1) / kSubBatch; }
+
+// Trials first .. first + n - 1 prepared on this thread (the run-time check and the tests).
+mcm_internal::CpuTrialInputs InputsOfTrials(const JobKernel& cpu, const KeyedStream& rng, std::int64_t first, int n,
+                                            Scratch& scratch, mcm_internal::CpuTrialInputs::What what) {
+  mcm_internal::CpuTrialInputs inputs = SizedInputs(what, n);
+  for (int k = 0; k < SubBatches(n); ++k) PrepareSubBatch(cpu, rng, first, n, k, scratch, inputs, nullptr);
+  return inputs;
+}
+
+// What the CPU prepares for one block of a GPU run (InputsOfTrials' sub-batches), shared by the
+// engine's threads: each thread that needs the block prepares sub-batches until none is left, then
+// waits for the block's values; the thread that computes the block hands them to the device once
+// all are prepared. (Before, the computing thread prepared the whole block while the others waited:
+// preparing the air's range scale is 0.15 us a trial on one thread of the 2-core machine of
+// docs/performance.md, a bound of 6.5 M trials/s on any GPU.) The draws depend on the trial only,
+// so which thread prepares a sub-batch changes no bit.
+class SharedPreparation {
+ public:
+  SharedPreparation(mcm_internal::CpuTrialInputs::What what, std::int64_t first, int n)
+      : what_(what), first_(first), n_(n), sub_batches_(SubBatches(n)) {}
+
+  // The block's buffers, sized by the thread that computes it (outside the kernel's lock); every
+  // helper waits for them. A failure leaves nothing to prepare.
+  void Allocate() {
+    bool sized = true;
+    try {
+      inputs_ = SizedInputs(what_, n_);
+      unprepared_.assign(static_cast<std::size_t>(sub_batches_), 0);
+    } catch (...) {
+      sized = false;
+    }
+    const std::lock_guard<std::mutex> lock(mutex_);
+    allocated_ = true;
+    if (!sized) prepared_ = sub_batches_ = 0;
+    changed_.notify_all();
+  }
+
+  // Prepares sub-batches not yet taken, in `scratch` (the calling thread's).
+  void Help(const JobKernel& cpu, const KeyedStream& rng, Scratch& scratch) {
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      changed_.wait(lock, [this] { return allocated_; });
+    }
+    for (int k = next_.fetch_add(1); k < sub_batches_; k = next_.fetch_add(1)) {
+      try {
+        PrepareSubBatch(cpu, rng, first_, n_, k, scratch, inputs_, &unprepared_);
+      } catch (...) {
+        unprepared_[static_cast<std::size_t>(k)] = 1;  // counted all the same: no thread waits forever
+      }
+      const std::lock_guard<std::mutex> lock(mutex_);
+      if (++prepared_ == sub_batches_) changed_.notify_all();
+    }
+  }
+
+  // Waits until every sub-batch is prepared; false if the buffers could not be allocated.
+  bool Wait() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    changed_.wait(lock, [this] { return allocated_ && prepared_ == sub_batches_; });
+    return sub_batches_ > 0;
+  }
+
+  const mcm_internal::CpuTrialInputs& inputs() const { return inputs_; }
+  // After the device took the inputs (every sub-batch prepared, so no thread writes them): the
+  // sub-batches that could not be prepared; the inputs are freed.
+  std::vector<char> Release() {
+    inputs_ = {};
+    return std::move(unprepared_);
+  }
+
+ private:
+  mcm_internal::CpuTrialInputs::What what_;
+  std::int64_t first_;
+  int n_;
+  int sub_batches_;
+  mcm_internal::CpuTrialInputs inputs_;
+  std::vector<char> unprepared_;  // written per sub-batch by its thread (distinct bytes)
+  std::atomic<int> next_{0};
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  bool allocated_ = false;
+  int prepared_ = 0;
+};
 
 // A block of trials computed by a backend: values[o * n + i], and the sub-batches whose stages the
 // CPU could not prepare (InputsOfTrials), whose values are not the trials'.
@@ -354,15 +439,6 @@ struct BlockValues {
   std::vector<char> unprepared;
 };
 
-// Trials first .. first + n - 1 of a GPU kernel's job computed by `backend`, with what the CPU
-// prepares for them (`what`: stages, parameters) where the job needs any.
-void ComputeOnBackend(const JobKernel& cpu, mcm_internal::CpuTrialInputs::What what,
-                      gpu_internal::TrialsBackend& backend, const KeyedStream& rng, std::int64_t first, int n,
-                      Scratch& scratch, BlockValues& block) {
-  const mcm_internal::CpuTrialInputs inputs =
-      what.any() ? InputsOfTrials(cpu, rng, first, n, scratch, what, &block.unprepared) : mcm_internal::CpuTrialInputs{};
-  backend.Compute(static_cast<std::uint64_t>(first), n, inputs.prepared(), block.values.data());
-}
 
 // The job's trials on a GPU (docs/gpu.md): the points' values of each trial from the device
 // (gpu/point_trials.h: the same draws and model as JobKernel::Run, the same bits), the tasks from
@@ -436,7 +512,8 @@ class GpuJobKernel final : public mcm_internal::TrialKernel {
   using Values = std::shared_ptr<const BlockValues>;
   struct Entry {
     std::shared_future<Values> values;
-    std::int64_t left = 0;  // trials not yet copied out
+    std::shared_ptr<SharedPreparation> preparation;  // nullptr where the CPU prepares nothing
+    std::int64_t left = 0;                           // trials not yet copied out
   };
 
   // Copies trials first .. first + n - 1 out of their blocks; false when some of them had stages
@@ -463,35 +540,55 @@ class GpuJobKernel final : public mcm_internal::TrialKernel {
     return prepared;
   }
 
-  // Block `index`'s values (values[o * block_ + i]), computed once, one block at a time (its
-  // stages prepared by the thread that computes it, in its scratch).
+  // Block `index`'s values (values[o * block_ + i]), computed once, one block at a time on the
+  // device; what the CPU prepares for it shared by every thread that needs the block
+  // (SharedPreparation, each in its own scratch) before the thread that computes it hands it over.
   Values Block(std::int64_t index, const KeyedStream& rng, Scratch& scratch) const {
     std::promise<Values> promise;
     std::shared_future<Values> future;
+    std::shared_ptr<SharedPreparation> preparation;
     bool compute = false;
     {
       const std::lock_guard<std::mutex> lock(mutex_);
       auto it = blocks_.find(index);
       if (it == blocks_.end()) {
         future = promise.get_future().share();
-        blocks_.emplace(index, Entry{future, block_});
+        if (what_.any()) {
+          preparation = std::make_shared<SharedPreparation>(what_, index * block_, static_cast<int>(block_));
+        }
+        blocks_.emplace(index, Entry{future, preparation, block_});
         compute = true;
       } else {
         future = it->second.values;
+        preparation = it->second.preparation;
       }
     }
+    if (compute && preparation) preparation->Allocate();
+    if (preparation) preparation->Help(cpu_, rng, scratch);
     if (compute) {
       try {
-        const std::lock_guard<std::mutex> one_at_a_time(compute_mutex_);
-        auto block = std::make_shared<BlockValues>();
-        block->values.resize(static_cast<std::size_t>(point_outputs_) * static_cast<std::size_t>(block_));
-        ComputeOnBackend(cpu_, what_, *backend_, rng, index * block_, static_cast<int>(block_), scratch, *block);
-        promise.set_value(std::move(block));
+        promise.set_value(Compute(index, preparation.get()));
       } catch (...) {
         promise.set_exception(std::current_exception());
       }
     }
     return future.get();
+  }
+
+  // The device's values of block `index`, once its preparation (if any) is complete.
+  Values Compute(std::int64_t index, SharedPreparation* preparation) const {
+    if (preparation != nullptr && !preparation->Wait()) throw std::bad_alloc();
+    auto block = std::make_shared<BlockValues>();
+    block->values.resize(static_cast<std::size_t>(point_outputs_) * static_cast<std::size_t>(block_));
+    const gpu_internal::PreparedTrials prepared =
+        preparation != nullptr ? preparation->inputs().prepared() : gpu_internal::PreparedTrials{};
+    {
+      const std::lock_guard<std::mutex> one_at_a_time(compute_mutex_);
+      backend_->Compute(static_cast<std::uint64_t>(index * block_), static_cast<int>(block_), prepared,
+                        block->values.data());
+    }
+    if (preparation != nullptr) block->unprepared = preparation->Release();
+    return block;
   }
 
   // `count` more trials of block `index` copied out: forgotten when all were (the last block's
