@@ -8,6 +8,7 @@
 
 #include "vlt/distributions.h"
 #include "vlt/gum.h"
+#include "stats/log_gamma.h"
 
 namespace vlt {
 namespace {
@@ -33,7 +34,7 @@ double ChiSquareCdf(double x, int m) {
   double a = (m % 2 == 1) ? 0.5 : 1.0;
   double p = (m % 2 == 1) ? std::erf(std::sqrt(z)) : -std::expm1(-z);
   while (a < 0.5 * m - 0.25) {
-    p -= std::exp(a * std::log(z) - z - std::lgamma(a + 1.0));
+    p -= std::exp(a * std::log(z) - z - stats_internal::LogGamma(a + 1.0));
     a += 1.0;
   }
   return p;

@@ -8,6 +8,7 @@
 #include <limits>
 #include <string>
 
+#include "stats/log_gamma.h"
 #include "vlt/error.h"
 #include "vlt/measurement_model.h"
 
@@ -204,7 +205,7 @@ double Distribution::Quantile(double p) const {
       while (StudentTCdf(lo, nu) > p) lo *= 2.0;
       while (StudentTCdf(hi, nu) < p) hi *= 2.0;
       const double log_norm =
-          std::lgamma(0.5 * (nu + 1.0)) - std::lgamma(0.5 * nu) - 0.5 * std::log(nu * kPi);
+          stats_internal::LogGamma(0.5 * (nu + 1.0)) - stats_internal::LogGamma(0.5 * nu) - 0.5 * std::log(nu * kPi);
       double t = std::clamp(z, lo, hi);
       for (int i = 0; i < 200; ++i) {
         const double f = StudentTCdf(t, nu) - p;
@@ -295,8 +296,8 @@ double RegularizedIncompleteBeta(double x, double a, double b) {
   // Continued fraction for I_x(a, b) (Abramowitz & Stegun 26.5.8), convergent for
   // x < (a + 1)/(a + b + 2); otherwise the symmetry I_x(a, b) = 1 - I_{1-x}(b, a).
   if (x > (a + 1.0) / (a + b + 2.0)) return 1.0 - RegularizedIncompleteBeta(1.0 - x, b, a);
-  const double log_front =
-      a * std::log(x) + b * std::log1p(-x) + std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b);
+  const double log_front = a * std::log(x) + b * std::log1p(-x) + stats_internal::LogGamma(a + b) -
+                           stats_internal::LogGamma(a) - stats_internal::LogGamma(b);
   constexpr double kTiny = 1e-300;
   // Modified Lentz evaluation of 1 / (1 + d1 / (1 + d2 / (1 + ...))).
   double c = 1.0;
