@@ -10,9 +10,9 @@
 //   mcm/ceiling/*                         a tight loop of the same per-trial work without the
 //                                         engine: 23 SIMD Box-Muller normals + ForwardLanes
 //   mcm/gpu_prepare/{air,parameters,both} what the CPU prepares for each trial of the GPU kernel
-//                                         (docs/gpu.md), 65 536 trials on the one thread that
-//                                         asks for a block: the air's range scale (Ciddor), the
-//                                         mirror's 20 parameters drawn (one rectangular), or both
+//                                         (docs/gpu.md), 65 536 trials on one thread: the air's
+//                                         range scale (Ciddor), the mirror's 20 parameters drawn
+//                                         (one rectangular), or both
 //   mcm/gpu_path/air/M:1048576/threads:<t> the whole GPU path of a one-point job with the air on a
 //                                         stand-in device that costs nothing (it copies the CPU
 //                                         engine's values, computed before the run): the engine's
@@ -145,8 +145,8 @@ void BM_McmCeiling(benchmark::State& state) {
 
 // What the CPU prepares for the GPU kernel's trials (mcm/job.cc InputsOfTrials through
 // mcm_internal::JobTrialInputs): the stages where the job has the air, the parameters where one is
-// not normal. Items = trials prepared; the rate bounds a GPU run of such a job (one thread
-// prepares a block while the engine's other threads wait for it).
+// not normal. Items = trials prepared: per thread, the most a GPU run of such a job can reach
+// (the engine's threads share the preparation of each block with their other work).
 void BM_GpuPrepare(benchmark::State& state, bool air, bool drawn) {
   MeasurementSetup setup = TrackerSetup("mirror", air);
   if (drawn) setup.params[0].distribution = "rectangular";

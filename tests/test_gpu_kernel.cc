@@ -9,6 +9,7 @@
 
 #include <unistd.h>
 
+#include <atomic>
 #include <bit>
 #include <cstdlib>
 #include <cmath>
@@ -18,6 +19,7 @@
 #include <span>
 #include <sstream>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -781,6 +783,52 @@ TEST(GpuPath, BlocksPreparedBySeveralThreadsGiveTheSameFiles) {
       EXPECT_TRUE(on_cpu.at(name) == on_gpu[name]) << name << " differs";
     }
   }
+  gpu_internal::SetBackendForTest(nullptr);
+}
+
+// A device that fails at its third block (its first call is the run-time check): under "auto" the
+// trials from there on run on the CPU, the files are the CPU's and the note says so; under "gpu"
+// the run fails. With blocks whose preparation several threads share (the stages and drawn
+// parameters of kGpuJobWithCpuDrawnParameters, 3 threads).
+class FailsAtTheThirdBlock final : public gpu_internal::TrialsBackend {
+ public:
+  explicit FailsAtTheThirdBlock(const gpu_internal::TrialsJob& trials) : host_(gpu_internal::HostBackend(trials)) {}
+  void Compute(std::uint64_t first, int n, const gpu_internal::PreparedTrials& prepared, double* values) override {
+    if (++calls_ == 4) throw std::runtime_error("GPU: the device fell off the bus");
+    host_->Compute(first, n, prepared, values);
+  }
+  std::string Description() const override { return "a failing GPU"; }
+
+ private:
+  std::unique_ptr<gpu_internal::TrialsBackend> host_;
+  std::atomic<int> calls_{0};
+};
+
+TEST(GpuPath, AGpuThatFailsDuringTheRunLeavesTheRestToTheCpu) {
+  Job job = ParseJob(kGpuJobWithCpuDrawnParameters, "gpu-cpu-drawn.toml", ".");
+  job.map.reset();
+  job.monte_carlo.trials = 50000;  // blocks of 6250 trials: the run needs 8
+  RunOptions cpu;
+  cpu.threads = 3;
+  cpu.device = McmDevice::kCpu;
+  const std::map<std::string, std::string> on_cpu = FilesOf(RunJob(job, cpu));
+  gpu_internal::SetBackendForTest([](const gpu_internal::TrialsJob& trials, std::string*) {
+    return std::make_unique<FailsAtTheThirdBlock>(trials);
+  });
+  RunOptions automatic = cpu;
+  automatic.device = McmDevice::kAuto;
+  const Results r = RunJob(job, automatic);
+  EXPECT_EQ(r.mcm.device, "gpu: a failing GPU");
+  EXPECT_NE(r.mcm.device_note.find("the GPU failed during the run (GPU: the device fell off the bus)"),
+            std::string::npos)
+      << r.mcm.device_note;
+  std::map<std::string, std::string> on_gpu = FilesOf(r);
+  for (const char* name : {"points.csv", "points.jsonl", "budget.csv", "tasks.csv"}) {
+    EXPECT_TRUE(on_cpu.at(name) == on_gpu[name]) << name << " differs";
+  }
+  RunOptions gpu = cpu;
+  gpu.device = McmDevice::kGpu;
+  EXPECT_THROW(RunJob(job, gpu), std::exception);
   gpu_internal::SetBackendForTest(nullptr);
 }
 

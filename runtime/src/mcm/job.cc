@@ -480,7 +480,8 @@ class GpuJobKernel final : public mcm_internal::TrialKernel {
 
  private:
   static std::int64_t PreparedBytes(What what) {
-    return (what.stages ? static_cast<std::int64_t>(sizeof(gpu_internal::TrialStages)) : 0) + 8 * std::int64_t{what.params};
+    const std::int64_t stages = what.stages ? static_cast<std::int64_t>(sizeof(gpu_internal::TrialStages)) : 0;
+    return stages + 8 * std::int64_t{what.params};
   }
 
  public:
@@ -576,16 +577,22 @@ class GpuJobKernel final : public mcm_internal::TrialKernel {
   }
 
   // The device's values of block `index`, once its preparation (if any) is complete.
+  // The values are allocated under the device's lock, so that one block's values are held while
+  // it is computed, as before the preparation was shared; the inputs are freed as soon as the
+  // device took them, also when it failed (a failed block stays in blocks_ for the run).
   Values Compute(std::int64_t index, SharedPreparation* preparation) const {
     if (preparation != nullptr && !preparation->Wait()) throw std::bad_alloc();
     auto block = std::make_shared<BlockValues>();
-    block->values.resize(static_cast<std::size_t>(point_outputs_) * static_cast<std::size_t>(block_));
     const gpu_internal::PreparedTrials prepared =
         preparation != nullptr ? preparation->inputs().prepared() : gpu_internal::PreparedTrials{};
-    {
+    try {
       const std::lock_guard<std::mutex> one_at_a_time(compute_mutex_);
+      block->values.resize(static_cast<std::size_t>(point_outputs_) * static_cast<std::size_t>(block_));
       backend_->Compute(static_cast<std::uint64_t>(index * block_), static_cast<int>(block_), prepared,
                         block->values.data());
+    } catch (...) {
+      if (preparation != nullptr) preparation->Release();
+      throw;
     }
     if (preparation != nullptr) block->unprepared = preparation->Release();
     return block;
