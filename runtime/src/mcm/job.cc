@@ -361,10 +361,10 @@ mcm_internal::CpuTrialInputs InputsOfTrials(const JobKernel& cpu, const KeyedStr
 // What the CPU prepares for one block of a GPU run (InputsOfTrials' sub-batches), shared by the
 // engine's threads: each thread that needs the block prepares sub-batches until none is left, then
 // waits for the block's values; the thread that computes the block hands them to the device once
-// all are prepared. (Before, the computing thread prepared the whole block while the others waited:
-// preparing the air's range scale is 0.15 us a trial on one thread of the 2-core machine of
-// docs/performance.md, a bound of 6.5 M trials/s on any GPU.) The draws depend on the trial only,
-// so which thread prepares a sub-batch changes no bit.
+// all are prepared. (Before, the computing thread prepared the whole block while the others waited,
+// so one thread's rate bounded any GPU run: 6.5 M trials/s with the air on the 2-core machine of
+// docs/performance.md §4.15.) The draws depend on the trial only, so which thread prepares a
+// sub-batch changes no bit.
 class SharedPreparation {
  public:
   SharedPreparation(mcm_internal::CpuTrialInputs::What what, std::int64_t first, int n)
@@ -630,9 +630,9 @@ class GpuJobKernel final : public mcm_internal::TrialKernel {
 // (the air's, pose's and thermal inputs, drawn on the CPU, may be correlated among themselves).
 // Otherwise the CPU draws them — through the copula and the inverse CDFs, which call libm — and
 // hands them to the kernel.
-bool DeviceDrawsTheParameters(const MeasurementModel& model) {
+// `inputs`: the model's shared inputs (SharedDistributions).
+bool DeviceDrawsTheParameters(const MeasurementModel& model, const std::vector<Distribution>& inputs) {
   const int num_params = model.setup().model->num_params;
-  const std::vector<Distribution> inputs = SharedDistributions(model);
   for (int k = 0; k < num_params; ++k) {
     const Distribution& d = inputs[static_cast<std::size_t>(k)];
     if (d.u() != 0.0 && d.kind() != DistributionKind::kNormal) return false;
@@ -671,8 +671,8 @@ std::optional<gpu_internal::TrialsJob> KernelJob(const McmJob& job, std::uint64_
   kernel.air = model.environment_offset() >= 0;
   kernel.pose = model.pose_offset() >= 0;
   kernel.thermal = model.thermal_offset() >= 0;
-  kernel.params_drawn = !DeviceDrawsTheParameters(model);
   const std::vector<Distribution> inputs = SharedDistributions(model);
+  kernel.params_drawn = !DeviceDrawsTheParameters(model, inputs);
   for (int k = 0; k < kernel.num_params; ++k) {
     const Distribution& d = inputs[static_cast<std::size_t>(k)];
     kernel.param_estimate[k] = d.estimate();
