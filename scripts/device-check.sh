@@ -13,8 +13,9 @@
 #                                  check within about five minutes, writing logs and JSON to $OUT;
 #                                  `run scan`: only the machine and the scans (one to two minutes);
 #                                  `run gpu`: only the machine and the GPU path (docs/gpu.md: its
-#                                  tests, a point at 10^7 trials and a map of 10^4 nodes at 10^5
-#                                  trials on --device gpu and cpu, the files compared)
+#                                  tests, a point at 10^7 trials, a map of 10^4 nodes at 10^5
+#                                  trials, a custom-model job at 10^7 trials and the demo on
+#                                  --device gpu and cpu, the files compared)
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 CARRY=/tmp/vlt-devcarry  # the unpacked bundle, here while packing and there while running
@@ -23,10 +24,11 @@ pack() {
   rm -rf "$CARRY" "$ROOT/.devcarry"
   mkdir -p "$CARRY/lib" "$CARRY/jobs" "$ROOT/.devcarry"
   grep -qx '/.devcarry/' "$ROOT/.git/info/exclude" 2>/dev/null || echo '/.devcarry/' >>"$ROOT/.git/info/exclude"
-  cp "$ROOT/build/runtime/vlt" "$ROOT/build/bench/vlt_bench" "$ROOT/build/tests/test_gpu_kernel" "$CARRY/"
+  cp "$ROOT/build/runtime/vlt" "$ROOT/build/bench/vlt_bench" "$ROOT/build/tests/test_gpu_kernel" \
+    "$ROOT/build/tests/test_gpu_custom" "$CARRY/"
   [[ -n "${VLT_BASELINE:-}" ]] && cp "$VLT_BASELINE" "$CARRY/vlt_baseline"
   g++ -O2 -std=c++20 -ffp-contract=off "$ROOT/bench/experiments/gpu_probe.cc" -ldl -o "$CARRY/gpu_probe"
-  for bin in "$CARRY"/vlt "$CARRY"/vlt_bench "$CARRY"/test_gpu_kernel; do
+  for bin in "$CARRY"/vlt "$CARRY"/vlt_bench "$CARRY"/test_gpu_kernel "$CARRY"/test_gpu_custom; do
     ldd "$bin" | awk '/=> \// {print $3}' |
       grep -v -E '/(libc|libm|libpthread|libdl|librt|ld-linux[^/]*)\.so' |
       while read -r lib; do cp -L "$lib" "$CARRY/lib/"; done
@@ -54,29 +56,42 @@ gpu_jobs() {
     >"$CARRY/jobs/gpu_point.toml"
   printf '[job]\nname = "gpu_map"\n'"$tracker"'[plan]\nunit = "m"\npoint = [{name = "P", x = 5, y = 1, z = 0.4}]\n[map]\nplane = "z=0.3"\nextent = "1,11,-5,5"\nstep = "0.1 m"\nmonte_carlo = true\n[monte_carlo]\ntrials = 100000\nseed = 1\n' \
     >"$CARRY/jobs/gpu_map.toml"
+  # A custom-model job (JCGM 101 9.2.2's additive model, its inputs normal: drawn by the kernel).
+  printf '[job]\nname = "gpu_custom"\n[model]\nname = "jcgm101_additive"\n[monte_carlo]\ntrials = 10000000\nseed = 1\n' \
+    >"$CARRY/jobs/gpu_custom.toml"
 }
 
 # gpu: the GPU path's tests (the real-GPU one must pass, not skip), then the point and the map on
 # --device gpu and --device cpu: their files the same bytes, the times in cli_times.txt.
 gpu() {
-  "$CARRY/test_gpu_kernel" --gtest_filter='GpuKernel.*:GpuPath.*:-GpuKernel.EmbeddedSources*' 2>&1 |
+  # (Not the tests that read the source tree or build a model: this is a copy elsewhere, without
+  # vlt-gen.)
+  "$CARRY/test_gpu_kernel" --gtest_filter='GpuKernel.*:GpuPath.*:-GpuKernel.EmbeddedSources*:GpuKernel.ABuiltModel*' 2>&1 |
     tee "$OUT/gpu_tests.txt" || true
+  "$CARRY/test_gpu_custom" --gtest_filter='GpuCustom.OnARealGpu*:GpuCustom.AModelTheKernelDoesNotCarry*' 2>&1 |
+    tee -a "$OUT/gpu_tests.txt" || true
   # The CPU's part of a GPU run with the air, on 1 to 16 threads (bench/bench_mcm.cc
   # mcm/gpu_prepare/*, mcm/gpu_path/*: a stand-in device that costs nothing).
   "$CARRY/vlt_bench" --benchmark_filter='mcm/gpu_prepare|mcm/gpu_path' 2>&1 | grep -E '^mcm' |
     tee "$OUT/gpu_cpu_part.txt" || true
-  local job device
-  for job in gpu_point gpu_map; do
+  local job device file
+  # The tracker jobs' points.csv, the custom-model job's outputs.csv and budget.csv, and each
+  # results.json without the timings.
+  for job in gpu_point gpu_map gpu_custom; do
     for device in gpu cpu; do
       rm -rf "/tmp/vlt-$job-$device"
       timed "$job --device $device" "$CARRY/vlt" run "$CARRY/jobs/$job.toml" --device "$device" \
         -o "/tmp/vlt-$job-$device" --quiet
       strip_timings "/tmp/vlt-$job-$device/results.json" >"/tmp/$job-$device.json" 2>/dev/null || true
     done
-    python3 -c 'import json,sys; print(sys.argv[1], json.load(open(sys.argv[2]))["monte_carlo"]["device"])' \
+    python3 -c 'import json,sys; m = json.load(open(sys.argv[2]))["monte_carlo"]; print(sys.argv[1], m["device"], m.get("device_note") or "")' \
       "$job" "/tmp/vlt-$job-gpu/results.json" >>"$OUT/cli_times.txt" 2>&1 || true
     same "$job results.json --device gpu" "/tmp/$job-gpu.json" "/tmp/$job-cpu.json"
-    same "$job points.csv --device gpu" "/tmp/vlt-$job-gpu/points.csv" "/tmp/vlt-$job-cpu/points.csv"
+    local files="points.csv"
+    [[ $job == gpu_custom ]] && files="outputs.csv budget.csv"
+    for file in $files; do
+      same "$job $file --device gpu" "/tmp/vlt-$job-gpu/$file" "/tmp/vlt-$job-cpu/$file"
+    done
   done
   same "gpu_map map.csv --device gpu" /tmp/vlt-gpu_map-gpu/map.csv /tmp/vlt-gpu_map-cpu/map.csv
   # The demo (the air stage prepared on the CPU, 34 points, three tasks, 2 10^5 trials).
@@ -89,7 +104,6 @@ gpu() {
   python3 -c 'import json,sys; m = json.load(open(sys.argv[1]))["monte_carlo"]; print("demo", m["device"], m.get("device_note", ""))' \
     /tmp/vlt-demo-gpu/results.json >>"$OUT/cli_times.txt" 2>&1 || true
   same "demo results.json --device gpu" /tmp/demo-gpu.json /tmp/demo-cpu.json
-  local file
   for file in points.csv points.jsonl budget.csv tasks.csv map.csv; do
     same "demo $file --device gpu" "/tmp/vlt-demo-gpu/$file" "/tmp/vlt-demo-cpu/$file"
   done

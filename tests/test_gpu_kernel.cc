@@ -395,7 +395,8 @@ TEST(GpuKernel, TrialsAreTheCpuEnginesBitForBit) {
 // tree's, byte for byte.
 TEST(GpuKernel, EmbeddedSourcesAreTheFilesTheCpuBuildCompiles) {
   for (const char* name : {"base/portable_math.h", "gpu/point_trials.h", "generated/mirror.h", "generated/head.h",
-                           "generated/total_station.h"}) {
+                           "generated/total_station.h", "generated/jcgm101_additive.h", "generated/jcgm101_mass.h",
+                           "generated/gum_h1_end_gauge.h"}) {
     const std::string where = std::string(name).rfind("generated/", 0) == 0 ? "" : "runtime/src/";
     std::ifstream in(std::filesystem::path(VLT_SOURCE_DIR) / (where + name), std::ios::binary);
     ASSERT_TRUE(in) << name;
@@ -406,33 +407,23 @@ TEST(GpuKernel, EmbeddedSourcesAreTheFilesTheCpuBuildCompiles) {
   EXPECT_NE(source.main.find("vlt::gen::head::Forward<S>"), std::string::npos);
   EXPECT_NE(source.main.find("extern \"C\" __global__ void vlt_point_trials"), std::string::npos);
   EXPECT_EQ(source.headers.size(), 4u);
-  EXPECT_THROW(gpu_internal::PointTrialsSource("jcgm101_mass"), std::invalid_argument);
+  EXPECT_NE(gpu_internal::PointTrialsSource("jcgm101_mass").main.find("vlt::gen::jcgm101_mass::Forward<S>"),
+            std::string::npos);
+  // GUM H.2's impedance calls sin and cos, the C library's on its CPU path: not in the kernel.
+  EXPECT_THROW(gpu_internal::PointTrialsSource("gum_h2_impedance"), std::invalid_argument);
 }
 
-// Runs the compiled kernel (`program`, in `dir`) on a two-point mirror job and compares its values
-// with the CPU engine's.
-void ExpectCompiledKernelIsTheEngine(const std::filesystem::path& dir, const std::string& program, Stages with) {
-  const bool with_stages = with.any();
-  const MeasurementSetup setup = NormalSetup("mirror", with);
-  const MeasurementModel model(setup);
-  McmJob job;
-  job.model = &model;
-  job.points = {McmPoint{"P1", Eigen::Vector3d(4.0, 0.3, 0.2)}, McmPoint{"P2", Eigen::Vector3d(17.0, -1.0, -0.1)}};
-  const std::uint64_t seed = 20090101;
-  const std::int64_t first = 123'457;
-  const int n = 2000;
-  const std::vector<double> engine = mcm_internal::JobTrialValues(job, seed, first, n);
-  const gpu_internal::TrialsJob trials = KernelTrials("mirror", setup, model, job, seed);
+// Runs the compiled kernel (`program`, in `dir`) on `trials` for trials first .. first + n - 1,
+// with what the CPU prepared for them (`inputs`), and compares its values with the CPU engine's.
+void ExpectProgramGivesTheEngines(const std::filesystem::path& dir, const std::string& program,
+                                  const gpu_internal::TrialsJob& trials, const mcm_internal::CpuTrialInputs& inputs,
+                                  std::int64_t first, int n, const std::vector<double>& engine) {
   const gpu_internal::PointTrialsJob& kernel = trials.job;
   const std::vector<gpu_internal::TrialPoint>& points = trials.points;
   {
     std::ofstream in(dir / "job.bin", std::ios::binary);
     in.write(reinterpret_cast<const char*>(&kernel), sizeof kernel);
     in.write(reinterpret_cast<const char*>(points.data()), static_cast<std::streamsize>(points.size() * sizeof points[0]));
-    const mcm_internal::CpuTrialInputs inputs =
-        mcm_internal::JobTrialInputs(job, seed, first, n, mcm_internal::CpuTrialInputs::For(kernel));
-    ASSERT_EQ(inputs.stages.size(), with_stages ? static_cast<std::size_t>(n) : 0u);
-    ASSERT_EQ(inputs.params.empty(), !with.cpu_params);
     in.write(reinterpret_cast<const char*>(inputs.stages.data()),
              static_cast<std::streamsize>(inputs.stages.size() * sizeof inputs.stages[0]));
     in.write(reinterpret_cast<const char*>(inputs.params.data()),
@@ -450,33 +441,83 @@ void ExpectCompiledKernelIsTheEngine(const std::filesystem::path& dir, const std
   EXPECT_EQ(differing, 0) << "of " << values.size() << " values";
 }
 
-// The kernel source exactly as NVRTC is given it — main file and headers (but its <cmath> of three
-// using-declarations), written out as files — compiled as C++ by the host compiler, with a harness that stands in for CUDA's launch
-// (__global__ empty, blockIdx/blockDim/threadIdx plain variables, every block run in turn): its
-// values are the CPU engine's, bit for bit.
-TEST(GpuKernel, TheKernelSourceCompiledAsCppGivesTheEnginesValues) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("vlt-kernel-" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  const gpu_internal::KernelSource source = gpu_internal::PointTrialsSource("mirror");
-  auto write = [&](const std::filesystem::path& path, const std::string& text) {
-    std::filesystem::create_directories(path.parent_path());
-    std::ofstream(path, std::ios::binary) << text;
-  };
-  // Every header but NVRTC's <cmath> (the host has its own).
-  for (const auto& [name, text] : source.headers) {
-    if (name != "cmath") write(dir / "include" / name, text);
+// The same on a two-point mirror job with the stages and parameters `with` says.
+void ExpectCompiledKernelIsTheEngine(const std::filesystem::path& dir, const std::string& program, Stages with) {
+  const bool with_stages = with.any();
+  const MeasurementSetup setup = NormalSetup("mirror", with);
+  const MeasurementModel model(setup);
+  McmJob job;
+  job.model = &model;
+  job.points = {McmPoint{"P1", Eigen::Vector3d(4.0, 0.3, 0.2)}, McmPoint{"P2", Eigen::Vector3d(17.0, -1.0, -0.1)}};
+  const std::uint64_t seed = 20090101;
+  const std::int64_t first = 123'457;
+  const int n = 2000;
+  const std::vector<double> engine = mcm_internal::JobTrialValues(job, seed, first, n);
+  const gpu_internal::TrialsJob trials = KernelTrials("mirror", setup, model, job, seed);
+  const mcm_internal::CpuTrialInputs inputs =
+      mcm_internal::JobTrialInputs(job, seed, first, n, mcm_internal::CpuTrialInputs::For(trials.job));
+  ASSERT_EQ(inputs.stages.size(), with_stages ? static_cast<std::size_t>(n) : 0u);
+  ASSERT_EQ(inputs.params.empty(), !with.cpu_params);
+  ExpectProgramGivesTheEngines(dir, program, trials, inputs, first, n, engine);
+}
+
+// The same on a custom model (no readings, one "point" of its outputs), its inputs drawn by the
+// kernel (`kernel_draws`: each normal or fixed, none correlated) or by the CPU.
+void ExpectCompiledCustomKernelIsTheEngine(const std::filesystem::path& dir, const std::string& program,
+                                           const ModelInfo& model, const std::vector<UncertainInput>& inputs,
+                                           bool kernel_draws) {
+  const Eigen::MatrixXd independent;
+  const std::uint64_t seed = 20080101;
+  const std::int64_t first = 4'099;
+  const int n = 2000;
+  const std::vector<double> engine = mcm_internal::CustomTrialValues(model, inputs, independent, seed, first, n);
+  gpu_internal::TrialsJob trials;
+  trials.model = model.name;
+  trials.points.resize(1);
+  trials.job.seed = seed;
+  trials.job.num_params = model.num_params;
+  trials.job.num_points = 1;
+  trials.job.readings_per_point = 0;
+  trials.job.outputs_per_point = model.num_outputs;
+  trials.job.first_reading_stream = model.num_params;
+  trials.job.params_drawn = kernel_draws ? 0 : 1;
+  for (int k = 0; k < model.num_params; ++k) {
+    trials.job.param_estimate[k] = inputs[static_cast<std::size_t>(k)].estimate;
+    trials.job.param_u[k] = inputs[static_cast<std::size_t>(k)].u;
   }
-  write(dir / "vlt_point_trials.cu", source.main);
-  write(dir / "harness.cc", R"(#include <cmath>
+  const mcm_internal::CpuTrialInputs drawn = mcm_internal::CustomTrialInputs(
+      model, inputs, independent, seed, first, n, mcm_internal::CpuTrialInputs::For(trials.job));
+  ASSERT_EQ(drawn.params.size(), kernel_draws ? 0u : static_cast<std::size_t>(model.num_params) * n);
+  ExpectProgramGivesTheEngines(dir, program, trials, drawn, first, n, engine);
+}
+
+// JCGM 101 9.3's mass calibration, its inputs all normal (drawn by the kernel) or, as the example
+// has them (two normal, three rectangular), drawn by the CPU.
+std::vector<UncertainInput> MassInputs(bool normal) {
+  std::vector<UncertainInput> inputs = {Input("m_Rc", 100000.0, 0.05), Input("delta_m_Rc", 1.234, 0.02),
+                                        Input("rho_a", 1.2, 0.1 / std::sqrt(3.0)), Input("rho_W", 8000.0, 1000.0 / std::sqrt(3.0)),
+                                        Input("rho_R", 8000.0, 50.0 / std::sqrt(3.0))};
+  for (std::size_t k = 2; !normal && k < inputs.size(); ++k) inputs[k].distribution = "rectangular";
+  return inputs;
+}
+
+// A harness that stands in for CUDA's launch (__global__ empty, blockIdx/blockDim/threadIdx plain
+// variables, every block run in turn), written to dir/harness.cc. stdin: the job, the points, each
+// trial's stages where the job has any, the trials' parameters where the CPU drew them; argv:
+// first trial, trials. stdout: the values.
+void WriteFile(const std::filesystem::path& path, const std::string& text) {
+  std::filesystem::create_directories(path.parent_path());
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+void WriteHarness(const std::filesystem::path& dir) {
+  WriteFile(dir / "harness.cc", R"(#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #define __global__
 struct VltDim3 { unsigned x; };
 static VltDim3 blockIdx, blockDim, threadIdx;
 #include "vlt_point_trials.cu"
-// stdin: the job, the points, each trial's stages where the job has any, the trials' parameters
-// where the CPU drew them; argv: first trial, trials. stdout: the values.
 int main(int argc, char** argv) {
   vlt::gpu_internal::PointTrialsJob job;
   if (argc != 3 || fread(&job, sizeof job, 1, stdin) != 1) return 2;
@@ -497,18 +538,173 @@ int main(int argc, char** argv) {
   for (blockIdx.x = 0; blockIdx.x * 128ull < threads; ++blockIdx.x)
     for (threadIdx.x = 0; threadIdx.x < 128; ++threadIdx.x)
       vlt_point_trials(&job, points, staged ? stages : nullptr, drawn ? params : nullptr, first, n, values);
-  fwrite(values, sizeof(double), 3 * job.num_points * (size_t)n, stdout);
+  fwrite(values, sizeof(double), (size_t)job.outputs_per_point * job.num_points * n, stdout);
   return 0;
 }
 )");
-  const std::string program = (dir / "harness").string();
-  const std::string compile = std::string(VLT_TEST_CXX) + " -std=c++17 -O2 -ffp-contract=off -I" + (dir / "include").string() +
-                              " -I" + dir.string() + " " + (dir / "harness.cc").string() + " -o " + program;
-  ASSERT_EQ(std::system(compile.c_str()), 0) << compile;
+}
+
+// The kernel source of `model` (PointTrialsSource: the embedded files, or `model_source`) written
+// out as files in dir/<model>/ — main file and headers but NVRTC's <cmath> (the host has its own)
+// — and the harness (WriteHarness) compiled with it by the host compiler; the program's path.
+std::string CompiledKernel(const std::filesystem::path& dir, const std::string& model,
+                           const std::string& model_source = "") {
+  const std::filesystem::path model_dir = dir / model;
+  const gpu_internal::KernelSource source = gpu_internal::PointTrialsSource(model, model_source);
+  for (const auto& [name, text] : source.headers) {
+    if (name != "cmath") WriteFile(model_dir / "include" / name, text);
+  }
+  WriteFile(model_dir / "vlt_point_trials.cu", source.main);
+  const std::string program = (model_dir / "harness").string();
+  const std::string command = std::string(VLT_TEST_CXX) + " -std=c++17 -O2 -ffp-contract=off -I" +
+                              (model_dir / "include").string() + " -I" + model_dir.string() + " " +
+                              (dir / "harness.cc").string() + " -o " + program;
+  EXPECT_EQ(std::system(command.c_str()), 0) << command;
+  return program;
+}
+
+// The kernel source exactly as NVRTC is given it — main file and headers (but its <cmath> of three
+// using-declarations), written out as files — compiled as C++ by the host compiler, with a harness that stands in for CUDA's launch
+// (__global__ empty, blockIdx/blockDim/threadIdx plain variables, every block run in turn): its
+// values are the CPU engine's, bit for bit.
+TEST(GpuKernel, TheKernelSourceCompiledAsCppGivesTheEnginesValues) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("vlt-kernel-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  WriteHarness(dir);
+  const std::string mirror = CompiledKernel(dir, "mirror");
   for (Stages with : {kNoStage, kAllStages, Stages{false, false, false, true}, Stages{true, true, true, true}}) {
     SCOPED_TRACE(::testing::Message() << "stages " << with.any() << ", parameters drawn on the CPU " << with.cpu_params);
-    ExpectCompiledKernelIsTheEngine(dir, program, with);
+    ExpectCompiledKernelIsTheEngine(dir, mirror, with);
   }
+  const std::string mass = CompiledKernel(dir, "jcgm101_mass");
+  for (bool normal : {true, false}) {
+    SCOPED_TRACE(::testing::Message() << "jcgm101_mass, inputs drawn on the CPU " << !normal);
+    ExpectCompiledCustomKernelIsTheEngine(dir, mass, *FindModel("jcgm101_mass"), MassInputs(normal), normal);
+  }
+  std::filesystem::remove_all(dir);
+}
+
+// Two custom models built at run time (vlt model build): a ratio and a norm of three inputs
+// (+ - * / and sqrt), and a phase (atan2).
+constexpr const char* kBuiltModelSpec = R"(
+[model]
+name = "%NAME%"
+kind = "custom"
+description = "A test model built at run time for the GPU kernel"
+[[input]]
+name = "a"
+unit = "1"
+quantity = "dimensionless"
+description = "a"
+estimate = 2.0
+u = 0.01
+distribution = "normal"
+[[input]]
+name = "b"
+unit = "1"
+quantity = "dimensionless"
+description = "b"
+estimate = 3.0
+u = 0.02
+distribution = "normal"
+[[input]]
+name = "c"
+unit = "1"
+quantity = "dimensionless"
+description = "c"
+estimate = 5.0
+u = 0.05
+distribution = "normal"
+[[output]]
+name = "first"
+unit = "1"
+quantity = "dimensionless"
+description = "first"
+expression = "%FIRST%"
+[[output]]
+name = "second"
+unit = "1"
+quantity = "dimensionless"
+description = "second"
+expression = "%SECOND%"
+)";
+
+// The model of kBuiltModelSpec with these outputs, built into the cache (VLT_MODEL_CACHE) from
+// dir/<name>.toml.
+const ModelInfo* BuildTestModel(const std::filesystem::path& dir, const std::string& name, const std::string& first,
+                                const std::string& second) {
+  std::string spec = kBuiltModelSpec;
+  for (const auto& [key, value] : {std::pair<std::string, std::string>{"%NAME%", name}, {"%FIRST%", first}, {"%SECOND%", second}}) {
+    spec.replace(spec.find(key), key.size(), value);
+  }
+  WriteFile(dir / (name + ".toml"), spec);
+  BuildModel(dir / (name + ".toml"));
+  return FindModel(name);
+}
+
+// A custom model built at run time: the generated header kept beside its library (model-<key>.h,
+// BuiltModelSource) is the kernel's model source; the kernel compiled from it as C++ with the
+// harness gives the CPU engine's values (the library's double Forward) bit for bit, its inputs
+// drawn by the kernel or by the CPU. The custom Monte Carlo hands the GPU backend exactly that
+// source; a built model whose equations call atan2 is refused, the call named. Not in the
+// sanitizer build (the plugin is compiled without the sanitizers; stage 2's time).
+TEST(GpuKernel, ABuiltModelsSourceGivesTheEnginesValues) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "sanitizer build";
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+  GTEST_SKIP() << "sanitizer build";
+#endif
+#endif
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("vlt-built-kernel-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  ::setenv("VLT_MODEL_CACHE", (dir / "cache").c_str(), 1);
+  const ModelInfo* ratio = BuildTestModel(dir, "gpu_test_ratio", "a*b/c - a", "sqrt(a^2 + b^2 + c)");
+  ASSERT_NE(ratio, nullptr);
+  const std::string source = BuiltModelSource(*ratio);
+  ASSERT_NE(source.find("void Forward("), std::string::npos);
+  std::filesystem::path header = BuiltModels().front().library;
+  header.replace_extension(".h");
+  std::ifstream in(header, std::ios::binary);
+  EXPECT_EQ(std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()), source);
+  EXPECT_TRUE(BuiltModelSource(*FindModel("jcgm101_mass")).empty());
+
+  WriteHarness(dir);
+  const std::string program = CompiledKernel(dir, "gpu_test_ratio", source);
+  std::vector<UncertainInput> inputs = {Input("a", 2.0, 0.01), Input("b", 3.0, 0.02), Input("c", 5.0, 0.05)};
+  ExpectCompiledCustomKernelIsTheEngine(dir, program, *ratio, inputs, true);
+  inputs[2].distribution = "rectangular";
+  ExpectCompiledCustomKernelIsTheEngine(dir, program, *ratio, inputs, false);
+
+  // What the custom Monte Carlo hands the backend: the built model's source, two outputs a trial.
+  gpu_internal::TrialsJob handed;
+  gpu_internal::SetBackendForTest([&handed](const gpu_internal::TrialsJob& trials, std::string* why_not) {
+    handed = trials;
+    *why_not = "recorded";
+    return std::unique_ptr<gpu_internal::TrialsBackend>();
+  });
+  McmSettings settings;
+  settings.trials = 1000;
+  settings.device = McmDevice::kGpu;
+  settings.device_where = "test";
+  EXPECT_THROW(RunMcmCustom(*ratio, inputs, Eigen::MatrixXd(), settings), InputError);
+  EXPECT_EQ(handed.model_source, source);
+  EXPECT_EQ(handed.job.outputs_per_point, 2);
+  EXPECT_EQ(handed.job.params_drawn, 1);
+  const ModelInfo* phase = BuildTestModel(dir, "gpu_test_phase", "atan2(b, a)", "a + b + c");
+  ASSERT_NE(phase, nullptr);
+  try {
+    RunMcmCustom(*phase, inputs, Eigen::MatrixXd(), settings);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "test: \"gpu\": the GPU kernel runs a built model whose equations are + - * / and sqrt only; "
+              "'gpu_test_phase' calls atan2 (the C library's on the CPU, whose bits a GPU need not have)");
+  }
+  gpu_internal::SetBackendForTest(nullptr);
+  ::unsetenv("VLT_MODEL_CACHE");
   std::filesystem::remove_all(dir);
 }
 
@@ -619,38 +815,15 @@ void ExpectTheSameFilesWithTheKernelOnTheHost(const Job& job) {
   cpu.threads = 3;
   cpu.device = McmDevice::kCpu;
   const Results on_cpu = RunJob(job, cpu);
-  gpu_internal::SetBackendForTest(
-      [](const gpu_internal::TrialsJob& trials, std::string*) { return gpu_internal::HostBackend(trials); });
   RunOptions gpu = cpu;
   gpu.device = McmDevice::kGpu;
-  const Results on_gpu = RunJob(job, gpu);
-  gpu_internal::SetBackendForTest(nullptr);
+  const Results on_gpu = test::WithTheKernelOnTheHost([&] { return RunJob(job, gpu); });
   EXPECT_EQ(on_cpu.mcm.device, "cpu");
   EXPECT_EQ(on_gpu.mcm.device.rfind("gpu: host", 0), 0u) << on_gpu.mcm.device;
   if (job.map && job.map->monte_carlo) {
     ASSERT_TRUE(on_gpu.map && on_gpu.map->has_mcm);
   }
-  std::map<std::string, std::string> a = FilesOf(on_cpu), b = FilesOf(on_gpu);
-  ASSERT_EQ(a.size(), b.size());
-  for (const auto& [name, text] : a) {
-    if (name == "results.json" || name == "report.html") continue;  // timings, device
-    EXPECT_TRUE(text == b[name]) << name << " differs";
-  }
-  // results.json: the same but "seconds", "gum_seconds", "mcm_seconds", "device" and "created" (the
-  // second the run began).
-  auto without_run_lines = [](const std::string& text) {
-    std::string out;
-    std::istringstream lines(text);
-    for (std::string line; std::getline(lines, line);) {
-      if (line.find("seconds\"") != std::string::npos || line.find("\"device") != std::string::npos ||
-          line.find("\"created\"") != std::string::npos) {
-        continue;
-      }
-      out += line + "\n";
-    }
-    return out;
-  };
-  EXPECT_TRUE(without_run_lines(a["results.json"]) == without_run_lines(b["results.json"]));
+  test::ExpectTheSameFilesButTheRunLines(FilesOf(on_cpu), FilesOf(on_gpu));
   EXPECT_GT(on_gpu.points[0].monte_carlo->axes[0].u, 0.0);
   // The summary names the device that ran the trials.
   EXPECT_NE(SummaryText(on_gpu).find("thread(s) and the GPU host ("), std::string::npos) << SummaryText(on_gpu);

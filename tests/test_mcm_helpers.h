@@ -2,11 +2,14 @@
 #pragma once
 
 #include <cmath>
+#include <map>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "gpu/trials.h"
 #include "vlt/mcm.h"
 #include "vlt/measurement_model.h"
 #include "vlt/models.h"
@@ -115,6 +118,46 @@ inline UncertainInput Input(const char* name, double estimate, double u, const c
   in.distribution = distribution;
   in.shape = shape;
   return in;
+}
+
+// A results.json text but the lines that say where and how long the trials ran, and when
+// ("seconds", "gum_seconds", "mcm_seconds", "device", "device_note", "created"): what two runs of
+// one job on different devices share byte for byte.
+inline std::string WithoutRunLines(const std::string& text) {
+  std::string out;
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.find("seconds\"") != std::string::npos || line.find("\"device") != std::string::npos ||
+        line.find("\"created\"") != std::string::npos) {
+      continue;
+    }
+    out += line + "\n";
+  }
+  return out;
+}
+
+// f() with the GPU kernel's code on the host standing in for a GPU (gpu/trials.h HostBackend):
+// the whole GPU path without one. Returns what f returns.
+template <class F>
+auto WithTheKernelOnTheHost(F f) {
+  gpu_internal::SetBackendForTest(
+      [](const gpu_internal::TrialsJob& trials, std::string*) { return gpu_internal::HostBackend(trials); });
+  struct Restore {
+    ~Restore() { gpu_internal::SetBackendForTest(nullptr); }
+  } restore;
+  return f();
+}
+
+// Two runs' files (name -> bytes) the same: every file byte for byte but results.json, which is
+// the same but its run lines (WithoutRunLines), and report.html (its timings and device).
+inline void ExpectTheSameFilesButTheRunLines(std::map<std::string, std::string> a,
+                                             std::map<std::string, std::string> b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (const auto& [name, text] : a) {
+    if (name == "results.json" || name == "report.html") continue;
+    EXPECT_TRUE(text == b[name]) << name << " differs";
+  }
+  EXPECT_TRUE(WithoutRunLines(a["results.json"]) == WithoutRunLines(b["results.json"]));
 }
 
 }  // namespace vlt::test

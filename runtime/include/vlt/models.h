@@ -20,6 +20,11 @@ std::span<const ModelInfo* const> AllModels();
 // the model but it cannot be loaded (built for another vlt: "rebuild it with vlt model build").
 const ModelInfo* FindModel(std::string_view name);
 
+// The generated C++ header a model built at run time was compiled from (its Forward template, which
+// the GPU kernel compiles: docs/gpu.md), read when the model was loaded; empty for a built-in model
+// and for one built before vlt kept it beside the library.
+std::string BuiltModelSource(const ModelInfo& model);
+
 // Index of the parameter / reading / output called `name` in `model`, or -1.
 int FindParam(const ModelInfo& model, std::string_view name);
 
@@ -27,8 +32,9 @@ int FindParam(const ModelInfo& model, std::string_view name);
 
 // Where built models live: $VLT_MODEL_CACHE, else $XDG_CACHE_HOME/vlt/models, else
 // ~/.cache/vlt/models (never a shared directory; InputError without a home). One directory per model
-// name: model-<key>.so (one library per build), key (SHA-256 of the spec's bytes, vlt's version and
-// kModelAbi: which library is current), spec.toml (the spec it was built from) and build.log. A
+// name: model-<key>.so (one library per build) and model-<key>.h (the generated header it was
+// compiled from), key (SHA-256 of the spec's bytes, vlt's version, kModelAbi and the entry's layout:
+// which library is current), spec.toml (the spec it was built from) and build.log. A
 // model is loaded only from the user's own entries that nobody else may write.
 std::filesystem::path ModelCacheDirectory();
 

@@ -403,6 +403,8 @@ json ResultsJsonObject(const CustomResults& r) {
                         {"converged", r.mcm.converged},
                         {"threads", r.mcm.threads},
                         {"ranks", r.mcm.ranks},
+                        {"device", r.mcm.device},
+                        {"device_note", r.mcm.device_note.empty() ? json(nullptr) : json(r.mcm.device_note)},
                         {"n_dig", r.n_dig},
                         {"interval_method", r.mcm.interval_method},
                         {"outcome", r.outcome}};

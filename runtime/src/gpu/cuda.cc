@@ -227,11 +227,11 @@ std::string CompileKernel(const Nvrtc& rtc, const KernelSource& source, int majo
 class Cuda final : public TrialsBackend {
  public:
   // job, points: the job and its points on the device (freed with the backend); num_params: the
-  // tracker parameters of each trial where the CPU draws them.
+  // model's parameters of each trial where the CPU draws them; outputs: a point's.
   Cuda(const Driver& cu, CUcontext context, CUfunction kernel, CUdeviceptr job, CUdeviceptr points, int num_points,
-       int num_params, std::string description)
+       int num_params, int outputs, std::string description)
       : cu_(cu), context_(context), kernel_(kernel), job_(job), points_(points), num_points_(num_points),
-        description_(std::move(description)), num_params_(num_params) {}
+        outputs_(outputs), description_(std::move(description)), num_params_(num_params) {}
   ~Cuda() override {
     cu_.cuCtxSetCurrent(context_);
     if (values_ != 0) cu_.cuMemFree(values_);
@@ -245,7 +245,8 @@ class Cuda final : public TrialsBackend {
     // One launch per block of trials, from whichever engine thread asks: one at a time.
     const std::lock_guard<std::mutex> lock(mutex_);
     Check("cuCtxSetCurrent", cu_.cuCtxSetCurrent(context_));
-    const std::size_t bytes = 3 * static_cast<std::size_t>(num_points_) * static_cast<std::size_t>(n) * sizeof(double);
+    const std::size_t bytes =
+        static_cast<std::size_t>(outputs_) * static_cast<std::size_t>(num_points_) * static_cast<std::size_t>(n) * sizeof(double);
     Reserve(values_, values_capacity_, bytes);
     CUdeviceptr stages_arg = 0;
     if (prepared.stages != nullptr) {
@@ -296,6 +297,7 @@ class Cuda final : public TrialsBackend {
   CUdeviceptr job_;
   CUdeviceptr points_;
   int num_points_;
+  int outputs_;
   std::string description_;
   std::mutex mutex_;
   CUdeviceptr values_ = 0;
@@ -338,9 +340,11 @@ std::unique_ptr<TrialsBackend> CudaBackend(const TrialsJob& trials, std::string*
   cu.cuDriverGetVersion(&driver);
   loaded.rtc.nvrtcVersion(&rtc_major, &rtc_minor);
   CUresult r = 0;
-  CUfunction& kernel = kernels[trials.model];
+  // Keyed by the model and, for a model built at run time, its source (a rebuilt model is another).
+  CUfunction& kernel = kernels[trials.model + '\n' + trials.model_source];
   if (kernel == nullptr) {
-    const std::string ptx = CompileKernel(loaded.rtc, PointTrialsSource(trials.model), major, minor, why_not);
+    const std::string ptx =
+        CompileKernel(loaded.rtc, PointTrialsSource(trials.model, trials.model_source), major, minor, why_not);
     if (ptx.empty()) return nullptr;
     CUmodule module = nullptr;
     r = cu.cuModuleLoadData(&module, ptx.c_str());
@@ -371,7 +375,7 @@ std::unique_ptr<TrialsBackend> CudaBackend(const TrialsJob& trials, std::string*
   std::snprintf(description, sizeof description, "%s (compute %d.%d; CUDA driver %d.%d, NVRTC %d.%d)", name, major,
                 minor, driver / 1000, (driver % 1000) / 10, rtc_major, rtc_minor);
   return std::make_unique<Cuda>(cu, context, kernel, job_on_device, points_on_device, trials.job.num_points,
-                                trials.job.num_params, description);
+                                trials.job.num_params, trials.job.outputs_per_point, description);
 }
 
 }  // namespace vlt::gpu_internal

@@ -2,7 +2,10 @@
 #include <mutex>
 #include <utility>
 
+#include "generated/gum_h1_end_gauge.h"
 #include "generated/head.h"
+#include "generated/jcgm101_additive.h"
+#include "generated/jcgm101_mass.h"
 #include "generated/mirror.h"
 #include "generated/total_station.h"
 #include "gpu/trials.h"
@@ -23,12 +26,20 @@ using TrialFn = void (*)(const PointTrialsJob&, const TrialPoint&, int, U64, con
 VLT_KERNEL_MODEL(mirror)
 VLT_KERNEL_MODEL(head)
 VLT_KERNEL_MODEL(total_station)
+VLT_KERNEL_MODEL(jcgm101_additive)
+VLT_KERNEL_MODEL(jcgm101_mass)
+VLT_KERNEL_MODEL(gum_h1_end_gauge)
 #undef VLT_KERNEL_MODEL
 
 TrialFn TrialOf(std::string_view model_name) {
   if (model_name == "mirror") return &PointOfTrial<Model_mirror>;
   if (model_name == "head") return &PointOfTrial<Model_head>;
   if (model_name == "total_station") return &PointOfTrial<Model_total_station>;
+  // Custom models whose Forward calls nothing but + - * / (gum_h2_impedance calls sin and cos,
+  // which its CPU path takes from the C library: docs/gpu.md).
+  if (model_name == "jcgm101_additive") return &PointOfTrial<Model_jcgm101_additive>;
+  if (model_name == "jcgm101_mass") return &PointOfTrial<Model_jcgm101_mass>;
+  if (model_name == "gum_h1_end_gauge") return &PointOfTrial<Model_gum_h1_end_gauge>;
   return nullptr;
 }
 
@@ -38,11 +49,12 @@ class Host final : public TrialsBackend {
   void Compute(std::uint64_t first, int n, const PreparedTrials& prepared, double* values) override {
     for (int p = 0; p < job_.job.num_points; ++p) {
       for (int i = 0; i < n; ++i) {
-        double y[3];
+        double y[kMaxOutputs];
         const DrawnParams drawn{prepared.params == nullptr ? nullptr : prepared.params + i, static_cast<U64>(n)};
         trial_(job_.job, job_.points[static_cast<std::size_t>(p)], p, static_cast<U64>(first) + static_cast<U64>(i),
                prepared.stages == nullptr ? nullptr : prepared.stages + i, drawn, y);
-        for (int a = 0; a < 3; ++a) values[static_cast<std::size_t>(3 * p + a) * static_cast<std::size_t>(n) + i] = y[a];
+        const int m = job_.job.outputs_per_point;
+        for (int a = 0; a < m; ++a) values[static_cast<std::size_t>(m * p + a) * static_cast<std::size_t>(n) + i] = y[a];
       }
     }
   }
@@ -67,7 +79,7 @@ BackendFactory& Factory() {
 bool KernelHasModel(std::string_view model_name) { return TrialOf(model_name) != nullptr; }
 
 std::unique_ptr<TrialsBackend> HostBackend(const TrialsJob& job) {
-  const TrialFn trial = TrialOf(job.model);
+  const TrialFn trial = job.model_source.empty() ? TrialOf(job.model) : nullptr;
   return trial == nullptr ? nullptr : std::make_unique<Host>(job, trial);
 }
 

@@ -39,11 +39,14 @@ std::string EmbeddedKernelFile(std::string_view include_name) {
   if (include_name == "generated/mirror.h") return Joined(kModelMirror);
   if (include_name == "generated/head.h") return Joined(kModelHead);
   if (include_name == "generated/total_station.h") return Joined(kModelTotalStation);
+  if (include_name == "generated/jcgm101_additive.h") return Joined(kModelJcgm101Additive);
+  if (include_name == "generated/jcgm101_mass.h") return Joined(kModelJcgm101Mass);
+  if (include_name == "generated/gum_h1_end_gauge.h") return Joined(kModelGumH1EndGauge);
   return "";
 }
 
-KernelSource PointTrialsSource(std::string_view model_name) {
-  if (!KernelHasModel(model_name)) {
+KernelSource PointTrialsSource(std::string_view model_name, const std::string& model_source) {
+  if (model_source.empty() && !KernelHasModel(model_name)) {
     throw std::invalid_argument("no GPU kernel for model '" + std::string(model_name) + "'");
   }
   const std::string model(model_name);
@@ -52,7 +55,7 @@ KernelSource PointTrialsSource(std::string_view model_name) {
   source.headers = {{"cmath", kCmathShim},
                     {"base/portable_math.h", EmbeddedKernelFile("base/portable_math.h")},
                     {"gpu/point_trials.h", EmbeddedKernelFile("gpu/point_trials.h")},
-                    {header, EmbeddedKernelFile(header)}};
+                    {header, model_source.empty() ? EmbeddedKernelFile(header) : model_source}};
   source.main = "#include \"" + header +
                 "\"\n"
                 "#include \"gpu/point_trials.h\"\n"
@@ -62,8 +65,8 @@ KernelSource PointTrialsSource(std::string_view model_name) {
                 "    vlt::gen::" + model + "::Forward<S>(readings, params, out);\n"
                 "  }\n"
                 "};\n"
-                "// One thread per (trial, point), trials fastest: values[(3 p + a) * n + i] = coordinate a of\n"
-                "// point p in trial first + i; stages[i]: that trial's stages (nullptr: the job has none);\n"
+                "// One thread per (trial, point), trials fastest: values[(m p + a) * n + i] = output a of\n"
+                "// point p in trial first + i (m = job->outputs_per_point); stages[i]: that trial's stages (nullptr: the job has none);\n"
                 "// params[k * n + i]: its parameter k where the CPU drew them (nullptr: the kernel draws them).\n"
                 "extern \"C\" __global__ void vlt_point_trials(const vlt::gpu_internal::PointTrialsJob* job,\n"
                 "                                              const vlt::gpu_internal::TrialPoint* points,\n"
@@ -75,11 +78,12 @@ KernelSource PointTrialsSource(std::string_view model_name) {
                 "  if (t >= count * static_cast<unsigned long long>(job->num_points)) return;\n"
                 "  const int p = static_cast<int>(t / count);\n"
                 "  const unsigned long long i = t % count;\n"
-                "  double y[3];\n"
+                "  double y[vlt::gpu_internal::kMaxOutputs];\n"
                 "  const vlt::gpu_internal::DrawnParams drawn{params == nullptr ? nullptr : params + i, count};\n"
                 "  vlt::gpu_internal::PointOfTrial<KernelModel>(*job, points[p], p, first + i,\n"
                 "                                               stages == nullptr ? nullptr : stages + i, drawn, y);\n"
-                "  for (int a = 0; a < 3; ++a) values[static_cast<unsigned long long>(3 * p + a) * count + i] = y[a];\n"
+                "  const int m = job->outputs_per_point;\n"
+                "  for (int a = 0; a < m; ++a) values[static_cast<unsigned long long>(m * p + a) * count + i] = y[a];\n"
                 "}\n";
   return source;
 }

@@ -16,9 +16,10 @@ struct KernelSource {
   std::vector<std::pair<std::string, std::string>> headers;  // include name, text
 };
 
-// The kernel of PointTrial for a generated tracker model (gpu/trials.h KernelHasModel); throws
-// std::invalid_argument for another.
-KernelSource PointTrialsSource(std::string_view model_name);
+// The kernel of PointTrial for a generated model the kernel carries (gpu/trials.h KernelHasModel),
+// or for a model built at run time from `model_source` (its generated header: vlt/models.h
+// BuiltModelSource); throws std::invalid_argument for another.
+KernelSource PointTrialsSource(std::string_view model_name, const std::string& model_source = "");
 
 // The embedded text of a source file of the kernel, by its include name ("base/portable_math.h",
 // "gpu/point_trials.h", "generated/mirror.h", ...); empty when not embedded. Test: equal to the

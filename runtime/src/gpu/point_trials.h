@@ -5,8 +5,9 @@
 // that its values have the CPU engine's bits: tests/test_gpu_kernel.cc compiles this header as
 // C++ and compares it with the engine, value for value.
 //
-// Scope (what the kernel covers; mcm/job.cc KernelJob decides, docs/gpu.md): a tracker model
-// with a lanes kernel, the readings' noise normal. The kernel draws the error parameters itself
+// Scope (what the kernel covers; mcm/job.cc and mcm/custom.cc decide, docs/gpu.md): a tracker
+// model with a lanes kernel, the readings' noise normal; or a custom model Y = f(X) (no readings,
+// one "point" of its outputs) whose Forward calls nothing but + - * / and sqrt. The kernel draws the error parameters itself
 // where each is independent and normal (or fixed: u = 0); where one is correlated with another
 // input or not normal, the CPU draws them all (the copula and the inverse CDFs call libm, whose
 // bits a GPU's functions need not have) and hands each trial's to the kernel (DrawnParams). The
@@ -23,12 +24,17 @@ namespace portable = base_internal::portable;
 using portable::U64;
 
 inline constexpr int kMaxParams = 32;
+inline constexpr int kMaxOutputs = 16;  // a point's outputs: 3 for a tracker, a custom model's count
 
 // What every trial of a job needs, copied once to the device (plain data, no pointers).
 struct PointTrialsJob {
   U64 seed = 0;        // McmSettings::seed: the Philox key
   int num_params = 0;  // the tracker model's error parameters, streams 0 .. num_params - 1
   int num_points = 0;  // readings of point p: streams first_reading_stream + 3 p + j
+  // A tracker: 3 readings (range, azimuth, elevation) and 3 outputs (x, y, z) a point; a custom
+  // model: no readings and its outputs (at most kMaxOutputs), one point.
+  int readings_per_point = 3;
+  int outputs_per_point = 3;
   int first_reading_stream = 0;  // the shared inputs' count: num_params + air, pose, thermal inputs
   // Which stages are on (1) — each trial's TrialStages given when any is.
   int air = 0, pose = 0, thermal = 0;
@@ -64,15 +70,14 @@ struct TrialPoint {
   double reading_u[3] = {};
 };
 
-// y = s (R x_t + t), each row summed left to right: MeasurementModel::Place's operations in its
-// order (the part frame; x_t where no stage is on).
-VLT_PORTABLE void PlaceOnPart(const PointTrialsJob& job, const TrialStages* stages, const portable::Lane x_t[3],
-                              double y[3]) {
-  for (int i = 0; i < 3; ++i) y[i] = x_t[i].v;
+// y = s (R x_t + t) in place of x_t = y, each row summed left to right: MeasurementModel::Place's
+// operations in its order (the part frame; x_t where no stage is on).
+VLT_PORTABLE void PlaceOnPart(const PointTrialsJob& job, const TrialStages* stages, double y[3]) {
   if (job.pose) {
+    const double x_t[3] = {y[0], y[1], y[2]};
     const double* r = stages->rotation;
     for (int i = 0; i < 3; ++i) {
-      y[i] = ((r[i] * x_t[0].v + r[3 + i] * x_t[1].v) + r[6 + i] * x_t[2].v) + stages->translation[i];
+      y[i] = ((r[i] * x_t[0] + r[3 + i] * x_t[1]) + r[6 + i] * x_t[2]) + stages->translation[i];
     }
   }
   if (job.thermal) {
@@ -80,7 +85,8 @@ VLT_PORTABLE void PlaceOnPart(const PointTrialsJob& job, const TrialStages* stag
   }
 }
 
-// Point p of trial `trial`: y = its part coordinates (m); stages: the trial's (nullptr where no
+// Point p of trial `trial`: y = its outputs, job.outputs_per_point of them (a tracker's: the
+// point's part coordinates [m]); stages: the trial's (nullptr where no
 // stage is on); drawn: the trial's parameters where the CPU drew them. Model: a generated model namespace's Forward (vlt::gen::<model>), as a functor.
 // Each (trial, point) is computed on its own (a GPU thread each), so the trial's parameters are
 // drawn again for every point: the same draws (they depend on the seed, the trial and the stream
@@ -99,15 +105,16 @@ VLT_PORTABLE void PointOfTrial(const PointTrialsJob& job, const TrialPoint& poin
                                                                                        job.seed, trial, static_cast<U64>(k));
     }
   }
-  portable::Lane readings[3], out[3];
-  for (int j = 0; j < 3; ++j) {
+  portable::Lane readings[3], out[kMaxOutputs];
+  for (int j = 0; j < job.readings_per_point; ++j) {
     const U64 stream = static_cast<U64>(job.first_reading_stream + 3 * p + j);
     readings[j] = point.reading[j] + point.reading_u[j] * portable::NormalOfTrial(job.seed, trial, stream);
   }
   // The air: the tracker converted optical path with n_est, the range is rho n_est / n.
   if (job.air) readings[0] = readings[0].v * stages->range_scale;
   Model::Forward(readings, params, out);
-  PlaceOnPart(job, stages, out, y);
+  for (int a = 0; a < job.outputs_per_point; ++a) y[a] = out[a].v;
+  if (job.pose || job.thermal) PlaceOnPart(job, stages, y);
 }
 
 }  // namespace vlt::gpu_internal

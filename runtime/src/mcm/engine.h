@@ -105,6 +105,23 @@ class TrialKernel {
                    double* outputs) const = 0;
 };
 
+// A trial kernel whose trials the GPU kernel (gpu/point_trials.h) computes too, with the same
+// bits: a tracker job's (mcm/job.cc JobKernel) or a custom model's (mcm/custom.cc CustomKernel).
+// The GPU path (mcm/gpu_run.h) asks it for what the CPU prepares for the device and for the
+// outputs computed from the device's.
+class MirroredKernel : public TrialKernel {
+ public:
+  // What the GPU kernel takes from the CPU for trials first .. first + n - 1 (n <= kSubBatch),
+  // drawn and prepared as Run draws and prepares them: with `stages`, each trial's (a tracker
+  // job's air, pose, thermal stages); with `params`, the model's parameters, params[k stride + i]
+  // for parameter k of trial first + i (gpu/point_trials.h DrawnParams).
+  virtual void PrepareTrials(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch,
+                             gpu_internal::TrialStages* stages, double* params, std::int64_t stride) const = 0;
+  // The outputs after the device's (a tracker job's tasks) of trials 0 .. n - 1 of a sub-batch
+  // whose device outputs are in place: the CPU's part of a trial the GPU computed.
+  virtual void RunTasks(int n, Scratch& scratch, double* outputs) const = 0;
+};
+
 // Outputs that form one vector quantity (JCGM 102): a measured point (x, y, z) or the output
 // vector of a custom model. Its covariance and coverage region are computed.
 struct OutputGroup {
@@ -199,5 +216,13 @@ struct CpuTrialInputs {
 // What the job kernel prepares for the GPU kernel's trials first .. first + n - 1 (`what` of it),
 // drawn and prepared as the CPU engine draws and prepares them.
 CpuTrialInputs JobTrialInputs(const McmJob& job, std::uint64_t seed, std::int64_t first, int n, CpuTrialInputs::What what);
+// The same for a custom model (vlt/mcm.h RunMcmCustom's inputs): its outputs, values[o * n + i],
+// and its inputs where the CPU draws them for the kernel (what.params), params[k n + i].
+std::vector<double> CustomTrialValues(const ModelInfo& model, std::span<const UncertainInput> inputs,
+                                      const Eigen::MatrixXd& correlation, std::uint64_t seed, std::int64_t first,
+                                      int n);
+CpuTrialInputs CustomTrialInputs(const ModelInfo& model, std::span<const UncertainInput> inputs,
+                                 const Eigen::MatrixXd& correlation, std::uint64_t seed, std::int64_t first, int n,
+                                 CpuTrialInputs::What what);
 
 }  // namespace vlt::mcm_internal

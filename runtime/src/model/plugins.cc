@@ -9,7 +9,8 @@
 // runs code when loaded).
 //
 // An entry <name>/ holds model-<key>.so (one file per build: dlopen of a path already loaded would
-// return the old library, so a rebuild in the same process needs a new path), spec.toml, build.log
+// return the old library, so a rebuild in the same process needs a new path), model-<key>.h (the
+// generated header it was compiled from, for the GPU kernel), spec.toml, build.log
 // and `key`, the file that says which library is current. A build derives and compiles in a
 // private directory (mkdtemp), takes the entry's lock (flock on <name>.lock: builds of one name,
 // from threads or processes, run one after the other), renames its library in and then replaces
@@ -101,8 +102,13 @@ bool IsIdentifier(std::string_view name) {
 }
 
 // The key of a build: the spec's bytes, vlt's version and the model ABI.
+// The cache entry's layout: 2 since the generated header is kept beside the library
+// (model-<key>.h, for the GPU kernel); an entry of another layout is built again.
+constexpr int kEntryLayout = 2;
+
 std::string BuildKey(const std::string& spec_bytes) {
-  return Sha256Bytes(spec_bytes + '\0' + VLT_VERSION + '\0' + std::to_string(kModelAbi));
+  return Sha256Bytes(spec_bytes + '\0' + VLT_VERSION + '\0' + std::to_string(kModelAbi) + '\0' +
+                     std::to_string(kEntryLayout));
 }
 
 // The user's own directory: refuses one that another user owns or that others may write (a
@@ -257,6 +263,8 @@ fs::path CurrentLibrary(const fs::path& entry) {
 struct Loaded {
   std::mutex mutex;
   std::map<std::string, const ModelInfo*, std::less<>> by_library;
+  // The generated header beside each library (model-<key>.h), read when the library was loaded.
+  std::map<const ModelInfo*, std::string> source;
 };
 Loaded& LoadedModels() {
   static Loaded loaded;
@@ -369,7 +377,17 @@ const ModelInfo* FindModel(std::string_view name) {
     return it->second;
   const ModelInfo* model = LoadLibrary(std::string(name), library);
   loaded.by_library.emplace(library.string(), model);
+  fs::path header = library;
+  header.replace_extension(".h");
+  if (IsFile(header)) loaded.source.emplace(model, ReadBytes(header));
   return model;
+}
+
+std::string BuiltModelSource(const ModelInfo& model) {
+  Loaded& loaded = LoadedModels();
+  const std::lock_guard<std::mutex> lock(loaded.mutex);
+  const auto it = loaded.source.find(&model);
+  return it == loaded.source.end() ? std::string() : it->second;
 }
 
 int FindParam(const ModelInfo& model, std::string_view name) {
@@ -444,6 +462,10 @@ ModelBuild BuildModel(const fs::path& spec_path) {
   const fs::path installed = entry / ("model-" + key.substr(0, 16) + ".so");
   fs::rename(library, installed, ec);
   if (ec) throw InputError(installed.string() + ": cannot install the model (" + ec.message() + ")");
+  // The generated header beside it, under the same key (the GPU kernel compiles its Forward).
+  fs::path header = installed;
+  header.replace_extension(".h");
+  WriteBytes(header, ReadBytes(work.path() / "src" / "generated" / (name + ".h")));
   WriteBytes(entry / "spec.toml", spec_bytes);
   WriteBytes(entry / "build.log",
              ReadBytes(work.path() / "derive.log") + ReadBytes(work.path() / "compile.log"));
