@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <stdexcept>
 
+#include "base/lanes.h"
 #include "vlt/model_info.h"
 
 namespace vlt::generated {
@@ -62,6 +63,18 @@ void ForwardBatch(std::size_t n, [[maybe_unused]] const double* const* readings,
   }
 }
 
+// Forward for kForwardLanes trials at once (vlt/model_info.h ForwardLanesFn): the same template
+// on vlt::base_internal::lanes::Double4, compiled for AVX2 and for the baseline (chosen when the program
+// loads; the same operations, no FMA). Quantity q of lane l at [lanes * q + l].
+VLT_LANES_CLONES
+void ForwardLanes([[maybe_unused]] const double* readings, const double* params, double* out) {
+  using Lanes = vlt::base_internal::lanes::Double4;
+  Lanes r[1], p[3], o[3];
+  for (int k = 0; k < 3; ++k) p[k] = vlt::base_internal::lanes::Load(params + vlt::kForwardLanes * k);
+  model::Forward<Lanes>(r, p, o);
+  for (int q = 0; q < 3; ++q) vlt::base_internal::lanes::Store(out + vlt::kForwardLanes * q, o[q]);
+}
+
 const QuantityInfo kParams[] = {
     {"V", "V", "voltage",
      "Amplitude of the alternating potential difference across the element (GUM H.2.1)",
@@ -106,7 +119,7 @@ const ModelInfo kModel_gum_h2_impedance = {
     &Sensitivity,
     &ForwardBatch,
     nullptr,  // nominal_jacobians_batch
-    nullptr,  // forward_lanes
+    &ForwardLanes,
     &Hessians,
     6,  // ops_forward
     17,  // ops_forward_jacobians

@@ -172,8 +172,14 @@ void ModelEmitter::ChooseBatchKernels() {
   // their own, not libm: a kernel calling them gets no batch (nullptr; the runtime loops).
   nominal_batch = nr > 0 && CallsOnlySinCosSqrt(Usings(nominal.code));
   // The Monte Carlo lanes of Forward (vlt/model_info.h ForwardLanesFn), under the same condition
-  // on Forward's calls: base/lanes.h has sin, cos and sqrt for Double4, nothing else.
-  forward_lanes = nr > 0 && CallsOnlySinCosSqrt(Usings(forward.code));
+  // on Forward's calls: base/lanes.h has sin, cos and sqrt for Double4, nothing else. Tracker
+  // models; custom models (a custom model's lanes hold its inputs only) where Forward calls sin or
+  // cos, so that their Monte Carlo has vlt's own sine and cosine, which the GPU kernel shares
+  // (docs/gpu.md): one of + - * / and sqrt gives the double kernel's bits without lanes.
+  const std::string usings = Usings(forward.code);
+  const bool sin_cos = forward.code.find("SinCos(") != std::string::npos ||
+                       usings.find("std::sin;") != std::string::npos || usings.find("std::cos;") != std::string::npos;
+  forward_lanes = CallsOnlySinCosSqrt(usings) && (nr > 0 || sin_cos);
 }
 
 void ModelEmitter::ListQuantities(const char* title, const std::vector<QuantitySpec>& qs, bool with_u) {
@@ -340,12 +346,15 @@ void ModelEmitter::SourceForwardLanes() {
        "program\n"
        "// loads; the same operations, no FMA). Quantity q of lane l at [lanes * q + l].\n";
   c += "VLT_LANES_CLONES\n";
-  c += "void ForwardLanes(const double* readings, const double* params, double* out) {\n";
+  c += std::string("void ForwardLanes(") + (nr > 0 ? "" : "[[maybe_unused]] ") +
+       "const double* readings, const double* params, double* out) {\n";
   c += "  using Lanes = vlt::base_internal::lanes::Double4;\n";
-  c += "  Lanes r[" + std::to_string(nr) + "], p[" + std::to_string(std::max(np, 1)) + "], o[" +
+  c += "  Lanes r[" + std::to_string(std::max(nr, 1)) + "], p[" + std::to_string(std::max(np, 1)) + "], o[" +
        std::to_string(no) + "];\n";
-  c += "  for (int j = 0; j < " + std::to_string(nr) +
-       "; ++j) r[j] = vlt::base_internal::lanes::Load(readings + " + lanes + " * j);\n";
+  if (nr > 0) {
+    c += "  for (int j = 0; j < " + std::to_string(nr) +
+         "; ++j) r[j] = vlt::base_internal::lanes::Load(readings + " + lanes + " * j);\n";
+  }
   if (np > 0) {
     c += "  for (int k = 0; k < " + std::to_string(np) +
          "; ++k) p[k] = vlt::base_internal::lanes::Load(params + " + lanes + " * k);\n";

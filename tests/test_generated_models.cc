@@ -430,7 +430,8 @@ TEST(GeneratedModels, NominalJacobiansBatchEqualsNominalJacobiansBitForBit) {
 // The Monte Carlo lanes (the template on vlt::base_internal::lanes::Double4, vlt's own sin/cos) against the
 // double kernel: tracker models, both faces, short and long ranges, every error parameter drawn
 // at up to 10x a typical size (1e-4 rad, 1e-4 m), 4 unrelated points per call. Outputs agree to
-// 1e-13 m (a few ulp of coordinates up to 60 m); custom models have no lanes kernel.
+// 1e-13 m (a few ulp of coordinates up to 60 m). Custom models (their lanes kernel since
+// 2026-11-28: CustomModelLanesEqualForward below) are skipped here.
 TEST(GeneratedModels, ForwardLanesEqualsForwardToAFewUlp) {
   constexpr int L = vlt::kForwardLanes;
   std::mt19937_64 rng(12);
@@ -439,10 +440,7 @@ TEST(GeneratedModels, ForwardLanesEqualsForwardToAFewUlp) {
   int trackers = 0;
   double worst = 0.0;
   for (const vlt::ModelInfo* m : vlt::AllModels()) {
-    if (std::string(m->kind) != "tracker") {
-      EXPECT_EQ(m->forward_lanes, nullptr) << m->name;
-      continue;
-    }
+    if (std::string(m->kind) != "tracker") continue;
     ASSERT_NE(m->forward_lanes, nullptr) << m->name;
     ++trackers;
     const int no = m->num_outputs, np = m->num_params;
@@ -469,6 +467,49 @@ TEST(GeneratedModels, ForwardLanesEqualsForwardToAFewUlp) {
   }
   EXPECT_EQ(trackers, 3);  // mirror, head, total_station
   EXPECT_GT(worst, 0.0);   // not libm's sin/cos: the comparison is not vacuous
+}
+
+// The custom models' lanes kernel (what their Monte Carlo runs since 2026-11-28 where Forward calls
+// sin or cos: GUM H.2's impedance; the others, + - * / only, have none) against the double kernel,
+// each input drawn within 5 u of its estimate, the phase over several turns too, 4 unrelated trials
+// per call: within a few ulp (vlt's own sine and cosine there, the C library's here).
+TEST(GeneratedModels, CustomModelLanesEqualForward) {
+  constexpr int L = vlt::kForwardLanes;
+  std::mt19937_64 rng(13);
+  std::uniform_real_distribution<double> within(-5.0, 5.0), turns(-20.0, 20.0);
+  int customs = 0;
+  double worst_sin_cos = 0.0;
+  for (const vlt::ModelInfo* m : vlt::AllModels()) {
+    if (std::string(m->kind) != "custom") continue;
+    const bool sin_cos = std::string(m->name) == "gum_h2_impedance";
+    ++customs;
+    if (!sin_cos) {
+      EXPECT_EQ(m->forward_lanes, nullptr) << m->name;
+      continue;
+    }
+    ASSERT_NE(m->forward_lanes, nullptr) << m->name;
+    const int no = m->num_outputs, np = m->num_params;
+    std::vector<double> p(np * L), out(no * L);
+    for (int call = 0; call < 5000; ++call) {
+      for (int l = 0; l < L; ++l) {
+        for (int k = 0; k < np; ++k) p[L * k + l] = m->params[k].default_estimate + within(rng) * m->params[k].default_u;
+        if (sin_cos && call % 2 == 1) p[L * 2 + l] = turns(rng);  // phi [rad]
+      }
+      m->forward_lanes(nullptr, p.data(), out.data());
+      for (int l = 0; l < L; ++l) {
+        std::vector<double> pi(np), o(no);
+        for (int k = 0; k < np; ++k) pi[k] = p[L * k + l];
+        m->forward(nullptr, pi.data(), o.data());
+        for (int q = 0; q < no; ++q) {
+          const double scale = std::max(std::fabs(o[q]), 1.0);
+          ASSERT_NEAR(out[L * q + l], o[q], 1e-14 * scale) << m->name << " output " << q;
+          worst_sin_cos = std::max(worst_sin_cos, std::fabs(out[L * q + l] - o[q]) / scale);
+        }
+      }
+    }
+  }
+  EXPECT_EQ(customs, 4);  // jcgm101_additive, jcgm101_mass, gum_h1_end_gauge, gum_h2_impedance
+  EXPECT_GT(worst_sin_cos, 0.0);  // not libm's sin/cos: the comparison is not vacuous
 }
 
 TEST(GeneratedModels, RegistrySortedAndConsistent) {

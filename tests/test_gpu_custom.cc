@@ -1,8 +1,7 @@
 // Custom models Y = f(X) on the GPU path (issue 37, docs/gpu.md "What the kernel covers"): the
 // kernel's trials of a custom model are the CPU engine's bit for bit (mcm_internal::CustomTrialValues,
 // the engine's own custom kernel, is the reference), and a custom-model job run with the kernel on
-// the host in place of a GPU writes the CPU run's files byte for byte. A model the kernel does not
-// carry runs on the CPU under "auto" and says why; "gpu" refuses it in one line.
+// the host in place of a GPU writes the CPU run's files byte for byte.
 #include <gtest/gtest.h>
 
 #include <bit>
@@ -32,8 +31,10 @@ std::string ExampleJob(const char* name) {
   return (std::filesystem::path(VLT_SOURCE_DIR) / "examples" / "custom" / name).string();
 }
 
-// JCGM 101 9.2.2's additive model with every input normal (the kernel draws them), and the same with
-// x1 and x2 correlated (r = 0.6) and x3 fixed, so that the CPU draws them through the copula.
+// JCGM 101 9.2.2's additive model with every input normal (the kernel draws them), the same with
+// x1 and x2 correlated (r = 0.6) and x3 fixed, so that the CPU draws them through the copula, and
+// GUM H.2's impedance (its sine and cosine vlt's own on both sides: the CPU engine runs the model's
+// lanes kernel) with its spec's normal inputs, V and phi correlated (r = -0.7) in a second job.
 constexpr const char* kAllNormal = R"(
 [job]
 name = "additive_normal"
@@ -57,13 +58,36 @@ matrix = [[1.0, 0.6], [0.6, 1.0]]
 trials = 20000
 seed = 12
 )";
+constexpr const char* kImpedance = R"(
+[job]
+name = "impedance"
+[model]
+name = "gum_h2_impedance"
+[monte_carlo]
+trials = 20000
+seed = 13
+)";
+constexpr const char* kImpedanceCorrelated = R"(
+[job]
+name = "impedance_correlated"
+[model]
+name = "gum_h2_impedance"
+[correlations.source]
+inputs = ["V", "phi"]
+matrix = [[1.0, -0.7], [-0.7, 1.0]]
+[monte_carlo]
+trials = 20000
+seed = 14
+)";
 
 // The custom jobs of the GPU path: the two above and the examples whose models the kernel carries
 // (rectangular inputs, the mass calibration's buoyancy, GUM H.1's t-distributed inputs and
 // tolerance).
 std::vector<CustomJob> KernelJobs() {
   std::vector<CustomJob> jobs = {ParseCustomJob(kAllNormal, "normal.toml", "."),
-                                 ParseCustomJob(kCorrelated, "correlated.toml", ".")};
+                                 ParseCustomJob(kCorrelated, "correlated.toml", "."),
+                                 ParseCustomJob(kImpedance, "impedance.toml", "."),
+                                 ParseCustomJob(kImpedanceCorrelated, "impedance_correlated.toml", ".")};
   for (const char* name : {"jcgm101_additive_dominant.toml", "jcgm101_additive_rectangular.toml",
                            "jcgm101_mass.toml", "gum_h1_end_gauge.toml"}) {
     jobs.push_back(LoadCustomJob(ExampleJob(name)));
@@ -137,7 +161,7 @@ TEST(GpuCustom, TrialsAreTheCpuEnginesBitForBit) {
     for (int i = 0; i < n; ++i) sq += std::pow(engine[static_cast<std::size_t>(i)] - mean, 2) / (n - 1);
     EXPECT_GT(sq, 0.0);
   }
-  EXPECT_GE(drawn_on_cpu, 3);  // the correlated pair, the rectangular inputs, the mass's densities
+  EXPECT_GE(drawn_on_cpu, 4);  // the correlated pairs, the rectangular inputs, the mass's densities
 }
 
 std::map<std::string, std::string> FilesOf(const CustomResults& r) {
@@ -167,44 +191,11 @@ TEST(GpuCustom, TheSameFilesAsTheCpuWithTheKernelOnTheHost) {
   }
 }
 
-// GUM H.2's impedance model calls sin and cos, which its CPU path takes from the C library: the
-// kernel does not carry it. "auto" runs it on the CPU and says why; "gpu" is one line naming the
-// setting.
-TEST(GpuCustom, AModelTheKernelDoesNotCarryRunsOnTheCpu) {
-  const CustomJob job = ParseCustomJob(R"(
-[job]
-name = "impedance"
-[model]
-name = "gum_h2_impedance"
-[monte_carlo]
-trials = 20000
-)",
-                                       "impedance.toml", ".");
-  gpu_internal::SetBackendForTest(
-      [](const gpu_internal::TrialsJob& trials, std::string*) { return gpu_internal::HostBackend(trials); });
-  RunOptions options;
-  options.trials = 20000;
-  options.device = McmDevice::kAuto;
-  const CustomResults r = RunCustomJob(job, options);
-  const std::string why =
-      "the GPU kernel has no model 'gum_h2_impedance' (of the custom models it carries the built-in ones whose "
-      "equations are + - * / only)";
-  EXPECT_EQ(FilesOf(r)["results.json"].find("\"gpu: host"), std::string::npos);
-  EXPECT_NE(FilesOf(r)["results.json"].find(why), std::string::npos);
-  options.device = McmDevice::kGpu;
-  try {
-    RunCustomJob(job, options);
-    ADD_FAILURE() << "no error";
-  } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()), "command line: --device: \"gpu\": " + why);
-  }
-  gpu_internal::SetBackendForTest(nullptr);
-}
-
 // On a machine with a GPU (scripts/device-check.sh run gpu): the files of custom-model jobs from
 // --device gpu against --device cpu, byte for byte but the lines that say where and how long the
 // trials ran. Jobs given inline (the test runs there from a copy of the tree elsewhere): the normal
-// and correlated additive ones, and JCGM 101 9.3's mass calibration as the model's defaults have it
+// and correlated additive ones, GUM H.2's impedance (sine and cosine), and JCGM 101 9.3's mass
+// calibration as the model's defaults have it
 // (three rectangular inputs: drawn on the CPU). Skipped, with the reason, where no GPU works.
 TEST(GpuCustom, OnARealGpuTheSameFilesAsTheCpu) {
   gpu_internal::TrialsJob probe;
@@ -217,6 +208,7 @@ TEST(GpuCustom, OnARealGpuTheSameFilesAsTheCpu) {
   if (gpu_internal::CudaBackend(probe, &why_not) == nullptr) GTEST_SKIP() << "no GPU: " << why_not;
   const std::vector<CustomJob> jobs = {ParseCustomJob(kAllNormal, "normal.toml", "."),
                                        ParseCustomJob(kCorrelated, "correlated.toml", "."),
+                                       ParseCustomJob(kImpedance, "impedance.toml", "."),
                                        ParseCustomJob("[job]\nname = \"mass\"\n[model]\nname = \"jcgm101_mass\"\n"
                                                       "[monte_carlo]\ntrials = 1000000\nseed = 3\n",
                                                       "mass.toml", ".")};

@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "generated/gum_h2_impedance.h"
 #include "generated/head.h"
 #include "generated/mirror.h"
 #include "base/lanes.h"
@@ -131,6 +132,31 @@ void ExpectForwardIsEveryLane(const char* name, Forward forward) {
       for (int k = 0; k < kParams; ++k) p[k] = params[kForwardLanes * k + l];
       forward(r, p, o);
       for (int a = 0; a < 3; ++a) ASSERT_EQ(Bits(o[a].v), Bits(lanes_out[kForwardLanes * a + l])) << name << " output " << a;
+    }
+  }
+}
+
+// The same for GUM H.2's impedance, a custom model whose Forward calls sin and cos: its inputs near
+// their estimates, the phase also over several turns.
+TEST(GpuKernel, ACustomModelsForwardOnOneLaneIsEveryLaneOfTheEngines) {
+  const ModelInfo* model = FindModel("gum_h2_impedance");
+  ASSERT_NE(model, nullptr);
+  ASSERT_NE(model->forward_lanes, nullptr);
+  std::mt19937_64 draw(8);
+  std::uniform_real_distribution<double> voltage(4.9, 5.1), current(0.0195, 0.0205), phase(-0.01, 0.01), turns(-20, 20);
+  for (int n = 0; n < 5000; ++n) {
+    double params[3 * kForwardLanes], lanes_out[3 * kForwardLanes];
+    for (int l = 0; l < kForwardLanes; ++l) {
+      params[l] = voltage(draw);
+      params[kForwardLanes + l] = current(draw);
+      params[2 * kForwardLanes + l] = n % 2 == 0 ? phase(draw) : turns(draw);
+    }
+    model->forward_lanes(nullptr, params, lanes_out);
+    for (int l = 0; l < kForwardLanes; ++l) {
+      base_internal::portable::Lane r[1], p[3], o[3];
+      for (int k = 0; k < 3; ++k) p[k] = params[kForwardLanes * k + l];
+      gen::gum_h2_impedance::Forward<base_internal::portable::Lane>(r, p, o);
+      for (int a = 0; a < 3; ++a) ASSERT_EQ(Bits(o[a].v), Bits(lanes_out[kForwardLanes * a + l])) << "output " << a;
     }
   }
 }
@@ -396,7 +422,7 @@ TEST(GpuKernel, TrialsAreTheCpuEnginesBitForBit) {
 TEST(GpuKernel, EmbeddedSourcesAreTheFilesTheCpuBuildCompiles) {
   for (const char* name : {"base/portable_math.h", "gpu/point_trials.h", "generated/mirror.h", "generated/head.h",
                            "generated/total_station.h", "generated/jcgm101_additive.h", "generated/jcgm101_mass.h",
-                           "generated/gum_h1_end_gauge.h"}) {
+                           "generated/gum_h1_end_gauge.h", "generated/gum_h2_impedance.h"}) {
     const std::string where = std::string(name).rfind("generated/", 0) == 0 ? "" : "runtime/src/";
     std::ifstream in(std::filesystem::path(VLT_SOURCE_DIR) / (where + name), std::ios::binary);
     ASSERT_TRUE(in) << name;
@@ -409,8 +435,8 @@ TEST(GpuKernel, EmbeddedSourcesAreTheFilesTheCpuBuildCompiles) {
   EXPECT_EQ(source.headers.size(), 4u);
   EXPECT_NE(gpu_internal::PointTrialsSource("jcgm101_mass").main.find("vlt::gen::jcgm101_mass::Forward<S>"),
             std::string::npos);
-  // GUM H.2's impedance calls sin and cos, the C library's on its CPU path: not in the kernel.
-  EXPECT_THROW(gpu_internal::PointTrialsSource("gum_h2_impedance"), std::invalid_argument);
+  // A model vlt does not carry (JCGM 102's polar example is built at run time): no source.
+  EXPECT_THROW(gpu_internal::PointTrialsSource("polar"), std::invalid_argument);
 }
 
 // Runs the compiled kernel (`program`, in `dir`) on `trials` for trials first .. first + n - 1,
@@ -695,14 +721,19 @@ TEST(GpuKernel, ABuiltModelsSourceGivesTheEnginesValues) {
   EXPECT_EQ(handed.job.params_drawn, 1);
   const ModelInfo* phase = BuildTestModel(dir, "gpu_test_phase", "atan2(b, a)", "a + b + c");
   ASSERT_NE(phase, nullptr);
+  const std::string why =
+      "the GPU kernel runs a built model whose equations are + - * / and sqrt only; 'gpu_test_phase' calls atan2 "
+      "(the C library's on the CPU, whose bits a GPU need not have)";
   try {
     RunMcmCustom(*phase, inputs, Eigen::MatrixXd(), settings);
     ADD_FAILURE() << "no error";
   } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()),
-              "test: \"gpu\": the GPU kernel runs a built model whose equations are + - * / and sqrt only; "
-              "'gpu_test_phase' calls atan2 (the C library's on the CPU, whose bits a GPU need not have)");
+    EXPECT_EQ(std::string(e.what()), "test: \"gpu\": " + why);
   }
+  settings.device = McmDevice::kAuto;  // runs on the CPU and says why
+  const McmResult on_cpu = RunMcmCustom(*phase, inputs, Eigen::MatrixXd(), settings);
+  EXPECT_EQ(on_cpu.device, "cpu");
+  EXPECT_EQ(on_cpu.device_note, why);
   gpu_internal::SetBackendForTest(nullptr);
   ::unsetenv("VLT_MODEL_CACHE");
   std::filesystem::remove_all(dir);

@@ -60,7 +60,9 @@ using NominalJacobiansBatchFn = void (*)(const double* readings, double* outputs
 // vlt::base_internal::lanes::Double4 (base/lanes.h), compiled for AVX2 and for the baseline: +, -, *, / and sqrt
 // are ForwardFn's operations lane by lane, sin and cos are vlt's own (within 2.4 ulp, libm's
 // within 1), so a lane may differ from ForwardFn in the last bits, never by more (tests/
-// test_generated_models.cc). Tracker models whose kernel calls only sin, cos and sqrt; nullptr
+// test_generated_models.cc). Tracker models whose Forward calls only sin, cos and sqrt, and (since
+// 2026-11-28) custom models whose Forward calls sin or cos and nothing but sqrt besides (vlt's own
+// sine and cosine in their Monte Carlo, as on the GPU); never a model built at run time; nullptr
 // otherwise (the engine then calls ForwardFn per trial).
 inline constexpr int kForwardLanes = 4;
 using ForwardLanesFn = void (*)(const double* readings, const double* params, double* outputs);
@@ -89,7 +91,7 @@ struct ModelInfo {
   SensitivityFn sensitivity;
   ForwardBatchFn forward_batch;
   NominalJacobiansBatchFn nominal_jacobians_batch;  // tracker models; nullptr for custom models
-  ForwardLanesFn forward_lanes;                     // tracker models; nullptr for custom models
+  ForwardLanesFn forward_lanes;                     // see ForwardLanesFn; else nullptr
   HessiansFn hessians;
   // Operation counts of the emitted kernels after common-subexpression elimination.
   int ops_forward;

@@ -3,6 +3,7 @@
 #include <utility>
 
 #include "generated/gum_h1_end_gauge.h"
+#include "generated/gum_h2_impedance.h"
 #include "generated/head.h"
 #include "generated/jcgm101_additive.h"
 #include "generated/jcgm101_mass.h"
@@ -29,17 +30,20 @@ VLT_KERNEL_MODEL(total_station)
 VLT_KERNEL_MODEL(jcgm101_additive)
 VLT_KERNEL_MODEL(jcgm101_mass)
 VLT_KERNEL_MODEL(gum_h1_end_gauge)
+VLT_KERNEL_MODEL(gum_h2_impedance)
 #undef VLT_KERNEL_MODEL
 
 TrialFn TrialOf(std::string_view model_name) {
   if (model_name == "mirror") return &PointOfTrial<Model_mirror>;
   if (model_name == "head") return &PointOfTrial<Model_head>;
   if (model_name == "total_station") return &PointOfTrial<Model_total_station>;
-  // Custom models whose Forward calls nothing but + - * / (gum_h2_impedance calls sin and cos,
-  // which its CPU path takes from the C library: docs/gpu.md).
+  // The built-in custom models: + - * / only (the CPU engine's double kernel has the same bits),
+  // or, gum_h2_impedance, with a lanes kernel (ModelInfo::forward_lanes), which the CPU engine runs,
+  // so that its sine and cosine are vlt's own on both sides.
   if (model_name == "jcgm101_additive") return &PointOfTrial<Model_jcgm101_additive>;
   if (model_name == "jcgm101_mass") return &PointOfTrial<Model_jcgm101_mass>;
   if (model_name == "gum_h1_end_gauge") return &PointOfTrial<Model_gum_h1_end_gauge>;
+  if (model_name == "gum_h2_impedance") return &PointOfTrial<Model_gum_h2_impedance>;
   return nullptr;
 }
 

@@ -42,6 +42,7 @@ std::string EmbeddedKernelFile(std::string_view include_name) {
   if (include_name == "generated/jcgm101_additive.h") return Joined(kModelJcgm101Additive);
   if (include_name == "generated/jcgm101_mass.h") return Joined(kModelJcgm101Mass);
   if (include_name == "generated/gum_h1_end_gauge.h") return Joined(kModelGumH1EndGauge);
+  if (include_name == "generated/gum_h2_impedance.h") return Joined(kModelGumH2Impedance);
   return "";
 }
 

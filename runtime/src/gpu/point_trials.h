@@ -7,7 +7,9 @@
 //
 // Scope (what the kernel covers; mcm/job.cc and mcm/custom.cc decide, docs/gpu.md): a tracker
 // model with a lanes kernel, the readings' noise normal; or a custom model Y = f(X) (no readings,
-// one "point" of its outputs) whose Forward calls nothing but + - * / and sqrt. The kernel draws the error parameters itself
+// one "point" of its outputs): a built-in one (of + - * / only, or with a lanes kernel, vlt's own
+// sine and cosine, which its CPU engine runs), or one built at run time whose Forward calls nothing
+// but + - * / and sqrt. The kernel draws the error parameters itself
 // where each is independent and normal (or fixed: u = 0); where one is correlated with another
 // input or not normal, the CPU draws them all (the copula and the inverse CDFs call libm, whose
 // bits a GPU's functions need not have) and hands each trial's to the kernel (DrawnParams). The

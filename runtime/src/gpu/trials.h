@@ -36,8 +36,9 @@ class TrialsBackend {
 };
 
 // The generated models the kernel carries: the tracker models with a lanes kernel (mirror, head,
-// total_station) and the custom models whose Forward is + - * / only (jcgm101_additive,
-// jcgm101_mass, gum_h1_end_gauge).
+// total_station) and the built-in custom models (jcgm101_additive, jcgm101_mass,
+// gum_h1_end_gauge: + - * / only; gum_h2_impedance: sin and cos, its CPU engine running its lanes
+// kernel).
 bool KernelHasModel(std::string_view model_name);
 
 // The job's trials: the settings every trial shares, its points (job.num_points of them) and the

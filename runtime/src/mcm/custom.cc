@@ -48,10 +48,10 @@ class CustomKernel final : public mcm_internal::MirroredKernel {
 
   void InitScratch(Scratch& scratch) const override {
     const std::size_t p = static_cast<std::size_t>(model_.num_params);
-    // params SoA | copula scratch | one trial's params | one trial's outputs
-    scratch.doubles.assign(
-        p * kSubBatch + sampler_.scratch_size(kSubBatch) + p + static_cast<std::size_t>(model_.num_outputs),
-        0.0);
+    const std::size_t o = static_cast<std::size_t>(model_.num_outputs);
+    // params SoA | copula scratch | one trial's params | one trial's outputs | params and outputs
+    // of kForwardLanes trials
+    scratch.doubles.assign(p * kSubBatch + sampler_.scratch_size(kSubBatch) + p + o + (p + o) * kForwardLanes, 0.0);
   }
 
   std::vector<double> AtEstimates() const override {
@@ -68,6 +68,9 @@ class CustomKernel final : public mcm_internal::MirroredKernel {
     double* soa = scratch.doubles.data();
     double* copula = soa + static_cast<std::size_t>(np) * kSubBatch;
     sampler_.Draw(rng, first, n, soa, kSubBatch, copula);
+    double* x = copula + sampler_.scratch_size(kSubBatch);
+    double* y = x + np;
+    if (model_.forward_lanes != nullptr) return RunLanes(soa, n, y + no, outputs);
     if (model_.forward_batch != nullptr) {
       const double* params[64];
       double* outs[64];
@@ -78,12 +81,29 @@ class CustomKernel final : public mcm_internal::MirroredKernel {
         return;
       }
     }
-    double* x = copula + sampler_.scratch_size(kSubBatch);
-    double* y = x + np;
     for (int i = 0; i < n; ++i) {
       for (int k = 0; k < np; ++k) x[k] = soa[static_cast<std::size_t>(k) * kSubBatch + i];
       model_.forward(nullptr, x, y);
       for (int o = 0; o < no; ++o) outputs[static_cast<std::size_t>(o) * kSubBatch + i] = y[o];
+    }
+  }
+
+  // kForwardLanes trials at a time through the model's SIMD kernel (base/lanes.h: vlt's own sine
+  // and cosine, whose bits the GPU kernel's lane shares; + - * / and sqrt as the double kernel's),
+  // the last group padded with the sub-batch's last trial, whose extra results are dropped (each
+  // lane is computed on its own). soa: the drawn inputs; lanes: (params + outputs) kForwardLanes.
+  void RunLanes(const double* soa, int n, double* lanes, double* outputs) const {
+    constexpr int kL = kForwardLanes;
+    const int np = model_.num_params, no = model_.num_outputs;
+    double* p = lanes;
+    double* y = lanes + static_cast<std::size_t>(np) * kL;
+    for (int i = 0; i < n; i += kL) {
+      for (int k = 0; k < np; ++k) {
+        for (int l = 0; l < kL; ++l) p[kL * k + l] = soa[static_cast<std::size_t>(k) * kSubBatch + std::min(i + l, n - 1)];
+      }
+      model_.forward_lanes(nullptr, p, y);
+      const int kept = std::min(kL, n - i);
+      for (int o = 0; o < no; ++o) std::copy(y + kL * o, y + kL * o + kept, outputs + static_cast<std::size_t>(o) * kSubBatch + i);
     }
   }
 
@@ -180,8 +200,7 @@ std::optional<gpu_internal::TrialsJob> CustomKernelJob(const ModelInfo& model, c
     source = BuiltModelKernelSource(model, why_not);
     if (source.empty()) return std::nullopt;
   } else if (!gpu_internal::KernelHasModel(model.name)) {
-    return refuse(std::string("the GPU kernel has no model '") + model.name +
-                  "' (of the custom models it carries the built-in ones whose equations are + - * / only)");
+    return refuse(std::string("the GPU kernel has no model '") + model.name + "'");
   }
   if (model.num_params > gpu_internal::kMaxParams || model.num_outputs > gpu_internal::kMaxOutputs) {
     return refuse("the GPU kernel takes at most " + std::to_string(gpu_internal::kMaxParams) + " inputs and " +
