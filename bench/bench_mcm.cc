@@ -19,6 +19,7 @@
 //                                         threads preparing the blocks and doing the statistics
 // Wall-clock time (UseRealTime): the engine runs its own threads.
 #include <array>
+#include <chrono>
 #include <cstdint>
 #include <algorithm>
 #include <memory>
@@ -32,6 +33,7 @@
 #include "bench_kernels.h"
 #include "gpu/trials.h"
 #include "mcm/engine.h"
+#include "mcm/gpu_run.h"
 #include "mcm/random.h"
 #include "vlt/gum.h"
 #include "vlt/mcm.h"
@@ -167,12 +169,16 @@ void BM_GpuPrepare(benchmark::State& state, bool air, bool drawn) {
 }
 
 // A device that costs nothing: each block's values copied from the CPU engine's values of the
-// run's trials (zeros past them), so that a GPU path run shows what the CPU's part costs.
+// run's trials (zeros past them), so that a GPU path run shows what the CPU's part costs. With
+// `modelled`, each block also takes the time a GPU would, waiting (not computing) for it: the
+// trials at 4·10^8 a second (the CuPy port on an H200) and the values back at 20 GB/s
+// (PCIe, pageable memory) — a model, not a measurement, for what overlapping that time is worth.
 class ReplayDevice final : public gpu_internal::TrialsBackend {
  public:
-  ReplayDevice(std::shared_ptr<const std::vector<double>> values, std::int64_t trials, int outputs)
-      : values_(std::move(values)), trials_(trials), outputs_(outputs) {}
+  ReplayDevice(std::shared_ptr<const std::vector<double>> values, std::int64_t trials, int outputs, bool modelled)
+      : values_(std::move(values)), trials_(trials), outputs_(outputs), modelled_(modelled) {}
   void Compute(std::uint64_t first, int n, const gpu_internal::PreparedTrials&, double* values) override {
+    const auto start = std::chrono::steady_clock::now();
     const std::int64_t begin = static_cast<std::int64_t>(first);
     const std::int64_t kept = std::clamp<std::int64_t>(trials_ - begin, 0, n);
     for (int o = 0; o < outputs_; ++o) {
@@ -181,6 +187,10 @@ class ReplayDevice final : public gpu_internal::TrialsBackend {
       std::copy(from, from + kept, to);
       std::fill(to + kept, to + n, 0.0);
     }
+    if (modelled_) {
+      const double seconds = n / 4e8 + static_cast<double>(n) * outputs_ * 8.0 / 20e9;
+      std::this_thread::sleep_until(start + std::chrono::duration<double>(seconds));
+    }
   }
   std::string Description() const override { return "replay"; }
 
@@ -188,10 +198,16 @@ class ReplayDevice final : public gpu_internal::TrialsBackend {
   std::shared_ptr<const std::vector<double>> values_;
   std::int64_t trials_;
   int outputs_;
+  bool modelled_;
 };
 
-void BM_GpuPathAir(benchmark::State& state, std::int64_t trials, int threads) {
-  const MeasurementModel model(TrackerSetup("mirror", true));
+// A one-point mirror job through the GPU path with the ReplayDevice: with the air (the CPU prepares
+// each trial's stages), or plain (nothing prepared: the device's values copied out, and every
+// statistic of the run — the rate of the CPU's part of the one-point job on a GPU);
+// `modelled`: the device takes a GPU's time (ReplayDevice), with the next block computed while the
+// engine uses this one (`ahead`, mcm/gpu_run.h AllowComputingAhead) or not.
+void BM_GpuPath(benchmark::State& state, bool air, std::int64_t trials, int threads, bool modelled, bool ahead) {
+  const MeasurementModel model(TrackerSetup("mirror", air));
   McmJob job;
   job.model = &model;
   job.points.push_back({"P", ReadingsForPartPoint(model, Eigen::Vector3d(5.0, 0.25, -0.8))});
@@ -199,14 +215,16 @@ void BM_GpuPathAir(benchmark::State& state, std::int64_t trials, int threads) {
   settings.device = McmDevice::kGpu;
   const auto values = std::make_shared<const std::vector<double>>(
       mcm_internal::JobTrialValues(job, settings.seed, 0, static_cast<int>(trials)));
-  gpu_internal::SetBackendForTest([values, trials](const gpu_internal::TrialsJob& kernel, std::string*) {
-    return std::make_unique<ReplayDevice>(values, trials, 3 * kernel.job.num_points);
+  gpu_internal::SetBackendForTest([values, trials, modelled](const gpu_internal::TrialsJob& kernel, std::string*) {
+    return std::make_unique<ReplayDevice>(values, trials, 3 * kernel.job.num_points, modelled);
   });
+  mcm_internal::AllowComputingAhead(ahead);
   McmResult result;
   for (auto _ : state) {
     result = RunMcm(job, settings);
     benchmark::DoNotOptimize(result.outputs.data());
   }
+  mcm_internal::AllowComputingAhead(true);
   gpu_internal::SetBackendForTest(nullptr);
   if (result.device != "gpu: replay") state.SkipWithError(("ran on " + result.device).c_str());
   state.SetItemsProcessed(state.iterations() * trials);
@@ -256,11 +274,24 @@ const bool kRegistered = [] {
   RegisterBenchmark("mcm/gpu_prepare/both", BM_GpuPrepare, true, true)->UseRealTime()->Unit(benchmark::kMillisecond);
   for (int threads : {1, 2, 4, 8, 16}) {
     if (threads > std::max(cores, 1)) break;
-    RegisterBenchmark(("mcm/gpu_path/air/M:1048576/threads:" + std::to_string(threads)).c_str(), BM_GpuPathAir,
-                      std::int64_t{1} << 20, threads)
+    const std::string t = "/threads:" + std::to_string(threads);
+    RegisterBenchmark(("mcm/gpu_path/air/M:1048576" + t).c_str(), BM_GpuPath, true, std::int64_t{1} << 20, threads,
+                      false, true)
         ->UseRealTime()
         ->Iterations(3)
         ->Unit(benchmark::kMillisecond);
+    RegisterBenchmark(("mcm/gpu_path/plain/M:4194304" + t).c_str(), BM_GpuPath, false, std::int64_t{1} << 22,
+                      threads, false, true)
+        ->UseRealTime()
+        ->Iterations(3)
+        ->Unit(benchmark::kMillisecond);
+    for (const bool ahead : {false, true}) {
+      RegisterBenchmark(("mcm/gpu_path/plain_modelled/M:4194304" + t + (ahead ? "/ahead" : "/one_at_a_time")).c_str(),
+                        BM_GpuPath, false, std::int64_t{1} << 22, threads, true, ahead)
+          ->UseRealTime()
+          ->Iterations(3)
+          ->Unit(benchmark::kMillisecond);
+    }
   }
   return true;
 }();

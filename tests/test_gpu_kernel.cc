@@ -9,6 +9,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <bit>
 #include <cstdlib>
@@ -16,6 +17,7 @@
 #include <cstdint>
 #include <limits>
 #include <map>
+#include <mutex>
 #include <span>
 #include <sstream>
 #include <random>
@@ -988,6 +990,71 @@ TEST(GpuPath, BlocksPreparedBySeveralThreadsGiveTheSameFiles) {
     }
   }
   gpu_internal::SetBackendForTest(nullptr);
+}
+
+// The host backend, recording the first trial of each block it computes (the run-time check's
+// trials 0 .. 63 apart).
+class RecordsBlocks final : public gpu_internal::TrialsBackend {
+ public:
+  RecordsBlocks(const gpu_internal::TrialsJob& trials, std::vector<std::pair<std::uint64_t, int>>* blocks,
+                std::mutex* mutex)
+      : host_(gpu_internal::HostBackend(trials)), blocks_(blocks), mutex_(mutex) {}
+  void Compute(std::uint64_t first, int n, const gpu_internal::PreparedTrials& prepared, double* values) override {
+    {
+      const std::lock_guard<std::mutex> lock(*mutex_);
+      blocks_->emplace_back(first, n);
+    }
+    host_->Compute(first, n, prepared, values);
+  }
+  std::string Description() const override { return "host, recording"; }
+
+ private:
+  std::unique_ptr<gpu_internal::TrialsBackend> host_;
+  std::vector<std::pair<std::uint64_t, int>>* blocks_;
+  std::mutex* mutex_;
+};
+
+// A thread that would wait for a block another thread computes hands the device the next one
+// instead (mcm/gpu_run.cc GpuTrialKernel::Ahead): on 1, 2, 3 and 16 threads, with a fixed M not a
+// multiple of the block, every block is computed exactly once, none past M, and the files are the
+// CPU's, byte for byte; with the run-time check's 64 trials first.
+TEST(GpuPath, BlocksComputedAheadAreEachComputedOnceAndNonePastM) {
+  Job job = ParseJob(kGpuJob, "gpu.toml", ".");
+  job.map.reset();
+  RunOptions cpu;
+  cpu.threads = 1;
+  cpu.trials = 70000;  // blocks of max(4096, M / 8) = 8750 trials: 8 blocks
+  cpu.device = McmDevice::kCpu;
+  const std::map<std::string, std::string> on_cpu = FilesOf(RunJob(job, cpu));
+  for (int threads : {1, 2, 3, 16}) {
+    SCOPED_TRACE(::testing::Message() << threads << " thread(s)");
+    std::vector<std::pair<std::uint64_t, int>> blocks;
+    std::mutex mutex;
+    gpu_internal::SetBackendForTest([&](const gpu_internal::TrialsJob& trials, std::string*) {
+      return std::unique_ptr<gpu_internal::TrialsBackend>(std::make_unique<RecordsBlocks>(trials, &blocks, &mutex));
+    });
+    RunOptions gpu = cpu;
+    gpu.threads = threads;
+    gpu.device = McmDevice::kGpu;
+    const Results r = RunJob(job, gpu);
+    gpu_internal::SetBackendForTest(nullptr);
+    EXPECT_EQ(r.mcm.device, "gpu: host, recording");
+    ASSERT_FALSE(blocks.empty());
+    EXPECT_EQ(blocks.front(), (std::pair<std::uint64_t, int>{0, 64}));  // the run-time check
+    std::vector<std::uint64_t> firsts;
+    for (std::size_t b = 1; b < blocks.size(); ++b) {
+      EXPECT_EQ(blocks[b].second, 8750);
+      firsts.push_back(blocks[b].first);
+    }
+    std::sort(firsts.begin(), firsts.end());
+    std::vector<std::uint64_t> expected;
+    for (std::uint64_t first = 0; first < 70000; first += 8750) expected.push_back(first);
+    EXPECT_EQ(firsts, expected);
+    const std::map<std::string, std::string> on_gpu = FilesOf(r);
+    for (const char* name : {"points.csv", "points.jsonl", "budget.csv", "tasks.csv"}) {
+      EXPECT_TRUE(on_cpu.at(name) == on_gpu.at(name)) << name << " differs";
+    }
+  }
 }
 
 // A device that fails at its third block (its first call is the run-time check): under "auto" the

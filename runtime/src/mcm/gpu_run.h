@@ -68,8 +68,27 @@ class GpuTrialKernel final : public TrialKernel {
     std::int64_t left = 0;                           // trials not yet copied out
   };
 
+  // A block's entry as a thread finds it: the promise of its values where this thread created the
+  // entry (and so computes the block).
+  struct Claim {
+    std::shared_future<Values> values;
+    std::shared_ptr<SharedPreparation> preparation;
+    std::optional<std::promise<Values>> promise;
+  };
+
+  // Copies trials first .. first + n - 1 out of their blocks; false when some of them had stages
+  // the CPU could not prepare (their blocks' trials are counted as copied out all the same).
   bool CopyFromBlocks(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch, double* outputs) const;
+  // Block `index`'s values (values[o * block_ + i]), computed once, one block at a time on the
+  // device; what the CPU prepares for it shared by every thread that needs the block
+  // (SharedPreparation, each in its own scratch) before the thread that computes it hands it over.
   Values Block(std::int64_t index, const KeyedStream& rng, Scratch& scratch) const;
+  // Block `index`'s entry, created (with the promise) where there is none.
+  Claim ClaimBlock(std::int64_t index) const;
+  // Helps prepare the claimed block and, where this thread created it, computes it.
+  void Serve(std::int64_t index, Claim& claim, const KeyedStream& rng, Scratch& scratch) const;
+  // Block `index` claimed and served ahead of need, by a thread that would otherwise wait.
+  void Ahead(std::int64_t index, const KeyedStream& rng, Scratch& scratch) const;
   Values Compute(std::int64_t index, SharedPreparation* preparation) const;
   void CopiedOut(std::int64_t index, int count) const;
   void Fail(const std::string& why) const;
@@ -79,6 +98,7 @@ class GpuTrialKernel final : public TrialKernel {
   std::unique_ptr<gpu_internal::TrialsBackend> backend_;
   What what_;
   bool fall_back_;
+  std::int64_t trials_;  // the run's M; 0: adaptive
   std::int64_t block_ = kSubBatch;
   mutable std::mutex mutex_;
   mutable std::mutex compute_mutex_;
@@ -103,6 +123,10 @@ CpuTrialInputs CpuPreparedInputs(const MirroredKernel& kernel, std::uint64_t see
 // driver or compiler that breaks the bits is not used).
 std::unique_ptr<GpuTrialKernel> GpuKernelFor(const MirroredKernel& cpu, const std::optional<gpu_internal::TrialsJob>& trials,
                                              std::string why_not, const McmSettings& settings, McmResult& result);
+
+// Whether a thread that would wait for a block another computes hands the device the next block
+// instead (GpuTrialKernel::Ahead; the default). Benchmarks turn it off to measure what it gains.
+void AllowComputingAhead(bool allow);
 
 // result.device and device_note after a run on `gpu` (nullptr: the CPU; the note GpuKernelFor
 // left is kept).
