@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <sstream>
 #include <string>
@@ -31,7 +32,8 @@ std::string ExampleJob(const char* name) {
   return (std::filesystem::path(VLT_SOURCE_DIR) / "examples" / "custom" / name).string();
 }
 
-// JCGM 101 9.2.2's additive model with every input normal (the kernel draws them), the same with
+// JCGM 101 9.2.2's additive model with every input normal but one fixed rectangular (u = 0: its
+// estimate; the kernel draws them), the same with
 // x1 and x2 correlated (r = 0.6) and x3 fixed, so that the CPU draws them through the copula, and
 // GUM H.2's impedance (its sine and cosine vlt's own on both sides: the CPU engine runs the model's
 // lanes kernel) with its spec's normal inputs, V and phi correlated (r = -0.7) in a second job.
@@ -40,6 +42,9 @@ constexpr const char* kAllNormal = R"(
 name = "additive_normal"
 [model]
 name = "jcgm101_additive"
+[inputs.x4]
+u = 0
+distribution = "rectangular"
 [monte_carlo]
 trials = 20000
 seed = 11
@@ -80,14 +85,44 @@ trials = 20000
 seed = 14
 )";
 
-// The custom jobs of the GPU path: the two above and the examples whose models the kernel carries
-// (rectangular inputs, the mass calibration's buoyancy, GUM H.1's t-distributed inputs and
-// tolerance).
+// GUM H.2's impedance from 7 simultaneous observations of V, I and phi (JCGM 102 6.5.3: one
+// multivariate t of nu = n - N = 4 over the three, drawn on the CPU), in dir.
+CustomJob ImpedanceFromObservations() {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "vlt-gpu-custom";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "observations.csv") << "V,I_amp,phi\n5.007,0.019663,1.0456\n4.994,0.019639,1.0438\n"
+                                             "5.005,0.019640,1.0468\n4.990,0.019685,1.0428\n4.999,0.019678,1.0433\n"
+                                             "5.003,0.019660,1.0450\n4.996,0.019655,1.0441\n";
+  return ParseCustomJob(R"(
+[job]
+name = "impedance_observed"
+[model]
+name = "gum_h2_impedance"
+[observations]
+file = "observations.csv"
+simultaneous = true
+[inputs.V]
+observations = "V"
+[inputs.I_amp]
+observations = "I_amp"
+[inputs.phi]
+observations = "phi"
+[monte_carlo]
+trials = 20000
+seed = 15
+)",
+                        "impedance_observed.toml", dir);
+}
+
+// The custom jobs of the GPU path: the four above, the observed impedance and the examples whose
+// models the kernel carries (rectangular inputs, the mass calibration's buoyancy, GUM H.1's
+// t-distributed inputs and tolerance).
 std::vector<CustomJob> KernelJobs() {
   std::vector<CustomJob> jobs = {ParseCustomJob(kAllNormal, "normal.toml", "."),
                                  ParseCustomJob(kCorrelated, "correlated.toml", "."),
                                  ParseCustomJob(kImpedance, "impedance.toml", "."),
-                                 ParseCustomJob(kImpedanceCorrelated, "impedance_correlated.toml", ".")};
+                                 ParseCustomJob(kImpedanceCorrelated, "impedance_correlated.toml", "."),
+                                 ImpedanceFromObservations()};
   for (const char* name : {"jcgm101_additive_dominant.toml", "jcgm101_additive_rectangular.toml",
                            "jcgm101_mass.toml", "gum_h1_end_gauge.toml"}) {
     jobs.push_back(LoadCustomJob(ExampleJob(name)));
@@ -162,6 +197,7 @@ TEST(GpuCustom, TrialsAreTheCpuEnginesBitForBit) {
     EXPECT_GT(sq, 0.0);
   }
   EXPECT_GE(drawn_on_cpu, 4);  // the correlated pairs, the rectangular inputs, the mass's densities
+  EXPECT_FALSE(ImpedanceFromObservations().simultaneous.empty());
 }
 
 std::map<std::string, std::string> FilesOf(const CustomResults& r) {
@@ -182,7 +218,16 @@ TEST(GpuCustom, TheSameFilesAsTheCpuWithTheKernelOnTheHost) {
     const CustomResults on_cpu = RunCustomJob(job, cpu);
     RunOptions gpu = cpu;
     gpu.device = McmDevice::kGpu;
-    const CustomResults on_gpu = test::WithTheKernelOnTheHost([&] { return RunCustomJob(job, gpu); });
+    // The host backend, recording what the custom Monte Carlo hands it: who draws the inputs is
+    // decided as KernelDrawsTheInputs decides it here.
+    int params_drawn = -1;
+    gpu_internal::SetBackendForTest([&params_drawn](const gpu_internal::TrialsJob& trials, std::string*) {
+      params_drawn = trials.job.params_drawn;
+      return gpu_internal::HostBackend(trials);
+    });
+    const CustomResults on_gpu = RunCustomJob(job, gpu);
+    gpu_internal::SetBackendForTest(nullptr);
+    EXPECT_EQ(params_drawn, KernelDrawsTheInputs(job) ? 0 : 1);
     ASSERT_TRUE(on_cpu.has_mcm && on_gpu.has_mcm);
     std::map<std::string, std::string> a = FilesOf(on_cpu), b = FilesOf(on_gpu);
     test::ExpectTheSameFilesButTheRunLines(a, b);

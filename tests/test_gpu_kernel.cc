@@ -445,7 +445,8 @@ TEST(GpuKernel, EmbeddedSourcesAreTheFilesTheCpuBuildCompiles) {
 // with what the CPU prepared for them (`inputs`), and compares its values with the CPU engine's.
 void ExpectProgramGivesTheEngines(const std::filesystem::path& dir, const std::string& program,
                                   const gpu_internal::TrialsJob& trials, const mcm_internal::CpuTrialInputs& inputs,
-                                  std::int64_t first, int n, const std::vector<double>& engine) {
+                                  std::int64_t first, int n, const std::vector<double>& engine,
+                                  std::size_t marked = 0) {
   const gpu_internal::PointTrialsJob& kernel = trials.job;
   const std::vector<gpu_internal::TrialPoint>& points = trials.points;
   {
@@ -464,9 +465,13 @@ void ExpectProgramGivesTheEngines(const std::filesystem::path& dir, const std::s
   std::vector<double> values(engine.size());
   out.read(reinterpret_cast<char*>(values.data()), static_cast<std::streamsize>(values.size() * sizeof(double)));
   ASSERT_EQ(out.gcount(), static_cast<std::streamsize>(values.size() * sizeof(double)));
+  // The first `marked` values NaN (the kernel's mark: the CPU computes them), the others the
+  // engine's bits.
   int differing = 0;
-  for (std::size_t v = 0; v < values.size(); ++v) differing += Bits(values[v]) != Bits(engine[v]);
-  EXPECT_EQ(differing, 0) << "of " << values.size() << " values";
+  for (std::size_t v = 0; v < values.size(); ++v) {
+    differing += v < marked ? values[v] == values[v] : Bits(values[v]) != Bits(engine[v]);
+  }
+  EXPECT_EQ(differing, 0) << "of " << values.size() << " values, " << marked << " marked";
 }
 
 // The same on a two-point mirror job with the stages and parameters `with` says.
@@ -493,7 +498,7 @@ void ExpectCompiledKernelIsTheEngine(const std::filesystem::path& dir, const std
 // kernel (`kernel_draws`: each normal or fixed, none correlated) or by the CPU.
 void ExpectCompiledCustomKernelIsTheEngine(const std::filesystem::path& dir, const std::string& program,
                                            const ModelInfo& model, const std::vector<UncertainInput>& inputs,
-                                           bool kernel_draws) {
+                                           bool kernel_draws, int marked_outputs = 0) {
   const Eigen::MatrixXd independent;
   const std::uint64_t seed = 20080101;
   const std::int64_t first = 4'099;
@@ -516,7 +521,8 @@ void ExpectCompiledCustomKernelIsTheEngine(const std::filesystem::path& dir, con
   const mcm_internal::CpuTrialInputs drawn = mcm_internal::CustomTrialInputs(
       model, inputs, independent, seed, first, n, mcm_internal::CpuTrialInputs::For(trials.job));
   ASSERT_EQ(drawn.params.size(), kernel_draws ? 0u : static_cast<std::size_t>(model.num_params) * n);
-  ExpectProgramGivesTheEngines(dir, program, trials, drawn, first, n, engine);
+  ExpectProgramGivesTheEngines(dir, program, trials, drawn, first, n, engine,
+                               static_cast<std::size_t>(marked_outputs) * static_cast<std::size_t>(n));
 }
 
 // JCGM 101 9.3's mass calibration, its inputs all normal (drawn by the kernel) or, as the example
@@ -576,15 +582,15 @@ int main(int argc, char** argv) {
 // out as files in dir/<model>/ — main file and headers but NVRTC's <cmath> (the host has its own)
 // — and the harness (WriteHarness) compiled with it by the host compiler; the program's path.
 std::string CompiledKernel(const std::filesystem::path& dir, const std::string& model,
-                           const std::string& model_source = "") {
-  const std::filesystem::path model_dir = dir / model;
+                           const std::string& model_source = "", const std::string& flags = "") {
+  const std::filesystem::path model_dir = dir / (model + (flags.empty() ? "" : "-flagged"));
   const gpu_internal::KernelSource source = gpu_internal::PointTrialsSource(model, model_source);
   for (const auto& [name, text] : source.headers) {
     if (name != "cmath") WriteFile(model_dir / "include" / name, text);
   }
   WriteFile(model_dir / "vlt_point_trials.cu", source.main);
   const std::string program = (model_dir / "harness").string();
-  const std::string command = std::string(VLT_TEST_CXX) + " -std=c++17 -O2 -ffp-contract=off -I" +
+  const std::string command = std::string(VLT_TEST_CXX) + " -std=c++17 -O2 -ffp-contract=off " + flags + " -I" +
                               (model_dir / "include").string() + " -I" + model_dir.string() + " " +
                               (dir / "harness.cc").string() + " -o " + program;
   EXPECT_EQ(std::system(command.c_str()), 0) << command;
@@ -610,6 +616,27 @@ TEST(GpuKernel, TheKernelSourceCompiledAsCppGivesTheEnginesValues) {
     SCOPED_TRACE(::testing::Message() << "jcgm101_mass, inputs drawn on the CPU " << !normal);
     ExpectCompiledCustomKernelIsTheEngine(dir, mass, *FindModel("jcgm101_mass"), MassInputs(normal), normal);
   }
+  std::filesystem::remove_all(dir);
+}
+
+// Beyond its reduction's range (|x| > 2^19 rad) the kernel's sine and cosine would be the device's,
+// whose bits need not be libm's: there the kernel marks the value NaN, for the CPU to compute
+// (base/portable_math.h SinCos, mcm/gpu_run.cc). GUM H.2's impedance compiled as the device runs it
+// (VLT_PORTABLE_MARKS_UNREDUCED): with its phase near 1 rad every value is the engine's; with the
+// phase at 10^6 rad its resistance and reactance (the outputs through sin and cos) are marked in
+// every trial and its modulus |Z| = V / I is the engine's.
+TEST(GpuKernel, BeyondItsReductionTheKernelMarksTheTrialForTheCpu) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("vlt-marks-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  WriteHarness(dir);
+  const std::string program = CompiledKernel(dir, "gum_h2_impedance", "", "-DVLT_PORTABLE_MARKS_UNREDUCED=1");
+  const ModelInfo& model = *FindModel("gum_h2_impedance");
+  std::vector<UncertainInput> inputs = {Input("V", 4.999, 0.0032), Input("I_amp", 0.019661, 0.0095e-3),
+                                        Input("phi", 1.04446, 0.00075)};
+  ExpectCompiledCustomKernelIsTheEngine(dir, program, model, inputs, true);
+  inputs[2].estimate = 1e6;
+  ExpectCompiledCustomKernelIsTheEngine(dir, program, model, inputs, true, 2);
   std::filesystem::remove_all(dir);
 }
 
@@ -689,6 +716,14 @@ TEST(GpuKernel, ABuiltModelsSourceGivesTheEnginesValues) {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   ::setenv("VLT_MODEL_CACHE", (dir / "cache").c_str(), 1);
+  struct Restore {  // also where an ASSERT returns early
+    std::filesystem::path dir;
+    ~Restore() {
+      gpu_internal::SetBackendForTest(nullptr);
+      ::unsetenv("VLT_MODEL_CACHE");
+      std::filesystem::remove_all(dir);
+    }
+  } restore{dir};
   const ModelInfo* ratio = BuildTestModel(dir, "gpu_test_ratio", "a*b/c - a", "sqrt(a^2 + b^2 + c)");
   ASSERT_NE(ratio, nullptr);
   const std::string source = BuiltModelSource(*ratio);
@@ -736,9 +771,6 @@ TEST(GpuKernel, ABuiltModelsSourceGivesTheEnginesValues) {
   const McmResult on_cpu = RunMcmCustom(*phase, inputs, Eigen::MatrixXd(), settings);
   EXPECT_EQ(on_cpu.device, "cpu");
   EXPECT_EQ(on_cpu.device_note, why);
-  gpu_internal::SetBackendForTest(nullptr);
-  ::unsetenv("VLT_MODEL_CACHE");
-  std::filesystem::remove_all(dir);
 }
 
 
@@ -987,6 +1019,52 @@ TEST(GpuPath, BlocksPreparedBySeveralThreadsGiveTheSameFiles) {
     std::map<std::string, std::string> on_gpu = FilesOf(r);
     for (const char* name : {"points.csv", "points.jsonl", "budget.csv", "tasks.csv"}) {
       EXPECT_TRUE(on_cpu.at(name) == on_gpu[name]) << name << " differs";
+    }
+  }
+  gpu_internal::SetBackendForTest(nullptr);
+}
+
+// The host backend, its values of every 97th trial NaN: what the kernel gives where it cannot
+// promise the CPU's bits (beyond SinCos's reduction).
+class MarksSomeTrials final : public gpu_internal::TrialsBackend {
+ public:
+  explicit MarksSomeTrials(const gpu_internal::TrialsJob& trials)
+      : host_(gpu_internal::HostBackend(trials)), outputs_(trials.job.outputs_per_point * trials.job.num_points) {}
+  void Compute(std::uint64_t first, int n, const gpu_internal::PreparedTrials& prepared, double* values) override {
+    host_->Compute(first, n, prepared, values);
+    for (int i = 0; i < n; ++i) {
+      if ((first + static_cast<std::uint64_t>(i)) % 97 != 0) continue;
+      for (int o = 0; o < outputs_; ++o) values[static_cast<std::size_t>(o) * n + i] = std::nan("");
+    }
+  }
+  std::string Description() const override { return "host, marking"; }
+
+ private:
+  std::unique_ptr<gpu_internal::TrialsBackend> host_;
+  int outputs_;
+};
+
+// Trials the device marked NaN are computed by the CPU: the run is on the GPU (the run-time check
+// skips the marked values) and its files are the CPU's, byte for byte, on 1 and 3 threads.
+TEST(GpuPath, TrialsTheDeviceMarkedAreTheCpus) {
+  Job job = ParseJob(kGpuJob, "gpu.toml", ".");
+  job.map.reset();
+  RunOptions cpu;
+  cpu.trials = 30000;
+  cpu.device = McmDevice::kCpu;
+  const std::map<std::string, std::string> on_cpu = FilesOf(RunJob(job, cpu));
+  gpu_internal::SetBackendForTest([](const gpu_internal::TrialsJob& trials, std::string*) {
+    return std::unique_ptr<gpu_internal::TrialsBackend>(std::make_unique<MarksSomeTrials>(trials));
+  });
+  for (int threads : {1, 3}) {
+    RunOptions gpu = cpu;
+    gpu.threads = threads;
+    gpu.device = McmDevice::kGpu;
+    const Results r = RunJob(job, gpu);
+    EXPECT_EQ(r.mcm.device, "gpu: host, marking");
+    const std::map<std::string, std::string> on_gpu = FilesOf(r);
+    for (const char* name : {"points.csv", "points.jsonl", "budget.csv", "tasks.csv"}) {
+      EXPECT_TRUE(on_cpu.at(name) == on_gpu.at(name)) << name << " differs on " << threads << " thread(s)";
     }
   }
   gpu_internal::SetBackendForTest(nullptr);

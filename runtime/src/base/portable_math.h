@@ -8,6 +8,15 @@
 // --fmad=false for NVRTC).
 #pragma once
 
+// VLT_PORTABLE_MARKS_UNREDUCED: SinCos beyond its reduction's range gives NaN, the mark that the
+// CPU computes the trial (see SinCos). On the device always; on the host where a test compiles the
+// kernel source as the device would run it.
+#if defined(__CUDACC_RTC__) || defined(__CUDACC__)
+#define VLT_PORTABLE_MARKS_UNREDUCED 1
+#elif !defined(VLT_PORTABLE_MARKS_UNREDUCED)
+#define VLT_PORTABLE_MARKS_UNREDUCED 0
+#endif
+
 #if defined(__CUDACC_RTC__) || defined(__CUDACC__)
 #define VLT_PORTABLE __device__ __forceinline__
 #define VLT_PORTABLE_DEVICE 1
@@ -96,8 +105,9 @@ inline constexpr double kRoundingShift = 0x1.8p52;
 // lane and this give the same bits; tests/test_lanes.cc): for |x| <= kSmallAngle SinCosSmall;
 // else k = nearest integer to x 2/pi, r = x - k pi/2 in three parts, the Taylor series on
 // |r| <= pi/4, the quadrant k mod 4 by exact selects and sign flips. Beyond kSinCosReduced, and
-// for infinities and NaN, libm's (the device's on a GPU: there the bits may differ, which no model
-// input reaches: angles and offsets of a tracker are far below 2^19 rad).
+// for infinities and NaN, libm's on the CPU; on a GPU, whose sin and cos need not have libm's
+// bits there, NaN: the mark that the CPU computes that trial instead (mcm/gpu_run.cc; the angles
+// and offsets of a tracker are far below 2^19 rad, a custom model's inputs need not be).
 VLT_PORTABLE void SinCos(double x_in, double* sine, double* cosine) {
   const double x_abs = DoubleFromBits(BitsOfDouble(x_in) & 0x7FFFFFFFFFFFFFFFull);
   if (x_abs <= kSmallAngle) {
@@ -105,8 +115,12 @@ VLT_PORTABLE void SinCos(double x_in, double* sine, double* cosine) {
     return;
   }
   if (!(x_abs <= kSinCosReduced)) {  // rare: |x| > 2^19, infinite or NaN
+#if VLT_PORTABLE_MARKS_UNREDUCED
+    *sine = *cosine = DoubleFromBits(0x7FF8000000000000ull);
+#else
     *sine = VLT_LIBM(sin)(x_in);
     *cosine = VLT_LIBM(cos)(x_in);
+#endif
     return;
   }
   const double k = (x_in * kTwoOverPi + kRoundingShift) - kRoundingShift;

@@ -31,10 +31,13 @@ inline constexpr int kMaxOutputs = 16;  // a point's outputs: 3 for a tracker, a
 // What every trial of a job needs, copied once to the device (plain data, no pointers).
 struct PointTrialsJob {
   U64 seed = 0;        // McmSettings::seed: the Philox key
-  int num_params = 0;  // the tracker model's error parameters, streams 0 .. num_params - 1
+  // The model's parameters (a tracker's error parameters, a custom model's inputs): streams 0 ..
+  // num_params - 1.
+  int num_params = 0;
   int num_points = 0;  // readings of point p: streams first_reading_stream + 3 p + j
   // A tracker: 3 readings (range, azimuth, elevation) and 3 outputs (x, y, z) a point; a custom
-  // model: no readings and its outputs (at most kMaxOutputs), one point.
+  // model: no readings and its outputs (at most kMaxOutputs), one point. (readings_per_point is 3
+  // or 0: the readings' streams are numbered 3 p + j.)
   int readings_per_point = 3;
   int outputs_per_point = 3;
   int first_reading_stream = 0;  // the shared inputs' count: num_params + air, pose, thermal inputs
@@ -57,7 +60,7 @@ struct TrialStages {
   double thermal_scale = 1.0;                        // s = 1 / (1 + cte (T - T_ref))
 };
 
-// One trial's tracker parameters where the CPU drew them (PointTrialsJob::params_drawn): parameter
+// One trial's model parameters where the CPU drew them (PointTrialsJob::params_drawn): parameter
 // k at values[k * stride]. A block's are parameter-major, values[k n + i] for its trial i, so that
 // neighbouring GPU threads (neighbouring trials) read neighbouring doubles.
 struct DrawnParams {
@@ -95,7 +98,7 @@ VLT_PORTABLE void PlaceOnPart(const PointTrialsJob& job, const TrialStages* stag
 // only).
 template <class Model>
 VLT_PORTABLE void PointOfTrial(const PointTrialsJob& job, const TrialPoint& point, int p, U64 trial,
-                               const TrialStages* stages, DrawnParams drawn, double y[3]) {
+                               const TrialStages* stages, DrawnParams drawn, double y[kMaxOutputs]) {
   portable::Lane params[kMaxParams];
   for (int k = 0; k < job.num_params; ++k) {
     if (job.params_drawn) {

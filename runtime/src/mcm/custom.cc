@@ -167,7 +167,8 @@ std::string BuiltModelKernelSource(const ModelInfo& model, std::string* why_not)
   std::string source = BuiltModelSource(model);
   if (source.empty()) {
     *why_not = std::string("model '") + model.name +
-               "' was built before vlt kept its generated source for the GPU kernel (build it again: vlt model build)";
+               "': no generated source the GPU kernel can compile beside its library in the model cache (a model "
+               "built before 2026-11-28: vlt model build builds it again)";
     return "";
   }
   std::string others;

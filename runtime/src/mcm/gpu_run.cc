@@ -180,8 +180,8 @@ void GpuTrialKernel::Run(const KeyedStream& rng, std::int64_t first, int n, Scra
     Fail(e.what());
     return cpu_.Run(rng, first, n, scratch, outputs);
   }
-  // Trials whose stages the CPU could not prepare: the CPU path computes them, or says what is
-  // wrong with the job's inputs (not the GPU's failure).
+  // Trials whose stages the CPU could not prepare, or that the device marked: the CPU path
+  // computes them, or says what is wrong with the job's inputs (not the GPU's failure).
   if (!from_blocks) return cpu_.Run(rng, first, n, scratch, outputs);
   cpu_.RunTasks(n, scratch, outputs);
 }
@@ -191,6 +191,8 @@ std::string GpuTrialKernel::failure() const {
   return failure_;
 }
 
+// false: some trial's values are the CPU's to compute (their stages could not be prepared, or the
+// device marked them NaN).
 bool GpuTrialKernel::CopyFromBlocks(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch,
                                     double* outputs) const {
   bool prepared = true;
@@ -206,7 +208,12 @@ bool GpuTrialKernel::CopyFromBlocks(const KeyedStream& rng, std::int64_t first, 
     for (int o = 0; prepared && o < device_outputs_; ++o) {
       const double* from =
           block->values.data() + static_cast<std::size_t>(o) * static_cast<std::size_t>(block_) + offset;
-      std::copy(from, from + count, outputs + static_cast<std::size_t>(o) * kSubBatch + done);
+      double* to = outputs + static_cast<std::size_t>(o) * kSubBatch + done;
+      std::copy(from, from + count, to);
+      // NaN: the device's mark where it cannot promise the CPU's bits (base/portable_math.h
+      // SinCos beyond 2^19 rad), or a value the model has none for; either way the CPU computes
+      // the sub-batch, with its own values or the engine's error.
+      for (int i = 0; i < count; ++i) prepared = prepared && to[i] == to[i];
     }
     CopiedOut(index, count);
     done += count;
@@ -352,8 +359,11 @@ std::string DiffersFromTheCpu(const MirroredKernel& cpu, int device_outputs, std
   } catch (const std::exception& e) {
     return std::string("the GPU failed its check against the CPU (") + e.what() + ")";
   }
+  // A NaN from the device is the CPU's to compute (GpuTrialKernel::CopyFromBlocks), whatever its bits.
   std::size_t differing = 0;
-  for (std::size_t v = 0; v < on_cpu.size(); ++v) differing += std::memcmp(&on_cpu[v], &on_gpu[v], sizeof(double)) != 0;
+  for (std::size_t v = 0; v < on_cpu.size(); ++v) {
+    differing += on_gpu[v] == on_gpu[v] && std::memcmp(&on_cpu[v], &on_gpu[v], sizeof(double)) != 0;
+  }
   if (differing == 0) return "";
   return "its values differ from the CPU's in " + std::to_string(differing) + " of " + std::to_string(on_cpu.size()) +
          " (the first " + std::to_string(kCheckTrials) + " trials checked): not used";

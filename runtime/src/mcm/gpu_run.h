@@ -76,8 +76,9 @@ class GpuTrialKernel final : public TrialKernel {
     std::optional<std::promise<Values>> promise;
   };
 
-  // Copies trials first .. first + n - 1 out of their blocks; false when some of them had stages
-  // the CPU could not prepare (their blocks' trials are counted as copied out all the same).
+  // Copies trials first .. first + n - 1 out of their blocks; false when some of them are the
+  // CPU's to compute: stages the CPU could not prepare, or a value the device marked NaN (their
+  // blocks' trials are counted as copied out all the same).
   bool CopyFromBlocks(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch, double* outputs) const;
   // Block `index`'s values (values[o * block_ + i]), computed once, one block at a time on the
   // device; what the CPU prepares for it shared by every thread that needs the block

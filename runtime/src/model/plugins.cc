@@ -297,6 +297,32 @@ const ModelInfo* LoadLibrary(const std::string& name, const fs::path& library) {
   return model;
 }
 
+// The generated header beside `library` (model-<key>.h), read as the library is: only where the
+// user owns it and nobody else may write it (opened without following a link), and only a header
+// as vlt-gen writes it — no preprocessor line but `#pragma once` and `#include <cmath>`, so that
+// nothing can redefine what the GPU kernel compiles. Empty otherwise (the GPU path then runs the
+// model on the CPU and says why).
+std::string KeptSource(const fs::path& library) {
+  fs::path header = library;
+  header.replace_extension(".h");
+  const int fd = ::open(header.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
+  if (fd < 0) return "";
+  struct stat st {};
+  std::string text;
+  if (::fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_uid == ::getuid() &&
+      (st.st_mode & (S_IWGRP | S_IWOTH)) == 0) {
+    char buffer[65536];
+    for (ssize_t got; (got = ::read(fd, buffer, sizeof buffer)) > 0;) text.append(buffer, static_cast<std::size_t>(got));
+  }
+  ::close(fd);
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) {
+    const std::size_t at = line.find_first_not_of(" \t");
+    if (at != std::string::npos && line[at] == '#' && line != "#pragma once" && line != "#include <cmath>") return "";
+  }
+  return text;
+}
+
 // Derives the spec into `src` with vlt-gen; its one line on a spec error.
 void Derive(const fs::path& spec_path, const fs::path& src, const fs::path& log) {
   const int gen = Run(
@@ -377,9 +403,7 @@ const ModelInfo* FindModel(std::string_view name) {
     return it->second;
   const ModelInfo* model = LoadLibrary(std::string(name), library);
   loaded.by_library.emplace(library.string(), model);
-  fs::path header = library;
-  header.replace_extension(".h");
-  if (IsFile(header)) loaded.source.emplace(model, ReadBytes(header));
+  if (std::string source = KeptSource(library); !source.empty()) loaded.source.emplace(model, std::move(source));
   return model;
 }
 
@@ -437,9 +461,13 @@ ModelBuild BuildModel(const fs::path& spec_path) {
   const std::string key = BuildKey(spec_bytes);
   const fs::path cache = ModelCacheDirectory();
   const fs::path entry = cache / name;
-  // Unchanged: found without deriving, compiling or writing (a read-only cache will do).
-  if (ReadBytes(entry / "key") == key && !CurrentLibrary(entry).empty())
-    return {name, CurrentLibrary(entry), true, 0.0};
+  // Unchanged: found without deriving, compiling or writing (a read-only cache will do) — with
+  // its header beside it (the GPU kernel's source; built again where it went missing).
+  const auto complete = [&] {
+    fs::path header = CurrentLibrary(entry);
+    return !header.empty() && IsFile(header.replace_extension(".h"));
+  };
+  if (ReadBytes(entry / "key") == key && complete()) return {name, CurrentLibrary(entry), true, 0.0};
 
   fs::create_directories(cache, ec);
   if (ec) throw InputError(cache.string() + ": cannot create the model cache (" + ec.message() + ")");
@@ -447,8 +475,7 @@ ModelBuild BuildModel(const fs::path& spec_path) {
   CheckOwnDirectory(cache);
   const FileLock lock(cache / ("." + name + ".lock"));
   // Another build of the same spec may have finished while this one waited for the lock.
-  if (ReadBytes(entry / "key") == key && !CurrentLibrary(entry).empty())
-    return {name, CurrentLibrary(entry), true, 0.0};
+  if (ReadBytes(entry / "key") == key && complete()) return {name, CurrentLibrary(entry), true, 0.0};
 
   const WorkDirectory work(cache);
   const fs::path library = work.path() / "model.so";
