@@ -146,26 +146,6 @@ bool KernelDrawsTheInputs(const CustomJob& job) {
   return true;
 }
 
-// The kernel's job for a custom job: no readings, one "point" of the model's outputs.
-gpu_internal::TrialsJob KernelTrials(const CustomJob& job, std::uint64_t seed) {
-  gpu_internal::TrialsJob trials;
-  trials.model = job.model->name;
-  trials.points.resize(1);
-  gpu_internal::PointTrialsJob& kernel = trials.job;
-  kernel.seed = seed;
-  kernel.num_params = job.model->num_params;
-  kernel.num_points = 1;
-  kernel.readings_per_point = 0;
-  kernel.outputs_per_point = job.model->num_outputs;
-  kernel.first_reading_stream = kernel.num_params;
-  kernel.params_drawn = KernelDrawsTheInputs(job) ? 0 : 1;
-  for (int k = 0; k < kernel.num_params; ++k) {
-    kernel.param_estimate[k] = job.mcm_inputs[static_cast<std::size_t>(k)].estimate;
-    kernel.param_u[k] = job.mcm_inputs[static_cast<std::size_t>(k)].u;
-  }
-  return trials;
-}
-
 // Every output of every trial from an unaligned first trial, the host backend (the kernel's code)
 // against the engine's custom kernel.
 TEST(GpuCustom, TrialsAreTheCpuEnginesBitForBit) {
@@ -178,7 +158,8 @@ TEST(GpuCustom, TrialsAreTheCpuEnginesBitForBit) {
     const int n = 3000;
     const std::vector<double> engine =
         mcm_internal::CustomTrialValues(*job.model, job.mcm_inputs, job.correlation, seed, first, n);
-    const gpu_internal::TrialsJob trials = KernelTrials(job, seed);
+    const gpu_internal::TrialsJob trials =
+        test::CustomKernelTrials(*job.model, job.mcm_inputs, seed, KernelDrawsTheInputs(job));
     drawn_on_cpu += trials.job.params_drawn;
     const mcm_internal::CpuTrialInputs inputs = mcm_internal::CustomTrialInputs(
         *job.model, job.mcm_inputs, job.correlation, seed, first, n, mcm_internal::CpuTrialInputs::For(trials.job));
@@ -243,12 +224,7 @@ TEST(GpuCustom, TheSameFilesAsTheCpuWithTheKernelOnTheHost) {
 // calibration as the model's defaults have it
 // (three rectangular inputs: drawn on the CPU). Skipped, with the reason, where no GPU works.
 TEST(GpuCustom, OnARealGpuTheSameFilesAsTheCpu) {
-  gpu_internal::TrialsJob probe;
-  probe.model = "jcgm101_mass";
-  probe.job.num_params = 5;
-  probe.job.num_points = 1;
-  probe.job.readings_per_point = 0;
-  probe.job.outputs_per_point = 1;
+  const gpu_internal::TrialsJob probe = test::CustomKernelTrials(*FindModel("jcgm101_mass"), {}, 1, true);
   std::string why_not;
   if (gpu_internal::CudaBackend(probe, &why_not) == nullptr) GTEST_SKIP() << "no GPU: " << why_not;
   const std::vector<CustomJob> jobs = {ParseCustomJob(kAllNormal, "normal.toml", "."),

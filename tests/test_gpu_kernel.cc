@@ -504,20 +504,7 @@ void ExpectCompiledCustomKernelIsTheEngine(const std::filesystem::path& dir, con
   const std::int64_t first = 4'099;
   const int n = 2000;
   const std::vector<double> engine = mcm_internal::CustomTrialValues(model, inputs, independent, seed, first, n);
-  gpu_internal::TrialsJob trials;
-  trials.model = model.name;
-  trials.points.resize(1);
-  trials.job.seed = seed;
-  trials.job.num_params = model.num_params;
-  trials.job.num_points = 1;
-  trials.job.readings_per_point = 0;
-  trials.job.outputs_per_point = model.num_outputs;
-  trials.job.first_reading_stream = model.num_params;
-  trials.job.params_drawn = kernel_draws ? 0 : 1;
-  for (int k = 0; k < model.num_params; ++k) {
-    trials.job.param_estimate[k] = inputs[static_cast<std::size_t>(k)].estimate;
-    trials.job.param_u[k] = inputs[static_cast<std::size_t>(k)].u;
-  }
+  const gpu_internal::TrialsJob trials = test::CustomKernelTrials(model, inputs, seed, kernel_draws);
   const mcm_internal::CpuTrialInputs drawn = mcm_internal::CustomTrialInputs(
       model, inputs, independent, seed, first, n, mcm_internal::CpuTrialInputs::For(trials.job));
   ASSERT_EQ(drawn.params.size(), kernel_draws ? 0u : static_cast<std::size_t>(model.num_params) * n);

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 #include <map>
 #include <sstream>
 #include <string>
@@ -158,6 +159,29 @@ inline void ExpectTheSameFilesButTheRunLines(std::map<std::string, std::string> 
     EXPECT_TRUE(text == b[name]) << name << " differs";
   }
   EXPECT_TRUE(WithoutRunLines(a["results.json"]) == WithoutRunLines(b["results.json"]));
+}
+
+// The GPU kernel's job for a custom model under `seed` (gpu/point_trials.h: no readings, one
+// "point" of the model's outputs), built here independently of mcm/custom.cc: its inputs' estimates
+// and u, drawn by the kernel (`kernel_draws`) or by the CPU.
+inline gpu_internal::TrialsJob CustomKernelTrials(const ModelInfo& model, const std::vector<UncertainInput>& inputs,
+                                                  std::uint64_t seed, bool kernel_draws) {
+  gpu_internal::TrialsJob trials;
+  trials.model = model.name;
+  trials.points.resize(1);
+  gpu_internal::PointTrialsJob& kernel = trials.job;
+  kernel.seed = seed;
+  kernel.num_params = model.num_params;
+  kernel.num_points = 1;
+  kernel.readings_per_point = 0;
+  kernel.outputs_per_point = model.num_outputs;
+  kernel.first_reading_stream = model.num_params;
+  kernel.params_drawn = kernel_draws ? 0 : 1;
+  for (int k = 0; k < model.num_params && k < static_cast<int>(inputs.size()); ++k) {
+    kernel.param_estimate[k] = inputs[static_cast<std::size_t>(k)].estimate;
+    kernel.param_u[k] = inputs[static_cast<std::size_t>(k)].u;
+  }
+  return trials;
 }
 
 }  // namespace vlt::test
