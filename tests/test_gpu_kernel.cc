@@ -11,6 +11,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <bit>
 #include <cstdlib>
 #include <cmath>
@@ -18,11 +20,13 @@
 #include <limits>
 #include <map>
 #include <mutex>
+#include <set>
 #include <span>
 #include <sstream>
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "generated/gum_h2_impedance.h"
@@ -32,6 +36,7 @@
 #include "base/portable_math.h"
 #include "gpu/point_trials.h"
 #include "mcm/engine.h"
+#include "mcm/gpu_run.h"
 #include "test_mcm_helpers.h"
 #include "gpu/kernel_source.h"
 #include "gpu/trials.h"
@@ -1120,6 +1125,97 @@ TEST(GpuPath, BlocksComputedAheadAreEachComputedOnceAndNonePastM) {
       EXPECT_TRUE(on_cpu.at(name) == on_gpu.at(name)) << name << " differs";
     }
   }
+}
+
+// A kernel of one output, trial t's value t, for the block machinery alone.
+class TrialIndexKernel final : public mcm_internal::MirroredKernel {
+ public:
+  int num_outputs() const override { return 1; }
+  void InitScratch(mcm_internal::Scratch&) const override {}
+  std::vector<double> AtEstimates() const override { return {0.0}; }
+  void Run(const mcm_internal::KeyedStream&, std::int64_t first, int n, mcm_internal::Scratch&,
+           double* outputs) const override {
+    for (int i = 0; i < n; ++i) outputs[i] = static_cast<double>(first + i);
+  }
+  void PrepareTrials(const mcm_internal::KeyedStream&, std::int64_t, int, mcm_internal::Scratch&,
+                     gpu_internal::TrialStages*, double*, std::int64_t) const override {}
+  void RunTasks(int, mcm_internal::Scratch&, double*) const override {}
+};
+
+// Its device: records each block it computes (as it starts it); each block waits at its gate
+// until the test opens it.
+class GatedBlocks final : public gpu_internal::TrialsBackend {
+ public:
+  void Compute(std::uint64_t first, int n, const gpu_internal::PreparedTrials&, double* values) override {
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      computed_.push_back(first);
+      changed_.notify_all();
+      changed_.wait(lock, [&] { return open_.count(first) > 0; });
+    }
+    for (int i = 0; i < n; ++i) values[i] = static_cast<double>(first + static_cast<std::uint64_t>(i));
+  }
+  std::string Description() const override { return "host, gated"; }
+
+  void Open(std::uint64_t first) {
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      open_.insert(first);
+    }
+    changed_.notify_all();
+  }
+  void WaitUntilStarted(std::size_t blocks) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    changed_.wait(lock, [&] { return computed_.size() >= blocks; });
+  }
+  std::vector<std::uint64_t> Computed() {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    return computed_;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::vector<std::uint64_t> computed_;
+  std::set<std::uint64_t> open_;
+};
+
+// The interleaving behind a block computed twice on 16 threads (a CI run of 2026-11-28). The
+// device computes one block at a time. A needs block 1 and computes it; B needs block 0 and
+// computes it after; block 1's trials are all copied out while block 0 is still on the device, so
+// that block 1's entry is forgotten; C, which needs block 0 too, would rather not wait and hands the
+// device the block after it: block 1 again, where it must compute nothing.
+TEST(GpuPath, ABlockCopiedOutIsNotComputedAheadAgain) {
+  const TrialIndexKernel cpu;
+  auto owned = std::make_unique<GatedBlocks>();
+  GatedBlocks& device = *owned;
+  const std::int64_t block = 4096;  // max(4096, M / 8)
+  const mcm_internal::GpuTrialKernel gpu(cpu, 1, std::move(owned), {}, 8 * block, /*fall_back=*/false);
+  const mcm_internal::KeyedStream rng(1);
+  auto run = [&](std::int64_t first) {
+    mcm_internal::Scratch scratch;
+    std::vector<double> outputs(mcm_internal::kSubBatch);
+    gpu.Run(rng, first, mcm_internal::kSubBatch, scratch, outputs.data());
+    for (int i = 0; i < mcm_internal::kSubBatch; ++i) EXPECT_EQ(outputs[static_cast<std::size_t>(i)], first + i);
+  };
+  std::thread a(run, block);
+  device.WaitUntilStarted(1);
+  std::thread b(run, 0);
+  device.Open(block);
+  a.join();
+  device.WaitUntilStarted(2);
+  for (std::int64_t first = block + mcm_internal::kSubBatch; first < 2 * block; first += mcm_internal::kSubBatch) {
+    run(first);
+  }
+  std::thread c(run, mcm_internal::kSubBatch);
+  // C either claims block 1 again at once (the fault) or waits for block 0: give it the time to do
+  // the former before block 0 is let through. A fault missed is never a false failure.
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  device.Open(0);
+  device.Open(block);  // block 1 a second time, where the fault asks for it
+  b.join();
+  c.join();
+  EXPECT_EQ(device.Computed(), (std::vector<std::uint64_t>{static_cast<std::uint64_t>(block), 0}));
 }
 
 // A device that fails at its third block (its first call is the run-time check): under "auto" the

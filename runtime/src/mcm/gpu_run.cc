@@ -221,9 +221,13 @@ bool GpuTrialKernel::CopyFromBlocks(const KeyedStream& rng, std::int64_t first, 
   return prepared;
 }
 
-GpuTrialKernel::Claim GpuTrialKernel::ClaimBlock(std::int64_t index) const {
+GpuTrialKernel::Claim GpuTrialKernel::ClaimBlock(std::int64_t index, bool ahead) const {
   Claim claim;
   const std::lock_guard<std::mutex> lock(mutex_);
+  const auto at = static_cast<std::size_t>(index);
+  if (ahead && at < claimed_.size() && claimed_[at]) return claim;
+  if (at >= claimed_.size()) claimed_.resize(at + 1, false);
+  claimed_[at] = true;
   auto it = blocks_.find(index);
   if (it != blocks_.end()) {
     claim.values = it->second.values;
@@ -266,8 +270,8 @@ void GpuTrialKernel::Ahead(std::int64_t index, const KeyedStream& rng, Scratch& 
   // Not past a fixed M (an adaptive run computes at most one block it does not use), nor after a
   // failure (the run goes on on the CPU).
   if (failed_.load() || (trials_ > 0 && index * block_ >= trials_)) return;
-  Claim claim = ClaimBlock(index);
-  Serve(index, claim, rng, scratch);
+  Claim claim = ClaimBlock(index, /*ahead=*/true);
+  if (claim.promise) Serve(index, claim, rng, scratch);
 }
 
 // The device's values of block `index`, once its preparation (if any) is complete.

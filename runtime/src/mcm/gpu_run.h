@@ -84,8 +84,10 @@ class GpuTrialKernel final : public TrialKernel {
   // device; what the CPU prepares for it shared by every thread that needs the block
   // (SharedPreparation, each in its own scratch) before the thread that computes it hands it over.
   Values Block(std::int64_t index, const KeyedStream& rng, Scratch& scratch) const;
-  // Block `index`'s entry, created (with the promise) where there is none.
-  Claim ClaimBlock(std::int64_t index) const;
+  // Block `index`'s entry, created (with the promise) where there is none. `ahead`: only a block
+  // no thread has claimed yet (one whose trials were all copied out has no entry any more, and
+  // computing it again would cost the device a block); the claim is empty otherwise.
+  Claim ClaimBlock(std::int64_t index, bool ahead = false) const;
   // Helps prepare the claimed block and, where this thread created it, computes it.
   void Serve(std::int64_t index, Claim& claim, const KeyedStream& rng, Scratch& scratch) const;
   // Block `index` claimed and served ahead of need, by a thread that would otherwise wait.
@@ -104,6 +106,7 @@ class GpuTrialKernel final : public TrialKernel {
   mutable std::mutex mutex_;
   mutable std::mutex compute_mutex_;
   mutable std::map<std::int64_t, Entry> blocks_;
+  mutable std::vector<bool> claimed_;  // claimed_[index]: block `index` was ever claimed
   mutable std::atomic<bool> failed_{false};
   mutable std::string failure_;
 };
