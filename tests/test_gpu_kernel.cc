@@ -1140,6 +1140,9 @@ class TrialIndexKernel final : public mcm_internal::MirroredKernel {
   void PrepareTrials(const mcm_internal::KeyedStream&, std::int64_t, int, mcm_internal::Scratch&,
                      gpu_internal::TrialStages*, double*, std::int64_t) const override {}
   void RunTasks(int, mcm_internal::Scratch&, double*) const override {}
+  void TrialsRunBefore(std::int64_t end) const override { ends.push_back(end); }
+
+  mutable std::vector<std::int64_t> ends;  // TrialsRunBefore's, in order
 };
 
 // Its device: records each block it computes (as it starts it); each block waits at its gate
@@ -1216,6 +1219,72 @@ TEST(GpuPath, ABlockCopiedOutIsNotComputedAheadAgain) {
   b.join();
   c.join();
   EXPECT_EQ(device.Computed(), (std::vector<std::uint64_t>{static_cast<std::uint64_t>(block), 0}));
+}
+
+// A block is forgotten once its trials were copied out; where they never all are — a fixed M's
+// last block holds trials past M, and under MPI a rank copies out only its share of a block — the
+// engine's wave forgets them when done (TrialsRunBefore). Each block is computed once.
+TEST(GpuPath, BlocksWhoseTrialsAreNotAllCopiedOutAreForgottenAfterTheWave) {
+  const TrialIndexKernel cpu;
+  constexpr int kSub = mcm_internal::kSubBatch;
+  const std::int64_t block = 4096;  // max(4096, M / 8)
+  auto run = [&](const mcm_internal::GpuTrialKernel& gpu, std::int64_t first, int n) {
+    mcm_internal::Scratch scratch;
+    std::vector<double> outputs(static_cast<std::size_t>(kSub));
+    gpu.Run(mcm_internal::KeyedStream(1), first, n, scratch, outputs.data());
+    for (int i = 0; i < n; ++i) EXPECT_EQ(outputs[static_cast<std::size_t>(i)], first + i);
+  };
+  {
+    SCOPED_TRACE("a fixed M of 3 blocks and 100 trials");
+    auto owned = std::make_unique<GatedBlocks>();
+    GatedBlocks& device = *owned;
+    for (std::int64_t b = 0; b < 4; ++b) device.Open(static_cast<std::uint64_t>(b * block));
+    const std::int64_t m = 3 * block + 100;
+    const mcm_internal::GpuTrialKernel gpu(cpu, 1, std::move(owned), {}, m, /*fall_back=*/false);
+    for (std::int64_t first = 0; first < m; first += kSub) {
+      run(gpu, first, static_cast<int>(std::min<std::int64_t>(kSub, m - first)));
+    }
+    EXPECT_EQ(gpu.BlocksHeld(), 1u);  // the last: 3996 of its trials are past M
+    gpu.TrialsRunBefore(m);
+    EXPECT_EQ(gpu.BlocksHeld(), 0u);
+    EXPECT_EQ(device.Computed(), (std::vector<std::uint64_t>{0, 4096, 8192, 12288}));
+  }
+  {
+    SCOPED_TRACE("a rank's share: every other sub-batch of two blocks");
+    auto owned = std::make_unique<GatedBlocks>();
+    GatedBlocks& device = *owned;
+    for (std::int64_t b = 0; b < 2; ++b) device.Open(static_cast<std::uint64_t>(b * block));
+    const mcm_internal::GpuTrialKernel gpu(cpu, 1, std::move(owned), {}, 8 * block, /*fall_back=*/false);
+    for (std::int64_t first = 0; first < 2 * block; first += 2 * kSub) run(gpu, first, kSub);
+    EXPECT_EQ(gpu.BlocksHeld(), 2u);
+    gpu.TrialsRunBefore(block + kSub);  // a wave that ends inside block 1
+    EXPECT_EQ(gpu.BlocksHeld(), 1u);
+    gpu.TrialsRunBefore(2 * block);
+    EXPECT_EQ(gpu.BlocksHeld(), 0u);
+    EXPECT_EQ(device.Computed(), (std::vector<std::uint64_t>{0, 4096}));
+  }
+}
+
+// The engine tells the kernel when each wave's trials are all run: ends that grow, the last M.
+TEST(GpuPath, TheEngineSaysWhenTheTrialsOfEachWaveAreRun) {
+  for (int threads : {1, 2}) {
+    SCOPED_TRACE(::testing::Message() << threads << " thread(s)");
+    const TrialIndexKernel kernel;
+    mcm_internal::OutputSpec spec;
+    spec.names = {"y"};
+    spec.units = {"m"};
+    McmSettings settings;
+    settings.trials = 123457;
+    settings.num_threads = threads;
+    settings.quiet = true;
+    settings.device = McmDevice::kCpu;
+    mcm_internal::RunEngine(kernel, spec, settings);
+    ASSERT_FALSE(kernel.ends.empty());
+    EXPECT_TRUE(std::is_sorted(kernel.ends.begin(), kernel.ends.end()));
+    EXPECT_EQ(std::adjacent_find(kernel.ends.begin(), kernel.ends.end()), kernel.ends.end());
+    EXPECT_GT(kernel.ends.front(), 0);
+    EXPECT_EQ(kernel.ends.back(), settings.trials);
+  }
 }
 
 // A device that fails at its third block (its first call is the run-time check): under "auto" the

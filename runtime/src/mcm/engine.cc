@@ -578,6 +578,7 @@ void MonteCarloRun::ComputeWave(std::vector<Batch>& wave) {
       }
     });
     computed_here = true;
+    kernel.TrialsRunBefore(wave.back().first + wave.back().bh);
     ranks::Agree();
     for (std::size_t b = 0; b < wave.size(); ++b) {
       exchanges[b].Exchange(wave[b].partial, stride, computed[b], wave[b].vals, wave[b].bh, n_own);

@@ -103,6 +103,9 @@ class TrialKernel {
   // outputs[o * kSubBatch + i] for trial first + i, i < n <= kSubBatch.
   virtual void Run(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch,
                    double* outputs) const = 0;
+  // Every trial before `end` that this process runs has been run (the engine's wave is done; under
+  // MPI a rank runs only its share of each batch): what the kernel holds for them may go.
+  virtual void TrialsRunBefore(std::int64_t /*end*/) const {}
 };
 
 // A trial kernel whose trials the GPU kernel (gpu/point_trials.h) computes too, with the same

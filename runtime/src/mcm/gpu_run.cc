@@ -179,11 +179,29 @@ void GpuTrialKernel::Run(const KeyedStream& rng, std::int64_t first, int n, Scra
     if (!fall_back_) throw;
     Fail(e.what());
     return cpu_.Run(rng, first, n, scratch, outputs);
+  } catch (...) {
+    if (!fall_back_) throw;
+    Fail("the device failed with an error that says nothing");
+    return cpu_.Run(rng, first, n, scratch, outputs);
   }
   // Trials whose stages the CPU could not prepare, or that the device marked: the CPU path
   // computes them, or says what is wrong with the job's inputs (not the GPU's failure).
   if (!from_blocks) return cpu_.Run(rng, first, n, scratch, outputs);
   cpu_.RunTasks(n, scratch, outputs);
+}
+
+void GpuTrialKernel::TrialsRunBefore(std::int64_t end) const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  for (auto it = blocks_.begin(); it != blocks_.end();) {
+    const std::int64_t block_end = (it->first + 1) * block_;
+    const std::int64_t last = trials_ > 0 ? std::min(block_end, trials_) : block_end;
+    it = last <= end ? blocks_.erase(it) : std::next(it);
+  }
+}
+
+std::size_t GpuTrialKernel::BlocksHeld() const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return blocks_.size();
 }
 
 std::string GpuTrialKernel::failure() const {
@@ -296,8 +314,9 @@ GpuTrialKernel::Values GpuTrialKernel::Compute(std::int64_t index, SharedPrepara
   return block;
 }
 
-// `count` more trials of block `index` copied out: forgotten when all were (the last block's
-// trials beyond M never are; it goes with the kernel).
+// `count` more trials of block `index` copied out: forgotten when all were (a fixed M's last
+// block, whose trials past M never are, and under MPI every block a rank shares with another go at
+// the end of the engine's wave, TrialsRunBefore).
 void GpuTrialKernel::CopiedOut(std::int64_t index, int count) const {
   const std::lock_guard<std::mutex> lock(mutex_);
   auto it = blocks_.find(index);

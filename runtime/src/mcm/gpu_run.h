@@ -55,6 +55,12 @@ class GpuTrialKernel final : public TrialKernel {
   void InitScratch(Scratch& scratch) const override { cpu_.InitScratch(scratch); }
   std::vector<double> AtEstimates() const override { return cpu_.AtEstimates(); }
   void Run(const KeyedStream& rng, std::int64_t first, int n, Scratch& scratch, double* outputs) const override;
+  // Forgets the blocks whose trials (up to M) all lie before `end`: under MPI a rank copies out
+  // only its share of a block's trials, and a fixed M's last block holds trials past M, so that
+  // counting the trials copied out does not free them.
+  void TrialsRunBefore(std::int64_t end) const override;
+  // Blocks held (tests).
+  std::size_t BlocksHeld() const;
 
   std::string Description() const { return backend_->Description(); }
   // Why the trials after the GPU failed ran on the CPU; "" when it did not fail.
