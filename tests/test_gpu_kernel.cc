@@ -765,7 +765,6 @@ TEST(GpuKernel, ABuiltModelsSourceGivesTheEnginesValues) {
   EXPECT_EQ(on_cpu.device_note, why);
 }
 
-
 // A tracker job the kernel covers: the mirror tracker with its parameters (normal, one fixed),
 // four points, a plane over them and a Monte Carlo map; nothing of [environment], [station], [part].
 constexpr const char* kGpuJob = R"(
@@ -1263,6 +1262,27 @@ TEST(GpuPath, BlocksWhoseTrialsAreNotAllCopiedOutAreForgottenAfterTheWave) {
     EXPECT_EQ(gpu.BlocksHeld(), 0u);
     EXPECT_EQ(device.Computed(), (std::vector<std::uint64_t>{0, 4096}));
   }
+}
+
+// A forgotten block's buffer is the next block's (mcm/gpu_run.cc BlockBuffers): one thread asking
+// for 8 blocks' trials in order allocates one buffer, and every trial's value is its own (the
+// device writes every value of the buffer it is given again).
+TEST(GpuPath, AForgottenBlocksBufferIsUsedByTheNext) {
+  const TrialIndexKernel cpu;
+  constexpr int kSub = mcm_internal::kSubBatch;
+  const std::int64_t block = 4096, m = 8 * block;  // max(4096, M / 8)
+  auto owned = std::make_unique<GatedBlocks>();
+  GatedBlocks& device = *owned;
+  for (std::int64_t b = 0; b < 8; ++b) device.Open(static_cast<std::uint64_t>(b * block));
+  const mcm_internal::GpuTrialKernel gpu(cpu, 1, std::move(owned), {}, m, /*fall_back=*/false);
+  mcm_internal::Scratch scratch;
+  std::vector<double> outputs(static_cast<std::size_t>(kSub));
+  for (std::int64_t first = 0; first < m; first += kSub) {
+    gpu.Run(mcm_internal::KeyedStream(1), first, kSub, scratch, outputs.data());
+    for (int i = 0; i < kSub; ++i) ASSERT_EQ(outputs[static_cast<std::size_t>(i)], first + i);
+  }
+  EXPECT_EQ(device.Computed().size(), 8u);
+  EXPECT_EQ(gpu.BuffersAllocated(), 1);
 }
 
 // The engine tells the kernel when each wave's trials are all run: ends that grow, the last M.

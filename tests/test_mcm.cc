@@ -7,11 +7,15 @@
 #pragma GCC diagnostic ignored "-Wrestrict"
 #endif
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <compare>
+#include <cstdint>
 #include <cstring>
 #include <limits>
 #include <numbers>
 #include <random>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -573,6 +577,45 @@ TEST(OrderStatistics, SortedTailsEqualFullSort) {
   std::sort(expected.begin(), expected.end());
   mcm_internal::SortAscending(std::span<double>(d));
   EXPECT_EQ(d, expected);
+}
+
+// Floats are sorted by vlt's radix sort of their IEEE 754 totalOrder keys (mcm/order.cc), a
+// comparison sort below 512 values: the same bits as std::sort with a totalOrder comparison
+// (std::strong_order: -0 before +0), for sizes on both sides of 512 and around the radix's digits,
+// values of one sign and one exponent (digits skipped), ties, subnormals, the largest floats and
+// infinities.
+TEST(OrderStatistics, FloatsSortInTotalOrderAsStdSortDoes) {
+  std::mt19937_64 gen(14);
+  std::normal_distribution<float> normal;
+  auto same_bits = [](const std::vector<float>& a, const std::vector<float>& b) {
+    return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](float x, float y) {
+             return std::bit_cast<std::uint32_t>(x) == std::bit_cast<std::uint32_t>(y);
+           });
+  };
+  auto check = [&](std::vector<float> v, const char* what) {
+    std::vector<float> expected = v;
+    std::sort(expected.begin(), expected.end(), [](float x, float y) { return std::strong_order(x, y) < 0; });
+    mcm_internal::SortAscending(std::span<float>(v));
+    EXPECT_TRUE(same_bits(v, expected)) << what << ", " << v.size() << " values";
+  };
+  const float tiny = std::numeric_limits<float>::denorm_min();
+  const float big = std::numeric_limits<float>::max();
+  const float inf = std::numeric_limits<float>::infinity();
+  check({}, "none");
+  check({-0.0f}, "one");
+  check({0.0f, -0.0f, 0.0f, -0.0f, tiny, -tiny, big, -big, inf, -inf, 1.0f, -1.0f}, "special values");
+  for (const std::size_t n :
+       {std::size_t{2}, std::size_t{511}, std::size_t{512}, std::size_t{2049}, std::size_t{100'003}}) {
+    std::vector<float> v(n);
+    for (float& x : v) x = normal(gen);
+    check(v, "normal");
+    for (std::size_t i = 0; i < n; i += 5) v[i] = std::round(v[i] * 4.0f) / 4.0f;  // ties, -0 and +0
+    check(v, "normal with ties");
+    for (float& x : v) x = 1.0f + std::abs(x) * 1e-3f;  // one sign, nearly one exponent
+    check(v, "one sign and exponent");
+    for (float& x : v) x = -std::abs(x) * 1e-40f;  // subnormal and zero
+    check(v, "subnormal");
+  }
 }
 
 // The gathering pass before the tails' sorts (mcm/order.h GatherTails) gathers the same values in

@@ -29,7 +29,7 @@ class TrialsBackend {
  public:
   virtual ~TrialsBackend() = default;
   // values[o * n + i] = output o (x, y, z of each point; a custom model's outputs) of trial
-  // first + i, i < n.
+  // first + i, i < n: every one of them written (the buffer is an earlier block's, not zeroed).
   virtual void Compute(std::uint64_t first, int n, const PreparedTrials& prepared, double* values) = 0;
   // "NVIDIA H100 80GB HBM3 (compute 9.0; CUDA driver 13.0, NVRTC 13.0)" or "host (GPU kernel code on the CPU)".
   virtual std::string Description() const = 0;

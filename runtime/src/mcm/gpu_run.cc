@@ -140,12 +140,52 @@ struct BlockValues {
   std::vector<char> unprepared;
 };
 
+// The buffers of blocks' values: handed back when a block is forgotten, taken by the next block
+// computed. A new buffer costs its zeroing and its first touch of every page (24 MiB for a block
+// of 2^20 trials of one point) under the device's lock, where no other block can start: on the
+// stand-in device of bench mcm/gpu_path that was a fifth of the CPU's part of a run
+// (docs/performance.md 4.16). The backend writes every value of a block (TrialsBackend::Compute),
+// so a buffer is used again as it is. At most kMostSpare are kept (the blocks alive at once are
+// the one copied out and the one computed next, a few more on many threads); the rest are freed.
+class BlockBuffers {
+ public:
+  std::vector<double> Take(std::size_t n) {
+    std::vector<double> values;
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      if (!spare_.empty()) {
+        values = std::move(spare_.back());
+        spare_.pop_back();
+      } else {
+        ++allocated_;
+      }
+    }
+    values.resize(n);  // nothing to zero where the buffer held n values already
+    return values;
+  }
+
+  void Give(std::vector<double>&& values) {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (spare_.size() < kMostSpare) spare_.push_back(std::move(values));
+  }
+
+  std::int64_t allocated() const {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    return allocated_;
+  }
+
+ private:
+  static constexpr std::size_t kMostSpare = 2;
+  mutable std::mutex mutex_;
+  std::vector<std::vector<double>> spare_;
+  std::int64_t allocated_ = 0;
+};
 
 GpuTrialKernel::GpuTrialKernel(const MirroredKernel& cpu, int device_outputs,
                                std::unique_ptr<gpu_internal::TrialsBackend> backend, What what, std::int64_t trials,
                                bool fall_back)
     : cpu_(cpu), device_outputs_(device_outputs), backend_(std::move(backend)), what_(what), fall_back_(fall_back),
-      trials_(trials) {
+      trials_(trials), buffers_(std::make_shared<BlockBuffers>()) {
   // An eighth of M a block (the device busy while the engine's threads copy out the previous
   // one), at least 4096 trials, at most 2^20 and kBlockBytes of values, stages and parameters.
   const std::int64_t fit = kBlockBytes / BytesPerTrial(device_outputs_, what_);
@@ -203,6 +243,8 @@ std::size_t GpuTrialKernel::BlocksHeld() const {
   const std::lock_guard<std::mutex> lock(mutex_);
   return blocks_.size();
 }
+
+std::int64_t GpuTrialKernel::BuffersAllocated() const { return buffers_->allocated(); }
 
 std::string GpuTrialKernel::failure() const {
   const std::lock_guard<std::mutex> lock(mutex_);
@@ -293,17 +335,23 @@ void GpuTrialKernel::Ahead(std::int64_t index, const KeyedStream& rng, Scratch& 
 }
 
 // The device's values of block `index`, once its preparation (if any) is complete.
-// The values are allocated under the device's lock, so that one block's values are held while
+// The values' buffer is taken under the device's lock, so that one block's values are held while
 // it is computed, as before the preparation was shared; the inputs are freed as soon as the
 // device took them, also when it failed (a failed block stays in blocks_ for the run).
 GpuTrialKernel::Values GpuTrialKernel::Compute(std::int64_t index, SharedPreparation* preparation) const {
   if (preparation != nullptr && !preparation->Wait()) throw std::bad_alloc();
-  auto block = std::make_shared<BlockValues>();
+  // The block's buffer goes back to buffers_ when the last thread holding the block lets it go.
+  const std::shared_ptr<BlockBuffers> buffers = buffers_;
+  std::shared_ptr<BlockValues> block(new BlockValues, [buffers](BlockValues* forgotten) {
+    buffers->Give(std::move(forgotten->values));
+    delete forgotten;
+  });
   const gpu_internal::PreparedTrials prepared =
       preparation != nullptr ? preparation->inputs().prepared() : gpu_internal::PreparedTrials{};
   try {
     const std::lock_guard<std::mutex> one_at_a_time(compute_mutex_);
-    block->values.resize(static_cast<std::size_t>(device_outputs_) * static_cast<std::size_t>(block_));
+    block->values =
+        buffers_->Take(static_cast<std::size_t>(device_outputs_) * static_cast<std::size_t>(block_));
     backend_->Compute(static_cast<std::uint64_t>(index * block_), static_cast<int>(block_), prepared,
                       block->values.data());
   } catch (...) {

@@ -23,6 +23,7 @@ namespace vlt::mcm_internal {
 
 class SharedPreparation;
 struct BlockValues;
+class BlockBuffers;
 
 // A MirroredKernel's trials on a GPU: its device outputs (the first device_outputs of each trial)
 // from the backend — the same draws and model as the CPU kernel's Run, the same bits —, the rest
@@ -59,8 +60,10 @@ class GpuTrialKernel final : public TrialKernel {
   // only its share of a block's trials, and a fixed M's last block holds trials past M, so that
   // counting the trials copied out does not free them.
   void TrialsRunBefore(std::int64_t end) const override;
-  // Blocks held (tests).
+  // Blocks held, and buffers of blocks' values allocated so far (tests: a forgotten block's buffer
+  // is used again by the next).
   std::size_t BlocksHeld() const;
+  std::int64_t BuffersAllocated() const;
 
   std::string Description() const { return backend_->Description(); }
   // Why the trials after the GPU failed ran on the CPU; "" when it did not fail.
@@ -112,7 +115,8 @@ class GpuTrialKernel final : public TrialKernel {
   mutable std::mutex mutex_;
   mutable std::mutex compute_mutex_;
   mutable std::map<std::int64_t, Entry> blocks_;
-  mutable std::vector<bool> claimed_;  // claimed_[index]: block `index` was ever claimed
+  mutable std::vector<bool> claimed_;      // claimed_[index]: block `index` was ever claimed
+  std::shared_ptr<BlockBuffers> buffers_;  // shared with the blocks, which give theirs back
   mutable std::atomic<bool> failed_{false};
   mutable std::string failure_;
 };

@@ -12,8 +12,10 @@
 
 namespace vlt::mcm_internal {
 
-// Sorts ascending with Highway's vectorised quicksort (hwy::Sorter, Debian libhwy-dev; one
-// sorter per thread). Values must not be NaN.
+// Sorts ascending. Floats: an LSD radix sort of their IEEE 754 totalOrder keys (-0 before +0; the
+// same order on every processor, mcm/order.cc says why not Highway's here); doubles: Highway's
+// vectorised quicksort (hwy::Sorter, Debian libhwy-dev; one sorter per thread). Values must not
+// be NaN.
 void SortAscending(std::span<float> values);
 void SortAscending(std::span<double> values);
 
