@@ -51,6 +51,7 @@ constexpr int kRadixPasses = 3;
 constexpr int kRadixBits = 11;
 constexpr std::size_t kRadixBuckets = std::size_t{1} << kRadixBits;
 constexpr std::size_t kRadixLeast = 512;
+constexpr std::size_t kRadixKept = std::size_t{1} << 20;  // keys a thread keeps buffers for (2 x 4 MiB)
 
 // The bits of x, reordered so that unsigned order is IEEE 754 totalOrder: a positive float's
 // sign bit set, a negative float's every bit flipped.
@@ -271,13 +272,18 @@ void CountHistogram(std::span<const float> values, double reference, double low,
 void SortAscending(std::span<float> values) {
   const std::size_t n = values.size();
   // Below kRadixLeast values a comparison sort is the faster (the radix's counts cost about 3 µs
-  // whatever n); the order is the same, totalOrder being total.
-  if (n < kRadixLeast) {
+  // whatever n), and beyond 2^32 - 1 the 32-bit counts would overflow; the order is the same,
+  // totalOrder being total.
+  if (n < kRadixLeast || n > std::numeric_limits<std::uint32_t>::max()) {
     std::sort(values.begin(), values.end(),
               [](float a, float b) { return TotalOrderKey(a) < TotalOrderKey(b); });
     return;
   }
-  thread_local std::vector<std::uint32_t> keys, spare;
+  // The keys: in this thread's buffers, kept for the next sort up to kRadixKept values (the
+  // 10^4-trial batches' sorts of a few hundred values, the final tails of a run up to 10^7 trials),
+  // freed after a larger sort, which a library user's process would hold otherwise.
+  thread_local std::vector<std::uint32_t> kept_keys, kept_spare;
+  std::vector<std::uint32_t> keys = std::move(kept_keys), spare = std::move(kept_spare);
   keys.resize(n);
   spare.resize(n);
   // One pass: every key, and the count of each digit value of each of the three digits.
@@ -300,6 +306,10 @@ void SortAscending(std::span<float> values) {
     std::swap(from, to);
   }
   for (std::size_t i = 0; i < n; ++i) values[i] = FromTotalOrderKey(from[i]);
+  if (n <= kRadixKept) {
+    kept_keys = std::move(keys);
+    kept_spare = std::move(spare);
+  }
 }
 
 void SortAscending(std::span<double> values) {
