@@ -149,6 +149,9 @@ struct BlockValues {
 // the one copied out and the one computed next, a few more on many threads); the rest are freed.
 class BlockBuffers {
  public:
+  // Room for the spare buffers up front: Give runs in a block's deleter, where it must not throw.
+  BlockBuffers() { spare_.reserve(kMostSpare); }
+
   std::vector<double> Take(std::size_t n) {
     std::vector<double> values;
     {
@@ -156,10 +159,9 @@ class BlockBuffers {
       if (!spare_.empty()) {
         values = std::move(spare_.back());
         spare_.pop_back();
-      } else {
-        ++allocated_;
       }
     }
+    if (values.capacity() < n) allocated_.fetch_add(1);
     values.resize(n);  // nothing to zero where the buffer held n values already
     return values;
   }
@@ -169,16 +171,13 @@ class BlockBuffers {
     if (spare_.size() < kMostSpare) spare_.push_back(std::move(values));
   }
 
-  std::int64_t allocated() const {
-    const std::lock_guard<std::mutex> lock(mutex_);
-    return allocated_;
-  }
+  std::int64_t allocated() const { return allocated_.load(); }
 
  private:
   static constexpr std::size_t kMostSpare = 2;
-  mutable std::mutex mutex_;
+  std::mutex mutex_;
   std::vector<std::vector<double>> spare_;
-  std::int64_t allocated_ = 0;
+  std::atomic<std::int64_t> allocated_{0};  // buffers that had to grow (tests)
 };
 
 GpuTrialKernel::GpuTrialKernel(const MirroredKernel& cpu, int device_outputs,
