@@ -3,11 +3,11 @@
 
 #include <algorithm>
 #include <array>
-#include <bit>
-#include <cstdint>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <limits>
 #include <span>
@@ -66,6 +66,35 @@ float FromTotalOrderKey(std::uint32_t key) {
 
 std::uint32_t RadixDigit(std::uint32_t key, int pass) {
   return (key >> (kRadixBits * pass)) & static_cast<std::uint32_t>(kRadixBuckets - 1);
+}
+
+// The LSD radix sort of `values` (at least one, fewer than 2^32) by their totalOrder keys, in
+// `keys` and `spare` (resized to the values' count).
+void RadixSortByTotalOrder(std::span<float> values, std::vector<std::uint32_t>& keys,
+                           std::vector<std::uint32_t>& spare) {
+  const std::size_t n = values.size();
+  keys.resize(n);
+  spare.resize(n);
+  // One pass: every key, and the count of each digit value of each of the three digits.
+  std::array<std::array<std::uint32_t, kRadixBuckets>, kRadixPasses> counts{};
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint32_t key = TotalOrderKey(values[i]);
+    keys[i] = key;
+    for (int pass = 0; pass < kRadixPasses; ++pass) ++counts[pass][RadixDigit(key, pass)];
+  }
+  // Then one stable scatter per digit, least significant first, skipping a digit that every key
+  // shares (the high digit of a tail often is).
+  std::uint32_t* from = keys.data();
+  std::uint32_t* to = spare.data();
+  for (int pass = 0; pass < kRadixPasses; ++pass) {
+    std::array<std::uint32_t, kRadixBuckets>& next = counts[pass];
+    if (next[RadixDigit(from[0], pass)] == n) continue;
+    std::uint32_t start = 0;
+    for (std::uint32_t& count : next) start += std::exchange(count, start);
+    for (std::size_t i = 0; i < n; ++i) to[next[RadixDigit(from[i], pass)]++] = from[i];
+    std::swap(from, to);
+  }
+  for (std::size_t i = 0; i < n; ++i) values[i] = FromTotalOrderKey(from[i]);
 }
 
 // Below this many values, or with tails longer than a quarter of them, a copy of every value is
@@ -284,28 +313,7 @@ void SortAscending(std::span<float> values) {
   // freed after a larger sort, which a library user's process would hold otherwise.
   thread_local std::vector<std::uint32_t> kept_keys, kept_spare;
   std::vector<std::uint32_t> keys = std::move(kept_keys), spare = std::move(kept_spare);
-  keys.resize(n);
-  spare.resize(n);
-  // One pass: every key, and the count of each digit value of each of the three digits.
-  std::array<std::array<std::uint32_t, kRadixBuckets>, kRadixPasses> counts{};
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::uint32_t key = TotalOrderKey(values[i]);
-    keys[i] = key;
-    for (int pass = 0; pass < kRadixPasses; ++pass) ++counts[pass][RadixDigit(key, pass)];
-  }
-  // Then one stable scatter per digit, least significant first, skipping a digit that every key
-  // shares (the high digit of a tail often is).
-  std::uint32_t* from = keys.data();
-  std::uint32_t* to = spare.data();
-  for (int pass = 0; pass < kRadixPasses; ++pass) {
-    std::array<std::uint32_t, kRadixBuckets>& next = counts[pass];
-    if (n == 0 || next[RadixDigit(from[0], pass)] == n) continue;
-    std::uint32_t start = 0;
-    for (std::uint32_t& count : next) start += std::exchange(count, start);
-    for (std::size_t i = 0; i < n; ++i) to[next[RadixDigit(from[i], pass)]++] = from[i];
-    std::swap(from, to);
-  }
-  for (std::size_t i = 0; i < n; ++i) values[i] = FromTotalOrderKey(from[i]);
+  RadixSortByTotalOrder(values, keys, spare);
   if (n <= kRadixKept) {
     kept_keys = std::move(keys);
     kept_spare = std::move(spare);
