@@ -604,8 +604,10 @@ TEST(OrderStatistics, FloatsSortInTotalOrderAsStdSortDoes) {
   check({}, "none");
   check({-0.0f}, "one");
   check({0.0f, -0.0f, 0.0f, -0.0f, tiny, -tiny, big, -big, inf, -inf, 1.0f, -1.0f}, "special values");
-  for (const std::size_t n :
-       {std::size_t{2}, std::size_t{511}, std::size_t{512}, std::size_t{2049}, std::size_t{100'003}}) {
+  // Sizes each side of the comparison sort's, the 8-bit digits' and the 11-bit digits' ranges
+  // (mcm/order.cc kRadixLeast = 64, kRadixWide = 2048).
+  for (const std::size_t n : {std::size_t{2}, std::size_t{63}, std::size_t{64}, std::size_t{625}, std::size_t{2047},
+                              std::size_t{2048}, std::size_t{100'003}}) {
     std::vector<float> v(n);
     for (float& x : v) x = normal(gen);
     check(v, "normal");

@@ -41,16 +41,20 @@ const hwy::Sorter& ThreadSorter() {
   return sorter;
 }
 
-// Floats are sorted by an LSD radix sort of their IEEE 754 totalOrder keys (three digits of 11, 11
-// and 10 bits), not by Highway's vqsort: Debian's Highway 1.0.3 stores its 32-bit partitions with
-// VPCOMPRESSD to memory, microcoded on AMD Zen 4, where it sorted the engine's float tails at
-// 30-40 ns a value against 6-12 ns for this sort (docs/performance.md 4.16); and a radix sort's
-// order of the keys is the same on every processor, -0 before +0 included, where vqsort's order of
-// equal values depends on the SIMD target it dispatches to.
-constexpr int kRadixPasses = 3;
-constexpr int kRadixBits = 11;
-constexpr std::size_t kRadixBuckets = std::size_t{1} << kRadixBits;
-constexpr std::size_t kRadixLeast = 512;
+// Floats are sorted by an LSD radix sort of their IEEE 754 totalOrder keys, not by Highway's
+// vqsort: Debian's Highway 1.0.3 stores its 32-bit partitions with VPCOMPRESSD to memory,
+// microcoded on AMD Zen 4, where it sorted the engine's float tails at 30-40 ns a value against
+// 4-12 ns for this sort (docs/performance.md 4.16); and a radix sort's order of the keys is the
+// same on every processor, -0 before +0 included, where vqsort's order of equal values depends on
+// the SIMD target it dispatches to.
+//
+// The digits: four of 8 bits below kRadixWide values, three of 11, 11 and 10 bits from there on.
+// A sort's fixed cost is clearing and summing its digits' counts (3 x 2048 against 4 x 256), which
+// the 10^4-trial batches' sorts of 600-700 values paid more than their values: 7.4 against 5.0 ns
+// a value at 625 values, 4.1 against 4.8 at 4096 (docs/performance.md 4.17). Below kRadixLeast
+// values a comparison sort (an insertion sort, there) is the faster.
+constexpr std::size_t kRadixLeast = 64;
+constexpr std::size_t kRadixWide = 2048;
 constexpr std::size_t kRadixKept = std::size_t{1} << 20;  // keys a thread keeps buffers for (2 x 4 MiB)
 
 // The bits of x, reordered so that unsigned order is IEEE 754 totalOrder: a positive float's
@@ -64,34 +68,35 @@ float FromTotalOrderKey(std::uint32_t key) {
   return std::bit_cast<float>(key ^ ((key >> 31) != 0 ? 0x80000000u : 0xFFFFFFFFu));
 }
 
-std::uint32_t RadixDigit(std::uint32_t key, int pass) {
-  return (key >> (kRadixBits * pass)) & static_cast<std::uint32_t>(kRadixBuckets - 1);
-}
-
-// The LSD radix sort of `values` (at least one, fewer than 2^32) by their totalOrder keys, in
-// `keys` and `spare` (resized to the values' count).
+// The LSD radix sort of `values` (at least one, fewer than 2^32) by their totalOrder keys, with
+// digits of kBits bits (the last one the bits left), in `keys` and `spare` (resized to the
+// values' count).
+template <int kBits>
 void RadixSortByTotalOrder(std::span<float> values, std::vector<std::uint32_t>& keys,
                            std::vector<std::uint32_t>& spare) {
+  constexpr int kPasses = (32 + kBits - 1) / kBits;
+  constexpr std::uint32_t kMask = (std::uint32_t{1} << kBits) - 1;
+  auto digit = [](std::uint32_t key, int pass) { return (key >> (kBits * pass)) & kMask; };
   const std::size_t n = values.size();
   keys.resize(n);
   spare.resize(n);
-  // One pass: every key, and the count of each digit value of each of the three digits.
-  std::array<std::array<std::uint32_t, kRadixBuckets>, kRadixPasses> counts{};
+  // One pass: every key, and the count of each digit value of each digit.
+  std::array<std::array<std::uint32_t, std::size_t{kMask} + 1>, kPasses> counts{};
   for (std::size_t i = 0; i < n; ++i) {
     const std::uint32_t key = TotalOrderKey(values[i]);
     keys[i] = key;
-    for (int pass = 0; pass < kRadixPasses; ++pass) ++counts[pass][RadixDigit(key, pass)];
+    for (int pass = 0; pass < kPasses; ++pass) ++counts[pass][digit(key, pass)];
   }
   // Then one stable scatter per digit, least significant first, skipping a digit that every key
   // shares (the high digit of a tail often is).
   std::uint32_t* from = keys.data();
   std::uint32_t* to = spare.data();
-  for (int pass = 0; pass < kRadixPasses; ++pass) {
-    std::array<std::uint32_t, kRadixBuckets>& next = counts[pass];
-    if (next[RadixDigit(from[0], pass)] == n) continue;
+  for (int pass = 0; pass < kPasses; ++pass) {
+    auto& next = counts[pass];
+    if (next[digit(from[0], pass)] == n) continue;
     std::uint32_t start = 0;
     for (std::uint32_t& count : next) start += std::exchange(count, start);
-    for (std::size_t i = 0; i < n; ++i) to[next[RadixDigit(from[i], pass)]++] = from[i];
+    for (std::size_t i = 0; i < n; ++i) to[next[digit(from[i], pass)]++] = from[i];
     std::swap(from, to);
   }
   for (std::size_t i = 0; i < n; ++i) values[i] = FromTotalOrderKey(from[i]);
@@ -300,9 +305,8 @@ void CountHistogram(std::span<const float> values, double reference, double low,
 
 void SortAscending(std::span<float> values) {
   const std::size_t n = values.size();
-  // Below kRadixLeast values a comparison sort is the faster (the radix's counts cost about 3 µs
-  // whatever n), and beyond 2^32 - 1 the 32-bit counts would overflow; the order is the same,
-  // totalOrder being total.
+  // Below kRadixLeast values a comparison sort is the faster, and beyond 2^32 - 1 the 32-bit
+  // counts would overflow; the order is the same, totalOrder being total.
   if (n < kRadixLeast || n > std::numeric_limits<std::uint32_t>::max()) {
     std::sort(values.begin(), values.end(),
               [](float a, float b) { return TotalOrderKey(a) < TotalOrderKey(b); });
@@ -313,7 +317,11 @@ void SortAscending(std::span<float> values) {
   // freed after a larger sort, which a library user's process would hold otherwise.
   thread_local std::vector<std::uint32_t> kept_keys, kept_spare;
   std::vector<std::uint32_t> keys = std::move(kept_keys), spare = std::move(kept_spare);
-  RadixSortByTotalOrder(values, keys, spare);
+  if (n < kRadixWide) {
+    RadixSortByTotalOrder<8>(values, keys, spare);
+  } else {
+    RadixSortByTotalOrder<11>(values, keys, spare);
+  }
   if (n <= kRadixKept) {
     kept_keys = std::move(keys);
     kept_spare = std::move(spare);
