@@ -133,7 +133,7 @@ void BM_McmCeiling(benchmark::State& state) {
         }
         if constexpr (kForward) {
           double y[3 * kL];
-          lanes(x, x + 3 * kL, y);
+          lanes(x, x + 3 * kL, y, kL, kL);
           for (int q = 0; q < 3 * kL; ++q) sum += y[q];
         } else {
           for (int q = 0; q < kInputs * kL; ++q) sum += x[q];

@@ -65,14 +65,16 @@ void ForwardBatch(std::size_t n, [[maybe_unused]] const double* const* readings,
 
 // Forward for kForwardLanes trials at once (vlt/model_info.h ForwardLanesFn): the same template
 // on vlt::base_internal::lanes::Double4, compiled for AVX2 and for the baseline (chosen when the program
-// loads; the same operations, no FMA). Quantity q of lane l at [lanes * q + l].
+// loads; the same operations, no FMA). Quantity q of lane l at [stride * q + l] (readings,
+// outputs) and [params_stride * q + l] (params).
 VLT_LANES_CLONES
-void ForwardLanes([[maybe_unused]] const double* readings, const double* params, double* out) {
+void ForwardLanes([[maybe_unused]] const double* readings, const double* params, double* out,
+                  std::ptrdiff_t stride, std::ptrdiff_t params_stride) {
   using Lanes = vlt::base_internal::lanes::Double4;
   Lanes r[1], p[3], o[3];
-  for (int k = 0; k < 3; ++k) p[k] = vlt::base_internal::lanes::Load(params + vlt::kForwardLanes * k);
+  for (int k = 0; k < 3; ++k) p[k] = vlt::base_internal::lanes::Load(params + params_stride * k);
   model::Forward<Lanes>(r, p, o);
-  for (int q = 0; q < 3; ++q) vlt::base_internal::lanes::Store(out + vlt::kForwardLanes * q, o[q]);
+  for (int q = 0; q < 3; ++q) vlt::base_internal::lanes::Store(out + stride * q, o[q]);
 }
 
 const QuantityInfo kParams[] = {

@@ -340,28 +340,30 @@ void ModelEmitter::SourceNominalBatch() {
 }
 
 void ModelEmitter::SourceForwardLanes() {
-  const std::string lanes = "vlt::kForwardLanes";
   c += "// Forward for kForwardLanes trials at once (vlt/model_info.h ForwardLanesFn): the same template\n"
        "// on vlt::base_internal::lanes::Double4, compiled for AVX2 and for the baseline (chosen when the "
        "program\n"
-       "// loads; the same operations, no FMA). Quantity q of lane l at [lanes * q + l].\n";
+       "// loads; the same operations, no FMA). Quantity q of lane l at [stride * q + l] (readings,\n"
+       "// outputs) and [params_stride * q + l] (params).\n";
   c += "VLT_LANES_CLONES\n";
-  c += std::string("void ForwardLanes(") + (nr > 0 ? "" : "[[maybe_unused]] ") +
-       "const double* readings, const double* params, double* out) {\n";
+  const std::string unused_without_params = np > 0 ? "" : "[[maybe_unused]] ";
+  c += std::string("void ForwardLanes(") + (nr > 0 ? "" : "[[maybe_unused]] ") + "const double* readings, " +
+       unused_without_params + "const double* params, double* out,\n                  std::ptrdiff_t stride, " +
+       unused_without_params + "std::ptrdiff_t params_stride) {\n";
   c += "  using Lanes = vlt::base_internal::lanes::Double4;\n";
   c += "  Lanes r[" + std::to_string(std::max(nr, 1)) + "], p[" + std::to_string(std::max(np, 1)) + "], o[" +
        std::to_string(no) + "];\n";
   if (nr > 0) {
     c += "  for (int j = 0; j < " + std::to_string(nr) +
-         "; ++j) r[j] = vlt::base_internal::lanes::Load(readings + " + lanes + " * j);\n";
+         "; ++j) r[j] = vlt::base_internal::lanes::Load(readings + stride * j);\n";
   }
   if (np > 0) {
     c += "  for (int k = 0; k < " + std::to_string(np) +
-         "; ++k) p[k] = vlt::base_internal::lanes::Load(params + " + lanes + " * k);\n";
+         "; ++k) p[k] = vlt::base_internal::lanes::Load(params + params_stride * k);\n";
   }
   c += "  model::Forward<Lanes>(r, p, o);\n";
-  c += "  for (int q = 0; q < " + std::to_string(no) + "; ++q) vlt::base_internal::lanes::Store(out + " +
-       lanes + " * q, o[q]);\n";
+  c += "  for (int q = 0; q < " + std::to_string(no) +
+       "; ++q) vlt::base_internal::lanes::Store(out + stride * q, o[q]);\n";
   c += "}\n\n";
 }
 

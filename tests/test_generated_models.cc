@@ -14,10 +14,15 @@
 //  - the custom models against their published check values (GUM H.1, JCGM 101 9.2).
 // "Relative" means relative to max(|reference column|, 1) for the tracker models (metres per
 // metre or per radian) and to |reference column| for the custom models.
+#include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -452,7 +457,7 @@ TEST(GeneratedModels, ForwardLanesEqualsForwardToAFewUlp) {
         r[2 * L + l] = elevation(rng);
         for (int k = 0; k < np; ++k) p[L * k + l] = param(rng);
       }
-      m->forward_lanes(r.data(), p.data(), out.data());
+      m->forward_lanes(r.data(), p.data(), out.data(), L, L);
       for (int l = 0; l < L; ++l) {
         const double ri[3] = {r[l], r[L + l], r[2 * L + l]};
         std::vector<double> pi(np), o(no);
@@ -467,6 +472,45 @@ TEST(GeneratedModels, ForwardLanesEqualsForwardToAFewUlp) {
   }
   EXPECT_EQ(trackers, 3);  // mirror, head, total_station
   EXPECT_GT(worst, 0.0);   // not libm's sin/cos: the comparison is not vacuous
+}
+
+// ForwardLanes's strides (vlt/model_info.h ForwardLanesFn): the engine passes its rows of a
+// sub-batch in place (stride kSubBatch), blocks of kForwardLanes elsewhere. The same lanes laid out
+// at other strides, the readings and outputs at one, the parameters at another, give the same bits,
+// and nothing between the rows is read into a lane or written.
+TEST(GeneratedModels, ForwardLanesReadsAndWritesAtItsStrides) {
+  constexpr int L = vlt::kForwardLanes;
+  std::mt19937_64 rng(15);
+  std::uniform_real_distribution<double> range(0.3, 60.0), angle(-3.0, 3.0), param(-1e-4, 1e-4);
+  int with_lanes = 0;
+  for (const vlt::ModelInfo* m : vlt::AllModels()) {
+    if (m->forward_lanes == nullptr) continue;
+    ++with_lanes;
+    const int nr = m->num_readings, np = m->num_params, no = m->num_outputs;
+    for (const auto& [stride, params_stride] : {std::pair{5, 4}, std::pair{4, 7}, std::pair{256, 256}}) {
+      const double sentinel = std::numeric_limits<double>::quiet_NaN();
+      std::vector<double> r(std::max(nr, 1) * L), p(np * L), out(no * L);
+      std::vector<double> r_rows(std::max(nr, 1) * stride, sentinel), p_rows(np * params_stride, sentinel),
+          out_rows(no * stride, 7.25);
+      for (int l = 0; l < L; ++l) {
+        for (int j = 0; j < nr; ++j) r[L * j + l] = r_rows[stride * j + l] = j == 0 ? range(rng) : angle(rng);
+        for (int k = 0; k < np; ++k) {
+          p[L * k + l] = p_rows[params_stride * k + l] =
+              std::string(m->kind) == "tracker" ? param(rng) : m->params[k].default_estimate + param(rng) * 1e3 * m->params[k].default_u;
+        }
+      }
+      m->forward_lanes(nr > 0 ? r.data() : nullptr, p.data(), out.data(), L, L);
+      m->forward_lanes(nr > 0 ? r_rows.data() : nullptr, p_rows.data(), out_rows.data(), stride, params_stride);
+      for (int q = 0; q < no; ++q) {
+        for (int l = 0; l < stride; ++l) {
+          const double want = l < L ? out[L * q + l] : 7.25;
+          ASSERT_EQ(std::bit_cast<std::uint64_t>(out_rows[stride * q + l]), std::bit_cast<std::uint64_t>(want))
+              << m->name << " output " << q << " lane " << l << ", strides " << stride << ", " << params_stride;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(with_lanes, 4);  // mirror, head, total_station, gum_h2_impedance
 }
 
 // The custom models' lanes kernel (what their Monte Carlo runs since 2026-11-28 where Forward calls
@@ -495,7 +539,7 @@ TEST(GeneratedModels, CustomModelLanesEqualForward) {
         for (int k = 0; k < np; ++k) p[L * k + l] = m->params[k].default_estimate + within(rng) * m->params[k].default_u;
         if (sin_cos && call % 2 == 1) p[L * 2 + l] = turns(rng);  // phi [rad]
       }
-      m->forward_lanes(nullptr, p.data(), out.data());
+      m->forward_lanes(nullptr, p.data(), out.data(), L, L);
       for (int l = 0; l < L; ++l) {
         std::vector<double> pi(np), o(no);
         for (int k = 0; k < np; ++k) pi[k] = p[L * k + l];

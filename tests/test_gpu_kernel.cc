@@ -132,7 +132,7 @@ void ExpectForwardIsEveryLane(const char* name, Forward forward) {
       readings[2 * kForwardLanes + l] = elevation(draw);
       for (int k = 0; k < kParams; ++k) params[kForwardLanes * k + l] = error(draw);
     }
-    model->forward_lanes(readings, params, lanes_out);
+    model->forward_lanes(readings, params, lanes_out, kForwardLanes, kForwardLanes);
     for (int l = 0; l < kForwardLanes; ++l) {
       base_internal::portable::Lane r[3], p[kParams], o[3];
       for (int j = 0; j < 3; ++j) r[j] = readings[kForwardLanes * j + l];
@@ -158,7 +158,7 @@ TEST(GpuKernel, ACustomModelsForwardOnOneLaneIsEveryLaneOfTheEngines) {
       params[kForwardLanes + l] = current(draw);
       params[2 * kForwardLanes + l] = n % 2 == 0 ? phase(draw) : turns(draw);
     }
-    model->forward_lanes(nullptr, params, lanes_out);
+    model->forward_lanes(nullptr, params, lanes_out, kForwardLanes, kForwardLanes);
     for (int l = 0; l < kForwardLanes; ++l) {
       base_internal::portable::Lane r[1], p[3], o[3];
       for (int k = 0; k < 3; ++k) p[k] = params[kForwardLanes * k + l];

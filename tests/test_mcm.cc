@@ -940,6 +940,24 @@ TEST(McmPreparedShared, SameAsEvaluateBitForBit) {
         r[2 * kL + l] = -0.6 + 0.011 * (t0 + l);
       }
       ASSERT_TRUE(model.EvaluatePreparedLanes(lane_states, r, params.data(), y));
+      // The same lanes in rows of a longer stride (the job kernel's rows of a sub-batch, read and
+      // written in place): the same bits, and nothing written between the rows.
+      constexpr int kStride = 9;
+      const double sentinel = -1234.5;
+      std::vector<double> r_rows(3 * kStride, sentinel), y_rows(3 * kStride, sentinel),
+          params_rows(static_cast<std::size_t>(kStride) * model.setup().model->num_params, sentinel);
+      for (int l = 0; l < kL; ++l) {
+        for (int j = 0; j < 3; ++j) r_rows[kStride * j + l] = r[kL * j + l];
+        for (int k = 0; k < model.setup().model->num_params; ++k) params_rows[kStride * k + l] = params[kL * k + l];
+      }
+      ASSERT_TRUE(model.EvaluatePreparedLanes(lane_states, r_rows.data(), params_rows.data(), y_rows.data(), kStride));
+      for (int j = 0; j < 3; ++j) {
+        for (int l = 0; l < kStride; ++l) {
+          const double want = l < kL ? y[kL * j + l] : sentinel;
+          ASSERT_EQ(std::bit_cast<std::uint64_t>(y_rows[kStride * j + l]), std::bit_cast<std::uint64_t>(want))
+              << "trial " << t0 + l << " axis " << j << ", stride " << kStride;
+        }
+      }
       for (int l = 0; l < kL; ++l) {
         const double readings[3] = {r[l], r[kL + l], r[2 * kL + l]};
         double expected[3];

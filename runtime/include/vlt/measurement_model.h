@@ -184,14 +184,14 @@ class MeasurementModel {
   // EvaluatePrepared for kForwardLanes trials at once (the Monte Carlo job kernel), the tracker
   // model run in SIMD lanes (vlt/model_info.h ForwardLanesFn; its sin/cos are vlt's own, so y
   // may differ from EvaluatePrepared's in the last bits): lane l has prepared[l], the readings
-  // readings[kForwardLanes j + l] and the tracker model's error parameters (the first
-  // setup().model->num_params entries of its shared vector) params[kForwardLanes k + l], already in the
-  // kernel's layout (the job kernel copies them from its structure-of-arrays draws, and
-  // prepared[l].shared need not hold them); it gets y[kForwardLanes i + l]. The stages before and
-  // after the tracker model are EvaluatePrepared's, lane by lane. Returns false, computing
-  // nothing, when the model has no lanes kernel (has_forward_lanes()).
+  // readings[stride j + l] and the tracker model's error parameters (the first
+  // setup().model->num_params entries of its shared vector) params[stride k + l], in the kernel's
+  // layout (the job kernel passes its structure-of-arrays draws in place, stride kSubBatch, and
+  // prepared[l].shared need not hold them); it gets y[stride i + l]. stride >= kForwardLanes. The
+  // stages before and after the tracker model are EvaluatePrepared's, lane by lane. Returns false,
+  // computing nothing, when the model has no lanes kernel (has_forward_lanes()).
   bool EvaluatePreparedLanes(const PreparedShared* const* prepared, const double* readings,
-                             const double* params, double* y) const;
+                             const double* params, double* y, std::ptrdiff_t stride = kForwardLanes) const;
   bool has_forward_lanes() const { return setup_.model->forward_lanes != nullptr; }
   // Whether any stage around the tracker model (air, station pose, thermal) is on; without one,
   // y = x_t and PrepareShared's stages are the same (identity) for every shared vector.

@@ -55,8 +55,13 @@ using NominalJacobiansBatchFn = void (*)(const double* readings, double* outputs
                                          double* d_outputs_d_readings, double* d_outputs_d_params);
 
 // Forward for kForwardLanes trials at once (the Monte Carlo engine's job kernel), structure of
-// arrays: quantity q of lane l at [kForwardLanes * q + l] (readings: num_readings quantities,
-// params: num_params, outputs: num_outputs). The templated kernel instantiated on
+// arrays: quantity q of lane l of the readings (num_readings quantities) and of the outputs
+// (num_outputs) at [stride * q + l], of the params (num_params) at [params_stride * q + l]; both
+// strides >= kForwardLanes. The engine hands the kernel its rows of a sub-batch's draws and
+// outputs in place (stride kSubBatch: no copy of a trial's 20-odd parameters into a block), a
+// padded last group in blocks of its own (stride kForwardLanes), and, where the air corrects the
+// readings and the pose and thermal stages follow, the readings and outputs in blocks and the
+// parameters in place. The templated kernel instantiated on
 // vlt::base_internal::lanes::Double4 (base/lanes.h), compiled for AVX2 and for the baseline: +, -, *, / and sqrt
 // are ForwardFn's operations lane by lane, sin and cos are vlt's own (within 2.4 ulp, libm's
 // within 1), so a lane may differ from ForwardFn in the last bits, never by more (tests/
@@ -65,7 +70,8 @@ using NominalJacobiansBatchFn = void (*)(const double* readings, double* outputs
 // sine and cosine in their Monte Carlo, as on the GPU); never a model built at run time; nullptr
 // otherwise (the engine then calls ForwardFn per trial).
 inline constexpr int kForwardLanes = 4;
-using ForwardLanesFn = void (*)(const double* readings, const double* params, double* outputs);
+using ForwardLanesFn = void (*)(const double* readings, const double* params, double* outputs,
+                                std::ptrdiff_t stride, std::ptrdiff_t params_stride);
 
 // The second derivatives of every output in the inputs x = (readings, params), n = num_readings +
 // num_params of them: hessians[n * n * o + n * l + k] = d2 out_o / dx_k dx_l, each output's n x n

@@ -98,12 +98,15 @@ class CustomKernel final : public mcm_internal::MirroredKernel {
     double* p = lanes;
     double* y = lanes + static_cast<std::size_t>(np) * kL;
     for (int i = 0; i < n; i += kL) {
+      if (i + kL <= n) {  // a whole group, read and written in place (rows of kSubBatch)
+        model_.forward_lanes(nullptr, soa + i, outputs + i, kSubBatch, kSubBatch);
+        continue;
+      }
       for (int k = 0; k < np; ++k) {
         for (int l = 0; l < kL; ++l) p[kL * k + l] = soa[static_cast<std::size_t>(k) * kSubBatch + std::min(i + l, n - 1)];
       }
-      model_.forward_lanes(nullptr, p, y);
-      const int kept = std::min(kL, n - i);
-      for (int o = 0; o < no; ++o) std::copy(y + kL * o, y + kL * o + kept, outputs + static_cast<std::size_t>(o) * kSubBatch + i);
+      model_.forward_lanes(nullptr, p, y, kL, kL);
+      for (int o = 0; o < no; ++o) std::copy(y + kL * o, y + kL * o + (n - i), outputs + static_cast<std::size_t>(o) * kSubBatch + i);
     }
   }
 

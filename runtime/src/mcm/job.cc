@@ -135,21 +135,17 @@ class JobKernel final : public mcm_internal::MirroredKernel {
       if (lanes_params_ > 0) {
         for (int i = 0; i < n; i += kL) {
           const MeasurementModel::PreparedShared* lane_states[kL];
-          double r[3 * kL], y[3 * kL];
           if (i + kL <= n) {
-            // A whole group: each row's kL trials are already side by side.
+            // A whole group: each row's kL trials are already side by side, read and written in
+            // place (rows of kSubBatch).
             for (int l = 0; l < kL; ++l) lane_states[l] = &states[i + l];
-            for (int j = 0; j < 3; ++j) std::memcpy(r + kL * j, readings + j * kSubBatch + i, sizeof(double) * kL);
-            for (int k = 0; k < lanes_params_; ++k) {
-              std::memcpy(params_lanes + kL * k, shared_soa + static_cast<std::size_t>(k) * kSubBatch + i,
-                          sizeof(double) * kL);
-            }
+            model_.EvaluatePreparedLanes(lane_states, readings + i, shared_soa + i, out_x + i, kSubBatch);
           } else {
+            double r[3 * kL], y[3 * kL];
             LastGroupLanes(i, n, shared_soa, readings, states, lane_states, r, params_lanes);
+            model_.EvaluatePreparedLanes(lane_states, r, params_lanes, y);
+            for (int j = 0; j < 3; ++j) std::memcpy(out_x + j * kSubBatch + i, y + kL * j, sizeof(double) * (n - i));
           }
-          model_.EvaluatePreparedLanes(lane_states, r, params_lanes, y);
-          const int kept = std::min(kL, n - i);
-          for (int j = 0; j < 3; ++j) std::memcpy(out_x + j * kSubBatch + i, y + kL * j, sizeof(double) * kept);
         }
       } else {
         for (int i = 0; i < n; ++i) {

@@ -314,27 +314,28 @@ void MeasurementModel::EvaluatePrepared(const PreparedShared& prepared, const do
 }
 
 bool MeasurementModel::EvaluatePreparedLanes(const PreparedShared* const* prepared, const double* readings,
-                                             const double* params, double* y) const {
+                                             const double* params, double* y, std::ptrdiff_t stride) const {
   const ModelInfo& model = *setup_.model;
   constexpr int kL = kForwardLanes;
   if (model.forward_lanes == nullptr) return false;
   if (!has_shared_stages()) {
     // rho' = rho and y = x_t exactly (Place multiplies by nothing): the kernel alone.
-    model.forward_lanes(readings, params, y);
+    model.forward_lanes(readings, params, y, stride, stride);
     return true;
   }
+  // The readings after the air correction and x_t in blocks of kL; the parameters in place.
   double r[3 * kL], x[3 * kL];
   for (int l = 0; l < kL; ++l) {
     // TrackerPoint's air correction, lane by lane.
     r[l] = env_offset_ >= 0 ? readings[l] * prepared[l]->range_scale : readings[l];
-    r[kL + l] = readings[kL + l];
-    r[2 * kL + l] = readings[2 * kL + l];
+    r[kL + l] = readings[stride + l];
+    r[2 * kL + l] = readings[2 * stride + l];
   }
-  model.forward_lanes(r, params, x);
+  model.forward_lanes(r, params, x, kL, stride);
   for (int l = 0; l < kL; ++l) {
     double y_l[3];
     Place(*prepared[l], Eigen::Vector3d(x[l], x[kL + l], x[2 * kL + l]), y_l);
-    for (int i = 0; i < 3; ++i) y[kL * i + l] = y_l[i];
+    for (int i = 0; i < 3; ++i) y[stride * i + l] = y_l[i];
   }
   return true;
 }
