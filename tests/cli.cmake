@@ -303,6 +303,12 @@ endif()
 add_test(NAME cli_hostile_files
   COMMAND bash ${_cli}/hostile_files.sh $<TARGET_FILE:vlt> ${CMAKE_SOURCE_DIR} ${_out}/hostile_files)
 set_tests_properties(cli_hostile_files PROPERTIES TIMEOUT 300)
+# Hostile contents (a deep dotted key, a 10^6-column header, a NUL byte, map bounds of 1e300 m, an
+# empty -o, a missing declared column, a byte order mark, a 250-byte directory name): refused in
+# one line or run, never a crash, a hang or inf (tests/cli/hostile_inputs.sh says each).
+add_test(NAME cli_hostile_inputs
+  COMMAND bash ${_cli}/hostile_inputs.sh $<TARGET_FILE:vlt> ${CMAKE_SOURCE_DIR} ${_out}/hostile_inputs)
+set_tests_properties(cli_hostile_inputs PROPERTIES TIMEOUT 300)
 
 # points.npy ([output] arrays = true) read by numpy, not by vlt: every field the number points.jsonl
 # and budget.csv hold (full detail, a plan job with Monte Carlo and an online job without), and the

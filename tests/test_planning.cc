@@ -240,6 +240,25 @@ box = "-0.2, 0.2, -0.2, 0.2, -1, 3"
   EXPECT_EQ(a.map.U_norm, b.map.U_norm);
 }
 
+// The search's score keeps every feasible position below every infeasible one whatever the
+// weights (station.cc Score): the square's objective scaled by 1e6 (a feasible objective of some
+// 30 m, above the infeasible positions' 1 + violation before) finds the same station with the
+// objective 1e6 times the other, and a keep-out column still moves it off the centre alike.
+TEST(Planning, AnyWeightFindsTheSameStation) {
+  const char* const column = "\n[[optimize.keep_out]]\nname = \"column\"\nbox = \"-0.2, 0.2, -0.2, 0.2, -1, 3\"\n";
+  for (const std::string& extra : {std::string(), std::string(column)}) {
+    const StationPlan one = PlanStation(SquareJob("[[optimize.objective]]\nquantity = \"points\"\n" + extra), 1);
+    const StationPlan heavy =
+        PlanStation(SquareJob("[[optimize.objective]]\nquantity = \"points\"\nweight = 1e6\n" + extra), 1);
+    ASSERT_TRUE(one.recommended.feasible);
+    ASSERT_TRUE(heavy.recommended.feasible);
+    EXPECT_GT(heavy.recommended.objective, 1.0);
+    EXPECT_LT((heavy.recommended.station - one.recommended.station).norm(), 1e-5)
+        << one.recommended.station.transpose() << " / " << heavy.recommended.station.transpose();
+    EXPECT_NEAR(heavy.recommended.objective / one.recommended.objective, 1e6, 1e6 * 1e-6);
+  }
+}
+
 TEST(Planning, BadInputIsOneLineNamingTheKey) {
   auto error = [](const std::string& optimize) {
     try {
@@ -255,6 +274,10 @@ TEST(Planning, BadInputIsOneLineNamingTheKey) {
             "bad.toml: optimize.floor: empty region (the polygon has no area)");
   EXPECT_EQ(error("[optimize]\nfloor = \"0, 1, 0, 1\"\nobjective = \"bore.radius\"\n"),
             "bad.toml: optimize.objective: no task 'bore' (tasks: AC)");
+  EXPECT_EQ(error("[optimize]\nfloor = \"0, 1, 0, 1\"\n[[optimize.objective]]\nquantity = \"bore.radius\"\n"),
+            "bad.toml: optimize.objective[0].quantity: no task 'bore' (tasks: AC)");
+  EXPECT_EQ(error("[optimize]\nfloor = \"0, 1, 0, 1\"\n[[optimize.objective]]\nquantity = \"points\"\nweight = 0\n"),
+            "bad.toml: optimize.objective[0].weight: weight must be positive");
   EXPECT_NE(error("[optimize]\nfloor = \"0, 1, 0, 1\"\nobjective = \"AC.flatness\"\n")
                 .find("optimize.objective: task 'AC' has no length quantity 'flatness'"),
             std::string::npos);

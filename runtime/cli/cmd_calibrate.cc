@@ -24,7 +24,8 @@ void AddCalibrateCommand(CLI::App& app, GlobalOptions& global) {
           "Calibration job (TOML: [tracker], [readings], [[bar]], [[reference]], docs/calibration.md)")
       ->required();
   command->add_option("-o,--output", *output_arg,
-                      "Output directory (default: [output] directory of the file, else ./vlt-out/<name>)");
+                      "Output directory (default: [output] directory of the file, else ./vlt-out/<name>)")
+      ->check(NonEmptyPath());
   command->footer(
       "Exit status: 0 success, 2 bad input or no solution (one line on stderr; no output file is written).\n"
       "Outputs: calibration.toml (load it in a job: [tracker] calibration = \"...\"), parameters.csv,\n"

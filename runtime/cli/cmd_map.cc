@@ -30,7 +30,8 @@ void AddMapCommand(CLI::App& app, GlobalOptions& global) {
   command->add_option("--box", o->box, "A 3-D grid: xmin,xmax,ymin,ymax,zmin,zmax");
   command->add_option("--step", o->step, "Grid spacing (default 0.25 m; e.g. 0.1m, 250mm)");
   command->add_option("-o,--output", o->output_dir,
-                      "Output directory (default: [output] directory of the job, else ./vlt-out/<job name>)");
+                      "Output directory (default: [output] directory of the job, else ./vlt-out/<job name>)")
+      ->check(NonEmptyPath());
   command->add_option("--threads", o->threads, "Threads (0 = all hardware threads)")
       ->check(IntegerIn(0, 1024));
   command->add_flag(

@@ -31,7 +31,8 @@ void AddNetworkCommand(CLI::App& app, GlobalOptions& global) {
                    "Network file (TOML: [tracker], [[station]], [datum], [[reference]], docs/network.md)")
       ->required();
   command->add_option("-o,--output", *output_arg,
-                      "Output directory (default: [output] directory of the file, else ./vlt-out/<name>)");
+                      "Output directory (default: [output] directory of the file, else ./vlt-out/<name>)")
+      ->check(NonEmptyPath());
   command
       ->add_option(
           "--simulate", *simulate,

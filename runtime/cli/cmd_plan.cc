@@ -20,7 +20,8 @@ void AddPlanCommand(CLI::App& app, GlobalOptions& global) {
   auto o = std::make_shared<PlanOptions>();
   command->add_option("job", o->job, "Job file (TOML) with [plan] points and an [optimize] section")
       ->required();
-  command->add_option("-o,--output", o->output_dir, "Output directory (default ./vlt-out/<job name>-plan)");
+  command->add_option("-o,--output", o->output_dir, "Output directory (default ./vlt-out/<job name>-plan)")
+      ->check(NonEmptyPath());
   command->add_option("--threads", o->threads, "Threads for the station map (0 = all hardware threads)")
       ->check(IntegerIn(0, 1024));
   command->footer(

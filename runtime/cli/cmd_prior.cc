@@ -19,7 +19,8 @@ void AddPriorCommand(CLI::App& app, GlobalOptions& global) {
   auto output_arg = std::make_shared<std::string>();
   command->add_option("file", *file, "Profile (TOML: [tracker], [tests] layout and mpe, [prior], docs/profiles.md)")
       ->required();
-  command->add_option("-o,--output", *output_arg, "Output directory (default: ./vlt-out/<name>-prior)");
+  command->add_option("-o,--output", *output_arg, "Output directory (default: ./vlt-out/<name>-prior)")
+      ->check(NonEmptyPath());
   command->footer(
       "Exit status: 0 success, 2 bad input or a statement no prior can meet (one line on stderr; no output\n"
       "file is written). Outputs: prior.toml (load it: vlt run JOB.toml --calibration prior.toml),\n"

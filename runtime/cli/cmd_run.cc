@@ -38,6 +38,11 @@ CLI::Validator IntegerIn(std::int64_t lo, std::int64_t hi) {
       "INT in " + range);
 }
 
+CLI::Validator NonEmptyPath() {
+  return CLI::Validator([](std::string& text) -> std::string { return text.empty() ? "an empty path" : ""; },
+                        "PATH");
+}
+
 CLI::Validator UnsignedInteger64() {
   return CLI::Validator(
       [](std::string& text) -> std::string {
@@ -75,7 +80,8 @@ void PrintWritten(const std::vector<std::pair<std::string, std::string>>& files,
 }
 
 void AddRunOptions(CLI::App& command, RunCliOptions& options, const std::string& default_output) {
-  command.add_option("-o,--output", options.output_dir, "Output directory (default: " + default_output + ")");
+  command.add_option("-o,--output", options.output_dir, "Output directory (default: " + default_output + ")")
+      ->check(NonEmptyPath());
   command.add_flag("--no-mcm", options.no_mcm, "GUM only: skip the Monte Carlo method and the validation");
   command.add_option("--trials", options.trials, "Monte Carlo trials M (overrides [monte_carlo] trials)")
       ->check(IntegerIn(1, 1000000000));

@@ -18,7 +18,8 @@ void AddTestCommand(CLI::App& app, GlobalOptions& global) {
   auto output_arg = std::make_shared<std::string>();
   command->add_option("file", *file, "Test file (TOML: [tracker] + [tests], docs/calibration.md)")
       ->required();
-  command->add_option("-o,--output", *output_arg, "Output directory (default: ./vlt-out/<name>-tests)");
+  command->add_option("-o,--output", *output_arg, "Output directory (default: ./vlt-out/<name>-tests)")
+      ->check(NonEmptyPath());
   command->footer(
       "Exit status: 0 success, 2 bad input (one line on stderr; no output file is written).\n"
       "Outputs: tests.csv, sensitivity.csv, results.json, report.html (+ simulated_readings.csv,\n"

@@ -3,6 +3,8 @@
 // Under mpirun every rank runs this; rank 0 prints and writes (docs/mpi.md).
 #include <cstdio>
 #include <exception>
+#include <string>
+#include <utility>
 
 #include <CLI/CLI.hpp>
 
@@ -38,9 +40,22 @@ std::string ShortenMessage(const std::string& message) {
     out += '\'';
     i = close + 1;
   }
-  for (char& c : out) {
-    if (c == '\n' || c == '\r') c = ' ';
+  // One line that a terminal shows as it is: a line break or a tab a blank, any other control
+  // character (NUL, which would end the printed text, an escape sequence) written as \xNN.
+  std::string visible;
+  for (const char c : out) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (c == '\n' || c == '\r' || c == '\t') {
+      visible += ' ';
+    } else if (byte < 0x20 || byte == 0x7f) {
+      char escaped[8];
+      std::snprintf(escaped, sizeof escaped, "\\x%02X", byte);
+      visible += escaped;
+    } else {
+      visible += c;
+    }
   }
+  out = std::move(visible);
   if (out.size() > 1000) {
     const std::size_t left_out = out.size() - 960;
     out = out.substr(0, 480) + " ...(" + std::to_string(left_out) + " characters)... " +
@@ -68,7 +83,7 @@ int ReportFailure(const std::exception_ptr& failure) {
     std::fprintf(stderr, "vlt: error: %s\n", ShortenMessage(e.what()).c_str());
     return 2;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "vlt: internal error: %s\n", e.what());
+    std::fprintf(stderr, "vlt: internal error: %s\n", ShortenMessage(e.what()).c_str());
     return 3;
   } catch (...) {
     std::fprintf(stderr, "vlt: internal error: unknown exception\n");

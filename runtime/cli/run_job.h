@@ -29,6 +29,8 @@ struct RunCliOptions {
 // short message (no silent clamping of 99999999999999999999, no 309-digit ranges).
 CLI::Validator IntegerIn(std::int64_t lo, std::int64_t hi);
 CLI::Validator UnsignedInteger64();
+// A path that is not empty (`-o ""` would otherwise fall back to the default directory unsaid).
+CLI::Validator NonEmptyPath();
 
 // After a command committed its files: --json prints results.json, else (unless --quiet) the
 // summary and "Wrote DIR/: a, b, ..." (one place for run, test, calibrate).

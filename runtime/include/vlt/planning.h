@@ -11,8 +11,9 @@
 // The search (deterministic for a given seed): NLopt's controlled random search (GN_CRS2_LM,
 // its generator seeded) finds the basin over the whole region; NLopt's Subplex (LN_SBPLX) refines
 // from the best point found; the station map (the objective on a grid over the floor at the best
-// height) shows the landscape, and a node better than both searches would be taken. Infeasible
-// positions score kInfeasibleObjective + their violation, which draws both searches back into the
+// height) shows the landscape, and a node better than both searches would be taken. Feasible
+// positions score m / (1 + m) < 1, m their objective over the sum of the weights; infeasible
+// positions kInfeasibleObjective + their violation, which draws both searches back into the
 // feasible set; they are never recommended.
 #pragma once
 
@@ -26,7 +27,8 @@
 
 namespace vlt {
 
-// Objective of an infeasible position [m] (plus its violation): far above any uncertainty.
+// The search's score of an infeasible position (plus its violation): above every feasible one's,
+// m / (1 + m) < 1 (m: the objective over the sum of the weights, m).
 inline constexpr double kInfeasibleObjective = 1.0;
 
 // The objective at one station position.

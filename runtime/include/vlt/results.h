@@ -107,7 +107,7 @@ struct TaskResult {
 //   U_norm = sqrt(U_x^2 + U_y^2 + U_z^2) = k sqrt(trace U_y),
 // the radius of the sphere through the tips of the per-axis expanded uncertainties.
 // Nodes within kMapAxisClearance of the tracker's vertical axis or of the gimbal point (tracker
-// frame) are skipped and counted, never NaN.
+// frame), or more than kMaxRange (10 km) from the tracker, are skipped and counted, never NaN.
 inline constexpr double kMapAxisClearance = 1e-3;  // m
 struct MapResult {
   MapSettings settings;
@@ -227,7 +227,8 @@ inline constexpr std::uint64_t kBytesPerPointInput = 24;
 // (measured 1800, plus the histograms of the three coordinates, McmOutputResult::histogram)
 inline constexpr std::uint64_t kBytesPerPointMcm = 1800 + 3 * (kHistogramBins * 8 + 32);
 std::uint64_t EstimateJobMemory(const Job& job, const RunOptions& options = {});
-// MemAvailable of /proc/meminfo (else the physical memory), bytes.
+// Bytes available to the job: the least of MemAvailable of /proc/meminfo (else the physical
+// memory), what is left of the address-space limit (ulimit -v) and of the cgroup v2 memory.max.
 std::uint64_t AvailableMemory();
 // InputError "<file>: plan: this job needs about X GiB of memory (...) and Y GiB are available;
 // split it into jobs of at most N points" when EstimateJobMemory(job, options) > available_bytes.

@@ -1,10 +1,14 @@
 #include "base/csv.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <functional>
 #include <iterator>
 #include <stdexcept>
+#include <string_view>
+#include <unordered_set>
+#include <utility>
 
 #include <cctype>
 #include <filesystem>
@@ -249,6 +253,11 @@ std::vector<std::size_t> PieceStarts(std::string_view text, std::size_t begin) {
 CsvPieces::CsvPieces(std::string_view text, const std::string& file, const std::vector<std::string>* columns)
     : text_(text), headerless_(columns != nullptr) {
   head_.file = file;
+  // A NUL byte: not a text file (and a field with one would cut every message that quotes it).
+  if (const std::size_t nul = text.find('\0'); nul != std::string_view::npos) {
+    const auto line = 1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(nul), '\n');
+    throw InputError(file + ": line " + std::to_string(line) + ": a NUL byte (not a text file?)");
+  }
   if (headerless_) head_.header = *columns;
   // Skip a UTF-8 byte order mark (spreadsheets write one).
   std::size_t pos = text.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;
@@ -264,13 +273,14 @@ CsvPieces::CsvPieces(std::string_view text, const std::string& file, const std::
       const LinePlace where{file, line_number};
       std::vector<std::string> fields = head_.delimiter == ' ' ? SplitOnBlanks(line.text, where)
                                                                : SplitLine(line.text, where, head_.delimiter);
+      // The first repeated name in the header's order, by a set (a header of 10^6 columns is
+      // read in a second, not compared pair by pair).
+      std::unordered_set<std::string_view> seen;
       for (const std::string& name : fields) {
         if (name.empty()) throw InputError(where.str() + ": empty column name in the header");
-        for (const std::string& other : head_.header) {
-          if (other == name) throw InputError(where.str() + ": column '" + name + "' appears twice");
-        }
-        head_.header.push_back(name);
+        if (!seen.insert(name).second) throw InputError(where.str() + ": column '" + name + "' appears twice");
       }
+      head_.header = std::move(fields);
       head_.header_line = line_number;
     }
     if (line.last) {

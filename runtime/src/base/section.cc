@@ -1,6 +1,7 @@
 // base/section.cc — reading TOML tables strictly (base/section.h): the Section that rejects unknown
 // keys, typed getters with unit strings, and the uncertain-input table shared by every section.
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -171,12 +172,25 @@ UncertainInput MakeInput(std::string name, std::string group, Dimension dim, dou
 
 namespace {
 
-// TOML allows non-ASCII bytes only inside strings and comments. Debian's toml++ 3.3.0 has
-// undefined behaviour on some of them elsewhere (a bare "5 µm" or "20 °C"), so vlt refuses them
-// itself, before the parser sees them, with the fix in the message.
-void CheckBytesOutsideStrings(std::string_view text, const std::string& file) {
+// The most parts of a dotted key or table name ([a.b.c] has 3). vlt's own keys have at most 4;
+// Debian's toml++ 3.3.0 recurses once per part and overflows the stack at some 40 000 of them.
+constexpr int kMaxKeyParts = 64;
+
+// What vlt checks in a TOML text before the parser sees it:
+// - TOML allows non-ASCII bytes only inside strings and comments. Debian's toml++ 3.3.0 has
+//   undefined behaviour on some of them elsewhere (a bare "5 µm" or "20 °C"), so vlt refuses them
+//   itself, with the fix in the message.
+// - A dotted key of more than kMaxKeyParts parts, which would crash the parser: the dots between
+//   bare or quoted parts are counted until anything but a part, a dot or a blank (a number's
+//   decimal point counts one, a key's parts and a number are never joined).
+void CheckTextOutsideStrings(std::string_view text, const std::string& file) {
   int line = 1, column = 0;
   std::size_t i = 0;
+  int dots = 0;  // dots joining the parts since the last character that is none of them
+  auto where = [&] { return file + ": line " + std::to_string(line) + ", column " + std::to_string(column + 1); };
+  auto part_or_blank = [](unsigned char c) {
+    return std::isalnum(c) != 0 || c == '_' || c == '-' || c == '+' || c == ' ' || c == '\t' || c == ':';
+  };
   auto starts = [&](std::string_view token) { return text.substr(i, token.size()) == token; };
   auto advance = [&](std::size_t n) {
     for (std::size_t k = 0; k < n && i < text.size(); ++k, ++i) {
@@ -204,10 +218,16 @@ void CheckBytesOutsideStrings(std::string_view text, const std::string& file) {
       }
       advance(1);
     } else if (c >= 0x80) {
-      throw InputError(file + ": line " + std::to_string(line) + ", column " + std::to_string(column + 1) +
-                       ": a non-ASCII character outside a quoted string; values with units go in quotes, "
-                       "e.g. \"5 um\", \"20 degC\"");
+      throw InputError(where() + ": a non-ASCII character outside a quoted string; values with units go in quotes, "
+                             "e.g. \"5 um\", \"20 degC\"");
+    } else if (c == '.') {
+      if (++dots >= kMaxKeyParts) {
+        throw InputError(where() + ": a dotted key or table name of more than " + std::to_string(kMaxKeyParts) +
+                         " parts");
+      }
+      advance(1);
     } else {
+      if (!part_or_blank(c)) dots = 0;
       advance(1);
     }
   }
@@ -216,7 +236,9 @@ void CheckBytesOutsideStrings(std::string_view text, const std::string& file) {
 }  // namespace
 
 toml::table ParseToml(std::string_view text, const std::string& file) {
-  CheckBytesOutsideStrings(text, file);
+  // A UTF-8 byte order mark at the start (editors on Windows write one), as the CSV reader allows.
+  if (text.starts_with("\xEF\xBB\xBF")) text.remove_prefix(3);
+  CheckTextOutsideStrings(text, file);
   try {
     return toml::parse(text, file);
   } catch (const toml::parse_error& e) {

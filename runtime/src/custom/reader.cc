@@ -430,10 +430,10 @@ void CustomJobReader::ReadTolerances() {
 
 bool IsCustomModelJob(std::string_view text) {
   try {
-    const toml::table root = toml::parse(text);
+    const toml::table root = ParseToml(text, "");
     return root.contains("model") && !root.contains("tracker");
-  } catch (const toml::parse_error&) {
-    return false;
+  } catch (const InputError&) {
+    return false;  // the job's reader says what is wrong
   }
 }
 

@@ -55,6 +55,9 @@ void FillRanges(MapSettings& map, const std::vector<int>& axes, std::string_view
     int a = axes[k];
     map.min[a] = ParseQuantity(parts[2 * k], Dimension::kLength, w);
     map.max[a] = ParseQuantity(parts[2 * k + 1], Dimension::kLength, w);
+    // The cap on every value (|x| <= 1e12 m): beyond it a node's snap to 1 nm (Node) overflows.
+    CheckValueMagnitude(map.min[a], w);
+    CheckValueMagnitude(map.max[a], w);
     if (!(map.max[a] >= map.min[a])) {
       throw InputError(w + ": " + std::string(1, axis_names[a]) + "max < " + std::string(1, axis_names[a]) +
                        "min");
@@ -116,6 +119,7 @@ MapSettings ParseMapPlane(std::string_view plane, std::string_view extent, std::
   }
   map.fixed_axis = axis == "x" ? 0 : axis == "y" ? 1 : 2;
   map.level = ParseQuantity(plane.substr(eq + 1), Dimension::kLength, w);
+  CheckValueMagnitude(map.level, w);
   map.step = ParseStep(step, where);
   std::vector<int> free_axes;
   for (int a = 0; a < 3; ++a)

@@ -144,13 +144,13 @@ void ReadKeepOut(Section& s, const Job& job, OptimizeSettings& o) {
   }
 }
 
-// One term of the objective: "points" or "<task>.<quantity>", a length with a GUM uncertainty.
+// One term of the objective: "points" or "<task>.<quantity>", a length with a GUM uncertainty
+// (`where`: the key of the quantity), and its weight (> 0, checked by the caller).
 ObjectiveTerm ReadObjectiveTerm(const Job& job, const std::string& quantity, double weight,
                                 const std::string& where) {
   ObjectiveTerm t;
   t.quantity = quantity;
   t.weight = weight;
-  if (!(weight > 0.0) || !std::isfinite(weight)) throw InputError(where + ": weight must be positive");
   if (quantity == "points") return t;
   const std::size_t dot = quantity.find('.');
   std::string names;
@@ -201,8 +201,9 @@ void ReadObjective(Section& s, const Job& job, OptimizeSettings& o) {
       Section t(*a->get(i)->as_table(), job.file, path);
       t.set_hint("quantity, weight");
       const double weight = t.Get("weight") ? AsNumber(*t.Get("weight"), t.Where("weight")) : 1.0;
+      if (!(weight > 0.0) || !std::isfinite(weight)) throw InputError(t.Where("weight") + ": weight must be positive");
       o.objective.push_back(ReadObjectiveTerm(job, AsString(t.Require("quantity"), t.Where("quantity")),
-                                              weight, t.Where("weight")));
+                                              weight, t.Where("quantity")));
       t.Finish();
     }
   } else {

@@ -293,13 +293,14 @@ void ReadReadings(Section& s, Job& job, bool times_by_default) {
   // model in a network. A job reads it only when columns.time names it (a "time" column of
   // another format in an existing export stays ignored).
   std::string time_name = "time", time_unit = "s";
-  bool time_declared = false;
+  bool time_declared = false, face_declared = false;
   Section cols = s.Sub("columns", false);
   if (cols.exists()) {
     cols.set_hint(cartesian ? "name, x, y, z, face, time" : "name, range, azimuth, elevation, face, time");
     for (int k = 0; k < 5; ++k) {
       if (const toml::node* n = cols.Get(keys[k])) names[k] = AsString(*n, cols.Where(keys[k]));
     }
+    face_declared = cols.Get("face") != nullptr;
     if (const toml::node* n = cols.Get("time")) {
       time_name = AsString(*n, cols.Where("time"));
       time_declared = true;
@@ -317,7 +318,14 @@ void ReadReadings(Section& s, Job& job, bool times_by_default) {
   if (us.exists()) {
     us.set_hint(cartesian ? "x, y, z, time" : "range, azimuth, elevation, time");
     for (int k = 0; k < 3; ++k) {
-      if (const toml::node* n = us.Get(keys[k + 1])) units[k] = AsString(*n, us.Where(keys[k + 1]));
+      const toml::node* n = us.Get(keys[k + 1]);
+      if (n == nullptr) continue;
+      units[k] = AsString(*n, us.Where(keys[k + 1]));
+      // An empty unit would be the bare SI unit (rad for an angle): a slip, not a choice.
+      if (units[k].find_first_not_of(" \t") == std::string::npos) {
+        throw InputError(us.Where(keys[k + 1]) + ": empty unit (e.g. \"" + (dims[k] == Dimension::kAngle ? "deg" : "mm") +
+                         "\"; leave the key out for " + (dims[k] == Dimension::kAngle ? "rad" : "m") + ")");
+      }
     }
     if (const toml::node* n = us.Get("time")) time_unit = AsString(*n, us.Where("time"));
     us.Finish();
@@ -349,7 +357,8 @@ void ReadReadings(Section& s, Job& job, bool times_by_default) {
   int col[5];
   for (int k = 0; k < 5; ++k) {
     col[k] = table.Column(names[k]);
-    if (col[k] < 0 && k < 4) {
+    // The face column is optional unless readings.columns.face names one.
+    if (col[k] < 0 && (k < 4 || face_declared)) {
       throw InputError(rel + ": line " + std::to_string(table.header_line) + ": missing column '" + names[k] +
                        "' (declared by readings.columns." + keys[k] + ")");
     }

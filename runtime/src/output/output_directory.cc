@@ -116,7 +116,7 @@ void RemoveQuietly(const fs::path& p) {
 // left by a run that was killed (SIGKILL, power loss). One whose process lives is another run's
 // transaction under way into the same directory, and is left alone (a pid reused since leaves a
 // stale one behind, which the next run after that process ends removes).
-bool LeftByADeadRun(const std::string& entry, const std::string& name) {
+bool LeftByADeadRun(const std::string& entry, const std::string& name) {  // name: StagingStem's
   for (const char* kind : {".vlt-new-", ".vlt-old-"}) {
     const std::string prefix = "." + name + kind;
     if (entry.rfind(prefix, 0) != 0) continue;
@@ -128,6 +128,14 @@ bool LeftByADeadRun(const std::string& entry, const std::string& name) {
     return ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;
   }
   return false;
+}
+
+// The output directory's name as its staging and old sets' names hold it (".<stem>.vlt-new-<pid>"):
+// the name, or its first bytes where the set's name would pass the 255 bytes a file name may have
+// (an output directory named with 241 to 255 bytes is legal).
+std::string StagingStem(const std::string& name) {
+  constexpr std::size_t kMaxFileName = 255, kAround = 1 + 9 + 10;  // ".", ".vlt-new-", a pid's digits
+  return name.size() + kAround <= kMaxFileName ? name : name.substr(0, kMaxFileName - kAround);
 }
 
 }  // namespace
@@ -258,7 +266,7 @@ void OutputDirectory::Commit(const std::vector<OutputFile>& files) {
   std::error_code ec;
   fs::create_directories(parent_, ec);
   if (ec) throw InputError(target_.string() + ": cannot create '" + parent_.string() + "': " + ec.message());
-  const std::string name = target_.filename().string();
+  const std::string name = StagingStem(target_.filename().string());
   // Staging directories of earlier runs that were killed (SIGKILL, power loss) are ours by name;
   // a live run's is not (two runs into one directory: the last to commit wins, neither fails).
   std::vector<fs::path> stale;
@@ -285,7 +293,8 @@ void OutputDirectory::Commit(const std::vector<OutputFile>& files) {
   g_staging_active = registered ? 1 : 0;
 
   if (!fs::create_directory(staging_, ec) || ec) {
-    throw InputError(target_.string() + ": cannot create the staging directory '" + staging_.string() + "'");
+    throw InputError(target_.string() + ": cannot create the staging directory '" + staging_.string() +
+                     "': " + (ec ? ec.message() : std::string("it exists")));
   }
   for (const OutputFile& file : all) {
     if (file.name.find('/') != std::string::npos) {

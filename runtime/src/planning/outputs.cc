@@ -11,6 +11,7 @@
 #include <toml++/toml.h>
 
 #include "base/format.h"
+#include "base/section.h"
 #include "vlt/error.h"
 #include "vlt/input_file.h"
 #include "vlt/planning.h"
@@ -132,9 +133,9 @@ std::string PlannedJob(const StationPlan& plan) {
   const std::string text = ReadInputFile(job.file, job.file, "cannot read the job file again to write the planned job");
   toml::table doc;
   try {
-    doc = toml::parse(text, job.file);
-  } catch (const toml::parse_error& e) {
-    throw InputError(job.file + ": changed while planning: " + std::string(e.description()));
+    doc = base_internal::ParseToml(text, job.file);
+  } catch (const InputError& e) {
+    throw InputError(job.file + ": changed while planning: " + std::string(e.what()));
   }
   auto absolute = [&](const char* section, const char* key) {
     toml::table* t = doc[section].as_table();

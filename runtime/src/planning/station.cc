@@ -217,9 +217,15 @@ StationEvaluation EvaluateStation(const Job& job, const Eigen::Vector3d& station
 
 namespace {
 
-// The search's view of a position: the objective, or kInfeasibleObjective + violation.
-double Score(const StationEvaluation& e) {
-  return e.feasible ? e.objective : kInfeasibleObjective + e.violation;
+// The search's view of a position: a feasible one's objective over the sum of the weights (a
+// weighted mean of expanded uncertainties, m) mapped onto [0, 1) by m / (1 + m), which keeps
+// their order; an infeasible one kInfeasibleObjective (1) + its violation. So every feasible
+// position scores below every infeasible one whatever the weights and uncertainties (with the
+// objective itself, weights of 1e5 put feasible positions above 1 m and behind infeasible ones).
+double Score(const StationEvaluation& e, double weight_sum) {
+  if (!e.feasible) return kInfeasibleObjective + e.violation;
+  const double mean = e.objective / weight_sum;
+  return mean / (1.0 + mean);
 }
 
 // Rounded to 1 um, the resolution the planned job is written with (planning/outputs.cc).
@@ -251,6 +257,7 @@ struct StationSearch {
   std::vector<double> lower, upper;
   StationEvaluation best;
   double best_score = std::numeric_limits<double>::infinity();
+  double weight_sum = 0.0;  // of the objective's terms (Score)
   std::map<std::string, int> failed_at_nodes;  // constraint -> map nodes where it failed
   std::int64_t* counter = nullptr;
 
@@ -279,6 +286,7 @@ StationSearch::StationSearch(const Job& job, StationPlan& plan) : job(job), o(*j
   }
   fixed_height = o.z_max == o.z_min;
   dims = fixed_height ? 2 : 3;
+  for (const ObjectiveTerm& t : o.objective) weight_sum += t.weight;
   lower = {lo.x(), lo.y()};
   upper = {hi.x(), hi.y()};
   if (!fixed_height) {
@@ -290,7 +298,7 @@ StationSearch::StationSearch(const Job& job, StationPlan& plan) : job(job), o(*j
 double StationSearch::Objective(const std::vector<double>& x) {
   const StationEvaluation e = EvaluateStation(job, Position(x));
   ++*counter;
-  const double s = Score(e);
+  const double s = Score(e, weight_sum);
   if (s < best_score) {
     best_score = s;
     best = e;
@@ -394,8 +402,8 @@ void StationSearch::KeepFeasibleNodes(const std::vector<StationEvaluation>& at) 
     if (at[i].feasible) {
       map.computed[i] = 1;
       map.U_norm[i] = at[i].objective;
-      if (at[i].objective < best_score) {  // a grid node better than the searches: keep it
-        best_score = at[i].objective;
+      if (Score(at[i], weight_sum) < best_score) {  // a grid node better than the searches: keep it
+        best_score = Score(at[i], weight_sum);
         best = at[i];
       }
     } else {

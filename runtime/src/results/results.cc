@@ -6,7 +6,10 @@
 #include <array>
 #include <chrono>
 #include <span>
+#include <string>
+#include <string_view>
 #include <cstdio>
+#include <sys/resource.h>
 #include <unistd.h>
 #include <limits>
 #include <cmath>
@@ -103,6 +106,8 @@ MapResult ComputeMap(const MeasurementModel& model, const MapSettings& settings,
       reason = "at the tracker's gimbal point";
     } else if (std::hypot(t.x(), t.y()) < kMapAxisClearance) {
       reason = "on the tracker's vertical axis (azimuth undefined)";
+    } else if (!(t.norm() <= kMaxRange)) {
+      reason = "beyond any laser tracker (more than 10 km from the tracker, kMaxRange)";
     } else {
       try {
         readings.push_back(ReadingsForPartPoint(model, node, false, "map node"));
@@ -289,8 +294,10 @@ std::uint64_t EstimateJobMemory(const Job& job, const RunOptions& options) {
   return bytes;
 }
 
-std::uint64_t AvailableMemory() {
-  // Linux: MemAvailable of /proc/meminfo (kB); else the physical memory.
+namespace {
+
+// The machine's: MemAvailable of /proc/meminfo (Linux, kB); else the physical memory.
+std::uint64_t MachineMemoryAvailable() {
   if (std::FILE* f = std::fopen("/proc/meminfo", "r")) {
     char line[256];
     unsigned long long kb = 0;
@@ -307,6 +314,60 @@ std::uint64_t AvailableMemory() {
   const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
   return pages > 0 && page > 0 ? static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page)
                                : std::numeric_limits<std::uint64_t>::max();
+}
+
+// What is left of the process's address-space limit (`ulimit -v`, RLIMIT_AS) beyond the address
+// space it maps already (/proc/self/statm); no limit: the largest value.
+std::uint64_t AddressSpaceLeft() {
+  rlimit limit{};
+  if (getrlimit(RLIMIT_AS, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) {
+    return std::numeric_limits<std::uint64_t>::max();
+  }
+  unsigned long long pages = 0;
+  if (std::FILE* f = std::fopen("/proc/self/statm", "r")) {
+    if (std::fscanf(f, "%llu", &pages) != 1) pages = 0;
+    std::fclose(f);
+  }
+  const std::uint64_t mapped = pages * static_cast<std::uint64_t>(std::max(sysconf(_SC_PAGE_SIZE), 1L));
+  return limit.rlim_cur > mapped ? limit.rlim_cur - mapped : 0;
+}
+
+// What is left of the memory limit of the process's control group (cgroup v2 memory.max less
+// memory.current: a container's or a systemd unit's limit); none: the largest value.
+std::uint64_t ControlGroupMemoryLeft() {
+  std::string group;
+  if (std::FILE* f = std::fopen("/proc/self/cgroup", "r")) {
+    char line[4096];
+    while (std::fgets(line, sizeof line, f)) {
+      if (std::string_view(line).starts_with("0::")) {
+        group = std::string(line + 3);
+        while (!group.empty() && (group.back() == '\n' || group.back() == '\r')) group.pop_back();
+      }
+    }
+    std::fclose(f);
+  }
+  auto read_number = [&](const char* file, unsigned long long* value) {
+    const std::string path = "/sys/fs/cgroup" + group + "/" + file;
+    std::FILE* f = std::fopen(path.c_str(), "r");
+    if (f == nullptr) return false;
+    const bool read = std::fscanf(f, "%llu", value) == 1;  // "max" reads as no number: no limit
+    std::fclose(f);
+    return read;
+  };
+  unsigned long long max = 0, current = 0;
+  if (group.empty() || !read_number("memory.max", &max) || !read_number("memory.current", &current)) {
+    return std::numeric_limits<std::uint64_t>::max();
+  }
+  return max > current ? max - current : 0;
+}
+
+}  // namespace
+
+std::uint64_t AvailableMemory() {
+  // The least of the machine's available memory, the address-space limit's remainder and the
+  // control group's: a job refused by the first would otherwise end in std::bad_alloc under the
+  // others (`ulimit -v`, a container), an internal error where the user gave too large a job.
+  return std::min({MachineMemoryAvailable(), AddressSpaceLeft(), ControlGroupMemoryLeft()});
 }
 
 void CheckJobMemory(const Job& job, std::uint64_t available_bytes, const RunOptions& options) {
