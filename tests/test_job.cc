@@ -759,6 +759,35 @@ TEST(Csv, QuotesCommentsAndLineNumbers) {
   EXPECT_THROW(base_internal::ParseCsv("# only\n", "f.csv"), InputError);
 }
 
+// A name is one line of visible text (base/section.h CheckName): a line break, a tab, an escape
+// sequence or a bidirectional override in a point's or a task's name is refused at its key (they
+// broke the summary's rows and went raw into points.csv); other Unicode is a name like any.
+TEST(Job, NamesAreOneLineOfVisibleText) {
+  auto plan_with = [](const std::string& name) {
+    return kTracker + "[plan]\npoint = [ {name = \"" + name + "\", x = 3, y = 0, z = 0}, {name = \"B\", x = 4, y = 1, z = 0} ]\n";
+  };
+  const std::string refused = ": the point name holds a control or layout character";
+  EXPECT_EQ(ErrorOf(plan_with("A\\u001b[31mRED")), "job.toml: plan.point[0].name" + refused +
+                                                       " (a line break, tab, escape or bidirectional mark): a name is one "
+                                                       "line of visible text");
+  EXPECT_NE(ErrorOf(plan_with("A\\tB")).find("plan.point[0].name" + refused), std::string::npos);
+  EXPECT_NE(ErrorOf(plan_with("A\\u202eB")).find("plan.point[0].name" + refused), std::string::npos);  // RLO
+  EXPECT_NE(ErrorOf(plan_with("A\\u0085B")).find("plan.point[0].name" + refused), std::string::npos);  // NEL
+  EXPECT_EQ(ErrorOf(plan_with("")), "job.toml: plan.point[0].name: empty point name");
+  EXPECT_EQ(ErrorOf(plan_with("Ø 12 – Bohrung ≤ 5 µm")), "");
+  const std::string task = "[[task]]\nkind = \"distance\"\nname = \"line1\\nline2\"\npoints = [\"A\", \"B\"]\n";
+  EXPECT_NE(ErrorOf(plan_with("A") + task).find("task[0].name: the task name holds a control or layout character"),
+            std::string::npos);
+  // From a plan CSV (the file a scan's 10^6 names come from).
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "vlt_test_names";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "plan.csv") << "name,x,y,z\nA,3,0,0\nB\x1b]0;title\x07,4,1,0\n";
+  EXPECT_EQ(ErrorOf(kTracker + "[plan]\ncsv = \"plan.csv\"\n", dir),
+            (dir / "plan.csv").string() + ": line 3" + refused +
+                " (a line break, tab, escape or bidirectional mark): a name is one line of visible text");
+  std::filesystem::remove_all(dir);
+}
+
 // A header's first repeated column, in the header's order, also in a header of 2 * 10^5 columns
 // (found by a set: a pairwise comparison took 18 s at 10^5 columns and hung at 10^6).
 TEST(Csv, AWideHeaderSaysItsFirstRepeatedColumn) {

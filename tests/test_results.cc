@@ -87,6 +87,52 @@ std::vector<std::string> SplitLine(const std::string& line) {
   return out;
 }
 
+// Every input exact (u = 0): the GUM's u and the Monte Carlo spread of each coordinate are
+// rounding (the lanes kernel's sine and cosine differ from libm's in the last bit, 2e-16 m here),
+// so each point is validated as exact, its coverage region not applicable (both are the point),
+// against a resolution of 64 ulps of its size; before, delta = 0 made every point "not validated".
+TEST(Results, ExactInputsGiveExactValidatedPoints) {
+  std::string params;
+  for (const char* p : {"a0", "eac", "eas", "e0", "eec", "ees", "thv", "rhv", "rmv", "tmv", "tbw", "tbv", "rbh",
+                        "rbv", "R0", "mu", "srr", "srh", "srv", "sdh"})
+    params += std::string(p) + " = { u = 0 }\n";
+  Job job = ParseJob(R"([tracker]
+model = "mirror"
+[tracker.noise]
+range = 0
+azimuth = 0
+elevation = 0
+[station]
+tx = "-0.8 m"
+ty = "-1.0 m"
+tz = "1.0 m"
+[tracker.parameters]
+)" + params + R"([plan]
+point = [ {name="A", x=1, y=0, z=0}, {name="B", x=2, y=0.5, z=0}, {name="C", x=1.5, y=1, z=0.1} ]
+[monte_carlo]
+trials = 2000
+seed = 1
+)", "exact.toml", ".");
+  RunOptions options;
+  options.threads = 2;
+  const Results r = RunJob(job, options);
+  ASSERT_EQ(r.points.size(), 3u);
+  for (const PointResult& p : r.points) {
+    ASSERT_TRUE(p.has_mcm);
+    EXPECT_EQ(p.outcome, "validated") << p.input.name;
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_TRUE(p.monte_carlo->axis_validation[a].exact) << p.input.name << " axis " << a;
+      EXPECT_LE(p.monte_carlo->axis_validation[a].delta, 64 * std::numeric_limits<double>::epsilon() * 4.0);  // ranges < 4 m
+    }
+    EXPECT_EQ(p.monte_carlo->region_validation.outcome, "not applicable") << p.input.name;
+  }
+  EXPECT_EQ(r.validated_points, 3);
+  // With any spread the points are judged by JCGM 101 8 as before: the shared job's.
+  for (const PointResult& p : SharedResults().points) {
+    EXPECT_NE(p.monte_carlo->region_validation.outcome, "not applicable") << p.input.name;
+  }
+}
+
 TEST(Results, JsonSchemaKeys) {
   const Results& r = SharedResults();
   nlohmann::json j = nlohmann::json::parse(ResultsJson(r));

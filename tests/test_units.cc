@@ -153,6 +153,22 @@ TEST(Units, RefusesMalformedUnknownNonFinite) {
   EXPECT_DOUBLE_EQ(Parse("-1 K", Dimension::kTemperatureDifference), -1.0);
 }
 
+// A decimal number too small for a double reads as its correctly rounded value, 0 (as strtod and
+// Python give; base/decimal.h), never -0; one too large is refused; the smallest subnormal reads.
+TEST(Units, NumbersBelowTheSmallestDoubleAreZero) {
+  for (const char* tiny : {"1e-400 m", "-1e-400 m", "2e-324 m", "0.00001e-320 m", "123456e-335 m", "1e-99999999999999999999 m",
+                           "-0.000e-5000 m", "1e-400"}) {
+    const double v = Parse(tiny, Dimension::kLength);
+    EXPECT_EQ(v, 0.0) << tiny;
+    EXPECT_FALSE(std::signbit(v)) << tiny;
+  }
+  EXPECT_EQ(Parse("3e-324 m", Dimension::kLength), 4.9406564584124654e-324);  // the least subnormal
+  EXPECT_EQ(Parse("1e-300 um", Dimension::kLength), 1e-306);
+  for (const char* huge : {"1e400 m", "-1e309 m", "0.001e312 m", "12345e305 m", "1e99999999999999999999 m"}) {
+    EXPECT_NE(ErrorOf(huge, Dimension::kLength).find("out of the range of finite numbers"), std::string::npos) << huge;
+  }
+}
+
 TEST(Units, FormatRoundTrips) {
   EXPECT_EQ(FormatQuantity(12e-6, Dimension::kLength, "um"), "12 um");
   EXPECT_EQ(FormatQuantity(101325.0, Dimension::kPressure, "hPa"), "1013.25 hPa");

@@ -15,6 +15,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "base/decimal.h"
 #include "vlt/error.h"
 #include "vlt/input_file.h"
 #include "vlt/units.h"
@@ -379,8 +380,7 @@ double CsvQuantity(const std::string& field, std::optional<Dimension> dim, doubl
   std::string_view digits = field;
   if (!digits.empty() && digits.front() == '+') digits.remove_prefix(1);
   double v = 0.0;
-  const auto [end, ec] =
-      std::from_chars(digits.data(), digits.data() + digits.size(), v, std::chars_format::general);
+  const auto [end, ec] = ParseDecimal(digits, v);
   if (ec == std::errc() && end == digits.data() + digits.size()) {
     if (!std::isfinite(v)) throw InputError(at() + ": '" + field + "' is not a finite number");
     return v * unit_scale + unit_offset;

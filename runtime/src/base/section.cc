@@ -281,6 +281,15 @@ bool HasControlCharacter(std::string_view text) {
 
 }  // namespace
 
+void CheckName(std::string_view name, const std::string& where, std::string_view what) {
+  if (name.empty()) throw InputError(where + ": empty " + std::string(what) + " name");
+  if (HasControlCharacter(name)) {
+    throw InputError(where + ": the " + std::string(what) +
+                     " name holds a control or layout character (a line break, tab, escape or "
+                     "bidirectional mark): a name is one line of visible text");
+  }
+}
+
 // A one-line text of the record: it is printed in headers and filed, so no control or layout
 // characters (a line break, an escape sequence or a bidirectional override would forge, hide or
 // reorder a line of the report).

@@ -53,6 +53,12 @@ double AsNumber(const toml::node& node, const std::string& where);
 // A string with a unit ("12 um") or a number already in the SI representation.
 double AsQuantity(const toml::node& node, Dimension dimension, const std::string& where);
 
+// A name of the job's (a point, a task, a station, a target, ...): InputError "<where>: empty
+// <what> name" when empty, and when it holds a control or layout character (a line break, a tab,
+// an escape sequence, a bidirectional override: base/section.cc HasControlCharacter), which would
+// break a summary's line or a CSV row, or forge what a reader sees.
+void CheckName(std::string_view name, const std::string& where, std::string_view what);
+
 // A TOML document; InputError "<file>: line L, column C: TOML syntax error: ..." (base/section.cc).
 toml::table ParseToml(std::string_view text, const std::string& file);
 // The bytes of a file; InputError "<path>: cannot read <what>".

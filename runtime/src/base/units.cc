@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "base/decimal.h"
 #include "vlt/error.h"
 
 namespace vlt {
@@ -283,7 +284,7 @@ double ParseQuantity(std::string_view text, Dimension expected, std::string_view
   const std::string_view unit = Trim(trimmed.substr(length));
   if (number.front() == '+') number.remove_prefix(1);  // from_chars takes no '+'
   double value = 0.0;
-  const auto [end, ec] = std::from_chars(number.data(), number.data() + number.size(), value);
+  const auto [end, ec] = base_internal::ParseDecimal(number, value);
   if (ec == std::errc::result_out_of_range || !std::isfinite(value)) {
     throw InputError(prefix + quoted + " is out of the range of finite numbers");
   }

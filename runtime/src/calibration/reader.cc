@@ -106,7 +106,7 @@ TestLayout LoadTestLayout(const std::string& path) {
   std::set<std::string> names;
   auto unique = [&](Section& s) {
     std::string name = AsString(s.Require("name"), s.Where("name"));
-    if (name.empty()) throw InputError(s.Where("name") + ": empty name");
+    CheckName(name, s.Where("name"), "bar or test");
     if (name.find_first_of(",\"\n") != std::string::npos)
       throw InputError(s.Where("name") + ": a name may not contain ',', '\"' or a line break");
     if (!names.insert(name).second) throw InputError(s.Where("name") + ": '" + name + "' is used twice");

@@ -109,7 +109,7 @@ std::map<std::string, Nominal> ReadNominal(Section& top, Job& job) {
   for (const CsvRow& row : table.rows) {
     const std::string where = table.Where(row);
     const std::string& name = row.fields[c[0]];
-    if (name.empty()) throw InputError(where + ": empty point name");
+    CheckName(name, where, "point");
     Nominal n;
     for (int a = 0; a < 3; ++a) {
       n.position(a) =
@@ -235,7 +235,7 @@ Alignment ReadAlignment(Section& t, Job& job, const std::map<std::string, Nomina
   t.set_hint("name, kind, points, scale, rps, plane, line, point, weighting, tolerance");
   Alignment a;
   a.name = AsString(t.Require("name"), t.Where("name"));
-  if (a.name.empty()) throw InputError(t.Where("name") + ": empty alignment name");
+  CheckName(a.name, t.Where("name"), "alignment");
   if (!names.insert(a.name).second)
     throw InputError(t.Where("name") + ": '" + a.name + "' is already the name of a task or alignment");
   const std::string kind = AsString(t.Require("kind"), t.Where("kind"));
@@ -387,7 +387,7 @@ void ReadDeviation(Section& t, Job& job, const std::map<std::string, Nominal>& n
                    std::set<std::string>& names) {
   t.set_hint("name, alignment, points, position, tolerance");
   const std::string name = AsString(t.Require("name"), t.Where("name"));
-  if (name.empty()) throw InputError(t.Where("name") + ": empty deviation name");
+  CheckName(name, t.Where("name"), "deviation");
   const Alignment& alignment = AlignmentOf(t, alignments);
   const std::vector<std::string> points = PointsWithNormals(t, job, nominal);
   bool position = false;
@@ -421,7 +421,7 @@ void ReadProfile(Section& t, Job& job, const std::map<std::string, Nominal>& nom
   pattern.where = t.WhereSelf();
   pattern.kind = TaskKind::kProfile;
   const std::string name = AsString(t.Require("name"), t.Where("name"));
-  if (name.empty()) throw InputError(t.Where("name") + ": empty profile name");
+  CheckName(name, t.Where("name"), "profile");
   const Alignment& alignment = AlignmentOf(t, alignments);
   const std::vector<std::string> points = PointsWithNormals(t, job, nominal);
   ReadTaskTolerances(t, pattern);

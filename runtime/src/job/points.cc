@@ -144,7 +144,7 @@ void ReadPlanRows(CsvPieces pieces, double scale, int threads, Job& job) {
       JobPoint& p = job.points[i++];
       p.where = head.Where(row);
       p.name = std::move(row.fields[cn]);
-      if (p.name.empty()) throw InputError(p.where + ": empty point name");
+      CheckName(p.name, p.where, "point");
       p.nominal = {CsvQuantity(row.fields[cx], Dimension::kLength, scale, 0, p.where, ": x"),
                    CsvQuantity(row.fields[cy], Dimension::kLength, scale, 0, p.where, ": y"),
                    CsvQuantity(row.fields[cz], Dimension::kLength, scale, 0, p.where, ": z")};
@@ -187,7 +187,7 @@ void ReadPlan(Section& s, Job& job, bool check_reach, int threads) {
       JobPoint p;
       p.where = job.file + ": " + path;
       p.name = AsString(pt.Require("name"), pt.Where("name"));
-      if (p.name.empty()) throw InputError(pt.Where("name") + ": empty point name");
+      CheckName(p.name, pt.Where("name"), "point");
       p.nominal = {PlanCoordinate(pt.Require("x"), scale, pt.Where("x")),
                    PlanCoordinate(pt.Require("y"), scale, pt.Where("y")),
                    PlanCoordinate(pt.Require("z"), scale, pt.Where("z"))};
@@ -373,7 +373,7 @@ void ReadReadings(Section& s, Job& job, bool times_by_default) {
     JobPoint p;
     p.where = table.Where(row);
     p.name = row.fields[col[0]];
-    if (p.name.empty()) throw InputError(p.where + ": empty point name");
+    CheckName(p.name, p.where, "point");
     if (time_col >= 0) ReadReadingTime(row.fields[time_col], time_scale, time_name, job, p);
     double r[3];
     for (int k = 0; k < 3; ++k) {

@@ -89,7 +89,7 @@ void ReadTasks(Section& top, Job& job, int threads) {
     spec.where = t.WhereSelf();
     spec.kind = ParseTaskKind(AsString(t.Require("kind"), t.Where("kind")), t.Where("kind"));
     spec.name = AsString(t.Require("name"), t.Where("name"));
-    if (spec.name.empty()) throw InputError(t.Where("name") + ": empty task name");
+    CheckName(spec.name, t.Where("name"), "task");
     if (!seen.insert(spec.name).second)
       throw InputError(t.Where("name") + ": task '" + spec.name + "' defined twice");
     const toml::node& pts = t.Require("points");

@@ -152,8 +152,8 @@ void NetworkFileReader::ReadInstruments() {
     ForEachTable(top, path, "instrument", [&](Section& s) {
       s.set_hint("name, tracker, environment, correlations");
       const std::string name = AsString(s.Require("name"), s.Where("name"));
-      if (name.empty() || name.find('.') != std::string::npos)
-        throw InputError(s.Where("name") + ": a non-empty name without '.'");
+      CheckName(name, s.Where("name"), "instrument");
+      if (name.find('.') != std::string::npos) throw InputError(s.Where("name") + ": a name without '.'");
       for (const NetworkInstrument& other : net.instruments) {
         if (other.name == name)
           throw InputError(s.Where("name") + ": instrument '" + name + "' defined twice");
@@ -294,7 +294,7 @@ void NetworkFileReader::ReadAirSensors() {
     NetworkAirSensor sensor;
     sensor.where = s.WhereSelf();
     sensor.name = AsString(s.Require("name"), s.Where("name"));
-    if (sensor.name.empty()) throw InputError(s.Where("name") + ": empty sensor name");
+    CheckName(sensor.name, s.Where("name"), "sensor");
     for (const NetworkAirSensor& other : net.air_sensors) {
       if (other.name == sensor.name)
         throw InputError(s.Where("name") + ": air sensor '" + sensor.name + "' defined twice");
@@ -464,7 +464,7 @@ void NetworkFileReader::ReadStation(Section& s) {
   NetworkStation st;
   st.where = s.WhereSelf();
   st.name = AsString(s.Require("name"), s.Where("name"));
-  if (st.name.empty()) throw InputError(s.Where("name") + ": empty station name");
+  CheckName(st.name, s.Where("name"), "station");
   st.instrument = InstrumentOf(s);
   ReadPose(s, st);
   ReadStationAir(s, st);
@@ -553,7 +553,7 @@ void NetworkFileReader::ReadDistance(Section& s, bool scale_bar) {
   d.scale_bar = scale_bar;
   d.where = s.WhereSelf();
   d.name = AsString(s.Require("name"), s.Where("name"));
-  if (d.name.empty()) throw InputError(s.Where("name") + ": empty name");
+  CheckName(d.name, s.Where("name"), scale_bar ? "scale bar" : "distance");
   for (const NetworkDistance& other : net.distances) {
     if (other.name == d.name) throw InputError(s.Where("name") + ": '" + d.name + "' defined twice");
   }

@@ -627,13 +627,36 @@ void ValidatePointResult(const McmResult& mcm, std::size_t i, Results& results) 
   auto m = std::make_shared<PointMcm>();
   m->mcm = mcm.points[i];
   std::vector<std::string> outcomes;
+  // What rounding leaves in a coordinate: 64 ulps of the largest of the point's part-frame
+  // coordinates and its range (its tracker-frame size), as for a task's outputs
+  // (ValidateTaskResult), so that a coordinate whose GUM u and Monte Carlo spread are both
+  // rounding (every input's u 0) is judged exact, not on its noise.
+  const double size = std::max(pr.gum.part.cwiseAbs().maxCoeff(), std::abs(pr.gum.readings(0)));
+  const double resolution = 64.0 * std::numeric_limits<double>::epsilon() * size;
+  bool exact = true;
   for (int a = 0; a < 3; ++a) {
     m->axes[a] = mcm.outputs[3 * i + a];
     m->axis_validation[a] = ValidateScalar(m->axes[a].name, "m", pr.gum.part[a], pr.gum.u_part()[a],
                                            pr.gum.U_part()[a], m->axes[a].symmetric, results.n_dig, mcm.trials,
-                                           m->axes[a].u, results.coverage_probability);
+                                           m->axes[a].u, results.coverage_probability, true, resolution);
     CheckFiniteVariance(m->axes[a], m->axis_validation[a]);
     outcomes.push_back(m->axis_validation[a].outcome);
+    exact = exact && m->axis_validation[a].exact;
+  }
+  if (exact) {
+    // No spread on any axis, in the GUM or the Monte Carlo: both regions are the point itself,
+    // and there is no ellipsoid to compare (its covariance is 0).
+    m->region_validation = PointValidation{};
+    m->region_validation.name = pr.input.name;
+    m->region_validation.outcome = "not applicable";
+    m->region_validation.verdict =
+        "not applicable: every coordinate is exact (its GUM u and Monte Carlo interval below the numerical "
+        "resolution), so both coverage regions are the point";
+    pr.monte_carlo = std::move(m);
+    pr.outcome = CombinedOutcome(outcomes);
+    pr.validated = pr.outcome == "validated";
+    results.validated_points += pr.validated ? 1 : 0;
+    return;
   }
   try {
     m->region_validation = ValidatePoint(pr.input.name, pr.gum.part, pr.gum.cov_part, results.k_region,
