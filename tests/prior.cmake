@@ -35,6 +35,8 @@ vlt_prior_error(with_estimate "with_estimate\\.toml: tracker\\.parameters\\.ex: 
 vlt_prior_error(no_mpe "no_mpe\\.toml: tests\\.mpe: a profile needs at least one MPE")
 vlt_prior_error(bad_bound "bad_bound\\.toml: prior\\.bound: expected a multiple of the generic u from 1 to 1000")
 vlt_prior_error(bad_probability "bad_probability\\.toml: prior\\.conformance_probability: must be between 0 and 1")
+# A tiny probability (5e-324) hung the two-face quantile's bracket, whose start was 0.
+vlt_prior_error(tiny_probability "tiny_probability\\.toml: prior\\.conformance_probability: an MPE statement's probability of conformance is at least 0\\.5")
 vlt_prior_error(source_two_lines "source_two_lines\\.toml: prior\\.source\\.ranging: a control character")
 vlt_prior_error(test_keys "test_keys\\.toml: tests\\.coverage_probability: unknown key")
 

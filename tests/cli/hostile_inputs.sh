@@ -97,5 +97,69 @@ if ! timeout 60 "$vlt" -q run panel_station.toml --no-mcm -o "$long" 2> stderr.t
   echo "FAIL long_name:"; head -c 600 stderr.txt; echo; fail=1
 fi
 
+# Two stations whose names map to one file name (S/1 and S 1 -> S_1) shared one simulated
+# readings file: the second overwrote the first, and adjusting the simulated network put S 1 at
+# S/1's pose, exit 0. Each now has its own file, and each station comes back where it was.
+cp "$src/examples/network/wing_targets.csv" .
+cat > collide.toml << 'TOML'
+[job]
+name = "collide"
+[tracker]
+model = "head"
+[tracker.noise]
+range = "1 um + 0.4 um/m"
+azimuth = "0.5 arcsec"
+elevation = "0.5 arcsec"
+[targets]
+csv = "wing_targets.csv"
+[datum]
+station = "S/1"
+[[station]]
+name = "S/1"
+rz = "15 deg"
+tx = "-3.0 m"
+ty = "1.2 m"
+tz = "0.4 m"
+sees = "all"
+[[station]]
+name = "S 1"
+rz = "170 deg"
+tx = "11.0 m"
+ty = "1.5 m"
+tz = "0.5 m"
+sees = "all"
+TOML
+accepted collide network collide.toml --simulate 3
+if [ "$(grep "csv = 'simulated_S_1" out_collide/simulated_network.toml | sort -u | wc -l)" != 2 ]; then
+  echo "FAIL collide: the two stations do not have two files:"; grep "csv =" out_collide/simulated_network.toml; fail=1
+fi
+(cd out_collide && timeout 60 "$vlt" -q network simulated_network.toml -o ../out_collide_adjusted) ||
+  { echo "FAIL collide: the simulated network does not adjust"; fail=1; }
+if ! grep -q '^S 1,false,[^,]*,[^,]*,[^,]*,1[01]\.' out_collide_adjusted/stations.csv; then
+  echo "FAIL collide: station 'S 1' is not back near tx = 11 m:"; cat out_collide_adjusted/stations.csv; fail=1
+fi
+
+# A test layout beyond a tracker's reach (a two-face target 14 km away) was simulated, and the
+# calibration its files fed then refused its readings; refused where the layout is read.
+cat > far_layout.toml << 'TOML'
+[layout]
+name = "far"
+[[two_face]]
+name = "t"
+distance = "9999 m"
+height = "9999 m"
+TOML
+cat > far_test.toml << 'TOML'
+[tracker]
+model = "head"
+[tracker.noise]
+range = "1 um + 0.2 um/m"
+azimuth = "0.1 arcsec"
+elevation = "0.1 arcsec"
+[tests]
+layout = "far_layout.toml"
+TOML
+refused far_layout "far_layout\.toml: two_face\[0\]: 14140\.7 m from the tracker: beyond any laser tracker" test far_test.toml
+
 [ "$fail" = 0 ] && echo "hostile inputs: each refused in one line with exit 2 and nothing written, or run"
 exit $fail

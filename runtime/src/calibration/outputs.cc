@@ -388,7 +388,8 @@ std::string CalibrationResultsJson(const CalibrationJob& job, const CalibrationR
     nlohmann::json terms = nlohmann::json::object();
     for (const auto& [name, c] : h.terms) terms[name] = c;
     held.push_back({{"terms", terms},
-                    {"ratio", std::isinf(h.ratio) ? nlohmann::json("inf") : nlohmann::json(h.ratio)},
+                    // null: the data do not determine it (as the network's results.json says it).
+                    {"ratio", std::isfinite(h.ratio) ? nlohmann::json(h.ratio) : nlohmann::json(nullptr)},
                     {"description", h.description}});
   }
   j["identifiability"] = {
@@ -396,7 +397,7 @@ std::string CalibrationResultsJson(const CalibrationJob& job, const CalibrationR
       {"singular_values", std::vector<double>(result.singular_values.data(),
                                               result.singular_values.data() + result.singular_values.size())},
       {"condition_number",
-       std::isinf(result.condition_number) ? nlohmann::json("inf") : nlohmann::json(result.condition_number)},
+       std::isfinite(result.condition_number) ? nlohmann::json(result.condition_number) : nlohmann::json(nullptr)},
       {"held", held}};
   j["fit"] = {{"observations", result.observations},
               {"unknowns", result.unknowns},

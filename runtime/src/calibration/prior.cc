@@ -123,7 +123,8 @@ double TwoFaceFactor(const Eigen::Matrix3d& c, double p, double hint) {
   const double trace = lambda.sum();
   if (!(trace > 0.0)) return NormalCoverageFactor(p);
   auto g = [&](double f) { return ProbabilityWithinSphere(lambda, f * std::sqrt(trace)) - p; };
-  double lo = 0.98 * hint, hi = 1.02 * hint;
+  // A hint of 0 (or below the bracket's floor) would never grow: start the bracket at 1e-6.
+  double lo = std::max(0.98 * hint, 1e-6), hi = std::max(1.02 * hint, 2e-6);
   double glo = g(lo), ghi = g(hi);
   while (glo >= 0.0 && lo > 1e-6) glo = g(lo *= 0.5);
   while (ghi < 0.0 && hi < 1e3) ghi = g(hi *= 2.0);

@@ -6,6 +6,7 @@
 #include <cctype>
 #include <cmath>
 #include <map>
+#include <numbers>
 #include <set>
 
 #include <toml++/toml.h>
@@ -49,14 +50,23 @@ Face ReadFace(Section& s) {
 struct Place {
   Eigen::Vector3d centre, radial, transverse, up;
 };
+// Within a tracker's reach (kMaxRange, as a job's points) and an azimuth within 720 degrees either
+// way (as a reading's: beyond, a double has few digits left below a turn).
 Place ReadPlace(Section& s, double distance) {
   const double azimuth = Optional(s, "azimuth", Dimension::kAngle, 0.0);
   const double height = Optional(s, "height", Dimension::kLength, 0.0);
+  if (!(std::abs(azimuth) <= 4.0 * std::numbers::pi))
+    throw InputError(s.Where("azimuth") + ": beyond 720 degrees either way");
   Place p;
   p.radial = Eigen::Vector3d(std::cos(azimuth), std::sin(azimuth), 0.0);
   p.transverse = Eigen::Vector3d(-std::sin(azimuth), std::cos(azimuth), 0.0);
   p.up = Eigen::Vector3d::UnitZ();
   p.centre = distance * p.radial + height * p.up;
+  if (!(p.centre.norm() <= kMaxRange)) {
+    throw InputError(s.WhereSelf() + ": " + FormatQuantity(p.centre.norm(), Dimension::kLength, "m", 6) +
+                     " from the tracker: beyond any laser tracker (at most " +
+                     FormatQuantity(kMaxRange, Dimension::kLength, "km", 3) + ")");
+  }
   return p;
 }
 
@@ -117,6 +127,7 @@ TestLayout LoadTestLayout(const std::string& path) {
     ReferenceBar bar;
     bar.name = unique(s);
     bar.length = Positive(s, "length", Dimension::kLength);
+    if (!(bar.length <= kMaxRange)) throw InputError(s.Where("length") + ": longer than a tracker's reach (10 km)");
     bar.u = Positive(s, "u", Dimension::kLength);
     bar.u_position = Positive(s, "u_position", Dimension::kLength);
     bar.where = s.WhereSelf();
@@ -270,7 +281,13 @@ PriorJob LoadPriorJob(const std::string& path) {
   Section prior = top.Sub("prior", false);
   if (prior.exists()) {
     prior.set_hint("conformance_probability, bound, source");
-    ReadCoverageProbability(prior, "conformance_probability", job.settings.conformance_probability);
+    if (ReadCoverageProbability(prior, "conformance_probability", job.settings.conformance_probability) &&
+        job.settings.conformance_probability < 0.5) {
+      // An MPE met less often than not states no bound (and p -> 0 has no quantile to solve for).
+      throw InputError(prior.Where("conformance_probability") +
+                       ": an MPE statement's probability of conformance is at least 0.5 (e.g. 0.95; 0.6827 "
+                       "for one standard deviation)");
+    }
     if (const toml::node* n = prior.Get("bound")) {
       job.settings.bound = AsNumber(*n, prior.Where("bound"));
       if (!(job.settings.bound >= 1.0 && job.settings.bound <= 1000.0))
@@ -379,6 +396,7 @@ CalibrationJob LoadCalibrationJob(const std::string& path) {
         throw InputError(s.Where("name") + ": bar '" + bar.name + "' defined twice");
     }
     bar.length = Positive(s, "length", Dimension::kLength);
+    if (!(bar.length <= kMaxRange)) throw InputError(s.Where("length") + ": longer than a tracker's reach (10 km)");
     bar.u = Positive(s, "u", Dimension::kLength);
     bar.u_position = Positive(s, "u_position", Dimension::kLength);
     const toml::node& positions = s.Require("positions");

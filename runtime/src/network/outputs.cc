@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <cctype>
 #include <set>
 #include <numbers>
 
@@ -1305,10 +1306,23 @@ Files SimulatedNetworkFiles(const NetworkJob& job, const Network& simulated, std
       tracker->insert_or_assign("calibration", absolute);
     }
   }
+  // Each file's own name: SafeFileName maps "S/1" and "S 1" alike (to S_1), and one station's
+  // readings overwrote the other's; a name taken already (compared without case, for file systems
+  // that ignore it) gets _2, _3, ...
+  std::set<std::string> taken;
+  auto unique_csv = [&](const std::string& stem) {
+    auto lowercase = [](std::string text) {
+      for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      return text;
+    };
+    std::string name = stem + ".csv";
+    for (int n = 2; !taken.insert(lowercase(name)).second; ++n) name = stem + "_" + std::to_string(n) + ".csv";
+    return name;
+  };
   toml::array* stations = root["station"].as_array();
   for (std::size_t i = 0; i < simulated.stations.size(); ++i) {
     const NetworkStation& st = simulated.stations[i];
-    const std::string csv = "simulated_" + base_internal::SafeFileName(st.name) + ".csv";
+    const std::string csv = unique_csv("simulated_" + base_internal::SafeFileName(st.name));
     // A drift check's readings go to its own file (below), as a measured check's come.
     files.emplace_back(csv, SimulatedReadingsCsv(st, [&](const TargetReading& r) {
                          return std::find(job.drift_check_where.begin(), job.drift_check_where.end(),
@@ -1340,7 +1354,7 @@ Files SimulatedNetworkFiles(const NetworkJob& job, const Network& simulated, std
           if (other && other->get() == st.name) ++number;
         }
         const std::string csv =
-            "simulated_" + base_internal::SafeFileName(st.name) + "_check" + std::to_string(number) + ".csv";
+            unique_csv("simulated_" + base_internal::SafeFileName(st.name) + "_check" + std::to_string(number));
         files.emplace_back(csv, SimulatedReadingsCsv(st, [&](const TargetReading& r) {
                              return r.where == job.drift_check_where[k];
                            }));
