@@ -1,7 +1,11 @@
 #include "architectures.h"
 
 #include <array>
+#include <cmath>
 #include <map>
+#include <set>
+#include <string>
+#include <vector>
 
 namespace vlt::gen {
 namespace {
@@ -177,6 +181,37 @@ std::vector<QuantitySpec> TrackerOutputs() {
           Named("z", "m", "length", "True reflector-centre z coordinate in the tracker frame (up)")};
 }
 
+// What vlt-gen can emit, checked where the spec says it (SpecError "<where>: <problem>"), not
+// left to the printer's internal errors or to the compiler: real numbers within a double's range
+// (1e400 printed as inf, which no compiler takes), integer powers up to kMaxIntegerPower (x^n is
+// printed as n - 1 products: a^1000000000 took 8 GB), the functions the printer knows. The tree is
+// walked with a stack of its own (its depth is bounded by the text's, CheckExpressionText).
+void CheckExpression(const GiNaC::ex& expression, const std::string& where) {
+  using namespace GiNaC;
+  static const std::set<std::string> kFunctions = {"sin", "cos", "tan", "atan2", "exp",
+                                                   "log", "atan", "sinh", "cosh", "tanh"};
+  std::vector<ex> stack = {expression};
+  while (!stack.empty()) {
+    const ex e = stack.back();
+    stack.pop_back();
+    if (is_a<numeric>(e)) {
+      const numeric& v = ex_to<numeric>(e);
+      if (!v.is_real()) throw SpecError(where + ": a complex number (the square root of a negative number, or I)");
+      if (!std::isfinite(v.to_double()) || (!v.is_zero() && v.to_double() == 0.0)) {
+        throw SpecError(where + ": a number beyond the range of a double (about 1e-308 to 1e308)");
+      }
+    } else if (is_a<power>(e) && is_a<numeric>(e.op(1)) && ex_to<numeric>(e.op(1)).is_integer() &&
+               abs(ex_to<numeric>(e.op(1))) > kMaxIntegerPower) {
+      throw SpecError(where + ": an integer power above " + std::to_string(kMaxIntegerPower) +
+                      " (each is printed as products; write exp(n*log(x)) for x > 0)");
+    } else if (is_a<function>(e) && !kFunctions.count(ex_to<function>(e).get_name())) {
+      throw SpecError(where + ": function '" + ex_to<function>(e).get_name() +
+                      "' is not supported (sin, cos, tan, atan, atan2, sinh, cosh, tanh, exp, log, sqrt and ^)");
+    }
+    for (std::size_t i = 0; i < e.nops(); ++i) stack.push_back(e.op(i));
+  }
+}
+
 }  // namespace
 
 const std::vector<KnownParam>& ArchitectureParams(const std::string& architecture) {
@@ -249,6 +284,7 @@ BuiltModel BuildModel(const ModelSpec& spec) {
       }
       throw SpecError(where + ".expression: cannot parse '" + o.expression + "': " + msg);
     }
+    CheckExpression(m.graph.outputs.back(), where + ".expression");
     m.output_info.push_back(o);
   }
   return m;

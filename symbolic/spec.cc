@@ -93,8 +93,35 @@ const std::set<std::string>& ReservedNames() {
                                                   "Catalan",
                                                   "kNumReadings",
                                                   "kNumParams",
-                                                  "kNumOutputs"};
+                                                  "kNumOutputs",
+                                                  // The rest of C++20's keywords and alternative tokens.
+                                                  "alignas", "alignof", "asm", "catch", "char8_t", "char16_t",
+                                                  "char32_t", "co_await", "co_return", "co_yield", "concept",
+                                                  "consteval", "constexpr", "constinit", "const_cast", "continue",
+                                                  "decltype", "dynamic_cast", "explicit", "export", "false",
+                                                  "mutable", "namespace", "noexcept", "nullptr", "reinterpret_cast",
+                                                  "requires", "static_assert", "static_cast", "thread_local", "true",
+                                                  "typeid", "wchar_t", "and_eq", "bitand", "bitor", "compl",
+                                                  "not_eq", "or_eq", "xor_eq", "final", "override", "import",
+                                                  "module",
+                                                  // Names of the generated code (the kernels, their helpers
+                                                  // and arguments).
+                                                  "kNumInputs", "SinCos", "Forward", "ForwardJacobians",
+                                                  "NominalJacobians", "Hessians", "hessians", "ForwardLanes",
+                                                  "ForwardBatch", "NominalJacobiansBatch", "Sensitivity", "Lanes",
+                                                  "model", "Index", "sine", "cosine", "stride", "params_stride"};
   return kReserved;
+}
+
+// The macros the headers of the generated code define with this build's compiler (NDEBUG's use,
+// M_PI, EDOM, EOF, errno, INFINITY, ...): a model's name that is one would be replaced in the
+// generated C++ and break it. The list is the compiler's own, `-dM -E` at configure time
+// (symbolic/CMakeLists.txt).
+bool IsMacro(const std::string& name) {
+  static const std::set<std::string> kMacros = {
+#include "macro_names.inc"
+  };
+  return kMacros.count(name) > 0 || name == "NDEBUG";
 }
 
 // Quantity kinds the runtime knows (vlt/units.h DimensionName): job files give values in units
@@ -182,7 +209,8 @@ class Reader {
     if (!IsValidIdentifier(q.name)) {
       Fail(where + ".name", "'" + q.name +
                                 "' is not a valid name (a letter first, then letters, "
-                                "digits, '_'; not a name the generated code uses)");
+                                "digits, '_'; not a C++ keyword, a C library macro such as M_PI or "
+                                "EDOM, or a name the generated code uses)");
     }
     const std::string w = where + "(" + q.name + ")";
     q.unit = String(table, w, "unit", true);
@@ -201,6 +229,7 @@ class Reader {
     if (q.description.find('\n') != std::string::npos) Fail(w + ".description", "must be one line");
     if (is_output) {
       q.expression = String(table, w, "expression", true);
+      CheckExpressionText(q.expression, w + ".expression");
       return q;
     }
     q.estimate = Number(table, w, "estimate", is_custom, 0.0);
@@ -218,6 +247,22 @@ class Reader {
 
   const std::string& path() const { return path_; }
 
+  // Before GiNaC's parser (which recurses per level: 200 000 nested parentheses overflowed its
+  // stack; a product of 10^5 factors ran for minutes): at most kMaxExpressionLength characters and
+  // kMaxExpressionDepth levels of parentheses.
+  void CheckExpressionText(const std::string& text, const std::string& where) const {
+    if (text.size() > kMaxExpressionLength) {
+      Fail(where, std::to_string(text.size()) + " characters, more than " + std::to_string(kMaxExpressionLength));
+    }
+    int depth = 0;
+    for (const char c : text) {
+      depth += c == '(' ? 1 : c == ')' ? -1 : 0;
+      if (depth > kMaxExpressionDepth) {
+        Fail(where, "parentheses or calls nested more than " + std::to_string(kMaxExpressionDepth) + " deep");
+      }
+    }
+  }
+
  private:
   std::string path_;
 };
@@ -233,7 +278,7 @@ bool IsValidIdentifier(const std::string& name) {
   }
   if (name.find("__") != std::string::npos) return false;
   if (name.rfind("_tmp", 0) == 0) return false;
-  return !ReservedNames().count(name);
+  return !ReservedNames().count(name) && !IsMacro(name);
 }
 
 ModelSpec ReadSpec(const std::string& path, const std::string& spec_prefix) {
@@ -299,6 +344,13 @@ ModelSpec ReadSpec(const std::string& path, const std::string& spec_prefix) {
     spec.outputs = read_array("output", true);
     if (spec.params.empty()) r.Fail("[[input]]", "a custom model needs at least one input");
     if (spec.outputs.empty()) r.Fail("[[output]]", "a custom model needs at least one output");
+    // The generated code grows with the inputs squared (the Hessians): 3000 inputs exhausted the
+    // compiler's memory. A measurement model of more is a model of several measurements.
+    if (spec.params.size() > kMaxCustomInputs || spec.outputs.size() > kMaxCustomOutputs) {
+      r.Fail(spec.params.size() > kMaxCustomInputs ? "[[input]]" : "[[output]]",
+             "at most " + std::to_string(kMaxCustomInputs) + " inputs and " + std::to_string(kMaxCustomOutputs) +
+                 " outputs in a custom model");
+    }
     for (const auto& o : spec.outputs) {
       for (const auto& p : spec.params) {
         if (o.name == p.name) r.Fail("output(" + o.name + ").name", "same name as an input");

@@ -7,6 +7,15 @@
 
 namespace vlt::gen {
 
+// Limits of a custom model's spec, so that no spec can crash, hang or exhaust vlt-gen or the
+// compiler (docs/custom-models.md "Limits"): inputs and outputs (the Hessians' code grows with the
+// inputs squared per output), an output expression's length and nesting, an integer power.
+inline constexpr std::size_t kMaxCustomInputs = 100;
+inline constexpr std::size_t kMaxCustomOutputs = 100;
+inline constexpr std::size_t kMaxExpressionLength = 4096;
+inline constexpr int kMaxExpressionDepth = 32;
+inline constexpr int kMaxIntegerPower = 64;
+
 // A spec that cannot be used. The message is one line naming the file and the key.
 class SpecError : public std::runtime_error {
  public:

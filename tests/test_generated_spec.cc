@@ -179,6 +179,57 @@ TEST(VltGen, CustomOutputExpressionMustUseDeclaredInputs) {
   fs::remove_all(dir);
 }
 
+// What a custom spec could do to the generator or the compiler (a review of 2026-11-29 built
+// hostile specs): a name that is a macro of the generated code's headers, a C++ keyword or a name
+// of the generated code; a literal beyond a double, a complex number, an unsupported function, an
+// integer power of 10^9, 10^5 nested parentheses, 3000 inputs. Each is one line naming the key,
+// exit 2, nothing written, in well under a second (they had crashed vlt-gen, exhausted its memory,
+// run for minutes or failed in the compiler).
+TEST(VltGen, HostileCustomSpecsAreRefusedAtTheirKey) {
+  const std::string additive = Read(kModels / "jcgm101_additive.toml");
+  auto with = [&](const std::string& from, const std::string& to) {
+    std::string s = additive;
+    const std::size_t p = s.find(from);
+    if (p == std::string::npos) throw std::runtime_error("not found: " + from);
+    return s.replace(p, from.size(), to);
+  };
+  const std::string sum = "expression = \"x1 + x2 + x3 + x4\"";
+  std::string many_inputs = additive;
+  for (int i = 0; i < 101; ++i) {
+    many_inputs += "\n[[input]]\nname = \"extra" + std::to_string(i) +
+                   "\"\nunit = \"1\"\nquantity = \"dimensionless\"\ndescription = \"d\"\nestimate = 1.0\nu = 0.1\n";
+  }
+  const BadSpec cases[] = {
+      {"a macro", with("name = \"x1\"", "name = \"EDOM\""), "input[0].name: 'EDOM' is not a valid name"},
+      {"M_PI", with("name = \"x1\"", "name = \"M_PI\""), "input[0].name: 'M_PI' is not a valid name"},
+      {"errno", with("name = \"x1\"", "name = \"errno\""), "input[0].name: 'errno' is not a valid name"},
+      {"a keyword", with("name = \"x1\"", "name = \"nullptr\""), "input[0].name: 'nullptr' is not a valid name"},
+      {"generated", with("name = \"x1\"", "name = \"SinCos\""), "input[0].name: 'SinCos' is not a valid name"},
+      {"huge literal", with(sum, "expression = \"x1 * 1e400 + x2 + x3 + x4\""), "a number beyond the range of a double"},
+      {"complex", with(sum, "expression = \"sqrt(-1) * x1 + x2 + x3 + x4\""), "a complex number"},
+      {"abs", with(sum, "expression = \"abs(x1) + x2 + x3 + x4\""), "function 'abs' is not supported"},
+      {"power", with(sum, "expression = \"x1^1000000000 + x2 + x3 + x4\""), "an integer power above 64"},
+      {"power beyond int", with(sum, "expression = \"x1^4294967298 + x2 + x3 + x4\""), "an integer power above 64"},
+      {"nesting", with(sum, "expression = \"" + std::string(100000, '(') + "x1" + std::string(100000, ')') + "\""),
+       "characters, more than 4096"},
+      {"depth", with(sum, "expression = \"" + std::string(33, '(') + "x1" + std::string(33, ')') + " + x2 + x3 + x4\""),
+       "nested more than 32 deep"},
+      {"inputs", many_inputs, "[[input]]: at most 100 inputs and 100 outputs"},
+  };
+  for (const auto& c : cases) {
+    const fs::path dir = TempDir();
+    fs::create_directories(dir / "models");
+    Write(dir / "models" / "jcgm101_additive.toml", c.text);
+    const GenRun r = RunGen("--models " + (dir / "models").string() + " --out " + (dir / "out").string(), dir);
+    EXPECT_EQ(r.status, 2) << c.what << ": " << r.err;
+    EXPECT_NE(r.err.find((dir / "models" / "jcgm101_additive.toml").string()), std::string::npos) << c.what << ": " << r.err;
+    EXPECT_NE(r.err.find(c.expected_in_message), std::string::npos) << c.what << ": " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << c.what << ": " << r.err;
+    EXPECT_FALSE(fs::exists(dir / "out" / "jcgm101_additive.h")) << c.what;
+    fs::remove_all(dir);
+  }
+}
+
 TEST(VltGen, ExpressionsUndefinedAtZeroGenerateAndSingularOnesAreRefused) {
   // v/i (and 1/i) have no value at i = 0: the nominal Jacobian is taken at the estimates, so the
   // spec generates; with the estimate i = 0 itself the spec is refused with one line, exit 2.
