@@ -572,7 +572,10 @@ void NetworkFileReader::ReadDistance(Section& s, bool scale_bar) {
   double nominal_length = 0.0;
   if (s.Get("length")) {
     d.calibrated_length = Length(s, "length");
-    if (!(d.calibrated_length > 0.0)) throw InputError(s.Where("length") + ": must be positive");
+    // Positive and of a size a network can read (a bar of 1e-300 m left the adjustment to fail
+    // without a key): from 1 um to a tracker's reach.
+    if (!(d.calibrated_length >= 1e-6 && d.calibrated_length <= kMaxRange))
+      throw InputError(s.Where("length") + ": a length from 1 um to 10 km");
   } else if (job.offline) {
     nominal_length = (nominal[d.to] - nominal[d.from]).norm();
   } else {
