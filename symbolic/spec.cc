@@ -1,6 +1,7 @@
 #include "spec.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <set>
@@ -259,6 +260,23 @@ class Reader {
       depth += c == '(' ? 1 : c == ')' ? -1 : 0;
       if (depth > kMaxExpressionDepth) {
         Fail(where, "parentheses or calls nested more than " + std::to_string(kMaxExpressionDepth) + " deep");
+      }
+    }
+    // GiNaC computes a number's power and a literal exactly while it parses (1e100000000000,
+    // 2^100000000000 ran out of memory): a literal's exponent or a power's literal of more than
+    // three digits is refused here, as CheckExpression would refuse its value.
+    auto digits_from = [&](std::size_t i) {
+      while (i < text.size() && (text[i] == ' ' || text[i] == '(' || text[i] == '+' || text[i] == '-')) ++i;
+      std::size_t n = 0;
+      while (i + n < text.size() && std::isdigit(static_cast<unsigned char>(text[i + n]))) ++n;
+      return n;
+    };
+    for (std::size_t i = 1; i < text.size(); ++i) {
+      const bool exponent_mark = (text[i] == 'e' || text[i] == 'E') &&
+                                 (std::isdigit(static_cast<unsigned char>(text[i - 1])) || text[i - 1] == '.');
+      if (exponent_mark && digits_from(i + 1) > 3) Fail(where, "a number beyond the range of a double");
+      if (text[i] == '^' && digits_from(i + 1) > 3) {
+        Fail(where, "an integer power above " + std::to_string(kMaxIntegerPower));
       }
     }
   }

@@ -277,7 +277,7 @@ TEST(Planning, BadInputIsOneLineNamingTheKey) {
   EXPECT_EQ(error("[optimize]\nfloor = \"0, 1, 0, 1\"\n[[optimize.objective]]\nquantity = \"bore.radius\"\n"),
             "bad.toml: optimize.objective[0].quantity: no task 'bore' (tasks: AC)");
   EXPECT_EQ(error("[optimize]\nfloor = \"0, 1, 0, 1\"\n[[optimize.objective]]\nquantity = \"points\"\nweight = 0\n"),
-            "bad.toml: optimize.objective[0].weight: weight must be positive");
+            "bad.toml: optimize.objective[0].weight: a weight above 0, at most 1e6");
   EXPECT_NE(error("[optimize]\nfloor = \"0, 1, 0, 1\"\nobjective = \"AC.flatness\"\n")
                 .find("optimize.objective: task 'AC' has no length quantity 'flatness'"),
             std::string::npos);

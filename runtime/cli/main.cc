@@ -19,6 +19,41 @@ namespace vlt::cli {
 // Quoted values longer than 160 characters keep their first and last 60 (a path keeps its file
 // name, which is what the user needs to see); a line still longer than 1000 (a long path outside
 // quotes) keeps its first and last 480: the problem, at the end of the line, is never cut.
+namespace {
+
+// One line that a terminal shows as it is: a line break or a tab a blank; any other C0 control
+// or DEL (an escape sequence; NUL would end the printed text) as \xNN; a C1 control (U+0080..
+// U+009F: CSI introduces a terminal's escape too) or a bidirectional mark, embedding, override or
+// isolate (U+061C, U+200E/F, U+202A..E, U+2066..9: they reorder what a reader sees) as \uXXXX.
+std::string VisibleText(const std::string& text) {
+  std::string visible;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const auto byte = [&](std::size_t k) { return k < text.size() ? static_cast<unsigned char>(text[k]) : 0u; };
+    const unsigned c = byte(i), c1 = byte(i + 1), c2 = byte(i + 2);
+    char escaped[16];
+    if (c == '\n' || c == '\r' || c == '\t') {
+      visible += ' ';
+    } else if (c < 0x20 || c == 0x7f) {
+      std::snprintf(escaped, sizeof escaped, "\\x%02X", c);
+      visible += escaped;
+    } else if ((c == 0xc2 && c1 >= 0x80 && c1 <= 0x9f) || (c == 0xd8 && c1 == 0x9c)) {
+      std::snprintf(escaped, sizeof escaped, "\\u%04X", ((c & 0x1fu) << 6) | (c1 & 0x3fu));
+      visible += escaped;
+      ++i;
+    } else if (c == 0xe2 && ((c1 == 0x80 && (c2 == 0x8e || c2 == 0x8f || (c2 >= 0xaa && c2 <= 0xae))) ||
+                             (c1 == 0x81 && c2 >= 0xa6 && c2 <= 0xa9))) {
+      std::snprintf(escaped, sizeof escaped, "\\u%04X", ((c & 0x0fu) << 12) | ((c1 & 0x3fu) << 6) | (c2 & 0x3fu));
+      visible += escaped;
+      i += 2;
+    } else {
+      visible += static_cast<char>(c);
+    }
+  }
+  return visible;
+}
+
+}  // namespace
+
 std::string ShortenMessage(const std::string& message) {
   std::string out;
   std::size_t i = 0;
@@ -40,22 +75,7 @@ std::string ShortenMessage(const std::string& message) {
     out += '\'';
     i = close + 1;
   }
-  // One line that a terminal shows as it is: a line break or a tab a blank, any other control
-  // character (NUL, which would end the printed text, an escape sequence) written as \xNN.
-  std::string visible;
-  for (const char c : out) {
-    const auto byte = static_cast<unsigned char>(c);
-    if (c == '\n' || c == '\r' || c == '\t') {
-      visible += ' ';
-    } else if (byte < 0x20 || byte == 0x7f) {
-      char escaped[8];
-      std::snprintf(escaped, sizeof escaped, "\\x%02X", byte);
-      visible += escaped;
-    } else {
-      visible += c;
-    }
-  }
-  out = std::move(visible);
+  out = VisibleText(out);
   if (out.size() > 1000) {
     const std::size_t left_out = out.size() - 960;
     out = out.substr(0, 480) + " ...(" + std::to_string(left_out) + " characters)... " +

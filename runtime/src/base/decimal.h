@@ -35,8 +35,12 @@ inline std::from_chars_result ParseDecimal(std::string_view text, double& value)
     if (!exponent.empty() && (exponent.front() == '-' || exponent.front() == '+')) exponent.remove_prefix(1);
     std::int64_t magnitude = 0;
     const std::errc ec = std::from_chars(exponent.data(), exponent.data() + exponent.size(), magnitude).ec;
-    // An exponent beyond int64 decides alone; else the order of the whole number.
-    tiny = ec == std::errc::result_out_of_range ? negative : order + (negative ? -magnitude : magnitude) < 0;
+    // An exponent far beyond the mantissa's order (which the text's length bounds) decides alone,
+    // without an addition that could overflow; else the order of the whole number.
+    constexpr std::int64_t kDecides = std::int64_t{1} << 40;
+    tiny = ec == std::errc::result_out_of_range || magnitude > kDecides
+               ? negative
+               : order + (negative ? -magnitude : magnitude) < 0;
   }
   if (tiny) {
     value = 0.0;

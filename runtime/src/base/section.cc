@@ -261,9 +261,10 @@ std::filesystem::path BaseDirectory(const std::string& path) {
 namespace {
 
 // Does UTF-8 text hold a control or layout character: C0 and DEL, C1 (U+0080..U+009F: NEL is a
-// line break, CSI an escape for terminals), the line and paragraph separators U+2028/U+2029 and
-// the bidirectional marks, embeddings, overrides and isolates (U+200E/F, U+202A..U+202E,
-// U+2066..U+2069), which reorder what a reader sees?
+// line break, CSI an escape for terminals), the line and paragraph separators U+2028/U+2029, the
+// bidirectional marks, embeddings, overrides and isolates (U+061C, U+200E/F, U+202A..U+202E,
+// U+2066..U+2069), which reorder what a reader sees, and the invisible U+200B, U+2060..U+2064 and
+// U+FEFF, which make two names that look alike differ?
 bool HasControlCharacter(std::string_view text) {
   for (std::size_t i = 0; i < text.size(); ++i) {
     const auto b = [&](std::size_t k) { return k < text.size() ? static_cast<unsigned char>(text[k]) : 0u; };
@@ -275,6 +276,10 @@ bool HasControlCharacter(std::string_view text) {
       if (d == 0x8e || d == 0x8f || d == 0xa8 || d == 0xa9 || (d >= 0xaa && d <= 0xae)) return true;
     }
     if (c == 0xe2 && b(i + 1) == 0x81 && b(i + 2) >= 0xa6 && b(i + 2) <= 0xa9) return true;
+    if (c == 0xe2 && b(i + 1) == 0x80 && b(i + 2) == 0x8b) return true;                      // U+200B
+    if (c == 0xe2 && b(i + 1) == 0x81 && b(i + 2) >= 0xa0 && b(i + 2) <= 0xa4) return true;  // U+2060..4
+    if (c == 0xd8 && b(i + 1) == 0x9c) return true;                                          // U+061C
+    if (c == 0xef && b(i + 1) == 0xbb && b(i + 2) == 0xbf) return true;                      // U+FEFF
   }
   return false;
 }
@@ -335,7 +340,7 @@ void ReadJobMeta(Section& top, std::string& name, std::string* description, cons
     const std::string text = AsString(*n, meta.Where("description"));
     if (description) *description = text;
   }
-  if (name.empty()) throw InputError(meta.Where("name") + ": empty job name");
+  CheckName(name, meta.Where("name"), "job");
   meta.Finish();
 }
 

@@ -201,7 +201,9 @@ void ReadObjective(Section& s, const Job& job, OptimizeSettings& o) {
       Section t(*a->get(i)->as_table(), job.file, path);
       t.set_hint("quantity, weight");
       const double weight = t.Get("weight") ? AsNumber(*t.Get("weight"), t.Where("weight")) : 1.0;
-      if (!(weight > 0.0) || !std::isfinite(weight)) throw InputError(t.Where("weight") + ": weight must be positive");
+      // Relative weights: a ratio beyond 1e6 between two terms is one term alone (and a sum of
+      // weights near 1e308 would overflow the search's score).
+      if (!(weight > 0.0 && weight <= 1e6)) throw InputError(t.Where("weight") + ": a weight above 0, at most 1e6");
       o.objective.push_back(ReadObjectiveTerm(job, AsString(t.Require("quantity"), t.Where("quantity")),
                                               weight, t.Where("quantity")));
       t.Finish();

@@ -52,7 +52,7 @@ const hwy::Sorter& ThreadSorter() {
 // A sort's fixed cost is clearing and summing its digits' counts (3 x 2048 against 4 x 256), which
 // the 10^4-trial batches' sorts of 600-700 values paid more than their values: 7.4 against 5.0 ns
 // a value at 625 values, 4.1 against 4.8 at 4096 (docs/performance.md 4.17). Below kRadixLeast
-// values a comparison sort (an insertion sort, there) is the faster.
+// values a comparison sort is the faster (std::sort's insertion sort up to 16 of them).
 constexpr std::size_t kRadixLeast = 64;
 constexpr std::size_t kRadixWide = 2048;
 constexpr std::size_t kRadixKept = std::size_t{1} << 20;  // keys a thread keeps buffers for (2 x 4 MiB)

@@ -23,12 +23,14 @@
 #include <fcntl.h>
 #include <pwd.h>
 #include <sys/file.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
+#include <csignal>
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
@@ -131,10 +133,35 @@ int ExitCode(int status) {
   return 128;
 }
 
+// What a tool may use, so that no spec can hang `vlt model build` or a job that builds its model
+// (GiNaC computes 2^(2^40) exactly while it parses): CPU seconds (each process; SIGXCPU, then
+// SIGKILL 5 s later) and bytes of address space.
+struct ToolLimits {
+  rlim_t cpu_seconds;
+  rlim_t address_space;
+};
+constexpr ToolLimits kGeneratorLimits{60, rlim_t{4} << 30};
+constexpr ToolLimits kCompilerLimits{600, rlim_t{8} << 30};
+
+// AddressSanitizer reserves terabytes of address space for its shadow: a build with it (the CI's
+// sanitizer stage, whose vlt-gen has it too) limits the CPU time only.
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kLimitAddressSpace = false;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kLimitAddressSpace = false;
+#else
+constexpr bool kLimitAddressSpace = true;
+#endif
+#else
+constexpr bool kLimitAddressSpace = true;
+#endif
+
 // Runs argv[0] (found on PATH when it has no '/') with stdout and stderr into `log`, descriptors
-// above 2 closed; its exit code, 127 when it could not be started, -1 when its status is lost (the
-// caller ignores SIGCHLD: the caller then judges by what it wrote).
-int Run(const std::vector<std::string>& argv, const fs::path& log) {
+// above 2 closed, within `limits`; its exit code (128 + the signal that ended it), 127 when it
+// could not be started, -1 when its status is lost (the caller ignores SIGCHLD: the caller then
+// judges by what it wrote).
+int Run(const std::vector<std::string>& argv, const fs::path& log, const ToolLimits& limits) {
   std::vector<char*> args;
   for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
@@ -147,6 +174,10 @@ int Run(const std::vector<std::string>& argv, const fs::path& log) {
       ::dup2(fd, 2);
     }
     for (int other = 3; other < 1024; ++other) ::close(other);
+    const rlimit cpu{limits.cpu_seconds, limits.cpu_seconds + 5};
+    const rlimit memory{limits.address_space, limits.address_space};
+    ::setrlimit(RLIMIT_CPU, &cpu);
+    if (kLimitAddressSpace) ::setrlimit(RLIMIT_AS, &memory);
     ::execvp(args[0], args.data());
     ::_exit(127);
   }
@@ -326,9 +357,15 @@ std::string KeptSource(const fs::path& library) {
 // Derives the spec into `src` with vlt-gen; its one line on a spec error.
 void Derive(const fs::path& spec_path, const fs::path& src, const fs::path& log) {
   const int gen = Run(
-      {FindGenerator().string(), "--plugin", fs::absolute(spec_path).string(), "--out", src.string()}, log);
+      {FindGenerator().string(), "--plugin", fs::absolute(spec_path).string(), "--out", src.string()}, log,
+      kGeneratorLimits);
   if (gen == 0 || (gen == -1 && IsFile(src / "plugin.cc"))) return;
   if (gen == 127) throw InputError("vlt model build: cannot run vlt-gen (" + FindGenerator().string() + ")");
+  if (gen == 128 + SIGXCPU || gen == 128 + SIGKILL) {
+    throw InputError(fs::absolute(spec_path).string() + ": vlt-gen stopped after " +
+                     std::to_string(kGeneratorLimits.cpu_seconds) +
+                     " s of CPU time: the spec's expressions are too large to derive");
+  }
   std::string line = FirstLine(log, "error:");
   const std::string prefix = "vlt-gen: error: ";
   if (line.rfind(prefix, 0) == 0) line = line.substr(prefix.size());
@@ -350,7 +387,7 @@ void Compile(const std::string& name, const fs::path& src, const fs::path& libra
         (src / "plugin.cc").string(), std::string("-o"), library.string()}) {
     argv.push_back(flag);
   }
-  const int cc = Run(argv, log);
+  const int cc = Run(argv, log, kCompilerLimits);
   if (cc == 127) throw InputError("vlt model build: no C++ compiler found ('" + compiler + "'; set CXX)");
   if (cc == 0 || (cc == -1 && IsFile(library))) return;
   std::error_code ec;

@@ -17,6 +17,7 @@
 #include <cerrno>
 #include <array>
 #include <csignal>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -131,11 +132,20 @@ bool LeftByADeadRun(const std::string& entry, const std::string& name) {  // nam
 }
 
 // The output directory's name as its staging and old sets' names hold it (".<stem>.vlt-new-<pid>"):
-// the name, or its first bytes where the set's name would pass the 255 bytes a file name may have
-// (an output directory named with 241 to 255 bytes is legal).
+// the name, or, where the set's name would pass the 255 bytes a file name may have (an output
+// directory named with 236 to 255 bytes is legal), its first bytes cut before a UTF-8 character,
+// "~" and the FNV-1a hash of the whole name, so that two long names with a common start do not
+// take (and clean up) each other's sets.
 std::string StagingStem(const std::string& name) {
   constexpr std::size_t kMaxFileName = 255, kAround = 1 + 9 + 10;  // ".", ".vlt-new-", a pid's digits
-  return name.size() + kAround <= kMaxFileName ? name : name.substr(0, kMaxFileName - kAround);
+  if (name.size() + kAround <= kMaxFileName) return name;
+  std::uint64_t hash = 14695981039346656037ull;  // FNV-1a, 64 bits
+  for (const char c : name) hash = (hash ^ static_cast<unsigned char>(c)) * 1099511628211ull;
+  std::size_t keep = kMaxFileName - kAround - 17;  // "~" and 16 hexadecimal digits
+  while (keep > 0 && (static_cast<unsigned char>(name[keep]) & 0xC0) == 0x80) --keep;  // not inside a character
+  char tail[24];
+  std::snprintf(tail, sizeof tail, "~%016llx", static_cast<unsigned long long>(hash));
+  return name.substr(0, keep) + tail;
 }
 
 }  // namespace

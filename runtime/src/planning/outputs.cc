@@ -135,7 +135,7 @@ std::string PlannedJob(const StationPlan& plan) {
   try {
     doc = base_internal::ParseToml(text, job.file);
   } catch (const InputError& e) {
-    throw InputError(job.file + ": changed while planning: " + std::string(e.what()));
+    throw InputError(std::string(e.what()) + " (the job file changed while planning)");
   }
   auto absolute = [&](const char* section, const char* key) {
     toml::table* t = doc[section].as_table();

@@ -332,8 +332,11 @@ std::uint64_t AddressSpaceLeft() {
   return limit.rlim_cur > mapped ? limit.rlim_cur - mapped : 0;
 }
 
-// What is left of the memory limit of the process's control group (cgroup v2 memory.max less
-// memory.current: a container's or a systemd unit's limit); none: the largest value.
+// What is left of the memory limits of the process's control group and its ancestors (cgroup v2:
+// a container's, a systemd unit's or slice's memory.max), each less what the group uses beyond its
+// reclaimable page cache (memory.current less memory.stat's inactive_file, as the kernel would
+// reclaim that first: a runner that has read a lot of files sits near its limit in cache alone);
+// no limit: the largest value.
 std::uint64_t ControlGroupMemoryLeft() {
   std::string group;
   if (std::FILE* f = std::fopen("/proc/self/cgroup", "r")) {
@@ -346,19 +349,41 @@ std::uint64_t ControlGroupMemoryLeft() {
     }
     std::fclose(f);
   }
-  auto read_number = [&](const char* file, unsigned long long* value) {
-    const std::string path = "/sys/fs/cgroup" + group + "/" + file;
-    std::FILE* f = std::fopen(path.c_str(), "r");
+  // The number after `key` in a file of the group ("" : the file's first number); "max" reads as
+  // no number: no limit.
+  auto read_number = [](const std::string& dir, const char* file, const char* key, unsigned long long* value) {
+    std::FILE* f = std::fopen((dir + "/" + file).c_str(), "r");
     if (f == nullptr) return false;
-    const bool read = std::fscanf(f, "%llu", value) == 1;  // "max" reads as no number: no limit
+    bool read = false;
+    if (*key == '\0') {
+      read = std::fscanf(f, "%llu", value) == 1;
+    } else {
+      char name[256];
+      unsigned long long number = 0;
+      while (!read && std::fscanf(f, "%255s %llu", name, &number) == 2) {
+        if (std::string_view(name) == key) {
+          *value = number;
+          read = true;
+        }
+      }
+    }
     std::fclose(f);
     return read;
   };
-  unsigned long long max = 0, current = 0;
-  if (group.empty() || !read_number("memory.max", &max) || !read_number("memory.current", &current)) {
-    return std::numeric_limits<std::uint64_t>::max();
+  std::uint64_t left = std::numeric_limits<std::uint64_t>::max();
+  while (!group.empty() && group.front() == '/') {
+    const std::string dir = "/sys/fs/cgroup" + (group == "/" ? std::string() : group);
+    unsigned long long max = 0, current = 0, cache = 0;
+    if (read_number(dir, "memory.max", "", &max) && read_number(dir, "memory.current", "", &current)) {
+      if (!read_number(dir, "memory.stat", "inactive_file", &cache)) cache = 0;
+      const unsigned long long used = current > cache ? current - cache : 0;
+      left = std::min<std::uint64_t>(left, max > used ? max - used : 0);
+    }
+    if (group == "/") break;
+    const std::size_t slash = group.find_last_of('/');
+    group = slash == 0 ? "/" : group.substr(0, slash);
   }
-  return max > current ? max - current : 0;
+  return left;
 }
 
 }  // namespace
@@ -641,13 +666,14 @@ void ValidatePointResult(const McmResult& mcm, std::size_t i, Results& results) 
                                            m->axes[a].u, results.coverage_probability, true, resolution);
     CheckFiniteVariance(m->axes[a], m->axis_validation[a]);
     outcomes.push_back(m->axis_validation[a].outcome);
-    exact = exact && m->axis_validation[a].exact;
+    exact = exact && m->axis_validation[a].exact && m->axis_validation[a].outcome == "validated";
   }
   if (exact) {
     // No spread on any axis, in the GUM or the Monte Carlo: both regions are the point itself,
     // and there is no ellipsoid to compare (its covariance is 0).
     m->region_validation = PointValidation{};
     m->region_validation.name = pr.input.name;
+    m->region_validation.gum_coverage_factor = results.k_region;
     m->region_validation.outcome = "not applicable";
     m->region_validation.verdict =
         "not applicable: every coordinate is exact (its GUM u and Monte Carlo interval below the numerical "
