@@ -45,7 +45,7 @@ void AddMapCommand(CLI::App& app, GlobalOptions& global) {
   command->add_option("--seed", o->seed, "Monte Carlo seed (default: the job's)")->check(UnsignedInteger64());
   command->footer(
       "Map value: |U| = sqrt(Ux^2 + Uy^2 + Uz^2), U_i = k u_i (part frame, k from the job's coverage\n"
-      "probability). Nodes within 1 mm of the tracker's vertical axis are skipped and reported.\n"
+      "probability). Nodes within 1 mm of the tracker's vertical axis or beyond 10 km are skipped and reported.\n"
       "Per source: U_s = k sqrt(trace of the source's part of U_y), adding up in quadrature to |U|\n"
       "(map.csv columns U_group_*, U_*; map.html 'Show').");
   command->callback([o, &global] {

@@ -400,7 +400,7 @@ void MapLine(const MapResult& map, std::ostringstream& out) {
     min_u = std::min(min_u, map.U_norm[i]);
   }
   std::snprintf(line, sizeof line,
-                "Map: %s: |U| %.1f .. %.1f µm over %zu nodes (%zu skipped near the vertical axis).\n",
+                "Map: %s: |U| %.1f .. %.1f µm over %zu nodes (%zu skipped: at the gimbal point, on the vertical axis or beyond 10 km).\n",
                 map.settings.description.c_str(), min_u * 1e6, max_u * 1e6, map.nodes.size(),
                 map.skipped.size());
   out << line;
